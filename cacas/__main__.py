@@ -1,0 +1,5 @@
+import sys
+
+from cacas.cli import main
+
+sys.exit(main())

@@ -1,0 +1,9 @@
+"""The one error type for bad input: its message names what is wrong and what is valid."""
+
+
+class CacasError(ValueError):
+    """Bad input from a researcher (a file, a name, an argument).
+
+    The message is one line meant for a person: it names the file / participant / preference /
+    field at fault and what would be valid. The command line prints it and exits with code 2.
+    """

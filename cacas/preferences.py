@@ -1,0 +1,312 @@
+"""Described preferences and the persona file (design.md's contract), validation and coverage.
+
+A participant describes ~5 preferences (Section V-B.1): in some context (activities S1, scenes
+S2, hours S3, repeat interval S4, optionally the robot's current task S5) they want one action.
+A preference *covers* every S1-S4 combination its fields allow; a participant's covered states
+are the union (the paper counts 1564 on average for 5 preferences).
+
+The adaptation never reads these (the paper: "the system has no access to them"); they drive the
+simulated participant and the evaluation of Fig. 4 only.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+
+from cacas import spaces
+from cacas.errors import CacasError
+
+FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
+
+
+@dataclass(frozen=True)
+class Preference:
+    """One described preference; ``None`` in an optional field means "any"."""
+
+    activity: tuple[str, ...]
+    action: str
+    scene: tuple[str, ...] | None = None
+    hours: tuple[tuple[int, int], ...] | None = None
+    interval: tuple[int, int] | None = None
+    task: tuple[str, ...] | None = None
+    description: str = ""
+
+    # --- index sets over Table I -------------------------------------------------------------
+    @property
+    def action_index(self) -> int:
+        return spaces.action_index(self.action)
+
+    def activity_indices(self) -> list[int]:
+        return spaces.parse_names("activity", self.activity)
+
+    def scene_indices(self) -> list[int]:
+        return list(range(spaces.N_SCENES)) if self.scene is None else spaces.parse_names("scene", self.scene)
+
+    def slot_indices(self) -> list[int]:
+        if self.hours is None:
+            return list(range(spaces.N_SLOTS))
+        return sorted({i for i, (s0, s1) in enumerate(spaces.TIME_SLOTS)
+                       for (h0, h1) in self.hours if h0 <= s0 and s1 <= h1})
+
+    def interval_indices(self) -> list[int]:
+        if self.interval is None:
+            return list(range(spaces.N_INTERVALS))
+        lo, hi = self.interval
+        return [i for i, b in enumerate(spaces.INTERVAL_BINS) if lo <= b <= hi]
+
+    def task_indices(self) -> list[int]:
+        return list(range(spaces.N_ACTIONS)) if self.task is None else spaces.parse_names("action", self.task)
+
+    def coverage_mask(self) -> np.ndarray:
+        """Boolean (33, 6, 12, 12) array: the S1-S4 states this preference covers."""
+        mask = np.zeros((spaces.N_ACTIVITIES, spaces.N_SCENES, spaces.N_SLOTS, spaces.N_INTERVALS), bool)
+        mask[np.ix_(self.activity_indices(), self.scene_indices(), self.slot_indices(),
+                    self.interval_indices())] = True
+        return mask
+
+    def covered_count(self) -> int:
+        return int(self.coverage_mask().sum())
+
+    def label(self) -> str:
+        return self.description or f"{'/'.join(self.activity)} -> {self.action}"
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {}
+        if self.description:
+            out["description"] = self.description
+        out["activity"] = list(self.activity)
+        if self.scene is not None:
+            out["scene"] = list(self.scene)
+        if self.hours is not None:
+            out["hours"] = [list(h) for h in self.hours]
+        if self.interval is not None:
+            out["interval"] = list(self.interval)
+        if self.task is not None:
+            out["task"] = list(self.task)
+        out["action"] = self.action
+        return out
+
+
+@dataclass(frozen=True)
+class Participant:
+    """A pseudonymous participant code and their described preferences."""
+
+    id: str
+    preferences: tuple[Preference, ...] = field(default_factory=tuple)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"id": self.id, "preferences": [p.to_dict() for p in self.preferences]}
+
+    def coverage_mask(self) -> np.ndarray:
+        """Union of the preferences' covered S1-S4 states."""
+        mask = np.zeros((spaces.N_ACTIVITIES, spaces.N_SCENES, spaces.N_SLOTS, spaces.N_INTERVALS), bool)
+        for p in self.preferences:
+            mask |= p.coverage_mask()
+        return mask
+
+    def covered_count(self) -> int:
+        return int(self.coverage_mask().sum())
+
+    def preferred_action_table(self) -> np.ndarray:
+        """int8 array (33, 6, 12, 12, 14) over S1..S5: the preferred action, or -1 where none.
+
+        Validation guarantees no two preferences disagree on a state, so the table is unique.
+        """
+        table = np.full((spaces.N_ACTIVITIES, spaces.N_SCENES, spaces.N_SLOTS, spaces.N_INTERVALS,
+                         spaces.N_ACTIONS), -1, dtype=np.int8)
+        for p in self.preferences:
+            table[np.ix_(p.activity_indices(), p.scene_indices(), p.slot_indices(),
+                         p.interval_indices(), p.task_indices())] = p.action_index
+        return table
+
+
+# --- validation ----------------------------------------------------------------------------------
+
+def _where(source: str | None, pid: str | None = None, pref: int | None = None,
+           fld: str | None = None, pref_obj: Any = None) -> str:
+    parts = []
+    if source:
+        parts.append(str(source))
+    if pid is not None:
+        parts.append(f"participant {pid}")
+    if pref is not None:
+        desc = ""
+        if isinstance(pref_obj, dict) and isinstance(pref_obj.get("description"), str) and pref_obj["description"]:
+            d = pref_obj["description"]
+            desc = f' ("{d[:40]}{"..." if len(d) > 40 else ""}")'
+        parts.append(f"preference {pref + 1}{desc}")
+    if fld is not None:
+        parts.append(f"field '{fld}'")
+    return ": ".join([", ".join(parts)]) if parts else ""
+
+
+def _names_list(value: Any, kind: str, where: str, required: bool) -> tuple[str, ...] | None:
+    if value is None:
+        if required:
+            raise CacasError(f"{where}: is missing; it must be a non-empty list of {kind} names")
+        return None
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) for v in value):
+        raise CacasError(f"{where}: must be a non-empty list of {kind} names, got {json.dumps(value)}")
+    out = []
+    for v in value:
+        try:
+            out.append(spaces.canonical(kind, v))
+        except CacasError as exc:
+            raise CacasError(f"{where}: {exc}") from None
+    return tuple(dict.fromkeys(out))
+
+
+def _hours(value: Any, where: str) -> tuple[tuple[int, int], ...] | None:
+    if value is None:
+        return None
+    hint = "a list of [start, end) pairs in whole even hours 0-24 with start < end, e.g. [[6, 10], [16, 20]]"
+    if not isinstance(value, list) or not value:
+        raise CacasError(f"{where}: must be {hint}, got {json.dumps(value)}")
+    out = []
+    for pair in value:
+        ok = (isinstance(pair, list) and len(pair) == 2
+              and all(isinstance(h, int) and not isinstance(h, bool) for h in pair))
+        if not ok or not (0 <= pair[0] < pair[1] <= 24) or pair[0] % 2 or pair[1] % 2:
+            extra = ""
+            if ok and pair[0] >= pair[1]:
+                extra = " (a range over midnight is two ranges, e.g. [[22, 24], [0, 2]])"
+            raise CacasError(f"{where}: {json.dumps(pair)} is invalid{extra}; valid: {hint}")
+        out.append((pair[0], pair[1]))
+    return tuple(out)
+
+
+def _interval(value: Any, where: str) -> tuple[int, int] | None:
+    if value is None:
+        return None
+    hint = f"[min, max] minutes with 0 <= min <= max, covering at least one of {list(spaces.INTERVAL_BINS)}"
+    ok = (isinstance(value, list) and len(value) == 2
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value))
+    if not ok or value[0] < 0 or value[0] > value[1] or not any(
+            value[0] <= b <= value[1] for b in spaces.INTERVAL_BINS):
+        raise CacasError(f"{where}: {json.dumps(value)} is invalid; valid: {hint}")
+    return (value[0], value[1])
+
+
+def parse_preference(obj: Any, source: str | None = None, pid: str | None = None,
+                     index: int = 0) -> Preference:
+    """Validate one preference dict; errors name the source, participant, preference and field."""
+    w = lambda fld=None: _where(source, pid, index, fld, obj)  # noqa: E731
+    if not isinstance(obj, dict):
+        raise CacasError(f"{w()}: must be an object with fields {', '.join(FIELDS)}")
+    unknown = sorted(set(obj) - set(FIELDS))
+    if unknown:
+        raise CacasError(f"{w(unknown[0])}: unknown field; valid fields: {', '.join(FIELDS)}")
+    desc = obj.get("description", "")
+    if desc is None:
+        desc = ""
+    if not isinstance(desc, str):
+        raise CacasError(f"{w('description')}: must be text (the participant's own words)")
+    if "action" not in obj:
+        raise CacasError(f"{w('action')}: is missing; valid: one of {', '.join(spaces.ACTIONS)}")
+    if not isinstance(obj["action"], str):
+        raise CacasError(f"{w('action')}: must be one action name; valid: {', '.join(spaces.ACTIONS)}")
+    try:
+        action = spaces.canonical("action", obj["action"])
+    except CacasError as exc:
+        raise CacasError(f"{w('action')}: {exc}") from None
+    pref = Preference(
+        activity=_names_list(obj.get("activity"), "activity", w("activity"), required=True),
+        action=action,
+        scene=_names_list(obj.get("scene"), "scene", w("scene"), required=False),
+        hours=_hours(obj.get("hours"), w("hours")),
+        interval=_interval(obj.get("interval"), w("interval")),
+        task=_names_list(obj.get("task"), "action", w("task"), required=False),
+        description=desc.strip(),
+    )
+    return pref
+
+
+def check_conflicts(preferences: Iterable[Preference], source: str | None = None,
+                    pid: str | None = None) -> None:
+    """Two preferences covering the same state with different actions: an error naming both."""
+    prefs = list(preferences)
+    for i in range(len(prefs)):
+        for j in range(i + 1, len(prefs)):
+            a, b = prefs[i], prefs[j]
+            if a.action == b.action:
+                continue
+            if not set(a.task_indices()) & set(b.task_indices()):
+                continue
+            overlap = a.coverage_mask() & b.coverage_mask()
+            if overlap.any():
+                act, sc, sl, iv = (int(x[0]) for x in np.nonzero(overlap))
+                example = (f"{spaces.ACTIVITIES[act]} in the {spaces.SCENES[sc]} at "
+                           f"{spaces.time_slot_label(sl)}, interval {spaces.interval_label(iv)}")
+                where = _where(source, pid)
+                raise CacasError(
+                    f"{where}: preferences {i + 1} and {j + 1} both cover {int(overlap.sum())} states "
+                    f"(e.g. {example}) with different actions ({a.action!r} vs {b.action!r}); "
+                    f"narrow their activity, scene, hours or interval so they do not overlap")
+
+
+def parse_participant(obj: Any, source: str | None = None, index: int = 0) -> Participant:
+    if not isinstance(obj, dict):
+        raise CacasError(f"{_where(source)}: participant {index + 1} must be an object with 'id' and 'preferences'")
+    pid = obj.get("id")
+    if not isinstance(pid, str) or not pid.strip():
+        raise CacasError(f"{_where(source)}: participant {index + 1}, field 'id': must be a non-empty "
+                         f"pseudonymous code such as \"P01\"")
+    pid = pid.strip()
+    unknown = sorted(set(obj) - {"id", "preferences"})
+    if unknown:
+        raise CacasError(f"{_where(source, pid, fld=unknown[0])}: unknown field; valid fields: id, preferences")
+    raw = obj.get("preferences")
+    if not isinstance(raw, list) or not raw:
+        raise CacasError(f"{_where(source, pid, fld='preferences')}: must be a non-empty list of preferences")
+    prefs = tuple(parse_preference(p, source, pid, i) for i, p in enumerate(raw))
+    check_conflicts(prefs, source, pid)
+    return Participant(pid, prefs)
+
+
+def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
+    """Validate a persona document (already parsed JSON) into participants."""
+    if not isinstance(data, dict) or not isinstance(data.get("participants"), list):
+        raise CacasError(f"{_where(source)}: must be a JSON object with a list 'participants'")
+    if not data["participants"]:
+        raise CacasError(f"{_where(source)}: 'participants' is empty; add at least one participant")
+    people = [parse_participant(p, source, i) for i, p in enumerate(data["participants"])]
+    seen: set[str] = set()
+    for p in people:
+        if p.id in seen:
+            raise CacasError(f"{_where(source, p.id, fld='id')}: appears twice; codes must be unique")
+        seen.add(p.id)
+    return people
+
+
+def load_personas(path: str | Path) -> list[Participant]:
+    """Read and validate a persona file; any problem is one CacasError naming file and field."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise CacasError(f"{path}: no such persona file") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise CacasError(f"{path}: cannot be read as UTF-8 text ({exc.__class__.__name__})") from None
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise CacasError(f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    return parse_personas(data, str(path))
+
+
+def dumps_personas(participants: Iterable[Participant]) -> str:
+    """The persona file text (design.md's format) for these participants."""
+    return json.dumps({"participants": [p.to_dict() for p in participants]}, indent=2, ensure_ascii=False) + "\n"
+
+
+def save_personas(participants: Iterable[Participant], path: str | Path) -> None:
+    """Write a persona file atomically (a temporary file renamed into place)."""
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(dumps_personas(participants), encoding="utf-8")
+    tmp.replace(path)

@@ -1,0 +1,115 @@
+import json
+
+import pytest
+
+from cacas import preferences as prefs
+from cacas.errors import CacasError
+
+STOVE = {"description": "When I use the stove in the kitchen, remind me to turn it off.",
+         "activity": ["use stove", "fry food"], "scene": ["kitchen"], "hours": [[6, 10], [16, 20]],
+         "interval": [0, 30], "action": "remind to turn off"}
+
+
+def doc(*preferences, pid="P01"):
+    return {"participants": [{"id": pid, "preferences": list(preferences)}]}
+
+
+def test_design_example_parses_and_counts():
+    (p,) = prefs.parse_personas(doc(STOVE))
+    pref = p.preferences[0]
+    assert pref.scene == ("kitchen",) and pref.hours == ((6, 10), (16, 20))
+    # 2 activities x 1 scene x 4 slots x 8 interval bins (0..30)
+    assert pref.covered_count() == 2 * 1 * 4 * 8
+    assert p.covered_count() == 64
+
+
+def test_missing_optional_fields_mean_any():
+    (p,) = prefs.parse_personas(doc({"activity": ["cough"], "action": "pain check"}))
+    assert p.covered_count() == 6 * 12 * 12
+
+
+def test_union_counts_overlap_once():
+    a = {"activity": ["cough"], "action": "pain check"}
+    b = {"activity": ["cough"], "scene": ["bedroom"], "action": "pain check"}
+    (p,) = prefs.parse_personas(doc(a, b))
+    assert p.covered_count() == 6 * 12 * 12
+
+
+def test_preferred_action_table():
+    (p,) = prefs.parse_personas(doc(STOVE))
+    table = p.preferred_action_table()
+    from cacas import spaces
+    assert table[spaces.activity_index("use stove"), spaces.scene_index("kitchen"), 3, 0, 0] == \
+        spaces.action_index("remind to turn off")
+    assert table[spaces.activity_index("use stove"), spaces.scene_index("bedroom"), 3, 0, 0] == -1
+
+
+@pytest.mark.parametrize("change,field,needle", [
+    ({"activity": ["stove"]}, "activity", "'stove'"),
+    ({"activity": []}, "activity", "non-empty"),
+    ({"action": "make tea"}, "action", "'make tea'"),
+    ({"scene": ["garage"]}, "scene", "'garage'"),
+    ({"hours": [[7, 10]]}, "hours", "even"),
+    ({"hours": [[22, 2]]}, "hours", "over midnight"),
+    ({"interval": [40, 50]}, "interval", "covering at least one"),
+    ({"interval": [30, 0]}, "interval", "min <= max"),
+    ({"task": ["bake"]}, "task", "'bake'"),
+    ({"colour": "red"}, "colour", "unknown field"),
+])
+def test_bad_preference_names_participant_preference_field(change, field, needle):
+    bad = dict(STOVE, **change)
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(doc({"activity": ["cough"], "action": "pain check"}, bad), "f.json")
+    msg = str(err.value)
+    assert "f.json" in msg and "participant P01" in msg and "preference 2" in msg
+    assert f"field '{field}'" in msg and needle in msg
+
+
+def test_missing_action_and_activity():
+    with pytest.raises(CacasError, match="field 'action': is missing"):
+        prefs.parse_personas(doc({"activity": ["cough"]}))
+    with pytest.raises(CacasError, match="field 'activity': is missing"):
+        prefs.parse_personas(doc({"action": "pain check"}))
+
+
+def test_overlap_with_different_actions_names_both():
+    a = {"activity": ["cough"], "action": "pain check"}
+    b = {"activity": ["cough", "sneeze"], "scene": ["bedroom"], "action": "show compassion"}
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(doc(a, b), "f.json")
+    msg = str(err.value)
+    assert "preferences 1 and 2" in msg and "pain check" in msg and "show compassion" in msg
+
+
+def test_overlap_with_disjoint_tasks_is_fine():
+    a = {"activity": ["cough"], "task": ["do nothing"], "action": "pain check"}
+    b = {"activity": ["cough"], "task": ["chitchat"], "action": "show compassion"}
+    (p,) = prefs.parse_personas(doc(a, b))
+    assert p.covered_count() == 6 * 12 * 12
+
+
+def test_duplicate_ids_and_bad_documents():
+    d = {"participants": [doc(STOVE)["participants"][0], doc(STOVE)["participants"][0]]}
+    with pytest.raises(CacasError, match="appears twice"):
+        prefs.parse_personas(d)
+    with pytest.raises(CacasError, match="list 'participants'"):
+        prefs.parse_personas([1, 2])
+    with pytest.raises(CacasError, match="field 'id'"):
+        prefs.parse_personas({"participants": [{"preferences": [STOVE]}]})
+
+
+def test_load_file_errors(tmp_path):
+    with pytest.raises(CacasError, match="no such persona file"):
+        prefs.load_personas(tmp_path / "missing.json")
+    bad = tmp_path / "bad.json"
+    bad.write_text("{not json")
+    with pytest.raises(CacasError, match="not valid JSON"):
+        prefs.load_personas(bad)
+
+
+def test_save_load_round_trip(tmp_path):
+    people = prefs.parse_personas(doc(STOVE, {"activity": ["cough"], "action": "pain check"}))
+    path = tmp_path / "p.json"
+    prefs.save_personas(people, path)
+    assert prefs.load_personas(path) == people
+    assert json.loads(path.read_text())["participants"][0]["preferences"][0] == STOVE

@@ -1,0 +1,62 @@
+import numpy as np
+import pytest
+
+from cacas import spaces
+from cacas.errors import CacasError
+
+
+def test_table_one_sizes():
+    assert (spaces.N_ACTIVITIES, spaces.N_SCENES, spaces.N_SLOTS, spaces.N_INTERVALS) == (33, 6, 12, 12)
+    assert (spaces.N_ACTIONS, spaces.N_RESPONSES) == (14, 3)
+    assert spaces.STATE_DIM == 94 and spaces.USER_INPUT_DIM == 91
+    assert spaces.ACTIVITIES[-1] == "do nothing" and spaces.ACTIONS[0] == "do nothing"
+
+
+def test_names_case_insensitive_and_unknown_named():
+    assert spaces.activity_index("Watch tv") == spaces.ACTIVITIES.index("watch TV")
+    assert spaces.canonical("action", "  Remind  to TURN off ") == "remind to turn off"
+    with pytest.raises(CacasError) as err:
+        spaces.action_index("make coffee")
+    assert "'make coffee'" in str(err.value) and "remind to unplug" in str(err.value)
+
+
+@pytest.mark.parametrize("minutes,expected", [(0, 0), (0.5, 0), (1, 1), (4, 2), (5, 3), (59, 7),
+                                              (60, 8), (199, 10), (200, 11), (5000, 11)])
+def test_interval_bins(minutes, expected):
+    assert spaces.interval_bin(minutes) == expected
+
+
+def test_time_slots():
+    assert spaces.time_slot(0) == 0 and spaces.time_slot(1.99) == 0 and spaces.time_slot(23.5) == 11
+    with pytest.raises(CacasError):
+        spaces.time_slot(24)
+
+
+def test_encode_decode_round_trip():
+    rng = np.random.default_rng(0)
+    sizes = [n for _, n in spaces.STATE_PARTS]
+    states = [spaces.State(*(int(rng.integers(n)) for n in sizes)) for _ in range(50)]
+    vecs = spaces.encode_states(states)
+    assert vecs.shape == (50, 94) and np.all(vecs.sum(axis=1) == 7)
+    assert spaces.decode_states(vecs) == states
+    su = spaces.encode_states(states, parts=6)
+    assert su.shape == (50, 91)
+    assert [s.as_tuple()[:6] for s in spaces.decode_states(su)] == [s.as_tuple()[:6] for s in states]
+
+
+def test_encode_user_input_replaces_judged_action():
+    s = spaces.State.from_names("cough", "bedroom", 7, 12, action="chitchat")
+    v = spaces.encode_user_input(s, judged_action=spaces.action_index("pain check"))
+    assert spaces.decode_states(v)[0].action == spaces.action_index("pain check")
+
+
+def test_names_decoding():
+    s = spaces.State.from_names("use stove", "kitchen", 17.5, 45, task="set a timer")
+    n = s.names()
+    assert n["activity"] == "use stove" and n["time_slot"] == "16:00-18:00" and n["interval"] == "30-60 min"
+    assert n["task"] == "set a timer"
+
+
+def test_bad_vector_refused():
+    with pytest.raises(CacasError, match="94 or 91"):
+        spaces.decode_states(np.zeros((1, 10)))
