@@ -1,0 +1,313 @@
+"""What the robot says, and what the participant asks for (the paper's language module, Fig. 2).
+
+Two small jobs for the study's tablet page (Section V-B.1):
+
+* :func:`robot_line` turns a recognised activity (S1) and the policy's action (S6, Table I) into a
+  spoken-style line, e.g. ``robot_line("cough", "pain check")`` ->
+  "I heard you coughing. Shall I check whether you are in pain?".
+* :func:`match_request` maps a typed request ("can you remind me to switch the stove off?") to
+  one of the 13 actions other than "do nothing", by keywords and synonyms. The paper's type_2
+  interaction (Section IV-C.1): "the user intent is classified using NLU module. If the user
+  intent belongs to one of the Agent Actions shown in Table I except *do nothing* ... the robot
+  asks the user for confirmation". The page shows the match and asks the participant to confirm
+  it; :func:`confirmation_line` is that question.
+
+No model and no network: a keyword table, so that the behaviour is predictable in a study.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+from cacas import spaces
+from cacas.errors import CacasError
+
+# --- what the robot heard (S1) -------------------------------------------------------------------
+
+#: "I heard ..." sentence per activity, in the paper's order.
+HEARD: dict[str, str] = {
+    "cough": "I heard you coughing.",
+    "cry": "I heard you crying.",
+    "clear throat": "I heard you clearing your throat.",
+    "sneeze": "I heard you sneeze.",
+    "sniff": "I heard you sniffing.",
+    "fall down": "I heard something fall. Did you fall down?",
+    "burp": "I heard a burp.",
+    "yawn": "I heard you yawning.",
+    "snore": "I heard you snoring.",
+    "drink water": "I heard you drinking water.",
+    "drink milk": "I heard you drinking milk.",
+    "drink soup": "I heard you having soup.",
+    "eat apple": "I heard you eating an apple.",
+    "eat noodle": "I heard you eating noodles.",
+    "eat chips": "I heard you eating chips.",
+    "wash hands": "I heard you washing your hands.",
+    "wash clothes": "I heard you washing clothes.",
+    "wash dishes": "I heard you washing the dishes.",
+    "use scissor": "I heard you using scissors.",
+    "use blender": "I heard the blender.",
+    "use stove": "I heard you using the stove.",
+    "use hair dryer": "I heard the hair dryer.",
+    "use microwave": "I heard the microwave.",
+    "use fan": "I heard the fan.",
+    "watch TV": "I heard the TV.",
+    "type keyboard": "I heard you typing.",
+    "cut food": "I heard you cutting food.",
+    "fry food": "I heard something frying.",
+    "pour water into glass": "I heard you pouring a glass of water.",
+    "shave": "I heard you shaving.",
+    "brush teeth": "I heard you brushing your teeth.",
+    "flush toilet": "I heard the toilet flush.",
+    "do nothing": "It is quiet here.",
+}
+
+#: The thing a reminder is about, per action and activity ("turn the stove off"); absent: a
+#: neutral word ("it", "things", nothing).
+OBJECTS: dict[str, dict[str, str]] = {
+    "remind to turn off": {
+        "wash hands": "the tap", "wash dishes": "the tap", "wash clothes": "the washing machine",
+        "use blender": "the blender", "use stove": "the stove", "fry food": "the stove",
+        "use hair dryer": "the hair dryer", "use microwave": "the microwave", "use fan": "the fan",
+        "watch TV": "the TV", "type keyboard": "the computer", "drink soup": "the stove",
+        "eat noodle": "the stove", "pour water into glass": "the tap", "brush teeth": "the tap",
+        "shave": "the razor"},
+    "remind to unplug": {
+        "wash clothes": "the washing machine", "use blender": "the blender",
+        "use hair dryer": "the hair dryer", "use microwave": "the microwave", "use fan": "the fan",
+        "watch TV": "the TV", "type keyboard": "the computer", "shave": "the razor"},
+    "remind to put back": {
+        "use scissor": "the scissors", "cut food": "the knife", "shave": "the razor",
+        "brush teeth": "the toothbrush", "drink milk": "the milk", "eat chips": "the chips",
+        "use hair dryer": "the hair dryer", "pour water into glass": "the glass",
+        "drink soup": "the bowl", "eat noodle": "the bowl", "wash dishes": "the dishes"},
+    "remind to be careful": {
+        "use scissor": "the scissors", "cut food": "the knife", "shave": "the razor",
+        "use stove": "the stove", "fry food": "the hot pan", "use blender": "the blender",
+        "use hair dryer": "the hair dryer", "drink soup": "the hot soup", "fall down": "your steps",
+        "use microwave": "hot food", "wash hands": "the wet floor"},
+}
+_DEFAULT_OBJECT = {"remind to turn off": "it", "remind to unplug": "it", "remind to put back": "things"}
+
+
+def _object(action: str, activity: str) -> str | None:
+    act = spaces.canonical("action", action)
+    return OBJECTS.get(act, {}).get(spaces.canonical("activity", activity), _DEFAULT_OBJECT.get(act))
+
+
+# --- what the robot offers (S6) ------------------------------------------------------------------
+
+#: The robot's offer per action; ``{obj}`` is the activity's object or "it".
+OFFERS: dict[str, str] = {
+    "do nothing": "",
+    "show compassion": "I'm sorry. Would you like some company? I'm here with you.",
+    "chitchat": "Would you like to chat for a while?",
+    "remind to take medicine": "Shall I remind you to take your medicine?",
+    "ask to offer help": "Can I help you with anything?",
+    "call someone for help": "Shall I call someone to help you?",
+    "set a timer": "Shall I set a timer for you?",
+    "pain check": "Shall I check whether you are in pain?",
+    "confirm sound": "Did I hear that right?",
+    "record sound": "Shall I record this sound?",
+    "remind to turn off": "Shall I remind you to turn {obj} off?",
+    "remind to be careful": "Please be careful{with_obj}. Shall I keep reminding you?",
+    "remind to put back": "Shall I remind you to put {obj} back?",
+    "remind to unplug": "Shall I remind you to unplug {obj}?",
+}
+
+#: What the participant asks for, in their words (the tablet's "Ask the robot" list).
+REQUESTS: dict[str, str] = {
+    "show compassion": "Comfort me",
+    "chitchat": "Chat with me",
+    "remind to take medicine": "Remind me to take my medicine",
+    "ask to offer help": "Help me with something",
+    "call someone for help": "Call someone for help",
+    "set a timer": "Set a timer",
+    "pain check": "Check whether I am in pain",
+    "confirm sound": "Confirm what you heard",
+    "record sound": "Record this sound",
+    "remind to turn off": "Remind me to turn it off",
+    "remind to be careful": "Remind me to be careful",
+    "remind to put back": "Remind me to put it back",
+    "remind to unplug": "Remind me to unplug it",
+}
+
+QUIET_LINE = "(The robot stays quiet.)"
+
+
+def heard_line(activity: str) -> str:
+    """What the robot says it heard, e.g. "I heard you coughing." (unknown name: CacasError)."""
+    return HEARD[spaces.canonical("activity", activity)]
+
+
+def offer_line(action: str, activity: str = "do nothing") -> str:
+    """The robot's offer for ``action`` about ``activity``; "" for "do nothing"."""
+    act = spaces.canonical("action", action)
+    obj = _object(act, activity)
+    return OFFERS[act].format(obj=obj, with_obj=f" with {obj}" if obj else "")
+
+
+def robot_line(activity: str, action: str) -> str:
+    """The spoken-style line for the robot proposing ``action`` after hearing ``activity``.
+
+    "do nothing" gives :data:`QUIET_LINE`: the robot does not speak, and the participant may ask
+    for something themselves (type_2).
+    """
+    act = spaces.canonical("action", action)
+    if act == "do nothing":
+        return QUIET_LINE
+    heard = heard_line(activity)
+    offer = offer_line(act, activity)
+    if spaces.canonical("activity", activity) == "do nothing":
+        return offer
+    return f"{heard} {offer}"
+
+
+def request_label(action: str) -> str:
+    """The participant's words for asking for ``action`` ("do nothing" is not a request)."""
+    act = spaces.canonical("action", action)
+    if act not in REQUESTS:
+        raise CacasError(f"{act!r} cannot be requested; valid: {', '.join(REQUESTS)}")
+    return REQUESTS[act]
+
+
+def confirmation_line(action: str, activity: str = "do nothing") -> str:
+    """The robot's confirmation question for a matched request (Section IV-C.1)."""
+    return f"You would like me to {_infinitive(action, activity)}. Is that right?"
+
+
+def _infinitive(action: str, activity: str) -> str:
+    act = spaces.canonical("action", action)
+    obj = _object(act, activity)
+    return {
+        "show compassion": "keep you company for a moment",
+        "chitchat": "chat with you",
+        "remind to take medicine": "remind you to take your medicine",
+        "ask to offer help": "help you",
+        "call someone for help": "call someone for help",
+        "set a timer": "set a timer",
+        "pain check": "check whether you are in pain",
+        "confirm sound": "confirm what I heard",
+        "record sound": "record this sound",
+        "remind to turn off": f"remind you to turn {obj} off",
+        "remind to be careful": f"remind you to be careful{f' with {obj}' if obj else ''}",
+        "remind to put back": f"remind you to put {obj} back",
+        "remind to unplug": f"remind you to unplug {obj}",
+    }[act] if act != "do nothing" else "do nothing"
+
+
+# --- matching a typed request --------------------------------------------------------------------
+
+#: Keywords and phrases per requestable action; a phrase of n words counts n points.
+SYNONYMS: dict[str, tuple[str, ...]] = {
+    "show compassion": ("compassion", "comfort", "console", "sympathy", "sad", "upset", "lonely",
+                        "cheer me up", "feel bad", "feeling down", "hug", "company", "unhappy",
+                        "stay with me", "miserable", "depressed"),
+    "chitchat": ("chat", "chitchat", "talk", "conversation", "bored", "joke", "story", "tell me a joke", "tell me a story",
+                 "keep me company talking", "small talk", "gossip", "news"),
+    "remind to take medicine": ("medicine", "medication", "meds", "pill", "pills", "drug", "dose",
+                                "prescription", "vitamin", "vitamins", "insulin", "inhaler",
+                                "take medicine", "take my medicine"),
+    "ask to offer help": ("help", "assist", "assistance", "hand", "give me a hand", "support",
+                          "help me", "need help", "do something for me", "fetch",
+                          "bring"),
+    "call someone for help": ("call", "phone", "ring", "emergency", "ambulance", "doctor", "nurse",
+                              "family", "someone", "somebody", "911", "contact", "daughter", "son",
+                              "caregiver", "neighbour", "neighbor", "call for help",
+                              "call someone", "call my"),
+    "set a timer": ("timer", "alarm", "countdown", "stopwatch", "set a timer", "time it",
+                    "minutes", "remind me in", "wake me"),
+    "pain check": ("pain", "hurt", "hurts", "ache", "aches", "injured", "injury", "sore",
+                   "check on me", "am i ok", "am i okay", "pain check", "check my pain", "wound",
+                   "bleeding", "dizzy"),
+    "confirm sound": ("confirm", "what was that", "what did you hear", "did you hear",
+                      "recognise", "recognize", "identify", "which sound", "what sound",
+                      "confirm sound", "hear that"),
+    "record sound": ("record", "recording", "save the sound", "capture", "save this sound",
+                     "record sound", "record this"),
+    "remind to turn off": ("turn off", "switch off", "shut off", "turn it off", "switch it off",
+                           "power off", "off", "stove off", "shut down", "switch it off"),
+    "remind to be careful": ("careful", "caution", "cautious", "safe", "safely", "slippery",
+                             "watch out", "be careful", "look out", "mind", "sharp", "hot", "knife"),
+    "remind to put back": ("put back", "put away", "put it back", "put them back", "return",
+                           "tidy", "tidy up", "back in place", "where it belongs", "store",
+                           "clean up", "away", "back"),
+    "remind to unplug": ("unplug", "plug", "socket", "outlet", "cord", "cable", "pull the plug",
+                         "unplug it", "plugged"),
+}
+
+_WORD = re.compile(r"[a-z0-9']+")
+
+
+def _words(text: str) -> list[str]:
+    return _WORD.findall(text.lower().replace("’", "'"))
+
+
+def _positions(words: list[str], phrase: tuple[str, ...]) -> set[int]:
+    """Word positions of every occurrence of ``phrase`` in ``words``."""
+    n = len(phrase)
+    return {i + k for i in range(len(words) - n + 1) if tuple(words[i:i + n]) == phrase
+            for k in range(n)}
+
+
+_PHRASES: dict[str, list[tuple[str, ...]]] = {
+    act: sorted({tuple(_words(p)) for p in (*syn, act)}, key=len, reverse=True)
+    for act, syn in SYNONYMS.items()
+}
+
+
+@dataclass(frozen=True)
+class RequestMatch:
+    """The best action for a typed request, its score and the words that matched.
+
+    ``alternatives`` lists the other actions that matched, best first, as (action, score).
+    """
+
+    text: str
+    action: str
+    score: int
+    matched: tuple[str, ...]
+    alternatives: tuple[tuple[str, int], ...] = ()
+
+
+def score_request(text: str) -> list[tuple[str, int, tuple[str, ...]]]:
+    """Every requestable action with a positive score for ``text``, best first.
+
+    An action's score is the number of words of the text that its keywords and phrases cover
+    (so "turn off" scores 2, and "off" inside it adds nothing). Ties keep Table I's order.
+    """
+    words = _words(text)
+    out = []
+    for order, act in enumerate(SYNONYMS):
+        covered: set[int] = set()
+        hits = []
+        for p in _PHRASES[act]:
+            at = _positions(words, p)
+            if at:
+                hits.append(" ".join(p))
+                covered.update(at)
+        score = len(covered)
+        if score:
+            out.append((act, score, tuple(hits), order))
+    out.sort(key=lambda r: (-r[1], r[3]))
+    return [(a, s, h) for a, s, h, _ in out]
+
+
+def match_request(text: str) -> RequestMatch:
+    """Match a typed request to one of the 13 actions other than "do nothing".
+
+    Empty text, or text that matches no action, raises CacasError with examples of what the
+    robot understands; the page shows it in place and the participant can pick from the list.
+    """
+    if not isinstance(text, str) or not text.strip():
+        raise CacasError("the request is empty; type what you would like the robot to do, "
+                         "e.g. 'remind me to turn off the stove'")
+    ranked = score_request(text)
+    if not ranked:
+        examples = "; ".join(f"'{REQUESTS[a].lower()}'" for a in
+                             ("remind to turn off", "pain check", "set a timer", "call someone for help"))
+        raise CacasError(f"the robot did not understand {text.strip()!r}; try e.g. {examples}, "
+                         f"or pick an action from the list")
+    best, score, hits = ranked[0]
+    return RequestMatch(text=text.strip(), action=best, score=score, matched=hits,
+                        alternatives=tuple((a, s) for a, s, _ in ranked[1:]))

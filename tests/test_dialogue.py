@@ -1,0 +1,90 @@
+import pytest
+
+from cacas import dialogue, spaces
+from cacas.errors import CacasError
+
+
+def test_paper_example_line():
+    assert dialogue.robot_line("cough", "pain check") == \
+        "I heard you coughing. Shall I check whether you are in pain?"
+
+
+def test_every_activity_and_action_has_a_line():
+    for act in spaces.ACTIVITIES:
+        for action in spaces.ACTIONS:
+            line = dialogue.robot_line(act, action)
+            assert line and "{" not in line and "  " not in line
+            if action == "do nothing":
+                assert line == dialogue.QUIET_LINE
+            else:
+                assert line.endswith(("?", "."))
+
+
+def test_object_follows_the_activity():
+    assert "turn the stove off" in dialogue.robot_line("use stove", "remind to turn off")
+    assert "put the knife back" in dialogue.robot_line("cut food", "remind to put back")
+    assert "unplug the hair dryer" in dialogue.robot_line("use hair dryer", "remind to unplug")
+    # no object that would not make sense: a glass is not turned off
+    assert "turn the glass" not in dialogue.robot_line("pour water into glass", "remind to turn off")
+
+
+def test_names_are_case_insensitive_and_unknown_is_an_error():
+    assert dialogue.robot_line("Watch tv", "Chitchat").startswith("I heard the TV.")
+    with pytest.raises(CacasError, match="unknown activity 'dance'"):
+        dialogue.robot_line("dance", "chitchat")
+    with pytest.raises(CacasError, match="unknown action 'sing'"):
+        dialogue.robot_line("cough", "sing")
+
+
+@pytest.mark.parametrize("text, action", [
+    ("Remind me to turn off the stove, please", "remind to turn off"),
+    ("switch it off", "remind to turn off"),
+    ("Can you call my daughter?", "call someone for help"),
+    ("I need an ambulance", "call someone for help"),
+    ("my knee hurts", "pain check"),
+    ("set an alarm for ten minutes", "set a timer"),
+    ("time for my pills", "remind to take medicine"),
+    ("I'm bored, tell me a joke", "chitchat"),
+    ("I feel sad", "show compassion"),
+    ("what was that?", "confirm sound"),
+    ("record this", "record sound"),
+    ("please unplug the hair dryer", "remind to unplug"),
+    ("remind me to put the scissors back", "remind to put back"),
+    ("tell me to be careful with the knife", "remind to be careful"),
+    ("give me a hand", "ask to offer help"),
+    ("PAIN CHECK", "pain check"),
+])
+def test_match_request(text, action):
+    assert dialogue.match_request(text).action == action
+
+
+def test_match_reports_alternatives_and_evidence():
+    m = dialogue.match_request("can you help me call my daughter")
+    assert m.action == "call someone for help"
+    assert "daughter" in m.matched
+    assert ("ask to offer help", 2) in m.alternatives
+
+
+def test_every_requestable_action_matches_its_own_request_label():
+    for action, label in dialogue.REQUESTS.items():
+        assert dialogue.match_request(label).action == action, label
+    assert "do nothing" not in dialogue.REQUESTS
+
+
+@pytest.mark.parametrize("text", ["", "   ", None])
+def test_empty_request_is_refused(text):
+    with pytest.raises(CacasError, match="request is empty"):
+        dialogue.match_request(text)
+
+
+def test_unknown_request_is_refused_with_examples():
+    with pytest.raises(CacasError, match="did not understand 'sing a song'.*turn it off"):
+        dialogue.match_request("sing a song")
+
+
+def test_request_label_and_confirmation():
+    assert dialogue.request_label("Pain check") == "Check whether I am in pain"
+    with pytest.raises(CacasError, match="cannot be requested"):
+        dialogue.request_label("do nothing")
+    assert dialogue.confirmation_line("remind to turn off", "use stove") == \
+        "You would like me to remind you to turn the stove off. Is that right?"
