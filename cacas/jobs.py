@@ -1,0 +1,133 @@
+"""Long work in the background: training, simulation and adaptation run in threads.
+
+The dashboard's pages start long work here instead of in the page script, so that
+
+* the page shows progress (``Job.fraction``, ``Job.message``, ``Job.log``) and the other pages,
+  in this or another browser tab, keep answering while it runs;
+* a second click (or a second tab) does not start the same work twice: :meth:`JobRunner.start`
+  returns the job already running under that key;
+* the work finishes even if the browser tab that started it is closed; whatever it must keep is
+  written by the work itself (e.g. through the study store), not by the page.
+
+The work is a function that takes a keyword argument ``progress``: a callable
+``progress(fraction, message)`` with ``fraction`` in 0..1, the convention of the library's long
+functions (``adapt_policy``, ``simulate_study``, the recognisers' training). No streamlit here.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import traceback
+from dataclasses import dataclass, field
+from typing import Any, Callable
+
+RUNNING, DONE, FAILED = "running", "done", "failed"
+
+
+@dataclass
+class Job:
+    """One piece of background work and what it has reported so far."""
+
+    key: str
+    label: str
+    status: str = RUNNING
+    fraction: float = 0.0
+    message: str = ""
+    log: list[str] = field(default_factory=list)
+    result: Any = None
+    error: str | None = None
+    started: float = field(default_factory=time.time)
+    finished: float | None = None
+    _done: threading.Event = field(default_factory=threading.Event, repr=False)
+    _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
+
+    def progress(self, fraction: float, message: str = "") -> None:
+        """The ``progress`` callback handed to the work: record the fraction and a log line."""
+        with self._lock:
+            self.fraction = min(1.0, max(0.0, float(fraction)))
+            if message:
+                self.message = str(message)
+                if not self.log or self.log[-1] != self.message:
+                    self.log.append(self.message)
+
+    @property
+    def running(self) -> bool:
+        return self.status == RUNNING
+
+    @property
+    def elapsed(self) -> float:
+        return (self.finished or time.time()) - self.started
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Block until the work ends (tests and command-line use); True if it has ended."""
+        return self._done.wait(timeout)
+
+    def snapshot(self) -> dict[str, Any]:
+        """A consistent copy of what a page shows."""
+        with self._lock:
+            return {"key": self.key, "label": self.label, "status": self.status,
+                    "fraction": self.fraction, "message": self.message, "log": list(self.log),
+                    "error": self.error, "elapsed": self.elapsed}
+
+
+class JobRunner:
+    """Runs work in daemon threads, at most one job per key at a time."""
+
+    def __init__(self) -> None:
+        self._jobs: dict[str, Job] = {}
+        self._lock = threading.Lock()
+
+    def start(self, key: str, work: Callable[..., Any], *args: Any, label: str = "",
+              **kwargs: Any) -> tuple[Job, bool]:
+        """Start ``work(*args, progress=job.progress, **kwargs)`` under ``key``.
+
+        Returns ``(job, started)``: if a job with this key is still running, that job and False
+        (a second click does not start the work twice); otherwise a new job and True.
+        """
+        with self._lock:
+            current = self._jobs.get(key)
+            if current is not None and current.running:
+                return current, False
+            job = Job(key=key, label=label or key)
+            self._jobs[key] = job
+
+        def body() -> None:
+            try:
+                result = work(*args, progress=job.progress, **kwargs)
+            except Exception as exc:  # the page shows the message; the log keeps the trace
+                with job._lock:
+                    job.error = str(exc) or exc.__class__.__name__
+                    job.log.append(traceback.format_exc(limit=3).strip().splitlines()[-1])
+                    job.status = FAILED
+            else:
+                with job._lock:
+                    job.result = result
+                    job.fraction = 1.0
+                    job.status = DONE
+            finally:
+                job.finished = time.time()
+                job._done.set()
+
+        threading.Thread(target=body, name=f"cacas-job:{key}", daemon=True).start()
+        return job, True
+
+    def get(self, key: str) -> Job | None:
+        """The job last started under ``key`` (running or ended), or None."""
+        with self._lock:
+            return self._jobs.get(key)
+
+    def forget(self, key: str) -> None:
+        """Drop an ended job (a running one stays: it cannot be cancelled half-way)."""
+        with self._lock:
+            job = self._jobs.get(key)
+            if job is not None and not job.running:
+                del self._jobs[key]
+
+    def running(self) -> list[Job]:
+        with self._lock:
+            return [j for j in self._jobs.values() if j.running]
+
+
+#: The process-wide runner: every browser tab of one ``streamlit run`` shares it.
+RUNNER = JobRunner()

@@ -1,0 +1,60 @@
+import threading
+
+from cacas.jobs import DONE, FAILED, JobRunner
+
+
+def test_job_reports_progress_and_result():
+    runner = JobRunner()
+
+    def work(n, progress):
+        for i in range(n):
+            progress((i + 1) / n, f"step {i + 1} of {n}")
+        return n * 2
+
+    job, started = runner.start("k", work, 3, label="Counting")
+    assert started
+    assert job.wait(10)
+    assert job.status == DONE and job.result == 6 and job.fraction == 1.0
+    assert job.log == ["step 1 of 3", "step 2 of 3", "step 3 of 3"]
+    assert job.label == "Counting" and runner.get("k") is job
+
+
+def test_second_start_while_running_returns_the_same_job():
+    runner = JobRunner()
+    gate = threading.Event()
+    calls = []
+
+    def work(progress):
+        calls.append(1)
+        gate.wait(10)
+        return "ok"
+
+    first, started1 = runner.start("adapt:P01:1", work)
+    second, started2 = runner.start("adapt:P01:1", work)
+    assert started1 and not started2 and second is first
+    other, started3 = runner.start("adapt:P02:1", work)
+    assert started3 and other is not first
+    assert len(runner.running()) == 2
+    gate.set()
+    assert first.wait(10) and other.wait(10)
+    assert len(calls) == 2
+    # once ended, the same key starts new work
+    again, started4 = runner.start("adapt:P01:1", work)
+    assert started4 and again is not first
+    assert again.wait(10)
+
+
+def test_failure_is_reported_not_raised():
+    runner = JobRunner()
+
+    def work(progress):
+        progress(0.5, "half way")
+        raise ValueError("participant P09 does not exist")
+
+    job, _ = runner.start("bad", work)
+    assert job.wait(10)
+    assert job.status == FAILED
+    assert job.error == "participant P09 does not exist"
+    assert job.result is None
+    runner.forget("bad")
+    assert runner.get("bad") is None
