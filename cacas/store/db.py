@@ -1,0 +1,186 @@
+"""Connections to the study database: recognising the file, pragmas, short write transactions.
+
+Safety (issue 4): every write runs in one short ``BEGIN IMMEDIATE`` transaction that is committed
+before the call returns, with ``synchronous=FULL`` in WAL mode, so an acknowledged write survives
+the writer being killed. Several processes may read and write at once: WAL lets readers run next
+to one writer, ``busy_timeout`` makes a writer wait for the lock, and a transaction that still
+meets SQLITE_BUSY is rolled back and retried whole (it wrote nothing).
+"""
+
+from __future__ import annotations
+
+import random
+import sqlite3
+import time
+from pathlib import Path
+from typing import Callable, TypeVar
+
+from cacas.errors import CacasError
+from cacas.store.schema import APPLICATION_ID, SCHEMA_VERSION, TABLES, migrate
+
+T = TypeVar("T")
+
+SQLITE_MAGIC = b"SQLite format 3\x00"
+#: How long one statement waits for another process's lock (milliseconds).
+BUSY_TIMEOUT_MS = 10_000
+#: How often a whole write transaction is retried after SQLITE_BUSY / "database is locked".
+WRITE_RETRIES = 8
+
+
+def read_header(path: Path) -> tuple[bool, int]:
+    """(is a SQLite file, application_id) from the 100-byte file header, without opening it
+    with SQLite (so nothing is created or changed)."""
+    with open(path, "rb") as fh:
+        head = fh.read(100)
+    if len(head) < 100 or not head.startswith(SQLITE_MAGIC):
+        return False, 0
+    return True, int.from_bytes(head[68:72], "big")
+
+
+def check_study_file(path: Path) -> None:
+    """CacasError naming ``path`` unless it is an existing CACAS study database. Reads only."""
+    if not path.exists():
+        raise CacasError(f"{path}: no such study database")
+    if not path.is_file():
+        raise CacasError(f"{path}: is not a file; expected a CACAS study database (.sqlite)")
+    try:
+        is_sqlite, app_id = read_header(path)
+    except OSError as exc:
+        raise CacasError(f"{path}: cannot be read ({exc.__class__.__name__})") from None
+    if not is_sqlite:
+        raise CacasError(f"{path}: is not a study database (not an SQLite file)")
+    if app_id != APPLICATION_ID:
+        raise CacasError(f"{path}: is not a study database (an SQLite file of another application)")
+
+
+def _configure(conn: sqlite3.Connection, readonly: bool) -> None:
+    conn.execute(f"PRAGMA busy_timeout = {BUSY_TIMEOUT_MS}")
+    conn.execute("PRAGMA foreign_keys = ON")
+    if not readonly:
+        conn.execute("PRAGMA synchronous = FULL")
+
+
+def _is_busy(exc: sqlite3.OperationalError) -> bool:
+    msg = str(exc).lower()
+    return "locked" in msg or "busy" in msg
+
+
+def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
+    """Run ``fn(conn)`` in one ``BEGIN IMMEDIATE`` ... ``COMMIT`` and return its result.
+
+    Any exception rolls everything back (nothing written) and propagates; SQLITE_BUSY is retried
+    with a short random back-off, up to :data:`WRITE_RETRIES` times.
+    """
+    for attempt in range(WRITE_RETRIES + 1):
+        try:
+            conn.execute("BEGIN IMMEDIATE")
+        except sqlite3.OperationalError as exc:
+            if _is_busy(exc) and attempt < WRITE_RETRIES:
+                time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
+                continue
+            raise CacasError(f"the study database is busy ({exc}); try again") from None
+        try:
+            result = fn(conn)
+            conn.execute("COMMIT")
+            return result
+        except sqlite3.OperationalError as exc:
+            conn.execute("ROLLBACK") if conn.in_transaction else None
+            if _is_busy(exc) and attempt < WRITE_RETRIES:
+                time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
+                continue
+            raise
+        except BaseException:
+            if conn.in_transaction:
+                conn.execute("ROLLBACK")
+            raise
+    raise AssertionError("unreachable")  # pragma: no cover
+
+
+def read(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
+    """Run several reads ``fn(conn)`` on one consistent snapshot (a deferred transaction)."""
+    conn.execute("BEGIN")
+    try:
+        return fn(conn)
+    finally:
+        conn.execute("COMMIT")
+
+
+def _init_schema(conn: sqlite3.Connection, path: Path) -> None:
+    """Create or migrate the schema (one transaction), or refuse a foreign / newer file."""
+
+    def check_and_migrate(c: sqlite3.Connection) -> bool:
+        app_id = c.execute("PRAGMA application_id").fetchone()[0]
+        version = c.execute("PRAGMA user_version").fetchone()[0]
+        if app_id == APPLICATION_ID:
+            if version > SCHEMA_VERSION:
+                raise CacasError(f"{path}: study database schema version {version} is newer than this "
+                                 f"CACAS Studio understands ({SCHEMA_VERSION}); update CACAS Studio")
+            if version == SCHEMA_VERSION:
+                return False
+            migrate(c, version)
+            return True
+        tables = c.execute("SELECT count(*) FROM sqlite_master").fetchone()[0]
+        if app_id != 0 or version != 0 or tables:
+            raise CacasError(f"{path}: is not a study database (an SQLite file of another application)")
+        migrate(c, 0)
+        return True
+
+    changed = transact(conn, check_and_migrate)
+    if changed:
+        # Put the header (application_id) into the main file at once, so that a reader that
+        # only looks at the header (check_study_file) recognises the file.
+        conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+
+
+def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
+    """Open the study database at ``path``.
+
+    ``readonly=False``: create the file and schema if missing, migrate an older schema, switch
+    to WAL. ``readonly=True``: the file must already be a study database; it is opened with
+    ``mode=ro`` so nothing is created or changed. Anything else raises CacasError naming the file.
+    """
+    path = Path(path)
+    if readonly:
+        check_study_file(path)
+        try:
+            conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, isolation_level=None,
+                                   check_same_thread=False, timeout=BUSY_TIMEOUT_MS / 1000)
+            _configure(conn, readonly=True)
+            version = conn.execute("PRAGMA user_version").fetchone()[0]
+            names = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
+        except sqlite3.DatabaseError as exc:
+            raise CacasError(f"{path}: cannot be read as a study database ({exc})") from None
+        if version != SCHEMA_VERSION or not set(TABLES) <= names:
+            conn.close()
+            raise CacasError(f"{path}: study database schema version {version} cannot be read here "
+                             f"(this CACAS Studio reads version {SCHEMA_VERSION}; open it with the app "
+                             f"once to migrate it)")
+        return conn
+    if path.exists():
+        if not path.is_file():
+            raise CacasError(f"{path}: is not a file; expected a CACAS study database (.sqlite)")
+        if path.stat().st_size and not read_header(path)[0]:
+            raise CacasError(f"{path}: is not a study database (not an SQLite file)")
+    else:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise CacasError(f"{path}: cannot create its folder ({exc})") from None
+    try:
+        conn = sqlite3.connect(str(path), isolation_level=None, check_same_thread=False,
+                               timeout=BUSY_TIMEOUT_MS / 1000)
+    except sqlite3.Error as exc:
+        raise CacasError(f"{path}: cannot open the study database ({exc})") from None
+    try:
+        _configure(conn, readonly=False)
+        _init_schema(conn, path)
+        mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
+        if str(mode).lower() != "wal":
+            raise CacasError(f"{path}: cannot switch the study database to WAL mode (got {mode})")
+    except sqlite3.DatabaseError as exc:
+        conn.close()
+        raise CacasError(f"{path}: is not a study database ({exc})") from None
+    except BaseException:
+        conn.close()
+        raise
+    return conn

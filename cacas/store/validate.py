@@ -1,0 +1,200 @@
+"""Checks on what goes into the study database: each raises one CacasError naming the field.
+
+Every write method of :class:`cacas.store.StudyStore` runs these before it opens its transaction,
+so bad input writes nothing. Names are checked through :mod:`cacas.spaces` (Table I).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from datetime import datetime, timezone
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from cacas import spaces
+from cacas.errors import CacasError
+from cacas.records import ROBOT_INITIATED, USER_INITIATED
+
+#: Pseudonymous participant codes: a letter or digit, then letters, digits, "-" or "_"; at most 16.
+CODE_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}$")
+CODE_HINT = 'a pseudonymous code of 1-16 letters, digits, "-" or "_" (e.g. "P01"), never a name'
+#: Age ranges: "25-34", "65+" or "30" (years); empty means not recorded.
+AGE_RE = re.compile(r"^(\d{1,3})(?:-(\d{1,3})|\+)?$")
+#: Method names (cacas, cacas-no-pr, orl, nn, ...).
+METHOD_RE = re.compile(r"^[a-z0-9][a-z0-9_.-]{0,31}$")
+STUDY_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9 _.-]{0,63}$")
+NOTES_MAX = 2000
+TYPES = (ROBOT_INITIATED, USER_INITIATED)
+
+
+def now() -> str:
+    """UTC timestamp with milliseconds, e.g. 2026-11-21T09:47:34.123Z (sorts as text)."""
+    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+
+
+def code(value: Any) -> str:
+    if not isinstance(value, str) or not CODE_RE.match(value.strip()):
+        raise CacasError(f"participant code {value!r} is invalid; valid: {CODE_HINT}")
+    return value.strip()
+
+
+def study(value: Any) -> str:
+    if not isinstance(value, str) or not STUDY_RE.match(value.strip()):
+        raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
+                         f"'.', '-' or '_'")
+    return value.strip()
+
+
+def age_range(value: Any) -> str:
+    if value is None:
+        return ""
+    text = str(value).strip().replace(" ", "")
+    if not text:
+        return ""
+    m = AGE_RE.match(text)
+    if not m or (m.group(2) is not None and int(m.group(1)) > int(m.group(2))):
+        raise CacasError(f"age range {value!r} is invalid; valid: e.g. \"25-34\", \"65+\" or empty")
+    return text
+
+
+def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
+    if value is None:
+        return ""
+    if not isinstance(value, str):
+        raise CacasError(f"{field} must be text, got {type(value).__name__}")
+    if len(value) > limit:
+        raise CacasError(f"{field} is {len(value)} characters long; valid: at most {limit}")
+    return value.strip()
+
+
+def method(value: Any) -> str:
+    if not isinstance(value, str) or not METHOD_RE.match(value):
+        raise CacasError(f"method {value!r} is invalid; valid: a short lower-case name such as "
+                         f"\"cacas\", \"cacas-no-pr\", \"orl\" or \"nn\"")
+    return value
+
+
+def integer(value: Any, field: str, low: int, high: int | None = None) -> int:
+    ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+    if not ok or value < low or (high is not None and value > high):
+        rng = f"{low}..{high}" if high is not None else f">= {low}"
+        raise CacasError(f"{field} {value!r} is invalid; valid: a whole number {rng}")
+    return int(value)
+
+
+def number(value: Any, field: str, low: float, high: float | None = None) -> float:
+    ok = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    if not ok or not math.isfinite(float(value)) or value < low or (high is not None and value >= high):
+        rng = f"{low} <= {field} < {high}" if high is not None else f"{field} >= {low}"
+        raise CacasError(f"{field} {value!r} is invalid; valid: a number with {rng}")
+    return float(value)
+
+
+def name(kind: str, value: Any, field: str) -> str:
+    """The paper's spelling of a Table I name; unknown -> CacasError naming field and value."""
+    try:
+        return spaces.canonical(kind, value)
+    except CacasError as exc:
+        raise CacasError(f"{field}: {exc}") from None
+    except (TypeError, AttributeError):
+        raise CacasError(f"{field}: {value!r} is not a {kind} name") from None
+
+
+def conversation_type(value: Any) -> str:
+    if value not in TYPES:
+        raise CacasError(f"interaction type {value!r} is invalid; valid: {ROBOT_INITIATED!r} "
+                         f"(robot-initiated) or {USER_INITIATED!r} (user-initiated)")
+    return value
+
+
+def time_slot(hour: Any, slot: Any) -> tuple[float | None, int]:
+    """S3 from an hour of the day and/or a slot index; both given must agree."""
+    if hour is None and slot is None:
+        raise CacasError("time of day is missing; give hour (0 <= hour < 24) or time_slot (0..11)")
+    h = None if hour is None else number(hour, "hour", 0, 24)
+    s = None if slot is None else integer(slot, "time_slot", 0, spaces.N_SLOTS - 1)
+    if h is not None and s is not None and spaces.time_slot(h) != s:
+        raise CacasError(f"hour {h:g} is in time slot {spaces.time_slot(h)}, not {s}; give one of them")
+    return h, (s if s is not None else spaces.time_slot(h))
+
+
+def interval(minutes: Any, bin_index: Any) -> tuple[float | None, int]:
+    """S4 from minutes since the previous activity and/or a bin index; both given must agree."""
+    if minutes is None and bin_index is None:
+        raise CacasError("repeat interval is missing; give interval_minutes (>= 0) or interval_bin (0..11)")
+    m = None if minutes is None else number(minutes, "interval_minutes", 0)
+    b = None if bin_index is None else integer(bin_index, "interval_bin", 0, spaces.N_INTERVALS - 1)
+    if m is not None and b is not None and spaces.interval_bin(m) != b:
+        raise CacasError(f"interval {m:g} minutes is in bin {spaces.interval_bin(m)}, not {b}; give one of them")
+    return m, (b if b is not None else spaces.interval_bin(m))
+
+
+def probabilities(value: Any) -> str | None:
+    """The policy's 14 action probabilities (Eq. 4's pi_theta(s)) as JSON, or None."""
+    if value is None:
+        return None
+    if isinstance(value, Mapping):
+        unknown = [k for k in value if k not in spaces.ACTIONS]
+        if unknown:
+            name("action", unknown[0], "probabilities")
+        value = [value.get(a, 0.0) for a in spaces.ACTIONS]
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise CacasError(f"probabilities must be {spaces.N_ACTIONS} numbers, one per action") from None
+    if arr.shape != (spaces.N_ACTIONS,):
+        raise CacasError(f"probabilities has shape {arr.shape}; valid: {spaces.N_ACTIONS} numbers, one per "
+                         f"action in Table I's order")
+    if not np.all(np.isfinite(arr)) or arr.min() < 0 or arr.max() > 1 + 1e-6 or abs(arr.sum() - 1) > 1e-3:
+        raise CacasError(f"probabilities must be {spaces.N_ACTIONS} numbers in [0, 1] that sum to 1 "
+                         f"(sum is {arr.sum():.4f})")
+    return json.dumps([float(p) for p in arr])
+
+
+def timestamp(value: Any) -> str:
+    """An interaction's time: now if None; a datetime or an ISO 8601 text otherwise."""
+    if value is None:
+        return now()
+    if isinstance(value, datetime):
+        if value.tzinfo is not None:
+            value = value.astimezone(timezone.utc).replace(tzinfo=None)
+            return value.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+        return value.isoformat(timespec="milliseconds")
+    if isinstance(value, str):
+        try:
+            datetime.fromisoformat(value.strip())
+        except ValueError:
+            raise CacasError(f"time {value!r} is invalid; valid: an ISO 8601 timestamp such as "
+                             f"2026-11-21T09:47:34Z") from None
+        return value.strip()
+    raise CacasError(f"time {value!r} is invalid; valid: a datetime or an ISO 8601 timestamp")
+
+
+def json_dict(value: Any, field: str) -> str:
+    """A dict of parameters / metrics as JSON text (numpy numbers become plain numbers)."""
+    if value is None:
+        value = {}
+    if not isinstance(value, Mapping):
+        raise CacasError(f"{field} must be a dict, got {type(value).__name__}")
+
+    def plain(o):
+        if isinstance(o, np.integer):
+            return int(o)
+        if isinstance(o, np.floating):
+            return float(o)
+        if isinstance(o, np.ndarray):
+            return o.tolist()
+        raise TypeError(type(o).__name__)
+
+    try:
+        return json.dumps(dict(value), sort_keys=True, default=plain, allow_nan=True)
+    except (TypeError, ValueError) as exc:
+        raise CacasError(f"{field} cannot be stored as JSON ({exc})") from None
+
+
+def satisfaction(value: Any) -> int:
+    """The post-test question (Section V-B.1): a linear scale, 1 very dissatisfied .. 10 very satisfied."""
+    return integer(value, "satisfaction", 1, 10)
