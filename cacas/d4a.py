@@ -95,6 +95,25 @@ class D4A:
         return buf.getvalue()
 
 
+def differs_from_generic(preference, d4a: D4A) -> bool:
+    """True if a described preference's action is not among D4A's accepted actions for any of its
+    activities: a personal twist the initial policy (trained on the generic user) cannot know."""
+    accepted = set().union(*(d4a.accepted_actions(a) for a in preference.activity_indices()))
+    return preference.action_index not in accepted
+
+
+def persona_summary(participants, d4a: D4A | None = None) -> pd.DataFrame:
+    """One row per participant: preferences, covered S1-S4 states (the paper's 1564 on average),
+    and how many preferences differ from the generic D4A user (:func:`differs_from_generic`)."""
+    d4a = d4a if d4a is not None else load_d4a()
+    return pd.DataFrame([{
+        "participant": p.id,
+        "preferences": len(p.preferences),
+        "covered_states": p.covered_count(),
+        "differing_from_d4a": sum(differs_from_generic(pref, d4a) for pref in p.preferences),
+    } for p in participants], columns=["participant", "preferences", "covered_states", "differing_from_d4a"])
+
+
 def save_d4a(d4a: D4A, path: str | Path) -> None:
     """Write a D4A table as CSV (atomically: a temporary file renamed into place)."""
     path = Path(path)

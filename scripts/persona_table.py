@@ -1,0 +1,27 @@
+"""Print the README's table of the shipped example personas (covered states, twists vs D4A).
+
+    python3 scripts/persona_table.py [PERSONA_FILE]
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from cacas.d4a import persona_summary  # noqa: E402
+from cacas.paths import study_data_dir  # noqa: E402
+from cacas.preferences import load_personas  # noqa: E402
+
+
+def markdown(path) -> str:
+    frame = persona_summary(load_personas(path))
+    lines = ["| participant | preferences | covered S1-S4 states | differing from D4A |", "|---|---|---|---|"]
+    for row in frame.itertuples(index=False):
+        lines.append(f"| {row.participant} | {row.preferences} | {row.covered_states} | {row.differing_from_d4a} |")
+    lines.append(f"| mean | {frame.preferences.mean():g} | {frame.covered_states.mean():.1f} | "
+                 f"{frame.differing_from_d4a.mean():g} |")
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    print(markdown(sys.argv[1] if len(sys.argv) > 1 else study_data_dir() / "personas" / "example.json"))
