@@ -9,6 +9,7 @@ meets SQLITE_BUSY is rolled back and retried whole (it wrote nothing).
 
 from __future__ import annotations
 
+import os
 import random
 import sqlite3
 import time
@@ -132,6 +133,19 @@ def _init_schema(conn: sqlite3.Connection, path: Path) -> None:
         conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
 
 
+def _open_for_reading(path: Path) -> sqlite3.Connection:
+    """A connection that never creates the file (URI ``mode=rw``, or ``mode=ro`` for a file we
+    may not write) and refuses writes (``query_only``). ``mode=rw`` lets SQLite remove the WAL
+    index files it needs for reading when the last connection closes, so reading a closed study
+    database leaves its folder as it was; the database itself is never changed."""
+    uri = path.resolve().as_uri()
+    mode = "rw" if os.access(path, os.W_OK) and os.access(path.parent, os.W_OK) else "ro"
+    conn = sqlite3.connect(f"{uri}?mode={mode}", uri=True, isolation_level=None, check_same_thread=False,
+                           timeout=BUSY_TIMEOUT_MS / 1000)
+    conn.execute("PRAGMA query_only = ON")
+    return conn
+
+
 def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
     """Open the study database at ``path``.
 
@@ -143,8 +157,7 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
     if readonly:
         check_study_file(path)
         try:
-            conn = sqlite3.connect(f"{path.resolve().as_uri()}?mode=ro", uri=True, isolation_level=None,
-                                   check_same_thread=False, timeout=BUSY_TIMEOUT_MS / 1000)
+            conn = _open_for_reading(path)
             _configure(conn, readonly=True)
             version = conn.execute("PRAGMA user_version").fetchone()[0]
             names = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}

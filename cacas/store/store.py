@@ -409,6 +409,13 @@ class StudyStore:
         self._write(fn)
         return [p.id for p in people]
 
+    def preferences_frame(self, study: str | None = None) -> pd.DataFrame:
+        """preferences.csv: participant, version, preferences (persona-format JSON list), created_at."""
+        sql = ("SELECT p.code AS participant, f.version, f.preferences, f.created_at FROM preferences f "
+               "JOIN participants p ON p.id = f.participant_id JOIN studies s ON s.id = p.study_id")
+        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, f.version",
+                           (study,) if study else ())
+
     # --- study days ----------------------------------------------------------------------------
     def open_day(self, participant: str) -> int:
         """Open the participant's next study day and return its number (1..n).
@@ -455,6 +462,13 @@ class StudyStore:
             return c.execute("SELECT day, opened_at, closed_at FROM days WHERE participant_id = ? ORDER BY day",
                              (pid,)).fetchall()
         return [DayInfo(*r) for r in self._read(fn)]
+
+    def days_frame(self, study: str | None = None) -> pd.DataFrame:
+        """days.csv: participant, day, opened_at, closed_at (empty while open)."""
+        sql = ("SELECT p.code AS participant, d.day, d.opened_at, COALESCE(d.closed_at, '') AS closed_at "
+               "FROM days d JOIN participants p ON p.id = d.participant_id JOIN studies s ON s.id = p.study_id")
+        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, d.day",
+                           (study,) if study else ())
 
     # --- interactions --------------------------------------------------------------------------
     def record_interaction(self, participant: str, day: int, *, activity: str, scene: str,

@@ -1,0 +1,50 @@
+"""``cacas export`` and ``cacas import``: a study database to CSV tables + zip, and back.
+
+    cacas export --db PATH --out DIR [--study NAME]
+    cacas import --bundle ZIP --db NEWPATH
+
+``export`` opens the database read-only after checking it is a study database, so a missing
+file or any other file exits 2 with one line and creates nothing (not even DIR). ``import``
+refuses an existing NEWPATH. See :mod:`cacas.export`.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from cacas.export import BUNDLE_NAME, export_study, import_bundle
+from cacas.store import StudyStore
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("export", help="write a study database as CSV tables and one zip",
+                              description="Write interactions.csv, daily.csv, participants.csv, "
+                                          "questionnaire.csv, adaptations.csv (and the tables needed to "
+                                          f"move the study) into DIR, and all of them as DIR/{BUNDLE_NAME}.")
+    p.add_argument("--db", required=True, help="the study database (.sqlite)")
+    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--study", default=None, help="export one study only (default: all)")
+    p.set_defaults(func=run_export)
+
+    q = subparsers.add_parser("import", help="load an exported bundle into a new study database",
+                              description=f"Load a {BUNDLE_NAME} written by `cacas export` into a new "
+                                          "database file (an existing file is never overwritten).")
+    q.add_argument("--bundle", required=True, help=f"the {BUNDLE_NAME} to import")
+    q.add_argument("--db", required=True, help="the NEW database file to create")
+    q.set_defaults(func=run_import)
+
+
+def run_export(args: argparse.Namespace) -> int:
+    result = export_study(args.db, args.out, study=args.study)
+    for name, path in result.tables.items():
+        print(f"wrote {path}")
+    print(f"wrote {result.bundle}")
+    return 0
+
+
+def run_import(args: argparse.Namespace) -> int:
+    count = import_bundle(args.bundle, args.db)
+    with StudyStore(args.db, readonly=True) as store:
+        people = len(store.list_participants())
+    print(f"imported {people} participants and {count} interactions into {args.db}")
+    return 0

@@ -1,0 +1,251 @@
+"""Tidy CSV tables of a study database, one zip bundle of them, and the import of a bundle.
+
+The tables (long format; issue 4, item 4):
+
+* ``interactions.csv``: :data:`cacas.records.INTERACTION_COLUMNS` first (the same as
+  ``cacas simulate`` writes), then :data:`cacas.store.INTERACTION_EXTRA_COLUMNS`;
+* ``daily.csv``: :func:`cacas.records.daily_table`, the columns of ``cacas simulate``'s
+  ``daily.csv`` (Fig. 3 success rate and cumulative feedback; Fig. 4 preference accuracy, see
+  :func:`accuracy_frame`), so one set of plots serves human and simulated studies;
+* ``participants.csv``, ``questionnaire.csv``, ``adaptations.csv``;
+* and, so that a study can move between machines, ``studies.csv``, ``preferences.csv``,
+  ``days.csv``, ``policies.csv`` (+ the checkpoint files under ``policies/`` in the zip) and
+  ``events.csv``.
+
+:func:`export_study` writes them and ``cacas-study.zip``; :func:`import_bundle` loads such a zip
+into a new database (export, import, export gives the same tables; the event log gains one
+"import_bundle" event). CSV is written with :func:`cacas.records.write_csv` and the zip with
+fixed timestamps, so the same database gives the same bytes.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from cacas.errors import CacasError
+from cacas.records import INTERACTION_COLUMNS, daily_table, write_csv
+from cacas.store import StudyStore, files
+from cacas.store.restore import RESTORE_COLUMNS, restore
+
+#: Name of the zip of all tables inside the output folder.
+BUNDLE_NAME = "cacas-study.zip"
+#: The tables of a bundle, in the order they are written.
+TABLES = ("interactions", "daily", "participants", "questionnaire", "adaptations", "preferences", "days",
+          "policies", "studies", "events")
+_POLICY_PATH = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}/day\d+-[a-z0-9][a-z0-9_.-]*-[0-9a-f]{8}\.pt$")
+_ZIP_TIME = (1980, 1, 1, 0, 0, 0)
+
+
+@dataclass(frozen=True)
+class ExportResult:
+    """What :func:`export_study` wrote: one CSV per table and the zip of them all."""
+
+    tables: dict[str, Path]
+    bundle: Path
+
+
+def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
+    """participant, method, day, preference_accuracy: Fig. 4's metric of the policy in force.
+
+    A run recorded for day d (adapted from days 1..d; day 0: the initial policy) gives the
+    accuracy of day d + 1 for its method. Where a day's interactions name the policy version in
+    force and a run produced that version, that run's metric is used instead (this follows a
+    roll-back). The metric is the run's ``metrics["preference_accuracy"]``, NaN if absent. Only
+    days the participant has are listed.
+    """
+    cols = ["participant", "method", "day", "preference_accuracy"]
+    if not len(adaptations):
+        return pd.DataFrame(columns=cols)
+    runs = adaptations.assign(day=adaptations["day"].astype(int) + 1)
+    acc = runs.drop_duplicates(["participant", "method", "day"], keep="last")[cols]
+    acc = acc.set_index(["participant", "method", "day"])["preference_accuracy"].astype(float)
+    linked = adaptations.dropna(subset=["policy_version"])
+    if len(interactions):
+        last = interactions.drop_duplicates(["participant", "method", "day"], keep="last")
+        for who, method, day, version in zip(last["participant"], last["method"], last["day"],
+                                             last["policy_version"]):
+            if pd.isna(version):
+                hit = adaptations[(adaptations["participant"] == who) & (adaptations["method"] == method)
+                                  & (adaptations["day"] == 0)]
+            else:
+                hit = linked[(linked["participant"] == who) & (linked["policy_version"] == version)]
+            if len(hit):
+                acc.loc[(who, method, int(day))] = float(hit["preference_accuracy"].iloc[-1])
+    acc = acc.reset_index()
+    have = set(zip(days["participant"], days["day"].astype(int)))
+    keep = [(p, int(d)) in have for p, d in zip(acc["participant"], acc["day"])]
+    acc = acc[keep].astype({"day": "int64", "preference_accuracy": "float64"})
+    return acc.sort_values(["participant", "method", "day"]).reset_index(drop=True)[cols]
+
+
+def daily_frame(store: StudyStore, study: str | None = None) -> pd.DataFrame:
+    """daily.csv of the human study (:data:`cacas.records.DAILY_COLUMNS`): success rate,
+    interactions and cumulative feedback per participant, method and day (Fig. 3), with the
+    preference accuracy of :func:`accuracy_frame` (Fig. 4)."""
+    interactions = store.interactions_frame(method=None, study=study, extra=True)
+    accuracy = accuracy_frame(interactions, store.adaptations_frame(study=study), store.days_frame(study))
+    return daily_table(interactions[INTERACTION_COLUMNS], accuracy)
+
+
+def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
+    """All tables of :data:`TABLES` as DataFrames (of one study, or all)."""
+    participants = store.participants_frame(study)
+    events = store.events()
+    if study is not None:
+        events = events[events["participant"].isin(participants["participant"])]
+    studies = pd.DataFrame([s.__dict__ for s in store.studies()], columns=["name", "description", "created_at"])
+    if study is not None:
+        studies = studies[studies["name"] == study]
+    return {
+        "interactions": store.interactions_frame(method=None, study=study, extra=True),
+        "daily": daily_frame(store, study),
+        "participants": participants,
+        "questionnaire": store.questionnaire_frame(study),
+        "adaptations": store.adaptations_frame(study=study),
+        "preferences": store.preferences_frame(study),
+        "days": store.days_frame(study),
+        "policies": store.policies_frame(study),
+        "studies": studies.reset_index(drop=True),
+        "events": events.drop(columns=["id"]).reset_index(drop=True),
+    }
+
+
+def _csv_bytes(df: pd.DataFrame) -> bytes:
+    buf = io.StringIO()
+    write_csv(df, buf)
+    return buf.getvalue().encode("utf-8")
+
+
+def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
+    info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
+    info.compress_type = zipfile.ZIP_DEFLATED
+    info.external_attr = 0o644 << 16
+    zf.writestr(info, data)
+
+
+def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | None = None) -> ExportResult:
+    """Write every table as ``<out_dir>/<table>.csv`` and all of them (with the policy
+    checkpoints) as ``<out_dir>/cacas-study.zip``.
+
+    ``db`` is an open StudyStore or the path of a study database; a path is checked and opened
+    read-only *before* anything is created, so a missing file or one that is not a study
+    database raises CacasError and changes and creates nothing.
+    """
+    store = db if isinstance(db, StudyStore) else StudyStore(db, readonly=True)
+    try:
+        tables = export_tables(store, study)
+        policies = {rel: store.load_policy(who, version=int(ver))
+                    for who, ver, rel in zip(tables["policies"]["participant"], tables["policies"]["version"],
+                                             tables["policies"]["path"])}
+    finally:
+        if store is not db:
+            store.close()
+    out = Path(out_dir)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CacasError(f"{out}: cannot create the output folder ({exc})") from None
+    written, blobs = {}, {}
+    for name in TABLES:
+        blobs[name] = _csv_bytes(tables[name])
+        path = out / f"{name}.csv"
+        files.atomic_write(path, blobs[name])
+        written[name] = path
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for name in TABLES:
+            _zip_entry(zf, f"{name}.csv", blobs[name])
+        for rel in sorted(policies):
+            _zip_entry(zf, f"policies/{rel}", policies[rel])
+    bundle = out / BUNDLE_NAME
+    files.atomic_write(bundle, buf.getvalue())
+    return ExportResult(written, bundle)
+
+
+def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
+    """The tables (every cell as text, "" for empty) and policy files of a bundle zip."""
+    path = Path(path)
+    if not path.is_file():
+        raise CacasError(f"{path}: no such bundle (expected the {BUNDLE_NAME} written by cacas export)")
+    try:
+        with zipfile.ZipFile(path) as zf:
+            names = set(zf.namelist())
+            tables = {}
+            for name in RESTORE_COLUMNS:
+                if f"{name}.csv" not in names:
+                    raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
+                tables[name] = pd.read_csv(io.BytesIO(zf.read(f"{name}.csv")), dtype=str, keep_default_na=False)
+            policies = {}
+            for name in sorted(names):
+                if name.startswith("policies/") and not name.endswith("/"):
+                    rel = name[len("policies/"):]
+                    if not _POLICY_PATH.match(rel):
+                        raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
+                    policies[rel] = zf.read(name)
+    except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
+    for rel in tables["policies"].get("path", []):
+        if not _POLICY_PATH.match(rel):
+            raise CacasError(f"{path}: policies.csv names an unexpected policy path {rel!r}")
+    return tables, policies
+
+
+def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
+    """Load a bundle written by :func:`export_study` into a NEW database at ``db_path`` and
+    return the number of interactions imported.
+
+    Refuses (CacasError, nothing changed) if ``db_path`` exists. The database is built under a
+    temporary name beside it and linked into place only when complete, so a bad bundle leaves
+    nothing behind; policy checkpoints go to the ``policies/`` folder beside it.
+    """
+    db_path = Path(db_path)
+    if db_path.exists() or Path(f"{db_path}-wal").exists():
+        raise CacasError(f"{db_path}: already exists; import only into a new database file")
+    tables, policies = read_bundle(bundle)
+    db_path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
+    created: list[Path] = []
+    try:
+        store = StudyStore(tmp)
+        try:
+            count = restore(store, tables, policies)
+            for rel, data in sorted(policies.items()):
+                target = store.policy_dir / rel
+                if target.exists():
+                    if files.sha256(target.read_bytes()) != files.sha256(data):
+                        raise CacasError(f"{target}: exists with other content; move it away and import again")
+                    continue
+                files.atomic_write(target, data)
+                created.append(target)
+            store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
+        finally:
+            store.close()
+        try:
+            os.link(tmp, db_path)
+        except FileExistsError:
+            raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
+        created.clear()
+        return count
+    except BaseException:
+        for p in created:
+            p.unlink(missing_ok=True)
+        raise
+    finally:
+        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal")):
+            p.unlink(missing_ok=True)
+
+
+def same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame], names=None) -> bool:
+    """Whether two sets of exported tables write the same CSV bytes (``names``: which tables)."""
+    return all(_csv_bytes(a[n]) == _csv_bytes(b[n]) for n in (names or a.keys()))
+
+
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "daily_frame", "export_tables",
+           "export_study", "read_bundle", "import_bundle", "same_tables"]

@@ -1,0 +1,203 @@
+"""Load exported tables back into an empty study database (the import half of issue 4's bundle).
+
+:func:`restore` takes the tables of a bundle as read from CSV (all cells text, "" for empty) and
+the policy checkpoint files, checks every name through :mod:`cacas.spaces` and every checkpoint
+against its sha256, and inserts everything in one transaction: a bad bundle raises CacasError
+naming the table, row and column, and nothing is written.
+"""
+
+from __future__ import annotations
+
+import json
+import sqlite3
+from typing import Any, Callable
+
+import pandas as pd
+
+from cacas import preferences as prefs
+from cacas.errors import CacasError
+from cacas.store import files
+from cacas.store import validate as v
+
+#: Tables a bundle must have to be restored, with the columns read from each.
+RESTORE_COLUMNS: dict[str, list[str]] = {
+    "studies": ["name", "description", "created_at"],
+    "participants": ["participant", "study", "age_range", "notes", "active_policy", "created_at", "updated_at"],
+    "preferences": ["participant", "version", "preferences", "created_at"],
+    "days": ["participant", "day", "opened_at", "closed_at"],
+    "policies": ["participant", "version", "day", "method", "path", "sha256", "size", "created_at"],
+    "interactions": ["participant", "method", "day", "index", "time", "activity", "scene", "time_slot",
+                     "interval", "task", "previous_action", "previous_response", "type", "robot_action",
+                     "response", "user_action", "hour", "interval_minutes", "recognised_activity",
+                     "recognised_scene", "probabilities", "policy_version", "created_at"],
+    "adaptations": ["participant", "day", "method", "parameters", "duration_s", "metrics", "policy_version",
+                    "created_at"],
+    "questionnaire": ["participant", "satisfaction", "comments", "created_at"],
+    "events": ["at", "what", "participant", "details"],
+}
+
+
+def _int(cell: str, low: int = 0) -> int:
+    try:
+        value = int(cell)
+    except ValueError:
+        raise CacasError(f"{cell!r} is not a whole number") from None
+    return v.integer(value, "value", low)
+
+
+def _opt_int(cell: str) -> int | None:
+    return None if cell == "" else _int(cell, 1)
+
+
+def _opt_float(cell: str) -> float | None:
+    if cell == "":
+        return None
+    try:
+        return float(cell)
+    except ValueError:
+        raise CacasError(f"{cell!r} is not a number") from None
+
+
+def _opt(cell: str) -> str | None:
+    return None if cell == "" else cell
+
+
+def _json_text(cell: str) -> str:
+    try:
+        json.loads(cell)
+    except json.JSONDecodeError as exc:
+        raise CacasError(f"not valid JSON ({exc.msg})") from None
+    return cell
+
+
+def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], tuple]) -> list[tuple]:
+    df = tables.get(name)
+    if df is None:
+        raise CacasError(f"{name}.csv is missing from the bundle")
+    missing = [c for c in RESTORE_COLUMNS[name] if c not in df.columns]
+    if missing:
+        raise CacasError(f"{name}.csv has no column {missing[0]!r}; expected {', '.join(RESTORE_COLUMNS[name])}")
+    out = []
+    for i, row in enumerate(df[RESTORE_COLUMNS[name]].to_dict("records")):
+        try:
+            out.append(convert(row))
+        except CacasError as exc:
+            raise CacasError(f"{name}.csv, row {i + 2}: {exc}") from None
+    return out
+
+
+def _interaction(r: dict[str, Any]) -> tuple:
+    slot, iv = _int(r["time_slot"]), _int(r["interval"])
+    hour, minutes = _opt_float(r["hour"]), _opt_float(r["interval_minutes"])
+    v.time_slot(hour, slot)
+    v.interval(minutes, iv)
+    kind = v.conversation_type(r["type"])
+    user = _opt(r["user_action"])
+    probs = _opt(r["probabilities"])
+    if probs is not None:
+        v.probabilities(json.loads(_json_text(probs)))
+    return (r["participant"], _int(r["day"], 1), _int(r["index"], 1), r["time"], v.method(r["method"]),
+            v.name("activity", r["activity"], "activity"), v.name("scene", r["scene"], "scene"), hour, slot,
+            minutes, iv, v.name("action", r["task"], "task"),
+            v.name("action", r["previous_action"], "previous_action"),
+            v.name("response", r["previous_response"], "previous_response"),
+            None if r["recognised_activity"] == "" else v.name("activity", r["recognised_activity"],
+                                                                 "recognised_activity"),
+            None if r["recognised_scene"] == "" else v.name("scene", r["recognised_scene"], "recognised_scene"),
+            kind, v.name("action", r["robot_action"], "robot_action"), probs,
+            v.name("response", r["response"], "response"),
+            None if user is None else v.name("action", user, "user_action"),
+            _opt_int(r["policy_version"]), r["created_at"])
+
+
+def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> int:
+    """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
+    number of interactions restored. ``policy_files`` maps each policies.csv path to its bytes."""
+    studies = _rows(tables, "studies", lambda r: (v.study(r["name"]), r["description"], r["created_at"]))
+    people = _rows(tables, "participants", lambda r: (
+        v.code(r["participant"]), r["study"], v.age_range(r["age_range"]), r["notes"],
+        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]))
+
+    def pref_row(r):
+        items = json.loads(_json_text(r["preferences"]))
+        prefs.parse_participant({"id": r["participant"], "preferences": items})
+        return r["participant"], _int(r["version"], 1), r["preferences"], r["created_at"]
+
+    preferences = _rows(tables, "preferences", pref_row)
+    days = _rows(tables, "days", lambda r: (r["participant"], _int(r["day"], 1), r["opened_at"],
+                                            _opt(r["closed_at"])))
+
+    def policy_row(r):
+        data = policy_files.get(r["path"])
+        if data is None:
+            raise CacasError(f"policy file {r['path']!r} is missing from the bundle")
+        if files.sha256(data) != r["sha256"]:
+            raise CacasError(f"policy file {r['path']!r} does not match its sha256")
+        return (r["participant"], _int(r["version"], 1), _int(r["day"]), v.method(r["method"]), r["path"],
+                r["sha256"], len(data), r["created_at"])
+
+    policies = _rows(tables, "policies", policy_row)
+    interactions = _rows(tables, "interactions", _interaction)
+    adaptations = _rows(tables, "adaptations", lambda r: (
+        r["participant"], _int(r["day"]), v.method(r["method"]), _json_text(r["parameters"]),
+        v.number(_opt_float(r["duration_s"]) or 0.0, "duration_s", 0), _json_text(r["metrics"]),
+        _opt_int(r["policy_version"]), r["created_at"]))
+    answers = _rows(tables, "questionnaire", lambda r: (
+        r["participant"], v.satisfaction(_int(r["satisfaction"])), r["comments"], r["created_at"]))
+    events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
+                                                _json_text(r["details"] or "{}")))
+
+    def fn(c):
+        try:
+            return insert(c)
+        except sqlite3.IntegrityError as exc:
+            raise CacasError(f"the bundle's tables do not fit together ({exc})") from None
+
+    def insert(c):
+        if c.execute("SELECT COUNT(*) FROM participants").fetchone()[0]:
+            raise CacasError(f"{store.path}: already holds participants; import into a new database")
+        for name, desc, at in studies:
+            c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, ?, ?) ON CONFLICT(name) "
+                      "DO UPDATE SET description = excluded.description, created_at = excluded.created_at",
+                      (name, desc, at))
+        sid = {n: i for i, n in c.execute("SELECT id, name FROM studies")}
+        for code, study, age, notes, _active, at, upd in people:
+            if study not in sid:
+                raise CacasError(f"participants.csv: participant {code} is in study {study!r}, "
+                                 f"which studies.csv does not have")
+            c.execute("INSERT INTO participants (study_id, code, age_range, notes, created_at, updated_at) "
+                      "VALUES (?, ?, ?, ?, ?, ?)", (sid[study], code, age, notes, at, upd))
+        pid = {code: i for i, code in c.execute("SELECT id, code FROM participants")}
+
+        def p(code, table):
+            if code not in pid:
+                raise CacasError(f"{table}.csv names participant {code!r}, which participants.csv does not have")
+            return pid[code]
+
+        c.executemany("INSERT INTO preferences (participant_id, version, preferences, created_at) "
+                      "VALUES (?, ?, ?, ?)", [(p(r[0], "preferences"), *r[1:]) for r in preferences])
+        c.executemany("INSERT INTO days (participant_id, day, opened_at, closed_at) VALUES (?, ?, ?, ?)",
+                      [(p(r[0], "days"), *r[1:]) for r in days])
+        c.executemany("INSERT INTO policies (participant_id, version, day, method, path, sha256, size, "
+                      "created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", [(p(r[0], "policies"), *r[1:]) for r in policies])
+        for code, _s, _a, _n, active, _c, _u in people:
+            c.execute("UPDATE participants SET active_policy = ? WHERE id = ?", (active, pid[code]))
+        c.executemany(
+            "INSERT INTO interactions (participant_id, day, idx, time, method, activity, scene, hour, time_slot, "
+            "interval_minutes, interval_bin, task, previous_action, previous_response, recognised_activity, "
+            "recognised_scene, type, robot_action, probabilities, response, user_action, policy_version, "
+            "created_at) VALUES (" + ", ".join("?" * 23) + ")",
+            [(p(r[0], "interactions"), *r[1:]) for r in interactions])
+        c.executemany("INSERT INTO adaptations (participant_id, day, method, parameters, duration_s, metrics, "
+                      "policy_version, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                      [(p(r[0], "adaptations"), *r[1:]) for r in adaptations])
+        c.executemany("INSERT INTO questionnaires (participant_id, satisfaction, comments, created_at) "
+                      "VALUES (?, ?, ?, ?)", [(p(r[0], "questionnaire"), *r[1:]) for r in answers])
+        c.executemany("INSERT INTO events (at, what, participant, details) VALUES (?, ?, ?, ?)", events)
+        bad = c.execute("PRAGMA foreign_key_check").fetchone()
+        if bad:
+            raise CacasError(f"the bundle's {bad[0]} table refers to a missing {bad[2]} row")
+        store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions))
+        return len(interactions)
+
+    return store._write(fn)
