@@ -1,0 +1,106 @@
+"""`cacas export --db PATH --out DIR` and `cacas import --bundle ZIP --db NEWPATH` (issue 4, items 4-5)."""
+
+import hashlib
+import sqlite3
+
+import pytest
+
+import cacas.cli as cli
+from cacas.store import StudyStore
+
+
+@pytest.fixture
+def run(monkeypatch):
+    """``cacas ...`` in process, with only this module's sub-commands registered (the other
+    sub-commands are tested on their own)."""
+    monkeypatch.setattr(cli, "COMMANDS", ["export"])
+    return lambda *argv: cli.main([str(a) for a in argv])
+
+
+def tree(folder):
+    """Every file under ``folder`` with a hash of its bytes."""
+    return {str(p.relative_to(folder)): hashlib.sha256(p.read_bytes()).hexdigest()
+            for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def study(tmp_path):
+    path = tmp_path / "db" / "study.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                             robot_action="pain check", response="accept")
+        s.save_policy("P01", day, "cacas", b"policy bytes")
+        s.record_questionnaire("P01", 8)
+    return path
+
+
+def test_export_and_import(run, study, tmp_path, capsys):
+    before = tree(study.parent)
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    assert tree(study.parent) == before  # exporting changes nothing beside the database
+    out = capsys.readouterr().out
+    assert "interactions.csv" in out and "cacas-study.zip" in out
+    assert (tmp_path / "out" / "daily.csv").exists()
+    new = tmp_path / "moved" / "study.sqlite"
+    assert run("import", "--bundle", tmp_path / "out" / "cacas-study.zip", "--db", new) == 0
+    assert "imported 1 participants and 1 interactions" in capsys.readouterr().out
+    with StudyStore(new) as s:
+        assert s.resume("P01").total_interactions == 1
+        assert s.load_policy("P01") == b"policy bytes"
+
+
+def _refused(run, capsys, tmp_path, db):
+    before = tree(tmp_path)
+    code = run("export", "--db", db, "--out", tmp_path / "out")
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("cacas: error: ") and str(db) in err
+    assert tree(tmp_path) == before and not (tmp_path / "out").exists()  # nothing changed or created
+    return err
+
+
+def test_export_of_a_missing_file_exits_2_and_creates_nothing(run, capsys, tmp_path):
+    err = _refused(run, capsys, tmp_path, tmp_path / "nope.sqlite")
+    assert "no such study database" in err
+    assert not (tmp_path / "nope.sqlite").exists()
+
+
+def test_export_of_a_text_file_exits_2(run, capsys, tmp_path):
+    (tmp_path / "notes.txt").write_text("not a database")
+    assert "not a study database" in _refused(run, capsys, tmp_path, tmp_path / "notes.txt")
+
+
+def test_export_of_an_empty_file_exits_2(run, capsys, tmp_path):
+    (tmp_path / "empty.sqlite").write_bytes(b"")
+    assert "not a study database" in _refused(run, capsys, tmp_path, tmp_path / "empty.sqlite")
+
+
+def test_export_of_another_sqlite_database_exits_2(run, capsys, tmp_path):
+    con = sqlite3.connect(tmp_path / "other.db")
+    con.execute("CREATE TABLE things (x)")
+    con.commit()
+    con.close()
+    assert "another application" in _refused(run, capsys, tmp_path, tmp_path / "other.db")
+
+
+def test_export_of_a_folder_exits_2(run, capsys, tmp_path):
+    (tmp_path / "folder").mkdir()
+    assert "is not a file" in _refused(run, capsys, tmp_path, tmp_path / "folder")
+
+
+def test_import_refuses_an_existing_database(run, study, tmp_path, capsys):
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    before = tree(study.parent)
+    code = run("import", "--bundle", tmp_path / "out" / "cacas-study.zip", "--db", study)
+    err = capsys.readouterr().err
+    assert code == 2 and "already exists" in err and err.count("\n") == 1
+    assert tree(study.parent) == before
+
+
+def test_import_of_a_missing_bundle_exits_2(run, tmp_path, capsys):
+    code = run("import", "--bundle", tmp_path / "none.zip", "--db", tmp_path / "new.sqlite")
+    assert code == 2 and "no such bundle" in capsys.readouterr().err
+    assert not (tmp_path / "new.sqlite").exists()

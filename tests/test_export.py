@@ -1,0 +1,199 @@
+"""CSV export of the study database, the zip bundle, and import into a new database (issue 4, item 4)."""
+
+import io
+import math
+import zipfile
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cacas import export, spaces
+from cacas.errors import CacasError
+from cacas.records import DAILY_COLUMNS, INTERACTION_COLUMNS, USER_INITIATED
+from cacas.store import StudyStore
+
+COUGH = {"activity": ["cough"], "action": "pain check"}
+ROUND_TRIP = ("interactions", "daily", "participants", "questionnaire", "adaptations", "preferences", "days",
+              "policies", "studies")
+
+
+def fill(store: StudyStore) -> None:
+    """A small two-participant study: 2 days each, a roll-back, two methods, questionnaires."""
+    store.create_study("pilot", "pilot, with a comma and\na newline")
+    store.add_participant("P01", "25-34", 'notes, "quoted"')
+    store.add_participant("P02", "65+", study="pilot")
+    store.save_preferences("P01", [COUGH])
+    store.record_adaptation("P01", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.30})
+    p = np.full(14, 1 / 14)
+    for who in ("P01", "P02"):
+        for d in (1, 2):
+            day = store.open_day(who)
+            for i in range(4):
+                store.record_interaction(who, day, activity="cough", scene="bedroom", hour=7.25 + i,
+                                         interval_minutes=[0, 12, 90, 300][i], robot_action="pain check",
+                                         response=["accept", "reject", "others", "accept"][i], probabilities=p,
+                                         recognised_activity="sneeze")
+            store.record_interaction(who, day, activity="use stove", scene="kitchen", time_slot=8, interval_bin=3,
+                                     robot_action="do nothing", response="reject", type=USER_INITIATED,
+                                     user_action="remind to turn off")
+            store.close_day(who, day)
+            v = store.save_policy(who, day, "cacas", f"{who} policy after day {day}".encode())
+            store.record_adaptation(who, day, "cacas", {"epochs": 3}, 1.5 * day,
+                                    {"preference_accuracy": 0.5 + day / 10}, policy_version=v)
+            store.record_adaptation(who, day, "nn", {"epochs": 3}, 0.5, {"preference_accuracy": 0.1 * day})
+    store.record_questionnaire("P01", 9, "it learned, mostly")
+    store.record_questionnaire("P02", 7)
+
+
+@pytest.fixture
+def store(tmp_path):
+    s = StudyStore(tmp_path / "a" / "study.sqlite")
+    fill(s)
+    yield s
+    s.close()
+
+
+def test_export_writes_every_table_and_one_zip(store, tmp_path):
+    result = export.export_study(store, tmp_path / "out")
+    assert set(result.tables) == set(export.TABLES)
+    with zipfile.ZipFile(result.bundle) as zf:
+        names = set(zf.namelist())
+    assert {f"{t}.csv" for t in export.TABLES} <= names
+    assert sum(n.startswith("policies/") for n in names) == 4
+    inter = pd.read_csv(result.tables["interactions"])
+    assert list(inter.columns[:len(INTERACTION_COLUMNS)]) == INTERACTION_COLUMNS
+    assert len(inter) == 20
+    daily = pd.read_csv(result.tables["daily"])
+    assert list(daily.columns) == DAILY_COLUMNS
+    assert set(pd.read_csv(result.tables["participants"])["participant"]) == {"P01", "P02"}
+    assert pd.read_csv(result.tables["questionnaire"])["satisfaction"].tolist() == [9, 7]
+    assert len(pd.read_csv(result.tables["adaptations"])) == 9
+
+
+def test_same_database_gives_same_bytes(store, tmp_path):
+    a = export.export_study(store, tmp_path / "one")
+    b = export.export_study(store, tmp_path / "two")
+    assert a.bundle.read_bytes() == b.bundle.read_bytes()
+
+
+def test_daily_table_metrics(store):
+    daily = export.daily_frame(store).set_index(["participant", "method", "day"])
+    row = daily.loc[("P01", "cacas", 1)]
+    # 4 robot-initiated pain checks: 2 accepted; 1 user-initiated request
+    assert row["interactions"] == 5 and row["successes"] == 2 and row["user_initiated"] == 1
+    assert math.isclose(row["success_rate"], 2 / 5)
+    assert row["feedback"] == 3 + 2  # accept, reject, accept + two points for the request
+    assert daily.loc[("P01", "cacas", 2), "cumulative_feedback"] == 10
+    # day 1 ran the initial policy (its day-0 run: 0.30); day 2 the policy adapted after day 1
+    assert math.isclose(row["preference_accuracy"], 0.30)
+    assert math.isclose(daily.loc[("P01", "cacas", 2), "preference_accuracy"], 0.6)
+    assert math.isnan(daily.loc[("P02", "cacas", 1), "preference_accuracy"])  # no initial run recorded
+    # a baseline evaluated but not run in closed loop: accuracy only
+    nn = daily.loc[("P01", "nn", 2)]
+    assert math.isclose(nn["preference_accuracy"], 0.1) and math.isnan(nn["success_rate"])
+    assert ("P01", "nn", 3) not in daily.index  # no day 3 yet
+
+
+def test_daily_accuracy_follows_the_policy_in_force_after_rollback(tmp_path):
+    with StudyStore(tmp_path / "s.sqlite") as s:
+        s.add_participant("P01")
+        for d in (1, 2):
+            s.open_day("P01")
+            s.close_day("P01", d)
+            v = s.save_policy("P01", d, "cacas", f"policy {d}".encode())
+            s.record_adaptation("P01", d, "cacas", {}, 1.0, {"preference_accuracy": d / 10}, policy_version=v)
+        s.set_active_policy("P01", 1)  # day 2's policy was bad: back to the one after day 1
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                             robot_action="pain check", response="accept")
+        daily = export.daily_frame(s).set_index(["participant", "method", "day"])
+        assert math.isclose(daily.loc[("P01", "cacas", 3), "preference_accuracy"], 0.1)
+
+
+def test_export_import_export_gives_the_same_tables(store, tmp_path):
+    first = export.export_study(store, tmp_path / "first")
+    target = tmp_path / "b" / "moved.sqlite"
+    assert export.import_bundle(first.bundle, target) == 20
+    assert not [p for p in target.parent.iterdir() if p.name.startswith(".")]  # no temporary left
+    with StudyStore(target) as moved:
+        second = export.export_study(moved, tmp_path / "second")
+        assert moved.load_policy("P02") == b"P02 policy after day 2"
+        assert moved.resume("P01") == store.resume("P01")
+        assert moved.get_preferences("P01") == store.get_preferences("P01")
+        assert moved.events()["what"].iloc[-1] == "import_bundle"
+    for name in ROUND_TRIP:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+    # the event log keeps every original event, plus the import
+    ev1 = pd.read_csv(first.tables["events"])
+    ev2 = pd.read_csv(second.tables["events"])
+    assert ev2.iloc[:len(ev1)].equals(ev1) and len(ev2) == len(ev1) + 1
+
+
+def test_import_refuses_an_existing_database(store, tmp_path):
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    existing = tmp_path / "existing.sqlite"
+    existing.write_bytes(b"precious")
+    with pytest.raises(CacasError, match="already exists"):
+        export.import_bundle(bundle, existing)
+    assert existing.read_bytes() == b"precious"
+    with pytest.raises(CacasError, match="already exists"):
+        export.import_bundle(bundle, store.path)
+
+
+def _rewrite(bundle, out, table, change):
+    """A copy of ``bundle`` with one table changed by ``change(df) -> df``."""
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(out, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == f"{table}.csv":
+                df = change(pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False))
+                data = df.to_csv(index=False).encode()
+            zout.writestr(name, data)
+    return out
+
+
+@pytest.mark.parametrize("table,change,message", [
+    ("interactions", lambda df: df.assign(activity="juggle"), "interactions.csv, row 2: activity"),
+    ("interactions", lambda df: df.assign(response="maybe"), "unknown response 'maybe'"),
+    ("questionnaire", lambda df: df.assign(satisfaction="11"), "satisfaction"),
+    ("days", lambda df: df.iloc[1:], "do not fit together"),
+    ("policies", lambda df: df.assign(sha256="0" * 64), "does not match its sha256"),
+    ("participants", lambda df: df.drop(columns=["study"]), "no column 'study'"),
+])
+def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change, message):
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    bad = _rewrite(bundle, tmp_path / "bad.zip", table, change)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=message):
+        export.import_bundle(bad, target)
+    assert not target.exists()
+    assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
+
+
+def test_not_a_bundle(tmp_path):
+    junk = tmp_path / "junk.zip"
+    junk.write_text("not a zip")
+    with pytest.raises(CacasError, match="junk.zip: is not a study bundle"):
+        export.import_bundle(junk, tmp_path / "x.sqlite")
+    with pytest.raises(CacasError, match="no such bundle"):
+        export.import_bundle(tmp_path / "missing.zip", tmp_path / "x.sqlite")
+    with zipfile.ZipFile(tmp_path / "empty.zip", "w") as zf:
+        zf.writestr("hello.txt", "hi")
+    with pytest.raises(CacasError, match="studies.csv is missing"):
+        export.import_bundle(tmp_path / "empty.zip", tmp_path / "x.sqlite")
+    assert not (tmp_path / "x.sqlite").exists()
+
+
+def test_export_of_one_study(store, tmp_path):
+    tables = export.export_tables(store, study="pilot")
+    assert set(tables["participants"]["participant"]) == {"P02"}
+    assert set(tables["interactions"]["participant"]) == {"P02"}
+    assert tables["studies"]["name"].tolist() == ["pilot"]
+    assert set(tables["events"]["participant"]) == {"P02"}
+
+
+def test_interaction_names_survive_in_paper_spelling(store):
+    inter = export.export_tables(store)["interactions"]
+    assert set(inter["activity"]) <= set(spaces.ACTIVITIES)
+    assert set(inter["robot_action"]) <= set(spaces.ACTIONS)

@@ -1,0 +1,418 @@
+"""The study database (issue 4): what it keeps, bad input refused with nothing written, resume."""
+
+import json
+import sqlite3
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cacas import spaces
+from cacas.errors import CacasError
+from cacas.records import INTERACTION_COLUMNS, USER_INITIATED
+from cacas.store import SCHEMA_VERSION, StudyStore, default_db_path
+from cacas.store.schema import APPLICATION_ID, TABLES
+
+STOVE = {"description": "When I use the stove in the kitchen, remind me to turn it off.",
+         "activity": ["use stove", "fry food"], "scene": ["kitchen"], "hours": [[6, 10], [16, 20]],
+         "interval": [0, 30], "action": "remind to turn off"}
+COUGH = {"activity": ["cough"], "action": "pain check"}
+
+
+def probs(action="pain check"):
+    p = np.full(spaces.N_ACTIONS, 0.01)
+    p[spaces.action_index(action)] = 1 - 0.01 * (spaces.N_ACTIONS - 1)
+    return p
+
+
+GOOD = dict(activity="cough", scene="bedroom", hour=7.5, interval_minutes=12, robot_action="pain check",
+            response="accept")
+
+
+@pytest.fixture
+def store(tmp_path):
+    s = StudyStore(tmp_path / "study.sqlite")
+    s.add_participant("P01", "25-34", "familiar with robots")
+    yield s
+    s.close()
+
+
+def snapshot(path):
+    """Row counts of every table (including the event log) read through a separate connection."""
+    con = sqlite3.connect(path)
+    try:
+        return {t: con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0] for t in TABLES}
+    finally:
+        con.close()
+
+
+# --- the file -------------------------------------------------------------------------------------
+
+def test_new_database_has_schema_wal_foreign_keys_and_default_study(tmp_path):
+    path = tmp_path / "sub" / "new.sqlite"
+    with StudyStore(path) as s:
+        assert [st.name for st in s.studies()] == ["default"]
+        assert s._conn.execute("PRAGMA foreign_keys").fetchone()[0] == 1
+        assert s._conn.execute("PRAGMA busy_timeout").fetchone()[0] > 0
+    con = sqlite3.connect(path)
+    assert con.execute("PRAGMA journal_mode").fetchone()[0] == "wal"
+    assert con.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION
+    assert con.execute("PRAGMA application_id").fetchone()[0] == APPLICATION_ID
+    con.close()
+    with StudyStore(path) as s:  # reopening creates nothing twice
+        assert [st.name for st in s.studies()] == ["default"]
+
+
+def test_default_path_follows_env(monkeypatch, tmp_path):
+    monkeypatch.setenv("CACAS_DB", str(tmp_path / "env.sqlite"))
+    assert default_db_path() == tmp_path / "env.sqlite"
+    with StudyStore() as s:
+        assert s.path == tmp_path / "env.sqlite"
+    assert (tmp_path / "env.sqlite").exists()
+    monkeypatch.delenv("CACAS_DB")
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path / "sd"))
+    assert default_db_path() == tmp_path / "sd" / "cacas.sqlite"
+
+
+def test_text_file_is_not_a_study_database(tmp_path):
+    path = tmp_path / "notes.txt"
+    path.write_text("participant list\n" * 20)
+    with pytest.raises(CacasError, match="notes.txt: is not a study database"):
+        StudyStore(path)
+    assert path.read_text() == "participant list\n" * 20
+
+
+def test_other_sqlite_file_is_not_a_study_database(tmp_path):
+    path = tmp_path / "other.db"
+    con = sqlite3.connect(path)
+    con.execute("CREATE TABLE t (x)")
+    con.commit()
+    con.close()
+    before = path.read_bytes()
+    with pytest.raises(CacasError, match="other.db: is not a study database"):
+        StudyStore(path)
+    with pytest.raises(CacasError, match="other.db: is not a study database"):
+        StudyStore(path, readonly=True)
+    assert path.read_bytes() == before
+
+
+def test_newer_schema_is_refused(tmp_path):
+    path = tmp_path / "s.sqlite"
+    StudyStore(path).close()
+    con = sqlite3.connect(path)
+    con.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+    con.close()
+    with pytest.raises(CacasError, match="newer"):
+        StudyStore(path)
+
+
+def test_readonly_store_creates_nothing_and_refuses_writes(tmp_path):
+    path = tmp_path / "missing.sqlite"
+    with pytest.raises(CacasError, match="no such study database"):
+        StudyStore(path, readonly=True)
+    assert list(tmp_path.iterdir()) == []
+    StudyStore(path).close()
+    with StudyStore(path, readonly=True) as s:
+        with pytest.raises(CacasError, match="read-only"):
+            s.add_participant("P02")
+    assert snapshot(path)["participants"] == 0
+
+
+# --- participants and preferences -----------------------------------------------------------------
+
+def test_participants_add_update_list(store):
+    store.add_participant("P02", study="default")
+    store.update_participant("P01", notes="new notes")
+    p = store.get_participant("P01")
+    assert (p.code, p.age_range, p.notes, p.study) == ("P01", "25-34", "new notes", "default")
+    assert [x.code for x in store.list_participants()] == ["P01", "P02"]
+    store.create_study("pilot", "a pilot")
+    store.add_participant("Q1", study="pilot")
+    assert [x.code for x in store.list_participants("pilot")] == ["Q1"]
+    assert list(store.participants_frame()["participant"]) == ["P01", "P02", "Q1"]
+
+
+@pytest.mark.parametrize("code", ["", "   ", "Jane Doe", "P" * 17, "a/b", "-x", None, 7])
+def test_bad_participant_code_is_refused(store, code):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="participant code"):
+        store.add_participant(code)
+    assert snapshot(store.path) == before
+
+
+def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="P01 already exists"):
+        store.add_participant("P01")
+    with pytest.raises(CacasError, match="age range"):
+        store.add_participant("P03", age_range="old")
+    with pytest.raises(CacasError, match="age range"):
+        store.add_participant("P03", age_range="35-25")
+    with pytest.raises(CacasError, match="unknown study 'nope'"):
+        store.add_participant("P03", study="nope")
+    with pytest.raises(CacasError, match="unknown participant 'P09'"):
+        store.update_participant("P09", notes="x")
+    assert snapshot(store.path) == before
+
+
+def test_preferences_are_versioned_and_validated(store):
+    assert store.get_preferences("P01") is None
+    assert store.save_preferences("P01", [STOVE]) == 1
+    assert store.save_preferences("P01", [STOVE, COUGH]) == 2
+    assert len(store.get_preferences("P01").preferences) == 2
+    assert len(store.get_preferences("P01", version=1).preferences) == 1
+    assert [v["count"] for v in store.preference_versions("P01")] == [1, 2]
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="activity"):
+        store.save_preferences("P01", [{"activity": ["juggle"], "action": "chitchat"}])
+    with pytest.raises(CacasError, match="preferences 1 and 2"):
+        store.save_preferences("P01", [COUGH, {"activity": ["cough"], "action": "chitchat"}])
+    with pytest.raises(CacasError, match="unknown participant"):
+        store.save_preferences("P77", [COUGH])
+    assert snapshot(store.path) == before
+
+
+def test_persona_json_round_trip(store, tmp_path):
+    store.save_preferences("P01", [STOVE, COUGH])
+    text = store.export_personas()
+    assert json.loads(text)["participants"][0]["id"] == "P01"
+    other = StudyStore(tmp_path / "other.sqlite")
+    assert other.import_personas(text) == ["P01"]
+    assert other.get_preferences("P01") == store.get_preferences("P01")
+    before = snapshot(other.path)
+    bad = {"participants": [{"id": "P05", "preferences": [COUGH]},
+                            {"id": "P06", "preferences": [{"activity": ["juggle"], "action": "chitchat"}]}]}
+    with pytest.raises(CacasError, match="participant P06"):
+        other.import_personas(bad)
+    with pytest.raises(CacasError, match="participant code"):
+        other.import_personas({"participants": [{"id": "Jane Doe", "preferences": [COUGH]}]})
+    assert snapshot(other.path) == before
+    other.close()
+
+
+# --- days and interactions ------------------------------------------------------------------------
+
+def test_days_open_close_and_current(store):
+    assert store.current_day("P01") is None
+    assert store.open_day("P01") == 1
+    assert store.open_day("P01") == 1  # still open: a reload opens nothing new
+    store.close_day("P01", 1)
+    store.close_day("P01", 1)  # closing twice changes nothing
+    assert store.open_day("P01") == 2
+    assert store.current_day("P01") == 2
+    assert [(d.day, d.is_open) for d in store.days("P01")] == [(1, False), (2, True)]
+    with pytest.raises(CacasError, match="no day 5"):
+        store.close_day("P01", 5)
+
+
+def test_record_interaction_all_fields(store):
+    day = store.open_day("P01")
+    i1 = store.record_interaction("P01", day, **GOOD, probabilities=probs(), recognised_activity="sneeze",
+                                  recognised_scene="bedroom", task="chitchat", time="2026-11-21T10:00:00Z")
+    i2 = store.record_interaction("P01", day, activity="Use Stove", scene="kitchen", time_slot=3,
+                                  interval_bin=0, robot_action="do nothing", response="reject",
+                                  type=USER_INITIATED, user_action="remind to turn off",
+                                  previous_action="pain check", previous_response="accept")
+    assert i2 > i1
+    df = store.interactions_frame("P01")
+    assert list(df.columns) == INTERACTION_COLUMNS
+    assert list(df["index"]) == [1, 2]
+    first, second = df.iloc[0], df.iloc[1]
+    assert (first.activity, first.time_slot, first.interval, first.task, first.method) == \
+        ("cough", 3, spaces.interval_bin(12), "chitchat", "cacas")
+    assert first.user_action == "" and first.time == "2026-11-21T10:00:00Z"
+    assert (second.activity, second.type, second.user_action, second.previous_action) == \
+        ("use stove", "type_2", "remind to turn off", "pain check")
+    extra = store.interactions_frame("P01", extra=True)
+    assert list(extra.columns[:len(INTERACTION_COLUMNS)]) == INTERACTION_COLUMNS
+    assert extra.iloc[0]["recognised_activity"] == "sneeze"
+    assert np.allclose(json.loads(extra.iloc[0]["probabilities"]), probs())
+    assert extra.iloc[0]["hour"] == 7.5 and np.isnan(extra.iloc[1]["hour"])
+    assert store.events(participant="P01", what="record_interaction").shape[0] == 2
+
+
+BAD_INTERACTIONS = [
+    (dict(response="maybe"), "unknown response 'maybe'"),
+    (dict(activity="juggle"), "unknown activity 'juggle'"),
+    (dict(scene="garage"), "unknown scene 'garage'"),
+    (dict(robot_action="dance"), "unknown action 'dance'"),
+    (dict(task="dance"), "task: unknown action"),
+    (dict(previous_response="yes"), "previous_response"),
+    (dict(recognised_activity="juggle"), "recognised_activity"),
+    (dict(type="type_3"), "interaction type"),
+    (dict(type="type_2"), "user_action is missing"),
+    (dict(type="type_2", user_action="do nothing"), "not a request"),
+    (dict(user_action="chitchat"), "type_1"),
+    (dict(hour=24), "hour"),
+    (dict(hour=None), "time of day is missing"),
+    (dict(hour=7.5, time_slot=5), "time slot"),
+    (dict(interval_minutes=-1), "interval_minutes"),
+    (dict(probabilities=[0.5] * 14), "sum to 1"),
+    (dict(probabilities=[1.0]), "14 numbers"),
+    (dict(time="yesterday"), "time 'yesterday'"),
+    (dict(method="Bad Method"), "method"),
+    (dict(policy_version=3), "no policy version 3"),
+]
+
+
+@pytest.mark.parametrize("change,message", BAD_INTERACTIONS)
+def test_bad_interaction_is_refused_with_nothing_written(store, change, message):
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, **GOOD)
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match=message):
+        store.record_interaction("P01", day, **{**GOOD, **change})
+    assert snapshot(store.path) == before
+
+
+def test_interaction_for_missing_participant_or_day_or_closed_day(store):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="unknown participant 'P99'"):
+        store.record_interaction("P99", 1, **GOOD)
+    with pytest.raises(CacasError, match="P01 has no day 1; they have no day yet"):
+        store.record_interaction("P01", 1, **GOOD)
+    assert snapshot(store.path) == before
+    store.open_day("P01")
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="has no day 2; they have days 1..1"):
+        store.record_interaction("P01", 2, **GOOD)
+    with pytest.raises(CacasError, match="day 0"):
+        store.record_interaction("P01", 0, **GOOD)
+    store.close_day("P01", 1)
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="day 1 of participant P01 is closed"):
+        store.record_interaction("P01", 1, **GOOD)
+    assert snapshot(store.path) == before
+
+
+# --- policies, adaptations, questionnaire ---------------------------------------------------------
+
+def test_policy_versions_atomic_files_hash_and_rollback(store):
+    store.open_day("P01")
+    assert store.active_policy("P01") is None
+    v1 = store.save_policy("P01", 0, "cacas", b"initial policy")
+    v2 = store.save_policy("P01", 1, "cacas", b"day one policy")
+    assert (v1, v2) == (1, 2)
+    active = store.active_policy("P01")
+    assert active.version == 2 and active.path.name.startswith("day1-cacas-") and active.path.exists()
+    assert not list(active.path.parent.glob(".*.tmp"))
+    assert store.load_policy("P01") == b"day one policy"
+    assert store.load_policy("P01", day=0) == b"initial policy"
+    store.set_active_policy("P01", 1)
+    assert store.load_policy("P01") == b"initial policy"
+    assert store.resume("P01").policy_version == 1
+    # the interaction records the version in force
+    store.record_interaction("P01", 1, **GOOD)
+    assert store.interactions_frame("P01", extra=True)["policy_version"].tolist() == [1]
+    # a damaged file is detected
+    active.path.write_bytes(b"tampered")
+    with pytest.raises(CacasError, match="does not match its recorded sha256"):
+        store.load_policy("P01", version=2)
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="no policy version 9"):
+        store.set_active_policy("P01", 9)
+    with pytest.raises(CacasError, match="no day 4"):
+        store.save_policy("P01", 4, "cacas", b"x")
+    with pytest.raises(CacasError, match="no saved policy"):
+        store.load_policy("P01", day=1, method="orl")
+    assert snapshot(store.path) == before
+    assert [p.version for p in store.policy_versions("P01")] == [1, 2]
+
+
+def test_adaptation_runs(store):
+    store.open_day("P01")
+    v = store.save_policy("P01", 1, "cacas", b"p")
+    run = store.record_adaptation("P01", 1, "cacas", {"epochs": np.int64(3), "beta": 0.5}, 12.5,
+                                  {"preference_accuracy": np.float32(0.75)}, policy_version=v)
+    df = store.adaptations_frame("P01")
+    assert run == 1 and df.iloc[0]["preference_accuracy"] == 0.75
+    assert json.loads(df.iloc[0]["parameters"]) == {"beta": 0.5, "epochs": 3}
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="no day 3"):
+        store.record_adaptation("P01", 3, "cacas", {}, 1.0, {})
+    with pytest.raises(CacasError, match="duration_s"):
+        store.record_adaptation("P01", 1, "cacas", {}, -1.0, {})
+    with pytest.raises(CacasError, match="parameters must be a dict"):
+        store.record_adaptation("P01", 1, "cacas", [1], 1.0, {})
+    assert snapshot(store.path) == before
+
+
+@pytest.mark.parametrize("score", [11, 0, -3, 7.5, "8", True, None])
+def test_bad_satisfaction_is_refused(store, score):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="satisfaction"):
+        store.record_questionnaire("P01", score, "too good")
+    assert snapshot(store.path) == before
+
+
+def test_questionnaire(store):
+    store.record_questionnaire("P01", 10, "it learned my stove habit")
+    store.record_questionnaire("P01", 1)
+    df = store.questionnaire_frame()
+    assert df["satisfaction"].tolist() == [10, 1] and df["comments"].iloc[0] == "it learned my stove habit"
+    with pytest.raises(CacasError, match="unknown participant"):
+        store.record_questionnaire("P02", 5)
+
+
+def test_every_write_appends_an_event(store):
+    n = len(store.events())
+    store.save_preferences("P01", [COUGH])
+    d = store.open_day("P01")
+    store.record_interaction("P01", d, **GOOD)
+    store.close_day("P01", d)
+    v = store.save_policy("P01", d, "cacas", b"x")
+    store.record_adaptation("P01", d, "cacas", {}, 1.0, {}, policy_version=v)
+    store.set_active_policy("P01", None)
+    store.record_questionnaire("P01", 8)
+    ev = store.events()
+    assert ev["what"].tolist()[n:] == ["save_preferences", "open_day", "record_interaction", "close_day",
+                                      "save_policy", "record_adaptation", "set_active_policy",
+                                      "record_questionnaire"]
+    assert (ev["participant"].iloc[n:] == "P01").all()
+    assert json.loads(ev["details"].iloc[-1])["satisfaction"] == 8
+    assert store.events(limit=2)["what"].tolist() == ["set_active_policy", "record_questionnaire"]
+
+
+# --- resume ---------------------------------------------------------------------------------------
+
+def test_resume_after_restart_continues_where_it_stopped(tmp_path):
+    path = tmp_path / "study.sqlite"
+    s = StudyStore(path)
+    s.add_participant("P01")
+    fresh = s.resume("P01")
+    assert (fresh.day, fresh.day_open, fresh.interactions_today, fresh.total_interactions,
+            fresh.policy_version) == (0, False, 0, 0, None)
+    d1 = s.open_day("P01")
+    for _ in range(3):
+        s.record_interaction("P01", d1, **GOOD)
+    s.close_day("P01", d1)
+    v = s.save_policy("P01", d1, "cacas", b"after day 1")
+    d2 = s.open_day("P01")
+    s.record_interaction("P01", d2, **GOOD)
+    s.record_interaction("P01", d2, **GOOD)
+    del s  # the app stops (no close: like a killed process)
+    s = StudyStore(path)
+    info = s.resume("P01")
+    assert (info.day, info.day_open, info.interactions_today, info.total_interactions, info.policy_version) == \
+        (2, True, 2, 5, v)
+    assert s.open_day("P01") == 2  # the open day continues
+    s.record_interaction("P01", info.day, **GOOD)
+    assert s.interactions_frame("P01")["index"].tolist() == [1, 2, 3, 1, 2, 3]
+    assert s.load_policy("P01") == b"after day 1"
+    s.close()
+
+
+def test_interactions_frame_filters(store):
+    store.add_participant("P02")
+    for who in ("P01", "P02"):
+        d = store.open_day(who)
+        store.record_interaction(who, d, **GOOD)
+    store.record_interaction("P02", 1, **GOOD, method="orl")
+    assert store.interactions_frame()["participant"].tolist() == ["P01", "P02"]
+    assert len(store.interactions_frame(method=None)) == 3
+    assert store.interactions_frame("P02", method="orl")["method"].tolist() == ["orl"]
+    with pytest.raises(CacasError, match="unknown participant"):
+        store.interactions_frame("P03")
+    empty = StudyStore(store.path.parent / "empty.sqlite").interactions_frame()
+    assert list(empty.columns) == INTERACTION_COLUMNS and len(empty) == 0
+    assert isinstance(empty, pd.DataFrame)

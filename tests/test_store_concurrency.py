@@ -1,0 +1,152 @@
+"""Safety of the study database (issue 4, item 2): a writer killed with SIGKILL loses no
+acknowledged interaction; several processes (and threads) writing at once lose and mix nothing."""
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+from cacas.store import StudyStore
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# A writer process: records interactions for one participant/day and prints each returned row id
+# (the acknowledgement the page would show) as soon as the call returns.
+WRITER = r"""
+import os, sys, time
+from cacas.store import StudyStore
+path, who, day, n, tag = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
+go = sys.argv[6] if len(sys.argv) > 6 else None
+store = StudyStore(path)
+if go:  # start together with the other writers
+    print("ready", flush=True)
+    while not os.path.exists(go):
+        time.sleep(0.001)
+acts = ["cough", "sneeze", "use stove", "watch TV"]
+for i in range(n):
+    rid = store.record_interaction(who, day, activity=acts[i % 4], scene="kitchen", hour=(i % 24),
+                                   interval_minutes=i % 300, robot_action="chitchat",
+                                   response=["accept", "reject", "others"][i % 3],
+                                   time=f"2026-01-01T00:00:00.000Z", method=tag)
+    print(rid, flush=True)
+print("done", flush=True)
+"""
+
+
+def _env():
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(ROOT) + os.pathsep + env.get("PYTHONPATH", "")
+    return env
+
+
+def _writer(path, who, day, n, tag, go=None):
+    extra = [str(go)] if go else []
+    return subprocess.Popen([sys.executable, "-c", WRITER, str(path), who, str(day), str(n), tag, *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=_env())
+
+
+def _setup(path, *codes):
+    with StudyStore(path) as s:
+        for c in codes:
+            s.add_participant(c)
+            s.open_day(c)
+
+
+def test_sigkill_mid_stream_keeps_every_acknowledged_interaction(tmp_path):
+    path = tmp_path / "study.sqlite"
+    _setup(path, "P01")
+    proc = _writer(path, "P01", 1, 100_000, "cacas")
+    acked = []
+    try:
+        for line in proc.stdout:
+            acked.append(int(line))
+            if len(acked) == 300:
+                proc.send_signal(signal.SIGKILL)  # while it is writing the next ones
+                break
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+        # lines printed between our last read and the kill were acknowledged too
+        acked += [int(x) for x in proc.stdout.read().split() if x.isdigit()]
+    assert proc.returncode == -signal.SIGKILL
+    assert len(acked) >= 300
+    con = sqlite3.connect(path)
+    try:
+        assert con.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
+        ids = {r[0] for r in con.execute("SELECT id FROM interactions")}
+        idx = [r[0] for r in con.execute("SELECT idx FROM interactions ORDER BY id")]
+    finally:
+        con.close()
+    assert set(acked) <= ids
+    assert idx == list(range(1, len(idx) + 1))  # no gap, no half-written row
+    with StudyStore(path) as s:  # and the study carries on
+        info = s.resume("P01")
+        assert info.interactions_today == len(ids)
+        s.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                             robot_action="pain check", response="accept")
+        assert s.resume("P01").total_interactions == len(ids) + 1
+
+
+def test_two_processes_writing_at_once_lose_nothing(tmp_path):
+    path = tmp_path / "study.sqlite"
+    _setup(path, "P01", "P02")
+    n, go = 500, tmp_path / "go"
+    procs = {tag: _writer(path, who, 1, n, f"writer-{tag}", go)
+             for tag, who in (("a", "P01"), ("b", "P01"), ("c", "P02"))}
+    for proc in procs.values():
+        assert proc.stdout.readline().strip() == "ready"
+    go.touch()
+    acked = {}
+    for tag, proc in procs.items():
+        out, err = proc.communicate(timeout=300)
+        assert proc.returncode == 0, err
+        lines = out.split()
+        assert lines[-1] == "done"
+        acked[tag] = [int(x) for x in lines[:-1]]
+    # they did write at the same time: each one's rows interleave with the others'
+    assert min(acked["a"]) < max(acked["b"]) and min(acked["b"]) < max(acked["a"])
+    with StudyStore(path) as s:
+        df = s.interactions_frame(method=None)
+        rows = s._conn.execute("SELECT id, method FROM interactions").fetchall()
+    assert len(df) == 3 * n
+    by_method = {}
+    for rid, method in rows:
+        by_method.setdefault(method, set()).add(rid)
+    for tag in procs:
+        assert by_method[f"writer-{tag}"] == set(acked[tag])
+    p1 = df[df["participant"] == "P01"]
+    assert sorted(p1["index"]) == list(range(1, 2 * n + 1))  # one shared day, indices never collide
+    for tag in ("a", "b"):  # each writer's rows in its own order
+        own = p1[p1["method"] == f"writer-{tag}"]
+        assert own["index"].is_monotonic_increasing
+        assert own["activity"].tolist() == [["cough", "sneeze", "use stove", "watch TV"][i % 4] for i in range(n)]
+    assert sorted(df[df["participant"] == "P02"]["index"]) == list(range(1, n + 1))
+
+
+def test_one_store_shared_by_threads(tmp_path):
+    store = StudyStore(tmp_path / "study.sqlite")
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    errors = []
+
+    def work(k):
+        try:
+            for i in range(50):
+                store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=k,
+                                         interval_minutes=i, robot_action="pain check", response="accept")
+                store.resume("P01")
+        except Exception as exc:  # pragma: no cover - reported below
+            errors.append(exc)
+
+    threads = [threading.Thread(target=work, args=(k,)) for k in range(4)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors
+    assert store.resume("P01").interactions_today == 200
+    assert sorted(store.interactions_frame("P01")["index"]) == list(range(1, 201))
+    store.close()
