@@ -238,7 +238,7 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
             p.unlink(missing_ok=True)
         raise
     finally:
-        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal")):
+        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock")):
             p.unlink(missing_ok=True)
 
 

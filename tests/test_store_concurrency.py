@@ -93,7 +93,7 @@ def test_sigkill_mid_stream_keeps_every_acknowledged_interaction(tmp_path):
 def test_two_processes_writing_at_once_lose_nothing(tmp_path):
     path = tmp_path / "study.sqlite"
     _setup(path, "P01", "P02")
-    n, go = 500, tmp_path / "go"
+    n, go = 300, tmp_path / "go"
     procs = {tag: _writer(path, who, 1, n, f"writer-{tag}", go)
              for tag, who in (("a", "P01"), ("b", "P01"), ("c", "P02"))}
     for proc in procs.values():

@@ -16,6 +16,11 @@ import time
 from pathlib import Path
 from typing import Callable, TypeVar
 
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows
+    fcntl = None
+
 from cacas.errors import CacasError
 from cacas.store.schema import APPLICATION_ID, SCHEMA_VERSION, TABLES, migrate
 
@@ -66,12 +71,52 @@ def _is_busy(exc: sqlite3.OperationalError) -> bool:
     return "locked" in msg or "busy" in msg
 
 
-def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
+class WriterQueue:
+    """A kernel lock (``flock`` on ``<database>-writer.lock``) that writers of this package take
+    around each write transaction.
+
+    SQLite's busy handler polls with growing sleeps, so a writer that commits in a tight loop can
+    starve another for seconds; waiters blocked on ``flock`` are woken when it is released, which
+    keeps every writer's wait near the length of the others' transactions. The lock is released
+    by the kernel when a process dies, and SQLite's own locking (busy_timeout + retry) still
+    protects against writers that do not take it. Without ``fcntl`` (Windows) it does nothing.
+    """
+
+    def __init__(self, db_path: Path):
+        self.path = Path(f"{db_path}-writer.lock")
+        self._fd = None
+        if fcntl is not None:
+            try:
+                self._fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            except OSError:
+                self._fd = None
+
+    def __enter__(self):
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_EX)
+        return self
+
+    def __exit__(self, *exc):
+        if self._fd is not None:
+            fcntl.flock(self._fd, fcntl.LOCK_UN)
+
+    def close(self) -> None:
+        if self._fd is not None:
+            os.close(self._fd)
+            self._fd = None
+
+
+def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
+             queue: WriterQueue | None = None) -> T:
     """Run ``fn(conn)`` in one ``BEGIN IMMEDIATE`` ... ``COMMIT`` and return its result.
 
     Any exception rolls everything back (nothing written) and propagates; SQLITE_BUSY is retried
-    with a short random back-off, up to :data:`WRITE_RETRIES` times.
+    with a short random back-off, up to :data:`WRITE_RETRIES` times. With a ``queue``, the
+    transaction runs while holding it (see :class:`WriterQueue`).
     """
+    if queue is not None:
+        with queue:
+            return transact(conn, fn)
     for attempt in range(WRITE_RETRIES + 1):
         try:
             conn.execute("BEGIN IMMEDIATE")

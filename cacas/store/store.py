@@ -141,6 +141,7 @@ class StudyStore:
         self.readonly = readonly
         self._lock = threading.RLock()
         self._conn = db.connect(self.path, readonly=readonly)
+        self._queue = None if readonly else db.WriterQueue(self.path)
 
     # --- plumbing ------------------------------------------------------------------------------
     @property
@@ -151,6 +152,8 @@ class StudyStore:
     def close(self) -> None:
         with self._lock:
             self._conn.close()
+            if self._queue is not None:
+                self._queue.close()
 
     def __enter__(self) -> "StudyStore":
         return self
@@ -162,7 +165,7 @@ class StudyStore:
         if self.readonly:
             raise CacasError(f"{self.path}: opened read-only; nothing was written")
         with self._lock:
-            return db.transact(self._conn, fn)
+            return db.transact(self._conn, fn, self._queue)
 
     def _read(self, fn: Callable[[sqlite3.Connection], T]) -> T:
         with self._lock:
