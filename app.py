@@ -1,11 +1,127 @@
-"""CACAS Studio: the study dashboard (``streamlit run app.py``)."""
+"""CACAS Studio: the study dashboard (``streamlit run app.py``).
+
+Navigation and the shared sidebar (study and participant); no study logic here. The address
+carries the participant and their day (``?participant=P03&day=2``), so a browser refresh, or
+coming back the next day, returns to the same place; the data comes from the study database.
+``?participant=P03&view=tablet`` shows the tablet page alone for that participant: no navigation
+to the researcher's pages, no preferences, no other participants.
+"""
+
+from pathlib import Path
 
 import streamlit as st
 
-st.set_page_config(page_title="CACAS Studio", page_icon=":robot_face:", layout="wide")
-st.title("CACAS Studio")
-st.markdown(
-    "The study dashboard is being built. Coming next: participants and their preferences, "
-    "the tablet study session, day-by-day adaptation, Fig. 3 / Fig. 4 results and the "
-    "simulation lab. Meanwhile the `cacas` command line runs simulated studies."
-)
+from cacas.errors import CacasError
+from cacas.study_day import day_status
+from app_pages import ui
+
+st.set_page_config(page_title="CACAS Studio", page_icon=":material/smart_toy:", layout="wide")
+
+HERE = Path(__file__).resolve().parent
+#: (section, file, title, icon); a page whose file is absent is left out of the navigation.
+PAGES = [
+    ("Study", "app_pages/overview.py", "Overview", ":material/dashboard:"),
+    ("Study", "app_pages/participants.py", "Participants", ":material/group:"),
+    ("Study", "app_pages/session.py", "Study session", ":material/tablet:"),
+    ("Study", "app_pages/adaptation.py", "Adaptation", ":material/model_training:"),
+    ("Study", "app_pages/results.py", "Results", ":material/monitoring:"),
+    ("Lab", "app_pages/simulation.py", "Simulation lab", ":material/science:"),
+    ("Lab", "app_pages/sounds.py", "Sounds and scenes", ":material/graphic_eq:"),
+]
+
+
+def _navigation() -> dict[str, list]:
+    sections: dict[str, list] = {}
+    for section, path, title, icon in PAGES:
+        if (HERE / path).exists():
+            sections.setdefault(section, []).append(
+                st.Page(path, title=title, icon=icon, default=path.endswith("overview.py")))
+    return sections
+
+
+def _sync_participant(store) -> None:
+    """The address and the session agree on the participant (and study); the database wins."""
+    qp = st.query_params
+    studies = [s.name for s in store.studies()]
+    wanted = qp.get("participant") or st.session_state.get(ui.PARTICIPANT_KEY)
+    if wanted:
+        try:
+            info = store.get_participant(wanted)
+        except CacasError:
+            st.session_state[ui.PARTICIPANT_KEY] = None
+            qp.pop("participant", None)
+            if not ui.tablet_mode():
+                st.sidebar.warning(f"Participant {wanted!r} is not in this study database.")
+        else:
+            st.session_state[ui.PARTICIPANT_KEY] = info.code
+            st.session_state[ui.STUDY_KEY] = info.study
+    if st.session_state.get(ui.STUDY_KEY) not in studies:
+        st.session_state[ui.STUDY_KEY] = qp.get("study") if qp.get("study") in studies else studies[0]
+
+
+def _write_address(store) -> None:
+    code = st.session_state.get(ui.PARTICIPANT_KEY)
+    qp = st.query_params
+    if code:
+        qp["participant"] = code
+        status = day_status(store, code)
+        if status.day:
+            qp["day"] = str(status.day)
+        else:
+            qp.pop("day", None)
+    else:
+        qp.pop("participant", None)
+        qp.pop("day", None)
+    if st.session_state.get(ui.STUDY_KEY) not in (None, "default"):
+        qp["study"] = st.session_state[ui.STUDY_KEY]
+    else:
+        qp.pop("study", None)
+
+
+def _on_study_change() -> None:
+    st.session_state[ui.PARTICIPANT_KEY] = None
+    st.query_params.pop("participant", None)
+
+
+def _sidebar(store) -> None:
+    with st.sidebar:
+        st.markdown("### :material/smart_toy: CACAS Studio")
+        studies = [s.name for s in store.studies()]
+        st.selectbox("Study", studies, key=ui.STUDY_KEY, on_change=_on_study_change,
+                     help="Studies group participants; every database has the study 'default'.")
+        codes = [p.code for p in store.list_participants(st.session_state[ui.STUDY_KEY])]
+        if st.session_state.get(ui.PARTICIPANT_KEY) not in codes:
+            st.session_state[ui.PARTICIPANT_KEY] = codes[0] if codes else None
+        st.selectbox("Participant", codes, key=ui.PARTICIPANT_KEY, placeholder="none yet",
+                     help="Pseudonymous codes only. Add participants on the Participants page.")
+        code = st.session_state.get(ui.PARTICIPANT_KEY)
+        if code:
+            status = day_status(store, code)
+            if status.day == 0:
+                st.caption("Not started yet.")
+            else:
+                state = "open" if status.open else "closed"
+                st.caption(f"Day {status.day} ({state}) · {status.interactions_today} interactions that day · "
+                           f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
+            st.caption(f"Tablet address for the participant: `?participant={code}&view=tablet`")
+        st.caption(f"Database: `{ui.db_path()}`")
+
+
+try:
+    store = ui.store()
+except CacasError as exc:
+    st.error(f"The study database cannot be opened: {exc}")
+    st.stop()
+
+_sync_participant(store)
+if ui.tablet_mode():
+    if not st.session_state.get(ui.PARTICIPANT_KEY):
+        st.error("This tablet address names no known participant. Ask the researcher for your link.")
+        st.stop()
+    page = st.navigation([st.Page("app_pages/session.py", title="Study session", default=True)],
+                         position="hidden")
+else:
+    page = st.navigation(_navigation())
+    _sidebar(store)
+_write_address(store)
+page.run()

@@ -1,0 +1,59 @@
+"""Overview: every participant's day, today's interactions, success rate so far, what to do next."""
+
+import streamlit as st
+
+from cacas import app_support
+from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS
+from app_pages import ui
+
+store = ui.store()
+study = ui.study()
+
+st.title("Study overview")
+st.caption(f"Study **{study}** · each participant runs {STUDY_DAYS} days of about {TARGET_INTERACTIONS} "
+           "interactions with the robot; the robot is adapted after each day (Su & Sheng, Section V-B).")
+
+table = app_support.overview_frame(store, study)
+if table.empty:
+    st.info("No participants yet. Start on the **Participants** page: add a participant with a "
+            "pseudonymous code and the 5 preferences they describe, or import a persona file.")
+    ui.link("app_pages/participants.py", "Go to Participants", ":material/group:")
+    st.stop()
+
+started = table["day"] != "not started"
+c1, c2, c3, c4 = st.columns(4)
+c1.metric("Participants", len(table))
+c2.metric("Started", int(started.sum()))
+c3.metric("Interactions today", int(table["interactions today"].sum()))
+rates = table["success rate so far"].dropna()
+c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
+
+st.subheader("Participants")
+st.dataframe(
+    table, hide_index=True, width="stretch",
+    column_config={
+        "success rate so far": st.column_config.ProgressColumn(
+            "success rate so far", help="Robot-initiated actions the participant accepted, of all "
+            "interactions so far (Fig. 3's definition)", min_value=0.0, max_value=1.0, format="percent"),
+        "interactions today": st.column_config.NumberColumn(
+            "interactions today", help=f"Target: about {TARGET_INTERACTIONS} a day"),
+    })
+
+code = ui.participant()
+if code:
+    row = table[table["participant"] == code]
+    if len(row):
+        st.subheader(f"Next for {code}")
+        step = row["next step"].iloc[0]
+        st.markdown(f":material/arrow_forward: **{step}**")
+        cols = st.columns(3)
+        ui.link("app_pages/session.py", "Open the study session", ":material/tablet:", cols[0])
+        ui.link("app_pages/adaptation.py", "Adaptation", ":material/model_training:", cols[1])
+        ui.link("app_pages/results.py", "Results", ":material/monitoring:", cols[2])
+
+st.subheader("Recent activity")
+events = app_support.recent_events(store, limit=10)
+if events.empty:
+    st.caption("Nothing recorded yet.")
+else:
+    st.dataframe(events, hide_index=True, width="stretch")

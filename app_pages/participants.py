@@ -1,0 +1,216 @@
+"""Participants: pseudonymous codes, age range, notes, and the 5 preferences each one describes."""
+
+import streamlit as st
+
+from cacas import app_support, spaces
+from cacas.errors import CacasError
+from app_pages import ui
+
+store = ui.store()
+study = ui.study()
+code = ui.participant()
+
+st.title("Participants")
+st.caption("Participants are known by pseudonymous codes only (e.g. P01), never by name. Each one describes "
+           "about 5 preferences: in which context they want which robot action. The robot never sees them; "
+           "they drive the simulated participant and the evaluation of Fig. 4 (Su & Sheng, Section V-B).")
+
+SLOT_LABELS = {i: f"{spaces.time_slot_label(i)}" for i in range(spaces.N_SLOTS)}
+ANY = "(choose an action)"
+
+
+# --- callbacks: validate everything first, write once --------------------------------------------
+
+def _add_participant() -> None:
+    s = st.session_state
+    try:
+        info = store.add_participant(s["new-code"], age_range=s["new-age"], notes=s["new-notes"], study=study)
+    except CacasError as exc:
+        s["add-error"] = str(exc)
+        return
+    s["add-error"] = None
+    s[ui.PARTICIPANT_KEY] = info.code
+    st.query_params["participant"] = info.code
+    s["new-code"], s["new-age"], s["new-notes"] = "", "", ""
+    st.toast(f"Participant {info.code} added.", icon=":material/check_circle:")
+
+
+def _update_details(who: str) -> None:
+    s = st.session_state
+    try:
+        store.update_participant(who, age_range=s[f"age-{who}"], notes=s[f"notes-{who}"])
+    except CacasError as exc:
+        s["details-error"] = str(exc)
+        return
+    s["details-error"] = None
+    st.toast(f"Details of {who} saved.", icon=":material/check_circle:")
+
+
+def _form_key(who: str, version: int, n: int, field: str) -> str:
+    return f"pf-{who}-v{version}-{n}-{field}"
+
+
+def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
+    s = st.session_state
+    items, numbers = [], []
+    for n in range(1, count + 1):
+        k = lambda f: _form_key(who, version, n, f)  # noqa: E731
+        action = s[k("action")]
+        item = app_support.preference_from_form(
+            s[k("words")], s[k("activity")], s[k("scene")], s[k("slots")], s[k("interval")],
+            None if action == ANY else action, tasks.get(n))
+        if item is not None:
+            items.append(item)
+            numbers.append(n)
+    person, errors, overall = app_support.check_preferences(who, items, numbers)
+    s["pref-errors"], s["pref-overall"] = errors, overall
+    if person is None:
+        return
+    try:
+        new_version = store.save_preferences(who, person)
+    except CacasError as exc:
+        s["pref-overall"] = str(exc)
+        return
+    s["pref-saved"] = (who, new_version, len(person.preferences), person.covered_count())
+
+
+def _import_personas() -> None:
+    s = st.session_state
+    upload = s.get("persona-upload")
+    if upload is None:
+        s["import-error"] = "choose a persona file (.json) first"
+        return
+    try:
+        codes = store.import_personas(upload.getvalue(), study=study, source=upload.name)
+    except CacasError as exc:
+        s["import-error"] = str(exc)
+        return
+    s["import-error"] = None
+    s["import-done"] = codes
+    if codes:
+        s[ui.PARTICIPANT_KEY] = codes[0]
+        st.query_params["participant"] = codes[0]
+
+
+# --- page -------------------------------------------------------------------------------------------
+
+people = store.list_participants(study)
+tab_names = ([f"Preferences of {code}", f"Details of {code}"] if code else []) + ["Add a participant",
+                                                                                  "Import / export"]
+tabs = dict(zip(tab_names, st.tabs(tab_names)))
+
+if code:
+    saved = store.get_preferences(code)
+    versions = store.preference_versions(code)
+    version = versions[-1]["version"] if versions else 0
+    with tabs[f"Preferences of {code}"]:
+        done = st.session_state.pop("pref-saved", None)
+        if done and done[0] == code:
+            st.success(f"Saved version {done[1]} of {code}'s preferences: {done[2]} preferences covering "
+                       f"{done[3]:,} states.", icon=":material/check_circle:")
+        if saved is not None:
+            st.markdown(f"**Saved (version {version})** · {len(saved.preferences)} preferences covering "
+                        f"**{saved.covered_count():,}** of the {33 * 6 * 12 * 12:,} S1-S4 states "
+                        "(the paper counts 1,564 on average for 5 preferences).")
+            st.dataframe(app_support.preferences_table(saved), hide_index=True, width="stretch",
+                         column_config={"covered states": st.column_config.NumberColumn(format="%d")})
+        else:
+            st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
+
+        existing = list(saved.preferences) if saved is not None else []
+        count = st.number_input("Preferences on the form", min_value=1, max_value=10,
+                                value=max(5, len(existing)), key=f"count-{code}-v{version}",
+                                help="The paper asks each participant for 5.")
+        errors = st.session_state.get("pref-errors") or {}
+        overall = st.session_state.get("pref-overall")
+        tasks = {}
+        with st.form(f"prefs-{code}-v{version}", border=False):
+            for n in range(1, int(count) + 1):
+                old = existing[n - 1] if n <= len(existing) else None
+                if old is not None and old.task:
+                    tasks[n] = list(old.task)
+                k = lambda f: _form_key(code, version, n, f)  # noqa: E731
+                with st.container(border=True):
+                    st.markdown(f"**Preference {n}**")
+                    st.text_input("In the participant's words", value=old.description if old else "",
+                                  key=k("words"), placeholder="When I use the stove, remind me to turn it off.")
+                    c1, c2 = st.columns(2)
+                    c1.multiselect("Activities (S1)", spaces.ACTIVITIES, default=list(old.activity) if old else [],
+                                   key=k("activity"), placeholder="one or more sound activities")
+                    c2.multiselect("Rooms (S2)", spaces.SCENES, default=list(old.scene or []) if old else [],
+                                   key=k("scene"), placeholder="any room")
+                    c3, c4 = st.columns(2)
+                    c3.multiselect("Time of day (S3)", list(SLOT_LABELS), format_func=SLOT_LABELS.get,
+                                   default=app_support.hours_to_slots(old.hours) if old else [],
+                                   key=k("slots"), placeholder="any time")
+                    c4.select_slider("Minutes since the last activity (S4)", options=list(spaces.INTERVAL_BINS),
+                                     value=app_support.interval_to_bins(old.interval if old else None),
+                                     key=k("interval"), help="The whole range means any interval.")
+                    st.selectbox("The robot should (action)", [ANY, *spaces.ACTIONS],
+                                 index=1 + spaces.action_index(old.action) if old else 0, key=k("action"))
+                    if n in tasks:
+                        st.caption(f"Only while the robot is busy with: {', '.join(tasks[n])} (from the imported file).")
+                    if n in errors:
+                        st.error(f"Preference {n}: {errors[n]}", icon=":material/error:")
+                    elif old is not None:
+                        st.caption(f"Covers {old.covered_count():,} states.")
+            if overall:
+                st.error(overall, icon=":material/error:")
+            st.form_submit_button("Save preferences", type="primary", icon=":material/save:",
+                                  on_click=_save_preferences, args=(code, version, int(count), tasks))
+
+    with tabs[f"Details of {code}"]:
+        info = store.get_participant(code)
+        with st.form(f"details-{code}", border=True):
+            st.text_input("Age range", value=info.age_range, key=f"age-{code}", placeholder="e.g. 25-34 or 65+")
+            st.text_area("Notes (no names or contact details)", value=info.notes, key=f"notes-{code}")
+            if st.session_state.get("details-error"):
+                st.error(st.session_state["details-error"], icon=":material/error:")
+            st.form_submit_button("Save details", on_click=_update_details, args=(code,))
+        st.caption(f"Added {info.created_at[:16].replace('T', ' ')} UTC · study {info.study} · "
+                   f"tablet address: `?participant={code}&view=tablet`")
+
+with tabs["Add a participant"]:
+    with st.form("add-participant", border=True):
+        st.text_input("Pseudonymous code", key="new-code", placeholder="P01",
+                      help="1-16 letters, digits, '-' or '_'. Never a name.")
+        st.text_input("Age range", key="new-age", placeholder="e.g. 25-34 or 65+ (optional)")
+        st.text_area("Notes", key="new-notes", placeholder="Optional; no names or contact details")
+        if st.session_state.get("add-error"):
+            st.error(st.session_state["add-error"], icon=":material/error:")
+        st.form_submit_button("Add participant", type="primary", icon=":material/person_add:",
+                              on_click=_add_participant)
+    st.caption(f"{len(people)} participant(s) in study '{study}'.")
+
+with tabs["Import / export"]:
+    c1, c2 = st.columns(2)
+    with c1:
+        st.markdown("**Import a persona file**")
+        st.caption("design.md's format: `{\"participants\": [{\"id\": \"P01\", \"preferences\": [...]}]}`. "
+                   "Missing participants are added; each one's preferences are saved as a new version. "
+                   "All or nothing: one bad entry and nothing is imported.")
+        st.file_uploader("Persona file", type=["json"], key="persona-upload")
+        st.button("Import", on_click=_import_personas, icon=":material/upload:")
+        if st.session_state.get("import-error"):
+            st.error(st.session_state["import-error"], icon=":material/error:")
+        done = st.session_state.pop("import-done", None)
+        if done:
+            st.success(f"Imported {len(done)} participant(s): {', '.join(done)}.", icon=":material/check_circle:")
+    with c2:
+        st.markdown("**Export the study's preferences**")
+        text = store.export_personas(study=study)
+        n = text.count('"id"')
+        st.caption(f"{n} participant(s) with preferences in study '{study}'.")
+        st.download_button("Download personas.json", text.encode("utf-8"), file_name=f"personas-{study}.json",
+                           mime="application/json", disabled=n == 0, icon=":material/download:")
+    with st.expander("New study"):
+        with st.form("new-study", border=False):
+            name = st.text_input("Study name", placeholder="e.g. pilot-2026")
+            desc = st.text_input("Description")
+            if st.form_submit_button("Create study"):
+                try:
+                    store.create_study(name, desc)
+                except CacasError as exc:
+                    st.error(str(exc), icon=":material/error:")
+                else:
+                    st.success(f"Study {name!r} created; pick it in the sidebar.")

@@ -1,0 +1,99 @@
+"""Streamlit pieces shared by the pages: the study database, the selected participant, downloads,
+background-job progress. Layout only; everything that computes or stores is in ``cacas``."""
+
+from __future__ import annotations
+
+import time
+
+import pandas as pd
+import streamlit as st
+
+from cacas import app_support
+from cacas.jobs import RUNNER, Job
+from cacas.store import StudyStore, default_db_path
+
+PARTICIPANT_KEY = "participant"
+STUDY_KEY = "study"
+
+
+@st.cache_resource(show_spinner=False)
+def _open_store(path: str) -> StudyStore:
+    return StudyStore(path)
+
+
+def db_path() -> str:
+    """The study database: $CACAS_DB, else study_data/cacas.sqlite."""
+    return str(default_db_path())
+
+
+def store() -> StudyStore:
+    """The study database, opened once per server process (thread-safe)."""
+    return _open_store(db_path())
+
+
+def participant() -> str | None:
+    """The participant selected in the sidebar (or fixed by the tablet address)."""
+    return st.session_state.get(PARTICIPANT_KEY)
+
+
+def study() -> str | None:
+    return st.session_state.get(STUDY_KEY)
+
+
+def tablet_mode() -> bool:
+    return st.query_params.get("view") == "tablet"
+
+
+def need_participant() -> str:
+    """The selected participant, or a message and stop."""
+    code = participant()
+    if not code:
+        st.info("Select a participant in the sidebar, or add one on the **Participants** page.")
+        st.stop()
+    return code
+
+
+def link(page: str, label: str, icon: str | None = None, container=None) -> None:
+    """A link to another page of the app (left out if that page is not in the navigation)."""
+    from pathlib import Path
+
+    if (Path(__file__).resolve().parent.parent / page).exists():
+        (container or st).page_link(page, label=label, icon=icon)
+
+
+def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
+    st.download_button(label or f"Download {file_name}", app_support.csv_bytes(df), file_name=file_name,
+                       mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:")
+
+
+def percent(x: float) -> str:
+    return "–" if x is None or pd.isna(x) else f"{100 * x:.0f}%"
+
+
+def job_progress(key: str, done_message: str = "Done.") -> Job | None:
+    """Show a background job's progress bar and log; rerun the page when it ends.
+
+    Returns the job (running or ended) or None if there is none under ``key``.
+    """
+    job = RUNNER.get(key)
+    if job is None:
+        return None
+    if job.running:
+        _job_fragment(key)
+    return job
+
+
+@st.fragment(run_every=0.5)
+def _job_fragment(key: str) -> None:
+    job = RUNNER.get(key)
+    if job is None:
+        return
+    snap = job.snapshot()
+    st.progress(snap["fraction"], text=f"{snap['label']}: {snap['message'] or 'starting'} "
+                                       f"({snap['elapsed']:.0f} s)")
+    if snap["log"]:
+        with st.expander("Log", expanded=False):
+            st.code("\n".join(snap["log"][-30:]), language=None)
+    if not job.running:
+        time.sleep(0.05)
+        st.rerun(scope="app")

@@ -1,0 +1,243 @@
+"""Small presentation helpers for the study dashboard (tables a page shows as they are).
+
+Everything here reads the study database or formats library results; no streamlit, so that the
+pages stay thin and these are tested without a browser.
+"""
+
+from __future__ import annotations
+
+import io
+import math
+from typing import Any, Sequence
+
+import numpy as np
+import pandas as pd
+
+from cacas import preferences as prefs
+from cacas import records, spaces
+from cacas.errors import CacasError
+from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status
+
+
+def csv_bytes(df: pd.DataFrame) -> bytes:
+    """The CSV a download button hands out (the same writer as every exported table)."""
+    buf = io.StringIO()
+    records.write_csv(df, buf)
+    return buf.getvalue().encode("utf-8")
+
+
+# --- overview ------------------------------------------------------------------------------------
+
+def next_step(has_preferences: bool, status) -> str:
+    """What the researcher should do next for one participant."""
+    if not has_preferences:
+        return "Describe 5 preferences (Participants)"
+    if status.finished:
+        return "Study done: record the questionnaire (Results)"
+    if status.day == 0:
+        return "Start day 1 on the tablet (Study session)"
+    if status.open:
+        left = TARGET_INTERACTIONS - status.interactions_today
+        if left > 0:
+            return f"Day {status.day}: {left} more interactions on the tablet"
+        return f"Close day {status.day} and adapt (Adaptation)"
+    if status.waiting_for_adaptation:
+        return f"Adapt after day {status.day} (Adaptation)"
+    return f"Start day {status.day + 1} on the tablet (Study session)"
+
+
+def overview_frame(store, study: str | None = None) -> pd.DataFrame:
+    """One row per participant: day (of 7), interactions today, success rate so far (Fig. 3's
+    definition, all days), policy in force, last activity and what to do next."""
+    cols = ["participant", "age range", "day", "interactions today", "success rate so far",
+            "policy", "last activity", "next step"]
+    rows = []
+    people = store.list_participants(study)
+    if not people:
+        return pd.DataFrame(columns=cols)
+    inter = store.interactions_frame(method=None, study=study)
+    events = store.events()
+    for p in people:
+        status = day_status(store, p.code)
+        mine = inter[inter["participant"] == p.code]
+        success = float(records.is_success(mine).mean()) if len(mine) else math.nan
+        last = events.loc[events["participant"] == p.code, "at"]
+        has_prefs = store.get_preferences(p.code) is not None
+        rows.append({
+            "participant": p.code, "age range": p.age_range,
+            "day": f"{status.day} of {STUDY_DAYS}" + (" (open)" if status.open else "") if status.day else "not started",
+            "interactions today": status.interactions_today if status.open else 0,
+            "success rate so far": success,
+            "policy": "initial" if status.policy_version is None else f"version {status.policy_version}",
+            "last activity": _short_time(last.iloc[-1]) if len(last) else "",
+            "next step": next_step(has_prefs, status),
+        })
+    return pd.DataFrame(rows, columns=cols)
+
+
+def _short_time(stamp: str) -> str:
+    """'2026-11-21T09:47:34.123Z' -> '2026-11-21 09:47 UTC'."""
+    s = str(stamp)
+    return f"{s[:10]} {s[11:16]} UTC" if len(s) >= 16 else s
+
+
+def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:
+    """The last events in words: when, who, what."""
+    ev = store.events(participant=participant, limit=limit)
+    words = {"add_participant": "participant added", "save_preferences": "preferences saved",
+             "open_day": "day started", "close_day": "day closed", "record_interaction": "interaction",
+             "record_adaptation": "adaptation", "save_policy": "policy saved",
+             "set_active_policy": "policy put in force", "record_questionnaire": "questionnaire",
+             "update_participant": "participant edited", "create_study": "study created"}
+    return pd.DataFrame({"when": [_short_time(a) for a in ev["at"]],
+                         "participant": ev["participant"].fillna(""),
+                         "what": [words.get(w, w.replace("_", " ")) for w in ev["what"]]}).iloc[::-1]
+
+
+# --- preferences form ----------------------------------------------------------------------------
+
+def hours_to_slots(hours) -> list[int]:
+    """The S3 slots (0..11) a preference's hours cover; [] for any time."""
+    if not hours:
+        return []
+    return sorted({i for i, (s0, s1) in enumerate(spaces.TIME_SLOTS) for (h0, h1) in hours if h0 <= s0 and s1 <= h1})
+
+
+def slots_to_hours(slots: Sequence[int]) -> list[list[int]] | None:
+    """Two-hour slots -> the persona format's [start, end) ranges, contiguous slots merged;
+    None (any time) for no slot or all 12."""
+    slots = sorted(set(int(s) for s in slots))
+    if not slots or len(slots) == spaces.N_SLOTS:
+        return None
+    ranges: list[list[int]] = []
+    for s in slots:
+        start, end = spaces.TIME_SLOTS[s]
+        if ranges and ranges[-1][1] == start:
+            ranges[-1][1] = end
+        else:
+            ranges.append([start, end])
+    return ranges
+
+
+def interval_to_bins(interval) -> tuple[int, int]:
+    """A preference's interval as (lowest, highest) S4 bin value it covers; all bins for any."""
+    if not interval:
+        return spaces.INTERVAL_BINS[0], spaces.INTERVAL_BINS[-1]
+    covered = [b for b in spaces.INTERVAL_BINS if interval[0] <= b <= interval[1]]
+    return (covered[0], covered[-1]) if covered else (spaces.INTERVAL_BINS[0], spaces.INTERVAL_BINS[-1])
+
+
+def preference_from_form(description: str, activities: Sequence[str], scenes: Sequence[str],
+                         slots: Sequence[int], interval: tuple[int, int] | None,
+                         action: str | None, task: Sequence[str] | None = None) -> dict[str, Any] | None:
+    """A persona-format preference dict from the form's widgets: no rooms = any room, no time
+    slot (or all) = any time, the whole interval range = any. None for an untouched slot (no
+    words, activity or action). Validate the result with :func:`check_preferences`."""
+    if not (description or "").strip() and not activities and not action:
+        return None
+    out: dict[str, Any] = {}
+    if description and description.strip():
+        out["description"] = description.strip()
+    out["activity"] = list(activities)
+    if scenes and len(scenes) < spaces.N_SCENES:
+        out["scene"] = list(scenes)
+    hours = slots_to_hours(slots)
+    if hours is not None:
+        out["hours"] = hours
+    if interval is not None and tuple(interval) != (spaces.INTERVAL_BINS[0], spaces.INTERVAL_BINS[-1]):
+        out["interval"] = [int(interval[0]), int(interval[1])]
+    if task:
+        out["task"] = list(task)
+    if action:
+        out["action"] = action
+    return out
+
+
+def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] | None = None
+                      ) -> tuple[prefs.Participant | None, dict[int, str], str | None]:
+    """Validate a participant's preference dicts one by one, then together.
+
+    Returns (participant or None, {number: message} per invalid preference, a message about the
+    set as a whole, e.g. two preferences that cover the same state with different actions).
+    ``numbers`` are the preferences' numbers on the form (default 1, 2, ...). Nothing is raised,
+    so that a form shows every message in place.
+    """
+    numbers = list(numbers) if numbers is not None else list(range(1, len(items) + 1))
+    errors: dict[int, str] = {}
+    parsed = []
+    for n, item in zip(numbers, items):
+        try:
+            parsed.append(prefs.parse_preference(item, None, code, n - 1))
+        except CacasError as exc:
+            errors[n] = _strip_where(str(exc))
+    if errors:
+        return None, errors, None
+    if not parsed:
+        return None, {}, "describe at least one preference (activities and an action)"
+    for i in range(len(parsed)):
+        for j in range(i + 1, len(parsed)):
+            try:
+                prefs.check_conflicts([parsed[i], parsed[j]], None, code)
+            except CacasError as exc:
+                msg = _strip_where(str(exc)).replace("preferences 1 and 2", f"preferences {numbers[i]} and {numbers[j]}", 1)
+                return None, {}, msg
+    return prefs.Participant(code, tuple(parsed)), {}, None
+
+
+def _strip_where(message: str) -> str:
+    """'participant P01, preference 2 ("..."), field 'hours': ...' -> "field 'hours': ..."."""
+    if "field '" in message:
+        return message[message.index("field '"):]
+    if ": preferences " in message:
+        return message[message.index("preferences "):]
+    return message
+
+
+def hours_label(hours) -> str:
+    if not hours:
+        return "any time"
+    return ", ".join(f"{a:02d}-{b:02d} h" for a, b in hours)
+
+
+def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
+    """The described preferences as a readable table with each one's covered-state count."""
+    rows = []
+    for i, p in enumerate(participant.preferences, 1):
+        rows.append({
+            "#": i, "in their words": p.description, "activities": ", ".join(p.activity),
+            "rooms": ", ".join(p.scene) if p.scene else "any room", "hours": hours_label(p.hours),
+            "interval (min)": f"{p.interval[0]:g}-{p.interval[1]:g}" if p.interval else "any",
+            "action": p.action, "covered states": p.covered_count(),
+        })
+    return pd.DataFrame(rows)
+
+
+# --- questionnaire -------------------------------------------------------------------------------
+
+def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
+    """Section V-B.2's summary of the satisfaction scale (latest answer per participant): n, mean,
+    sample standard deviation and the share rating 8 or higher (the paper: mean 8.125, SD 0.64,
+    87.5% at 8 or above)."""
+    if answers is None or answers.empty:
+        return {"n": 0, "mean": math.nan, "sd": math.nan, "share_8_or_more": math.nan}
+    latest = answers.drop_duplicates("participant", keep="last")["satisfaction"].astype(float)
+    return {"n": int(len(latest)), "mean": float(latest.mean()),
+            "sd": float(latest.std(ddof=1)) if len(latest) > 1 else math.nan,
+            "share_8_or_more": float((latest >= 8).mean())}
+
+
+# --- interactions as a readable table ------------------------------------------------------------
+
+def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
+    """The interactions table with names instead of indices, for reading on a page."""
+    if df.empty:
+        return pd.DataFrame(columns=["day", "#", "time of day", "activity", "room", "robot", "answer",
+                                     "asked for"])
+    slot = df["time_slot"].astype(int)
+    who = np.where(df["type"] == records.USER_INITIATED, "asked for " + df["user_action"].astype(str),
+                   df["response"].map({"accept": "accepted", "reject": "rejected", "others": "no response"}))
+    return pd.DataFrame({
+        "day": df["day"].astype(int), "#": df["index"].astype(int),
+        "time of day": [spaces.time_slot_label(s) for s in slot],
+        "activity": df["activity"], "room": df["scene"], "robot": df["robot_action"], "answer": who,
+    })

@@ -1,0 +1,304 @@
+"""A study day on the tablet, and the adaptation after it (paper, Section V-B.1; Table III step 2).
+
+The tablet page (the paper's "web page as a user interface to set the context") calls, in order:
+
+1. :func:`start_day` - open the participant's next day, once the previous one was adapted;
+2. :func:`propose` - for the context the participant set (S3 time of day, S4 time since the
+   last activity, S1 activity, S2 room) and what the robot recognised, the policy in force
+   decides an action (Eq. 4) and says it as a spoken-style line (:mod:`cacas.dialogue`);
+3. :func:`answer` - the participant's answer is written to the study database at once: Accept /
+   Reject / No response to the robot's proposal (type_1), or an action the participant asked for
+   themselves and confirmed (type_2).
+
+After the day the researcher calls :func:`adapt_day` (in a background job): close the day, adapt
+the policy from all the participant's interactions so far (CACAS, or a baseline), store the new
+policy version and the run. The adaptation never reads the described preferences; they are read
+only afterwards, to score the new policy for Fig. 4 (``preference_accuracy``) when they exist.
+
+Conventions (as ``cacas simulate`` writes them, so one set of plots serves both):
+* the robot doing nothing and the participant not asking for anything: type_1, robot action
+  "do nothing", response "others";
+* a user-initiated interaction: type_2, ``user_action`` the confirmed request, response "accept"
+  (the participant's confirmation), ``robot_action`` what the robot had proposed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+
+from cacas import dialogue, records, spaces
+from cacas.errors import CacasError
+
+Progress = Callable[[float, str], None]
+
+#: The paper's participants "interact with the robot around 15 times a day and last for 7 days".
+TARGET_INTERACTIONS = 15
+STUDY_DAYS = 7
+#: Answers to a robot-initiated proposal, and the response each records.
+ANSWERS = {"accept": "accept", "reject": "reject", "no response": "others"}
+
+
+@dataclass(frozen=True)
+class Context:
+    """What the participant set on the tablet: S3 slot, S4 bin, S1 activity, S2 room (indices)."""
+
+    time_slot: int
+    interval_bin: int
+    activity: str
+    scene: str
+
+    @classmethod
+    def from_choices(cls, time_slot: int, interval_bin: int, activity: str, scene: str) -> "Context":
+        if not isinstance(time_slot, (int, np.integer)) or not 0 <= time_slot < spaces.N_SLOTS:
+            raise CacasError(f"time of day {time_slot!r} is invalid; valid: slot 0..{spaces.N_SLOTS - 1}")
+        if not isinstance(interval_bin, (int, np.integer)) or not 0 <= interval_bin < spaces.N_INTERVALS:
+            raise CacasError(f"time since the last activity {interval_bin!r} is invalid; "
+                             f"valid: bin 0..{spaces.N_INTERVALS - 1}")
+        return cls(int(time_slot), int(interval_bin), spaces.canonical("activity", activity),
+                   spaces.canonical("scene", scene))
+
+    @property
+    def hour(self) -> int:
+        return spaces.TIME_SLOTS[self.time_slot][0]
+
+    @property
+    def interval_minutes(self) -> int:
+        return spaces.INTERVAL_BINS[self.interval_bin]
+
+    def to_token(self) -> str:
+        """A short text for the URL, so that a reload returns to the same proposal."""
+        return (f"{self.time_slot}.{self.interval_bin}.{spaces.activity_index(self.activity)}."
+                f"{spaces.scene_index(self.scene)}")
+
+    @classmethod
+    def from_token(cls, token: str) -> "Context":
+        try:
+            slot, interval, act, scene = (int(x) for x in str(token).split("."))
+            return cls.from_choices(slot, interval, spaces.ACTIVITIES[act], spaces.SCENES[scene])
+        except (ValueError, IndexError):
+            raise CacasError(f"context {token!r} in the address is invalid") from None
+
+
+@dataclass(frozen=True)
+class Proposal:
+    """What the robot does in a context: its action (Eq. 4), the 14 probabilities, its line."""
+
+    context: Context
+    heard: str                      # the activity the robot acts on (recognised, or as set)
+    heard_confidence: float | None  # None: no recogniser, the activity as set was used
+    state: spaces.State
+    action: str
+    probabilities: np.ndarray = field(repr=False)
+    line: str
+    policy_version: int | None
+
+    @property
+    def robot_speaks(self) -> bool:
+        return self.action != "do nothing"
+
+
+# --- the policy in force ---------------------------------------------------------------------------
+
+def policy_in_force(store, participant: str, initial_loader: Callable | None = None):
+    """(policy, version) in force for the participant: the store's active version, or the
+    initial policy (CACAA step 1, version None) before the first adaptation."""
+    from cacas.policy import policy_from_bytes
+
+    active = store.active_policy(participant)
+    if active is None:
+        if initial_loader is None:
+            from cacas.adaptation import load_initial_policy as initial_loader
+        return initial_loader(), None
+    return policy_from_bytes(store.load_policy(participant, version=active.version)), active.version
+
+
+def adapted_days(store, participant: str, method: str = "cacas") -> set[int]:
+    """Study days after which the participant's policy was adapted with ``method``."""
+    runs = store.adaptations_frame(participant)
+    return {int(d) for d in runs.loc[runs["method"] == method, "day"] if int(d) > 0}
+
+
+@dataclass(frozen=True)
+class DayStatus:
+    """Where the participant's study stands today, for the tablet and the overview."""
+
+    day: int                 # latest day (0 before the first)
+    open: bool
+    interactions_today: int
+    total_interactions: int
+    policy_version: int | None
+    waiting_for_adaptation: bool   # the latest day is closed and not yet adapted
+    finished: bool                 # STUDY_DAYS days done (closed)
+
+    @property
+    def next_day(self) -> int:
+        return self.day if self.open else self.day + 1
+
+
+def day_status(store, participant: str) -> DayStatus:
+    r = store.resume(participant)
+    waiting = bool(r.day and not r.day_open and r.day not in adapted_days(store, participant))
+    return DayStatus(r.day, r.day_open, r.interactions_today, r.total_interactions, r.policy_version,
+                     waiting, bool(r.day >= STUDY_DAYS and not r.day_open))
+
+
+def start_day(store, participant: str) -> int:
+    """Open the participant's next study day (or return the open one).
+
+    Refused while the previous day has not been adapted (Section V-B.1: "After adaptation, the
+    participant can interact with the robot in the next day")."""
+    status = day_status(store, participant)
+    if status.open:
+        return status.day
+    if status.waiting_for_adaptation:
+        raise CacasError(f"day {status.day} of participant {participant} is closed but the robot has not "
+                         f"been adapted yet; run the adaptation first (Adaptation page)")
+    return store.open_day(participant)
+
+
+# --- one interaction ------------------------------------------------------------------------------
+
+def clip_for(context: Context, participant: str, day: int, index: int, clips: list) -> Path | None:
+    """The library clip played for this interaction: chosen by a hash of who, when and what, so
+    that a page reload plays the same clip."""
+    if not clips:
+        return None
+    key = f"{participant}|{day}|{index}|{context.to_token()}".encode()
+    return Path(clips[int(hashlib.sha256(key).hexdigest(), 16) % len(clips)])
+
+
+def previous_interaction(store, participant: str, day: int) -> dict | None:
+    """The day's last interaction (for S5-S7 of the next state), or None at the start of a day."""
+    df = store.interactions_frame(participant, method=None)
+    df = df[df["day"] == day]
+    return None if df.empty else df.iloc[-1].to_dict()
+
+
+def propose(policy, context: Context, previous: dict | None = None, heard: str | None = None,
+            heard_confidence: float | None = None, policy_version: int | None = None) -> Proposal:
+    """The robot's proposal: the policy state from the context (S1 is what the robot heard, when a
+    recogniser heard it; S5-S7 from the previous interaction), Eq. 4's action and its line."""
+    from cacas.simulator import dialog_state
+
+    act_on = spaces.canonical("activity", heard) if heard else context.activity
+    state = dialog_state(act_on, context.scene, context.hour, context.interval_minutes, previous)
+    action_index, probs = policy.decide(state)
+    action = spaces.ACTIONS[action_index]
+    return Proposal(context, act_on, heard_confidence if heard else None, state, action,
+                    np.asarray(probs, dtype=float), dialogue.robot_line(act_on, action), policy_version)
+
+
+def _normalised(probs: np.ndarray) -> list[float]:
+    p = np.clip(np.asarray(probs, dtype=float), 0.0, None)
+    return (p / p.sum()).tolist() if p.sum() > 0 else None
+
+
+def answer(store, participant: str, day: int, proposal: Proposal, response: str | None = None,
+           user_action: str | None = None, recognised_scene: str | None = None) -> int:
+    """Record the participant's answer at once (committed before this returns); the row id.
+
+    ``response``: "accept", "reject" or "no response" to the robot's proposal (type_1). Or
+    ``user_action``: the action the participant asked for and confirmed (type_2). When the robot
+    did nothing, "no response" records that nothing was needed.
+    """
+    if (response is None) == (user_action is None):
+        raise CacasError("give either the answer to the robot (accept, reject, no response) or the "
+                         "action the participant asked for, not both")
+    state = proposal.state
+    common = dict(
+        activity=proposal.context.activity, scene=proposal.context.scene,
+        time_slot=proposal.context.time_slot, interval_bin=proposal.context.interval_bin,
+        hour=float(proposal.context.hour), interval_minutes=float(proposal.context.interval_minutes),
+        task=spaces.ACTIONS[state.task], previous_action=spaces.ACTIONS[state.action],
+        previous_response=spaces.RESPONSES[state.response], robot_action=proposal.action,
+        probabilities=_normalised(proposal.probabilities),
+        recognised_activity=proposal.heard if proposal.heard_confidence is not None else None,
+        recognised_scene=recognised_scene, policy_version=proposal.policy_version,
+    )
+    if user_action is not None:
+        wanted = spaces.canonical("action", user_action)
+        if wanted == "do nothing":
+            raise CacasError("'do nothing' is not a request; valid: one of the 13 other actions")
+        return store.record_interaction(participant, day, type=records.USER_INITIATED, response="accept",
+                                        user_action=wanted, **common)
+    key = str(response).strip().lower()
+    if key not in ANSWERS:
+        raise CacasError(f"answer {response!r} is invalid; valid: {', '.join(ANSWERS)}")
+    if not proposal.robot_speaks and key != "no response":
+        raise CacasError("the robot did not propose anything; answer 'no response' (nothing needed) "
+                         "or ask for an action")
+    return store.record_interaction(participant, day, type=records.ROBOT_INITIATED, response=ANSWERS[key],
+                                    **common)
+
+
+# --- after the day: adaptation ---------------------------------------------------------------------
+
+@dataclass
+class DayAdaptation:
+    """What :func:`adapt_day` did."""
+
+    participant: str
+    day: int
+    method: str
+    policy_version: int
+    duration_s: float
+    log: list[str]
+    preference_accuracy: float | None
+    changes: pd.DataFrame
+
+
+def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "cacas", seed: int = 0,
+              progress: Progress | None = None) -> DayAdaptation:
+    """Close ``day`` (if open) and adapt the participant's policy from days 1..day (Table III step 2).
+
+    Runs in a background job with its own database connection. Stores the new policy version (in
+    force from the next day) and the adaptation run with its log, parameters, duration and, when
+    the participant described preferences, the new policy's preference accuracy (Fig. 4; the
+    adaptation itself never reads them). Refuses a day with no interactions.
+    """
+    from cacas.adaptation import adapt_policy, policy_changes, preference_accuracy
+    from cacas.store import StudyStore
+
+    say = progress or (lambda f, m: None)
+    store = StudyStore(db_path)
+    try:
+        days = {d.day: d for d in store.days(participant)}
+        if day not in days:
+            raise CacasError(f"participant {participant} has no day {day}")
+        data = store.interactions_frame(participant, method=None)
+        data = data[data["day"] <= day]
+        if not (data["day"] == day).any():
+            raise CacasError(f"day {day} of participant {participant} has no interactions; nothing to adapt from")
+        say(0.0, f"closing day {day}" if days[day].is_open else f"day {day} is closed")
+        store.close_day(participant, day)
+        before, before_version = policy_in_force(store, participant)
+        say(0.02, f"adapting from {len(data)} interactions of days 1..{day} with {method}")
+        result = adapt_policy(before, data, method=method, seed=seed,
+                              progress=lambda f, m: say(0.02 + 0.9 * f, m))
+        prefs = store.get_preferences(participant)
+        metrics = {"interactions": int(len(data)), "policy_before": before_version}
+        accuracy = None
+        if prefs is not None and prefs.preferences:
+            say(0.94, "scoring the new policy on the described preferences (evaluation only)")
+            accuracy = float(preference_accuracy(result.policy, prefs, seed=seed))
+            metrics["preference_accuracy"] = accuracy
+            runs = store.adaptations_frame(participant)
+            if before_version is None and not ((runs["day"] == 0) & (runs["method"] == method)).any():
+                # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
+                store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
+                                        {"preference_accuracy": float(preference_accuracy(before, prefs, seed=seed))})
+        version = store.save_policy(participant, day, method, result.policy.to_bytes(), activate=True)
+        params = dict(result.parameters, log=result.log)
+        store.record_adaptation(participant, day, method, params, float(result.duration_s), metrics, version)
+        changes = policy_changes(before, result.policy, data)
+        say(1.0, f"policy version {version} saved; in force from day {day + 1}")
+        return DayAdaptation(participant, day, method, version, float(result.duration_s), list(result.log),
+                             accuracy, changes)
+    finally:
+        store.close()

@@ -1,0 +1,51 @@
+"""AppTest fixtures: the app on a temporary study database, with Streamlit's caches cleared."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+import streamlit as st
+from streamlit.testing.v1 import AppTest
+
+from cacas.store import StudyStore
+
+ROOT = Path(__file__).resolve().parents[2]
+APP = str(ROOT / "app.py")
+TIMEOUT = 60
+
+
+@pytest.fixture
+def db(tmp_path, monkeypatch):
+    """A fresh study database file; the app finds it through $CACAS_DB."""
+    path = tmp_path / "study.sqlite"
+    monkeypatch.setenv("CACAS_DB", str(path))
+    st.cache_data.clear()
+    st.cache_resource.clear()
+    yield path
+    st.cache_data.clear()
+    st.cache_resource.clear()
+
+
+@pytest.fixture
+def store(db):
+    s = StudyStore(db)
+    yield s
+    s.close()
+
+
+@pytest.fixture
+def app(db, monkeypatch):
+    """A function that opens the app (optionally on a page and with query parameters) and runs it."""
+    monkeypatch.chdir(ROOT)
+
+    def open_app(page: str | None = None, **query) -> AppTest:
+        at = AppTest.from_file(APP, default_timeout=TIMEOUT)
+        for k, v in query.items():
+            at.query_params[k] = v
+        at.run()
+        if page is not None:
+            at.switch_page(page)
+            at.run()
+        return at
+    return open_app

@@ -1,0 +1,39 @@
+from apphelpers import no_exception, texts
+
+
+def test_overview_opens_empty(app):
+    at = app()
+    no_exception(at)
+    assert "No participants yet" in texts(at)
+
+
+def test_overview_lists_participants_with_next_step(app, store):
+    store.add_participant("P01", age_range="25-34")
+    store.add_participant("P02")
+    store.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+    at = app()
+    no_exception(at)
+    df = at.dataframe[0].value
+    assert list(df["participant"]) == ["P01", "P02"]
+    steps = dict(zip(df["participant"], df["next step"]))
+    assert steps["P01"].startswith("Describe 5 preferences")
+    assert steps["P02"].startswith("Start day 1")
+    # the sidebar picked the first participant and the address carries it
+    assert at.session_state["participant"] == "P01"
+    assert at.query_params["participant"] == ["P01"] or at.query_params["participant"] == "P01"
+
+
+def test_address_selects_the_participant(app, store):
+    store.add_participant("P01")
+    store.add_participant("P02")
+    at = app(participant="P02")
+    no_exception(at)
+    assert at.session_state["participant"] == "P02"
+    assert "Next for P02" in texts(at)
+
+
+def test_unknown_participant_in_address_is_reported(app, store):
+    store.add_participant("P01")
+    at = app(participant="P77")
+    no_exception(at)
+    assert "P77" in texts(at)

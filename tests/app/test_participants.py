@@ -1,0 +1,88 @@
+import json
+
+from apphelpers import no_exception, texts
+
+PAGE = "app_pages/participants.py"
+
+
+def _fill(at, code, version, n, **values):
+    for field, value in values.items():
+        widget = f"pf-{code}-v{version}-{n}-{field}"
+        kind = {"words": at.text_input, "activity": at.multiselect, "scene": at.multiselect,
+                "slots": at.multiselect, "interval": at.select_slider, "action": at.selectbox}[field]
+        kind(key=widget).set_value(value)
+
+
+def test_page_opens_without_participants(app):
+    at = app(PAGE)
+    no_exception(at)
+    assert "Add participant" in [b.label for b in at.button]
+
+
+def test_add_participant_valid_and_invalid(app, store):
+    at = app(PAGE)
+    at.text_input(key="new-code").set_value("Alice Smith")
+    at.button[0].click().run()  # the form's submit button
+    no_exception(at)
+    assert "participant code 'Alice Smith' is invalid" in texts(at)
+    assert store.list_participants() == []
+    at.text_input(key="new-code").set_value("P01")
+    at.text_input(key="new-age").set_value("25-34")
+    next(b for b in at.button if b.label == "Add participant").click().run()
+    no_exception(at)
+    assert [p.code for p in store.list_participants()] == ["P01"]
+    assert store.get_participant("P01").age_range == "25-34"
+    assert at.session_state["participant"] == "P01"
+
+
+def test_save_valid_preferences(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    _fill(at, "P01", 0, 1, words="When I use the stove, remind me to turn it off.",
+          activity=["use stove", "fry food"], scene=["kitchen"], slots=[3, 4], interval=(0, 30),
+          action="remind to turn off")
+    _fill(at, "P01", 0, 2, activity=["cough"], action="pain check")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    saved = store.get_preferences("P01")
+    assert saved is not None and len(saved.preferences) == 2
+    first = saved.preferences[0]
+    assert first.hours == ((6, 10),) and first.interval == (0, 30) and first.scene == ("kitchen",)
+    assert "Saved version 1" in texts(at)
+    # the saved preferences show with their covered-state counts
+    table = at.dataframe[0].value
+    assert list(table["covered states"]) == [p.covered_count() for p in saved.preferences]
+
+
+def test_invalid_preferences_show_messages_in_place_and_save_nothing(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 1, activity=["use stove"])  # no action
+    _fill(at, "P01", 0, 3, words="something", action="chitchat")  # no activity
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    msgs = [e.value for e in at.error]
+    assert any(m.startswith("Preference 1: field 'action'") for m in msgs)
+    assert any(m.startswith("Preference 3: field 'activity'") for m in msgs)
+    assert store.get_preferences("P01") is None
+
+
+def test_overlapping_preferences_with_different_actions_are_refused(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 1, activity=["use stove"], action="remind to turn off")
+    _fill(at, "P01", 0, 4, activity=["use stove"], scene=["kitchen"], action="chitchat")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert "preferences 1 and 4 both cover" in texts(at)
+    assert store.get_preferences("P01") is None
+
+
+def test_export_personas_of_the_study(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert any(b.label == "Download personas.json" for b in at.get("download_button"))
+    assert json.loads(store.export_personas())["participants"][0]["id"] == "P01"
