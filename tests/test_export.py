@@ -156,6 +156,7 @@ def _rewrite(bundle, out, table, change):
 @pytest.mark.parametrize("table,change,message", [
     ("interactions", lambda df: df.assign(activity="juggle"), "interactions.csv, row 2: activity"),
     ("interactions", lambda df: df.assign(response="maybe"), "unknown response 'maybe'"),
+    ("interactions", lambda df: df.assign(interval="7"), "interval 7 is not an S4 bin value"),
     ("questionnaire", lambda df: df.assign(satisfaction="11"), "satisfaction"),
     ("days", lambda df: df.iloc[1:], "do not fit together"),
     ("policies", lambda df: df.assign(sha256="0" * 64), "does not match its sha256"),

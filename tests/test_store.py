@@ -219,7 +219,7 @@ def test_record_interaction_all_fields(store):
     assert list(df["index"]) == [1, 2]
     first, second = df.iloc[0], df.iloc[1]
     assert (first.activity, first.time_slot, first.interval, first.task, first.method) == \
-        ("cough", 3, spaces.interval_bin(12), "chitchat", "cacas")
+        ("cough", 3, 10, "chitchat", "cacas")  # S4: 12 minutes is in the bin of 10
     assert first.user_action == "" and first.time == "2026-11-21T10:00:00Z"
     assert (second.activity, second.type, second.user_action, second.previous_action) == \
         ("use stove", "type_2", "remind to turn off", "pain check")
@@ -416,3 +416,23 @@ def test_interactions_frame_filters(store):
     empty = StudyStore(store.path.parent / "empty.sqlite").interactions_frame()
     assert list(empty.columns) == INTERACTION_COLUMNS and len(empty) == 0
     assert isinstance(empty, pd.DataFrame)
+
+
+def test_frame_gives_back_the_recorded_policy_states(store):
+    """The user data the adaptation reads (records.policy_states) is the state that was recorded."""
+    from cacas import records
+    policy_states = getattr(records, "policy_states", None)
+    if policy_states is None:  # pragma: no cover - the core library adds it
+        pytest.skip("cacas.records.policy_states is not there yet")
+    day = store.open_day("P01")
+    recorded = []
+    for i, (minutes, hour) in enumerate([(0, 0.5), (1.5, 7), (12, 13.9), (59, 22), (250, 23.99)]):
+        state = spaces.State.from_names(spaces.ACTIVITIES[i * 5], spaces.SCENES[i], hour, minutes,
+                                        task=spaces.ACTIONS[i], action=spaces.ACTIONS[i + 1],
+                                        response=spaces.RESPONSES[i % 3])
+        store.record_interaction("P01", day, activity=spaces.ACTIVITIES[i * 5], scene=spaces.SCENES[i], hour=hour,
+                                 interval_minutes=minutes, task=spaces.ACTIONS[i],
+                                 previous_action=spaces.ACTIONS[i + 1], previous_response=spaces.RESPONSES[i % 3],
+                                 robot_action="chitchat", response="accept")
+        recorded.append(state.as_tuple())
+    assert policy_states(store.interactions_frame("P01")).tolist() == [list(s) for s in recorded]

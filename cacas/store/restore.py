@@ -15,6 +15,7 @@ from typing import Any, Callable
 import pandas as pd
 
 from cacas import preferences as prefs
+from cacas import spaces
 from cacas.errors import CacasError
 from cacas.store import files
 from cacas.store import validate as v
@@ -88,6 +89,9 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
 
 def _interaction(r: dict[str, Any]) -> tuple:
     slot, iv = _int(r["time_slot"]), _int(r["interval"])
+    if iv not in spaces.INTERVAL_BINS:
+        raise CacasError(f"interval {iv} is not an S4 bin value; valid: {list(spaces.INTERVAL_BINS)}")
+    iv = spaces.INTERVAL_BINS.index(iv)
     hour, minutes = _opt_float(r["hour"]), _opt_float(r["interval_minutes"])
     v.time_slot(hour, slot)
     v.interval(minutes, iv)

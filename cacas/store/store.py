@@ -30,6 +30,7 @@ from typing import Any, Callable, Iterable, Sequence, TypeVar
 import pandas as pd
 
 from cacas import preferences as prefs
+from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.records import INTERACTION_COLUMNS, ROBOT_INITIATED, USER_INITIATED
@@ -563,8 +564,10 @@ class StudyStore:
         :data:`INTERACTION_EXTRA_COLUMNS`: hour, interval_minutes, recognised activity and scene,
         the policy's probabilities as JSON, policy version, study, created_at).
 
-        ``time_slot`` is the S3 index (0..11) and ``interval`` the S4 bin index (0..11);
-        ``user_action`` is "" for type_1. Filters: one participant (unknown -> CacasError), one
+        As ``cacas simulate`` writes them: ``time_slot`` is the S3 index (0..11), ``interval``
+        the S4 bin's value in minutes (one of :data:`cacas.spaces.INTERVAL_BINS`, e.g. 10 for 12
+        minutes), ``user_action`` "" for type_1; ``time`` is the wall-clock timestamp (UTC,
+        ISO 8601) at which it was recorded. Filters: one participant (unknown -> CacasError), one
         ``method`` (None: all), one ``study``. Sorted by participant, day, index.
         """
         where, params = [], []
@@ -580,6 +583,7 @@ class StudyStore:
             params.append(study)
         sql = _INTERACTION_SELECT + (" WHERE " + " AND ".join(where) if where else "")
         df = self._frame(sql + " ORDER BY p.code, i.day, i.idx", params)
+        df["interval"] = [spaces.INTERVAL_BINS[int(b)] for b in df["interval"]]  # S4 bin -> its minutes
         df["policy_version"] = df["policy_version"].astype("Int64")
         for col in ("day", "index", "time_slot", "interval"):
             df[col] = df[col].astype("int64")
