@@ -1,0 +1,264 @@
+"""Study session: the participant's tablet (the paper's web page to set the context, Section V-B.1).
+
+The participant sets the time of day (S3), the time since their last activity (S4), the
+activity (S1) and the room (S2); the activity's sound plays; the robot recognises it and proposes
+an action; the participant accepts, rejects, ignores it, or asks for an action themselves.
+Every answer is written to the study database the moment it is given.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import streamlit as st
+
+from cacas import app_support, dialogue, spaces
+from cacas.errors import CacasError
+from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
+                             policy_in_force, previous_interaction, propose, start_day)
+from app_pages import ui
+
+store = ui.store()
+code = ui.need_participant()
+tablet = ui.tablet_mode()
+
+
+# --- cached resources (one per server process) -----------------------------------------------------
+
+@st.cache_resource(show_spinner=False)
+def _policy(db: str, who: str, version: int | None):
+    """The policy in force for (participant, version); the version is part of the key."""
+    return policy_in_force(ui.store(), who)
+
+
+@st.cache_resource(show_spinner=False)
+def _recognizer():
+    """The shipped sound model, or None when there is none (the robot then acts on the choice)."""
+    try:
+        from cacas.audio import SoundRecognizer
+
+        return SoundRecognizer.load()
+    except (CacasError, ImportError, OSError):
+        return None
+
+
+@st.cache_data(show_spinner=False)
+def _clips(activity: str) -> list[str]:
+    try:
+        from cacas.audio.library import clip_paths
+
+        return [str(p) for p in clip_paths(activity)]
+    except (CacasError, ImportError, OSError):
+        return []
+
+
+@st.cache_data(show_spinner=False, max_entries=256)
+def _heard(path: str) -> tuple[str, float, list] | None:
+    rec = _recognizer()
+    if rec is None:
+        return None
+    try:
+        r = rec.recognize(path)
+    except CacasError:
+        return None
+    return r.label, float(r.confidence), [(a, float(p)) for a, p in r.top3]
+
+
+# --- callbacks ------------------------------------------------------------------------------------
+
+def _start_day() -> None:
+    try:
+        day = start_day(store, code)
+    except CacasError as exc:
+        st.session_state["session-error"] = str(exc)
+    else:
+        st.session_state["session-error"] = None
+        st.toast(f"Day {day} started.", icon=":material/today:")
+
+
+def _set_context() -> None:
+    s = st.session_state
+    try:
+        ctx = Context.from_choices(s["ctx-slot"], s["ctx-interval"], s["ctx-activity"], s["ctx-scene"])
+    except CacasError as exc:
+        s["session-error"] = str(exc)
+        return
+    s["session-error"] = None
+    st.query_params["ctx"] = ctx.to_token()
+    s.pop("request-match", None)
+
+
+def _cancel() -> None:
+    st.query_params.pop("ctx", None)
+    st.session_state.pop("request-match", None)
+
+
+def _record(token: str, proposal, response: str | None = None, user_action: str | None = None) -> None:
+    """Write the answer once: the token names the day and the interaction number it answers, so
+    a second click (or a second tab) on the same proposal writes nothing."""
+    s = st.session_state
+    status = day_status(store, code)
+    if token != f"{status.day}:{status.interactions_today + 1}:{st.query_params.get('ctx')}" or not status.open:
+        return
+    try:
+        answer(store, code, status.day, proposal, response=response, user_action=user_action)
+    except CacasError as exc:
+        s["session-error"] = str(exc)
+        return
+    s["session-error"] = None
+    s.pop("request-match", None)
+    st.query_params.pop("ctx", None)
+    what = f"you asked for: {user_action}" if user_action else {"accept": "accepted", "reject": "rejected",
+                                                               "no response": "no response"}[response]
+    s["last-saved"] = f"Interaction {status.interactions_today + 1} saved ({what})."
+
+
+def _match_request() -> None:
+    s = st.session_state
+    try:
+        m = dialogue.match_request(s.get("request-text", ""))
+    except CacasError as exc:
+        s["request-error"] = str(exc)
+        s.pop("request-match", None)
+        return
+    s["request-error"] = None
+    s["request-match"] = m.action
+
+
+def _reject_match() -> None:
+    st.session_state.pop("request-match", None)
+    st.session_state["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
+
+
+# --- page -------------------------------------------------------------------------------------------
+
+status = day_status(store, code)
+if tablet:
+    st.markdown(f"## :material/smart_toy: Hello, {code}")
+else:
+    st.title(f"Study session · {code}")
+    st.caption(f"Participant's own tablet view (no researcher pages): `?participant={code}&view=tablet`")
+
+if st.session_state.get("session-error"):
+    st.error(st.session_state["session-error"], icon=":material/error:")
+saved = st.session_state.pop("last-saved", None)
+if saved:
+    st.success(saved, icon=":material/check_circle:")
+
+if not status.open:
+    if status.finished:
+        st.success(f"All {STUDY_DAYS} days are done. Thank you for taking part!", icon=":material/celebration:")
+    elif status.waiting_for_adaptation:
+        st.info(f"Day {status.day} is finished. The robot is learning from it; you can start day "
+                f"{status.day + 1} once the researcher has adapted the robot.", icon=":material/hourglass_top:")
+        if not tablet:
+            ui.link("app_pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
+    else:
+        st.markdown(f"Day **{status.day + 1}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
+                    "with the robot, following your daily routine.")
+        st.button(f"Start day {status.day + 1}", type="primary", on_click=_start_day, icon=":material/play_arrow:")
+    st.stop()
+
+day = status.day
+done = status.interactions_today
+st.progress(min(done / TARGET_INTERACTIONS, 1.0),
+            text=f"Day {day} of {STUDY_DAYS} · {done} of about {TARGET_INTERACTIONS} interactions today")
+if done >= TARGET_INTERACTIONS:
+    st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
+
+token_ctx = st.query_params.get("ctx")
+context = None
+if token_ctx:
+    try:
+        context = Context.from_token(token_ctx)
+    except CacasError:
+        st.query_params.pop("ctx", None)
+
+if context is None:
+    previous = previous_interaction(store, code, day)
+    slot_default = int(previous["time_slot"]) if previous else 4
+    with st.form("context", border=True):
+        st.markdown("#### What are you doing?")
+        c1, c2 = st.columns(2)
+        c1.selectbox("Time of day (S3)", range(spaces.N_SLOTS), index=slot_default, key="ctx-slot",
+                     format_func=spaces.time_slot_label)
+        c2.selectbox("Time since your last activity (S4)", range(spaces.N_INTERVALS), index=6, key="ctx-interval",
+                     format_func=lambda i: f"{spaces.INTERVAL_BINS[i]} min" + ("+" if i == spaces.N_INTERVALS - 1 else ""))
+        c3, c4 = st.columns(2)
+        c3.selectbox("Activity (S1)", spaces.ACTIVITIES, index=None, key="ctx-activity",
+                     placeholder="choose an activity")
+        c4.selectbox("Room (S2)", spaces.SCENES, index=None, key="ctx-scene", placeholder="choose a room")
+        st.form_submit_button("Do it", type="primary", icon=":material/play_arrow:", on_click=_set_context,
+                              width="stretch")
+else:
+    index = done + 1
+    token = f"{day}:{index}:{token_ctx}"
+    clip = clip_for(context, code, day, index, _clips(context.activity))
+    heard = _heard(str(clip)) if clip else None
+    with st.spinner("The robot is getting ready (the first time takes a little while)..."):
+        policy, version = _policy(ui.db_path(), code, status.policy_version)
+    proposal = propose(policy, context, previous_interaction(store, code, day),
+                       heard=heard[0] if heard else None, heard_confidence=heard[1] if heard else None,
+                       policy_version=version)
+
+    left, right = st.columns([1, 1])
+    with left.container(border=True):
+        st.markdown("**You are**")
+        st.markdown(f"### {context.activity}")
+        st.caption(f"in the {context.scene} · {spaces.time_slot_label(context.time_slot)} · "
+                   f"{context.interval_minutes} min since your last activity")
+        if clip:
+            st.audio(str(clip), format="audio/ogg" if clip.suffix == ".ogg" else None, autoplay=True)
+        else:
+            st.caption("No sound clip for this activity in the library.")
+    with right.container(border=True):
+        st.markdown("**The robot heard**")
+        if heard:
+            mark = ":material/check:" if heard[0] == context.activity else ":material/help:"
+            st.markdown(f"### {heard[0]} {mark}")
+            st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard[2][1:]) +
+                       f" · confidence {100 * heard[1]:.0f}%")
+        else:
+            st.markdown(f"### {context.activity}")
+            st.caption("No sound model: the robot uses the activity as chosen.")
+
+    with st.chat_message("assistant", avatar=":material/smart_toy:"):
+        st.markdown(f"**{proposal.line}**")
+
+    if proposal.robot_speaks:
+        b1, b2, b3 = st.columns(3)
+        b1.button("Accept", type="primary", icon=":material/thumb_up:", width="stretch",
+                  on_click=_record, args=(token, proposal, "accept"))
+        b2.button("Reject", icon=":material/thumb_down:", width="stretch",
+                  on_click=_record, args=(token, proposal, "reject"))
+        b3.button("No response", icon=":material/do_not_disturb_on:", width="stretch",
+                  on_click=_record, args=(token, proposal, "no response"))
+    else:
+        st.button("Nothing needed", icon=":material/check:", on_click=_record, args=(token, proposal, "no response"))
+
+    with st.container(border=True):
+        st.markdown("**Or ask the robot yourself**")
+        c1, c2 = st.columns([3, 1], vertical_alignment="bottom")
+        pick = c1.selectbox("Pick an action", list(dialogue.REQUESTS), index=None, key="request-pick",
+                            format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
+        c2.button("Ask", icon=":material/record_voice_over:", disabled=pick is None, width="stretch",
+                  on_click=_record, args=(token, proposal), kwargs={"user_action": pick})
+        c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
+        c3.text_input("Or type your request", key="request-text", placeholder="e.g. remind me to turn off the stove")
+        c4.button("Say it", icon=":material/chat:", on_click=_match_request, width="stretch")
+        if st.session_state.get("request-error"):
+            st.warning(st.session_state["request-error"], icon=":material/help:")
+        matched = st.session_state.get("request-match")
+        if matched:
+            with st.chat_message("assistant", avatar=":material/smart_toy:"):
+                st.markdown(dialogue.confirmation_line(matched, proposal.heard))
+            y, n, _ = st.columns([1, 1, 2])
+            y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
+                     on_click=_record, args=(token, proposal), kwargs={"user_action": matched})
+            n.button("No", icon=":material/close:", width="stretch", on_click=_reject_match)
+    st.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:")
+
+if done and not tablet:
+    with st.expander(f"Today's interactions ({done})"):
+        today = store.interactions_frame(code, method=None)
+        st.dataframe(app_support.interactions_view(today[today["day"] == day]), hide_index=True, width="stretch")

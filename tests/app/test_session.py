@@ -1,0 +1,126 @@
+import pytest
+from streamlit.testing.v1 import AppTest
+
+from apphelpers import no_exception, texts
+
+PAGE = "app_pages/session.py"
+
+
+@pytest.fixture
+def p01(store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["use stove"], "action": "remind to turn off"}])
+    return "P01"
+
+
+def _button(at, label):
+    return next(b for b in at.button if b.label == label)
+
+
+def _choose(at, slot=3, interval=6, activity="use stove", scene="kitchen"):
+    at.selectbox(key="ctx-slot").set_value(slot)
+    at.selectbox(key="ctx-interval").set_value(interval)
+    at.selectbox(key="ctx-activity").set_value(activity)
+    at.selectbox(key="ctx-scene").set_value(scene)
+    _button(at, "Do it").click().run()
+    no_exception(at)
+
+
+def test_session_without_participant(app):
+    at = app(PAGE)
+    no_exception(at)
+    assert "Select a participant" in texts(at)
+
+
+def test_start_day_then_accept_is_saved_at_once(app, store, p01, quick_policy):
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    _button(at, "Start day 1").click().run()
+    no_exception(at)
+    assert store.resume("P01").day == 1
+    _choose(at)
+    assert at.query_params["ctx"] in ("3.6.20.2", ["3.6.20.2"])
+    line = at.chat_message[0].children[0].value if at.chat_message else ""
+    robot_speaks = "stays quiet" not in texts(at)
+    label = "Accept" if robot_speaks else "Nothing needed"
+    _button(at, label).click().run()
+    no_exception(at)
+    df = store.interactions_frame("P01", method=None, extra=True)
+    assert len(df) == 1
+    row = df.iloc[0]
+    assert (row["activity"], row["scene"], row["time_slot"], row["type"]) == ("use stove", "kitchen", 3, "type_1")
+    assert row["response"] == ("accept" if robot_speaks else "others")
+    assert row["probabilities"]  # the policy's 14 probabilities are kept
+    assert "Interaction 1 saved" in texts(at)
+    assert "ctx" not in at.query_params
+    assert line  # the robot said something (or stayed quiet, shown as a line)
+
+
+def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
+    store.open_day("P01")
+    at = app(PAGE, participant="P01")
+    # a picked request (type_2)
+    _choose(at, activity="cough", scene="bedroom")
+    at.selectbox(key="request-pick").set_value("pain check").run()
+    _button(at, "Ask").click().run()
+    no_exception(at)
+    # a typed request, matched and confirmed (type_2)
+    _choose(at)
+    at.text_input(key="request-text").set_value("please remind me to switch the stove off")
+    _button(at, "Say it").click().run()
+    no_exception(at)
+    assert "remind you to turn the stove off. Is that right?" in texts(at)
+    _button(at, "Yes, please").click().run()
+    no_exception(at)
+    # a typed request the robot does not understand: a message in place, nothing saved
+    _choose(at)
+    at.text_input(key="request-text").set_value("sing a song")
+    _button(at, "Say it").click().run()
+    assert "did not understand 'sing a song'" in texts(at)
+    assert len(store.interactions_frame("P01", method=None)) == 2
+    # no response
+    label = "No response" if any(b.label == "No response" for b in at.button) else "Nothing needed"
+    _button(at, label).click().run()
+    no_exception(at)
+    df = store.interactions_frame("P01", method=None)
+    assert list(df["type"]) == ["type_2", "type_2", "type_1"]
+    assert list(df["user_action"]) == ["pain check", "remind to turn off", ""]
+    assert df["response"].iloc[2] == "others"
+    # S6/S7 of the second interaction come from the first (the request carried out, accepted)
+    assert (df["previous_action"].iloc[1], df["previous_response"].iloc[1]) == ("pain check", "accept")
+
+
+def test_reload_returns_to_the_same_proposal(app, store, p01, quick_policy):
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2")  # what a refresh sends back
+    no_exception(at)
+    assert "use stove" in texts(at) and "kitchen" in texts(at)
+    assert any(b.label in ("Accept", "Nothing needed") for b in at.button)
+
+
+def test_tablet_view_shows_the_session_page_only(app, store, p01, quick_policy):
+    store.add_participant("P02")
+    at = app(participant="P01", view="tablet")
+    no_exception(at)
+    assert "Hello, P01" in texts(at)
+    assert not at.sidebar.selectbox  # no participant or study pickers
+    assert "P02" not in texts(at) and "remind to turn off" not in texts(at)  # no others, no preferences
+    with pytest.raises(ValueError):
+        at.switch_page("app_pages/participants.py")
+
+
+def test_tablet_view_with_unknown_participant(app, store):
+    at = app(participant="P99", view="tablet")
+    no_exception(at)
+    assert "names no known participant" in texts(at)
+
+
+def test_closed_day_waits_for_adaptation(app, store, p01, quick_policy):
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "robot is learning" in texts(at)
+    assert not any(b.label.startswith("Start day") for b in at.button)
