@@ -436,3 +436,26 @@ def test_frame_gives_back_the_recorded_policy_states(store):
                                  robot_action="chitchat", response="accept")
         recorded.append(state.as_tuple())
     assert policy_states(store.interactions_frame("P01")).tolist() == [list(s) for s in recorded]
+
+
+def test_an_older_schema_is_migrated_on_open(tmp_path, monkeypatch):
+    from cacas.store import db, schema
+    path = tmp_path / "old.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+    v2 = schema.MIGRATIONS + [(SCHEMA_VERSION + 1, ["ALTER TABLE participants ADD COLUMN site TEXT DEFAULT ''"])]
+    monkeypatch.setattr(schema, "MIGRATIONS", v2)
+    monkeypatch.setattr(db, "SCHEMA_VERSION", SCHEMA_VERSION + 1)
+    with StudyStore(path) as s:
+        assert s.get_participant("P01").code == "P01"
+        assert s._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION + 1
+        assert s._conn.execute("SELECT site FROM participants").fetchone() == ("",)
+
+
+def test_empty_file_becomes_a_study_database(tmp_path):
+    path = tmp_path / "new.sqlite"
+    path.write_bytes(b"")
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+    with StudyStore(path, readonly=True) as s:
+        assert [p.code for p in s.list_participants()] == ["P01"]

@@ -156,6 +156,12 @@ class StudyStore:
             if self._queue is not None:
                 self._queue.close()
 
+    def __del__(self):  # a store dropped without close(): release the connection and lock file
+        try:
+            self.close()
+        except Exception:
+            pass
+
     def __enter__(self) -> "StudyStore":
         return self
 
