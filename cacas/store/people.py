@@ -1,0 +1,212 @@
+"""Studies, participants (pseudonymous codes) and their described preferences (versioned)."""
+
+from __future__ import annotations
+
+import json
+from typing import Any, Iterable
+
+import pandas as pd
+
+from cacas import preferences as prefs
+from cacas.errors import CacasError
+from cacas.store import validate as v
+from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
+
+
+class PeopleMixin:
+    """Method group of StudyStore: studies, participants, described preferences."""
+
+    # --- studies -------------------------------------------------------------------------------
+    def create_study(self, name: str, description: str = "") -> Study:
+        """Add a study (a name unique in this database)."""
+        name = v.study(name)
+        description = v.text(description, "study description")
+        at = v.now()
+
+        def fn(c):
+            if c.execute("SELECT 1 FROM studies WHERE name = ?", (name,)).fetchone():
+                raise CacasError(f"study {name!r} already exists")
+            c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, ?, ?)",
+                      (name, description, at))
+            self._event(c, "create_study", None, study=name)
+        self._write(fn)
+        return Study(name, description, at)
+
+    def studies(self) -> list[Study]:
+        """All studies, by name ("default" always exists)."""
+        with self._lock:
+            rows = self._conn.execute("SELECT name, description, created_at FROM studies ORDER BY name")
+            return [Study(*r) for r in rows]
+
+    # --- participants --------------------------------------------------------------------------
+    _PARTICIPANT_SQL = ("SELECT p.code, s.name, p.age_range, p.notes, p.active_policy, p.created_at, "
+                        "p.updated_at FROM participants p JOIN studies s ON s.id = p.study_id")
+
+    def add_participant(self, code: str, age_range: str = "", notes: str = "",
+                        study: str = DEFAULT_STUDY) -> ParticipantInfo:
+        """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
+        names). ``age_range`` like "25-34" or "65+"; a code already in use raises CacasError."""
+        code, age_range = v.code(code), v.age_range(age_range)
+        notes, study = v.text(notes, "notes"), v.study(study)
+
+        def fn(c):
+            sid = self._study_id(c, study)
+            if c.execute("SELECT 1 FROM participants WHERE code = ?", (code,)).fetchone():
+                raise CacasError(f"participant {code} already exists; codes must be unique")
+            at = v.now()
+            c.execute("INSERT INTO participants (study_id, code, age_range, notes, created_at, updated_at) "
+                      "VALUES (?, ?, ?, ?, ?, ?)", (sid, code, age_range, notes, at, at))
+            self._event(c, "add_participant", code, study=study, age_range=age_range)
+        self._write(fn)
+        return self.get_participant(code)
+
+    def update_participant(self, code: str, age_range: str | None = None,
+                           notes: str | None = None) -> ParticipantInfo:
+        """Change a participant's age range and/or notes (None: unchanged)."""
+        age = None if age_range is None else v.age_range(age_range)
+        notes = None if notes is None else v.text(notes, "notes")
+
+        def fn(c):
+            pid = self._pid(c, code)
+            row = c.execute("SELECT age_range, notes FROM participants WHERE id = ?", (pid,)).fetchone()
+            new = (row[0] if age is None else age, row[1] if notes is None else notes)
+            c.execute("UPDATE participants SET age_range = ?, notes = ?, updated_at = ? WHERE id = ?",
+                      (*new, v.now(), pid))
+            self._event(c, "update_participant", str(code).strip(), age_range=new[0],
+                        notes_changed=notes is not None)
+        self._write(fn)
+        return self.get_participant(code)
+
+    def get_participant(self, code: str) -> ParticipantInfo:
+        """One participant; an unknown code raises CacasError listing the known ones."""
+        def fn(c):
+            self._pid(c, code)
+            row = c.execute(self._PARTICIPANT_SQL + " WHERE p.code = ?", (str(code).strip(),)).fetchone()
+            return ParticipantInfo(*row)
+        return self._read(fn)
+
+    def list_participants(self, study: str | None = None) -> list[ParticipantInfo]:
+        """Participants (of one study, or all), by code."""
+        with self._lock:
+            if study is None:
+                rows = self._conn.execute(self._PARTICIPANT_SQL + " ORDER BY p.code")
+            else:
+                rows = self._conn.execute(self._PARTICIPANT_SQL + " WHERE s.name = ? ORDER BY p.code", (study,))
+            return [ParticipantInfo(*r) for r in rows]
+
+    def participants_frame(self, study: str | None = None) -> pd.DataFrame:
+        """participants.csv: participant, study, age_range, notes, active_policy, created_at,
+        updated_at, preference_version (latest saved, empty if none)."""
+        sql = ("SELECT p.code AS participant, s.name AS study, p.age_range, p.notes, p.active_policy, "
+               "p.created_at, p.updated_at, (SELECT MAX(version) FROM preferences f "
+               "WHERE f.participant_id = p.id) AS preference_version "
+               "FROM participants p JOIN studies s ON s.id = p.study_id")
+        df = self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code",
+                         (study,) if study else ())
+        for col in ("active_policy", "preference_version"):
+            df[col] = df[col].astype("Int64")
+        return df
+
+    # --- described preferences (persona format, design.md) ------------------------------------
+    @staticmethod
+    def _parse_preferences(code: str, preferences: Any) -> prefs.Participant:
+        if isinstance(preferences, prefs.Participant):
+            items = [p.to_dict() for p in preferences.preferences]
+        else:
+            items = [p.to_dict() if isinstance(p, prefs.Preference) else p for p in (preferences or [])]
+        return prefs.parse_participant({"id": code, "preferences": items})
+
+    def save_preferences(self, code: str, preferences: Any) -> int:
+        """Store a participant's described preferences as a new version; return the version.
+
+        ``preferences``: a list of Preference objects or persona-format dicts, or a
+        :class:`cacas.preferences.Participant`. Validated with
+        :func:`cacas.preferences.parse_participant` (fields, names, conflicts); an invalid one
+        raises CacasError naming the preference and field, and nothing is written.
+        """
+        code = str(code).strip()
+        person = self._parse_preferences(code, preferences)
+        payload = json.dumps([p.to_dict() for p in person.preferences], ensure_ascii=False)
+
+        def fn(c):
+            pid = self._pid(c, code)
+            version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM preferences WHERE participant_id = ?",
+                                (pid,)).fetchone()[0]
+            c.execute("INSERT INTO preferences (participant_id, version, preferences, created_at) "
+                      "VALUES (?, ?, ?, ?)", (pid, version, payload, v.now()))
+            self._event(c, "save_preferences", code, version=version, count=len(person.preferences))
+            return version
+        return self._write(fn)
+
+    def get_preferences(self, code: str, version: int | None = None) -> prefs.Participant | None:
+        """The participant's described preferences (latest version, or ``version``); None if none saved."""
+        def fn(c):
+            pid = self._pid(c, code)
+            if version is None:
+                row = c.execute("SELECT preferences FROM preferences WHERE participant_id = ? "
+                                "ORDER BY version DESC LIMIT 1", (pid,)).fetchone()
+            else:
+                row = c.execute("SELECT preferences FROM preferences WHERE participant_id = ? AND version = ?",
+                                (pid, v.integer(version, "preference version", 1))).fetchone()
+                if row is None:
+                    raise CacasError(f"participant {code} has no preference version {version}")
+            return row
+        row = self._read(fn)
+        return None if row is None else self._parse_preferences(str(code).strip(), json.loads(row[0]))
+
+    def preference_versions(self, code: str) -> list[dict]:
+        """Saved versions: [{"version", "created_at", "count"}], oldest first."""
+        def fn(c):
+            pid = self._pid(c, code)
+            return c.execute("SELECT version, created_at, preferences FROM preferences "
+                             "WHERE participant_id = ? ORDER BY version", (pid,)).fetchall()
+        return [{"version": r[0], "created_at": r[1], "count": len(json.loads(r[2]))} for r in self._read(fn)]
+
+    def export_personas(self, codes: Iterable[str] | None = None, study: str | None = None) -> str:
+        """The persona file text (design.md) of the latest preferences of these participants
+        (default: all, or all of ``study``); participants with no preferences are left out."""
+        wanted = [p.code for p in self.list_participants(study)] if codes is None else list(codes)
+        people = [p for p in (self.get_preferences(c) for c in wanted) if p is not None]
+        return prefs.dumps_personas(people)
+
+    def import_personas(self, data: Any, study: str = DEFAULT_STUDY, source: str | None = None) -> list[str]:
+        """Import a persona document (JSON text or parsed JSON): add participants that are
+        missing (to ``study``) and save each one's preferences as a new version. All or nothing:
+        one invalid participant or preference raises CacasError and nothing is written."""
+        if isinstance(data, (str, bytes)):
+            try:
+                data = json.loads(data)
+            except json.JSONDecodeError as exc:
+                raise CacasError(f"{source or 'persona file'}: not valid JSON (line {exc.lineno}, "
+                                 f"column {exc.colno}: {exc.msg})") from None
+        people = prefs.parse_personas(data, source)
+        for p in people:
+            v.code(p.id)
+        study = v.study(study)
+
+        def fn(c):
+            sid = self._study_id(c, study)
+            for p in people:
+                at = v.now()
+                row = c.execute("SELECT id FROM participants WHERE code = ?", (p.id,)).fetchone()
+                if row is None:
+                    c.execute("INSERT INTO participants (study_id, code, created_at, updated_at) "
+                              "VALUES (?, ?, ?, ?)", (sid, p.id, at, at))
+                    self._event(c, "add_participant", p.id, study=study, source="personas")
+                pid = self._pid(c, p.id)
+                version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM preferences "
+                                    "WHERE participant_id = ?", (pid,)).fetchone()[0]
+                payload = json.dumps([x.to_dict() for x in p.preferences], ensure_ascii=False)
+                c.execute("INSERT INTO preferences (participant_id, version, preferences, created_at) "
+                          "VALUES (?, ?, ?, ?)", (pid, version, payload, at))
+                self._event(c, "save_preferences", p.id, version=version, count=len(p.preferences),
+                            source="personas")
+        self._write(fn)
+        return [p.id for p in people]
+
+    def preferences_frame(self, study: str | None = None) -> pd.DataFrame:
+        """preferences.csv: participant, version, preferences (persona-format JSON list), created_at."""
+        sql = ("SELECT p.code AS participant, f.version, f.preferences, f.created_at FROM preferences f "
+               "JOIN participants p ON p.id = f.participant_id JOIN studies s ON s.id = p.study_id")
+        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, f.version",
+                           (study,) if study else ())

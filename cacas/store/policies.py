@@ -1,0 +1,168 @@
+"""Adaptation runs (CACAA, Table III) and policy checkpoints (atomic files, sha256, roll-back)."""
+
+from __future__ import annotations
+
+import json
+from typing import Sequence
+
+import pandas as pd
+
+from cacas.errors import CacasError
+from cacas.store import files
+from cacas.store import validate as v
+from cacas.store.base import PolicyVersion
+
+
+class PoliciesMixin:
+    """Method group of StudyStore: adaptation runs and policy checkpoints."""
+
+    # --- adaptation runs and policy checkpoints (CACAA, Table III) -----------------------------
+    def record_adaptation(self, participant: str, day: int, method: str, parameters: dict,
+                          duration_s: float, metrics: dict, policy_version: int | None = None) -> int:
+        """Record an adaptation run that used days 1..``day`` (0: the initial policy) with
+        ``method``; ``parameters`` and ``metrics`` are JSON-able dicts (metrics key
+        "preference_accuracy" feeds daily.csv), ``policy_version`` the checkpoint it produced.
+        Returns the run's id."""
+        method = v.method(method)
+        day = v.integer(day, "day", 0)  # 0: the initial policy
+        params_json, metrics_json = v.json_dict(parameters, "parameters"), v.json_dict(metrics, "metrics")
+        duration = v.number(duration_s, "duration_s", 0)
+        code = str(participant).strip()
+
+        def fn(c):
+            pid = self._pid(c, participant)
+            if day:
+                self._day_row(c, pid, code, day)
+            version = self._check_version(c, pid, code, policy_version)
+            cur = c.execute("INSERT INTO adaptations (participant_id, day, method, parameters, duration_s, "
+                            "metrics, policy_version, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                            (pid, day, method, params_json, duration, metrics_json, version, v.now()))
+            self._event(c, "record_adaptation", code, day=day, method=method, id=cur.lastrowid,
+                        duration_s=duration, policy_version=version)
+            return cur.lastrowid
+        return self._write(fn)
+
+    def adaptations_frame(self, participant: str | None = None, study: str | None = None) -> pd.DataFrame:
+        """adaptations.csv: participant, day, method, parameters (JSON), duration_s, metrics
+        (JSON), policy_version, created_at, preference_accuracy (from metrics; NaN if absent)."""
+        sql = ("SELECT p.code AS participant, a.day, a.method, a.parameters, a.duration_s, a.metrics, "
+               "a.policy_version, a.created_at FROM adaptations a JOIN participants p ON p.id = a.participant_id "
+               "JOIN studies s ON s.id = p.study_id")
+        where, params = [], []
+        if participant is not None:
+            where.append("p.code = ?")
+            params.append(str(participant).strip())
+        if study is not None:
+            where.append("s.name = ?")
+            params.append(study)
+        df = self._frame(sql + (" WHERE " + " AND ".join(where) if where else "") + " ORDER BY a.id", params)
+        df["policy_version"] = df["policy_version"].astype("Int64")
+        df["duration_s"] = df["duration_s"].astype("float64")
+        df["preference_accuracy"] = [pd.to_numeric(json.loads(m).get("preference_accuracy"), errors="coerce")
+                                     for m in df["metrics"]]
+        df["preference_accuracy"] = df["preference_accuracy"].astype("float64")
+        return df
+
+    def save_policy(self, participant: str, day: int, method: str, data: bytes, activate: bool = True) -> int:
+        """Store a policy checkpoint adapted from days 1..``day`` (0: the initial policy).
+
+        The bytes go to ``policies/<participant>/day<d>-<method>-<sha8>.pt`` beside the database,
+        written atomically (tmp + fsync + rename); the row records its sha256. Returns the new
+        version number (1..n per participant); with ``activate`` it becomes the policy in force.
+        """
+        method, day = v.method(method), v.integer(day, "day", 0)
+        if not isinstance(data, (bytes, bytearray)) or not data:
+            raise CacasError("policy data must be non-empty bytes (ReshapedPolicy.to_bytes())")
+        code = v.code(participant)
+        digest = files.sha256(bytes(data))
+        rel = f"{code}/day{day}-{method}-{digest[:8]}.pt"
+
+        def check(c):
+            pid = self._pid(c, code)
+            if day:
+                self._day_row(c, pid, code, day)
+        self._read(check)  # refuse before writing a file
+        if self.readonly:
+            raise CacasError(f"{self.path}: opened read-only; nothing was written")
+        files.atomic_write(self.policy_dir / rel, bytes(data))
+
+        def fn(c):
+            pid = self._pid(c, code)
+            version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM policies WHERE participant_id = ?",
+                                (pid,)).fetchone()[0]
+            c.execute("INSERT INTO policies (participant_id, version, day, method, path, sha256, size, created_at) "
+                      "VALUES (?, ?, ?, ?, ?, ?, ?, ?)", (pid, version, day, method, rel, digest, len(data), v.now()))
+            if activate:
+                c.execute("UPDATE participants SET active_policy = ?, updated_at = ? WHERE id = ?",
+                          (version, v.now(), pid))
+            self._event(c, "save_policy", code, version=version, day=day, method=method, sha256=digest,
+                        active=activate)
+            return version
+        return self._write(fn)
+
+    def _policy_rows(self, c, pid: int, where: str = "", params: Sequence = ()) -> list[PolicyVersion]:
+        active = c.execute("SELECT active_policy FROM participants WHERE id = ?", (pid,)).fetchone()[0]
+        rows = c.execute("SELECT version, day, method, path, sha256, size, created_at FROM policies "
+                         f"WHERE participant_id = ? {where} ORDER BY version", (pid, *params)).fetchall()
+        return [PolicyVersion(r[0], r[1], r[2], self.policy_dir / r[3], r[4], r[5], r[6], r[0] == active)
+                for r in rows]
+
+    def policy_versions(self, participant: str) -> list[PolicyVersion]:
+        """All policy checkpoints of a participant, oldest first (``active`` marks the one in force)."""
+        return self._read(lambda c: self._policy_rows(c, self._pid(c, participant)))
+
+    def active_policy(self, participant: str) -> PolicyVersion | None:
+        """The checkpoint in force; None: the initial policy."""
+        return next((p for p in self.policy_versions(participant) if p.active), None)
+
+    def set_active_policy(self, participant: str, version: int | None) -> None:
+        """Put a saved version in force (roll back or forward); None: back to the initial policy."""
+        code = str(participant).strip()
+
+        def fn(c):
+            pid = self._pid(c, participant)
+            ver = self._check_version(c, pid, code, version)
+            c.execute("UPDATE participants SET active_policy = ?, updated_at = ? WHERE id = ?", (ver, v.now(), pid))
+            self._event(c, "set_active_policy", code, version=ver)
+        self._write(fn)
+
+    def load_policy(self, participant: str, day: int | None = None, method: str = "cacas",
+                    version: int | None = None) -> bytes:
+        """The bytes of a checkpoint, after checking its sha256 (a mismatch or a missing file
+        raises CacasError). Which one: ``version`` if given; else the latest of ``method`` saved
+        for ``day``; else the active policy, or failing that the latest of ``method``."""
+        code = str(participant).strip()
+
+        def fn(c):
+            pid = self._pid(c, participant)
+            if version is not None:
+                rows = self._policy_rows(c, pid, "AND version = ?", (v.integer(version, "policy version", 1),))
+                what = f"version {version}"
+            elif day is not None:
+                rows = self._policy_rows(c, pid, "AND day = ? AND method = ?", (day, method))
+                what = f"day {day} and method {method!r}"
+            else:
+                rows = [p for p in self._policy_rows(c, pid) if p.active] or \
+                       self._policy_rows(c, pid, "AND method = ?", (method,))
+                what = f"method {method!r}"
+            if not rows:
+                raise CacasError(f"participant {code} has no saved policy for {what}")
+            return rows[-1]
+        pv = self._read(fn)
+        try:
+            data = pv.path.read_bytes()
+        except OSError:
+            raise CacasError(f"{pv.path}: policy version {pv.version} of participant {code} is missing") from None
+        if files.sha256(data) != pv.sha256:
+            raise CacasError(f"{pv.path}: policy version {pv.version} of participant {code} does not match "
+                             f"its recorded sha256 (the file was changed or damaged)")
+        return data
+
+    def policies_frame(self, study: str | None = None) -> pd.DataFrame:
+        """policies.csv: participant, version, day, method, path (relative to the policies
+        folder), sha256, size, created_at, active."""
+        sql = ("SELECT p.code AS participant, o.version, o.day, o.method, o.path, o.sha256, o.size, o.created_at, "
+               "CAST(o.version = p.active_policy AS INTEGER) AS active FROM policies o "
+               "JOIN participants p ON p.id = o.participant_id JOIN studies s ON s.id = p.study_id")
+        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, o.version",
+                           (study,) if study else ())
