@@ -1,0 +1,178 @@
+"""Adaptation: close the study day, adapt the robot's policy with CACAS (Table III, step 2), see
+what changed, and roll back to an earlier day's policy."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import streamlit as st
+
+from cacas.adaptation import METHODS, policy_changes
+from cacas.errors import CacasError
+from cacas.jobs import DONE, FAILED, RUNNER
+from cacas.policy import policy_from_bytes
+from cacas.study_day import adapt_day, day_status
+from app_pages import ui
+
+store = ui.store()
+code = ui.need_participant()
+db = ui.db_path()
+
+st.title(f"Adaptation · {code}")
+st.caption("After each study day the robot's policy is adapted from all of the participant's interactions so "
+           "far: the user model (UMA, Table II), the MLP policy and SAC against the decision model, combined "
+           "by policy reshaping (Eq. 5). The participant's described preferences are never used for this; "
+           "they only score the new policy afterwards (Fig. 4).")
+
+
+@st.cache_resource(show_spinner=False, max_entries=32)
+def _load(db_path: str, who: str, version: int):
+    """A saved policy version (checked against its sha256 by the store)."""
+    return policy_from_bytes(ui.store().load_policy(who, version=version))
+
+
+@st.cache_resource(show_spinner=False)
+def _initial():
+    from cacas.adaptation import load_initial_policy
+
+    return load_initial_policy()
+
+
+def _job_key(who: str, day: int) -> str:
+    return f"adapt:{db}:{who}:{day}"
+
+
+def _start(who: str, day: int) -> None:
+    s = st.session_state
+    job, started = RUNNER.start(_job_key(who, day), adapt_day, db, who, day, method=s.get("adapt-method", "cacas"),
+                                seed=int(s.get("adapt-seed", 0)), label=f"Adapting {who} after day {day}")
+    s["adapt-note"] = None if started else "This adaptation is already running (started in another tab?)."
+
+
+def _rollback(who: str) -> None:
+    choice = st.session_state.get("rollback-version")
+    try:
+        store.set_active_policy(who, None if choice == 0 else choice)
+    except CacasError as exc:
+        st.session_state["rollback-error"] = str(exc)
+    else:
+        st.session_state["rollback-error"] = None
+        st.toast("Policy in force changed.", icon=":material/history:")
+
+
+status = day_status(store, code)
+versions = store.policy_versions(code)
+runs = store.adaptations_frame(code)
+
+# --- 1. the day and the adaptation --------------------------------------------------------------
+st.subheader("Close the day and adapt")
+day = status.day
+running = next((j for j in RUNNER.running() if j.key.startswith(f"adapt:{db}:{code}:")), None)
+if day == 0:
+    st.info(f"{code} has not started day 1 yet. Adaptation runs after a study day.")
+elif running is not None:
+    ui.job_progress(running.key)
+else:
+    adapted = set(int(d) for d in runs["day"] if int(d) > 0)
+    c1, c2, c3 = st.columns(3)
+    c1.metric("Study day", f"{day}", "open" if status.open else "closed", delta_color="off")
+    c2.metric("Interactions that day", status.interactions_today)
+    c3.metric("Policy in force", "initial" if status.policy_version is None else f"version {status.policy_version}")
+    with st.expander("Options"):
+        st.selectbox("Method", METHODS, key="adapt-method",
+                     help="CACAS for the study; the others are the paper's baselines (Fig. 4) and a bandit.")
+        st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
+    if status.open:
+        st.button(f"Close day {day} and adapt", type="primary", icon=":material/model_training:",
+                  on_click=_start, args=(code, day), disabled=status.interactions_today == 0,
+                  help="Closes the day (no more interactions on it) and adapts the policy.")
+        if status.interactions_today == 0:
+            st.caption("No interactions on this day yet.")
+    elif day not in adapted:
+        st.button(f"Adapt after day {day}", type="primary", icon=":material/model_training:",
+                  on_click=_start, args=(code, day))
+    else:
+        st.success(f"Day {day} is closed and adapted; day {day + 1} can start on the tablet.",
+                   icon=":material/check_circle:")
+    if st.session_state.get("adapt-note"):
+        st.warning(st.session_state["adapt-note"])
+
+    job = RUNNER.get(_job_key(code, day)) if day else None
+    if job is not None and job.status == FAILED:
+        st.error(f"The adaptation failed: {job.error}", icon=":material/error:")
+    elif job is not None and job.status == DONE:
+        res = job.result
+        msg = (f"Adapted with {res.method} in {res.duration_s:.1f} s; policy version {res.policy_version} is in "
+               f"force from day {res.day + 1}.")
+        if res.preference_accuracy is not None:
+            msg += f" Preference accuracy (Fig. 4): {ui.percent(res.preference_accuracy)}."
+        st.success(msg, icon=":material/check_circle:")
+        with st.expander("Adaptation log"):
+            st.code("\n".join(res.log) or "(no log)", language=None)
+
+# --- 2. what changed -------------------------------------------------------------------------------
+st.subheader("What changed")
+if not versions:
+    st.caption("No adapted policy yet: the initial policy (trained against the generic user simulator) is in force.")
+else:
+    labels = {0: "initial policy"} | {v.version: f"version {v.version} (after day {v.day}, {v.method})" for v in versions}
+    active = next((v.version for v in versions if v.active), 0)
+    c1, c2 = st.columns(2)
+    keys = list(labels)
+    after = c2.selectbox("After", keys, index=keys.index(active), format_func=labels.get, key="cmp-after")
+    before_default = max(0, keys.index(after) - 1)
+    before = c1.selectbox("Before", keys, index=before_default, format_func=labels.get, key="cmp-before")
+    data = store.interactions_frame(code, method=None)
+    try:
+        p_before = _initial() if before == 0 else _load(db, code, before)
+        p_after = _initial() if after == 0 else _load(db, code, after)
+        changes = policy_changes(p_before, p_after, data, top=10)
+    except CacasError as exc:
+        st.error(str(exc))
+    else:
+        if changes.empty:
+            st.caption("No interactions yet.")
+        else:
+            n = int(changes["changed"].sum())
+            st.markdown(f"The robot's action in {code}'s **{len(changes)} most frequent contexts**: "
+                        f"**{n}** changed.")
+            view = changes.rename(columns={"time_slot": "time of day", "interval": "interval (min)",
+                                           "times": "seen", "action_before": "before", "action_after": "after"})
+            st.dataframe(view.style.apply(
+                lambda r: ["background-color: #fff4d6" if r["changed"] else "" for _ in r], axis=1),
+                hide_index=True, width="stretch")
+
+# --- 3. versions and roll back ----------------------------------------------------------------------
+st.subheader("Policy versions")
+if versions:
+    acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
+    table = pd.DataFrame([{
+        "version": v.version, "adapted from": f"days 1-{v.day}" if v.day else "-", "method": v.method,
+        "saved (UTC)": v.created_at[:16].replace("T", " "), "in force": "yes" if v.active else "",
+        "preference accuracy": acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
+    } for v in versions])
+    st.dataframe(table, hide_index=True, width="stretch",
+                 column_config={"preference accuracy": st.column_config.NumberColumn(format="percent")})
+    with st.form("rollback", border=True):
+        st.markdown("**Roll back (or forward)**: put an earlier policy in force for the next interactions.")
+        options = [0] + [v.version for v in versions]
+        st.selectbox("Policy", options, format_func=lambda v: "initial policy" if v == 0 else f"version {v}",
+                     index=options.index(next((v.version for v in versions if v.active), 0)),
+                     key="rollback-version")
+        st.form_submit_button("Put in force", on_click=_rollback, args=(code,), icon=":material/history:")
+    if st.session_state.get("rollback-error"):
+        st.error(st.session_state["rollback-error"])
+else:
+    st.caption("None yet.")
+
+if len(runs):
+    with st.expander(f"Adaptation runs ({len(runs)})"):
+        view = runs.assign(
+            log_lines=[len(json.loads(p).get("log", [])) for p in runs["parameters"]],
+            created_at=[c[:16].replace("T", " ") for c in runs["created_at"]],
+        )[["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]]
+        st.dataframe(view, hide_index=True, width="stretch",
+                     column_config={"duration_s": st.column_config.NumberColumn("duration (s)", format="%.1f"),
+                                    "preference_accuracy": st.column_config.NumberColumn(format="percent")})
+        ui.download_csv(store.adaptations_frame(code), f"adaptations-{code}.csv")

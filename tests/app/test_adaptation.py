@@ -1,0 +1,67 @@
+from cacas.jobs import RUNNER
+
+from apphelpers import no_exception, texts
+
+PAGE = "app_pages/adaptation.py"
+
+
+def _button(at, label):
+    return next(b for b in at.button if b.label == label)
+
+
+def _day_with_interactions(store, code="P01"):
+    store.add_participant(code)
+    store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"},
+                                  {"activity": ["use stove"], "scene": ["kitchen"], "action": "remind to turn off"}])
+    day = store.open_day(code)
+    for i, (act, scene, robot, resp) in enumerate([("cough", "bedroom", "chitchat", "reject"),
+                                                   ("cough", "bedroom", "pain check", "accept"),
+                                                   ("use stove", "kitchen", "set a timer", "reject")]):
+        store.record_interaction(code, day, activity=act, scene=scene, hour=8, interval_minutes=30,
+                                 robot_action=robot, response=resp)
+    store.record_interaction(code, day, activity="use stove", scene="kitchen", hour=18, interval_minutes=5,
+                             robot_action="do nothing", response="accept", type="type_2",
+                             user_action="remind to turn off")
+    return day
+
+
+def test_page_before_any_day(app, store, quick_policy):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "has not started day 1" in texts(at)
+
+
+def test_close_day_and_adapt(app, store, quick_policy):
+    day = _day_with_interactions(store)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    _button(at, f"Close day {day} and adapt").click().run()
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job is not None
+    assert job.wait(300), "adaptation did not finish"
+    assert job.status == "done", job.error
+    at.run()
+    no_exception(at)
+    # the day is closed, a new policy version is in force, the run is recorded with its metric
+    assert not store.days("P01")[0].is_open
+    active = store.active_policy("P01")
+    assert active is not None and active.day == day
+    runs = store.adaptations_frame("P01")
+    assert list(runs["day"]) == [0, 1]  # day 0: the initial policy's accuracy (Fig. 4, day 1)
+    assert 0.0 <= runs["preference_accuracy"].iloc[-1] <= 1.0
+    assert f"policy version {active.version} is in force from day 2" in texts(at)
+    assert "most frequent contexts" in texts(at)
+    assert "Day 1 is closed and adapted" in texts(at)
+
+
+def test_rollback_to_the_initial_policy(app, store, quick_policy):
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    at.selectbox(key="rollback-version").set_value(0)
+    _button(at, "Put in force").click().run()
+    no_exception(at)
+    assert store.active_policy("P01") is None

@@ -1,0 +1,92 @@
+import numpy as np
+import pytest
+
+from cacas import records, spaces
+from cacas.errors import CacasError
+from cacas.policy import ReshapedPolicy
+from cacas.sac import DiscreteSAC, SACConfig
+from cacas.store import StudyStore
+from cacas.study_day import Context, answer, clip_for, day_status, propose, start_day
+
+
+@pytest.fixture
+def store(tmp_path):
+    s = StudyStore(tmp_path / "s.sqlite")
+    s.add_participant("P01")
+    yield s
+    s.close()
+
+
+@pytest.fixture
+def policy():
+    return ReshapedPolicy(DiscreteSAC(SACConfig(), seed=0), None, beta=1.0, method="initial")
+
+
+def test_context_token_round_trip_and_bad_input():
+    ctx = Context.from_choices(3, 7, "Use Stove", "KITCHEN")
+    assert (ctx.activity, ctx.scene, ctx.hour, ctx.interval_minutes) == ("use stove", "kitchen", 6, 30)
+    assert Context.from_token(ctx.to_token()) == ctx
+    with pytest.raises(CacasError, match="time of day 12 is invalid"):
+        Context.from_choices(12, 0, "cough", "bedroom")
+    with pytest.raises(CacasError, match="unknown activity"):
+        Context.from_choices(1, 0, "dance", "bedroom")
+    with pytest.raises(CacasError, match="in the address is invalid"):
+        Context.from_token("1.2.99.0")
+
+
+def test_answers_are_recorded_with_the_state(store, policy):
+    day = start_day(store, "P01")
+    ctx = Context.from_choices(4, 6, "cough", "bedroom")
+    p1 = propose(policy, ctx, None, policy_version=None)
+    assert p1.state == spaces.State.from_names("cough", "bedroom", 8, 20)
+    assert np.isclose(p1.probabilities.sum(), 1.0)
+    if p1.robot_speaks:
+        answer(store, "P01", day, p1, response="reject")
+    else:
+        with pytest.raises(CacasError, match="did not propose anything"):
+            answer(store, "P01", day, p1, response="reject")
+        answer(store, "P01", day, p1, response="no response")
+    p2 = propose(policy, ctx, store.interactions_frame("P01").iloc[-1].to_dict(), heard="sneeze",
+                 heard_confidence=0.6)
+    assert p2.heard == "sneeze" and p2.state.activity == spaces.activity_index("sneeze")
+    answer(store, "P01", day, p2, user_action="pain check")
+    df = store.interactions_frame("P01", extra=True)
+    assert list(df["type"]) == [records.ROBOT_INITIATED, records.USER_INITIATED]
+    assert df["activity"].iloc[1] == "cough" and df["recognised_activity"].iloc[1] == "sneeze"
+    assert df["user_action"].iloc[1] == "pain check" and df["response"].iloc[1] == "accept"
+    assert df["previous_action"].iloc[1] == p1.action
+    with pytest.raises(CacasError, match="not a request"):
+        answer(store, "P01", day, p2, user_action="do nothing")
+    with pytest.raises(CacasError, match="answer 'maybe' is invalid"):
+        answer(store, "P01", day, p2, response="maybe")
+    with pytest.raises(CacasError, match="not both"):
+        answer(store, "P01", day, p2, response="accept", user_action="chitchat")
+    assert len(store.interactions_frame("P01")) == 2  # the refused answers wrote nothing
+
+
+def test_next_day_waits_for_the_adaptation(store):
+    day = start_day(store, "P01")
+    assert start_day(store, "P01") == day  # a reload opens nothing new
+    store.close_day("P01", day)
+    assert day_status(store, "P01").waiting_for_adaptation
+    with pytest.raises(CacasError, match="has not been adapted yet"):
+        start_day(store, "P01")
+    store.record_adaptation("P01", day, "cacas", {}, 1.0, {})
+    assert start_day(store, "P01") == day + 1
+
+
+def test_clip_choice_is_stable():
+    ctx = Context.from_choices(3, 7, "cough", "kitchen")
+    clips = [f"c{i}.ogg" for i in range(10)]
+    assert clip_for(ctx, "P01", 1, 2, clips) == clip_for(ctx, "P01", 1, 2, clips)
+    assert clip_for(ctx, "P01", 1, 2, []) is None
+
+
+def test_store_interactions_give_the_recorded_state(store):
+    """The adaptation reads the store's interactions: the state it rebuilds must be the one recorded
+    (S4 30 minutes is bin 7)."""
+    day = start_day(store, "P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=30,
+                             robot_action="pain check", response="accept")
+    states = records.policy_states(store.interactions_frame("P01"))
+    assert tuple(states[0][:4]) == (spaces.activity_index("cough"), 0, 4, spaces.interval_bin(30))
