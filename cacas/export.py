@@ -140,7 +140,8 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     """
     store = db if isinstance(db, StudyStore) else StudyStore(db, readonly=True)
     try:
-        tables = export_tables(store, study)
+        with store.snapshot():  # one consistent view, even while the app keeps writing
+            tables = export_tables(store, study)
         policies = {rel: store.load_policy(who, version=int(ver))
                     for who, ver, rel in zip(tables["policies"]["participant"], tables["policies"]["version"],
                                              tables["policies"]["path"])}

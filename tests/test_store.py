@@ -459,3 +459,16 @@ def test_empty_file_becomes_a_study_database(tmp_path):
         s.add_participant("P01")
     with StudyStore(path, readonly=True) as s:
         assert [p.code for p in s.list_participants()] == ["P01"]
+
+
+def test_snapshot_reads_one_consistent_view(store):
+    day = store.open_day("P01")
+    other = StudyStore(store.path)  # e.g. the tablet, writing while the researcher exports
+    with store.snapshot():
+        other.record_interaction("P01", day, **GOOD)
+        assert len(store.interactions_frame("P01")) == 0 and store.resume("P01").total_interactions == 0
+        with pytest.raises(RuntimeError, match="for reads"):
+            store.record_questionnaire("P01", 5)
+    assert len(store.interactions_frame("P01")) == 1
+    assert store.questionnaire_frame().empty
+    other.close()

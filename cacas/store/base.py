@@ -3,6 +3,7 @@ the helpers every method group uses (participant and day lookup, the event log).
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import sqlite3
@@ -131,7 +132,24 @@ class StoreBase:
         if self.readonly:
             raise CacasError(f"{self.path}: opened read-only; nothing was written")
         with self._lock:
+            if getattr(self, "_snapshot", False):
+                raise RuntimeError("StudyStore.snapshot() is for reads; write outside the with-block")
             return db.transact(self._conn, fn, self._queue)
+
+    @contextlib.contextmanager
+    def snapshot(self):
+        """``with store.snapshot(): ...``: every read inside sees the database as it was when the
+        block began, even while other processes write (used by the export, so its tables agree).
+        Reads only: a write inside raises."""
+        with self._lock:
+            self._conn.execute("BEGIN")
+            self._conn.execute("SELECT COUNT(*) FROM studies").fetchone()  # the snapshot starts here
+            self._snapshot = True
+            try:
+                yield self
+            finally:
+                self._snapshot = False
+                self._conn.execute("COMMIT")
 
     def _read(self, fn: Callable[[sqlite3.Connection], T]) -> T:
         with self._lock:

@@ -143,7 +143,10 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
 
 
 def read(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
-    """Run several reads ``fn(conn)`` on one consistent snapshot (a deferred transaction)."""
+    """Run several reads ``fn(conn)`` on one consistent snapshot (a deferred transaction; inside
+    an enclosing one, that one's snapshot)."""
+    if conn.in_transaction:
+        return fn(conn)
     conn.execute("BEGIN")
     try:
         return fn(conn)
