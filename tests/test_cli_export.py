@@ -104,3 +104,7 @@ def test_import_of_a_missing_bundle_exits_2(run, tmp_path, capsys):
     code = run("import", "--bundle", tmp_path / "none.zip", "--db", tmp_path / "new.sqlite")
     assert code == 2 and "no such bundle" in capsys.readouterr().err
     assert not (tmp_path / "new.sqlite").exists()
+
+
+def test_export_is_a_registered_sub_command():
+    assert "export" in cli.COMMANDS

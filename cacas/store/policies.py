@@ -139,7 +139,8 @@ class PoliciesMixin:
                 rows = self._policy_rows(c, pid, "AND version = ?", (v.integer(version, "policy version", 1),))
                 what = f"version {version}"
             elif day is not None:
-                rows = self._policy_rows(c, pid, "AND day = ? AND method = ?", (day, method))
+                rows = self._policy_rows(c, pid, "AND day = ? AND method = ?",
+                                         (v.integer(day, "day", 0), v.method(method)))
                 what = f"day {day} and method {method!r}"
             else:
                 rows = [p for p in self._policy_rows(c, pid) if p.active] or \
