@@ -7,6 +7,7 @@ coming back the next day, returns to the same place; the data comes from the stu
 to the researcher's pages, no preferences, no other participants.
 """
 
+import importlib.util
 from pathlib import Path
 
 import streamlit as st
@@ -18,22 +19,33 @@ from app_pages import ui
 st.set_page_config(page_title="CACAS Studio", page_icon=":material/smart_toy:", layout="wide")
 
 HERE = Path(__file__).resolve().parent
-#: (section, file, title, icon); a page whose file is absent is left out of the navigation.
+#: (section, file, title, icon, library modules it needs). A page whose file or modules are
+#: absent (a part of the library not installed yet) is left out of the navigation.
 PAGES = [
-    ("Study", "app_pages/overview.py", "Overview", ":material/dashboard:"),
-    ("Study", "app_pages/participants.py", "Participants", ":material/group:"),
-    ("Study", "app_pages/session.py", "Study session", ":material/tablet:"),
-    ("Study", "app_pages/adaptation.py", "Adaptation", ":material/model_training:"),
-    ("Study", "app_pages/results.py", "Results", ":material/monitoring:"),
-    ("Lab", "app_pages/simulation.py", "Simulation lab", ":material/science:"),
-    ("Lab", "app_pages/sounds.py", "Sounds and scenes", ":material/graphic_eq:"),
+    ("Study", "app_pages/overview.py", "Overview", ":material/dashboard:", ()),
+    ("Study", "app_pages/participants.py", "Participants", ":material/group:", ()),
+    ("Study", "app_pages/session.py", "Study session", ":material/tablet:", ("cacas.simulator", "cacas.policy")),
+    ("Study", "app_pages/adaptation.py", "Adaptation", ":material/model_training:", ("cacas.adaptation",)),
+    ("Study", "app_pages/results.py", "Results", ":material/monitoring:", ("cacas.plots", "cacas.export")),
+    ("Lab", "app_pages/simulation.py", "Simulation lab", ":material/science:", ("cacas.plots", "cacas.experiment")),
+    ("Lab", "app_pages/sounds.py", "Sounds and scenes", ":material/graphic_eq:",
+     ("cacas.audio.training", "cacas.audio.library", "cacas.vision")),
 ]
+
+
+def _available(path: str, modules: tuple[str, ...]) -> bool:
+    if not (HERE / path).exists():
+        return False
+    try:
+        return all(importlib.util.find_spec(m) is not None for m in modules)
+    except ModuleNotFoundError:
+        return False
 
 
 def _navigation() -> dict[str, list]:
     sections: dict[str, list] = {}
-    for section, path, title, icon in PAGES:
-        if (HERE / path).exists():
+    for section, path, title, icon, modules in PAGES:
+        if _available(path, modules):
             sections.setdefault(section, []).append(
                 st.Page(path, title=title, icon=icon, default=path.endswith("overview.py")))
     return sections
@@ -103,7 +115,7 @@ def _sidebar(store) -> None:
                 state = "open" if status.open else "closed"
                 st.caption(f"Day {status.day} ({state}) · {status.interactions_today} interactions that day · "
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
-            st.caption(f"Tablet address for the participant: `?participant={code}&view=tablet`")
+            st.caption(f"Participant's tablet: [open the tablet view](?participant={code}&view=tablet)")
         st.caption(f"Database: `{ui.db_path()}`")
 
 

@@ -76,7 +76,7 @@ elif running is not None:
 else:
     adapted = set(int(d) for d in runs["day"] if int(d) > 0)
     c1, c2, c3 = st.columns(3)
-    c1.metric("Study day", f"{day}", "open" if status.open else "closed", delta_color="off")
+    c1.metric("Study day", f"{day} ({'open' if status.open else 'closed'})")
     c2.metric("Interactions that day", status.interactions_today)
     c3.metric("Policy in force", "initial" if status.policy_version is None else f"version {status.policy_version}")
     with st.expander("Options"):

@@ -55,10 +55,10 @@ def need_participant() -> str:
 
 def link(page: str, label: str, icon: str | None = None, container=None) -> None:
     """A link to another page of the app (left out if that page is not in the navigation)."""
-    from pathlib import Path
-
-    if (Path(__file__).resolve().parent.parent / page).exists():
+    try:
         (container or st).page_link(page, label=label, icon=icon)
+    except st.errors.StreamlitPageNotFoundError:
+        pass
 
 
 def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:

@@ -7,7 +7,10 @@ pages stay thin and these are tested without a browser.
 from __future__ import annotations
 
 import io
+import json
 import math
+import shutil
+from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
@@ -241,3 +244,68 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
         "time of day": [spaces.time_slot_label(s) for s in slot],
         "activity": df["activity"], "room": df["scene"], "robot": df["robot_action"], "answer": who,
     })
+
+
+# --- simulated runs kept beside the study database -------------------------------------------------
+
+def runs_dir(db_path) -> Path:
+    """Where the Simulation lab keeps its runs: ``runs/`` beside the study database."""
+    return Path(db_path).parent / "runs"
+
+
+def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, settings: dict) -> Path:
+    """Write a simulated run as ``cacas simulate`` does (daily.csv, interactions.csv) plus
+    settings.json, into ``root/name`` (written to a temporary folder, then renamed into place)."""
+    import json
+    import shutil
+    root = Path(root)
+    root.mkdir(parents=True, exist_ok=True)
+    final = root / name
+    tmp = root / f".{name}.tmp"
+    shutil.rmtree(tmp, ignore_errors=True)
+    tmp.mkdir()
+    records.write_csv(daily, tmp / "daily.csv")
+    records.write_csv(interactions, tmp / "interactions.csv")
+    (tmp / "settings.json").write_text(json.dumps(settings, indent=2, default=str), encoding="utf-8")
+    if final.exists():
+        shutil.rmtree(final)
+    tmp.replace(final)
+    return final
+
+
+def list_runs(root) -> list[str]:
+    """Names of the saved runs, newest first."""
+    root = Path(root)
+    if not root.is_dir():
+        return []
+    runs = [p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".") and (p / "daily.csv").exists()]
+    return [p.name for p in sorted(runs, key=lambda p: p.stat().st_mtime, reverse=True)]
+
+
+def load_daily(path) -> pd.DataFrame:
+    """A daily.csv (of a run, or uploaded): checked for design.md's columns."""
+    df = pd.read_csv(path)
+    missing = [c for c in ("participant", "method", "day", "success_rate", "preference_accuracy",
+                           "cumulative_feedback", "interactions") if c not in df.columns]
+    if missing:
+        raise CacasError(f"{getattr(path, 'name', path)}: not a daily.csv; missing columns: {', '.join(missing)}")
+    return df
+
+
+def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
+                   seed: int = 0, no_response_rate: float = 0.1, progress=None) -> Path:
+    """A simulated study (:func:`cacas.experiment.simulate_study`) saved as a run under
+    ``out_root`` (see :func:`save_run`); returns the run's folder. For a background job."""
+    from datetime import datetime, timezone
+
+    from cacas.experiment import simulate_study
+
+    if not participants:
+        raise CacasError("choose at least one simulated participant")
+    result = simulate_study(list(participants), days=days, interactions=interactions, methods=tuple(methods),
+                            seed=seed, no_response_rate=no_response_rate, progress=progress)
+    stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+    name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
+    settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,
+                "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate}
+    return save_run(out_root, name, result.daily, result.interactions, settings)

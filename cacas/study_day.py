@@ -302,3 +302,56 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
                              accuracy, changes)
     finally:
         store.close()
+
+
+def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-pr", "orl", "nn"),
+                    study: str | None = None, seed: int = 0, progress: Progress | None = None) -> int:
+    """Fig. 4 on the human study (Section V-B.1): "we used the interaction data each day to adapt
+    those models and tested them by generating data using the described preferences".
+
+    For every participant with described preferences and every closed day d, each method adapts
+    from days 1..d (its own chain, starting from the initial policy) and the result is scored
+    with ``preference_accuracy``; runs are recorded as adaptations of that method (day 0: the
+    initial policy), so the exported daily.csv has each method's accuracy. Runs already recorded
+    are skipped. Returns the number of runs recorded.
+    """
+    from cacas.adaptation import adapt_policy, load_initial_policy, preference_accuracy
+    from cacas.store import StudyStore
+
+    say = progress or (lambda f, m: None)
+    store = StudyStore(db_path)
+    try:
+        initial = load_initial_policy()
+        work = []
+        for p in store.list_participants(study):
+            person = store.get_preferences(p.code)
+            closed = [d.day for d in store.days(p.code) if not d.is_open]
+            if person is not None and closed:
+                work.append((p.code, person, closed))
+        total = max(1, sum(len(methods) * (len(c) + 1) for _, _, c in work))
+        done = recorded = 0
+        for code, person, closed in work:
+            data = store.interactions_frame(code, method=None)
+            runs = store.adaptations_frame(code)
+            have = set(zip(runs["method"], runs["day"].astype(int)))
+            for method in methods:
+                policy = initial
+                if (method, 0) not in have:
+                    store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
+                                            {"preference_accuracy": float(preference_accuracy(initial, person, seed=seed))})
+                    recorded += 1
+                done += 1
+                for day in closed:
+                    say(done / total, f"{code}: {method} after day {day}")
+                    result = adapt_policy(policy, data[data["day"] <= day], method=method, seed=seed + day)
+                    policy = result.policy
+                    if (method, day) not in have:
+                        acc = float(preference_accuracy(policy, person, seed=seed))
+                        store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
+                                                float(result.duration_s), {"preference_accuracy": acc})
+                        recorded += 1
+                    done += 1
+        say(1.0, f"{recorded} comparison runs recorded")
+        return recorded
+    finally:
+        store.close()

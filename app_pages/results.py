@@ -1,0 +1,144 @@
+"""Results: Fig. 3 (success rate and cumulative feedback per day), Fig. 4 (the methods' preference
+accuracy per day), the satisfaction questionnaire, and a CSV download for every table."""
+
+from __future__ import annotations
+
+import io
+import tempfile
+from pathlib import Path
+
+import pandas as pd
+import streamlit as st
+
+from cacas import app_support, plots
+from cacas.errors import CacasError
+from cacas.export import export_study, export_tables
+from cacas.jobs import FAILED, RUNNER
+from cacas.study_day import compare_methods
+from app_pages import ui
+
+store = ui.store()
+study = ui.study()
+db = ui.db_path()
+HUMAN = "Human study (this database)"
+
+st.title("Results")
+
+# --- which data ------------------------------------------------------------------------------------
+runs = app_support.list_runs(app_support.runs_dir(db))
+sources = [HUMAN] + [f"Simulated run: {r}" for r in runs] + ["Upload a daily.csv"]
+source = st.segmented_control("Data", sources, default=HUMAN, key="results-source") or HUMAN
+
+if source == HUMAN:
+    tables = export_tables(store, study)
+    daily = tables["daily"]
+    st.caption(f"Study **{study}**: {daily['participant'].nunique()} participant(s), "
+               f"{len(tables['interactions'])} interactions. Day d's success rate uses the policy adapted from "
+               "days 1..d-1 (Section V-B.2).")
+elif source.startswith("Simulated run: "):
+    name = source.removeprefix("Simulated run: ")
+    folder = app_support.runs_dir(db) / name
+    daily = app_support.load_daily(folder / "daily.csv")
+    tables = {"daily": daily, "interactions": pd.read_csv(folder / "interactions.csv")}
+    st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
+               f"participant(s), methods {', '.join(daily['method'].unique())}.")
+else:
+    up = st.file_uploader("daily.csv from `cacas simulate` or an export", type=["csv"], key="results-upload")
+    if up is None:
+        st.stop()
+    try:
+        daily = app_support.load_daily(io.BytesIO(up.getvalue()))
+    except (CacasError, ValueError, pd.errors.ParserError) as exc:
+        st.error(f"{up.name}: {exc}", icon=":material/error:")
+        st.stop()
+    tables = {"daily": daily}
+
+fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"])
+
+with fig3:
+    loop = daily.dropna(subset=["success_rate"])
+    if loop.empty:
+        st.info("No study day with interactions yet. Run a day on the **Study session** page.")
+    else:
+        method = loop["method"].iloc[0] if "cacas" not in set(loop["method"]) else "cacas"
+        per_day = loop[loop["method"] == method].groupby("day").agg(
+            success=("success_rate", "mean"), feedback=("cumulative_feedback", "mean"), n=("participant", "nunique"))
+        last = per_day.index.max()
+        c1, c2, c3 = st.columns(3)
+        c1.metric(f"Day {last} mean success rate", ui.percent(per_day.loc[last, "success"]),
+                  None if len(per_day) < 2 else f"{100 * (per_day.loc[last, 'success'] - per_day['success'].iloc[0]):+.0f} "
+                                                f"points since day {per_day.index.min()}")
+        c2.metric("Mean cumulative feedback", f"{per_day.loc[last, 'feedback']:.0f} data points")
+        c3.metric("Participants", int(per_day["n"].max()))
+        st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
+        st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
+                   "is a robot-initiated action the participant accepted; requests by the participant are not.")
+
+with fig4:
+    acc = daily.dropna(subset=["preference_accuracy"])
+    if source == HUMAN:
+        st.markdown("The paper did not rerun the study with each method: it adapted each one from the same "
+                    "daily interactions and scored it on states generated from the described preferences.")
+        key = f"compare:{db}:{study}"
+        job = ui.job_progress(key)
+        if job is None or not job.running:
+            if st.button("Compare methods on this study's data", icon=":material/compare_arrows:",
+                         help="Adapts CACAS w/o PR, ORL and NN day by day from each participant's interactions "
+                              "(in the background; a few seconds per participant and day)."):
+                RUNNER.start(key, compare_methods, db, study=study, label="Comparing methods")
+                st.rerun()
+            if job is not None and job.status == FAILED:
+                st.error(f"The comparison failed: {job.error}")
+    if acc.empty:
+        st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
+                "described preferences.")
+    else:
+        st.plotly_chart(plots.methods_figure(daily), width="stretch")
+        summary = acc.groupby(["method", "day"])["preference_accuracy"].mean().unstack("day")
+        st.dataframe(summary.style.format("{:.0%}"), width="stretch")
+
+with quest:
+    st.markdown("*\"What is your satisfaction level regarding the robot's ability to adapt to your "
+                "preferences?\"* 1 = very dissatisfied, 10 = very satisfied (Section V-B.1).")
+    answers = store.questionnaire_frame(study)
+    s = app_support.questionnaire_summary(answers)
+    c1, c2, c3, c4 = st.columns(4)
+    c1.metric("Answers", s["n"])
+    c2.metric("Mean", "–" if pd.isna(s["mean"]) else f"{s['mean']:.2f}")
+    c3.metric("SD", "–" if pd.isna(s["sd"]) else f"{s['sd']:.2f}")
+    c4.metric("Rated 8 or higher", ui.percent(s["share_8_or_more"]))
+    st.caption("Latest answer per participant; sample standard deviation. The paper: mean 8.125, SD 0.64, "
+               "87.5% at 8 or higher.")
+    codes = [p.code for p in store.list_participants(study)]
+    if codes:
+        with st.form("questionnaire", border=True, clear_on_submit=True):
+            who = st.selectbox("Participant", codes, index=codes.index(ui.participant()) if ui.participant() in codes else 0)
+            score = st.slider("Satisfaction", 1, 10, 8)
+            comments = st.text_area("Comments (optional; no names)")
+            if st.form_submit_button("Save answer", icon=":material/save:"):
+                try:
+                    store.record_questionnaire(who, score, comments)
+                except CacasError as exc:
+                    st.error(str(exc), icon=":material/error:")
+                else:
+                    st.success(f"Saved {who}'s answer ({score}).", icon=":material/check_circle:")
+                    st.rerun()
+    if len(answers):
+        st.dataframe(answers, hide_index=True, width="stretch")
+        ui.download_csv(answers, "questionnaire.csv")
+
+with data:
+    st.markdown("Long-format tables, the same columns as `cacas simulate` and `cacas export` write.")
+    for name, df in tables.items():
+        if name in ("events", "policies", "studies", "preferences", "days") and source == HUMAN:
+            continue
+        with st.expander(f"{name}.csv · {len(df)} rows", expanded=name == "daily"):
+            st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)))
+            ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
+    if source == HUMAN:
+        def _bundle() -> bytes:
+            with tempfile.TemporaryDirectory() as tmp:
+                return Path(export_study(ui.store(), tmp, study).bundle).read_bytes()
+
+        st.download_button("Download everything (zip of every table and policy file)", _bundle,
+                           file_name=f"cacas-study-{study}.zip", mime="application/zip", icon=":material/folder_zip:")

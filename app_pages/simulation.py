@@ -1,0 +1,120 @@
+"""Simulation lab: run the study with simulated participants first, to tune and to compare methods
+(design.md; the same as ``cacas simulate``)."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import streamlit as st
+
+from cacas import app_support, plots
+from cacas.errors import CacasError
+from cacas.experiment import METHODS, PAPER_METHODS, summary_table
+from cacas.jobs import DONE, FAILED, RUNNER
+from cacas.paths import study_data_dir
+from cacas.preferences import load_personas, parse_personas
+from app_pages import ui
+
+store = ui.store()
+study = ui.study()
+db = ui.db_path()
+JOB = f"simulate:{db}"
+
+st.title("Simulation lab")
+st.caption("Simulated participants act in the contexts their preferences cover, accept the preferred action, "
+           "reject others, sometimes do not respond, and ask for the preferred action when the robot does "
+           "nothing. Day 1 uses the initial policy; after each day every method adapts from the same "
+           "interactions (Fig. 4).")
+
+# --- personas -----------------------------------------------------------------------------------------
+EXAMPLE = study_data_dir() / "personas" / "example.json"
+choice = st.radio("Personas", ["Example personas (P01-P08)", "Upload a persona file", f"This study's participants"],
+                  horizontal=True, key="sim-source")
+people, problem = [], None
+try:
+    if choice.startswith("Example"):
+        people = load_personas(EXAMPLE)
+    elif choice.startswith("Upload"):
+        up = st.file_uploader("Persona file (.json, design.md's format)", type=["json"], key="sim-upload")
+        if up is not None:
+            try:
+                data = json.loads(up.getvalue().decode("utf-8"))
+            except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+                raise CacasError(f"{up.name}: not valid JSON ({exc})") from None
+            people = parse_personas(data, up.name)
+    else:
+        people = [p for p in (store.get_preferences(c.code) for c in store.list_participants(study)) if p is not None]
+        if not people:
+            problem = "No participant of this study has described preferences yet."
+except CacasError as exc:
+    problem = str(exc)
+if problem:
+    st.error(problem, icon=":material/error:")
+
+by_id = {p.id: p for p in people}
+job = RUNNER.get(JOB)
+running = job is not None and job.running
+with st.form("simulation", border=True):
+    chosen = st.multiselect("Simulated participants", list(by_id), default=list(by_id),
+                            help="Each follows their described preferences.")
+    c1, c2, c3, c4 = st.columns(4)
+    days = c1.number_input("Days", 1, 14, 7)
+    per_day = c2.number_input("Interactions a day", 1, 60, 15)
+    seed = c3.number_input("Seed", 0, 10**6, 0, help="The same seed gives the same tables.")
+    silent = c4.number_input("No-response rate", 0.0, 0.9, 0.1, step=0.05)
+    methods = st.multiselect("Methods", METHODS, default=list(PAPER_METHODS),
+                             help="The first method runs in closed loop (its success rate is Fig. 3); all "
+                                  "of them adapt from the same interactions (Fig. 4).")
+    st.caption(f"About {len(chosen) * max(int(days) - 1, 0) * len(methods)} adaptations; a few seconds each "
+               "on this machine.")
+    go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
+if go:
+    if not chosen:
+        st.error("Choose at least one simulated participant.", icon=":material/error:")
+    elif not methods:
+        st.error("Choose at least one method.", icon=":material/error:")
+    else:
+        _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
+                                  app_support.runs_dir(db), days=int(days), interactions=int(per_day),
+                                  methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
+                                  label="Simulating")
+        if not started:
+            st.warning("A simulation is already running.")
+        st.rerun()
+
+job = ui.job_progress(JOB)
+if job is not None and job.status == FAILED:
+    st.error(f"The simulation failed: {job.error}", icon=":material/error:")
+
+# --- results of a run ---------------------------------------------------------------------------------
+runs = app_support.list_runs(app_support.runs_dir(db))
+if runs:
+    st.subheader("Runs")
+    default = job.result.name if job is not None and job.status == DONE and job.result.name in runs else runs[0]
+    name = st.selectbox("Run", runs, index=runs.index(default), key="sim-run")
+    folder = app_support.runs_dir(db) / name
+    daily = app_support.load_daily(folder / "daily.csv")
+    settings = json.loads((folder / "settings.json").read_text()) if (folder / "settings.json").exists() else {}
+    if settings:
+        st.caption(f"{len(settings.get('participants', []))} participants · {settings.get('days')} days · "
+                   f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
+                   f" · seed {settings.get('seed')}")
+    c1, c2 = st.columns(2)
+    loop_method = daily["method"].iloc[0]
+    c1.plotly_chart(plots.success_figure(daily, method=loop_method), width="stretch")
+    c2.plotly_chart(plots.methods_figure(daily), width="stretch")
+    summary = summary_table(daily)
+    st.dataframe(summary, hide_index=True, width="stretch",
+                 column_config={"success_rate": st.column_config.NumberColumn("success rate", format="percent"),
+                                "preference_accuracy": st.column_config.NumberColumn("preference accuracy",
+                                                                                     format="percent"),
+                                "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
+                                                                                     format="%.1f")})
+    d1, d2, d3 = st.columns(3)
+    with d1:
+        ui.download_csv(daily, "daily.csv", key="sim-dl-daily")
+    with d2:
+        ui.download_csv(pd.read_csv(folder / "interactions.csv"), "interactions.csv", key="sim-dl-inter")
+    with d3:
+        ui.download_csv(summary, "summary.csv", key="sim-dl-summary")

@@ -1,0 +1,201 @@
+"""A mini-study end to end in real headless Chromium: create a participant with preferences, run
+five interactions on the tablet (accept, reject, no response, a picked and a typed request) with a
+page reload in the middle, close the day and adapt, see day 1 on the Results page, download the
+interactions CSV. Takes a screenshot of every page into docs/screenshots/."""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+
+import pytest
+
+from conftest import SCREENSHOTS
+
+pytestmark = pytest.mark.browser
+
+IDLE = "[data-testid='stApp'][data-test-script-state='notRunning']"
+
+
+def idle(page, timeout: int = 60_000) -> None:
+    """Wait until the script run that the last action started has finished."""
+    page.wait_for_timeout(300)
+    page.wait_for_selector(IDLE, timeout=timeout)
+    page.wait_for_timeout(200)
+
+
+def goto(page, url: str) -> None:
+    page.goto(url)
+    page.wait_for_selector("[data-testid='stApp']")
+    idle(page)
+
+
+def button(page, text: str):
+    return page.locator("button").filter(has_text=re.compile(re.escape(text) + "$")).first
+
+
+def click(page, text: str) -> None:
+    button(page, text).click()
+    idle(page)
+
+
+def _widget(page, testid: str, label: str):
+    return page.locator(f"[data-testid='{testid}']").filter(
+        has=page.locator("label", has_text=re.compile(rf"^{re.escape(label)}"))).first
+
+
+def choose(page, label: str, option: str, testid: str = "stSelectbox") -> None:
+    """Pick ``option`` in the select box (or multiselect) labelled ``label``."""
+    box = _widget(page, testid, label)
+    box.locator("input").click()
+    page.keyboard.type(option)
+    page.get_by_role("option", name=option, exact=True).first.click()
+    if testid == "stMultiSelect":
+        page.keyboard.press("Escape")
+    page.wait_for_timeout(150)
+
+
+def fill(page, label: str, text: str, first: bool = False) -> None:
+    box = page.get_by_role("textbox", name=label, exact=True)
+    (box.first if first else box).fill(text)
+    page.wait_for_timeout(100)
+
+
+def text_of(page) -> str:
+    return page.locator("[data-testid='stMain']").inner_text()
+
+
+def shot(page, name: str) -> None:
+    """A screenshot of the whole page: the viewport grows to the height of Streamlit's scrolling
+    main area for the picture, then returns to its size."""
+    SCREENSHOTS.mkdir(parents=True, exist_ok=True)
+    page.wait_for_timeout(500)
+    size = page.viewport_size
+    height = page.evaluate("() => Math.max(...[...document.querySelectorAll('[data-testid=stMain], "
+                           "[data-testid=stAppViewContainer]')].map(e => e.scrollHeight))")
+    page.set_viewport_size({"width": size["width"], "height": max(size["height"], min(int(height) + 40, 5000))})
+    page.wait_for_timeout(400)
+    page.screenshot(path=str(SCREENSHOTS / f"{name}.png"))
+    page.set_viewport_size(size)
+
+
+def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
+    """Set a context and press "Do it"; True if the robot proposes an action (not quiet)."""
+    choose(page, "Time of day (S3)", slot)
+    choose(page, "Activity (S1)", activity)
+    choose(page, "Room (S2)", room)
+    click(page, "Do it")
+    return button(page, "Accept").count() > 0
+
+
+def speaking_context(page, candidates) -> None:
+    """Set contexts until the robot proposes something (it may stay quiet in some)."""
+    for activity, room in candidates:
+        if interact(page, activity, room):
+            return
+        click(page, "Choose a different activity")
+    pytest.fail("the robot stayed quiet in every candidate context")
+
+
+CANDIDATES = [("use stove", "kitchen"), ("cough", "bedroom"), ("fall down", "living room"), ("cut food", "kitchen"),
+              ("use hair dryer", "bathroom"), ("cry", "bedroom"), ("watch TV", "living room"),
+              ("sneeze", "bedroom"), ("use blender", "kitchen"), ("drink water", "dining room")]
+
+
+def test_mini_study(server, page, tmp_path):
+    # --- overview and participants -------------------------------------------------------------------
+    goto(page, server)
+    assert "No participants yet" in text_of(page)
+    page.locator("[data-testid='stSidebarNav'] a", has_text="Participants").click()
+    idle(page)
+    page.get_by_role("tab", name="Add a participant").click()
+    fill(page, "Pseudonymous code", "P01")
+    fill(page, "Age range", "25-34")
+    click(page, "Add participant")
+    page.get_by_role("tab", name="Preferences of P01").click()
+
+    fill(page, "In the participant's words", "When I use the stove, remind me to turn it off.", first=True)
+    choose(page, "Activities (S1)", "use stove", "stMultiSelect")
+    choose(page, "Rooms (S2)", "kitchen", "stMultiSelect")
+    choose(page, "The robot should (action)", "remind to turn off")
+    click(page, "Save preferences")
+    body = text_of(page)
+    assert "Saved version 1" in body, body[:2000]
+    shot(page, "participants")
+
+    # --- the tablet view: five interactions, with a reload in the middle ----------------------------
+    goto(page, f"{server}/?participant=P01&view=tablet")
+    assert "Hello, P01" in text_of(page)
+    assert page.locator("[data-testid='stSidebarNav']").count() == 0  # no researcher pages
+    click(page, "Start day 1")
+    assert "0 of about 15 interactions today" in text_of(page)
+
+    speaking_context(page, CANDIDATES)
+    shot(page, "session-tablet")
+    click(page, "Accept")
+    assert "Interaction 1 saved (accepted)" in text_of(page)
+
+    speaking_context(page, CANDIDATES[1:] + CANDIDATES[:1])
+    click(page, "Reject")
+    assert "Interaction 2 saved (rejected)" in text_of(page)
+
+    speaking_context(page, CANDIDATES[2:] + CANDIDATES[:2])
+    # reload in the middle of an interaction: the same proposal comes back, nothing is lost
+    before = page.locator("[data-testid='stChatMessage']").first.inner_text()
+    page.reload()
+    page.wait_for_selector("[data-testid='stApp']")
+    idle(page)
+    assert "2 of about 15 interactions today" in text_of(page)
+    assert page.locator("[data-testid='stChatMessage']").first.inner_text() == before
+    click(page, "No response")
+    assert "Interaction 3 saved (no response)" in text_of(page)
+
+    interact(page, "cough", "bedroom")
+    choose(page, "Pick an action", "Check whether I am in pain")
+    click(page, "Ask")
+    assert "Interaction 4 saved (you asked for: pain check)" in text_of(page)
+
+    interact(page, "use stove", "kitchen", slot="18:00-20:00")
+    fill(page, "Or type your request", "please remind me to switch the stove off")
+    click(page, "Say it")
+    assert "remind you to turn the stove off. Is that right?" in text_of(page)
+    click(page, "Yes, please")
+    body = text_of(page)
+    assert "Interaction 5 saved (you asked for: remind to turn off)" in body
+    assert "5 of about 15 interactions today" in body
+
+    # --- researcher: close the day and adapt ---------------------------------------------------------
+    goto(page, f"{server}/?participant=P01")
+    shot(page, "overview")
+    goto(page, f"{server}/adaptation?participant=P01")
+    click(page, "Close day 1 and adapt")
+    page.wait_for_selector("text=is in force from day 2", timeout=120_000)
+    idle(page)
+    assert "Day 1 is closed and adapted" in text_of(page)
+    shot(page, "adaptation")
+
+    # --- results: day 1, and the interactions CSV -----------------------------------------------------
+    goto(page, f"{server}/results?participant=P01")
+    assert "Day 1 mean success rate" in text_of(page)
+    shot(page, "results")
+    page.get_by_role("tab", name="Tables").click()
+    page.locator("[data-testid='stExpander']", has_text="interactions.csv").first.click()
+    with page.expect_download() as dl:
+        button(page, "Download interactions.csv").click()
+    path = tmp_path / "interactions.csv"
+    dl.value.save_as(path)
+    rows = list(csv.DictReader(io.StringIO(path.read_text())))
+    assert len(rows) == 5
+    assert [r["participant"] for r in rows] == ["P01"] * 5
+    assert [r["type"] for r in rows] == ["type_1", "type_1", "type_1", "type_2", "type_2"]
+    assert [r["response"] for r in rows[:3]] == ["accept", "reject", "others"]
+    assert [r["user_action"] for r in rows[3:]] == ["pain check", "remind to turn off"]
+    assert {r["day"] for r in rows} == {"1"}
+
+    # --- the lab pages open too ---------------------------------------------------------------------
+    goto(page, f"{server}/simulation?participant=P01")
+    assert "Simulation lab" in text_of(page)
+    shot(page, "simulation")
+    goto(page, f"{server}/sounds?participant=P01")
+    shot(page, "sounds")
