@@ -18,7 +18,13 @@ import pandas as pd
 ROBOT_INITIATED = "type_1"
 USER_INITIATED = "type_2"
 
-#: Columns of interactions.csv, in order (both simulated and human studies).
+#: Columns of interactions.csv, in order (both simulated and human studies):
+#: participant (code), method, day (1..), index (0.. within the day), time ("HH:MM" time of day),
+#: activity, scene (names), time_slot (S3 index 0-11), interval (S4 bin value in minutes: 0, 1, 2,
+#: 5 ... 200), task (S5 name), previous_action / previous_response (S6 / S7 of the policy state:
+#: names), type (type_1 robot-initiated, type_2 user-initiated), robot_action (name), response
+#: (accept / reject / others; "others" = no response), user_action (the action the participant
+#: asked for in a type_2 interaction, else empty).
 INTERACTION_COLUMNS = [
     "participant", "method", "day", "index", "time", "activity", "scene", "time_slot",
     "interval", "task", "previous_action", "previous_response", "type", "robot_action",
@@ -78,9 +84,26 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
         daily = daily.merge(accuracy[keys + ["preference_accuracy"]], on=keys, how="outer")
     else:
         daily["preference_accuracy"] = np.nan
+    for col in ("interactions", "successes", "user_initiated", "feedback", "cumulative_feedback"):
+        daily[col] = daily[col].astype("Int64")
     return daily.sort_values(keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
 
 
 def write_csv(df: pd.DataFrame, path) -> None:
     """CSV with fixed float formatting, so the same data gives the same bytes."""
     df.to_csv(path, index=False, float_format="%.6f", lineterminator="\n")
+
+
+def policy_states(interactions: pd.DataFrame) -> np.ndarray:
+    """The policy state S1..S7 of each interaction row as (n, 7) Table I indices."""
+    from cacas import spaces
+
+    if len(interactions) == 0:
+        return np.zeros((0, 7), dtype=np.int64)
+    idx = lambda kind, col: np.array([spaces.index_of(kind, v) for v in interactions[col]], np.int64)  # noqa: E731
+    slot = interactions["time_slot"].astype(int).to_numpy()
+    interval = np.searchsorted(spaces.INTERVAL_BINS, interactions["interval"].astype(float).to_numpy(),
+                               side="right") - 1
+    return np.stack([idx("activity", "activity"), idx("scene", "scene"), slot, interval,
+                     idx("action", "task"), idx("action", "previous_action"),
+                     idx("response", "previous_response")], axis=1)

@@ -1,0 +1,277 @@
+"""CACAA, the Context-Aware Conversation Adaptation Algorithm (Table III), and the baselines.
+
+Step 1 trains the initial policy pi_theta with discrete SAC against the generic user simulator
+(the generic preference ``up``: the D4A pairs). Step 2, after each study day, adapts it from the
+user data D alone: UMA (Table II) builds D and the user model f_mu, MLP_policy learns from D's
+"accept" data, and SAC trains against the Decision Model on states generated from D, with the
+reshaped policy (Eq. 5) acting. The participant's described preferences are never read here.
+
+Methods (Fig. 4; every method adapts from the same day-by-day interactions):
+* ``cacas``: the above, deployed as Eq. 5 with beta = 0.7;
+* ``cacas-no-pr``: the same without policy reshaping (pi_theta acts and is deployed);
+* ``orl``: plain SAC adapted with the user data (the recorded transitions, no user model);
+* ``nn``: MLP_policy alone;
+* ``bandit``: a contextual Thompson-sampling bandit (not in the paper).
+
+Deviation from Table III, stated: Table III writes a_t = argmax pi(s_t) while training; SAC learns
+the value of actions it tries, so during training we *sample* a_t ~ pi(s_t) (SAC's own
+exploration) and use the argmax (Eq. 4) when the robot acts with people and for evaluation.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import pandas as pd
+import torch
+
+from cacas import records, spaces
+from cacas.d4a import D4A, load_d4a
+from cacas.paths import study_data_dir
+from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, policy_from_bytes
+from cacas.preferences import Participant
+from cacas.sac import DiscreteSAC, SACConfig
+from cacas.simulator import ContextSource, ResponseModel, StateGenerator, preference_states
+from cacas.user_model import DecisionModel, UserData, UserModel
+
+Progress = Callable[[float, str], None]
+METHODS = ("cacas", "cacas-no-pr", "orl", "nn", "bandit")
+INITIAL_POLICY_FILE = "initial_policy.pt"
+
+
+@dataclass
+class CACAAConfig:
+    """Hyper-parameters of Table III (names after the paper where it names them)."""
+
+    k_minutes: float = 10.0          # generate_state every K minutes: 144 steps a simulated day
+    parallel_days: int = 8           # simulated days stepped side by side (batched environment)
+    initial_train_days: int = 30     # step 1
+    adapt_train_days: int = 2        # step 2, after each study day
+    updates_per_step: int = 1
+    threshold: float = 0.7           # DM: probability threshold of the user model
+    beta: float = 0.7                # Eq. 5 importance weight
+    recorded_share: float = 0.8      # generate_state(t, h, D): share of steps with a recorded activity
+    orl_updates: int = 300           # ORL: gradient steps on the recorded transitions
+    sac: SACConfig = field(default_factory=SACConfig)
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class AdaptationResult:
+    policy: object
+    log: list[str]
+    parameters: dict
+    duration_s: float
+
+
+def _threads() -> None:
+    # Small networks and batches: extra intra-op threads only add synchronisation overhead.
+    if torch.get_num_threads() > 1:
+        torch.set_num_threads(1)
+
+
+def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndarray], responder,
+                     source: ContextSource, days: int, cfg: CACAAConfig, rng: np.random.Generator,
+                     progress: Progress | None = None, label: str = "training") -> dict:
+    """The inner loops of Table III: simulated days of generate_state -> act -> respond ->
+    store (s, a, r, s') -> SAC update (Eq. 1, 3). ``behaviour(x)`` gives action probabilities
+    for one-hot states x; ``responder.respond(states, actions)`` the responses."""
+    gen = StateGenerator(source, cfg.parallel_days, cfg.k_minutes, rng)
+    rewards = np.array([spaces.REWARDS[r] for r in spaces.RESPONSES])
+    total = days * gen.steps_per_day
+    info: dict = {}
+    accepted = n = 0
+    for day in range(days):
+        gen.reset()
+        s = gen.generate_state()
+        x = spaces.encode_states(s)
+        while True:
+            p = behaviour(x)
+            cdf = np.cumsum(p, axis=1)
+            a = np.minimum((cdf < rng.random((len(p), 1)) * cdf[:, -1:]).sum(1), spaces.N_ACTIONS - 1)
+            ur = responder.respond(s, a)
+            gen.observe(a, ur)
+            accepted += int((ur == spaces.ACCEPT).sum())
+            n += len(ur)
+            if gen.done:
+                break
+            s2 = gen.generate_state()
+            x2 = spaces.encode_states(s2)
+            sac.buffer.add_batch(x, a, rewards[ur], x2)
+            info = sac.update(cfg.updates_per_step)
+            s, x = s2, x2
+        if progress:
+            progress((day + 1) / days, f"{label}: simulated day {day + 1}/{days}, "
+                                       f"accepted {accepted / max(n, 1):.0%} of actions")
+    info["accept_rate"] = accepted / max(n, 1)
+    info["steps"] = total
+    return info
+
+
+def train_initial_policy(d4a: D4A | None = None, config: CACAAConfig | None = None, seed: int = 0,
+                         progress: Progress | None = None) -> ReshapedPolicy:
+    """CACAA step 1: pi_theta trained against the generic user simulator (D4A pairs)."""
+    _threads()
+    cfg = config or CACAAConfig()
+    d4a = d4a or load_d4a()
+    rng = np.random.default_rng(seed)
+    sac = DiscreteSAC(cfg.sac, seed=seed)
+    run_sac_training(sac, sac.action_probabilities, ResponseModel(d4a.table), ContextSource.generic(),
+                     cfg.initial_train_days, cfg, rng, progress, "initial policy")
+    return ReshapedPolicy(sac, None, beta=1.0, method="initial")
+
+
+def initial_policy_path() -> Path:
+    return study_data_dir() / "models" / INITIAL_POLICY_FILE
+
+
+def load_initial_policy(progress: Progress | None = None, path: str | Path | None = None) -> ReshapedPolicy:
+    """The initial policy, from ``study_data/models/initial_policy.pt``; trained (about half a
+    minute) and saved atomically on first use if the file is missing."""
+    path = Path(path) if path else initial_policy_path()
+    if path.exists():
+        return policy_from_bytes(path.read_bytes())
+    policy = train_initial_policy(progress=progress)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + f".{time.time_ns()}.tmp")
+    tmp.write_bytes(policy.to_bytes())
+    tmp.replace(path)
+    return policy
+
+
+def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The recorded data points as SAC transitions (s, a, r, s'): a robot action answered with
+    accept / reject; for a user-initiated one the request (+1) and "do nothing" (-1). s' is the
+    next interaction's state of the day (or s itself at the end of a day)."""
+    if len(interactions) == 0:
+        z = np.zeros((0, spaces.STATE_DIM), np.float32)
+        return z, np.zeros(0, np.int64), np.zeros(0, np.float32), z
+    df = interactions.sort_values(["day", "index"], kind="stable").reset_index(drop=True)
+    x = spaces.encode_states(records.policy_states(df))
+    nxt = np.arange(len(df)) + 1
+    same_day = np.append(df["day"].to_numpy()[1:] == df["day"].to_numpy()[:-1], False)
+    nxt = np.where(same_day, nxt, np.arange(len(df)))
+    s, a, r, s2 = [], [], [], []
+    for i, row in df.iterrows():
+        if row["type"] == records.USER_INITIATED:
+            pairs = [(spaces.action_index(row["user_action"]), 1.0), (spaces.DO_NOTHING_ACTION, -1.0)]
+        elif row["robot_action"] != "do nothing" and row["response"] in ("accept", "reject"):
+            pairs = [(spaces.action_index(row["robot_action"]), spaces.REWARDS[row["response"]])]
+        else:
+            continue
+        for act, rew in pairs:
+            s.append(x[i]); a.append(act); r.append(rew); s2.append(x[nxt[i]])  # noqa: E702
+    if not s:
+        z = np.zeros((0, spaces.STATE_DIM), np.float32)
+        return z, np.zeros(0, np.int64), np.zeros(0, np.float32), z
+    return np.array(s), np.array(a), np.array(r, np.float32), np.array(s2)
+
+
+def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", seed: int = 0,
+                 progress: Progress | None = None, config: CACAAConfig | None = None,
+                 d4a: D4A | None = None) -> AdaptationResult:
+    """CACAA step 2 (or a baseline) from ALL of one participant's interactions so far.
+
+    ``previous``: the policy in force (its SAC part is trained further); ``interactions``:
+    INTERACTION_COLUMNS rows of days 1..d. Never reads described preferences.
+    """
+    if method not in METHODS:
+        from cacas.errors import CacasError
+        raise CacasError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
+    _threads()
+    cfg = config or CACAAConfig()
+    d4a = d4a or load_d4a()
+    t0 = time.perf_counter()
+    log: list[str] = []
+    rng = np.random.default_rng(seed)
+    say = (lambda f, m: (log.append(m), progress and progress(f, m)))  # noqa: E731
+    n_rows = len(interactions)
+    params = {"method": method, "interactions": n_rows, "seed": seed}
+
+    if method == "nn":
+        states, actions = accept_pairs(interactions)
+        mlp = MLPPolicy(seed=seed).fit(states, actions)
+        say(1.0, f"MLP policy trained on {len(actions)} accepted actions")
+        return AdaptationResult(ReshapedPolicy(None, mlp, 0.0, method), log, params, time.perf_counter() - t0)
+    if method == "bandit":
+        policy = BanditPolicy(d4a.table, seed=seed).fit(interactions)
+        say(1.0, f"bandit posteriors updated from {n_rows} interactions")
+        return AdaptationResult(policy, log, params, time.perf_counter() - t0)
+
+    base_sac = previous.sac if isinstance(previous, ReshapedPolicy) and previous.sac is not None else None
+    if base_sac is None:
+        base_sac = load_initial_policy().sac
+    sac = base_sac.copy(seed=seed)
+
+    if method == "orl":
+        s, a, r, s2 = orl_transitions(interactions)
+        if len(a):
+            sac.buffer.add_batch(s, a, r, s2)
+            sac.update(cfg.orl_updates)
+        say(1.0, f"SAC trained for {cfg.orl_updates} updates on {len(a)} recorded transitions")
+        params["updates"] = cfg.orl_updates
+        return AdaptationResult(ReshapedPolicy(sac, None, 1.0, method), log, params, time.perf_counter() - t0)
+
+    # cacas / cacas-no-pr: UMA (Table II) -> f_mu; MLP_policy; SAC against DM on states from D.
+    data = UserData.from_interactions(interactions)
+    user_model = UserModel(seed=seed).fit(data)
+    say(0.05, f"user model trained on {len(data)} samples (D_f {len(data.subset('D_f'))}, "
+              f"D_i {len(data.subset('D_i'))}, D_g {len(data.subset('D_g'))})")
+    mlp = None
+    if method == "cacas":
+        states, actions = accept_pairs(interactions)
+        mlp = MLPPolicy(seed=seed).fit(states, actions) if len(actions) else None
+        say(0.1, f"MLP policy trained on {len(actions)} accepted actions")
+    policy = ReshapedPolicy(sac, mlp, cfg.beta, method)
+    dm = DecisionModel(user_model, ResponseModel(d4a.table), cfg.threshold, data.support())
+    source = ContextSource.from_user_data(data.contexts(), cfg.recorded_share)
+    info = run_sac_training(sac, policy.action_probabilities, dm, source, cfg.adapt_train_days, cfg, rng,
+                            (lambda f, m: say(0.1 + 0.9 * f, m)), "adaptation")
+    params.update(beta=policy.beta, threshold=cfg.threshold, train_days=cfg.adapt_train_days,
+                  k_minutes=cfg.k_minutes, parallel_days=cfg.parallel_days,
+                  target_entropy_ratio=cfg.sac.target_entropy_ratio, gamma=cfg.sac.gamma)
+    say(1.0, f"SAC adapted: {info['steps']} steps x {cfg.parallel_days} simulated days, "
+             f"entropy {info.get('entropy', float('nan')):.2f}, alpha {info.get('alpha', float('nan')):.3f}")
+    return AdaptationResult(policy, log, params, time.perf_counter() - t0)
+
+
+def evaluation_states(participant: Participant, n: int = 400, seed: int = 0) -> np.ndarray:
+    """Fig. 4's test states (n, 7) from the described preferences: covered S1-S4 contexts, the
+    robot idle (S5 "do nothing"), and a random previous action and response (S6, S7)."""
+    rng = np.random.default_rng(seed)
+    ctx = preference_states(participant, n, rng)
+    return np.concatenate([ctx, np.full((n, 1), spaces.DO_NOTHING_ACTION),
+                           rng.integers(spaces.N_ACTIONS, size=(n, 1)),
+                           rng.integers(spaces.N_RESPONSES, size=(n, 1))], axis=1)
+
+
+def preference_accuracy(policy, participant: Participant, n: int = 400, seed: int = 0,
+                        states: np.ndarray | None = None) -> float:
+    """Fig. 4: on states generated from the described preferences, the share where the
+    policy's chosen action (Eq. 4) is the preferred one. Evaluation only."""
+    states = evaluation_states(participant, n, seed) if states is None else states
+    table = participant.preferred_action_table()
+    preferred = table[states[:, 0], states[:, 1], states[:, 2], states[:, 3], states[:, 4]]
+    return float((policy.greedy(states) == preferred).mean())
+
+
+def policy_changes(before, after, interactions: pd.DataFrame, top: int = 10) -> pd.DataFrame:
+    """The participant's most frequent contexts (S1-S4) and the action of each policy there."""
+    cols = ["activity", "scene", "time_slot", "interval"]
+    if len(interactions) == 0:
+        return pd.DataFrame(columns=cols + ["times", "action_before", "action_after", "changed"])
+    freq = (interactions.groupby(cols).size().rename("times").reset_index()
+            .sort_values("times", ascending=False, kind="stable").head(top).reset_index(drop=True))
+    st = records.policy_states(freq.assign(task="do nothing", previous_action="do nothing",
+                                           previous_response="others"))
+    freq["action_before"] = [spaces.ACTIONS[a] for a in before.greedy(st)]
+    freq["action_after"] = [spaces.ACTIONS[a] for a in after.greedy(st)]
+    freq["changed"] = freq["action_before"] != freq["action_after"]
+    freq["time_slot"] = [spaces.time_slot_label(int(t)) for t in freq["time_slot"]]
+    return freq

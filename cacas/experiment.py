@@ -1,0 +1,159 @@
+"""Simulated studies (design.md, the ``cacas simulate`` contract), as tidy tables.
+
+Simulated participants follow their described preferences: each day they act in about
+``interactions`` contexts their preferences cover, in time order; the robot acts with the policy
+in force (Eq. 4); the participant accepts the preferred action, rejects another one, sometimes
+does not respond (``no_response_rate``), and asks for the preferred action when the robot does
+nothing (a user-initiated, type_2 interaction).
+
+Day 1 uses the initial policy (CACAA step 1). After each day every method adapts from the same
+interactions (as in the paper's Fig. 4: the interactions come from the closed loop of the first
+method, CACAS by default), so the policy in force on day d has seen days 1..d-1. ``daily`` holds
+the closed-loop method's success rate (Fig. 3) and every method's preference accuracy (Fig. 4).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from cacas import records, spaces
+from cacas.adaptation import CACAAConfig, METHODS, adapt_policy, evaluation_states, load_initial_policy, \
+    preference_accuracy
+from cacas.d4a import D4A, load_d4a
+from cacas.errors import CacasError
+from cacas.preferences import Participant
+from cacas.simulator import current_task, preference_states
+
+PAPER_METHODS = ("cacas", "cacas-no-pr", "orl", "nn")
+Progress = Callable[[float, str], None]
+
+
+@dataclass
+class StudyResult:
+    daily: pd.DataFrame         # records.DAILY_COLUMNS
+    interactions: pd.DataFrame  # records.INTERACTION_COLUMNS
+
+
+def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
+    methods = tuple(m.strip().lower() for m in methods if m.strip())
+    bad = [m for m in methods if m not in METHODS]
+    if bad or not methods:
+        raise CacasError(f"unknown method {bad[0]!r}; valid: {', '.join(METHODS)}" if bad
+                         else f"no method given; valid: {', '.join(METHODS)}")
+    return tuple(dict.fromkeys(methods))
+
+
+def simulated_day(policy, participant: Participant, day: int, n_interactions: int,
+                  rng: np.random.Generator, no_response_rate: float, method: str) -> list[dict]:
+    """One simulated study day of ``participant`` with the robot acting by ``policy``."""
+    n = max(1, int(rng.poisson(n_interactions)))
+    ctx = preference_states(participant, n, rng)
+    minute = ctx[:, 2] * 120 + rng.integers(0, 120, n)
+    order = np.argsort(minute, kind="stable")
+    ctx, minute = ctx[order], minute[order]
+    table = participant.preferred_action_table()
+    rows = []
+    prev_action, prev_response = spaces.DO_NOTHING_ACTION, spaces.OTHERS
+    for i in range(n):
+        act, scene, slot, interval = (int(v) for v in ctx[i])
+        task = int(current_task(np.array([prev_action]), np.array([prev_response]),
+                                np.array([spaces.INTERVAL_BINS[interval]]))[0])
+        state = np.array([[act, scene, slot, interval, task, prev_action, prev_response]])
+        robot = int(policy.greedy(state)[0])
+        preferred = int(table[act, scene, slot, interval, task])
+        silent = rng.random() < no_response_rate
+        user_action = ""
+        if robot == spaces.DO_NOTHING_ACTION:
+            if preferred not in (-1, spaces.DO_NOTHING_ACTION) and not silent:
+                tp, response, user_action = records.USER_INITIATED, "accept", spaces.ACTIONS[preferred]
+            else:
+                tp, response = records.ROBOT_INITIATED, "others"
+        else:
+            tp = records.ROBOT_INITIATED
+            response = "others" if silent else "accept" if robot == preferred else "reject"
+        rows.append({
+            "participant": participant.id, "method": method, "day": day, "index": i,
+            "time": f"{minute[i] // 60:02d}:{minute[i] % 60:02d}", "activity": spaces.ACTIVITIES[act],
+            "scene": spaces.SCENES[scene], "time_slot": slot, "interval": spaces.INTERVAL_BINS[interval],
+            "task": spaces.ACTIONS[task], "previous_action": spaces.ACTIONS[prev_action],
+            "previous_response": spaces.RESPONSES[prev_response], "type": tp,
+            "robot_action": spaces.ACTIONS[robot], "response": response, "user_action": user_action,
+        })
+        if tp == records.USER_INITIATED:  # the robot carries out the confirmed request
+            prev_action, prev_response = preferred, spaces.ACCEPT
+        else:
+            prev_action, prev_response = robot, spaces.response_index(response)
+    return rows
+
+
+def simulate_study(participants: Sequence[Participant], days: int = 7, interactions: int = 15,
+                   methods: Sequence[str] = PAPER_METHODS, seed: int = 0, no_response_rate: float = 0.1,
+                   progress: Progress | None = None, config: CACAAConfig | None = None,
+                   d4a: D4A | None = None, initial_policy=None, eval_states: int = 400) -> StudyResult:
+    """Run a whole simulated study; the same seed gives the same tables."""
+    if days < 1:
+        raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
+    if interactions < 1:
+        raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number >= 1")
+    if not 0 <= no_response_rate < 1:
+        raise CacasError(f"no-response rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
+    methods = check_methods(methods)
+    d4a = d4a or load_d4a()
+    initial = initial_policy or load_initial_policy()
+    loop_method = methods[0]
+    all_rows: list[dict] = []
+    acc_rows: list[dict] = []
+    total = len(participants) * days
+    for p_i, person in enumerate(participants):
+        rng = np.random.default_rng([seed, p_i])
+        test_states = evaluation_states(person, eval_states, seed=seed * 7919 + p_i)
+        in_force = {m: initial for m in methods}
+        person_rows: list[dict] = []
+        for day in range(1, days + 1):
+            for m in methods:
+                acc_rows.append({"participant": person.id, "method": m, "day": day,
+                                 "preference_accuracy": preference_accuracy(in_force[m], person,
+                                                                            states=test_states)})
+            person_rows += simulated_day(in_force[loop_method], person, day, interactions, rng,
+                                         no_response_rate, loop_method)
+            if day < days:
+                data = pd.DataFrame(person_rows, columns=records.INTERACTION_COLUMNS)
+                for k, m in enumerate(methods):
+                    in_force[m] = adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
+                                               config=config, d4a=d4a).policy
+            if progress:
+                progress((p_i * days + day) / total, f"participant {person.id}, day {day}/{days}")
+        all_rows += person_rows
+    inter = pd.DataFrame(all_rows, columns=records.INTERACTION_COLUMNS)
+    return StudyResult(combine_daily(inter, pd.DataFrame(acc_rows), methods), inter)
+
+
+def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str]) -> pd.DataFrame:
+    """daily.csv rows for every method: the closed-loop method (the first) has its own success
+    rate; the others adapted from the same interactions, so they share its interaction and
+    feedback counts and have an empty success rate."""
+    loop = records.daily_table(interactions).drop(columns=["method", "preference_accuracy"])
+    frames = []
+    for m in methods:
+        d = loop.assign(method=m)
+        if m != methods[0]:
+            d["success_rate"] = np.nan
+            d["successes"] = pd.NA
+        frames.append(d)
+    daily = pd.concat(frames, ignore_index=True).merge(
+        accuracy, on=["participant", "method", "day"], how="outer")
+    order = {m: i for i, m in enumerate(methods)}
+    daily = daily.sort_values(["participant", "method", "day"], key=lambda c: c.map(order) if c.name == "method" else c)
+    return daily.reindex(columns=records.DAILY_COLUMNS).reset_index(drop=True)
+
+
+def summary_table(daily: pd.DataFrame) -> pd.DataFrame:
+    """Mean success rate and preference accuracy per method and day (the printed table)."""
+    g = daily.groupby(["method", "day"], sort=False)
+    out = g.agg(success_rate=("success_rate", "mean"), preference_accuracy=("preference_accuracy", "mean"),
+                cumulative_feedback=("cumulative_feedback", "mean")).reset_index()
+    return out

@@ -1,0 +1,216 @@
+"""Robot action policies: the MLP policy, policy reshaping (Eq. 5) and the bandit baseline.
+
+* :class:`MLPPolicy` (Section IV-C.2): an MLP with the SAC policy's input and output sizes
+  (94 -> 14), trained on the "accept" user data only: (state, accepted action) pairs.
+* :class:`ReshapedPolicy`: Eq. 5, pi(s) = beta * pi_theta(s) + (1 - beta) * MLP_policy(s),
+  beta = 0.7 by default. beta = 1 is the SAC policy alone (CACAS w/o PR, ORL); beta = 0 the MLP
+  policy alone (the NN baseline). The robot's action is the argmax (Eq. 4).
+* :class:`BanditPolicy`: a contextual Thompson-sampling bandit (a baseline the paper lacks).
+
+Every policy has ``action_probabilities(states)``, ``decide(state)``, ``to_bytes()``; use
+:func:`policy_from_bytes` to load any of them.
+"""
+
+from __future__ import annotations
+
+import io
+import numpy as np
+import pandas as pd
+import torch
+
+from cacas import nets, records, spaces
+from cacas.errors import CacasError
+from cacas.sac import DiscreteSAC
+
+DEFAULT_BETA = 0.7
+
+
+def _state_matrix(states) -> np.ndarray:
+    """Accept State objects, index rows (n, 7) or one-hot rows (n, 94); return one-hot (n, 94)."""
+    if isinstance(states, spaces.State):
+        states = [states]
+    arr = states if isinstance(states, np.ndarray) else np.array(
+        [s.as_tuple() if isinstance(s, spaces.State) else tuple(s) for s in states])
+    if arr.ndim == 2 and arr.shape[1] == spaces.STATE_DIM:
+        return arr.astype(np.float32)
+    return spaces.encode_states(arr.astype(np.int64))
+
+
+def accept_pairs(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
+    """The "accept" user data as (policy states (n, 7) indices, accepted action indices): a
+    robot action the participant accepted, or the action the participant asked for (type_2)."""
+    if len(interactions) == 0:
+        return np.zeros((0, 7), np.int64), np.zeros(0, np.int64)
+    states = records.policy_states(interactions)
+    t1 = ((interactions["type"] == records.ROBOT_INITIATED) & (interactions["response"] == "accept")
+          & (interactions["robot_action"] != "do nothing")).to_numpy()
+    t2 = (interactions["type"] == records.USER_INITIATED).to_numpy()
+    actions = np.array([spaces.action_index(u if tp == records.USER_INITIATED else r)
+                        if ok else -1 for u, r, tp, ok in
+                        zip(interactions["user_action"], interactions["robot_action"], interactions["type"],
+                            t1 | t2)])
+    keep = t1 | t2
+    return states[keep], actions[keep]
+
+
+class MLPPolicy:
+    """MLP_policy: 94 -> 14, trained with cross-entropy on accepted (state, action) pairs."""
+
+    def __init__(self, hidden: int = 64, epochs: int = 150, seed: int = 0):
+        self.hidden, self.epochs, self.seed = hidden, epochs, seed
+        self.net = nets.mlp(spaces.STATE_DIM, hidden, spaces.N_ACTIONS)
+        self.trained_on = 0
+
+    def fit(self, states: np.ndarray, actions: np.ndarray) -> "MLPPolicy":
+        self.net = nets.mlp(spaces.STATE_DIM, self.hidden, spaces.N_ACTIONS)
+        if len(actions):
+            nets.fit_classifier(self.net, _state_matrix(states), actions, epochs=self.epochs, seed=self.seed)
+        self.trained_on = int(len(actions))
+        return self
+
+    def action_probabilities(self, states) -> np.ndarray:
+        return nets.predict_proba(self.net, _state_matrix(states))
+
+
+class ReshapedPolicy:
+    """Eq. 5: pi = beta * pi_theta + (1 - beta) * MLP_policy (either part may be absent)."""
+
+    kind = "reshaped"
+
+    def __init__(self, sac: DiscreteSAC | None, mlp: MLPPolicy | None = None, beta: float = DEFAULT_BETA,
+                 method: str = "cacas"):
+        if sac is None and mlp is None:
+            raise ValueError("a policy needs the SAC policy, the MLP policy or both")
+        if not 0.0 <= beta <= 1.0:
+            raise CacasError(f"beta {beta} is invalid; valid: 0 <= beta <= 1")
+        self.sac, self.mlp, self.method = sac, mlp, method
+        self.beta = 1.0 if mlp is None else 0.0 if sac is None else beta
+
+    def action_probabilities(self, states) -> np.ndarray:
+        """(n, 14) probability rows (each a distribution over the 14 actions)."""
+        x = _state_matrix(states)
+        out = np.zeros((len(x), spaces.N_ACTIONS), np.float64)
+        if self.sac is not None and self.beta > 0:
+            out += self.beta * self.sac.action_probabilities(x)
+        if self.mlp is not None and self.beta < 1:
+            out += (1 - self.beta) * self.mlp.action_probabilities(x)
+        return out
+
+    def greedy(self, states) -> np.ndarray:
+        """Eq. 4 over the reshaped distribution."""
+        return self.action_probabilities(states).argmax(1)
+
+    def decide(self, state: spaces.State) -> tuple[int, np.ndarray]:
+        p = self.action_probabilities([state])[0]
+        return int(p.argmax()), p
+
+    def to_bytes(self) -> bytes:
+        buf = io.BytesIO()
+        torch.save({"kind": self.kind, "method": self.method, "beta": self.beta,
+                    "sac": None if self.sac is None else self.sac.state_dict(),
+                    "mlp": None if self.mlp is None else {"hidden": self.mlp.hidden,
+                                                          "state": self.mlp.net.state_dict(),
+                                                          "trained_on": self.mlp.trained_on}}, buf)
+        return buf.getvalue()
+
+    @classmethod
+    def _from_dict(cls, d: dict) -> "ReshapedPolicy":
+        sac = None if d["sac"] is None else DiscreteSAC.from_state_dict(d["sac"])
+        mlp = None
+        if d["mlp"] is not None:
+            mlp = MLPPolicy(hidden=d["mlp"]["hidden"])
+            mlp.net.load_state_dict(d["mlp"]["state"])
+            mlp.net.eval()
+            mlp.trained_on = d["mlp"]["trained_on"]
+        return cls(sac, mlp, d["beta"], d.get("method", "cacas"))
+
+
+class BanditPolicy:
+    """A contextual bandit over (activity, time slot) with Beta-Bernoulli Thompson sampling.
+
+    Each context-action pair has a Beta posterior of "accepted"; its prior comes from the D4A
+    pairs (accept: Beta(2, 1), reject: Beta(1, 2), others: Beta(1, 1)) and the activity-level
+    counts are shared across time slots at half weight, so a new slot starts from what the
+    activity taught. ``decide`` samples (exploration, for closed-loop use); Fig. 4's accuracy uses
+    the posterior mean (``action_probabilities`` is a softmax of the means, sharp).
+    """
+
+    kind = "bandit"
+
+    def __init__(self, d4a_table: np.ndarray, seed: int = 0):
+        d4a = np.asarray(d4a_table)
+        self.alpha0 = np.where(d4a == spaces.ACCEPT, 2.0, 1.0)  # (33, 14)
+        self.beta0 = np.where(d4a == spaces.REJECT, 2.0, 1.0)
+        shape = (spaces.N_ACTIVITIES, spaces.N_SLOTS, spaces.N_ACTIONS)
+        self.wins = np.zeros(shape)
+        self.losses = np.zeros(shape)
+        self.method = "bandit"
+        self.rng = np.random.default_rng(seed)
+
+    def fit(self, interactions: pd.DataFrame) -> "BanditPolicy":
+        """Counts from the user data: accepted actions win; rejected ones, and "do nothing" when
+        the participant asked for something, lose."""
+        self.wins[:] = 0
+        self.losses[:] = 0
+        if len(interactions) == 0:
+            return self
+        s = records.policy_states(interactions)
+        for (act, _, slot, *_), tp, ra, resp, ua in zip(s, interactions["type"], interactions["robot_action"],
+                                                         interactions["response"], interactions["user_action"]):
+            if tp == records.USER_INITIATED:
+                self.wins[act, slot, spaces.action_index(ua)] += 1
+                self.losses[act, slot, spaces.DO_NOTHING_ACTION] += 1
+            elif resp in ("accept", "reject") and ra != "do nothing":
+                (self.wins if resp == "accept" else self.losses)[act, slot, spaces.action_index(ra)] += 1
+        return self
+
+    def _posterior(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        act, slot = states[:, 0], states[:, 2]
+        a = self.alpha0[act] + self.wins[act, slot] + 0.5 * self.wins[act].sum(1)
+        b = self.beta0[act] + self.losses[act, slot] + 0.5 * self.losses[act].sum(1)
+        return a, b
+
+    @staticmethod
+    def _indices(states) -> np.ndarray:
+        if isinstance(states, np.ndarray) and states.ndim == 2 and states.shape[1] == 7:
+            return states.astype(np.int64)
+        return np.array([s.as_tuple() for s in spaces.decode_states(_state_matrix(states))])
+
+    def action_probabilities(self, states) -> np.ndarray:
+        a, b = self._posterior(self._indices(states))
+        mean = a / (a + b)
+        e = np.exp((mean - mean.max(1, keepdims=True)) * 50.0)
+        return e / e.sum(1, keepdims=True)
+
+    def greedy(self, states) -> np.ndarray:
+        return self.action_probabilities(states).argmax(1)
+
+    def decide(self, state: spaces.State) -> tuple[int, np.ndarray]:
+        a, b = self._posterior(self._indices([state]))
+        draw = self.rng.beta(a, b)[0]
+        return int(draw.argmax()), self.action_probabilities([state])[0]
+
+    def to_bytes(self) -> bytes:
+        buf = io.BytesIO()
+        torch.save({"kind": self.kind, "alpha0": self.alpha0, "beta0": self.beta0, "wins": self.wins,
+                    "losses": self.losses}, buf)
+        return buf.getvalue()
+
+    @classmethod
+    def _from_dict(cls, d: dict) -> "BanditPolicy":
+        p = cls(np.zeros((spaces.N_ACTIVITIES, spaces.N_ACTIONS), np.int64))
+        p.alpha0, p.beta0, p.wins, p.losses = d["alpha0"], d["beta0"], d["wins"], d["losses"]
+        return p
+
+
+def policy_from_bytes(data: bytes):
+    """Load any policy written by ``to_bytes``; bytes that are not a policy raise CacasError."""
+    try:
+        d = torch.load(io.BytesIO(data), weights_only=False)
+    except Exception as exc:  # noqa: BLE001 - any unpickling failure means "not a policy file"
+        raise CacasError(f"not a CACAS policy file ({exc.__class__.__name__})") from None
+    kinds = {ReshapedPolicy.kind: ReshapedPolicy, BanditPolicy.kind: BanditPolicy}
+    if not isinstance(d, dict) or d.get("kind") not in kinds:
+        raise CacasError("not a CACAS policy file (no policy kind recorded)")
+    return kinds[d["kind"]]._from_dict(d)
+
