@@ -37,6 +37,7 @@ st.dataframe(
             "interactions so far (Fig. 3's definition)", min_value=0.0, max_value=1.0, format="percent"),
         "interactions today": st.column_config.NumberColumn(
             "interactions today", help=f"Target: about {TARGET_INTERACTIONS} a day"),
+        "next step": st.column_config.TextColumn("next step", width="large"),
     })
 
 code = ui.participant()

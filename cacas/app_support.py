@@ -84,17 +84,40 @@ def _short_time(stamp: str) -> str:
     return f"{s[:10]} {s[11:16]} UTC" if len(s) >= 16 else s
 
 
+def _event_words(what: str, details: str) -> str:
+    try:
+        d = json.loads(details or "{}")
+    except json.JSONDecodeError:
+        d = {}
+    if what == "record_interaction":
+        if d.get("type") == records.USER_INITIATED:
+            return f"day {d.get('day')}, interaction {d.get('index')}: asked for an action"
+        answer = {"accept": "accepted", "reject": "rejected", "others": "no response"}.get(d.get("response"), "")
+        return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
+    if what == "record_adaptation":
+        return (f"adaptation ({d.get('method')}) from days 1-{d.get('day')}" if d.get("day")
+                else f"initial policy scored ({d.get('method')})")
+    if what in ("open_day", "close_day"):
+        return f"day {d.get('day')} {'started' if what == 'open_day' else 'closed'}"
+    if what == "save_policy":
+        return f"policy version {d.get('version')} saved" + (" and put in force" if d.get("active") else "")
+    if what == "set_active_policy":
+        v = d.get("version")
+        return "initial policy put in force" if v is None else f"policy version {v} put in force"
+    if what == "save_preferences":
+        return f"preferences saved (version {d.get('version')}, {d.get('count')} preferences)"
+    if what == "record_questionnaire":
+        return f"questionnaire: satisfaction {d.get('satisfaction')}"
+    return {"add_participant": "participant added", "update_participant": "details edited",
+            "create_study": f"study {d.get('study', '')} created"}.get(what, what.replace("_", " "))
+
+
 def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:
-    """The last events in words: when, who, what."""
+    """The last events in words, newest first: when, who, what."""
     ev = store.events(participant=participant, limit=limit)
-    words = {"add_participant": "participant added", "save_preferences": "preferences saved",
-             "open_day": "day started", "close_day": "day closed", "record_interaction": "interaction",
-             "record_adaptation": "adaptation", "save_policy": "policy saved",
-             "set_active_policy": "policy put in force", "record_questionnaire": "questionnaire",
-             "update_participant": "participant edited", "create_study": "study created"}
     return pd.DataFrame({"when": [_short_time(a) for a in ev["at"]],
                          "participant": ev["participant"].fillna(""),
-                         "what": [words.get(w, w.replace("_", " ")) for w in ev["what"]]}).iloc[::-1]
+                         "what": [_event_words(w, d) for w, d in zip(ev["what"], ev["details"])]}).iloc[::-1]
 
 
 # --- preferences form ----------------------------------------------------------------------------

@@ -1,0 +1,82 @@
+import math
+
+import pandas as pd
+import pytest
+
+from cacas import app_support
+from cacas.errors import CacasError
+from cacas.store import StudyStore
+
+
+def test_questionnaire_summary_matches_the_papers_definition():
+    # 8 ratings with mean 8.125, sample SD 0.64 and 7 of 8 at 8 or above (Section V-B.2)
+    answers = pd.DataFrame({"participant": [f"P0{i}" for i in range(1, 9)],
+                            "satisfaction": [7, 8, 8, 8, 8, 8, 9, 9]})
+    s = app_support.questionnaire_summary(answers)
+    assert s["n"] == 8 and s["mean"] == pytest.approx(8.125)
+    assert s["sd"] == pytest.approx(0.641, abs=1e-3) and s["share_8_or_more"] == pytest.approx(0.875)
+    # the latest answer of a participant counts
+    again = pd.concat([answers, pd.DataFrame({"participant": ["P01"], "satisfaction": [10]})])
+    assert app_support.questionnaire_summary(again)["mean"] == pytest.approx(8.5)
+    empty = app_support.questionnaire_summary(answers.iloc[:0])
+    assert empty["n"] == 0 and math.isnan(empty["mean"])
+
+
+def test_slots_and_hours():
+    assert app_support.slots_to_hours([3, 4, 8, 9]) == [[6, 10], [16, 20]]
+    assert app_support.slots_to_hours([]) is None and app_support.slots_to_hours(range(12)) is None
+    assert app_support.hours_to_slots([[6, 10], [16, 20]]) == [3, 4, 8, 9]
+    assert app_support.interval_to_bins([0, 25]) == (0, 20)
+    assert app_support.interval_to_bins(None) == (0, 200)
+
+
+def test_preference_form_and_checks():
+    stove = app_support.preference_from_form(" Turn it off ", ["use stove"], ["kitchen"], [3], (0, 30),
+                                             "remind to turn off")
+    assert stove == {"description": "Turn it off", "activity": ["use stove"], "scene": ["kitchen"],
+                     "hours": [[6, 8]], "interval": [0, 30], "action": "remind to turn off"}
+    assert app_support.preference_from_form("", [], [], [], (0, 200), None) is None
+    chat = app_support.preference_from_form("", ["use stove"], [], [], (0, 200), "chitchat")
+    person, errors, overall = app_support.check_preferences("P01", [stove, chat], numbers=[1, 4])
+    assert person is None and not errors and overall.startswith("preferences 1 and 4 both cover")
+    bad = app_support.preference_from_form("", ["use stove"], [], [], (0, 200), None)
+    person, errors, overall = app_support.check_preferences("P01", [stove, bad], numbers=[1, 2])
+    assert person is None and list(errors) == [2] and errors[2].startswith("field 'action'")
+    person, errors, overall = app_support.check_preferences("P01", [stove])
+    assert person.covered_count() == stove_count(person) and not errors and overall is None
+    assert app_support.check_preferences("P01", [])[2].startswith("describe at least one")
+
+
+def stove_count(person):
+    return person.preferences[0].covered_count()
+
+
+def test_overview_and_events(tmp_path):
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="chitchat", response="reject")
+    table = app_support.overview_frame(store)
+    row = table.iloc[0]
+    assert row["day"] == "1 of 7 (open)" and row["interactions today"] == 2
+    assert row["success rate so far"] == pytest.approx(0.5)
+    assert row["next step"] == "Day 1: 13 more interactions on the tablet"
+    words = list(app_support.recent_events(store)["what"])
+    assert words[0] == "day 1, interaction 2: robot chitchat, rejected"
+    store.close()
+
+
+def test_runs_round_trip_and_bad_daily(tmp_path):
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
+                          "preference_accuracy": [0.2], "cumulative_feedback": [10], "interactions": [15]})
+    root = app_support.runs_dir(tmp_path / "s.sqlite")
+    app_support.save_run(root, "run1", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0})
+    assert app_support.list_runs(root) == ["run1"]
+    assert app_support.load_daily(root / "run1" / "daily.csv").equals(daily)
+    (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(CacasError, match="not a daily.csv; missing columns: participant"):
+        app_support.load_daily(tmp_path / "bad.csv")
