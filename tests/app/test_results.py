@@ -1,0 +1,44 @@
+from apphelpers import no_exception, texts
+
+PAGE = "app_pages/results.py"
+
+
+def _study_with_a_day(store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    day = store.open_day("P01")
+    for robot, resp in [("pain check", "accept"), ("chitchat", "reject"), ("pain check", "accept")]:
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action=robot, response=resp)
+    store.close_day("P01", day)
+    store.record_adaptation("P01", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.25})
+
+
+def test_results_empty_study(app):
+    at = app(PAGE)
+    no_exception(at)
+    assert "No study day with interactions yet" in texts(at)
+
+
+def test_results_show_day_one_and_downloads(app, store):
+    _study_with_a_day(store)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "Day 1 mean success rate" in [m.label for m in at.metric]
+    assert at.metric[0].value == "67%"
+    labels = [b.label for b in at.get("download_button")]
+    for name in ("interactions.csv", "daily.csv", "participants.csv", "questionnaire.csv", "adaptations.csv"):
+        assert f"Download {name}" in labels
+    assert any("zip" in label for label in labels)
+
+
+def test_questionnaire_entry_and_summary(app, store):
+    _study_with_a_day(store)
+    at = app(PAGE, participant="P01")
+    at.slider[0].set_value(9)
+    next(b for b in at.button if b.label == "Save answer").click().run()
+    no_exception(at)
+    answers = store.questionnaire_frame()
+    assert list(answers["satisfaction"]) == [9]
+    values = {m.label: m.value for m in at.metric}
+    assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"

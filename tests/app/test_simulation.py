@@ -1,0 +1,36 @@
+from apphelpers import no_exception, texts
+
+from cacas.jobs import RUNNER
+
+PAGE = "app_pages/simulation.py"
+
+
+def test_simulation_lab_opens_with_the_example_personas(app):
+    at = app(PAGE)
+    no_exception(at)
+    assert at.multiselect[0].value[:2] == ["P01", "P02"]
+
+
+def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
+    at = app(PAGE)
+    at.multiselect[0].set_value(["P01"])
+    at.number_input[0].set_value(2)   # days
+    at.number_input[1].set_value(4)   # interactions a day
+    at.multiselect[1].set_value(["nn"])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    job = RUNNER.get(f"simulate:{db}")
+    assert job is not None and job.wait(300), "simulation did not finish"
+    assert job.status == "done", job.error
+    at.run()
+    no_exception(at)
+    assert (job.result / "daily.csv").exists()
+    assert "1 participants · 2 days · 4 interactions a day · methods nn · seed 0" in texts(at)
+    assert len(at.get("plotly_chart")) == 2
+
+
+def test_simulation_refuses_an_empty_choice(app):
+    at = app(PAGE)
+    at.multiselect[1].set_value([])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert "Choose at least one method" in texts(at)
