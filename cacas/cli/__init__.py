@@ -15,7 +15,7 @@ import sys
 from cacas.errors import CacasError
 
 #: Sub-command modules under cacas.cli, in the order they appear in ``cacas --help``.
-COMMANDS = ["simulate", "export"]
+COMMANDS = ["simulate", "export", "sound", "scene"]
 
 
 class _Parser(argparse.ArgumentParser):

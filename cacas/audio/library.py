@@ -1,0 +1,178 @@
+"""The sound library: ``study_data/sounds/<activity slug>/<clip>`` (Section III's 33 activities).
+
+* A folder is named by a filesystem-safe slug of the Table I name ("watch TV" -> ``watch_tv``);
+  :func:`activity_of_folder` maps it back through :mod:`cacas.spaces`.
+* The shipped clips are SYNTHETIC (:mod:`cacas.audio.synth`); :func:`generate_library` makes more.
+* :func:`import_folder` copies a researcher's own recordings (same layout, WAV/FLAC/OGG at any
+  rate) into the library after checking every file with :func:`cacas.audio.features.load_clip`;
+  a bad folder name or file is refused with one line naming it, and nothing is copied then.
+"""
+
+from __future__ import annotations
+
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+
+from cacas import spaces
+from cacas.audio.features import SAMPLE_RATE, SUPPORTED_EXTENSIONS, load_clip
+from cacas.errors import CacasError
+from cacas.paths import study_data_dir
+
+Progress = Callable[[float, str], None] | None
+
+
+def sounds_dir() -> Path:
+    """The library folder: ``<study data>/sounds``."""
+    return study_data_dir() / "sounds"
+
+
+def slug(name: str) -> str:
+    """Filesystem-safe folder name of a Table I name: "watch TV" -> "watch_tv"."""
+    return re.sub(r"[^a-z0-9]+", "_", name.strip().lower()).strip("_")
+
+
+def activity_slug(activity: str) -> str:
+    return slug(spaces.canonical("activity", activity))
+
+
+def activity_of_folder(folder: str) -> str:
+    """The Table I activity name of a library folder name (``watch_tv`` -> "watch TV")."""
+    return spaces.canonical("activity", str(folder).replace("_", " "))
+
+
+def _audio_files(folder: Path) -> list[Path]:
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in SUPPORTED_EXTENSIONS)
+
+
+def clip_paths(activity: str, root: Path | str | None = None) -> list[Path]:
+    """The library's clips for ``activity`` (a Table I name, any case), sorted by name."""
+    root = Path(root) if root is not None else sounds_dir()
+    return _audio_files(root / activity_slug(activity))
+
+
+@dataclass(frozen=True)
+class Clip:
+    """One recording of the library: its file and its activity (Table I name)."""
+
+    path: Path
+    activity: str
+
+
+def scan(root: Path | str | None = None, strict: bool = True) -> list[Clip]:
+    """Every clip under ``root`` (default: the library), one per file, ordered by activity then name.
+
+    With ``strict``, a sub-folder that is not an activity slug raises :class:`CacasError`.
+    """
+    root = Path(root) if root is not None else sounds_dir()
+    if not root.is_dir():
+        raise CacasError(f"{root}: no such sound folder; expected <folder>/<activity>/<clip>.wav|flac|ogg")
+    clips = []
+    for sub in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        try:
+            name = activity_of_folder(sub.name)
+        except CacasError:
+            if strict:
+                valid = ", ".join(slug(a) for a in spaces.ACTIVITIES)
+                raise CacasError(f"{sub}: folder name {sub.name!r} is not an activity; valid: {valid}") from None
+            continue
+        clips += [Clip(p, name) for p in _audio_files(sub)]
+    clips.sort(key=lambda c: (spaces.activity_index(c.activity), c.path.name))
+    return clips
+
+
+def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: int = 0,
+                     root: Path | str | None = None, activities=None, progress: Progress = None,
+                     fmt: str = "ogg") -> list[Path]:
+    """Write SYNTHETIC clips (:mod:`cacas.audio.synth`) into ``root/<slug>/synthetic_<seed>_<k>.<fmt>``.
+
+    Existing files with the same name are overwritten; other files are left alone, so a new seed
+    adds clips. Returns the written paths.
+    """
+    import soundfile as sf
+
+    from cacas.audio import synth
+
+    if clips_per_activity < 1:
+        raise CacasError(f"clips per activity must be at least 1, got {clips_per_activity}")
+    if not 1.0 <= seconds <= 10.0:
+        raise CacasError(f"clip length must be between 1 and 10 seconds, got {seconds}")
+    fmt = fmt.lower()
+    subtypes = {"ogg": "VORBIS", "flac": "PCM_16", "wav": "PCM_16"}
+    if fmt not in subtypes:
+        raise CacasError(f"unknown clip format {fmt!r}; valid: {', '.join(subtypes)}")
+    root = Path(root) if root is not None else sounds_dir()
+    names = [spaces.canonical("activity", a) for a in (activities or spaces.ACTIVITIES)]
+    written = []
+    total = len(names) * clips_per_activity
+    for i, name in enumerate(names):
+        folder = root / slug(name)
+        folder.mkdir(parents=True, exist_ok=True)
+        # one independent stream per (seed, activity, clip): adding activities changes nothing else
+        for k in range(clips_per_activity):
+            rng = np.random.default_rng([seed, spaces.activity_index(name), k])
+            y = synth.render(name, rng, seconds)
+            path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
+            sf.write(str(path), y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
+            written.append(path)
+            if progress:
+                progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
+    return written
+
+
+def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None) -> list[Path]:
+    """Copy a researcher's recordings (``source/<activity slug or name>/<clip>``) into the library.
+
+    Sub-folders may be named by slug ("watch_tv") or Table I name ("watch TV"). Every file is
+    checked first (:func:`load_clip`: readable WAV/FLAC/OGG, not empty, not silent, no NaN);
+    if any folder or file is bad, :class:`CacasError` names it and nothing is copied. Files keep
+    their format; a name already in the library gets an ``imported_`` prefix and a number.
+    Returns the new paths.
+    """
+    source = Path(source)
+    if not source.is_dir():
+        raise CacasError(f"{source}: no such folder; expected <folder>/<activity>/<clip>.wav|flac|ogg")
+    root = Path(root) if root is not None else sounds_dir()
+    plan: list[tuple[Path, str]] = []
+    for sub in sorted(p for p in source.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        try:
+            name = activity_of_folder(sub.name)
+        except CacasError:
+            valid = ", ".join(slug(a) for a in spaces.ACTIVITIES)
+            raise CacasError(f"{sub}: folder name {sub.name!r} is not an activity; valid: {valid}") from None
+        for f in sorted(p for p in sub.iterdir() if p.is_file() and not p.name.startswith(".")):
+            if f.suffix.lower() not in SUPPORTED_EXTENSIONS:
+                raise CacasError(f"{f}: unsupported file type {f.suffix or '(none)'!r}; "
+                                 f"valid: {', '.join(SUPPORTED_EXTENSIONS)}")
+            plan.append((f, name))
+    if not plan:
+        raise CacasError(f"{source}: no recordings found; expected <folder>/<activity>/<clip>.wav|flac|ogg")
+    for i, (f, _) in enumerate(plan):  # validate everything before copying anything
+        load_clip(f)
+        if progress:
+            progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
+    copied = []
+    for i, (f, name) in enumerate(plan):
+        folder = root / slug(name)
+        folder.mkdir(parents=True, exist_ok=True)
+        target = folder / f.name
+        k = 1
+        while target.exists():
+            target = folder / f"imported_{k}_{f.name}"
+            k += 1
+        shutil.copy2(f, target)
+        copied.append(target)
+        if progress:
+            progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
+    return copied
+
+
+def library_size_bytes(root: Path | str | None = None) -> int:
+    root = Path(root) if root is not None else sounds_dir()
+    return sum(p.stat().st_size for p in root.rglob("*") if p.is_file())

@@ -1,0 +1,101 @@
+"""``cacas scene generate|import|train|eval|recognize``: the scene images and ResNet-18 (IV-A)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from cacas.cli.sound import ProgressBar, print_metrics, print_recognition
+from cacas.errors import CacasError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("scene", help="scene images and the ResNet-18 scene model (generate, import, train, eval, recognize)",
+                              description="Image-based home-scene recognition (paper Section IV-A).")
+    sub = p.add_subparsers(dest="scene_command", metavar="ACTION")
+    sub.required = True
+    g = sub.add_parser("generate", help="write SYNTHETIC scene images into the library")
+    g.add_argument("--images", type=int, default=40, help="images per scene (default 40)")
+    g.add_argument("--size", type=int, default=128, help="image side in pixels (default 128)")
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--out", type=Path, default=None, help="library folder (default study_data/scenes)")
+    g.set_defaults(func=run_generate)
+    i = sub.add_parser("import", help="copy your own photos (FOLDER/<scene>/<image>) into the library")
+    i.add_argument("folder", type=Path)
+    i.add_argument("--out", type=Path, default=None)
+    i.set_defaults(func=run_import)
+    t = sub.add_parser("train", help="fine-tune ResNet-18 on the scene library and save it")
+    t.add_argument("--data", type=Path, default=None, help="images folder (default study_data/scenes)")
+    t.add_argument("--model", type=Path, default=None, help="where to save (default study_data/models/scene_resnet18.pt)")
+    t.add_argument("--weights", default="auto",
+                   help="initial weights: 'auto' (torchvision's local cache if present), 'none', or a .pth file")
+    t.add_argument("--epochs", type=int, default=12)
+    t.add_argument("--patience", type=int, default=4)
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--quiet", action="store_true")
+    t.set_defaults(func=run_train)
+    e = sub.add_parser("eval", help="test a scene model (default: on its held-out images)")
+    e.add_argument("--model", type=Path, default=None)
+    e.add_argument("--data", type=Path, default=None)
+    e.add_argument("--all", action="store_true", help="use every image under --data")
+    e.add_argument("--quiet", action="store_true")
+    e.set_defaults(func=run_eval)
+    r = sub.add_parser("recognize", help="recognise the scene of image files (prints label and top 3)")
+    r.add_argument("files", nargs="+", type=Path, metavar="FILE")
+    r.add_argument("--model", type=Path, default=None)
+    r.set_defaults(func=run_recognize)
+
+
+def run_generate(args) -> int:
+    from cacas.vision.library import generate_scenes, scenes_dir
+
+    bar = ProgressBar()
+    paths = generate_scenes(args.images, args.size, args.seed, args.out, progress=bar)
+    bar.done()
+    print(f"wrote {len(paths)} synthetic scene images to {args.out or scenes_dir()}")
+    return 0
+
+
+def run_import(args) -> int:
+    from cacas.vision.library import import_folder, scenes_dir
+
+    paths = import_folder(args.folder, args.out)
+    print(f"imported {len(paths)} images into {args.out or scenes_dir()}")
+    return 0
+
+
+def run_train(args) -> int:
+    from cacas.vision.model import default_model_path
+    from cacas.vision.training import train_scene_model
+
+    if args.epochs < 1:
+        raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
+    bar = ProgressBar(args.quiet)
+    result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
+                               weights=args.weights, progress=bar)
+    bar.done()
+    path = result.recognizer.save(args.model or default_model_path())
+    print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs, initial weights: "
+          f"{result.recognizer.metadata['initial_weights']}); saved {path}")
+    print_metrics(result.metrics, "images")
+    return 0
+
+
+def run_eval(args) -> int:
+    from cacas.vision.model import SceneRecognizer
+    from cacas.vision.training import evaluate_scene_model
+
+    rec = SceneRecognizer.load(args.model)
+    bar = ProgressBar(args.quiet)
+    metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
+    bar.done()
+    print_metrics(metrics, "images")
+    return 0
+
+
+def run_recognize(args) -> int:
+    from cacas.vision.model import SceneRecognizer
+
+    rec = SceneRecognizer.load(args.model)
+    for f in args.files:
+        print_recognition(f, rec.recognize(f))
+    return 0

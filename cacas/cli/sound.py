@@ -1,0 +1,147 @@
+"""``cacas sound generate|import|train|eval|recognize``: the sound library and the sound CNN (IV-A)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from cacas.errors import CacasError
+
+
+class ProgressBar:
+    """A one-line text progress bar on stderr for ``progress(fraction, message)`` callbacks."""
+
+    def __init__(self, quiet: bool = False, width: int = 30):
+        self.quiet, self.width, self.last = quiet, width, ""
+
+    def __call__(self, fraction: float, message: str) -> None:
+        if self.quiet:
+            return
+        filled = int(round(self.width * fraction))
+        line = f"[{'#' * filled}{'.' * (self.width - filled)}] {fraction:4.0%} {message}"[:110]
+        end = "\n" if fraction >= 1.0 else ""
+        sys.stderr.write("\r" + line.ljust(len(self.last)) + end)
+        sys.stderr.flush()
+        self.last = line
+
+    def done(self) -> None:
+        if not self.quiet and self.last:
+            sys.stderr.write("\n")
+            self.last = ""
+
+
+def print_metrics(metrics, what: str = "recordings") -> None:
+    """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
+    print(f"accuracy: {metrics.accuracy:.3f} on {metrics.n} held-out {what}")
+    if "window_accuracy" in metrics.extra:
+        print(f"window accuracy: {metrics.extra['window_accuracy']:.3f} on {metrics.extra['windows']} 1-s windows")
+    pc = metrics.per_class.dropna(subset=["accuracy"])
+    print(pc.to_string(index=False, formatters={"accuracy": "{:.2f}".format}))
+    cf = metrics.confusion_frame()
+    off = cf[(cf["true"] != cf["predicted"]) & (cf["count"] > 0)]
+    if len(off):
+        print("confusions (true -> predicted: count):")
+        for r in off.itertuples():
+            print(f"  {r.true} -> {r.predicted}: {r.count}")
+
+
+def print_recognition(path, rec) -> None:
+    print(f"{path}: {rec.label}")
+    for label, p in rec.top3:
+        print(f"  {label:24s} {p:.3f}")
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("sound", help="sound library and sound-activity CNN (generate, import, train, eval, recognize)",
+                              description="Sound-based activity recognition (paper Section IV-A).")
+    sub = p.add_subparsers(dest="sound_command", metavar="ACTION")
+    sub.required = True
+    g = sub.add_parser("generate", help="write SYNTHETIC clips into the sound library")
+    g.add_argument("--clips", type=int, default=24, help="clips per activity (default 24)")
+    g.add_argument("--seconds", type=float, default=2.0, help="clip length in seconds (default 2)")
+    g.add_argument("--seed", type=int, default=0, help="seed; a new seed adds new clips (default 0)")
+    g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"])
+    g.add_argument("--out", type=Path, default=None, help="library folder (default study_data/sounds)")
+    g.set_defaults(func=run_generate)
+    i = sub.add_parser("import", help="copy your own recordings (FOLDER/<activity>/<clip>) into the library")
+    i.add_argument("folder", type=Path)
+    i.add_argument("--out", type=Path, default=None, help="library folder (default study_data/sounds)")
+    i.set_defaults(func=run_import)
+    t = sub.add_parser("train", help="train the sound CNN on the library and save it")
+    t.add_argument("--data", type=Path, default=None, help="library folder (default study_data/sounds)")
+    t.add_argument("--model", type=Path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
+    t.add_argument("--epochs", type=int, default=12)
+    t.add_argument("--patience", type=int, default=3, help="early stopping: epochs without improvement")
+    t.add_argument("--augment", type=int, default=1, help="augmented copies per training window (default 1)")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.set_defaults(func=run_train)
+    e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)")
+    e.add_argument("--model", type=Path, default=None)
+    e.add_argument("--data", type=Path, default=None, help="recordings folder (default study_data/sounds)")
+    e.add_argument("--all", action="store_true", help="use every recording under --data, not only the held-out ones")
+    e.add_argument("--quiet", action="store_true")
+    e.set_defaults(func=run_eval)
+    r = sub.add_parser("recognize", help="recognise the activity in sound files (prints label and top 3)")
+    r.add_argument("files", nargs="+", type=Path, metavar="FILE")
+    r.add_argument("--model", type=Path, default=None)
+    r.set_defaults(func=run_recognize)
+
+
+def run_generate(args) -> int:
+    from cacas.audio.library import generate_library, library_size_bytes, sounds_dir
+
+    bar = ProgressBar()
+    paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
+    bar.done()
+    root = args.out or sounds_dir()
+    print(f"wrote {len(paths)} synthetic clips to {root} (library now {library_size_bytes(root) / 1e6:.1f} MB)")
+    return 0
+
+
+def run_import(args) -> int:
+    from cacas.audio.library import import_folder, sounds_dir
+
+    bar = ProgressBar()
+    paths = import_folder(args.folder, args.out, progress=bar)
+    bar.done()
+    print(f"imported {len(paths)} recordings into {args.out or sounds_dir()}")
+    return 0
+
+
+def run_train(args) -> int:
+    from cacas.audio.model import default_model_path
+    from cacas.audio.training import train_sound_model
+
+    if args.epochs < 1:
+        raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
+    bar = ProgressBar(args.quiet)
+    result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
+                               augment_copies=args.augment, progress=bar)
+    bar.done()
+    path = result.recognizer.save(args.model or default_model_path())
+    print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs); saved {path}")
+    print_metrics(result.metrics)
+    return 0
+
+
+def run_eval(args) -> int:
+    from cacas.audio.model import SoundRecognizer
+    from cacas.audio.training import evaluate_sound_model
+
+    rec = SoundRecognizer.load(args.model)
+    bar = ProgressBar(args.quiet)
+    metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
+    bar.done()
+    print_metrics(metrics)
+    return 0
+
+
+def run_recognize(args) -> int:
+    from cacas.audio.model import SoundRecognizer
+
+    rec = SoundRecognizer.load(args.model)
+    for f in args.files:
+        print_recognition(f, rec.recognize(f))
+    return 0

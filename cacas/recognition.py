@@ -1,0 +1,167 @@
+"""What sound and scene recognition share (Section IV-A, V-A): results, metrics, model files.
+
+* :class:`Recognition`: a label, the probability of every class, and the top 3.
+* :class:`Metrics`: accuracy, a tidy per-class accuracy table and the confusion matrix, as the
+  paper reports them in V-A ("most of sound activities can be recognized at an accuracy of 100%").
+* :func:`save_model` / :func:`load_model_file`: a ``.pt`` file of tensors (loaded with
+  ``weights_only=True``) beside a ``.json`` metadata file (classes, feature parameters, accuracy,
+  date, training data).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from cacas.errors import CacasError
+
+
+@dataclass(frozen=True)
+class Recognition:
+    """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``."""
+
+    label: str
+    probabilities: dict[str, float]
+    top3: list[tuple[str, float]]
+
+    @property
+    def confidence(self) -> float:
+        return self.probabilities[self.label]
+
+
+def make_recognition(probs: np.ndarray, classes: Sequence[str]) -> Recognition:
+    """A :class:`Recognition` from a probability vector over ``classes``."""
+    probs = np.asarray(probs, dtype=float)
+    order = np.argsort(-probs, kind="stable")
+    return Recognition(
+        label=classes[int(order[0])],
+        probabilities={c: float(p) for c, p in zip(classes, probs)},
+        top3=[(classes[int(i)], float(probs[i])) for i in order[:3]],
+    )
+
+
+@dataclass
+class Metrics:
+    """Test results: ``accuracy``, ``per_class`` (tidy: label, n, correct, accuracy), ``confusion``.
+
+    ``confusion[i, j]`` counts items of true class i predicted as class j (rows: truth).
+    ``extra`` holds further figures (e.g. window-level accuracy for sound).
+    """
+
+    accuracy: float
+    per_class: pd.DataFrame
+    confusion: np.ndarray
+    classes: list[str]
+    n: int
+    extra: dict = field(default_factory=dict)
+
+    def confusion_frame(self) -> pd.DataFrame:
+        """The confusion matrix as a tidy table: true, predicted, count."""
+        rows = [(t, p, int(self.confusion[i, j])) for i, t in enumerate(self.classes)
+                for j, p in enumerate(self.classes)]
+        return pd.DataFrame(rows, columns=["true", "predicted", "count"])
+
+    def to_json(self) -> dict:
+        return {
+            "accuracy": self.accuracy, "n": self.n, "classes": self.classes,
+            "per_class": self.per_class.to_dict(orient="records"),
+            "confusion": self.confusion.tolist(), **self.extra,
+        }
+
+
+def compute_metrics(y_true: Sequence[int], y_pred: Sequence[int], classes: Sequence[str], **extra) -> Metrics:
+    """Accuracy, per-class accuracy and confusion matrix of integer labels over ``classes``."""
+    y_true = np.asarray(y_true, dtype=int)
+    y_pred = np.asarray(y_pred, dtype=int)
+    k = len(classes)
+    cm = np.zeros((k, k), dtype=int)
+    np.add.at(cm, (y_true, y_pred), 1)
+    n_cls = cm.sum(axis=1)
+    correct = np.diag(cm)
+    per_class = pd.DataFrame({
+        "label": list(classes), "n": n_cls.astype(int), "correct": correct.astype(int),
+        "accuracy": np.where(n_cls > 0, correct / np.maximum(n_cls, 1), np.nan),
+    })
+    acc = float(correct.sum() / max(1, len(y_true)))
+    return Metrics(accuracy=acc, per_class=per_class, confusion=cm, classes=list(classes), n=int(len(y_true)),
+                   extra=dict(extra))
+
+
+def stratified_group_split(labels: Sequence[int], fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """Split items (each one source recording / image) into (keep, held_out) index arrays.
+
+    Per class, ``round(fraction * n)`` items (at least 1 when a class has 2 or more) are held
+    out, so every class is represented on both sides when it can be. Because the items are whole
+    recordings, their windows never sit on both sides.
+    """
+    labels = np.asarray(labels, dtype=int)
+    rng = np.random.default_rng(seed)
+    held = []
+    for c in np.unique(labels):
+        idx = np.flatnonzero(labels == c)
+        if len(idx) < 2:
+            continue
+        k = min(len(idx) - 1, max(1, int(round(fraction * len(idx)))))
+        held += list(rng.choice(idx, size=k, replace=False))
+    held = np.array(sorted(held), dtype=int)
+    keep = np.setdiff1d(np.arange(len(labels)), held)
+    return keep, held
+
+
+def save_model(path: Path | str, tensors: dict, metadata: dict) -> Path:
+    """Write ``path`` (.pt, tensors only) and ``path.with_suffix('.json')`` (metadata).
+
+    Both are written to temporary names first and then renamed, so nothing is half-written.
+    """
+    import torch
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp_pt, tmp_js = path.with_suffix(".pt.tmp"), path.with_suffix(".json.tmp")
+    torch.save(tensors, tmp_pt)
+    tmp_js.write_text(json.dumps(metadata, indent=1, default=_json_default) + "\n")
+    tmp_pt.replace(path)
+    tmp_js.replace(path.with_suffix(".json"))
+    return path
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating,)):
+        return None if np.isnan(obj) else float(obj)
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj)}")
+
+
+def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
+    """Read a model written by :func:`save_model`: (tensors, metadata). Bad files: CacasError."""
+    import torch
+
+    path = Path(path)
+    if path.is_dir():
+        raise CacasError(f"{path}: is a folder; give the model's .pt file")
+    meta_path = path.with_suffix(".json")
+    if not path.exists():
+        raise CacasError(f"{path}: no such {kind} model; train one with `cacas {kind} train`")
+    if not meta_path.exists():
+        raise CacasError(f"{meta_path}: the {kind} model's metadata file is missing")
+    try:
+        meta = json.loads(meta_path.read_text())
+    except (OSError, ValueError) as exc:
+        raise CacasError(f"{meta_path}: not valid JSON metadata ({exc})") from None
+    if meta.get("kind") != kind:
+        raise CacasError(f"{path}: not a {kind} model (metadata kind {meta.get('kind')!r})")
+    try:
+        tensors = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as exc:
+        raise CacasError(f"{path}: not a readable model file ({' '.join(str(exc).split())[:200]})") from None
+    return tensors, meta
