@@ -29,7 +29,7 @@ PAGES = [
     ("Study", "app_pages/results.py", "Results", ":material/monitoring:", ("cacas.plots", "cacas.export")),
     ("Lab", "app_pages/simulation.py", "Simulation lab", ":material/science:", ("cacas.plots", "cacas.experiment")),
     ("Lab", "app_pages/sounds.py", "Sounds and scenes", ":material/graphic_eq:",
-     ("cacas.audio.training", "cacas.audio.library", "cacas.vision")),
+     ("cacas.audio.training", "cacas.audio.library", "cacas.vision.training", "cacas.plots_recognition")),
 ]
 
 

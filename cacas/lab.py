@@ -1,0 +1,103 @@
+"""The sound and scene library in the app (Sections IV-A, V-A): add clips, train, evaluate, try.
+
+Thin wrappers over :mod:`cacas.audio` and :mod:`cacas.vision` so that a page (or a background
+job) does one call: add validated clips to the library (all or nothing, through the libraries'
+importers), train a model and save it where the study page loads it, evaluate the saved model.
+"""
+
+from __future__ import annotations
+
+import re
+import tempfile
+from pathlib import Path
+from typing import Callable, Sequence
+
+from cacas import spaces
+from cacas.errors import CacasError
+
+Progress = Callable[[float, str], None] | None
+_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
+
+
+def _safe_name(name: str, fallback: str) -> str:
+    stem = _SAFE.sub("_", Path(str(name or "")).name).strip("._") or fallback
+    return stem[:80]
+
+
+def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
+    """Add recordings of ``activity`` to the sound library: ``files`` are (file name, bytes) from an
+    upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
+    not silent, no NaN: :func:`cacas.audio.load_clip`); one bad file and nothing is added."""
+    from cacas.audio.library import import_folder, slug
+
+    name = spaces.canonical("activity", activity)
+    if not files:
+        raise CacasError("no recording given; upload a WAV, FLAC or OGG file or record one")
+    with tempfile.TemporaryDirectory() as tmp:
+        folder = Path(tmp) / slug(name)
+        folder.mkdir()
+        for i, (fname, data) in enumerate(files):
+            if not data:
+                raise CacasError(f"{fname or 'recording'}: is empty (0 bytes)")
+            target = folder / _safe_name(fname, f"recording_{i + 1}.wav")
+            if target.suffix == "":
+                target = target.with_suffix(".wav")
+            target.write_bytes(data)
+        return import_folder(tmp, root)
+
+
+def train_sound(progress: Progress = None, epochs: int = 30, seed: int = 0):
+    """Train the sound CNN on the library and save it as the model the study page uses."""
+    from cacas.audio.model import default_model_path
+    from cacas.audio.training import train_sound_model
+
+    result = train_sound_model(epochs=epochs, seed=seed, progress=progress)
+    result.recognizer.save(default_model_path())
+    return result
+
+
+def evaluate_sound(progress: Progress = None):
+    """The saved sound model on its held-out recordings (or the whole library)."""
+    from cacas.audio.model import SoundRecognizer
+    from cacas.audio.training import evaluate_sound_model
+
+    return evaluate_sound_model(SoundRecognizer.load(), progress=progress)
+
+
+def train_scene(progress: Progress = None, epochs: int = 12, seed: int = 0):
+    """Fine-tune (or train) the scene ResNet-18 on the scene library and save it."""
+    from cacas.vision.model import default_model_path
+    from cacas.vision.training import train_scene_model
+
+    result = train_scene_model(epochs=epochs, seed=seed, progress=progress)
+    result.recognizer.save(default_model_path())
+    return result
+
+
+def evaluate_scene(progress: Progress = None):
+    from cacas.vision.model import SceneRecognizer
+    from cacas.vision.training import evaluate_scene_model
+
+    return evaluate_scene_model(SceneRecognizer.load(), progress=progress)
+
+
+def recognize_sound_bytes(recognizer, name: str, data: bytes):
+    """Recognise an uploaded or recorded clip (bytes); a bad file raises CacasError naming it."""
+    if not data:
+        raise CacasError(f"{name}: is empty (0 bytes)")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / _safe_name(name, "recording.wav")
+        if path.suffix == "":
+            path = path.with_suffix(".wav")
+        path.write_bytes(data)
+        return recognizer.recognize(path)
+
+
+def recognize_scene_bytes(recognizer, name: str, data: bytes):
+    """Recognise an uploaded photo or a camera picture (bytes)."""
+    if not data:
+        raise CacasError(f"{name}: is empty (0 bytes)")
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / _safe_name(name, "photo.jpg")
+        path.write_bytes(data)
+        return recognizer.recognize(path)
