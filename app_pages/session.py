@@ -14,8 +14,10 @@ import streamlit as st
 
 from cacas import app_support, dialogue, spaces
 from cacas.errors import CacasError
+from cacas.jobs import FAILED, RUNNER
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
-                             policy_in_force, previous_interaction, propose, start_day)
+                             initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
+                             propose, start_day)
 from app_pages import ui
 
 store = ui.store()
@@ -195,7 +197,15 @@ else:
     token = f"{day}:{index}:{token_ctx}"
     clip = clip_for(context, code, day, index, _clips(context.activity))
     heard = _heard(str(clip)) if clip else None
-    with st.spinner("The robot is getting ready (the first time takes a little while)..."):
+    if status.policy_version is None and not initial_policy_ready():
+        # first use on this machine: the initial policy is trained once, in the background
+        job, _ = RUNNER.start("initial-policy", prepare_initial_policy, label="The robot is getting ready (first use only)")
+        if job.status == FAILED:
+            st.error(f"The robot could not get ready: {job.error}")
+        else:
+            ui.job_progress("initial-policy")
+        st.stop()
+    with st.spinner("The robot is getting ready..."):
         policy, version = _policy(ui.db_path(), code, status.policy_version)
     proposal = propose(policy, context, previous_interaction(store, code, day),
                        heard=heard[0] if heard else None, heard_confidence=heard[1] if heard else None,

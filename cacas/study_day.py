@@ -118,6 +118,21 @@ def policy_in_force(store, participant: str, initial_loader: Callable | None = N
     return policy_from_bytes(store.load_policy(participant, version=active.version)), active.version
 
 
+def initial_policy_ready() -> bool:
+    """Whether the initial policy (CACAA step 1) is on disk; if not, the first proposal trains it
+    (minutes on a small machine), so the app runs :func:`prepare_initial_policy` in the background."""
+    from cacas.adaptation import initial_policy_path
+
+    return initial_policy_path().exists()
+
+
+def prepare_initial_policy(progress: Progress | None = None) -> None:
+    """Train and cache the initial policy if it is missing (for a background job)."""
+    from cacas.adaptation import load_initial_policy
+
+    load_initial_policy(progress=progress)
+
+
 def adapted_days(store, participant: str, method: str = "cacas") -> set[int]:
     """Study days after which the participant's policy was adapted with ``method``."""
     runs = store.adaptations_frame(participant)

@@ -56,9 +56,11 @@ def quick_policy(monkeypatch):
     """An untrained (randomly initialised) SAC policy as the initial policy, so that page tests do
     not train one; the page does not care how the policy in force was trained."""
     import cacas.adaptation
+    import cacas.study_day
     from cacas.policy import ReshapedPolicy
     from cacas.sac import DiscreteSAC, SACConfig
 
     policy = ReshapedPolicy(DiscreteSAC(SACConfig(), seed=0), None, beta=1.0, method="initial")
     monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    monkeypatch.setattr(cacas.study_day, "initial_policy_ready", lambda: True)
     return policy

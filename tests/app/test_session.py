@@ -124,3 +124,32 @@ def test_closed_day_waits_for_adaptation(app, store, p01, quick_policy):
     no_exception(at)
     assert "robot is learning" in texts(at)
     assert not any(b.label.startswith("Start day") for b in at.button)
+
+
+def test_first_use_prepares_the_initial_policy_in_the_background(app, store, p01, quick_policy, monkeypatch):
+    import threading
+
+    import cacas.study_day
+    from cacas.jobs import RUNNER
+
+    ready = threading.Event()
+    gate = threading.Event()
+
+    def prepare(progress=None):
+        progress(0.5, "training the initial policy")
+        gate.wait(30)
+        ready.set()
+
+    monkeypatch.setattr(cacas.study_day, "initial_policy_ready", ready.is_set)
+    monkeypatch.setattr(cacas.study_day, "prepare_initial_policy", prepare)
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    no_exception(at)
+    job = RUNNER.get("initial-policy")
+    assert job is not None and job.running
+    assert not any(b.label == "Accept" for b in at.button)  # no proposal yet
+    gate.set()
+    assert job.wait(30)
+    at.run()
+    no_exception(at)
+    assert any(b.label in ("Accept", "Nothing needed") for b in at.button)
