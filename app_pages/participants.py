@@ -106,10 +106,12 @@ if code:
     with tabs[f"Preferences of {code}"]:
         done = st.session_state.pop("pref-saved", None)
         if done and done[0] == code:
-            st.success(f"Saved version {done[1]} of {code}'s preferences: {done[2]} preferences covering "
-                       f"{done[3]:,} states.", icon=":material/check_circle:")
+            st.success(f"Saved version {done[1]} of {code}'s preferences: {done[2]} "
+                       f"preference{'s' if done[2] != 1 else ''} covering {done[3]:,} states.",
+                       icon=":material/check_circle:")
         if saved is not None:
-            st.markdown(f"**Saved (version {version})** · {len(saved.preferences)} preferences covering "
+            n_prefs = len(saved.preferences)
+            st.markdown(f"**Saved (version {version})** · {n_prefs} preference{'s' if n_prefs != 1 else ''} covering "
                         f"**{saved.covered_count():,}** of the {33 * 6 * 12 * 12:,} S1-S4 states "
                         "(the paper counts 1,564 on average for 5 preferences).")
             st.dataframe(app_support.preferences_table(saved), hide_index=True, width="stretch",

@@ -97,7 +97,8 @@ if runs:
     daily = app_support.load_daily(folder / "daily.csv")
     settings = json.loads((folder / "settings.json").read_text()) if (folder / "settings.json").exists() else {}
     if settings:
-        st.caption(f"{len(settings.get('participants', []))} participants · {settings.get('days')} days · "
+        n = len(settings.get("participants", []))
+        st.caption(f"{n} participant{'s' if n != 1 else ''} · {settings.get('days')} days · "
                    f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
                    f" · seed {settings.get('seed')}")
     c1, c2 = st.columns(2)

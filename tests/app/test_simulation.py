@@ -24,7 +24,7 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at.run()
     no_exception(at)
     assert (job.result / "daily.csv").exists()
-    assert "1 participants · 2 days · 4 interactions a day · methods nn · seed 0" in texts(at)
+    assert "1 participant · 2 days · 4 interactions a day · methods nn · seed 0" in texts(at)
     assert len(at.get("plotly_chart")) == 2
 
 

@@ -86,6 +86,9 @@ def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     choose(page, "Activity (S1)", activity)
     choose(page, "Room (S2)", room)
     click(page, "Do it")
+    if "getting ready" in text_of(page):  # first use: the initial policy is being trained
+        page.wait_for_selector("text=Or ask the robot yourself", timeout=600_000)
+        idle(page)
     return button(page, "Accept").count() > 0
 
 
@@ -119,9 +122,19 @@ def test_mini_study(server, page, tmp_path):
     choose(page, "Activities (S1)", "use stove", "stMultiSelect")
     choose(page, "Rooms (S2)", "kitchen", "stMultiSelect")
     choose(page, "The robot should (action)", "remind to turn off")
+    second = page.locator("[data-testid='stVerticalBlock']").filter(
+        has=page.get_by_text("Preference 2", exact=True)).last
+    second.get_by_role("textbox", name="In the participant's words").fill("When I cough, check whether I am in pain.")
+    second.locator("[data-testid='stMultiSelect']").first.locator("input").click()
+    page.keyboard.type("cough")
+    page.get_by_role("option", name="cough", exact=True).first.click()
+    page.keyboard.press("Escape")
+    second.locator("[data-testid='stSelectbox']").last.locator("input").click()
+    page.keyboard.type("pain check")
+    page.get_by_role("option", name="pain check", exact=True).first.click()
     click(page, "Save preferences")
     body = text_of(page)
-    assert "Saved version 1" in body, body[:2000]
+    assert "Saved version 1 of P01's preferences: 2 preferences" in body, body[:2000]
     shot(page, "participants")
 
     # --- the tablet view: five interactions, with a reload in the middle ----------------------------
@@ -196,6 +209,20 @@ def test_mini_study(server, page, tmp_path):
     # --- the lab pages open too ---------------------------------------------------------------------
     goto(page, f"{server}/simulation?participant=P01")
     assert "Simulation lab" in text_of(page)
+    # a small simulated study: one persona, two days, CACAS and NN
+    for label in ("Simulated participants", "Methods"):
+        _widget(page, "stMultiSelect", label).get_by_role("button", name="Clear all").click()
+        page.wait_for_timeout(200)
+    choose(page, "Simulated participants", "P01", "stMultiSelect")
+    choose(page, "Methods", "cacas", "stMultiSelect")
+    choose(page, "Methods", "nn", "stMultiSelect")
+    for label, value in (("Days", "2"), ("Interactions a day", "6")):
+        box = page.get_by_role("spinbutton", name=label, exact=True)
+        box.fill(value)
+        box.press("Tab")
+    click(page, "Run simulation")
+    page.wait_for_selector("text=1 participant · 2 days", timeout=180_000)
+    idle(page)
     shot(page, "simulation")
     goto(page, f"{server}/sounds?participant=P01")
     shot(page, "sounds")
