@@ -143,7 +143,7 @@ class DiscreteSAC:
 
     @property
     def alpha(self) -> float:
-        return float(self.log_alpha.exp())
+        return float(self.log_alpha.detach().exp())
 
     # --- acting ------------------------------------------------------------------------------------
     @torch.no_grad()

@@ -113,8 +113,8 @@ class StateGenerator:
 
     At step t (time t*K minutes, jittered within the step) each day draws an activity from the
     source (idle steps are "do nothing"), a scene for it, the time slot S3 from the clock, the
-    repeat interval S4 from the history h of activity times (a follow-up activity a few minutes
-    after the previous one happens now and then), and S5-S7 from the previous step's action
+    repeat interval S4 from the history h of activity times (including, now and then, an
+    activity a few minutes before the observation), and S5-S7 from the previous step's action
     and response.
     """
 
@@ -152,9 +152,10 @@ class StateGenerator:
         """The next state of every parallel day: (E, 7) Table I indices."""
         E, rng = self.E, self.rng
         now = self.t * self.K + rng.uniform(0, self.K, E)
+        # Activities between two K-minute observations still count in h: now and then the
+        # previous activity was only a few minutes ago (short repeat intervals, S4 < 5 min).
         follow = rng.random(E) < self.follow_up_rate
-        now = np.where(follow, np.maximum(self.last_activity_time, 0) + rng.uniform(0, 5, E), now)
-        now = np.clip(now, 0, 24 * 60 - 1e-6)
+        self.last_activity_time = np.where(follow, now - rng.uniform(0, 5, E), self.last_activity_time)
         slot = int(self.t * self.K // 120)
         activity = self._draw_activities(slot)
         scene_cdf = np.cumsum(self.source.scene_table[activity], axis=1)

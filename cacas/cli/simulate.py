@@ -1,0 +1,81 @@
+"""``cacas simulate``: a whole simulated study (design.md's contract).
+
+    cacas simulate --personas FILE [--days 7] [--interactions 15]
+                   [--methods cacas,cacas-no-pr,orl,nn] [--seed 0] --out DIR [--plot DIR]
+
+Writes DIR/daily.csv and DIR/interactions.csv, prints the per-method, per-day table of means,
+and with --plot writes Fig. 3 and Fig. 4 as Plotly HTML.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from cacas.errors import CacasError
+
+
+def register(sub) -> None:
+    p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--personas", required=True, metavar="FILE", help="persona JSON file (design.md format)")
+    p.add_argument("--days", type=int, default=7, help="study days (default 7)")
+    p.add_argument("--interactions", type=int, default=15, help="interactions a day, about (default 15)")
+    p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
+                   help="comma-separated methods; the first runs in closed loop "
+                        "(cacas, cacas-no-pr, orl, nn, bandit; default the paper's four)")
+    p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same daily.csv)")
+    p.add_argument("--no-response-rate", type=float, default=0.1,
+                   help="share of robot actions the simulated participant does not answer (default 0.1)")
+    p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
+    p.add_argument("--out", required=True, metavar="DIR", help="folder for daily.csv and interactions.csv")
+    p.add_argument("--plot", metavar="DIR", help="also write Fig. 3 and Fig. 4 as Plotly HTML here")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    from cacas.experiment import check_methods
+
+    if args.days < 1:
+        raise CacasError(f"--days {args.days} is invalid; valid: a whole number of days >= 1")
+    if args.interactions < 1:
+        raise CacasError(f"--interactions {args.interactions} is invalid; valid: a whole number >= 1")
+    if not 0 <= args.no_response_rate < 1:
+        raise CacasError(f"--no-response-rate {args.no_response_rate} is invalid; valid: 0 <= rate < 1")
+    methods = check_methods(args.methods.split(","))
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise CacasError(f"--out {out} is a file; valid: a folder (created if missing)")
+
+    import pandas as pd
+
+    from cacas import records
+    from cacas.cli.progress import ProgressBar
+    from cacas.d4a import load_d4a
+    from cacas.experiment import simulate_study, summary_table
+    from cacas.preferences import load_personas
+
+    people = load_personas(args.personas)
+    d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
+    progress = None if args.quiet else ProgressBar("simulate")
+    result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
+                            seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a)
+    out.mkdir(parents=True, exist_ok=True)
+    for name, df in (("daily.csv", result.daily), ("interactions.csv", result.interactions)):
+        tmp = out / f".{name}.tmp"
+        records.write_csv(df, tmp)
+        tmp.replace(out / name)
+    table = summary_table(result.daily)
+    with pd.option_context("display.width", 120, "display.max_rows", 200):
+        print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
+    print(f"wrote {out / 'daily.csv'} and {out / 'interactions.csv'}")
+    if args.plot:
+        from cacas.plots import methods_figure, success_figure
+
+        plot_dir = Path(args.plot)
+        plot_dir.mkdir(parents=True, exist_ok=True)
+        success_figure(result.daily, methods[0]).write_html(plot_dir / "fig3_success.html", include_plotlyjs="directory")
+        methods_figure(result.daily).write_html(plot_dir / "fig4_methods.html", include_plotlyjs="directory")
+        print(f"wrote {plot_dir / 'fig3_success.html'} and {plot_dir / 'fig4_methods.html'}")
+    return 0

@@ -1,0 +1,79 @@
+"""Plotly figure builders for the paper's Fig. 3 and Fig. 4, from a daily.csv table.
+
+The same builders serve human studies (the study database's daily table) and simulated ones
+(``cacas simulate``), the app and ``cacas simulate --plot``.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+import plotly.graph_objects as go
+from plotly.subplots import make_subplots
+
+METHOD_LABELS = {"cacas": "CACAS", "cacas-no-pr": "CACAS w/o PR", "orl": "ORL", "nn": "NN",
+                 "bandit": "Bandit (TS)"}
+METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
+                  "bandit": "#8064a2"}
+
+
+def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
+    """Per day: mean, min and max success rate across participants, mean cumulative feedback."""
+    d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
+    g = d.groupby("day")
+    return pd.DataFrame({
+        "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
+        "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
+        "participants": g["participant"].nunique(),
+    }).reset_index()
+
+
+def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None = None) -> go.Figure:
+    """Fig. 3: mean success rate per day, a min-max band across participants, and the mean
+    cumulative number of feedback on a second axis."""
+    s = success_by_day(daily, method)
+    fig = make_subplots(specs=[[{"secondary_y": True}]])
+    colour = METHOD_COLOURS.get(method, "#2f6f8f")
+    fig.add_trace(go.Scatter(x=s["day"], y=s["max"], mode="lines", line=dict(width=0), hoverinfo="skip",
+                             showlegend=False), secondary_y=False)
+    fig.add_trace(go.Scatter(x=s["day"], y=s["min"], mode="lines", line=dict(width=0), fill="tonexty",
+                             fillcolor="rgba(47,111,143,0.18)", name="min-max across participants",
+                             hoverinfo="skip"), secondary_y=False)
+    fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
+                             line=dict(color=colour, width=3),
+                             hovertemplate="day %{x}: %{y:.0%}<extra></extra>"), secondary_y=False)
+    fig.add_trace(go.Bar(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
+                         marker_color="rgba(120,120,120,0.35)",
+                         hovertemplate="day %{x}: %{y:.0f} data points<extra></extra>"), secondary_y=True)
+    fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%", secondary_y=False)
+    fig.update_yaxes(title_text="cumulative feedback", rangemode="tozero", showgrid=False, secondary_y=True)
+    fig.update_xaxes(title_text="day", dtick=1)
+    n = int(s["participants"].max()) if len(s) else 0
+    fig.update_layout(title=title or f"Success rate and cumulative feedback ({METHOD_LABELS.get(method, method)}, "
+                                     f"{n} participant{'s' if n != 1 else ''})",
+                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
+                      template="plotly_white", barmode="overlay")
+    return fig
+
+
+def accuracy_by_day(daily: pd.DataFrame) -> pd.DataFrame:
+    """Per method and day: mean, min and max preference accuracy across participants."""
+    d = daily[daily["preference_accuracy"].notna()]
+    g = d.groupby(["method", "day"], sort=False)["preference_accuracy"]
+    return pd.DataFrame({"mean": g.mean(), "min": g.min(), "max": g.max()}).reset_index()
+
+
+def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
+    """Fig. 4: each method's preference accuracy (mean over participants) per day."""
+    a = accuracy_by_day(daily)
+    fig = go.Figure()
+    for method, d in a.groupby("method", sort=False):
+        fig.add_trace(go.Scatter(
+            x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
+            line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
+            customdata=d[["min", "max"]],
+            hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%})<extra></extra>"))
+    fig.update_yaxes(title_text="preference accuracy", range=[0, 1.02], tickformat=".0%")
+    fig.update_xaxes(title_text="day", dtick=1)
+    fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
+                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
+    return fig

@@ -1,0 +1,100 @@
+import inspect
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from cacas import adaptation, preferences, records, spaces
+from cacas.adaptation import METHODS, adapt_policy, evaluation_states, policy_changes, preference_accuracy
+from cacas.errors import CacasError
+from cacas.preferences import parse_personas
+
+PERSON = parse_personas({"participants": [{"id": "P01", "preferences": [
+    {"activity": ["use stove"], "scene": ["kitchen"], "action": "set a timer"},
+    {"activity": ["cough"], "hours": [[20, 24]], "action": "pain check"}]}]})[0]
+
+
+def stove_days(days=3, per_day=8):
+    """The participant asks for a timer whenever they use the stove (the robot did nothing)."""
+    rows = []
+    for d in range(1, days + 1):
+        for i in range(per_day):
+            rows.append({"participant": "P01", "method": "cacas", "day": d, "index": i, "time": "08:00",
+                         "activity": "use stove", "scene": "kitchen", "time_slot": 3 + i % 6, "interval": 30,
+                         "task": "do nothing", "previous_action": "do nothing", "previous_response": "others",
+                         "type": "type_2", "robot_action": "do nothing", "response": "accept",
+                         "user_action": "set a timer"})
+    return pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
+
+
+def stove_state():
+    return spaces.State.from_names("use stove", "kitchen", 9, 30)
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_every_method_adapts_to_a_participant_who_asks_for_a_timer(method, small_config, small_initial):
+    result = adapt_policy(small_initial, stove_days(), method, seed=0, config=small_config)
+    assert result.log and result.parameters["method"] == method and result.duration_s >= 0
+    if method in ("cacas", "nn", "bandit"):  # these remember accepted/requested actions directly
+        assert spaces.ACTIONS[result.policy.decide(stove_state())[0]] == "set a timer"
+    p = result.policy.action_probabilities([stove_state()])
+    assert np.isclose(p.sum(), 1.0, atol=1e-5)
+
+
+def test_cacas_moves_from_the_initial_action(small_config, small_initial):
+    before = small_initial.decide(stove_state())[0]
+    after = adapt_policy(small_initial, stove_days(), "cacas", seed=0, config=small_config).policy
+    assert spaces.ACTIONS[before] != "set a timer"
+    changes = policy_changes(small_initial, after, stove_days(), top=3)
+    assert len(changes) == 3 and changes["changed"].all() and set(changes["action_after"]) == {"set a timer"}
+
+
+def test_adaptation_never_reads_described_preferences(monkeypatch, small_config, small_initial):
+    """No-preference-leak guard: the adaptation sees interactions only (paper: 'the system has no
+    access to them'). Any use of the preference machinery during adaptation fails the test."""
+    def leak(*args, **kwargs):
+        raise AssertionError("the adaptation read described preferences")
+    for name in ("coverage_mask", "preferred_action_table"):
+        monkeypatch.setattr(preferences.Participant, name, leak, raising=False)
+        monkeypatch.setattr(preferences.Preference, name, leak, raising=False)
+    for name in ("load_personas", "parse_personas", "parse_participant", "parse_preference"):
+        monkeypatch.setattr(preferences, name, leak)
+    monkeypatch.setattr(adaptation, "preference_states", leak)
+    for method in METHODS:
+        adapt_policy(small_initial, stove_days(2), method, seed=0, config=small_config)
+    assert "participant" not in inspect.signature(adapt_policy).parameters
+
+
+def test_same_interactions_same_policy_whoever_the_participant(small_config, small_initial):
+    a = adapt_policy(small_initial, stove_days(2), "cacas", seed=5, config=small_config).policy
+    other = stove_days(2).assign(participant="P99")
+    b = adapt_policy(small_initial, other, "cacas", seed=5, config=small_config).policy
+    states = evaluation_states(PERSON, 50, seed=1)
+    assert np.allclose(a.action_probabilities(states), b.action_probabilities(states))
+
+
+def test_unknown_method_is_refused(small_initial):
+    with pytest.raises(CacasError, match="unknown method 'dqn'"):
+        adapt_policy(small_initial, stove_days(1), "dqn")
+
+
+class Oracle:
+    """Chooses the preferred action (or a fixed wrong one)."""
+
+    def __init__(self, wrong=None):
+        self.table, self.wrong = PERSON.preferred_action_table(), wrong
+
+    def greedy(self, states):
+        if self.wrong is not None:
+            return np.full(len(states), self.wrong)
+        return self.table[states[:, 0], states[:, 1], states[:, 2], states[:, 3], states[:, 4]]
+
+
+def test_preference_accuracy_counts_the_preferred_action():
+    assert preference_accuracy(Oracle(), PERSON) == 1.0
+    assert preference_accuracy(Oracle(wrong=spaces.action_index("chitchat")), PERSON) == 0.0
+    timer_share = preference_accuracy(Oracle(wrong=spaces.action_index("set a timer")), PERSON, n=2000)
+    assert 0.4 < timer_share < 0.6  # one of the two preferences, chosen at random
+    states = evaluation_states(PERSON, 100, seed=3)
+    mask = PERSON.coverage_mask()
+    assert all(mask[tuple(s[:4])] for s in states) and np.all(states[:, 4] == 0)

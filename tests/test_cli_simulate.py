@@ -1,0 +1,75 @@
+import json
+import subprocess
+import sys
+
+import pytest
+
+from cacas.cli import main
+
+GOOD = {"participants": [{"id": "P01", "preferences": [
+    {"description": "Stove: set a timer", "activity": ["use stove"], "scene": ["kitchen"], "action": "set a timer"}]}]}
+
+
+def write(tmp_path, data, name="personas.json"):
+    p = tmp_path / name
+    p.write_text(data if isinstance(data, str) else json.dumps(data))
+    return p
+
+
+def bad_pref(**change):
+    pref = dict(GOOD["participants"][0]["preferences"][0], **change)
+    return {"participants": [{"id": "P01", "preferences": [pref]}]}
+
+
+@pytest.mark.parametrize("content,args,needles", [
+    (None, [], ["missing.json", "no such persona file"]),
+    ("{not json", [], ["personas.json", "not valid JSON"]),
+    (bad_pref(activity=["stove"]), [], ["personas.json", "participant P01", "preference 1", "field 'activity'", "'stove'"]),
+    (bad_pref(action="dance"), [], ["personas.json", "participant P01", "field 'action'", "'dance'"]),
+    ({"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check"},
+        {"activity": ["cough"], "scene": ["bedroom"], "action": "show compassion"}]}]}, [],
+     ["personas.json", "participant P01", "preferences 1 and 2", "different actions"]),
+    (GOOD, ["--days", "0"], ["--days 0"]),
+    (GOOD, ["--methods", "cacas,dqn"], ["unknown method 'dqn'"]),
+    (GOOD, ["--days", "two"], ["--days", "invalid int"]),
+])
+def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):
+    path = tmp_path / "missing.json" if content is None else write(tmp_path, content)
+    code = main(["simulate", "--personas", str(path), "--out", str(tmp_path / "out"), "--quiet", *args]) \
+        if "--days" not in args or args[1] != "two" else None
+    if code is None:  # argparse's own type errors exit through SystemExit
+        with pytest.raises(SystemExit) as exc:
+            main(["simulate", "--personas", str(path), "--out", str(tmp_path / "out"), *args])
+        code = exc.value.code
+    err = capsys.readouterr().err
+    assert code == 2
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1 and "Traceback" not in err
+    for n in needles:
+        assert n in lines[0]
+    assert not (tmp_path / "out").exists()  # nothing written
+
+
+def test_no_traceback_from_the_installed_command(tmp_path):
+    bad = write(tmp_path, bad_pref(scene=["garage"]))
+    proc = subprocess.run([sys.executable, "-m", "cacas", "simulate", "--personas", str(bad), "--out",
+                           str(tmp_path / "o")], capture_output=True, text=True)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+    assert "field 'scene'" in proc.stderr and "'garage'" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_same_seed_writes_the_same_daily_csv_byte_for_byte(tmp_path, capsys):
+    personas = write(tmp_path, GOOD)
+    args = ["simulate", "--personas", str(personas), "--days", "2", "--interactions", "4",
+            "--methods", "cacas,nn", "--seed", "7", "--quiet"]
+    assert main(args + ["--out", str(tmp_path / "a"), "--plot", str(tmp_path / "plots")]) == 0
+    assert main(args + ["--out", str(tmp_path / "b")]) == 0
+    out = capsys.readouterr().out
+    assert "preference_accuracy" in out and "cacas" in out
+    a, b = (tmp_path / "a" / "daily.csv").read_bytes(), (tmp_path / "b" / "daily.csv").read_bytes()
+    assert a == b and a.startswith(b"participant,method,day,success_rate,preference_accuracy,cumulative_feedback,"
+                                   b"interactions")
+    assert (tmp_path / "a" / "interactions.csv").read_bytes() == (tmp_path / "b" / "interactions.csv").read_bytes()
+    assert (tmp_path / "plots" / "fig3_success.html").stat().st_size > 1000
+    assert (tmp_path / "plots" / "fig4_methods.html").exists()

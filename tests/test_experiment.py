@@ -1,0 +1,70 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from cacas import records
+from cacas.errors import CacasError
+from cacas.experiment import simulate_study, simulated_day, summary_table
+from cacas.preferences import parse_personas
+
+PEOPLE = parse_personas({"participants": [
+    {"id": "P01", "preferences": [{"activity": ["use stove"], "scene": ["kitchen"], "action": "set a timer"},
+                                  {"activity": ["cough"], "action": "pain check"}]},
+    {"id": "P02", "preferences": [{"activity": ["watch TV"], "action": "chitchat"}]}]})
+
+
+class Always:
+    def __init__(self, action):
+        self.action = action
+
+    def greedy(self, states):
+        return np.full(len(states), self.action)
+
+
+def test_simulated_participant_accepts_rejects_and_asks():
+    rng = np.random.default_rng(0)
+    asked = pd.DataFrame(simulated_day(Always(0), PEOPLE[0], 1, 30, rng, 0.0, "cacas"))
+    assert (asked["type"] == "type_2").all() and (asked["response"] == "accept").all()
+    assert set(asked["user_action"]) == {"set a timer", "pain check"}
+    wrong = pd.DataFrame(simulated_day(Always(2), PEOPLE[0], 1, 30, rng, 0.0, "cacas"))
+    assert (wrong["response"] == "reject").all() and (wrong["type"] == "type_1").all()
+    silent = pd.DataFrame(simulated_day(Always(2), PEOPLE[0], 1, 200, rng, 0.5, "cacas"))
+    assert 0.35 < (silent["response"] == "others").mean() < 0.65
+    assert list(asked["time"]) == sorted(asked["time"])  # a day in time order
+    assert 15 <= len(asked) <= 45  # about 30 a day
+
+
+def test_study_tables_follow_the_contract(small_config, small_initial):
+    res = simulate_study(PEOPLE, days=2, interactions=6, methods=["cacas", "nn"], seed=1,
+                         config=small_config, initial_policy=small_initial)
+    d = res.daily
+    assert list(d.columns[:7]) == ["participant", "method", "day", "success_rate", "preference_accuracy",
+                                   "cumulative_feedback", "interactions"]
+    assert len(d) == 2 * 2 * 2 and list(res.interactions.columns) == records.INTERACTION_COLUMNS
+    assert d.loc[d.method == "nn", "success_rate"].isna().all()
+    assert d.loc[d.method == "cacas", "success_rate"].between(0, 1).all()
+    assert d["preference_accuracy"].between(0, 1).all()
+    cacas = d[d.method == "cacas"].sort_values(["participant", "day"])
+    for _, g in cacas.groupby("participant"):
+        assert g["cumulative_feedback"].is_monotonic_increasing
+    # the day-1 policy is the initial one for every method
+    day1 = d[d.day == 1].groupby("participant")["preference_accuracy"].nunique()
+    assert (day1 == 1).all()
+    table = summary_table(d)
+    assert set(table["method"]) == {"cacas", "nn"}
+
+
+def test_same_seed_same_tables(small_config, small_initial):
+    kw = dict(days=2, interactions=5, methods=["cacas", "orl"], config=small_config, initial_policy=small_initial)
+    a = simulate_study(PEOPLE[:1], seed=3, **kw)
+    b = simulate_study(PEOPLE[:1], seed=3, **kw)
+    pd.testing.assert_frame_equal(a.daily, b.daily)
+    pd.testing.assert_frame_equal(a.interactions, b.interactions)
+
+
+@pytest.mark.parametrize("kw,needle", [({"days": 0}, "--days 0"), ({"interactions": 0}, "--interactions 0"),
+                                       ({"methods": ["cacas", "dqn"]}, "unknown method 'dqn'"),
+                                       ({"no_response_rate": 1.5}, "no-response rate")])
+def test_bad_arguments(kw, needle, small_initial):
+    with pytest.raises(CacasError, match=needle):
+        simulate_study(PEOPLE, initial_policy=small_initial, **kw)

@@ -1,0 +1,80 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from cacas import records, spaces
+from cacas.d4a import load_d4a
+from cacas.errors import CacasError
+from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, policy_from_bytes
+from cacas.sac import DiscreteSAC, SACConfig
+
+
+def _states(n=20, seed=0):
+    rng = np.random.default_rng(seed)
+    return np.stack([rng.integers(k, size=n) for _, k in spaces.STATE_PARTS], axis=1)
+
+
+def test_eq5_gives_a_probability_distribution_and_mixes_with_beta():
+    sac = DiscreteSAC(SACConfig(hidden=16), seed=0)
+    s = _states()
+    mlp = MLPPolicy(hidden=16, epochs=50).fit(s, np.full(len(s), 3))
+    pi = ReshapedPolicy(sac, mlp, beta=0.7)
+    p = pi.action_probabilities(s)
+    assert p.shape == (20, 14) and np.all(p >= 0) and np.allclose(p.sum(1), 1.0, atol=1e-5)
+    expected = 0.7 * sac.action_probabilities(spaces.encode_states(s)) + 0.3 * mlp.action_probabilities(s)
+    assert np.allclose(p, expected, atol=1e-6)
+    assert list(pi.greedy(s)) == list(p.argmax(1))
+    assert ReshapedPolicy(sac, None).beta == 1.0 and ReshapedPolicy(None, mlp).beta == 0.0
+    with pytest.raises(CacasError, match="beta"):
+        ReshapedPolicy(sac, mlp, beta=1.5)
+
+
+def test_decide_takes_a_state_object():
+    pi = ReshapedPolicy(DiscreteSAC(SACConfig(hidden=16)), None)
+    a, p = pi.decide(spaces.State.from_names("cough", "bedroom", 3, 10))
+    assert 0 <= a < 14 and a == p.argmax() and np.isclose(p.sum(), 1)
+
+
+def test_mlp_policy_learns_accepted_actions():
+    s = _states(40)
+    actions = s[:, 0] % 3 + 1
+    mlp = MLPPolicy(epochs=300).fit(s, actions)
+    assert (mlp.action_probabilities(s).argmax(1) == actions).mean() > 0.9
+
+
+def test_policy_bytes_round_trip_and_bad_bytes():
+    s = _states()
+    pi = ReshapedPolicy(DiscreteSAC(SACConfig(hidden=16)), MLPPolicy(hidden=8, epochs=5).fit(s, s[:, 0] % 14))
+    back = policy_from_bytes(pi.to_bytes())
+    assert np.allclose(back.action_probabilities(s), pi.action_probabilities(s))
+    with pytest.raises(CacasError, match="not a CACAS policy"):
+        policy_from_bytes(b"hello")
+
+
+def _interactions():
+    base = {"participant": "P01", "method": "cacas", "day": 1, "time": "08:00", "scene": "kitchen",
+            "time_slot": 4, "interval": 10, "task": "do nothing", "previous_action": "do nothing",
+            "previous_response": "others", "user_action": ""}
+    rows = [dict(base, index=0, activity="use stove", type="type_1", robot_action="set a timer", response="accept"),
+            dict(base, index=1, activity="use stove", type="type_1", robot_action="chitchat", response="reject"),
+            dict(base, index=2, activity="cough", type="type_2", robot_action="do nothing", response="accept",
+                 user_action="pain check"),
+            dict(base, index=3, activity="cough", type="type_1", robot_action="chitchat", response="others")]
+    return pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
+
+
+def test_accept_pairs_take_accepted_and_requested_actions_only():
+    s, a = accept_pairs(_interactions())
+    assert [spaces.ACTIONS[x] for x in a] == ["set a timer", "pain check"]
+    assert list(s[:, 0]) == [spaces.activity_index("use stove"), spaces.activity_index("cough")]
+
+
+def test_bandit_learns_from_feedback_and_round_trips():
+    bandit = BanditPolicy(load_d4a().table).fit(pd.concat([_interactions()] * 5))
+    st = records.policy_states(_interactions())
+    g = bandit.greedy(st)
+    assert spaces.ACTIONS[g[0]] == "set a timer" and spaces.ACTIONS[g[2]] == "pain check"
+    p = bandit.action_probabilities(st)
+    assert np.allclose(p.sum(1), 1)
+    back = policy_from_bytes(bandit.to_bytes())
+    assert np.allclose(back.action_probabilities(st), p)

@@ -1,0 +1,57 @@
+import numpy as np
+import torch
+
+from cacas.sac import DiscreteSAC, SACConfig
+
+
+def toy_buffer(agent, n_states=8, n_actions=4, seed=0):
+    """A contextual bandit: in state i only action i % n_actions is rewarded (+1), others -1."""
+    rng = np.random.default_rng(seed)
+    s_idx = rng.integers(n_states, size=2000)
+    a = rng.integers(n_actions, size=2000)
+    r = np.where(a == s_idx % n_actions, 1.0, -1.0)
+    eye = np.eye(n_states, dtype=np.float32)
+    agent.buffer.add_batch(eye[s_idx], a, r, eye[rng.integers(n_states, size=2000)])
+    return eye
+
+
+def test_sac_learns_a_toy_task():
+    agent = DiscreteSAC(SACConfig(state_dim=8, n_actions=4, hidden=32, batch_size=64, gamma=0.5), seed=1)
+    eye = toy_buffer(agent)
+    before = agent.greedy(eye)
+    agent.update(600)
+    assert list(agent.greedy(eye)) == [i % 4 for i in range(8)]
+    assert list(before) != [i % 4 for i in range(8)]
+    # the critics learnt the reward of the chosen action (gamma * soft value of the next state added)
+    q = agent.critic(torch.from_numpy(eye)).min(0).values.detach().numpy()
+    assert np.all(q[np.arange(8), np.arange(8) % 4] > q.mean(axis=1))
+
+
+def test_probabilities_are_distributions_and_greedy_is_argmax():
+    agent = DiscreteSAC(seed=0)
+    x = np.eye(94, dtype=np.float32)[:5]
+    p = agent.action_probabilities(x)
+    assert p.shape == (5, 14) and np.allclose(p.sum(1), 1.0, atol=1e-5)
+    assert list(agent.greedy(x)) == list(p.argmax(1))
+
+
+def test_target_entropy_and_temperature_move_towards_target():
+    cfg = SACConfig(state_dim=8, n_actions=4, hidden=32, batch_size=64, target_entropy_ratio=0.2)
+    agent = DiscreteSAC(cfg, seed=0)
+    assert np.isclose(agent.target_entropy, 0.2 * np.log(4))
+    toy_buffer(agent)
+    info = agent.update(400)
+    assert info["entropy"] < 0.6 * np.log(4)  # learnt a clear preference, far from uniform
+
+
+def test_save_load_same_policy(tmp_path):
+    agent = DiscreteSAC(SACConfig(state_dim=8, n_actions=4, hidden=16), seed=3)
+    toy_buffer(agent)
+    agent.update(20)
+    agent.save(tmp_path / "sac.pt")
+    loaded = DiscreteSAC.load(tmp_path / "sac.pt")
+    x = np.eye(8, dtype=np.float32)
+    assert np.allclose(agent.action_probabilities(x), loaded.action_probabilities(x))
+    assert loaded.updates == 20 and np.isclose(loaded.alpha, agent.alpha)
+    copy = agent.copy()
+    assert np.allclose(copy.action_probabilities(x), agent.action_probabilities(x)) and copy.buffer.size == 0

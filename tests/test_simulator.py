@@ -1,0 +1,88 @@
+import numpy as np
+
+from cacas import spaces
+from cacas.d4a import load_d4a
+from cacas.preferences import parse_personas
+from cacas.simulator import (ContextSource, ResponseModel, StateGenerator, current_task, dialog_state,
+                             preference_states)
+
+P = parse_personas({"participants": [{"id": "P01", "preferences": [
+    {"activity": ["use stove"], "scene": ["kitchen"], "hours": [[6, 10]], "action": "set a timer"},
+    {"activity": ["cough"], "action": "pain check"}]}]})[0]
+STOVE, COUGH = spaces.activity_index("use stove"), spaces.activity_index("cough")
+
+
+def test_generate_response_preference_first_d4a_second():
+    d4a = load_d4a()
+    rm = ResponseModel(d4a.table, P)
+    timer, off = spaces.action_index("set a timer"), spaces.action_index("remind to turn off")
+    covered = [STOVE, spaces.scene_index("kitchen"), 3, 0, 0, 0, 2]
+    outside = [STOVE, spaces.scene_index("bedroom"), 3, 0, 0, 0, 2]
+    states = np.array([covered, covered, covered, outside, outside])
+    actions = np.array([timer, off, 0, timer, off])
+    out = rm.respond(states, actions)
+    assert list(out[:3]) == [spaces.ACCEPT, spaces.REJECT, spaces.OTHERS]
+    assert out[3] == d4a.response(STOVE, timer) and out[4] == d4a.response(STOVE, off)
+    assert d4a.response(STOVE, off) == spaces.ACCEPT  # the generic user would accept it
+
+
+def test_generate_state_steps_a_day_every_k_minutes():
+    gen = StateGenerator(ContextSource.generic(), n_days=3, k_minutes=30, rng=np.random.default_rng(0))
+    assert gen.steps_per_day == 48
+    slots = []
+    while not gen.done:
+        s = gen.generate_state()
+        assert s.shape == (3, 7)
+        for part, (_, size) in enumerate(spaces.STATE_PARTS):
+            assert s[:, part].min() >= 0 and s[:, part].max() < size
+        gen.observe(np.full(3, 2), np.full(3, spaces.ACCEPT))
+        slots.append(s[0, 2])
+    assert slots == sorted(slots) and slots[0] == 0 and slots[-1] == 11
+    s = gen.generate_state() if not gen.done else None
+    assert s is None
+
+
+def test_generate_state_history_feeds_s6_s7_and_is_seeded():
+    def run(seed):
+        gen = StateGenerator(ContextSource.generic(), 2, 10, np.random.default_rng(seed))
+        first = gen.generate_state()
+        gen.observe(np.array([5, 0]), np.array([spaces.REJECT, spaces.OTHERS]))
+        return first, gen.generate_state()
+    a1, b1 = run(1)
+    a2, b2 = run(1)
+    assert np.array_equal(a1, a2) and np.array_equal(b1, b2)
+    assert list(b1[:, 5]) == [5, 0] and list(b1[:, 6]) == [spaces.REJECT, spaces.OTHERS]
+    assert np.all(a1[:, 5] == 0) and np.all(a1[:, 6] == spaces.OTHERS)
+
+
+def test_user_data_makes_recorded_activities_more_likely():
+    contexts = np.array([[COUGH, 0, 3, 2]] * 10)
+    src = ContextSource.from_user_data(contexts, recorded_share=0.8)
+    gen = StateGenerator(src, 50, 60, np.random.default_rng(0))
+    acts = np.concatenate([gen.generate_state()[:, 0] for _ in range(24)])
+    assert (acts == COUGH).mean() > 0.6
+    base = StateGenerator(ContextSource.generic(), 50, 60, np.random.default_rng(0))
+    acts0 = np.concatenate([base.generate_state()[:, 0] for _ in range(24)])
+    assert (acts0 == COUGH).mean() < 0.1
+
+
+def test_current_task_and_dialog_state():
+    t = current_task(np.array([3, 3, 3, 0]), np.array([spaces.ACCEPT, spaces.REJECT, spaces.ACCEPT, spaces.ACCEPT]),
+                     np.array([2.0, 2.0, 30.0, 1.0]))
+    assert list(t) == [3, 0, 0, 0]
+    s0 = dialog_state("cough", "bedroom", 7.5, 3)
+    assert s0.task == 0 and s0.action == 0 and s0.response == spaces.OTHERS and s0.interval == 2
+    prev = {"type": "type_2", "robot_action": "do nothing", "response": "accept", "user_action": "pain check"}
+    s1 = dialog_state("cough", "bedroom", 7.5, 3, prev)
+    assert s1.action == spaces.action_index("pain check") and s1.response == spaces.ACCEPT
+    assert s1.task == spaces.action_index("pain check")  # accepted 3 minutes ago: still in progress
+    prev = {"type": "type_1", "robot_action": "chitchat", "response": "reject", "user_action": ""}
+    s2 = dialog_state("cough", "bedroom", 7.5, 60, prev)
+    assert (s2.task, s2.action, s2.response) == (0, spaces.action_index("chitchat"), spaces.REJECT)
+
+
+def test_preference_states_are_covered():
+    ctx = preference_states(P, 300, np.random.default_rng(0))
+    mask = P.coverage_mask()
+    assert all(mask[tuple(c)] for c in ctx)
+    assert set(ctx[:, 0]) == {STOVE, COUGH}

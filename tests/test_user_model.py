@@ -1,0 +1,123 @@
+import numpy as np
+import pandas as pd
+
+from cacas import records, spaces
+from cacas.simulator import ResponseModel
+from cacas.user_model import UMA, DecisionModel, UserData, UserModel
+
+COUGH = spaces.activity_index("cough")
+PAIN = spaces.action_index("pain check")
+TIMER = spaces.action_index("set a timer")
+STATE = (COUGH, 0, 3, 2, 0, 0, 2)
+
+
+def test_type_1_answered_goes_to_d_f_and_no_response_is_not_recorded():
+    d = UserData()
+    d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)
+    d.data_collection(STATE, records.ROBOT_INITIATED, TIMER, spaces.OTHERS)  # no response
+    d.data_collection(STATE, records.ROBOT_INITIATED, spaces.DO_NOTHING_ACTION, spaces.OTHERS)
+    assert [(s.su[5], s.response) for s in d.subset("D_f")] == [(PAIN, spaces.ACCEPT)]
+    assert len(d) == 1 and d.interactions == 3
+
+
+def test_generate_new_gives_13_rejects_for_the_other_actions():
+    su = STATE[:5] + (TIMER,)
+    new = UserData.generate_new(su)
+    assert len(new) == 13 and su not in new
+    assert {n[5] for n in new} == set(range(14)) - {TIMER}
+    assert all(n[:5] == su[:5] for n in new)
+
+
+def test_type_2_gives_d_i_accept_and_d_g_rejects():
+    d = UserData()
+    d.data_collection(STATE, records.USER_INITIATED, spaces.DO_NOTHING_ACTION, spaces.ACCEPT, TIMER)
+    assert [(s.su[5], s.response) for s in d.subset("D_i")] == [(TIMER, spaces.ACCEPT)]
+    d_g = d.subset("D_g")
+    assert len(d_g) == 13 and all(s.response == spaces.REJECT for s in d_g)
+    assert spaces.DO_NOTHING_ACTION in {s.su[5] for s in d_g}  # the robot doing nothing was wrong
+
+
+def test_remove_duplicate_latest_sample_wins_across_sources():
+    d = UserData()
+    d.data_collection(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)  # D_g rejects pain check
+    assert {s.su[5]: s.response for s in d.subset("D_g")}[PAIN] == spaces.REJECT
+    d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)  # later: pain check accepted
+    assert PAIN not in {s.su[5] for s in d.subset("D_g")}
+    assert [(s.su[5], s.response) for s in d.subset("D_f")] == [(PAIN, spaces.ACCEPT)]
+    assert len(d) == 14  # one sample per S_u
+    d.data_collection(STATE, records.ROBOT_INITIATED, TIMER, spaces.REJECT)  # the request, rejected later
+    assert not d.subset("D_i") and len(d) == 14
+
+
+def test_a_different_context_is_a_different_s_u():
+    d = UserData()
+    d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)
+    d.data_collection((COUGH, 1) + STATE[2:], records.ROBOT_INITIATED, PAIN, spaces.REJECT)
+    assert len(d.subset("D_f")) == 2
+
+
+def _frame(rows):
+    base = {"participant": "P01", "method": "cacas", "time": "08:00", "scene": "bedroom", "time_slot": 4,
+            "interval": 10, "task": "do nothing", "previous_action": "do nothing",
+            "previous_response": "others", "user_action": ""}
+    return pd.DataFrame([{**base, **r} for r in rows], columns=records.INTERACTION_COLUMNS)
+
+
+def test_from_interactions_matches_data_collection():
+    df = _frame([
+        {"day": 1, "index": 0, "activity": "cough", "type": "type_1", "robot_action": "pain check", "response": "reject"},
+        {"day": 1, "index": 1, "activity": "cough", "type": "type_2", "robot_action": "do nothing",
+         "response": "accept", "user_action": "show compassion"},
+    ])
+    d = UserData.from_interactions(df)
+    assert len(d.subset("D_i")) == 1 and len(d.subset("D_g")) == 13 and not d.subset("D_f")
+    x, y = d.arrays()
+    assert x.shape == (14, 91) and sorted(np.bincount(y, minlength=3)) == [0, 1, 13]
+
+
+def test_uma_retrains_every_n_interactions():
+    uma = UMA(update_interval=3)
+    for i in range(2):
+        uma.step(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)
+        assert not uma.is_new and uma.model.trained_on == 0
+    uma.step(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)
+    assert uma.is_new and uma.model.trained_on == len(uma.data)
+
+
+class _Fixed:
+    def __init__(self, proba):
+        self.proba, self.trained_on = np.asarray(proba), 1
+
+    def predict_proba(self, states, actions):
+        return np.repeat(self.proba[None], len(states), axis=0)
+
+
+def test_decision_model_threshold():
+    fallback = ResponseModel(np.full((33, 14), spaces.OTHERS))
+    states = np.array([STATE])
+    confident = DecisionModel(_Fixed([0.9, 0.05, 0.05]), fallback, threshold=0.7)
+    assert confident.respond(states, np.array([PAIN]))[0] == spaces.ACCEPT
+    unsure = DecisionModel(_Fixed([0.6, 0.3, 0.1]), fallback, threshold=0.7)
+    assert unsure.respond(states, np.array([PAIN]))[0] == spaces.OTHERS  # the simulator answers
+    says_others = DecisionModel(_Fixed([0.05, 0.05, 0.9]), ResponseModel(np.full((33, 14), spaces.REJECT)), 0.7)
+    assert says_others.respond(states, np.array([PAIN]))[0] == spaces.REJECT  # "no response" -> simulator
+
+
+def test_decision_model_support_limits_the_user_model_to_recorded_activities():
+    d = UserData()
+    d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.REJECT)
+    sup = d.support()
+    assert sup[COUGH, PAIN] and sup[COUGH, TIMER] and not sup[COUGH, spaces.DO_NOTHING_ACTION]
+    assert not sup[spaces.activity_index("sneeze")].any()
+    dm = DecisionModel(_Fixed([0.02, 0.96, 0.02]), ResponseModel(np.full((33, 14), spaces.ACCEPT)), 0.7, sup)
+    states = np.array([STATE, STATE, (spaces.activity_index("sneeze"),) + STATE[1:]])
+    out = dm.respond(states, np.array([TIMER, spaces.DO_NOTHING_ACTION, TIMER]))
+    assert list(out) == [spaces.REJECT, spaces.ACCEPT, spaces.ACCEPT]
+
+
+def test_user_model_fits_its_data():
+    d = UserData()
+    d.data_collection(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)
+    m = UserModel(epochs=200).fit(d)
+    p = m.predict_proba(np.array([STATE] * 2), np.array([TIMER, PAIN]))
+    assert p[0].argmax() == spaces.ACCEPT and p[1].argmax() == spaces.REJECT
