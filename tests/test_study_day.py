@@ -90,3 +90,34 @@ def test_store_interactions_give_the_recorded_state(store):
                              robot_action="pain check", response="accept")
     states = records.policy_states(store.interactions_frame("P01"))
     assert tuple(states[0][:4]) == (spaces.activity_index("cough"), 0, 4, spaces.interval_bin(30))
+
+
+def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, policy):
+    import cacas.adaptation
+    from cacas.export import daily_frame
+    from cacas.study_day import compare_methods
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "c.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        for day in (1, 2):
+            start_day(s, "P01")
+            s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="do nothing", response="accept", type="type_2",
+                                 user_action="pain check")
+            s.close_day("P01", day)
+            s.record_adaptation("P01", day, "cacas", {}, 1.0, {})
+    seen = []
+    assert compare_methods(path, methods=("nn",), progress=lambda f, m: seen.append(f)) == 3  # days 0, 1, 2
+    assert seen[-1] == 1.0
+    assert compare_methods(path, methods=("nn",)) == 0  # already there: nothing recorded twice
+    with StudyStore(path) as s:
+        runs = s.adaptations_frame("P01")
+        nn = runs[runs["method"] == "nn"]
+        assert list(nn["day"]) == [0, 1, 2] and nn["preference_accuracy"].between(0, 1).all()
+        # NN learnt the request: on day 2 (adapted from day 1) it prefers pain check for coughs
+        assert nn["preference_accuracy"].iloc[1] == 1.0
+        daily = daily_frame(s)
+    assert set(daily.loc[daily["method"] == "nn", "day"]) == {1, 2}
