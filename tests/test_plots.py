@@ -22,7 +22,7 @@ def test_fig3_mean_and_min_max_band_and_feedback_axis():
     fig = success_figure(daily())
     names = [t.name for t in fig.data]
     assert "success rate (mean)" in names and "cumulative feedback (mean)" in names
-    band = [t for t in fig.data if t.fill == "tonexty"][0]
+    band = [t for t in fig.data if getattr(t, "fill", None) == "tonexty"][0]
     assert np.allclose(band.y, [0.3, 0.4, 0.5])
     assert fig.data[-1].yaxis == "y2"
 
