@@ -14,6 +14,9 @@ the closed-loop method's success rate (Fig. 3) and every method's preference acc
 
 from __future__ import annotations
 
+import multiprocessing as mp
+import os
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from typing import Callable, Sequence
 
@@ -25,6 +28,7 @@ from cacas.adaptation import CACAAConfig, METHODS, adapt_policy, evaluation_stat
     preference_accuracy
 from cacas.d4a import D4A, load_d4a
 from cacas.errors import CacasError
+from cacas.policy import policy_from_bytes
 from cacas.preferences import Participant
 from cacas.simulator import current_task, preference_states
 
@@ -93,8 +97,10 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
 def simulate_study(participants: Sequence[Participant], days: int = 7, interactions: int = 15,
                    methods: Sequence[str] = PAPER_METHODS, seed: int = 0, no_response_rate: float = 0.1,
                    progress: Progress | None = None, config: CACAAConfig | None = None,
-                   d4a: D4A | None = None, initial_policy=None, eval_states: int = 400) -> StudyResult:
-    """Run a whole simulated study; the same seed gives the same tables."""
+                   d4a: D4A | None = None, initial_policy=None, eval_states: int = 400,
+                   jobs: int | None = None) -> StudyResult:
+    """Run a whole simulated study; the same seed gives the same tables (whatever ``jobs``,
+    the number of worker processes; default one per core)."""
     if days < 1:
         raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
     if interactions < 1:
@@ -104,32 +110,82 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     methods = check_methods(methods)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()
-    loop_method = methods[0]
-    all_rows: list[dict] = []
-    acc_rows: list[dict] = []
+    jobs = max(1, min(jobs if jobs is not None else default_jobs(), len(participants)))
+    args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states)
+            for p_i, person in enumerate(participants)]
     total = len(participants) * days
-    for p_i, person in enumerate(participants):
-        rng = np.random.default_rng([seed, p_i])
-        test_states = evaluation_states(person, eval_states, seed=seed * 7919 + p_i)
-        in_force = {m: initial for m in methods}
-        person_rows: list[dict] = []
-        for day in range(1, days + 1):
-            for m in methods:
-                acc_rows.append({"participant": person.id, "method": m, "day": day,
-                                 "preference_accuracy": preference_accuracy(in_force[m], person,
-                                                                            states=test_states)})
-            person_rows += simulated_day(in_force[loop_method], person, day, interactions, rng,
-                                         no_response_rate, loop_method)
-            if day < days:
-                data = pd.DataFrame(person_rows, columns=records.INTERACTION_COLUMNS)
-                for k, m in enumerate(methods):
-                    in_force[m] = adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
-                                               config=config, d4a=d4a).policy
-            if progress:
-                progress((p_i * days + day) / total, f"participant {person.id}, day {day}/{days}")
-        all_rows += person_rows
-    inter = pd.DataFrame(all_rows, columns=records.INTERACTION_COLUMNS)
-    return StudyResult(combine_daily(inter, pd.DataFrame(acc_rows), methods), inter)
+    done = [0]
+
+    def tick(message: str) -> None:
+        done[0] += 1
+        if progress:
+            progress(done[0] / total, message)
+
+    if jobs == 1:
+        results = [simulate_participant(initial, *a, report=tick) for a in args]
+    else:
+        results = _run_parallel(initial, args, jobs, tick)
+    inter = pd.DataFrame([r for rows, _ in results for r in rows], columns=records.INTERACTION_COLUMNS)
+    accuracy = pd.DataFrame([r for _, acc in results for r in acc])
+    return StudyResult(combine_daily(inter, accuracy, methods), inter)
+
+
+def default_jobs() -> int:
+    """Worker processes for a study: one per core (participants are independent)."""
+    return max(1, os.cpu_count() or 1)
+
+
+def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,
+                         methods: tuple[str, ...], seed: int, no_response_rate: float,
+                         config: CACAAConfig | None, d4a: D4A, eval_states: int,
+                         report: Callable[[str], None] | None = None) -> tuple[list[dict], list[dict]]:
+    """One participant's simulated study: (interaction rows, preference-accuracy rows). Its
+    random streams depend on (seed, participant index) only, so the result is the same whether
+    participants run one after another or in parallel."""
+    rng = np.random.default_rng([seed, p_i])
+    test_states = evaluation_states(person, eval_states, seed=seed * 7919 + p_i)
+    loop_method = methods[0]
+    in_force = {m: initial for m in methods}
+    rows: list[dict] = []
+    acc_rows: list[dict] = []
+    for day in range(1, days + 1):
+        for m in methods:
+            acc_rows.append({"participant": person.id, "method": m, "day": day,
+                             "preference_accuracy": preference_accuracy(in_force[m], person, states=test_states)})
+        rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method)
+        if day < days:
+            data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
+            for k, m in enumerate(methods):
+                in_force[m] = adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
+                                           config=config, d4a=d4a).policy
+        if report:
+            report(f"participant {person.id}, day {day}/{days}")
+    return rows, acc_rows
+
+
+def _worker(initial_bytes: bytes, args: tuple, queue) -> tuple[list[dict], list[dict]]:
+    import torch
+
+    torch.set_num_threads(1)
+    return simulate_participant(policy_from_bytes(initial_bytes), *args, report=queue.put)
+
+
+def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[str], None]):
+    """Participants in ``jobs`` worker processes (spawned: safe with torch's thread pools);
+    progress comes back through a queue, day by day."""
+    ctx = mp.get_context("spawn")
+    blob = initial.to_bytes()
+    with ctx.Manager() as manager, ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+        queue = manager.Queue()
+        futures = [pool.submit(_worker, blob, a, queue) for a in args]
+        pending = set(futures)
+        while pending:
+            finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+            while not queue.empty():
+                tick(queue.get())
+        while not queue.empty():
+            tick(queue.get())
+        return [f.result() for f in futures]
 
 
 def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str]) -> pd.DataFrame:

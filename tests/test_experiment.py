@@ -68,3 +68,14 @@ def test_same_seed_same_tables(small_config, small_initial):
 def test_bad_arguments(kw, needle, small_initial):
     with pytest.raises(CacasError, match=needle):
         simulate_study(PEOPLE, initial_policy=small_initial, **kw)
+
+
+def test_parallel_workers_give_the_same_tables(small_config, small_initial):
+    kw = dict(days=2, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
+              initial_policy=small_initial)
+    ticks = []
+    one = simulate_study(PEOPLE, jobs=1, **kw)
+    two = simulate_study(PEOPLE, jobs=2, progress=lambda f, m: ticks.append(f), **kw)
+    pd.testing.assert_frame_equal(one.daily, two.daily)
+    pd.testing.assert_frame_equal(one.interactions, two.interactions)
+    assert len(ticks) == 4 and ticks[-1] == 1.0  # participant-days, reported from the workers

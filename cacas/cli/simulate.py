@@ -30,6 +30,8 @@ def register(sub) -> None:
     p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
     p.add_argument("--out", required=True, metavar="DIR", help="folder for daily.csv and interactions.csv")
     p.add_argument("--plot", metavar="DIR", help="also write Fig. 3 and Fig. 4 as Plotly HTML here")
+    p.add_argument("--jobs", type=int, default=None,
+                   help="worker processes (default: one per core; results do not depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -43,6 +45,8 @@ def run(args) -> int:
         raise CacasError(f"--interactions {args.interactions} is invalid; valid: a whole number >= 1")
     if not 0 <= args.no_response_rate < 1:
         raise CacasError(f"--no-response-rate {args.no_response_rate} is invalid; valid: 0 <= rate < 1")
+    if args.jobs is not None and args.jobs < 1:
+        raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
     methods = check_methods(args.methods.split(","))
     out = Path(args.out)
     if out.exists() and not out.is_dir():
@@ -60,7 +64,8 @@ def run(args) -> int:
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     progress = None if args.quiet else ProgressBar("simulate")
     result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
-                            seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a)
+                            seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
+                            jobs=args.jobs)
     out.mkdir(parents=True, exist_ok=True)
     for name, df in (("daily.csv", result.daily), ("interactions.csv", result.interactions)):
         tmp = out / f".{name}.tmp"
