@@ -15,6 +15,7 @@ import streamlit as st
 from cacas import app_support, dialogue, spaces
 from cacas.errors import CacasError
 from cacas.jobs import FAILED, RUNNER
+from cacas.lab import audio_mime
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
                              propose, start_day)
@@ -34,8 +35,11 @@ def _policy(db: str, who: str, version: int | None):
 
 
 @st.cache_resource(show_spinner=False)
-def _recognizer():
-    """The shipped sound model, or None when there is none (the robot then acts on the choice)."""
+def _recognizer(stamp: float | None):
+    """The saved sound model (reloaded when retrained), or None when there is none: the robot
+    then acts on the activity as chosen."""
+    if stamp is None:
+        return None
     try:
         from cacas.audio import SoundRecognizer
 
@@ -55,8 +59,8 @@ def _clips(activity: str) -> list[str]:
 
 
 @st.cache_data(show_spinner=False, max_entries=256)
-def _heard(path: str) -> tuple[str, float, list] | None:
-    rec = _recognizer()
+def _heard(path: str, stamp: float | None) -> tuple[str, float, list] | None:
+    rec = _recognizer(stamp)
     if rec is None:
         return None
     try:
@@ -64,6 +68,15 @@ def _heard(path: str) -> tuple[str, float, list] | None:
     except CacasError:
         return None
     return r.label, float(r.confidence), [(a, float(p)) for a, p in r.top3]
+
+
+def _sound_stamp() -> float | None:
+    try:
+        from cacas.lab import model_stamp
+
+        return model_stamp("sound")
+    except (CacasError, ImportError, OSError):
+        return None
 
 
 # --- callbacks ------------------------------------------------------------------------------------
@@ -196,7 +209,7 @@ else:
     index = done + 1
     token = f"{day}:{index}:{token_ctx}"
     clip = clip_for(context, code, day, index, _clips(context.activity))
-    heard = _heard(str(clip)) if clip else None
+    heard = _heard(str(clip), _sound_stamp()) if clip else None
     if status.policy_version is None and not initial_policy_ready():
         # first use on this machine: the initial policy is trained once, in the background
         job, _ = RUNNER.start("initial-policy", prepare_initial_policy, label="The robot is getting ready (first use only)")
@@ -218,7 +231,7 @@ else:
         st.caption(f"in the {context.scene} · {spaces.time_slot_label(context.time_slot)} · "
                    f"{context.interval_minutes} min since your last activity")
         if clip:
-            st.audio(str(clip), format="audio/ogg" if clip.suffix == ".ogg" else None, autoplay=True)
+            st.audio(str(clip), format=audio_mime(clip), autoplay=True)
         else:
             st.caption("No sound clip for this activity in the library.")
     with right.container(border=True):

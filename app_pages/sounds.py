@@ -35,18 +35,8 @@ def _scene_model(stamp: float):
     return SceneRecognizer.load()
 
 
-def _stamp(kind: str) -> float | None:
-    """The saved model's modification time (part of the cache key: a new model is reloaded)."""
-    if kind == "sound":
-        from cacas.audio.model import default_model_path
-    else:
-        from cacas.vision.model import default_model_path
-    path = default_model_path()
-    return path.stat().st_mtime if path.exists() else None
-
-
 def _model(kind: str):
-    stamp = _stamp(kind)
+    stamp = lab.model_stamp(kind)
     if stamp is None:
         return None
     try:
@@ -93,14 +83,14 @@ with library:
             st.markdown(f"**{i + 1}. {row['activity']}** · {row['clips']} clip(s)")
             paths = clip_paths(row["activity"]) if row["clips"] else []
             if paths:
-                st.audio(str(paths[0]))
+                st.audio(str(paths[0]), format=lab.audio_mime(paths[0]))
             else:
                 st.caption("No clip yet.")
     with st.expander("Every clip of one activity"):
         act = st.selectbox("Activity", spaces.ACTIVITIES, key="lib-activity")
         for p in clip_paths(act)[:40]:
             st.caption(p.name)
-            st.audio(str(p))
+            st.audio(str(p), format=lab.audio_mime(p))
 
 with add:
     st.markdown("Add recordings of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, mixed "

@@ -101,3 +101,24 @@ def recognize_scene_bytes(recognizer, name: str, data: bytes):
         path = Path(tmp) / _safe_name(name, "photo.jpg")
         path.write_bytes(data)
         return recognizer.recognize(path)
+
+
+def model_stamp(kind: str) -> float | None:
+    """The saved sound or scene model's modification time (None: no model saved): a cache key, so
+    that a page reloads a model that was retrained."""
+    if kind == "sound":
+        from cacas.audio.model import default_model_path
+    elif kind == "scene":
+        from cacas.vision.model import default_model_path
+    else:
+        raise CacasError(f"unknown model kind {kind!r}; valid: sound, scene")
+    path = default_model_path()
+    return path.stat().st_mtime if path.exists() else None
+
+
+AUDIO_MIME = {".wav": "audio/wav", ".ogg": "audio/ogg", ".flac": "audio/flac"}
+
+
+def audio_mime(path) -> str:
+    """The MIME type a browser needs to play a library clip."""
+    return AUDIO_MIME.get(Path(path).suffix.lower(), "audio/wav")

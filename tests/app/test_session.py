@@ -153,3 +153,34 @@ def test_first_use_prepares_the_initial_policy_in_the_background(app, store, p01
     at.run()
     no_exception(at)
     assert any(b.label in ("Accept", "Nothing needed") for b in at.button)
+
+
+def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch, tmp_path):
+    """With a sound model installed, the page plays a clip of the chosen activity and shows the
+    recognised activity next to the chosen one; the record keeps both."""
+    import numpy as np
+    import soundfile as sf
+
+    import cacas.audio
+    import cacas.audio.library
+    import cacas.lab
+    from cacas.audio.model import SoundCNN, SoundRecognizer
+
+    clip = tmp_path / "cough.wav"
+    t = np.arange(32000) / 32000
+    sf.write(clip, 0.3 * np.sin(2 * np.pi * 300 * t) * np.exp(-4 * t), 32000)
+    recognizer = SoundRecognizer(SoundCNN())  # untrained: it hears something, maybe not a cough
+    monkeypatch.setattr(cacas.audio.library, "clip_paths", lambda activity, root=None: [clip])
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0)
+    monkeypatch.setattr(cacas.audio.SoundRecognizer, "load", classmethod(lambda cls, path=None: recognizer))
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", ctx="4.6.0.0")  # cough in the bedroom
+    no_exception(at)
+    heard = recognizer.recognize(clip).label
+    assert "The robot heard" in texts(at) and f"### {heard}" in texts(at)
+    assert "confidence" in texts(at)
+    assert len(at.get("audio")) == 1
+    label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
+    next(b for b in at.button if b.label == label).click().run()
+    row = store.interactions_frame("P01", method=None, extra=True).iloc[0]
+    assert (row["activity"], row["recognised_activity"]) == ("cough", heard)
