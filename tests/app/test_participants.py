@@ -86,3 +86,35 @@ def test_export_personas_of_the_study(app, store):
     no_exception(at)
     assert any(b.label == "Download personas.json" for b in at.get("download_button"))
     assert json.loads(store.export_personas())["participants"][0]["id"] == "P01"
+
+
+def test_edit_details_valid_and_invalid(app, store):
+    store.add_participant("P01", age_range="25-34")
+    at = app(PAGE, participant="P01")
+    at.text_input(key="age-P01").set_value("old")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    no_exception(at)
+    assert "age range 'old' is invalid" in texts(at)
+    assert store.get_participant("P01").age_range == "25-34"
+    at.text_input(key="age-P01").set_value("65+")
+    at.text_area(key="notes-P01").set_value("uses a walking frame")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    no_exception(at)
+    info = store.get_participant("P01")
+    assert (info.age_range, info.notes) == ("65+", "uses a walking frame")
+
+
+def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"description": "stove", "activity": ["use stove"], "hours": [[6, 10], [16, 20]],
+                                    "action": "remind to turn off"}])
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert at.multiselect(key="pf-P01-v1-1-slots").value == [3, 4, 8, 9]
+    assert at.selectbox(key="pf-P01-v1-1-action").value == "remind to turn off"
+    at.selectbox(key="pf-P01-v1-1-action").set_value("remind to be careful")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert [v["version"] for v in store.preference_versions("P01")] == [1, 2]
+    newest = store.get_preferences("P01").preferences[0]
+    assert newest.action == "remind to be careful" and newest.hours == ((6, 10), (16, 20))
