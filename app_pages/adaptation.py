@@ -148,7 +148,7 @@ st.subheader("Policy versions")
 if versions:
     acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
     table = pd.DataFrame([{
-        "version": v.version, "adapted from": f"days 1-{v.day}" if v.day else "-", "method": v.method,
+        "version": v.version, "adapted from": ("day 1" if v.day == 1 else f"days 1-{v.day}") if v.day else "-", "method": v.method,
         "saved (UTC)": v.created_at[:16].replace("T", " "), "in force": "yes" if v.active else "",
         "preference accuracy": acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
     } for v in versions])

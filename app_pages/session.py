@@ -226,7 +226,7 @@ else:
 
     left, right = st.columns([1, 1])
     with left.container(border=True):
-        st.markdown("**You are**")
+        st.markdown("**Your activity**")
         st.markdown(f"### {context.activity}")
         st.caption(f"in the {context.scene} · {spaces.time_slot_label(context.time_slot)} · "
                    f"{context.interval_minutes} min since your last activity")

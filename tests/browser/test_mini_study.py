@@ -143,6 +143,7 @@ def test_mini_study(server, page, tmp_path):
     assert page.locator("[data-testid='stSidebarNav']").count() == 0  # no researcher pages
     click(page, "Start day 1")
     assert "0 of about 15 interactions today" in text_of(page)
+    shot(page, "session-context")
 
     speaking_context(page, CANDIDATES)
     shot(page, "session-tablet")
