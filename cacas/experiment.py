@@ -99,8 +99,9 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
                    progress: Progress | None = None, config: CACAAConfig | None = None,
                    d4a: D4A | None = None, initial_policy=None, eval_states: int = 400,
                    jobs: int | None = None) -> StudyResult:
-    """Run a whole simulated study; the same seed gives the same tables (whatever ``jobs``,
-    the number of worker processes; default one per core)."""
+    """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
+    number of worker processes (default 1; more need the caller's script to guard its entry
+    point with ``if __name__ == "__main__":``, as worker processes are spawned)."""
     if days < 1:
         raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
     if interactions < 1:
@@ -110,7 +111,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     methods = check_methods(methods)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()
-    jobs = max(1, min(jobs if jobs is not None else default_jobs(), len(participants)))
+    jobs = max(1, min(jobs or 1, len(participants)))
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states)
             for p_i, person in enumerate(participants)]
     total = len(participants) * days

@@ -63,9 +63,11 @@ def run(args) -> int:
     people = load_personas(args.personas)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     progress = None if args.quiet else ProgressBar("simulate")
+    from cacas.experiment import default_jobs
+
     result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                             seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
-                            jobs=args.jobs)
+                            jobs=args.jobs or default_jobs())
     out.mkdir(parents=True, exist_ok=True)
     for name, df in (("daily.csv", result.daily), ("interactions.csv", result.interactions)):
         tmp = out / f".{name}.tmp"
