@@ -95,6 +95,16 @@ def _on_study_change() -> None:
     st.query_params.pop("participant", None)
 
 
+def _on_participant_change() -> None:
+    """The sidebar's choice goes into the address at once (the address wins on every run)."""
+    code = st.session_state.get(ui.PARTICIPANT_KEY)
+    if code:
+        st.query_params["participant"] = code
+    else:
+        st.query_params.pop("participant", None)
+    st.query_params.pop("ctx", None)
+
+
 def _sidebar(store) -> None:
     with st.sidebar:
         st.markdown("### :material/smart_toy: CACAS Studio")
@@ -105,6 +115,7 @@ def _sidebar(store) -> None:
         if st.session_state.get(ui.PARTICIPANT_KEY) not in codes:
             st.session_state[ui.PARTICIPANT_KEY] = codes[0] if codes else None
         st.selectbox("Participant", codes, key=ui.PARTICIPANT_KEY, placeholder="none yet",
+                     on_change=_on_participant_change,
                      help="Pseudonymous codes only. Add participants on the Participants page.")
         code = st.session_state.get(ui.PARTICIPANT_KEY)
         if code:

@@ -37,3 +37,14 @@ def test_unknown_participant_in_address_is_reported(app, store):
     at = app(participant="P77")
     no_exception(at)
     assert "P77" in texts(at)
+
+
+def test_choosing_another_participant_in_the_sidebar(app, store):
+    store.add_participant("P01")
+    store.add_participant("P02")
+    at = app(participant="P01")
+    at.sidebar.selectbox(key="participant").set_value("P02").run()
+    no_exception(at)
+    assert at.session_state["participant"] == "P02"
+    assert at.query_params["participant"] in ("P02", ["P02"])
+    assert "Next for P02" in texts(at)
