@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cacas.cli.sound import ProgressBar, print_metrics, print_recognition
+from cacas.cli.sound import ProgressBar, print_metrics, print_recognition, save_confusion
 from cacas.errors import CacasError
 
 
@@ -37,6 +37,7 @@ def register(subparsers) -> None:
     e.add_argument("--model", type=Path, default=None)
     e.add_argument("--data", type=Path, default=None)
     e.add_argument("--all", action="store_true", help="use every image under --data")
+    e.add_argument("--confusion-png", type=Path, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true")
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the scene of image files (prints label and top 3)")
@@ -89,6 +90,7 @@ def run_eval(args) -> int:
     metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
     bar.done()
     print_metrics(metrics, "images")
+    save_confusion(metrics, args.confusion_png)
     return 0
 
 

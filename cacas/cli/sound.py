@@ -33,7 +33,8 @@ class ProgressBar:
 
 def print_metrics(metrics, what: str = "recordings") -> None:
     """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
-    print(f"accuracy: {metrics.accuracy:.3f} on {metrics.n} held-out {what}")
+    which = metrics.extra.get("set", "held-out")
+    print(f"accuracy: {metrics.accuracy:.3f} on {metrics.n} {which} {what}")
     if "window_accuracy" in metrics.extra:
         print(f"window accuracy: {metrics.extra['window_accuracy']:.3f} on {metrics.extra['windows']} 1-s windows")
     pc = metrics.per_class.dropna(subset=["accuracy"])
@@ -71,8 +72,8 @@ def register(subparsers) -> None:
     t = sub.add_parser("train", help="train the sound CNN on the library and save it")
     t.add_argument("--data", type=Path, default=None, help="library folder (default study_data/sounds)")
     t.add_argument("--model", type=Path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
-    t.add_argument("--epochs", type=int, default=12)
-    t.add_argument("--patience", type=int, default=3, help="early stopping: epochs without improvement")
+    t.add_argument("--epochs", type=int, default=8, help="at most this many epochs (default 8)")
+    t.add_argument("--patience", type=int, default=3, help="early stopping: epochs without improvement (default 3)")
     t.add_argument("--augment", type=int, default=1, help="augmented copies per training window (default 1)")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -81,6 +82,7 @@ def register(subparsers) -> None:
     e.add_argument("--model", type=Path, default=None)
     e.add_argument("--data", type=Path, default=None, help="recordings folder (default study_data/sounds)")
     e.add_argument("--all", action="store_true", help="use every recording under --data, not only the held-out ones")
+    e.add_argument("--confusion-png", type=Path, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true")
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the activity in sound files (prints label and top 3)")
@@ -135,7 +137,16 @@ def run_eval(args) -> int:
     metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
     bar.done()
     print_metrics(metrics)
+    save_confusion(metrics, args.confusion_png)
     return 0
+
+
+def save_confusion(metrics, path) -> None:
+    if path is not None:
+        from cacas.plots_recognition import confusion_png
+
+        confusion_png(metrics, path)
+        print(f"confusion matrix drawn to {path}")
 
 
 def run_recognize(args) -> int:

@@ -72,7 +72,7 @@ def evaluate_images(recognizer: SceneRecognizer, images, labels) -> Metrics:
     idx = {c: i for i, c in enumerate(recognizer.classes)}
     y = np.array([idx[lab] for lab in labels])
     pred = recognizer.probabilities_of(list(images)).argmax(axis=1)
-    return compute_metrics(y, pred, recognizer.classes)
+    return compute_metrics(y, pred, recognizer.classes, set="held-out")
 
 
 def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patience: int = 4, seed: int = 0,
@@ -80,7 +80,7 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
                       test_fraction: float = 0.1, threads: int | None = None,
                       progress: Progress = None) -> SceneTrainingResult:
     """Fine-tune (or train from scratch) ResNet-18 on the scene library at ``root``."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     torch.set_num_threads(threads or min(2, os.cpu_count() or 1))
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
@@ -167,7 +167,9 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
         "kind": "scene", "trained": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "accuracy": metrics.accuracy,
         "per_class_accuracy": dict(zip(metrics.per_class["label"], metrics.per_class["accuracy"].round(4))),
-        "training_seconds": round(seconds, 1), "best_epoch": best_epoch, "epochs_run": len(history),
+        "training_seconds": round(seconds, 1),
+        "training_cpu_seconds": round(time.process_time() - c0, 1), "torch_threads": torch.get_num_threads(),
+        "best_epoch": best_epoch, "epochs_run": len(history),
         "initial_weights": source, "image_size": IMAGE_SIZE,
         "training_data": {"root": root_rel, "images": len(photos), "train": int(len(train)),
                           "validation": int(len(val)), "test": int(len(test)), "seed": seed,
@@ -183,11 +185,12 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
     """Test on images under ``root``: the model's held-out test images when ``held_out`` and listed."""
     root = Path(root) if root is not None else scenes_dir()
     photos = scan(root)
+    which = "all"
     if held_out and recognizer.metadata.get("test_recordings"):
         wanted = set(recognizer.metadata["test_recordings"])
         chosen = [p for p in photos if str(p.path.resolve().relative_to(root.resolve())) in wanted]
         if chosen:
-            photos = chosen
+            photos, which = chosen, "held-out"
     if not photos:
         raise CacasError(f"{root}: no images to evaluate")
     images = []
@@ -195,5 +198,6 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
         images.append(load_image(p.path))
         _tell(progress, 0.9 * (i + 1) / len(photos), f"loading {p.path.name}")
     metrics = evaluate_images(recognizer, images, [p.scene for p in photos])
+    metrics.extra["set"] = which
     _tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(photos)} images")
     return metrics

@@ -1,0 +1,133 @@
+"""Sound features (Section IV-A): the loader's inputs and refusals, windows and the 64 x 32 MFCC."""
+
+import numpy as np
+import pytest
+import soundfile as sf
+
+from cacas.audio import features
+from cacas.audio.features import FEATURE_SHAPE, SAMPLE_RATE, load_clip, mfcc_batch, mfcc_windows, windows
+from cacas.errors import CacasError
+
+
+def _tone(seconds, rate, channels=1, amp=0.3, seed=0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * rate)) / rate
+    y = amp * np.sin(2 * np.pi * 440 * t) + 0.01 * rng.standard_normal(len(t))
+    return np.stack([y] * channels, axis=1) if channels > 1 else y
+
+
+def test_parameters_are_the_papers():
+    assert (features.SAMPLE_RATE, features.N_FFT, features.HOP_LENGTH, features.N_MELS) == (32000, 2048, 1024, 64)
+    assert FEATURE_SHAPE == (64, 32)
+
+
+def test_stereo_48k_is_mixed_down_and_resampled(tmp_path):
+    y = _tone(1.0, 48000, channels=2)
+    y[:, 1] *= 0  # one channel silent: the mix is half the other
+    p = tmp_path / "stereo.wav"
+    sf.write(p, y, 48000, subtype="PCM_16")
+    out = load_clip(p)
+    assert out.dtype == np.float32 and out.ndim == 1
+    assert abs(len(out) - SAMPLE_RATE) <= 2
+    assert 0.1 < np.max(np.abs(out)) < 0.2  # (0.3 + 0) / 2
+
+
+def test_8bit_16k_wav(tmp_path):
+    p = tmp_path / "u8.wav"
+    sf.write(p, _tone(1.0, 16000), 16000, subtype="PCM_U8")
+    out = load_clip(p)
+    assert abs(len(out) - SAMPLE_RATE) <= 2 and np.max(np.abs(out)) > 0.2
+
+
+@pytest.mark.parametrize("fmt,subtype,ext", [("WAV", "PCM_24", "wav"), ("WAV", "FLOAT", "wav"),
+                                             ("FLAC", "PCM_16", "flac"), ("OGG", "VORBIS", "ogg")])
+def test_formats_and_depths(tmp_path, fmt, subtype, ext):
+    p = tmp_path / f"clip.{ext}"
+    sf.write(p, _tone(1.0, 22050), 22050, format=fmt, subtype=subtype)
+    out = load_clip(p)
+    assert abs(len(out) - SAMPLE_RATE) <= 40 and np.max(np.abs(out)) > 0.2
+
+
+def test_short_clip_padded_to_one_window(tmp_path):
+    p = tmp_path / "short.wav"
+    sf.write(p, _tone(0.4, SAMPLE_RATE), SAMPLE_RATE)
+    y = load_clip(p)
+    w = windows(y)
+    assert w.shape == (1, SAMPLE_RATE)
+    assert np.all(w[0, int(0.41 * SAMPLE_RATE):] == 0)
+    assert mfcc_windows(y).shape == (1, 64, 32)
+
+
+def test_long_clip_cut_into_windows(tmp_path):
+    p = tmp_path / "long.wav"
+    sf.write(p, _tone(3.0, SAMPLE_RATE), SAMPLE_RATE)
+    assert mfcc_windows(load_clip(p)).shape == (3, 64, 32)
+    assert windows(np.ones(int(2.6 * SAMPLE_RATE))).shape[0] == 3  # >= 0.5 s tail kept
+    assert windows(np.ones(int(2.3 * SAMPLE_RATE))).shape[0] == 2  # shorter tail dropped
+
+
+def _refused(path, *words):
+    with pytest.raises(CacasError) as err:
+        load_clip(path)
+    msg = str(err.value)
+    assert str(path) in msg and "\n" not in msg
+    for w in words:
+        assert w in msg
+    return msg
+
+
+def test_zero_byte_file(tmp_path):
+    p = tmp_path / "empty.wav"
+    p.write_bytes(b"")
+    _refused(p, "empty")
+
+
+def test_text_named_wav(tmp_path):
+    p = tmp_path / "notes.wav"
+    p.write_text("this is not audio\n" * 20)
+    _refused(p, "not a readable")
+
+
+def test_truncated_wav(tmp_path):
+    good = tmp_path / "good.wav"
+    sf.write(good, _tone(1.0, SAMPLE_RATE), SAMPLE_RATE)
+    bad = tmp_path / "cut.wav"
+    bad.write_bytes(good.read_bytes()[:30])
+    _refused(bad)
+
+
+def test_missing_file(tmp_path):
+    _refused(tmp_path / "nowhere.wav", "no such file")
+
+
+def test_unsupported_extension(tmp_path):
+    p = tmp_path / "clip.mp4"
+    p.write_bytes(b"\x00" * 100)
+    _refused(p, "unsupported", ".wav")
+
+
+def test_silence(tmp_path):
+    p = tmp_path / "silence.wav"
+    sf.write(p, np.zeros(SAMPLE_RATE), SAMPLE_RATE)
+    _refused(p, "silence")
+
+
+def test_nan(tmp_path):
+    p = tmp_path / "nan.wav"
+    y = _tone(1.0, SAMPLE_RATE).astype(np.float32)
+    y[100:200] = np.nan
+    sf.write(p, y, SAMPLE_RATE, subtype="FLOAT")
+    _refused(p, "NaN")
+
+
+def test_quiet_room_tone_is_not_silence():
+    y = (0.002 * np.random.default_rng(0).standard_normal(SAMPLE_RATE)).astype(np.float32)
+    assert features.check_signal(y).shape == (SAMPLE_RATE,)
+
+
+def test_batch_matches_single_and_groups():
+    rng = np.random.default_rng(1)
+    sigs = [rng.standard_normal(n).astype(np.float32) * 0.1 for n in (SAMPLE_RATE, 2 * SAMPLE_RATE, 5000)]
+    feats, groups = mfcc_batch(sigs, return_groups=True)
+    assert feats.shape == (4, 64, 32) and list(groups) == [0, 1, 1, 2]
+    np.testing.assert_allclose(feats[1:3], mfcc_windows(sigs[1]), rtol=1e-4, atol=1e-3)

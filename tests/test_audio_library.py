@@ -1,0 +1,99 @@
+"""The sound library: slugs, the synthetic generator, clip_paths, scan and the importer."""
+
+import numpy as np
+import pytest
+import soundfile as sf
+
+from cacas import spaces
+from cacas.audio import library, synth
+from cacas.errors import CacasError
+
+
+def test_slugs_round_trip_every_activity():
+    for name in spaces.ACTIVITIES:
+        s = library.activity_slug(name)
+        assert s.replace("_", "").isalnum() and s == s.lower()
+        assert library.activity_of_folder(s) == name
+    assert library.activity_slug("Watch TV") == "watch_tv"
+    with pytest.raises(CacasError):
+        library.activity_of_folder("make_coffee")
+
+
+def test_every_activity_renders_a_distinct_plausible_clip():
+    rng = np.random.default_rng(0)
+    rms = {}
+    for name in spaces.ACTIVITIES:
+        y = synth.render(name, rng, seconds=1.0)
+        assert y.dtype == np.float32 and y.shape == (32000,) and np.all(np.isfinite(y))
+        assert np.max(np.abs(y)) <= 0.99
+        rms[name] = float(np.sqrt(np.mean(y ** 2)))
+    assert rms["do nothing"] < 0.01 < min(v for k, v in rms.items() if k != "do nothing")
+
+
+def test_render_is_reproducible_and_varied():
+    a = synth.render("cough", np.random.default_rng([1, 2]), 1.0)
+    b = synth.render("cough", np.random.default_rng([1, 2]), 1.0)
+    c = synth.render("cough", np.random.default_rng([1, 3]), 1.0)
+    assert np.array_equal(a, b) and not np.allclose(a, c)
+
+
+def test_generate_and_clip_paths(tmp_path):
+    paths = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["watch TV", "cough"])
+    assert len(paths) == 4
+    clips = library.clip_paths("Watch tv", root=tmp_path)
+    assert [p.parent.name for p in clips] == ["watch_tv", "watch_tv"] and clips[0].suffix == ".ogg"
+    assert library.clip_paths("sneeze", root=tmp_path) == []
+    found = library.scan(tmp_path)
+    assert [c.activity for c in found] == ["cough", "cough", "watch TV", "watch TV"]
+
+
+def test_generate_refuses_bad_arguments(tmp_path):
+    with pytest.raises(CacasError):
+        library.generate_library(0, root=tmp_path)
+    with pytest.raises(CacasError):
+        library.generate_library(1, seconds=0.2, root=tmp_path)
+
+
+def test_shipped_library_covers_every_activity_and_stays_small():
+    for name in spaces.ACTIVITIES:
+        assert len(library.clip_paths(name)) >= 10, name
+    assert library.library_size_bytes() < 20_000_000
+
+
+def _researcher_folder(tmp_path):
+    src = tmp_path / "mine"
+    (src / "cough").mkdir(parents=True)
+    (src / "Watch TV").mkdir()
+    t = np.arange(48000) / 48000
+    sf.write(src / "cough" / "c1.flac", np.stack([0.3 * np.sin(2 * np.pi * 300 * t)] * 2, 1), 48000)
+    sf.write(src / "Watch TV" / "tv.wav", 0.2 * np.sin(2 * np.pi * 200 * t[:16000]), 16000, subtype="PCM_U8")
+    return src
+
+
+def test_import_folder_copies_checked_recordings(tmp_path):
+    src = _researcher_folder(tmp_path)
+    lib = tmp_path / "lib"
+    copied = library.import_folder(src, root=lib)
+    assert sorted(p.relative_to(lib).as_posix() for p in copied) == ["cough/c1.flac", "watch_tv/tv.wav"]
+    again = library.import_folder(src, root=lib)  # same names: kept apart, not overwritten
+    assert sorted(p.name for p in again) == ["imported_1_c1.flac", "imported_1_tv.wav"]
+
+
+def test_import_refuses_bad_folder_name_and_copies_nothing(tmp_path):
+    src = _researcher_folder(tmp_path)
+    (src / "make_coffee").mkdir()
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match="make_coffee"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+
+
+def test_import_refuses_a_bad_file_and_copies_nothing(tmp_path):
+    src = _researcher_folder(tmp_path)
+    (src / "cough" / "broken.wav").write_text("not audio")
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match="broken.wav"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+    with pytest.raises(CacasError, match="no such folder"):
+        library.import_folder(tmp_path / "absent", root=lib)

@@ -1,0 +1,149 @@
+"""The sound CNN (Section IV-A): shape, grouped 9:1 split, training metrics, save/load, recognition."""
+
+import json
+
+import numpy as np
+import pytest
+import soundfile as sf
+import torch
+
+from cacas import spaces
+from cacas.audio import SoundRecognizer, library
+from cacas.audio.model import SoundCNN, default_model_path
+from cacas.audio.training import evaluate_sound_model, train_sound_model
+from cacas.errors import CacasError
+from cacas.recognition import Recognition, stratified_group_split
+
+TINY = ["cough", "use blender", "type keyboard", "do nothing"]
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    root = tmp_path_factory.mktemp("sounds")
+    library.generate_library(5, seconds=2.0, root=root, activities=TINY, seed=3)
+    seen = []
+    result = train_sound_model(root, epochs=2, patience=2, seed=0, augment_copies=1,
+                               progress=lambda f, m: seen.append((f, m)))
+    return root, result, seen
+
+
+def test_architecture_is_the_papers():
+    m = SoundCNN()
+    convs = [l for l in m.modules() if isinstance(l, torch.nn.Conv2d)]
+    assert [c.out_channels for c in convs] == [64, 128, 256] and all(c.kernel_size == (3, 3) for c in convs)
+    assert m.dense[0].out_features == 128 and m.out.out_features == 33
+    assert m(torch.zeros(2, 64, 32)).shape == (2, 33)
+
+
+def test_grouped_split_never_puts_a_recording_on_both_sides():
+    labels = np.repeat(np.arange(33), 24)
+    keep, held = stratified_group_split(labels, 0.1, seed=0)
+    assert set(keep).isdisjoint(held) and len(keep) + len(held) == len(labels)
+    assert len(held) == 33 * 2  # round(0.1 * 24) per activity
+    assert set(labels[held]) == set(range(33))
+
+
+def test_training_split_is_by_recording(tiny):
+    root, result, _ = tiny
+    split = result.split
+    assert split["path"].is_unique  # each recording has exactly one side
+    assert set(split["side"]) == {"train", "validation", "test"}
+    test_paths = set(split.loc[split.side == "test", "path"])
+    assert test_paths == set(result.recognizer.metadata["test_recordings"])
+    for act in TINY:  # every activity on the test side
+        assert (split[(split.activity == act)].side == "test").sum() >= 1
+
+
+def test_training_reports_metrics_and_progress(tiny):
+    _, result, seen = tiny
+    m = result.metrics
+    assert m.n == result.split.side.eq("test").sum()
+    assert m.confusion.shape == (33, 33) and m.confusion.sum() == m.n
+    assert list(m.per_class.columns) == ["label", "n", "correct", "accuracy"]
+    assert m.per_class.set_index("label").loc[TINY, "n"].sum() == m.n
+    assert 0 <= m.accuracy <= 1 and m.extra["windows"] == 2 * m.n
+    assert seen[-1][0] == 1.0 and all(0 <= f <= 1 for f, _ in seen)
+    assert [f for f, _ in seen] == sorted(f for f, _ in seen)
+
+
+def test_save_load_same_predictions(tiny, tmp_path):
+    root, result, _ = tiny
+    path = result.recognizer.save(tmp_path / "m.pt")
+    meta = json.loads(path.with_suffix(".json").read_text())
+    for key in ("classes", "features", "accuracy", "trained", "training_data"):
+        assert key in meta
+    assert meta["features"]["n_fft"] == 2048 and meta["classes"] == list(spaces.ACTIVITIES)
+    loaded = SoundRecognizer.load(path)
+    clip = library.clip_paths("cough", root)[0]
+    a, b = result.recognizer.probabilities(clip), loaded.probabilities(clip)
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+    m = evaluate_sound_model(loaded, root)
+    assert m.accuracy == pytest.approx(result.metrics.accuracy)
+
+
+def test_recognize_returns_label_probabilities_top3(tiny):
+    root, result, _ = tiny
+    r = result.recognizer.recognize(library.clip_paths("use blender", root)[0])
+    assert isinstance(r, Recognition) and r.label in spaces.ACTIVITIES
+    assert list(r.probabilities) == list(spaces.ACTIVITIES)
+    assert sum(r.probabilities.values()) == pytest.approx(1.0, abs=1e-4)
+    assert r.top3[0] == (r.label, r.probabilities[r.label]) and len(r.top3) == 3
+    assert r.top3[0][1] >= r.top3[1][1] >= r.top3[2][1]
+    arr = result.recognizer.recognize(np.random.default_rng(0).standard_normal(48000).astype(np.float32) * 0.1)
+    assert arr.label in spaces.ACTIVITIES
+
+
+def test_recognize_refuses_bad_input(tiny, tmp_path):
+    _, result, _ = tiny
+    with pytest.raises(CacasError, match="silence"):
+        result.recognizer.recognize(np.zeros(32000, dtype=np.float32))
+    bad = tmp_path / "x.wav"
+    bad.write_text("hello")
+    with pytest.raises(CacasError, match="x.wav"):
+        result.recognizer.recognize(bad)
+
+
+def test_training_refuses_thin_or_missing_data(tmp_path):
+    with pytest.raises(CacasError, match="no such sound folder"):
+        train_sound_model(tmp_path / "absent")
+    library.generate_library(1, seconds=1.0, root=tmp_path, activities=["cough", "cry"])
+    with pytest.raises(CacasError, match="single recording"):
+        train_sound_model(tmp_path, epochs=1)
+
+
+def test_load_refuses_missing_or_wrong_model(tmp_path):
+    with pytest.raises(CacasError, match="no such sound model"):
+        SoundRecognizer.load(tmp_path / "none.pt")
+    (tmp_path / "bad.pt").write_text("nonsense")
+    (tmp_path / "bad.json").write_text(json.dumps({"kind": "sound", "classes": ["a"], "features": {"shape": [64, 32]}}))
+    with pytest.raises(CacasError, match="bad.pt"):
+        SoundRecognizer.load(tmp_path / "bad.pt")
+
+
+def test_shipped_model_recognises_its_held_out_recordings():
+    rec = SoundRecognizer.load()  # study_data/models/sound_cnn.pt
+    assert default_model_path().exists() and rec.classes == list(spaces.ACTIVITIES)
+    meta = rec.metadata
+    assert meta["accuracy"] >= 0.9 and len(meta["test_recordings"]) >= 33
+    m = evaluate_sound_model(rec)  # the held-out recordings named in its metadata
+    assert m.n == len(meta["test_recordings"])
+    assert m.accuracy == pytest.approx(meta["accuracy"], abs=1e-6)
+
+
+def test_confusion_figure_and_png(tiny, tmp_path):
+    from cacas.plots_recognition import confusion_figure, confusion_png, per_class_figure
+
+    _, result, _ = tiny
+    m = result.metrics
+    fig = confusion_figure(m)
+    heat = fig.data[0]
+    assert list(heat.x) == list(spaces.ACTIVITIES) and np.asarray(heat.z).shape == (33, 33)
+    rows = np.asarray(heat.z).sum(axis=1)
+    assert np.allclose(rows[m.confusion.sum(axis=1) > 0], 1.0)
+    counts = confusion_figure(m, normalise=False).data[0].z
+    assert np.array_equal(np.asarray(counts), m.confusion)
+    assert len(per_class_figure(m).data[0].x) == len(TINY)
+    confusion_png(m, tmp_path / "cm.png")
+    assert (tmp_path / "cm.png").stat().st_size > 1000
+    tidy = m.confusion_frame()
+    assert list(tidy.columns) == ["true", "predicted", "count"] and tidy["count"].sum() == m.n
