@@ -93,6 +93,10 @@ def _start_day() -> None:
 
 def _set_context() -> None:
     s = st.session_state
+    missing = [what for what, key in (("an activity", "ctx-activity"), ("a room", "ctx-scene")) if s.get(key) is None]
+    if missing:
+        s["session-error"] = f"Choose {' and '.join(missing)} first."
+        return
     try:
         ctx = Context.from_choices(s["ctx-slot"], s["ctx-interval"], s["ctx-activity"], s["ctx-scene"])
     except CacasError as exc:

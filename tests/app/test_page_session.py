@@ -184,3 +184,13 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     next(b for b in at.button if b.label == label).click().run()
     row = store.interactions_frame("P01", method=None, extra=True).iloc[0]
     assert (row["activity"], row["recognised_activity"]) == ("cough", heard)
+
+
+def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
+    store.open_day("P01")
+    at = app(PAGE, participant="P01")
+    at.selectbox(key="ctx-activity").set_value("cough")
+    _button(at, "Do it").click().run()
+    no_exception(at)
+    assert "Choose a room first." in texts(at)
+    assert "ctx" not in at.query_params
