@@ -26,8 +26,14 @@ st.title("Results")
 
 # --- which data ------------------------------------------------------------------------------------
 runs = app_support.list_runs(app_support.runs_dir(db))
-sources = [HUMAN] + [f"Simulated run: {r}" for r in runs] + ["Upload a daily.csv"]
-source = st.segmented_control("Data", sources, default=HUMAN, key="results-source") or HUMAN
+SIMULATED, UPLOAD = "A simulated run", "Upload a daily.csv"
+source = st.segmented_control("Data", [HUMAN, SIMULATED, UPLOAD], default=HUMAN, key="results-source") or HUMAN
+if source == SIMULATED:
+    if not runs:
+        st.info("No simulated run yet: run one in the **Simulation lab**.")
+        st.stop()
+    source = "Simulated run: " + st.selectbox("Run", runs, key="results-run",
+                                               help="Saved by the Simulation lab, newest first.")
 
 if source == HUMAN:
     tables = export_tables(store, study)
@@ -43,7 +49,8 @@ elif source.startswith("Simulated run: "):
     st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
                f"participant(s), methods {', '.join(daily['method'].unique())}.")
 else:
-    up = st.file_uploader("daily.csv from `cacas simulate` or an export", type=["csv"], key="results-upload")
+    up = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export", type=["csv"],
+                          key="results-upload")
     if up is None:
         st.stop()
     try:

@@ -42,3 +42,19 @@ def test_questionnaire_entry_and_summary(app, store):
     assert list(answers["satisfaction"]) == [9]
     values = {m.label: m.value for m in at.metric}
     assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"
+
+
+def test_results_of_a_simulated_run(app, db):
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01", "P01"], "method": ["cacas", "cacas"], "day": [1, 2],
+                          "success_rate": [0.3, 0.6], "preference_accuracy": [0.2, 0.5],
+                          "cumulative_feedback": [8, 15], "interactions": [15, 15]})
+    app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert at.selectbox(key="results-run").value == "run-a"
+    assert at.metric[0].label == "Day 2 mean success rate" and at.metric[0].value == "60%"
