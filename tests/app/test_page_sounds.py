@@ -41,3 +41,33 @@ def test_add_clips_valid_and_invalid(tmp_path, monkeypatch):
         else:
             raise AssertionError(f"{files} was accepted")
     assert clip_paths("cough", root) == added  # nothing half-added
+
+
+def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, monkeypatch):
+    import cacas.audio
+    import cacas.lab
+    from cacas.audio.model import SoundCNN, SoundRecognizer
+    from cacas.jobs import RUNNER
+    from cacas.recognition import compute_metrics
+
+    recognizer = SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.5, "trained": "2026-11-21T10:00:00"})
+    metrics = compute_metrics([0, 1, 2, 2], [0, 1, 2, 1], ["cough", "cry", "sneeze"])
+
+    def evaluate(progress=None):
+        progress(0.5, "recognising held-out recordings")
+        return metrics
+
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0 if kind == "sound" else None)
+    monkeypatch.setattr(cacas.audio.SoundRecognizer, "load", classmethod(lambda cls, path=None: recognizer))
+    monkeypatch.setattr(cacas.lab, "evaluate_sound", evaluate)
+    at = app(PAGE)
+    no_exception(at)
+    assert "test accuracy 50.0%" in texts(at)
+    next(b for b in at.button if b.label == "Evaluate the saved sound model").click().run()
+    job = RUNNER.get("eval-sound")
+    assert job is not None and job.wait(30) and job.status == "done"
+    at.run()
+    no_exception(at)
+    assert any(m.label == "Sound test accuracy" and m.value == "75.0%" for m in at.metric)
+    assert len(at.get("plotly_chart")) == 1
+    RUNNER.forget("eval-sound")
