@@ -1,0 +1,100 @@
+"""`cacas sound ...` and `cacas scene ...`: recognize prints label + top 3 (exit 0); bad files exit 2, one line."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import soundfile as sf
+from PIL import Image
+
+from cacas.audio import library
+from cacas.cli import COMMANDS, main
+from cacas.vision import library as scene_library
+
+
+def test_registered():
+    assert "sound" in COMMANDS and "scene" in COMMANDS
+
+
+def test_sound_recognize_shipped_clip(capsys):
+    clip = library.clip_paths("use blender")[0]
+    assert main(["sound", "recognize", str(clip)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0] == f"{clip}: use blender"
+    assert len(out) == 4 and all(len(line.split()) >= 2 for line in out[1:])
+
+
+def _bad_sound_files(tmp_path):
+    empty = tmp_path / "empty.wav"
+    empty.write_bytes(b"")
+    text = tmp_path / "text.wav"
+    text.write_text("definitely not audio")
+    silent = tmp_path / "silent.wav"
+    sf.write(silent, np.zeros(16000), 16000)
+    nan = tmp_path / "nan.wav"
+    y = np.full(16000, np.nan, dtype=np.float32)
+    sf.write(nan, y, 16000, subtype="FLOAT")
+    return [(empty, "empty"), (text, "not a readable"), (silent, "silence"), (nan, "NaN"),
+            (tmp_path / "missing.wav", "no such file")]
+
+
+def test_sound_recognize_bad_files_exit_2_one_line(tmp_path, capsys):
+    for path, word in _bad_sound_files(tmp_path):
+        assert main(["sound", "recognize", str(path)]) == 2
+        cap = capsys.readouterr()
+        lines = cap.err.strip().splitlines()
+        assert len(lines) == 1 and str(path) in lines[0] and word in lines[0], cap.err
+        assert "Traceback" not in cap.err and cap.out == ""
+
+
+def test_sound_recognize_bad_file_as_a_real_process(tmp_path):
+    bad = tmp_path / "text.wav"
+    bad.write_text("not audio")
+    proc = subprocess.run([sys.executable, "-m", "cacas", "sound", "recognize", str(bad)],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2
+    assert proc.stderr.count("\n") == 1 and str(bad) in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_scene_recognize_shipped_image_and_bad_file(tmp_path, capsys):
+    img = scene_library.image_paths("kitchen")[0]
+    assert main(["scene", "recognize", str(img)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith(f"{img}: ") and len(out) == 4
+    bad = tmp_path / "photo.jpg"
+    bad.write_text("not an image")
+    assert main(["scene", "recognize", str(bad)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(bad) in err[0]
+
+
+def test_sound_generate_train_eval_on_a_tiny_library(tmp_path, capsys):
+    lib = tmp_path / "sounds"
+    assert main(["sound", "generate", "--clips", "3", "--seconds", "1", "--out", str(lib)]) == 0
+    assert len(list(lib.rglob("*.ogg"))) == 33 * 3
+    model = tmp_path / "m" / "sound.pt"
+    assert main(["sound", "train", "--data", str(lib), "--model", str(model), "--epochs", "1", "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "accuracy:" in out and model.exists() and model.with_suffix(".json").exists()
+    assert main(["sound", "eval", "--model", str(model), "--data", str(lib), "--quiet"]) == 0
+    assert "on 33 held-out recordings" in capsys.readouterr().out
+    clip = next(lib.rglob("*.ogg"))
+    assert main(["sound", "recognize", "--model", str(model), str(clip)]) == 0
+
+
+def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
+    assert main(["sound", "train", "--data", str(tmp_path / "absent"), "--quiet"]) == 2
+    assert "absent" in capsys.readouterr().err
+    assert main(["sound", "eval", "--model", str(tmp_path / "no.pt")]) == 2
+    assert "no such sound model" in capsys.readouterr().err
+
+
+def test_scene_generate_and_import(tmp_path, capsys):
+    assert main(["scene", "generate", "--images", "1", "--size", "48", "--out", str(tmp_path / "s")]) == 0
+    assert len(list((tmp_path / "s").rglob("*.jpg"))) == 6
+    src = tmp_path / "mine" / "bedroom"
+    src.mkdir(parents=True)
+    Image.new("RGB", (30, 30)).save(src / "b.png")
+    assert main(["scene", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "s")]) == 0
+    assert (tmp_path / "s" / "bedroom" / "b.png").exists()

@@ -1,0 +1,123 @@
+"""Scene recognition (Section IV-A): ResNet-18, weights handling, storage, training and recognition."""
+
+import json
+
+import numpy as np
+import pytest
+import torch
+from PIL import Image
+
+from cacas import spaces
+from cacas.errors import CacasError
+from cacas.recognition import Recognition
+from cacas.vision import SceneRecognizer, build_resnet18, library, synth
+from cacas.vision.model import default_model_path, dequantise_state, quantise_state
+from cacas.vision.training import evaluate_scene_model, train_scene_model
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    root = tmp_path_factory.mktemp("scenes")
+    library.generate_scenes(4, size=64, seed=5, root=root)
+    seen = []
+    result = train_scene_model(root, epochs=1, patience=1, weights="none", progress=lambda f, m: seen.append(f))
+    return root, result, seen
+
+
+def test_scene_slugs_and_generator(tmp_path):
+    assert library.scene_slug("Living Room") == "living_room"
+    assert library.scene_of_folder("dining_room") == "dining room"
+    for name in spaces.SCENES:
+        img = synth.render(name, np.random.default_rng(0), 64)
+        assert img.size == (64, 64) and img.mode == "RGB"
+    paths = library.generate_scenes(1, size=48, root=tmp_path)
+    assert len(paths) == 6 and library.image_paths("kitchen", tmp_path)[0].suffix == ".jpg"
+
+
+def test_resnet18_without_weights_never_downloads(monkeypatch):
+    monkeypatch.setattr(torch.hub, "load_state_dict_from_url",
+                        lambda *a, **k: pytest.fail("tried to download weights"))
+    model, source = build_resnet18(6, weights="none")
+    assert source.startswith("none") and model.fc.out_features == 6
+    model, source = build_resnet18(6, weights="auto")  # cache only
+    assert model.fc.out_features == 6
+
+
+def test_weights_file_is_used(tmp_path):
+    donor, _ = build_resnet18(1000, weights="none")
+    path = tmp_path / "r18.pth"
+    torch.save(donor.state_dict(), path)
+    model, source = build_resnet18(6, weights=path)
+    assert source == "pretrained: r18.pth"
+    assert torch.equal(model.conv1.weight, donor.conv1.weight)
+    with pytest.raises(CacasError, match="no such weights file"):
+        build_resnet18(6, weights=tmp_path / "absent.pth")
+    (tmp_path / "junk.pth").write_text("junk")
+    with pytest.raises(CacasError, match="junk.pth"):
+        build_resnet18(6, weights=tmp_path / "junk.pth")
+
+
+def test_int8_storage_round_trip_is_close():
+    model, _ = build_resnet18(6, weights="none")
+    state = model.state_dict()
+    back = dequantise_state(quantise_state(state))
+    w, b = state["layer1.0.conv1.weight"], back["layer1.0.conv1.weight"]
+    assert torch.max(torch.abs(w - b)) <= w.abs().max() / 127 / 2 + 1e-7
+    assert set(back) == set(state)
+
+
+def test_training_metrics_and_save_load(tiny, tmp_path):
+    root, result, seen = tiny
+    m = result.metrics
+    assert m.n == 6 and m.confusion.shape == (6, 6) and m.confusion.sum() == 6
+    assert seen[-1] == 1.0
+    split = result.split
+    assert split["path"].is_unique and (split.side == "test").sum() == 6
+    path = result.recognizer.save(tmp_path / "scene.pt")
+    meta = json.loads(path.with_suffix(".json").read_text())
+    assert meta["classes"] == list(spaces.SCENES) and "accuracy" in meta and "trained" in meta
+    loaded = SceneRecognizer.load(path)
+    img = library.image_paths("bathroom", root)[0]
+    a = result.recognizer.recognize(img)
+    b = loaded.recognize(img)
+    assert a.label == b.label
+    np.testing.assert_allclose(list(a.probabilities.values()), list(b.probabilities.values()), atol=1e-5)
+    assert evaluate_scene_model(loaded, root).accuracy == pytest.approx(m.accuracy)
+
+
+def test_recognize_image_and_bad_files(tiny, tmp_path):
+    _, result, _ = tiny
+    r = result.recognizer.recognize(Image.new("RGB", (80, 60), (200, 200, 200)))
+    assert isinstance(r, Recognition) and r.label in spaces.SCENES and len(r.top3) == 3
+    assert sum(r.probabilities.values()) == pytest.approx(1.0, abs=1e-4)
+    empty = tmp_path / "e.jpg"
+    empty.write_bytes(b"")
+    with pytest.raises(CacasError, match="empty"):
+        result.recognizer.recognize(empty)
+    text = tmp_path / "t.png"
+    text.write_text("no image here")
+    with pytest.raises(CacasError, match="not a readable image"):
+        result.recognizer.recognize(text)
+    with pytest.raises(CacasError, match="no such file"):
+        result.recognizer.recognize(tmp_path / "absent.jpg")
+
+
+def test_import_scene_folder(tmp_path):
+    src = tmp_path / "photos" / "Living Room"
+    src.mkdir(parents=True)
+    Image.new("RGB", (40, 30), (10, 20, 30)).save(src / "a.png")
+    copied = library.import_folder(tmp_path / "photos", root=tmp_path / "lib")
+    assert [p.relative_to(tmp_path / "lib").as_posix() for p in copied] == ["living_room/a.png"]
+    (tmp_path / "photos" / "garage").mkdir()
+    with pytest.raises(CacasError, match="garage"):
+        library.import_folder(tmp_path / "photos", root=tmp_path / "lib2")
+
+
+def test_shipped_scene_model_and_images():
+    rec = SceneRecognizer.load()
+    assert default_model_path().exists() and rec.classes == list(spaces.SCENES)
+    assert default_model_path().stat().st_size < 15_000_000
+    for name in spaces.SCENES:
+        assert len(library.image_paths(name)) >= 10
+    m = evaluate_scene_model(rec)
+    assert m.accuracy == pytest.approx(rec.metadata["accuracy"], abs=1e-6)
