@@ -38,7 +38,8 @@ if source == SIMULATED:
 if source == HUMAN:
     tables = export_tables(store, study)
     daily = tables["daily"]
-    st.caption(f"Study **{study}**: {daily['participant'].nunique()} participant(s), "
+    n_people = daily["participant"].nunique()
+    st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''}, "
                f"{len(tables['interactions'])} interactions. Day d's success rate uses the policy adapted from "
                "days 1..d-1 (Section V-B.2).")
 elif source.startswith("Simulated run: "):
