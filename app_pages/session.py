@@ -70,13 +70,48 @@ def _heard(path: str, stamp: float | None) -> tuple[str, float, list] | None:
     return r.label, float(r.confidence), [(a, float(p)) for a, p in r.top3]
 
 
-def _sound_stamp() -> float | None:
+def _stamp(kind: str) -> float | None:
     try:
         from cacas.lab import model_stamp
 
-        return model_stamp("sound")
+        return model_stamp(kind)
     except (CacasError, ImportError, OSError):
         return None
+
+
+@st.cache_resource(show_spinner=False)
+def _scene_recognizer(stamp: float | None):
+    """The saved scene model, or None: the robot then takes the room as chosen."""
+    if stamp is None:
+        return None
+    try:
+        from cacas.vision import SceneRecognizer
+
+        return SceneRecognizer.load()
+    except (CacasError, ImportError, OSError):
+        return None
+
+
+@st.cache_data(show_spinner=False)
+def _photos(scene: str) -> list[str]:
+    try:
+        from cacas.vision.library import image_paths
+
+        return [str(p) for p in image_paths(scene)]
+    except (CacasError, ImportError, OSError):
+        return []
+
+
+@st.cache_data(show_spinner=False, max_entries=256)
+def _seen(path: str, stamp: float | None) -> tuple[str, float] | None:
+    rec = _scene_recognizer(stamp)
+    if rec is None:
+        return None
+    try:
+        r = rec.recognize(path)
+    except CacasError:
+        return None
+    return r.label, float(r.confidence)
 
 
 # --- callbacks ------------------------------------------------------------------------------------
@@ -213,7 +248,9 @@ else:
     index = done + 1
     token = f"{day}:{index}:{token_ctx}"
     clip = clip_for(context, code, day, index, _clips(context.activity))
-    heard = _heard(str(clip), _sound_stamp()) if clip else None
+    heard = _heard(str(clip), _stamp("sound")) if clip else None
+    photo = clip_for(context, code, day, index, _photos(context.scene))  # what the robot's camera sees
+    seen = _seen(str(photo), _stamp("scene")) if photo else None
     if status.policy_version is None and not initial_policy_ready():
         # first use on this machine: the initial policy is trained once, in the background
         job, _ = RUNNER.start("initial-policy", prepare_initial_policy, label="The robot is getting ready (first use only)")
@@ -226,7 +263,7 @@ else:
         policy, version = _policy(ui.db_path(), code, status.policy_version)
     proposal = propose(policy, context, previous_interaction(store, code, day),
                        heard=heard[0] if heard else None, heard_confidence=heard[1] if heard else None,
-                       policy_version=version)
+                       policy_version=version, seen=seen[0] if seen else None)
 
     left, right = st.columns([1, 1])
     with left.container(border=True):
@@ -248,6 +285,9 @@ else:
         else:
             st.markdown(f"### {context.activity}")
             st.caption("No sound model: the robot uses the activity as chosen.")
+        if seen:
+            mark = ":material/check:" if seen[0] == context.scene else ":material/help:"
+            st.markdown(f"and sees the **{seen[0]}** {mark} ({100 * seen[1]:.0f}%)")
 
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")

@@ -97,6 +97,7 @@ class Proposal:
     probabilities: np.ndarray = field(repr=False)
     line: str
     policy_version: int | None
+    seen: str | None = None         # the room the robot recognised from its camera, if it did
 
     @property
     def robot_speaks(self) -> bool:
@@ -196,17 +197,20 @@ def previous_interaction(store, participant: str, day: int) -> dict | None:
 
 
 def propose(policy, context: Context, previous: dict | None = None, heard: str | None = None,
-            heard_confidence: float | None = None, policy_version: int | None = None) -> Proposal:
-    """The robot's proposal: the policy state from the context (S1 is what the robot heard, when a
-    recogniser heard it; S5-S7 from the previous interaction), Eq. 4's action and its line."""
+            heard_confidence: float | None = None, policy_version: int | None = None,
+            seen: str | None = None) -> Proposal:
+    """The robot's proposal: the policy state from the context (S1 is what the robot heard and S2
+    the room it saw, when recognisers are installed, else as set; S5-S7 from the previous
+    interaction), Eq. 4's action and its line."""
     from cacas.simulator import dialog_state
 
     act_on = spaces.canonical("activity", heard) if heard else context.activity
-    state = dialog_state(act_on, context.scene, context.hour, context.interval_minutes, previous)
+    seen = spaces.canonical("scene", seen) if seen else None
+    state = dialog_state(act_on, seen or context.scene, context.hour, context.interval_minutes, previous)
     action_index, probs = policy.decide(state)
     action = spaces.ACTIONS[action_index]
     return Proposal(context, act_on, heard_confidence if heard else None, state, action,
-                    np.asarray(probs, dtype=float), dialogue.robot_line(act_on, action), policy_version)
+                    np.asarray(probs, dtype=float), dialogue.robot_line(act_on, action), policy_version, seen)
 
 
 def _normalised(probs: np.ndarray) -> list[float]:
@@ -215,7 +219,7 @@ def _normalised(probs: np.ndarray) -> list[float]:
 
 
 def answer(store, participant: str, day: int, proposal: Proposal, response: str | None = None,
-           user_action: str | None = None, recognised_scene: str | None = None) -> int:
+           user_action: str | None = None) -> int:
     """Record the participant's answer at once (committed before this returns); the row id.
 
     ``response``: "accept", "reject" or "no response" to the robot's proposal (type_1). Or
@@ -234,7 +238,7 @@ def answer(store, participant: str, day: int, proposal: Proposal, response: str 
         previous_response=spaces.RESPONSES[state.response], robot_action=proposal.action,
         probabilities=_normalised(proposal.probabilities),
         recognised_activity=proposal.heard if proposal.heard_confidence is not None else None,
-        recognised_scene=recognised_scene, policy_version=proposal.policy_version,
+        recognised_scene=proposal.seen, policy_version=proposal.policy_version,
     )
     if user_action is not None:
         wanted = spaces.canonical("action", user_action)

@@ -121,3 +121,13 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
         assert nn["preference_accuracy"].iloc[1] == 1.0
         daily = daily_frame(s)
     assert set(daily.loc[daily["method"] == "nn", "day"]) == {1, 2}
+
+
+def test_the_robot_acts_on_the_room_it_saw(store, policy):
+    day = start_day(store, "P01")
+    ctx = Context.from_choices(4, 6, "cough", "bedroom")
+    p = propose(policy, ctx, None, heard="cough", heard_confidence=0.9, seen="Living Room")
+    assert p.seen == "living room" and p.state.scene == spaces.scene_index("living room")
+    answer(store, "P01", day, p, user_action="pain check")
+    row = store.interactions_frame("P01", extra=True).iloc[0]
+    assert (row["scene"], row["recognised_scene"]) == ("bedroom", "living room")
