@@ -9,7 +9,9 @@ reshaped policy (Eq. 5) acting. The participant's described preferences are neve
 Methods (Fig. 4; every method adapts from the same day-by-day interactions):
 * ``cacas``: the above, deployed as Eq. 5 with beta = 0.7;
 * ``cacas-no-pr``: the same without policy reshaping (pi_theta acts and is deployed);
-* ``orl``: plain SAC adapted with the user data (the recorded transitions, no user model);
+* ``orl``: plain (online) SAC adapted with the user data: the recorded transitions go into its
+  replay buffer and it makes ``orl_updates_per_transition`` gradient updates per new transition
+  (1, SAC's usual update-to-data ratio); no user model, no simulator;
 * ``nn``: MLP_policy alone;
 * ``bandit``: a contextual Thompson-sampling bandit (not in the paper).
 
@@ -55,7 +57,7 @@ class CACAAConfig:
     threshold: float = 0.7           # DM: probability threshold of the user model
     beta: float = 0.7                # Eq. 5 importance weight
     recorded_share: float = 0.8      # generate_state(t, h, D): share of steps with a recorded activity
-    orl_updates: int = 300           # ORL: gradient steps on the recorded transitions
+    orl_updates_per_transition: int = 1  # ORL: SAC's update-to-data ratio on the real transitions
     sac: SACConfig = field(default_factory=SACConfig)
 
     def to_dict(self) -> dict:
@@ -145,19 +147,21 @@ def load_initial_policy(progress: Progress | None = None, path: str | Path | Non
     return policy
 
 
-def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
     """The recorded data points as SAC transitions (s, a, r, s'): a robot action answered with
     accept / reject; for a user-initiated one the request (+1) and "do nothing" (-1). s' is the
-    next interaction's state of the day (or s itself at the end of a day)."""
+    next interaction's state of the day (or s itself at the end of a day). Returns
+    (s, a, r, s', day) arrays."""
+    empty = (np.zeros((0, spaces.STATE_DIM), np.float32), np.zeros(0, np.int64), np.zeros(0, np.float32),
+             np.zeros((0, spaces.STATE_DIM), np.float32), np.zeros(0, np.int64))
     if len(interactions) == 0:
-        z = np.zeros((0, spaces.STATE_DIM), np.float32)
-        return z, np.zeros(0, np.int64), np.zeros(0, np.float32), z
+        return empty
     df = interactions.sort_values(["day", "index"], kind="stable").reset_index(drop=True)
     x = spaces.encode_states(records.policy_states(df))
     nxt = np.arange(len(df)) + 1
     same_day = np.append(df["day"].to_numpy()[1:] == df["day"].to_numpy()[:-1], False)
     nxt = np.where(same_day, nxt, np.arange(len(df)))
-    s, a, r, s2 = [], [], [], []
+    s, a, r, s2, days = [], [], [], [], []
     for i, row in df.iterrows():
         if row["type"] == records.USER_INITIATED:
             pairs = [(spaces.action_index(row["user_action"]), 1.0), (spaces.DO_NOTHING_ACTION, -1.0)]
@@ -166,11 +170,10 @@ def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray,
         else:
             continue
         for act, rew in pairs:
-            s.append(x[i]); a.append(act); r.append(rew); s2.append(x[nxt[i]])  # noqa: E702
+            s.append(x[i]); a.append(act); r.append(rew); s2.append(x[nxt[i]]); days.append(row["day"])  # noqa: E702
     if not s:
-        z = np.zeros((0, spaces.STATE_DIM), np.float32)
-        return z, np.zeros(0, np.int64), np.zeros(0, np.float32), z
-    return np.array(s), np.array(a), np.array(r, np.float32), np.array(s2)
+        return empty
+    return np.array(s), np.array(a), np.array(r, np.float32), np.array(s2), np.array(days)
 
 
 def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", seed: int = 0,
@@ -210,12 +213,14 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
     sac = base_sac.copy(seed=seed)
 
     if method == "orl":
-        s, a, r, s2 = orl_transitions(interactions)
+        s, a, r, s2, day = orl_transitions(interactions)
+        n_new = int((day == day.max()).sum()) if len(day) else 0
+        updates = cfg.orl_updates_per_transition * n_new
         if len(a):
             sac.buffer.add_batch(s, a, r, s2)
-            sac.update(cfg.orl_updates)
-        say(1.0, f"SAC trained for {cfg.orl_updates} updates on {len(a)} recorded transitions")
-        params["updates"] = cfg.orl_updates
+            sac.update(updates)
+        say(1.0, f"SAC: {updates} updates for the {n_new} new of {len(a)} recorded transitions")
+        params["updates"] = updates
         return AdaptationResult(ReshapedPolicy(sac, None, 1.0, method), log, params, time.perf_counter() - t0)
 
     # cacas / cacas-no-pr: UMA (Table II) -> f_mu; MLP_policy; SAC against DM on states from D.

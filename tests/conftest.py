@@ -19,7 +19,7 @@ def small_config():
     from cacas.sac import SACConfig
 
     return CACAAConfig(k_minutes=60, parallel_days=4, initial_train_days=4, adapt_train_days=1, updates_per_step=6,
-                       orl_updates=20, sac=SACConfig(hidden=32, batch_size=64))
+                       sac=SACConfig(hidden=32, batch_size=64))
 
 
 @pytest.fixture(scope="session")

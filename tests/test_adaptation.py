@@ -98,3 +98,10 @@ def test_preference_accuracy_counts_the_preferred_action():
     states = evaluation_states(PERSON, 100, seed=3)
     mask = PERSON.coverage_mask()
     assert all(mask[tuple(s[:4])] for s in states) and np.all(states[:, 4] == 0)
+
+
+def test_orl_is_online_sac_one_update_per_new_transition(small_config, small_initial):
+    result = adapt_policy(small_initial, stove_days(3, per_day=8), "orl", seed=0, config=small_config)
+    # each user-initiated interaction gives two transitions (the request +1, "do nothing" -1)
+    assert result.parameters["updates"] == 16
+    assert result.policy.sac.updates == small_initial.sac.updates + 16

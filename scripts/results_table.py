@@ -1,0 +1,42 @@
+"""Print the README's results table (means per day, next to the paper's numbers) from a
+daily.csv written by `cacas simulate`.
+
+    python3 scripts/results_table.py results/daily.csv
+"""
+
+import sys
+
+import pandas as pd
+
+# The paper's Fig. 3 (human study, CACAS success rate) quoted in its text: day 1 30 %, day 7 85 %;
+# Fig. 4, day 7 preference accuracy: CACAS 89 %, 19 / 36 / 68 points above w/o PR, ORL, NN.
+PAPER = {"success day 1": 0.30, "success day 7": 0.85, "cacas day 7": 0.89,
+         "cacas-no-pr day 7": 0.89 - 0.19, "orl day 7": 0.89 - 0.36, "nn day 7": 0.89 - 0.68}
+
+
+def main(path: str) -> None:
+    daily = pd.read_csv(path)
+    methods = list(dict.fromkeys(daily["method"]))
+    acc = daily.pivot_table(index="day", columns="method", values="preference_accuracy", aggfunc="mean")[methods]
+    loop = methods[0]
+    succ = daily[daily["method"] == loop].groupby("day").agg(
+        success_rate=("success_rate", "mean"), success_min=("success_rate", "min"),
+        success_max=("success_rate", "max"), cumulative_feedback=("cumulative_feedback", "mean"))
+    head = ["day", f"success rate ({loop}) mean [min-max]", "cumulative feedback"] + \
+        [f"accuracy {m}" for m in methods]
+    print("| " + " | ".join(head) + " |")
+    print("|" + "---|" * len(head))
+    for day in acc.index:
+        s = succ.loc[day]
+        cells = [str(day), f"{s.success_rate:.2f} [{s.success_min:.2f}-{s.success_max:.2f}]",
+                 f"{s.cumulative_feedback:.1f}"] + [f"{acc.loc[day, m]:.3f}" for m in methods]
+        print("| " + " | ".join(cells) + " |")
+    last = acc.index.max()
+    paper = ["paper", f"{PAPER['success day 1']:.2f} (day 1), {PAPER['success day 7']:.2f} (day 7)", "104 (day 7)"] + \
+        [f"{PAPER[m + ' day 7']:.2f} (day 7)" if m + " day 7" in PAPER else "-" for m in methods]
+    print("| " + " | ".join(paper) + " |")
+    print(f"\nparticipants: {daily['participant'].nunique()}, days: {last}")
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
