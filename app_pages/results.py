@@ -140,7 +140,7 @@ with data:
     for name, df in tables.items():
         if name in ("events", "policies", "studies", "preferences", "days") and source == HUMAN:
             continue
-        with st.expander(f"{name}.csv · {len(df)} rows", expanded=name == "daily"):
+        with st.expander(f"{name}.csv · {len(df)} row{'s' if len(df) != 1 else ''}", expanded=name == "daily"):
             st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)))
             ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:

@@ -207,6 +207,7 @@ def test_mini_study(server, page, tmp_path):
     assert [r["response"] for r in rows[:3]] == ["accept", "reject", "others"]
     assert [r["user_action"] for r in rows[3:]] == ["pain check", "remind to turn off"]
     assert {r["day"] for r in rows} == {"1"}
+    shot(page, "results-tables")
 
     # --- the lab pages open too ---------------------------------------------------------------------
     goto(page, f"{server}/simulation?participant=P01")
