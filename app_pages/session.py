@@ -8,8 +8,6 @@ Every answer is written to the study database the moment it is given.
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import streamlit as st
 
 from cacas import app_support, dialogue, spaces

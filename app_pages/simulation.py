@@ -29,7 +29,7 @@ st.caption("Simulated participants act in the contexts their preferences cover, 
 
 # --- personas -----------------------------------------------------------------------------------------
 EXAMPLE = study_data_dir() / "personas" / "example.json"
-choice = st.radio("Personas", ["Example personas (P01-P08)", "Upload a persona file", f"This study's participants"],
+choice = st.radio("Personas", ["Example personas (P01-P08)", "Upload a persona file", "This study's participants"],
                   horizontal=True, key="sim-source")
 people, problem = [], None
 try:

@@ -279,8 +279,6 @@ def runs_dir(db_path) -> Path:
 def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, settings: dict) -> Path:
     """Write a simulated run as ``cacas simulate`` does (daily.csv, interactions.csv) plus
     settings.json, into ``root/name`` (written to a temporary folder, then renamed into place)."""
-    import json
-    import shutil
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     final = root / name
