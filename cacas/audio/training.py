@@ -138,12 +138,14 @@ def evaluate_signals(recognizer: SoundRecognizer, signals: Sequence[np.ndarray],
 def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patience: int = 3, seed: int = 0,
                       augment_copies: int = 1, batch_size: int = 64, lr: float = 3e-3,
                       test_fraction: float = TEST_FRACTION, threads: int | None = None,
-                      progress: Progress = None) -> TrainingResult:
+                      clean_windows: bool = False, progress: Progress = None) -> TrainingResult:
     """Train the sound CNN on the library at ``root`` (default ``study_data/sounds``).
 
     Returns a :class:`TrainingResult`; the caller saves ``result.recognizer`` (the CLI saves it
     to ``study_data/models/sound_cnn.pt``). ``progress(fraction, message)`` is called along the
-    way. Every activity needs at least 2 recordings (one to train, one to test).
+    way. Every activity needs at least 2 recordings (one to train, one to test). Each epoch sees
+    ``augment_copies`` augmented windows per second of every training recording, plus (with
+    ``clean_windows``) its un-augmented 1-s windows.
     """
     t0, c0 = time.perf_counter(), time.process_time()
     torch.set_num_threads(threads or min(2, os.cpu_count() or 1))
@@ -175,8 +177,11 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
     fixed, fixed_owner = mfcc_batch(tr_signals, return_groups=True)
     aug_w, aug_owner = augment_windows(tr_signals, augment_copies, rng)
     aug = mfcc_of_windows(aug_w)
-    X = np.concatenate([fixed, aug])
-    Y = labels[train][np.concatenate([fixed_owner, aug_owner])]
+    if clean_windows:
+        X = np.concatenate([fixed, aug])
+        Y = labels[train][np.concatenate([fixed_owner, aug_owner])]
+    else:
+        X, Y = aug, labels[train][aug_owner]
     model = SoundCNN(len(classes))
     model.set_normalisation(fixed)
     Xn = model.normalise(torch.from_numpy(X)).float()
@@ -255,6 +260,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
             "root": _rel(root, study_data_dir()), "recordings": len(clips),
             "train": int(len(train)), "validation": int(len(val)), "test": int(len(test)),
             "windows_trained": int(len(X)), "seed": seed, "augment_copies": augment_copies,
+            "clean_windows": clean_windows, "epochs": epochs, "patience": patience,
             "synthetic": all(c.path.name.startswith("synthetic_") for c in clips),
         },
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
