@@ -98,3 +98,19 @@ def test_scene_generate_and_import(tmp_path, capsys):
     Image.new("RGB", (30, 30)).save(src / "b.png")
     assert main(["scene", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "s")]) == 0
     assert (tmp_path / "s" / "bedroom" / "b.png").exists()
+
+
+def test_sound_import_good_and_bad_folder(tmp_path, capsys):
+    src = tmp_path / "mine" / "flush_toilet"
+    src.mkdir(parents=True)
+    t = np.arange(8000) / 8000
+    sf.write(src / "f.wav", 0.3 * np.sin(2 * np.pi * 250 * t), 8000)
+    lib = tmp_path / "lib"
+    assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(lib)]) == 0
+    assert (lib / "flush_toilet" / "f.wav").exists()
+    capsys.readouterr()
+    (src / "bad.ogg").write_bytes(b"OggS but not really")
+    assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "lib2")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "bad.ogg" in err[0]
+    assert not (tmp_path / "lib2").exists()

@@ -10,10 +10,15 @@ from cacas.errors import CacasError
 
 
 class ProgressBar:
-    """A one-line text progress bar on stderr for ``progress(fraction, message)`` callbacks."""
+    """A one-line text progress bar on stderr for ``progress(fraction, message)`` callbacks.
+
+    Drawn only when stderr is a terminal (not in logs or pipes), so that an error stays the one
+    line on stderr.
+    """
 
     def __init__(self, quiet: bool = False, width: int = 30):
-        self.quiet, self.width, self.last = quiet, width, ""
+        self.quiet = quiet or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty())
+        self.width, self.last = width, ""
 
     def __call__(self, fraction: float, message: str) -> None:
         if self.quiet:
@@ -23,7 +28,7 @@ class ProgressBar:
         end = "\n" if fraction >= 1.0 else ""
         sys.stderr.write("\r" + line.ljust(len(self.last)) + end)
         sys.stderr.flush()
-        self.last = line
+        self.last = "" if end else line
 
     def done(self) -> None:
         if not self.quiet and self.last:
@@ -95,8 +100,10 @@ def run_generate(args) -> int:
     from cacas.audio.library import generate_library, library_size_bytes, sounds_dir
 
     bar = ProgressBar()
-    paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
-    bar.done()
+    try:
+        paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
+    finally:
+        bar.done()
     root = args.out or sounds_dir()
     print(f"wrote {len(paths)} synthetic clips to {root} (library now {library_size_bytes(root) / 1e6:.1f} MB)")
     return 0
@@ -106,8 +113,10 @@ def run_import(args) -> int:
     from cacas.audio.library import import_folder, sounds_dir
 
     bar = ProgressBar()
-    paths = import_folder(args.folder, args.out, progress=bar)
-    bar.done()
+    try:
+        paths = import_folder(args.folder, args.out, progress=bar)
+    finally:
+        bar.done()
     print(f"imported {len(paths)} recordings into {args.out or sounds_dir()}")
     return 0
 
@@ -119,9 +128,11 @@ def run_train(args) -> int:
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
     bar = ProgressBar(args.quiet)
-    result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
-                               augment_copies=args.augment, progress=bar)
-    bar.done()
+    try:
+        result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
+                                   augment_copies=args.augment, progress=bar)
+    finally:
+        bar.done()
     path = result.recognizer.save(args.model or default_model_path())
     print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs); saved {path}")
     print_metrics(result.metrics)
@@ -134,8 +145,10 @@ def run_eval(args) -> int:
 
     rec = SoundRecognizer.load(args.model)
     bar = ProgressBar(args.quiet)
-    metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
-    bar.done()
+    try:
+        metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
+    finally:
+        bar.done()
     print_metrics(metrics)
     save_confusion(metrics, args.confusion_png)
     return 0
