@@ -121,3 +121,17 @@ def test_shipped_scene_model_and_images():
         assert len(library.image_paths(name)) >= 10
     m = evaluate_scene_model(rec)
     assert m.accuracy == pytest.approx(rec.metadata["accuracy"], abs=1e-6)
+
+
+def test_auto_weights_use_the_local_torchvision_cache(tmp_path, monkeypatch):
+    from torchvision.models import ResNet18_Weights
+
+    donor, _ = build_resnet18(1000, weights="none")
+    cache = tmp_path / "hub" / "checkpoints"
+    cache.mkdir(parents=True)
+    torch.save(donor.state_dict(), cache / ResNet18_Weights.IMAGENET1K_V1.url.rsplit("/", 1)[-1])
+    monkeypatch.setattr(torch.hub, "get_dir", lambda: str(tmp_path / "hub"))
+    model, source = build_resnet18(6, weights="auto")
+    assert source.startswith("pretrained:") and torch.equal(model.conv1.weight, donor.conv1.weight)
+    monkeypatch.setattr(torch.hub, "get_dir", lambda: str(tmp_path / "empty"))
+    assert build_resnet18(6, weights="auto")[1].startswith("none")
