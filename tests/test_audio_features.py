@@ -131,3 +131,13 @@ def test_batch_matches_single_and_groups():
     feats, groups = mfcc_batch(sigs, return_groups=True)
     assert feats.shape == (4, 64, 32) and list(groups) == [0, 1, 1, 2]
     np.testing.assert_allclose(feats[1:3], mfcc_windows(sigs[1]), rtol=1e-4, atol=1e-3)
+
+
+def test_integer_pcm_arrays_are_scaled():
+    y = (_tone(0.5, SAMPLE_RATE) * 32767).astype(np.int16)
+    out = features.check_signal(y)
+    assert out.dtype == np.float32 and 0.25 < np.max(np.abs(out)) < 0.35
+    u8 = (_tone(0.5, SAMPLE_RATE) * 127 + 128).astype(np.uint8)
+    assert 0.25 < np.max(np.abs(features.check_signal(u8))) < 0.35
+    with pytest.raises(CacasError, match="silence"):
+        features.check_signal(np.full(1000, 128, dtype=np.uint8))
