@@ -15,7 +15,7 @@ import sys
 from cacas.errors import CacasError
 
 #: Sub-command modules under cacas.cli, in the order they appear in ``cacas --help``.
-COMMANDS = ["simulate", "export", "sound", "scene"]
+COMMANDS = ["simulate", "export", "sound", "scene", "bench"]
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,57 @@
+"""``cacas bench``: how long participants and researchers wait (issue 6), as a table.
+
+    cacas bench [--json FILE] [--quick] [--repeats N] [--threads N]
+
+Measures, after warm-up and as medians over repeats: training the initial policy, one day's
+CACAS adaptation, one robot decision, recognising a 1-s clip, a whole simulated study (8
+participants x 7 days x 4 methods), SAC updates per second of the project's implementation and
+of a plain reference (interleaved in the same run) and MFCC throughput. --json FILE also writes
+the figures and the machine (cores, torch version). --quick is a smoke run (fewer repeats, a
+1-participant x 2-day study, one simulated day of step 1): its figures are not the benchmark.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from cacas.errors import CacasError
+
+
+def register(sub) -> None:
+    p = sub.add_parser("bench", help="measure decision, adaptation, recognition, training and simulation times",
+                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--json", metavar="FILE", help="also write the figures and the machine as JSON")
+    p.add_argument("--quick", action="store_true",
+                   help="smoke run: one repeat, a 1 x 2-day study, 1 simulated day of initial training")
+    p.add_argument("--repeats", type=int, default=None, help="timed repeats of the short measurements (default 5)")
+    p.add_argument("--threads", type=int, default=1, help="torch threads (default 1: best for these small networks)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    if args.repeats is not None and args.repeats < 1:
+        raise CacasError(f"--repeats {args.repeats} is invalid; valid: a whole number >= 1")
+    if args.threads < 1:
+        raise CacasError(f"--threads {args.threads} is invalid; valid: a whole number >= 1")
+    out = Path(args.json) if args.json else None
+    if out is not None and (out.is_dir() or not out.parent.is_dir()):
+        raise CacasError(f"--json {out} is not a writable file path; valid: a file in an existing folder")
+
+    from cacas.bench import BenchConfig, run_bench
+    from cacas.cli.progress import ProgressBar
+
+    cfg = BenchConfig.quick() if args.quick else BenchConfig()
+    if args.repeats is not None:
+        cfg.repeats = args.repeats
+    cfg.threads = args.threads
+    result = run_bench(cfg, None if args.quiet else ProgressBar("bench"))
+    print(result.table())
+    if out is not None:
+        tmp = out.with_name(f".{out.name}.tmp")
+        tmp.write_text(json.dumps(result.to_json(), indent=2) + "\n")
+        tmp.replace(out)
+        print(f"wrote {out}")
+    return 0

@@ -1,0 +1,78 @@
+"""``cacas bench``: a quick smoke run writes every key (no timed assertions), bad options are
+refused, and the project's fast SAC update computes the same step as the plain reference."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import torch
+
+from cacas import spaces
+from cacas.bench import METRICS, ReferenceSAC
+from cacas.cli import main
+from cacas.sac import DiscreteSAC
+
+
+def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys):
+    out = tmp_path / "bench.json"
+    assert main(["bench", "--quick", "--quiet", "--json", str(out)]) == 0
+    printed = capsys.readouterr().out
+    data = json.loads(out.read_text())
+    for key, _, _ in METRICS:
+        assert data[key] > 0, key
+        assert key in printed, key
+    assert data["machine"]["cores"] >= 1 and data["machine"]["torch"] == torch.__version__
+    assert data["sac_speedup"] == pytest.approx(data["sac_updates_per_s"] / data["reference_updates_per_s"])
+    assert "machine:" in printed and "QUICK run" in printed
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--repeats", "0"], "--repeats 0 is invalid"),
+    (["--threads", "0"], "--threads 0 is invalid"),
+    (["--json", "/no/such/folder/bench.json"], "is not a writable file path"),
+])
+def test_bad_options_are_refused(argv, message, capsys):
+    assert main(["bench", "--quiet", *argv]) == 2
+    assert message in capsys.readouterr().err
+
+
+def _same_weights(ours: DiscreteSAC) -> ReferenceSAC:
+    ref = ReferenceSAC(ours.config, seed=0)
+    with torch.no_grad():
+        for j, (q, qt) in enumerate(((ref.q1, ref.q1_target), (ref.q2, ref.q2_target))):
+            for lin, ens in zip([m for m in q if isinstance(m, torch.nn.Linear)],
+                                (ours.critic.l1, ours.critic.l2, ours.critic.l3)):
+                lin.weight.copy_(ens.weight[j].t())
+                lin.bias.copy_(ens.bias[j, 0])
+            qt.load_state_dict(q.state_dict())
+        ref.actor.load_state_dict(ours.actor.state_dict())
+        ref.log_alpha.copy_(ours.log_alpha)
+    return ref
+
+
+def test_fast_sac_update_equals_the_reference_step():
+    """Same weights, same batch (same generator seed): one update (Eq. 1-3, temperature, Polyak)
+    gives the same parameters as four autograd-and-Adam steps of the reference."""
+    rng = np.random.default_rng(0)
+    n = 500
+    idx = np.stack([rng.integers(k, size=n) for _, k in spaces.STATE_PARTS], axis=1)
+    x, x2 = spaces.encode_states(idx), spaces.encode_states(np.roll(idx, 3, axis=0))
+    a, r = rng.integers(spaces.N_ACTIONS, size=n), rng.choice([-1.0, 0.0, 1.0], size=n)
+    ours = DiscreteSAC(seed=5)
+    ref = _same_weights(ours)
+    ours.buffer.add_batch(x, a, r, x2)
+    ref.add_batch(x, a, r, x2)
+    for _ in range(3):
+        ours.generator.manual_seed(11)
+        ref.generator.manual_seed(11)
+        ours.update(1)
+        ref.update(1)
+    pairs = [(ours.actor[i].weight, ref.actor[i].weight) for i in (0, 2, 4)]
+    pairs += [(ours.critic.l1.weight[1], ref.q2[0].weight.t()), (ours.critic.l3.bias[0, 0], ref.q1[4].bias),
+              (ours.critic_target.l2.weight[0], ref.q1_target[2].weight.t()), (ours.log_alpha, ref.log_alpha)]
+    for mine, theirs in pairs:
+        assert torch.allclose(mine, theirs, atol=1e-5, rtol=1e-4)
+    # and the step moved the weights (the comparison is not of untouched tensors)
+    assert not torch.allclose(ours.actor[0].weight, DiscreteSAC(seed=5).actor[0].weight)
