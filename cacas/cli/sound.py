@@ -38,8 +38,10 @@ class ProgressBar:
 
 def print_metrics(metrics, what: str = "recordings") -> None:
     """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
-    which = metrics.extra.get("set", "held-out")
-    print(f"accuracy: {metrics.accuracy:.3f} on {metrics.n} {which} {what}")
+    if metrics.extra.get("set", "held-out") == "held-out":
+        print(f"accuracy: {metrics.accuracy:.3f} on {metrics.n} held-out {what}")
+    else:
+        print(f"accuracy: {metrics.accuracy:.3f} on all {metrics.n} {what} (training ones included)")
     if "window_accuracy" in metrics.extra:
         print(f"window accuracy: {metrics.extra['window_accuracy']:.3f} on {metrics.extra['windows']} 1-s windows")
     pc = metrics.per_class.dropna(subset=["accuracy"])
