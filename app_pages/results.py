@@ -69,6 +69,7 @@ with fig3:
         st.info("No study day with interactions yet. Run a day on the **Study session** page.")
     else:
         method = loop["method"].iloc[0] if "cacas" not in set(loop["method"]) else "cacas"
+        loop = loop.assign(day=loop["day"].astype(int))
         per_day = loop[loop["method"] == method].groupby("day").agg(
             success=("success_rate", "mean"), feedback=("cumulative_feedback", "mean"), n=("participant", "nunique"))
         last = per_day.index.max()

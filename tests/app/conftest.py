@@ -64,3 +64,13 @@ def quick_policy(monkeypatch):
     monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
     monkeypatch.setattr(cacas.study_day, "initial_policy_ready", lambda: True)
     return policy
+
+
+@pytest.fixture(autouse=True)
+def no_recognisers(monkeypatch):
+    """Page tests do not depend on the shipped sound and scene models (their accuracy is tested
+    with the recognition modules): by default no model is installed; a test that wants one
+    patches ``cacas.lab.model_stamp`` itself."""
+    import cacas.lab
+
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: None)
