@@ -168,6 +168,10 @@ def _ensemble_backward(layers, grads, inputs, g: torch.Tensor) -> None:
             g = _relu_backward(torch.bmm(g, w.transpose(1, 2)), inputs[i], 0.0)
 
 
+#: The kernel behind ``torch.optim.Adam(fused=True)`` (without its per-call Python bookkeeping).
+_FUSED_ADAM = getattr(torch, "_fused_adam_", None)
+
+
 class FlatAdam:
     """Adam (the update of ``torch.optim.Adam``, no weight decay) over parameter groups whose
     tensors are re-pointed into one flat buffer, with one flat gradient buffer: a step is a
@@ -195,10 +199,19 @@ class FlatAdam:
             self.ranges.append((start, off, lr))
         self.betas, self.eps = betas, eps
         self.steps = 0
+        self._step_tensor = torch.zeros(())
+        self._slices = [tuple(t[start:end] for t in (self.flat, self.grad, self.exp_avg, self.exp_avg_sq)) + (lr,)
+                        for start, end, lr in self.ranges]
 
     def step(self) -> None:
         b1, b2 = self.betas
         self.steps += 1
+        if _FUSED_ADAM is not None:  # torch's own fused Adam kernel: one pass over the buffers
+            self._step_tensor.fill_(self.steps)
+            for flat, grad, exp_avg, exp_avg_sq, lr in self._slices:
+                _FUSED_ADAM([flat], [grad], [exp_avg], [exp_avg_sq], [], [self._step_tensor], lr=lr, beta1=b1,
+                            beta2=b2, weight_decay=0.0, eps=self.eps, amsgrad=False, maximize=False)
+            return
         self.exp_avg.lerp_(self.grad, 1 - b1)
         self.exp_avg_sq.mul_(b2).addcmul_(self.grad, self.grad, value=1 - b2)
         bias1 = 1 - b1 ** self.steps
