@@ -41,17 +41,20 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
                              line=dict(color=colour, width=3),
                              hovertemplate="day %{x}: %{y:.0%}<extra></extra>"), secondary_y=False)
-    fig.add_trace(go.Bar(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
-                         marker_color="rgba(120,120,120,0.35)",
-                         hovertemplate="day %{x}: %{y:.0f} data points<extra></extra>"), secondary_y=True)
+    fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
+                             mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
+                             marker=dict(symbol="square", size=7),
+                             hovertemplate="day %{x}: %{y:.0f} data points<extra></extra>"), secondary_y=True)
     fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%", secondary_y=False)
-    fig.update_yaxes(title_text="cumulative feedback", rangemode="tozero", showgrid=False, secondary_y=True)
+    top = float(s["cumulative_feedback"].max()) if len(s) else 1.0
+    fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
+                     tickmode="auto", nticks=6, secondary_y=True)
     fig.update_xaxes(title_text="day", dtick=1)
     n = int(s["participants"].max()) if len(s) else 0
     fig.update_layout(title=title or f"Success rate and cumulative feedback ({METHOD_LABELS.get(method, method)}, "
                                      f"{n} participant{'s' if n != 1 else ''})",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
-                      template="plotly_white", barmode="overlay")
+                      template="plotly_white")
     return fig
 
 
