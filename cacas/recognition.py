@@ -165,3 +165,21 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
     except Exception as exc:
         raise CacasError(f"{path}: not a readable model file ({' '.join(str(exc).split())[:200]})") from None
     return tensors, meta
+
+
+def restores_torch_threads(fn):
+    """Decorator: whatever thread count ``fn`` sets with ``torch.set_num_threads``, the caller's
+    count is restored afterwards (training picks its own; the app or the test suite keeps theirs)."""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        import torch
+
+        before = torch.get_num_threads()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            torch.set_num_threads(before)
+
+    return wrapper

@@ -147,3 +147,10 @@ def test_confusion_figure_and_png(tiny, tmp_path):
     assert (tmp_path / "cm.png").stat().st_size > 1000
     tidy = m.confusion_frame()
     assert list(tidy.columns) == ["true", "predicted", "count"] and tidy["count"].sum() == m.n
+
+
+def test_training_restores_the_callers_thread_count(tmp_path):
+    library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough", "cry"])
+    before = torch.get_num_threads()
+    train_sound_model(tmp_path, epochs=1, threads=2 if before != 2 else 1)
+    assert torch.get_num_threads() == before

@@ -32,7 +32,7 @@ from cacas.audio.library import Clip, scan, sounds_dir
 from cacas.audio.model import SoundCNN, SoundRecognizer
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Metrics, compute_metrics, stratified_group_split
+from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, stratified_group_split
 
 Progress = Callable[[float, str], None] | None
 TEST_FRACTION = 0.1  #: V-A: "divided into a training set and a testing set with a ratio of 9:1"
@@ -135,6 +135,7 @@ def evaluate_signals(recognizer: SoundRecognizer, signals: Sequence[np.ndarray],
                            window_accuracy=win_acc, windows=int(len(owner)), set="held-out")
 
 
+@restores_torch_threads
 def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patience: int = 3, seed: int = 0,
                       augment_copies: int = 1, batch_size: int = 64, lr: float = 3e-3,
                       test_fraction: float = TEST_FRACTION, threads: int | None = None,

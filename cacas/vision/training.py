@@ -24,7 +24,7 @@ from torch import nn
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Metrics, compute_metrics, stratified_group_split
+from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, stratified_group_split
 from cacas.vision.library import load_image, scan, scenes_dir
 from cacas.vision.model import IMAGE_SIZE, SceneRecognizer, build_resnet18, preprocess
 
@@ -75,6 +75,7 @@ def evaluate_images(recognizer: SceneRecognizer, images, labels) -> Metrics:
     return compute_metrics(y, pred, recognizer.classes, set="held-out")
 
 
+@restores_torch_threads
 def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patience: int = 4, seed: int = 0,
                       weights: str | Path | None = "auto", batch_size: int = 32, lr: float | None = None,
                       test_fraction: float = 0.1, threads: int | None = None,
