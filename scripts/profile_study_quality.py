@@ -1,7 +1,8 @@
 """Before/after check of an optimisation: time a small simulated study and compare its
 preference accuracy (Fig. 4) per method, for the code in a given source tree.
 
-Usage: python3 scripts/profile_study_quality.py SOURCE_TREE [--participants 4] [--days 4] [--seeds 0,1]
+Usage: python3 scripts/profile_study_quality.py SOURCE_TREE [--participants 4] [--days 4] [--seeds 0,1] [--jobs 1]
+(run it from outside the repository so that SOURCE_TREE's cacas is the one imported)
 
 Prints one JSON line: seconds per study and mean preference accuracy per method and seed.
 """
@@ -19,6 +20,7 @@ def main() -> None:
     ap.add_argument("--participants", type=int, default=4)
     ap.add_argument("--days", type=int, default=4)
     ap.add_argument("--seeds", default="0,1")
+    ap.add_argument("--jobs", type=int, default=1, help="worker processes (the bench uses one per core)")
     args = ap.parse_args()
     sys.path.insert(0, args.tree)
     import torch
@@ -32,7 +34,7 @@ def main() -> None:
     out = {"tree": args.tree, "runs": []}
     for seed in (int(s) for s in args.seeds.split(",")):
         t = time.perf_counter()
-        res = simulate_study(people, days=args.days, methods=PAPER_METHODS, seed=seed, jobs=1)
+        res = simulate_study(people, days=args.days, methods=PAPER_METHODS, seed=seed, jobs=args.jobs)
         secs = time.perf_counter() - t
         d = res.daily
         acc = d[d["day"] > 1].groupby("method")["preference_accuracy"].mean().round(4).to_dict()
