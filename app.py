@@ -7,47 +7,32 @@ coming back the next day, returns to the same place; the data comes from the stu
 to the researcher's pages, no preferences, no other participants.
 """
 
-import importlib.util
-from pathlib import Path
 
 import streamlit as st
 
 from cacas.errors import CacasError
 from cacas.study_day import day_status
-from app_pages import ui
+from pages import ui
 
 st.set_page_config(page_title="CACAS Studio", page_icon=":material/smart_toy:", layout="wide")
 
-HERE = Path(__file__).resolve().parent
-#: (section, file, title, icon, library modules it needs). A page whose file or modules are
-#: absent (a part of the library not installed yet) is left out of the navigation.
+#: (section, file, title, icon) of each page, in navigation order.
 PAGES = [
-    ("Study", "app_pages/overview.py", "Overview", ":material/dashboard:", ()),
-    ("Study", "app_pages/participants.py", "Participants", ":material/group:", ()),
-    ("Study", "app_pages/session.py", "Study session", ":material/tablet:", ("cacas.simulator", "cacas.policy")),
-    ("Study", "app_pages/adaptation.py", "Adaptation", ":material/model_training:", ("cacas.adaptation",)),
-    ("Study", "app_pages/results.py", "Results", ":material/monitoring:", ("cacas.plots", "cacas.export")),
-    ("Lab", "app_pages/simulation.py", "Simulation lab", ":material/science:", ("cacas.plots", "cacas.experiment")),
-    ("Lab", "app_pages/sounds.py", "Sounds and scenes", ":material/graphic_eq:",
-     ("cacas.audio.training", "cacas.audio.library", "cacas.vision.training", "cacas.plots_recognition")),
+    ("Study", "pages/overview.py", "Overview", ":material/dashboard:"),
+    ("Study", "pages/participants.py", "Participants", ":material/group:"),
+    ("Study", "pages/session.py", "Study session", ":material/tablet:"),
+    ("Study", "pages/adaptation.py", "Adaptation", ":material/model_training:"),
+    ("Study", "pages/results.py", "Results", ":material/monitoring:"),
+    ("Lab", "pages/simulation.py", "Simulation lab", ":material/science:"),
+    ("Lab", "pages/sounds.py", "Sounds and scenes", ":material/graphic_eq:"),
 ]
-
-
-def _available(path: str, modules: tuple[str, ...]) -> bool:
-    if not (HERE / path).exists():
-        return False
-    try:
-        return all(importlib.util.find_spec(m) is not None for m in modules)
-    except ModuleNotFoundError:
-        return False
 
 
 def _navigation() -> dict[str, list]:
     sections: dict[str, list] = {}
-    for section, path, title, icon, modules in PAGES:
-        if _available(path, modules):
-            sections.setdefault(section, []).append(
-                st.Page(path, title=title, icon=icon, default=path.endswith("overview.py")))
+    for section, path, title, icon in PAGES:
+        sections.setdefault(section, []).append(
+            st.Page(path, title=title, icon=icon, default=path.endswith("overview.py")))
     return sections
 
 
@@ -141,7 +126,7 @@ if ui.tablet_mode():
     if not st.session_state.get(ui.PARTICIPANT_KEY):
         st.error("This tablet address names no known participant. Ask the researcher for your link.")
         st.stop()
-    page = st.navigation([st.Page("app_pages/session.py", title="Study session", default=True)],
+    page = st.navigation([st.Page("pages/session.py", title="Study session", default=True)],
                          position="hidden")
 else:
     page = st.navigation(_navigation())

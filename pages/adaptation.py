@@ -13,7 +13,9 @@ from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
 from cacas.study_day import adapt_day, day_status
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 store = ui.store()
 code = ui.need_participant()

@@ -4,7 +4,9 @@ import streamlit as st
 
 from cacas import app_support
 from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 store = ui.store()
 study = ui.study()
@@ -17,7 +19,7 @@ table = app_support.overview_frame(store, study)
 if table.empty:
     st.info("No participants yet. Start on the **Participants** page: add a participant with a "
             "pseudonymous code and the 5 preferences they describe, or import a persona file.")
-    ui.link("app_pages/participants.py", "Go to Participants", ":material/group:")
+    ui.link("pages/participants.py", "Go to Participants", ":material/group:")
     st.stop()
 
 started = table["day"] != "not started"
@@ -48,9 +50,9 @@ if code:
         step = row["next step"].iloc[0]
         st.markdown(f":material/arrow_forward: **{step}**")
         cols = st.columns(3)
-        ui.link("app_pages/session.py", "Open the study session", ":material/tablet:", cols[0])
-        ui.link("app_pages/adaptation.py", "Adaptation", ":material/model_training:", cols[1])
-        ui.link("app_pages/results.py", "Results", ":material/monitoring:", cols[2])
+        ui.link("pages/session.py", "Open the study session", ":material/tablet:", cols[0])
+        ui.link("pages/adaptation.py", "Adaptation", ":material/model_training:", cols[1])
+        ui.link("pages/results.py", "Results", ":material/monitoring:", cols[2])
 
 st.subheader("Recent activity")
 events = app_support.recent_events(store, limit=10)

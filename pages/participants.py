@@ -4,7 +4,9 @@ import streamlit as st
 
 from cacas import app_support, spaces
 from cacas.errors import CacasError
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 store = ui.store()
 study = ui.study()

@@ -15,7 +15,9 @@ from cacas.errors import CacasError
 from cacas.export import export_study, export_tables
 from cacas.jobs import FAILED, RUNNER
 from cacas.study_day import compare_methods
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 store = ui.store()
 study = ui.study()

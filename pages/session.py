@@ -17,7 +17,9 @@ from cacas.lab import audio_mime
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
                              propose, start_day)
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 store = ui.store()
 code = ui.need_participant()
@@ -204,7 +206,7 @@ if not status.open:
         st.info(f"Day {status.day} is finished. The robot is learning from it; you can start day "
                 f"{status.day + 1} once the researcher has adapted the robot.", icon=":material/hourglass_top:")
         if not tablet:
-            ui.link("app_pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
+            ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
     else:
         st.markdown(f"Day **{status.day + 1}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
                     "with the robot, following your daily routine.")

@@ -14,7 +14,9 @@ from cacas.experiment import METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.paths import study_data_dir
 from cacas.preferences import load_personas, parse_personas
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 store = ui.store()
 study = ui.study()

@@ -12,7 +12,9 @@ from cacas.audio.library import clip_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.plots_recognition import confusion_figure
-from app_pages import ui
+from pages import ui
+
+ui.require_app()
 
 st.title("Sounds and scenes")
 st.caption("The robot knows the context from what it hears (33 sound activities; MFCC 64 x 32 and a 3-layer CNN) "

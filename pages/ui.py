@@ -12,6 +12,19 @@ from cacas import app_support
 from cacas.jobs import RUNNER, Job
 from cacas.store import StudyStore, default_db_path
 
+def require_app() -> None:
+    """Run this page through ``app.py``. Streamlit treats a ``pages/`` folder as old-style pages
+    until the first ``st.navigation`` call of a server process, so a first request straight to
+    e.g. ``/results`` after a restart would run the page alone (no sidebar, no participant from
+    the address). Then switch the old mode off and rerun: ``app.py`` runs and routes to the same
+    page. Called first thing by every page."""
+    from streamlit.runtime.pages_manager import PagesManager
+
+    if PagesManager.uses_pages_directory:
+        PagesManager.uses_pages_directory = False
+        st.rerun()
+
+
 PARTICIPANT_KEY = "participant"
 STUDY_KEY = "study"
 

@@ -34,6 +34,23 @@ def store(db):
     s.close()
 
 
+@pytest.fixture(autouse=True)
+def navigation_mode(monkeypatch):
+    """AppTest resets Streamlit's old ``pages/``-folder mode before every run, so each run would
+    start as a server's very first request (where ``ui.require_app`` reruns through app.py and a
+    click of that run is lost). Start each run as a server does after its first request: in
+    ``st.navigation`` mode. The first-request path itself is covered by the browser tests."""
+    from streamlit.runtime.pages_manager import PagesManager
+    from streamlit.testing.v1 import app_test
+
+    class NavigationPagesManager(PagesManager):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            PagesManager.uses_pages_directory = False
+
+    monkeypatch.setattr(app_test, "PagesManager", NavigationPagesManager)
+
+
 @pytest.fixture
 def app(db, monkeypatch):
     """A function that opens the app (optionally on a page and with query parameters) and runs it."""

@@ -2,7 +2,7 @@ from cacas.jobs import RUNNER
 
 from apphelpers import no_exception, texts
 
-PAGE = "app_pages/adaptation.py"
+PAGE = "pages/adaptation.py"
 
 
 def _button(at, label):

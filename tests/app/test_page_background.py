@@ -24,7 +24,7 @@ def test_adaptation_in_the_background(app, store, monkeypatch, quick_policy):
         raise ValueError("stopped by the test")
 
     monkeypatch.setattr(cacas.study_day, "adapt_day", slow_adapt)
-    tab1 = app("app_pages/adaptation.py", participant="P01")
+    tab1 = app("pages/adaptation.py", participant="P01")
     next(b for b in tab1.button if b.label == f"Close day {day} and adapt").click().run()
     no_exception(tab1)
     job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
@@ -35,7 +35,7 @@ def test_adaptation_in_the_background(app, store, monkeypatch, quick_policy):
     tab2 = app(participant="P01")
     no_exception(tab2)
     assert "Next for P01" in texts(tab2)
-    tab3 = app("app_pages/adaptation.py", participant="P01")  # the adaptation page in a third tab
+    tab3 = app("pages/adaptation.py", participant="P01")  # the adaptation page in a third tab
     no_exception(tab3)
     assert not any(b.label.startswith("Close day") for b in tab3.button)
     assert job.running and calls == ["P01"]  # started once

@@ -2,7 +2,7 @@ import json
 
 from apphelpers import no_exception, texts
 
-PAGE = "app_pages/participants.py"
+PAGE = "pages/participants.py"
 
 
 def _fill(at, code, version, n, **values):

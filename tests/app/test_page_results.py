@@ -1,6 +1,6 @@
 from apphelpers import no_exception, texts
 
-PAGE = "app_pages/results.py"
+PAGE = "pages/results.py"
 
 
 def _study_with_a_day(store):

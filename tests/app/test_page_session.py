@@ -2,7 +2,7 @@ import pytest
 
 from apphelpers import no_exception, texts
 
-PAGE = "app_pages/session.py"
+PAGE = "pages/session.py"
 
 
 @pytest.fixture
@@ -105,7 +105,7 @@ def test_tablet_view_shows_the_session_page_only(app, store, p01, quick_policy):
     assert not at.sidebar.selectbox  # no participant or study pickers
     assert "P02" not in texts(at) and "remind to turn off" not in texts(at)  # no others, no preferences
     with pytest.raises(ValueError):
-        at.switch_page("app_pages/participants.py")
+        at.switch_page("pages/participants.py")
 
 
 def test_tablet_view_with_unknown_participant(app, store):

@@ -2,7 +2,7 @@ from apphelpers import no_exception, texts
 
 from cacas.jobs import RUNNER
 
-PAGE = "app_pages/simulation.py"
+PAGE = "pages/simulation.py"
 
 
 def test_simulation_lab_opens_with_the_example_personas(app):

@@ -5,7 +5,7 @@ import soundfile as sf
 
 from apphelpers import no_exception, texts
 
-PAGE = "app_pages/sounds.py"
+PAGE = "pages/sounds.py"
 
 
 def _wav(seconds=1.0, rate=16000, silent=False) -> bytes:
