@@ -91,7 +91,7 @@ def test_daily_table_metrics(store):
     assert math.isnan(daily.loc[("P02", "cacas", 1), "preference_accuracy"])  # no initial run recorded
     # a baseline evaluated but not run in closed loop: accuracy only
     nn = daily.loc[("P01", "nn", 2)]
-    assert math.isclose(nn["preference_accuracy"], 0.1) and math.isnan(nn["success_rate"])
+    assert math.isclose(nn["preference_accuracy"], 0.1) and pd.isna(nn["success_rate"])
     assert ("P01", "nn", 3) not in daily.index  # no day 3 yet
 
 
