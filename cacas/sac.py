@@ -114,12 +114,18 @@ class ReplayBuffer:
 
     def sample(self, batch_size: int, generator: torch.Generator):
         idx = torch.randint(0, self.size, (batch_size,), generator=generator)
-        return self.s[idx], self.a[idx], self.r[idx], self.s2[idx]
+        take = torch.index_select  # the same rows as self.s[idx], without advanced-indexing overhead
+        return take(self.s, 0, idx), take(self.a, 0, idx), take(self.r, 0, idx), take(self.s2, 0, idx)
 
 
 # --- the update's forward and backward passes, written out (used under torch.no_grad) --------------
 # relu'(x) from relu's output: what autograd's ReLU backward computes.
 _relu_backward = torch.ops.aten.threshold_backward
+
+
+def _log_softmax(z: torch.Tensor) -> torch.Tensor:
+    """log pi = z - logsumexp(z) over the actions (faster than F.log_softmax for 14 columns)."""
+    return z - z.logsumexp(-1, keepdim=True)
 
 
 def _mlp_forward(layers, x: torch.Tensor) -> list[torch.Tensor]:
@@ -297,7 +303,7 @@ class DiscreteSAC:
         n = s.shape[0]
         alpha = self.log_alpha.exp()
         # Eq. 2: y = r + gamma * sum_a' pi(a'|s') [min_j Qbar_j(s', a') - alpha log pi(a'|s')]
-        logp2 = F.log_softmax(_mlp_forward(self._actor_layers, s2)[-1], -1)
+        logp2 = _log_softmax(_mlp_forward(self._actor_layers, s2)[-1])
         q2 = _ensemble_forward(self._target_layers, s2)[-1].min(0).values
         y = r + c.gamma * (logp2.exp() * (q2 - alpha * logp2)).sum(-1)
         # Eq. 1 for j = 1, 2: L = sum_j mean_i (Q_j(s_i, a_i) - y_i)^2, and its gradient
@@ -311,7 +317,7 @@ class DiscreteSAC:
         # Eq. 3: L = mean_i sum_a pi(a|s_i) [alpha log pi(a|s_i) - min_j Q_j(s_i, a)];
         # d/dz_k of sum_a p_a c_a (c_a = alpha log p_a - Q_a) is p_k (c_k - sum_a p_a c_a).
         h1, h2, z = _mlp_forward(self._actor_layers, s)
-        logp = F.log_softmax(z, -1)
+        logp = _log_softmax(z)
         p = logp.exp()
         cost = alpha * logp - q.min(0).values
         pc = p * cost
