@@ -62,7 +62,7 @@ class ResponseModel:
         return np.where(pref >= 0, by_pref, d4a)
 
 
-def generic_activity_weights(d4a_table: np.ndarray | None = None) -> np.ndarray:
+def generic_activity_weights() -> np.ndarray:
     """The generic user's routine: every activity equally likely, and idle ("do nothing")
     as likely as all the others together (people are idle much of the day)."""
     w = np.ones(spaces.N_ACTIVITIES)

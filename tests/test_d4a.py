@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from cacas import spaces
-from cacas.d4a import D4A, default_d4a_path, load_d4a, parse_d4a, save_d4a
+from cacas.d4a import D4A, default_d4a_path, load_d4a, save_d4a
 from cacas.errors import CacasError
 
 A, R, O = spaces.ACCEPT, spaces.REJECT, spaces.OTHERS

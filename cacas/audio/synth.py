@@ -242,7 +242,6 @@ def _snore(rng, n):
 # ----------------------------------------------------------------------------- eating and drinking
 def _gulp(rng, f_lo, f_hi, dur):
     m = int(dur * SR)
-    t = _t(m)
     f = np.linspace(rng.uniform(f_lo, f_hi), rng.uniform(f_lo, f_hi) * 0.6, m)
     tone = np.sin(2 * np.pi * np.cumsum(f) / SR) * _env(m, 0.005, dur / 3)
     click = _band(_noise(rng, m), 200, 2000) * _env(m, 0.001, 0.01)
