@@ -199,7 +199,8 @@ class BenchResult:
         lines.append(f"SAC speed-up over the reference: {self.sac_speedup:.2f}x (target >= {SAC_SPEEDUP_TARGET}x)")
         m = self.machine
         lines.append(f"machine: {m['cpu']}, {m['cores']} cores, torch {m['torch']} ({m['torch_threads']} thread(s)), "
-                     f"Python {m['python']}, load average {m['load_average']}")
+                     f"Python {m['python']}, load average {m.get('load_average_at_start')} at start, "
+                     f"{m['load_average']} at the end (1, 5, 15 min)")
         return "\n".join(lines + self.notes)
 
 
@@ -305,6 +306,7 @@ def _test_signal(seconds: float = 1.0, seed: int = 0) -> np.ndarray:
 def run_bench(cfg: BenchConfig | None = None, progress: Progress | None = None) -> BenchResult:
     """Run every measurement; ``progress(fraction, message)`` is told as each one starts."""
     cfg = cfg or BenchConfig()
+    load_at_start = machine_info(cfg.threads)["load_average"]
     torch.set_num_threads(cfg.threads)
     say = progress or (lambda f, m: None)
     notes: list[str] = []
@@ -390,4 +392,6 @@ def run_bench(cfg: BenchConfig | None = None, progress: Progress | None = None) 
     repeats["simulate_study_s"] = cfg.simulate_repeats
     say(1.0, "done")
     notes.append("timings on a shared machine are noisy; the SAC pair ran in interleaved blocks in the same run")
-    return BenchResult({k: float(values[k]) for k, _, _ in METRICS}, repeats, machine_info(cfg.threads), notes)
+    machine = machine_info(cfg.threads)
+    machine["load_average_at_start"] = load_at_start
+    return BenchResult({k: float(values[k]) for k, _, _ in METRICS}, repeats, machine, notes)
