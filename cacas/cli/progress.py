@@ -1,5 +1,9 @@
-"""A terminal progress bar for long commands (redrawn in place on a terminal; on a pipe or a
-log file, one line at every tenth of the work)."""
+"""The command line's progress bar for ``progress(fraction, message)`` callbacks: one line on
+stderr, redrawn in place, with elapsed time and an estimate of what is left.
+
+Drawn only when stderr is a terminal (not in logs or pipes) and not ``quiet``, so that a command
+that fails still prints exactly one error line.
+"""
 
 from __future__ import annotations
 
@@ -8,25 +12,30 @@ import time
 
 
 class ProgressBar:
-    def __init__(self, label: str, stream=None, width: int = 30):
+    def __init__(self, label: str = "", quiet: bool = False, stream=None, width: int = 30):
         self.label, self.width = label, width
         self.stream = stream or sys.stderr
-        self.tty = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.quiet = quiet or not (hasattr(self.stream, "isatty") and self.stream.isatty())
         self.start = time.perf_counter()
-        self._last_tenth = -1
+        self.last = ""
 
     def __call__(self, fraction: float, message: str = "") -> None:
+        if self.quiet:
+            return
         fraction = min(max(fraction, 0.0), 1.0)
         elapsed = time.perf_counter() - self.start
-        eta = elapsed / fraction - elapsed if fraction > 0 else float("nan")
+        eta = f", ~{elapsed / fraction - elapsed:.0f}s left" if fraction > 0 else ""
         filled = int(round(self.width * fraction))
-        bar = "#" * filled + "-" * (self.width - filled)
-        line = f"{self.label} [{bar}] {fraction:4.0%} {elapsed:5.0f}s elapsed, ~{eta:4.0f}s left  {message}"
-        if self.tty:
-            self.stream.write("\r" + line[:150].ljust(150))
-            if fraction >= 1:
-                self.stream.write("\n")
-        elif int(fraction * 10) > self._last_tenth:
-            self._last_tenth = int(fraction * 10)
-            self.stream.write(line + "\n")
+        prefix = f"{self.label} " if self.label else ""
+        line = (f"{prefix}[{'#' * filled}{'-' * (self.width - filled)}] {fraction:4.0%} "
+                f"{elapsed:.0f}s{eta}  {message}")[:150]
+        end = "\n" if fraction >= 1.0 else ""
+        self.stream.write("\r" + line.ljust(len(self.last)) + end)
         self.stream.flush()
+        self.last = "" if end else line
+
+    def done(self) -> None:
+        """End the line if the work stopped before 100 % (e.g. early stopping, an error)."""
+        if not self.quiet and self.last:
+            self.stream.write("\n")
+            self.last = ""

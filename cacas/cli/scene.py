@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from cacas.cli.sound import ProgressBar, print_metrics, print_recognition, save_confusion
+from cacas.cli.progress import ProgressBar
+from cacas.cli.sound import print_metrics, print_recognition, save_confusion
 from cacas.errors import CacasError
 
 
@@ -72,7 +73,7 @@ def run_train(args) -> int:
 
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
-    bar = ProgressBar(args.quiet)
+    bar = ProgressBar(quiet=args.quiet)
     try:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
@@ -90,7 +91,7 @@ def run_eval(args) -> int:
     from cacas.vision.training import evaluate_scene_model
 
     rec = SceneRecognizer.load(args.model)
-    bar = ProgressBar(args.quiet)
+    bar = ProgressBar(quiet=args.quiet)
     try:
         metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
     finally:

@@ -2,37 +2,10 @@
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
+from cacas.cli.progress import ProgressBar
 from cacas.errors import CacasError
-
-
-class ProgressBar:
-    """A one-line text progress bar on stderr for ``progress(fraction, message)`` callbacks.
-
-    Drawn only when stderr is a terminal (not in logs or pipes), so that an error stays the one
-    line on stderr.
-    """
-
-    def __init__(self, quiet: bool = False, width: int = 30):
-        self.quiet = quiet or not (hasattr(sys.stderr, "isatty") and sys.stderr.isatty())
-        self.width, self.last = width, ""
-
-    def __call__(self, fraction: float, message: str) -> None:
-        if self.quiet:
-            return
-        filled = int(round(self.width * fraction))
-        line = f"[{'#' * filled}{'.' * (self.width - filled)}] {fraction:4.0%} {message}"[:110]
-        end = "\n" if fraction >= 1.0 else ""
-        sys.stderr.write("\r" + line.ljust(len(self.last)) + end)
-        sys.stderr.flush()
-        self.last = "" if end else line
-
-    def done(self) -> None:
-        if not self.quiet and self.last:
-            sys.stderr.write("\n")
-            self.last = ""
 
 
 def print_metrics(metrics, what: str = "recordings") -> None:
@@ -128,7 +101,7 @@ def run_train(args) -> int:
 
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
-    bar = ProgressBar(args.quiet)
+    bar = ProgressBar(quiet=args.quiet)
     try:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
@@ -145,7 +118,7 @@ def run_eval(args) -> int:
     from cacas.audio.training import evaluate_sound_model
 
     rec = SoundRecognizer.load(args.model)
-    bar = ProgressBar(args.quiet)
+    bar = ProgressBar(quiet=args.quiet)
     try:
         metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
     finally:
