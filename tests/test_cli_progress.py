@@ -34,3 +34,14 @@ def test_done_ends_an_unfinished_line():
     bar(0.4, "early stop")
     bar.done()
     assert out.getvalue().endswith("\n")
+
+
+def test_as_a_context_manager_the_line_ends_even_when_the_work_fails():
+    out = Tty()
+    try:
+        with ProgressBar(stream=out) as bar:
+            bar(0.4, "training")
+            raise ValueError("bad clip")
+    except ValueError:
+        pass
+    assert out.getvalue().endswith("\n")

@@ -2,7 +2,9 @@
 stderr, redrawn in place, with elapsed time and an estimate of what is left.
 
 Drawn only when stderr is a terminal (not in logs or pipes) and not ``quiet``, so that a command
-that fails still prints exactly one error line.
+that fails still prints exactly one error line. Use it as a context manager
+(``with ProgressBar(quiet=...) as bar: work(progress=bar)``) so the line is ended however the work
+stops.
 """
 
 from __future__ import annotations
@@ -33,6 +35,12 @@ class ProgressBar:
         self.stream.write("\r" + line.ljust(len(self.last)) + end)
         self.stream.flush()
         self.last = "" if end else line
+
+    def __enter__(self) -> "ProgressBar":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.done()
 
     def done(self) -> None:
         """End the line if the work stopped before 100 % (e.g. early stopping, an error)."""

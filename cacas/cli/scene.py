@@ -50,11 +50,8 @@ def register(subparsers) -> None:
 def run_generate(args) -> int:
     from cacas.vision.library import generate_scenes, scenes_dir
 
-    bar = ProgressBar()
-    try:
+    with ProgressBar() as bar:
         paths = generate_scenes(args.images, args.size, args.seed, args.out, progress=bar)
-    finally:
-        bar.done()
     print(f"wrote {len(paths)} synthetic scene images to {args.out or scenes_dir()}")
     return 0
 
@@ -73,12 +70,9 @@ def run_train(args) -> int:
 
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
-    bar = ProgressBar(quiet=args.quiet)
-    try:
+    with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
-    finally:
-        bar.done()
     path = result.recognizer.save(args.model or default_model_path())
     print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs, initial weights: "
           f"{result.recognizer.metadata['initial_weights']}); saved {path}")
@@ -91,11 +85,8 @@ def run_eval(args) -> int:
     from cacas.vision.training import evaluate_scene_model
 
     rec = SceneRecognizer.load(args.model)
-    bar = ProgressBar(quiet=args.quiet)
-    try:
+    with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
-    finally:
-        bar.done()
     print_metrics(metrics, "images")
     save_confusion(metrics, args.confusion_png)
     return 0

@@ -73,11 +73,8 @@ def register(subparsers) -> None:
 def run_generate(args) -> int:
     from cacas.audio.library import generate_library, library_size_bytes, sounds_dir
 
-    bar = ProgressBar()
-    try:
+    with ProgressBar() as bar:
         paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
-    finally:
-        bar.done()
     root = args.out or sounds_dir()
     print(f"wrote {len(paths)} synthetic clips to {root} (library now {library_size_bytes(root) / 1e6:.1f} MB)")
     return 0
@@ -86,11 +83,8 @@ def run_generate(args) -> int:
 def run_import(args) -> int:
     from cacas.audio.library import import_folder, sounds_dir
 
-    bar = ProgressBar()
-    try:
+    with ProgressBar() as bar:
         paths = import_folder(args.folder, args.out, progress=bar)
-    finally:
-        bar.done()
     print(f"imported {len(paths)} recordings into {args.out or sounds_dir()}")
     return 0
 
@@ -101,12 +95,9 @@ def run_train(args) -> int:
 
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
-    bar = ProgressBar(quiet=args.quiet)
-    try:
+    with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
-    finally:
-        bar.done()
     path = result.recognizer.save(args.model or default_model_path())
     print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs); saved {path}")
     print_metrics(result.metrics)
@@ -118,11 +109,8 @@ def run_eval(args) -> int:
     from cacas.audio.training import evaluate_sound_model
 
     rec = SoundRecognizer.load(args.model)
-    bar = ProgressBar(quiet=args.quiet)
-    try:
+    with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
-    finally:
-        bar.done()
     print_metrics(metrics)
     save_confusion(metrics, args.confusion_png)
     return 0
