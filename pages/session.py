@@ -34,33 +34,42 @@ def _policy(db: str, who: str, version: int | None):
     return policy_in_force(ui.store(), who)
 
 
+def _recognizer_class(kind: str):
+    if kind == "sound":
+        from cacas.audio import SoundRecognizer
+        return SoundRecognizer
+    from cacas.vision import SceneRecognizer
+    return SceneRecognizer
+
+
 @st.cache_resource(show_spinner=False)
-def _recognizer(stamp: float | None):
-    """The saved sound model (reloaded when retrained), or None when there is none: the robot
-    then acts on the activity as chosen."""
+def _recognizer(kind: str, stamp: float | None):
+    """The saved sound or scene model (reloaded when retrained: ``stamp`` is its file time), or
+    None when there is none: the robot then takes the activity or room as chosen."""
     if stamp is None:
         return None
     try:
-        from cacas.audio import SoundRecognizer
-
-        return SoundRecognizer.load()
-    except (CacasError, ImportError, OSError):
+        return _recognizer_class(kind).load()
+    except (CacasError, OSError):
         return None
 
 
 @st.cache_data(show_spinner=False)
-def _clips(activity: str) -> list[str]:
-    try:
-        from cacas.audio.library import clip_paths
+def _library(kind: str, name: str) -> list[str]:
+    """The library's clips of an activity ("sound") or photos of a room ("scene")."""
+    from cacas.audio.library import clip_paths
+    from cacas.vision.library import image_paths
 
-        return [str(p) for p in clip_paths(activity)]
-    except (CacasError, ImportError, OSError):
+    try:
+        return [str(p) for p in (clip_paths(name) if kind == "sound" else image_paths(name))]
+    except (CacasError, OSError):
         return []
 
 
 @st.cache_data(show_spinner=False, max_entries=256)
-def _heard(path: str, stamp: float | None) -> tuple[str, float, list] | None:
-    rec = _recognizer(stamp)
+def _recognise(kind: str, path: str, stamp: float | None) -> tuple[str, float, list] | None:
+    """(label, confidence, top 3) of a clip or photo, or None without a model or for a bad file."""
+    rec = _recognizer(kind, stamp)
     if rec is None:
         return None
     try:
@@ -71,47 +80,12 @@ def _heard(path: str, stamp: float | None) -> tuple[str, float, list] | None:
 
 
 def _stamp(kind: str) -> float | None:
-    try:
-        from cacas.lab import model_stamp
+    from cacas.lab import model_stamp
 
+    try:
         return model_stamp(kind)
-    except (CacasError, ImportError, OSError):
+    except (CacasError, OSError):
         return None
-
-
-@st.cache_resource(show_spinner=False)
-def _scene_recognizer(stamp: float | None):
-    """The saved scene model, or None: the robot then takes the room as chosen."""
-    if stamp is None:
-        return None
-    try:
-        from cacas.vision import SceneRecognizer
-
-        return SceneRecognizer.load()
-    except (CacasError, ImportError, OSError):
-        return None
-
-
-@st.cache_data(show_spinner=False)
-def _photos(scene: str) -> list[str]:
-    try:
-        from cacas.vision.library import image_paths
-
-        return [str(p) for p in image_paths(scene)]
-    except (CacasError, ImportError, OSError):
-        return []
-
-
-@st.cache_data(show_spinner=False, max_entries=256)
-def _seen(path: str, stamp: float | None) -> tuple[str, float] | None:
-    rec = _scene_recognizer(stamp)
-    if rec is None:
-        return None
-    try:
-        r = rec.recognize(path)
-    except CacasError:
-        return None
-    return r.label, float(r.confidence)
 
 
 # --- callbacks ------------------------------------------------------------------------------------
@@ -247,10 +221,10 @@ if context is None:
 else:
     index = done + 1
     token = f"{day}:{index}:{token_ctx}"
-    clip = clip_for(context, code, day, index, _clips(context.activity))
-    heard = _heard(str(clip), _stamp("sound")) if clip else None
-    photo = clip_for(context, code, day, index, _photos(context.scene))  # what the robot's camera sees
-    seen = _seen(str(photo), _stamp("scene")) if photo else None
+    clip = clip_for(context, code, day, index, _library("sound", context.activity))
+    heard = _recognise("sound", str(clip), _stamp("sound")) if clip else None
+    photo = clip_for(context, code, day, index, _library("scene", context.scene))  # what the robot's camera sees
+    seen = _recognise("scene", str(photo), _stamp("scene")) if photo else None
     if status.policy_version is None and not initial_policy_ready():
         # first use on this machine: the initial policy is trained once, in the background
         job, _ = RUNNER.start("initial-policy", prepare_initial_policy, label="The robot is getting ready (first use only)")
