@@ -42,6 +42,16 @@ class StudyResult:
     interactions: pd.DataFrame  # records.INTERACTION_COLUMNS
 
 
+def check_study_arguments(days: int, interactions: int, no_response_rate: float) -> None:
+    """A study's sizes, checked before any work (the messages name the command-line options)."""
+    if days < 1:
+        raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
+    if interactions < 1:
+        raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number >= 1")
+    if not 0 <= no_response_rate < 1:
+        raise CacasError(f"--no-response-rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
+
+
 def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
     methods = tuple(m.strip().lower() for m in methods if m.strip())
     bad = [m for m in methods if m not in METHODS]
@@ -102,12 +112,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
     number of worker processes (default 1; more need the caller's script to guard its entry
     point with ``if __name__ == "__main__":``, as worker processes are spawned)."""
-    if days < 1:
-        raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
-    if interactions < 1:
-        raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number >= 1")
-    if not 0 <= no_response_rate < 1:
-        raise CacasError(f"no-response rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
+    check_study_arguments(days, interactions, no_response_rate)
     methods = check_methods(methods)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()

@@ -64,7 +64,7 @@ def test_same_seed_same_tables(small_config, small_initial):
 
 @pytest.mark.parametrize("kw,needle", [({"days": 0}, "--days 0"), ({"interactions": 0}, "--interactions 0"),
                                        ({"methods": ["cacas", "dqn"]}, "unknown method 'dqn'"),
-                                       ({"no_response_rate": 1.5}, "no-response rate")])
+                                       ({"no_response_rate": 1.5}, "--no-response-rate 1.5")])
 def test_bad_arguments(kw, needle, small_initial):
     with pytest.raises(CacasError, match=needle):
         simulate_study(PEOPLE, initial_policy=small_initial, **kw)

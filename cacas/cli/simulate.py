@@ -37,14 +37,9 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from cacas.experiment import check_methods
+    from cacas.experiment import check_methods, check_study_arguments
 
-    if args.days < 1:
-        raise CacasError(f"--days {args.days} is invalid; valid: a whole number of days >= 1")
-    if args.interactions < 1:
-        raise CacasError(f"--interactions {args.interactions} is invalid; valid: a whole number >= 1")
-    if not 0 <= args.no_response_rate < 1:
-        raise CacasError(f"--no-response-rate {args.no_response_rate} is invalid; valid: 0 <= rate < 1")
+    check_study_arguments(args.days, args.interactions, args.no_response_rate)
     if args.jobs is not None and args.jobs < 1:
         raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
     methods = check_methods(args.methods.split(","))
