@@ -9,11 +9,18 @@ reshaped policy (Eq. 5) acting. The participant's described preferences are neve
 Methods (Fig. 4; every method adapts from the same day-by-day interactions):
 * ``cacas``: the above, deployed as Eq. 5 with beta = 0.7;
 * ``cacas-no-pr``: the same without policy reshaping (pi_theta acts and is deployed);
-* ``orl``: plain (online) SAC adapted with the user data: the recorded transitions go into its
-  replay buffer and it makes ``orl_updates_per_transition`` gradient updates per new transition
-  (1, SAC's usual update-to-data ratio); no user model, no simulator;
+* ``orl``: the original SAC adapted with the user data: the agent of step 1 goes on learning as
+  online SAC does, from its replay memory (its step-1 experience, kept with the initial policy)
+  with the recorded transitions added, with as many gradient updates after each day as CACAS's
+  SAC makes (``adapt_updates``); no user model, no simulator. A few hundred real transitions
+  among tens of thousands remembered from the generic simulator is the paper's "forgetting user
+  feedback data" (Section IV-C.2);
 * ``nn``: MLP_policy alone;
-* ``bandit``: a contextual Thompson-sampling bandit (not in the paper).
+* ``bandit``: a contextual Thompson-sampling bandit (not in the paper);
+* ``sac-user-data`` (not in the paper): SAC from the policy in force, its memory emptied, learning
+  from the recorded transitions alone with ``user_data_updates_per_transition`` updates per new
+  one (1, SAC's usual update-to-data ratio). Our first reading of ORL; kept because it shows what
+  plain RL on the user data alone reaches with consistent simulated participants.
 
 Deviation from Table III, stated: Table III writes a_t = argmax pi(s_t) while training; SAC learns
 the value of actions it tries, so during training we *sample* a_t ~ pi(s_t) (SAC's own
@@ -41,7 +48,7 @@ from cacas.simulator import ContextSource, ResponseModel, StateGenerator, prefer
 from cacas.user_model import DecisionModel, UserData, UserModel
 
 Progress = Callable[[float, str], None]
-METHODS = ("cacas", "cacas-no-pr", "orl", "nn", "bandit")
+METHODS = ("cacas", "cacas-no-pr", "orl", "nn", "bandit", "sac-user-data")
 INITIAL_POLICY_FILE = "initial_policy.pt"
 
 
@@ -57,11 +64,16 @@ class CACAAConfig:
     threshold: float = 0.7           # DM: probability threshold of the user model
     beta: float = 0.7                # Eq. 5 importance weight
     recorded_share: float = 0.8      # generate_state(t, h, D): share of steps with a recorded activity
-    orl_updates_per_transition: int = 1  # ORL: SAC's update-to-data ratio on the real transitions
+    user_data_updates_per_transition: int = 1  # sac-user-data: update-to-data ratio on real transitions
     sac: SACConfig = field(default_factory=SACConfig)
 
     def to_dict(self) -> dict:
         return asdict(self)
+
+    @property
+    def adapt_updates(self) -> int:
+        """SAC gradient updates of one adaptation (step 2): simulated days x steps x updates."""
+        return self.adapt_train_days * int(24 * 60 // self.k_minutes) * self.updates_per_step
 
 
 @dataclass
@@ -126,6 +138,7 @@ def train_initial_policy(d4a: D4A | None = None, config: CACAAConfig | None = No
     sac = DiscreteSAC(cfg.sac, seed=seed)
     run_sac_training(sac, sac.action_probabilities, ResponseModel(d4a.table), ContextSource.generic(),
                      cfg.initial_train_days, cfg, rng, progress, "initial policy")
+    sac.memory = sac.replay_memory()  # the original SAC's experience, which ORL goes on learning from
     return ReshapedPolicy(sac, None, beta=1.0, method="initial")
 
 
@@ -210,16 +223,28 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
     base_sac = previous.sac if isinstance(previous, ReshapedPolicy) and previous.sac is not None else None
     if base_sac is None:
         base_sac = load_initial_policy().sac
-    sac = base_sac.copy(seed=seed)
+    sac = base_sac.copy(seed=seed, keep_memory=method == "orl")
 
-    if method == "orl":
+    if method in ("orl", "sac-user-data"):
         s, a, r, s2, day = orl_transitions(interactions)
         n_new = int((day == day.max()).sum()) if len(day) else 0
-        updates = cfg.orl_updates_per_transition * n_new
+        if method == "orl":
+            if sac.memory is None:
+                sac.memory = load_initial_policy().sac.memory
+            if sac.memory is None:
+                from cacas.errors import CacasError
+                raise CacasError("ORL needs the initial policy's replay memory, and the initial policy file "
+                                 f"has none; valid: a file written by this version ({initial_policy_path()})")
+            sac.restore_memory(sac.memory)
+            updates = cfg.adapt_updates
+            params["remembered"] = int(len(sac.memory["a"]))
+        else:
+            updates = cfg.user_data_updates_per_transition * n_new
         if len(a):
             sac.buffer.add_batch(s, a, r, s2)
             sac.update(updates)
-        say(1.0, f"SAC: {updates} updates for the {n_new} new of {len(a)} recorded transitions")
+        say(1.0, f"SAC: {updates} updates from {sac.buffer.size} transitions in its replay buffer, "
+                 f"{len(a)} of them recorded ({n_new} new)")
         params["updates"] = updates
         return AdaptationResult(ReshapedPolicy(sac, None, 1.0, method), log, params, time.perf_counter() - t0)
 

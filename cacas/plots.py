@@ -11,9 +11,9 @@ import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
 METHOD_LABELS = {"cacas": "CACAS", "cacas-no-pr": "CACAS w/o PR", "orl": "ORL", "nn": "NN",
-                 "bandit": "Bandit (TS)"}
+                 "bandit": "Bandit (TS)", "sac-user-data": "SAC on user data"}
 METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
-                  "bandit": "#8064a2"}
+                  "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:

@@ -245,6 +245,9 @@ class DiscreteSAC:
         self._make_optimizers()
         self.buffer = ReplayBuffer(c.buffer_capacity, c.state_dim)
         self.updates = 0
+        #: the replay memory this agent keeps across adaptations (compact, see replay_memory());
+        #: set for the initial policy (its step-1 experience) and carried by ORL.
+        self.memory: dict[str, np.ndarray] | None = None
 
     def _make_optimizers(self) -> None:
         """One Adam over the actor, both critics and log alpha (3x the learning rate), whose
@@ -334,11 +337,30 @@ class DiscreteSAC:
         self.updates += 1
         return critic_loss, actor_loss, entropy, alpha
 
+    # --- replay memory -----------------------------------------------------------------------------
+    def replay_memory(self) -> dict[str, np.ndarray]:
+        """The replay buffer's transitions in compact form: s and s' as Table I index rows (int8),
+        the action (int8) and the reward (float32); about 16 bytes a transition."""
+        b, n = self.buffer, self.buffer.size
+        return {"s": spaces.indices_from_onehot(b.s[:n].numpy()).astype(np.int8),
+                "a": b.a[:n].numpy().astype(np.int8), "r": b.r[:n].numpy().astype(np.float32),
+                "s2": spaces.indices_from_onehot(b.s2[:n].numpy()).astype(np.int8)}
+
+    def restore_memory(self, memory: dict[str, np.ndarray]) -> None:
+        """Put a compact replay memory (:meth:`replay_memory`) back into the replay buffer."""
+        if len(memory["a"]):
+            self.buffer.add_batch(spaces.encode_states(memory["s"].astype(np.int64)), memory["a"].astype(np.int64),
+                                  memory["r"], spaces.encode_states(memory["s2"].astype(np.int64)))
+
     # --- persistence -------------------------------------------------------------------------------
     def state_dict(self) -> dict:
-        return {"config": asdict(self.config), "actor": self.actor.state_dict(),
-                "critic": self.critic.state_dict(), "critic_target": self.critic_target.state_dict(),
-                "log_alpha": self.log_alpha.detach().clone(), "updates": self.updates}
+        """Weights, temperature and, when the agent keeps one, its compact replay memory."""
+        state = {"config": asdict(self.config), "actor": self.actor.state_dict(),
+                 "critic": self.critic.state_dict(), "critic_target": self.critic_target.state_dict(),
+                 "log_alpha": self.log_alpha.detach().clone(), "updates": self.updates}
+        if self.memory is not None:
+            state["memory"] = self.memory
+        return state
 
     @classmethod
     def from_state_dict(cls, state: dict, seed: int = 0) -> "DiscreteSAC":
@@ -349,11 +371,15 @@ class DiscreteSAC:
         with torch.no_grad():
             agent.log_alpha.copy_(state["log_alpha"])
         agent.updates = int(state["updates"])
+        agent.memory = state.get("memory")
         return agent
 
-    def copy(self, seed: int = 0) -> "DiscreteSAC":
-        """A fresh agent with the same weights (empty replay buffer, new optimizers)."""
-        return DiscreteSAC.from_state_dict(self.state_dict(), seed=seed)
+    def copy(self, seed: int = 0, keep_memory: bool = False) -> "DiscreteSAC":
+        """A fresh agent with the same weights (empty replay buffer, new optimizers); with
+        ``keep_memory`` it carries the same kept replay memory (not yet in its buffer)."""
+        agent = DiscreteSAC.from_state_dict({**self.state_dict(), "memory": None}, seed=seed)
+        agent.memory = self.memory if keep_memory else None
+        return agent
 
     def save(self, path) -> None:
         torch.save(self.state_dict(), path)

@@ -207,6 +207,13 @@ def encode_user_input(state: State, judged_action: int | None = None) -> np.ndar
     return encode_states([s], parts=6)[0]
 
 
+def indices_from_onehot(vectors: np.ndarray, parts: int = 7) -> np.ndarray:
+    """Table I index rows (n, parts) of one-hot state rows (vectorised; no validity check: use
+    :func:`decode_states` for vectors from outside the library)."""
+    vec = np.atleast_2d(np.asarray(vectors))
+    return np.stack([vec[:, _OFFS[p]:_OFFS[p] + _SIZES[p]].argmax(1) for p in range(parts)], axis=1)
+
+
 def decode_states(vectors: np.ndarray) -> list[State]:
     """Inverse of :func:`encode_states` for 94-D (S7 decoded) or 91-D (S7 = others) vectors."""
     vec = np.atleast_2d(np.asarray(vectors))

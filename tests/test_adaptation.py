@@ -7,6 +7,7 @@ import pytest
 from cacas import adaptation, preferences, records, spaces
 from cacas.adaptation import METHODS, adapt_policy, evaluation_states, policy_changes, preference_accuracy
 from cacas.errors import CacasError
+from cacas.policy import ReshapedPolicy, policy_from_bytes
 from cacas.preferences import parse_personas
 
 PERSON = parse_personas({"participants": [{"id": "P01", "preferences": [
@@ -100,8 +101,32 @@ def test_preference_accuracy_counts_the_preferred_action():
     assert all(mask[tuple(s[:4])] for s in states) and np.all(states[:, 4] == 0)
 
 
-def test_orl_is_online_sac_one_update_per_new_transition(small_config, small_initial):
+def test_orl_goes_on_learning_from_its_step_1_memory(small_config, small_initial):
+    memory = small_initial.sac.memory
+    assert memory is not None and len(memory["a"]) > 100  # the step-1 experience, kept with the policy
     result = adapt_policy(small_initial, stove_days(3, per_day=8), "orl", seed=0, config=small_config)
+    # as many updates as CACAS's SAC makes in one adaptation
+    assert result.parameters["updates"] == small_config.adapt_updates == 1 * 24 * 6
+    assert result.parameters["remembered"] == len(memory["a"])
+    assert result.policy.sac.updates == small_initial.sac.updates + small_config.adapt_updates
+    # the adapted ORL keeps the memory (not grown: the recorded transitions are re-read from D)
+    again = policy_from_bytes(result.policy.to_bytes())
+    assert again.sac.memory is not None and len(again.sac.memory["a"]) == len(memory["a"])
+
+
+def test_orl_without_a_remembered_experience_is_a_clear_error(small_config, small_initial, monkeypatch):
+    import cacas.adaptation
+
+    bare = small_initial.sac.copy()  # weights only
+    assert bare.memory is None
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: ReshapedPolicy(bare, None, 1.0))
+    with pytest.raises(CacasError, match="replay memory"):
+        adapt_policy(ReshapedPolicy(bare, None, 1.0), stove_days(1, per_day=4), "orl", config=small_config)
+
+
+def test_sac_user_data_is_online_sac_one_update_per_new_transition(small_config, small_initial):
+    result = adapt_policy(small_initial, stove_days(3, per_day=8), "sac-user-data", seed=0, config=small_config)
     # each user-initiated interaction gives two transitions (the request +1, "do nothing" -1)
     assert result.parameters["updates"] == 16
     assert result.policy.sac.updates == small_initial.sac.updates + 16
+    assert result.policy.sac.memory is None and result.policy.sac.buffer.size == 3 * 8 * 2

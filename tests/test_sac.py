@@ -55,3 +55,26 @@ def test_save_load_same_policy(tmp_path):
     assert loaded.updates == 20 and np.isclose(loaded.alpha, agent.alpha)
     copy = agent.copy()
     assert np.allclose(copy.action_probabilities(x), agent.action_probabilities(x)) and copy.buffer.size == 0
+
+
+def test_replay_memory_round_trip_is_compact_and_kept_only_when_asked(tmp_path):
+    from cacas import spaces
+
+    agent = DiscreteSAC(seed=0)
+    rng = np.random.default_rng(0)
+    sizes = [n for _, n in spaces.STATE_PARTS]
+    s = np.stack([rng.integers(n, size=50) for n in sizes], axis=1)
+    s2 = np.stack([rng.integers(n, size=50) for n in sizes], axis=1)
+    a, r = rng.integers(14, size=50), rng.choice([-1.0, 0.0, 1.0], size=50)
+    agent.buffer.add_batch(spaces.encode_states(s), a, r, spaces.encode_states(s2))
+    memory = agent.replay_memory()
+    assert memory["s"].dtype == np.int8 and np.array_equal(memory["s"], s) and np.array_equal(memory["s2"], s2)
+    assert np.array_equal(memory["a"], a) and np.array_equal(memory["r"], r)
+    agent.memory = memory
+    agent.save(tmp_path / "sac.pt")
+    loaded = DiscreteSAC.load(tmp_path / "sac.pt")
+    assert np.array_equal(loaded.memory["s"], s) and loaded.buffer.size == 0  # kept, not yet replayed
+    assert agent.copy().memory is None and agent.copy(keep_memory=True).memory is memory
+    loaded.restore_memory(loaded.memory)
+    assert loaded.buffer.size == 50 and torch.equal(loaded.buffer.s[:50], agent.buffer.s[:50])
+    assert torch.equal(loaded.buffer.r[:50], agent.buffer.r[:50])

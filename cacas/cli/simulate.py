@@ -23,7 +23,7 @@ def register(sub) -> None:
     p.add_argument("--interactions", type=int, default=15, help="interactions a day, about (default 15)")
     p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
                    help="comma-separated methods; the first runs in closed loop "
-                        "(cacas, cacas-no-pr, orl, nn, bandit; default the paper's four)")
+                        "(cacas, cacas-no-pr, orl, nn, bandit, sac-user-data; default the paper's four)")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same daily.csv)")
     p.add_argument("--no-response-rate", type=float, default=0.1,
                    help="share of robot actions the simulated participant does not answer (default 0.1)")
