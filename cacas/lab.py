@@ -46,12 +46,14 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
         return import_folder(tmp, root)
 
 
-def train_sound(progress: Progress = None, epochs: int = 30, seed: int = 0):
-    """Train the sound CNN on the library and save it as the model the study page uses."""
+def train_sound(progress: Progress = None, **options):
+    """Train the sound CNN on the library and save it as the model the study page uses.
+    ``options`` go to :func:`train_sound_model`; its defaults (those of ``cacas sound train``,
+    with which the shipped model was trained) apply otherwise."""
     from cacas.audio.model import default_model_path
     from cacas.audio.training import train_sound_model
 
-    result = train_sound_model(epochs=epochs, seed=seed, progress=progress)
+    result = train_sound_model(progress=progress, **options)
     result.recognizer.save(default_model_path())
     return result
 
