@@ -44,7 +44,7 @@ from cacas.paths import study_data_dir
 from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, policy_from_bytes
 from cacas.preferences import Participant
 from cacas.sac import DiscreteSAC, SACConfig
-from cacas.simulator import ContextSource, ResponseModel, StateGenerator, preference_states
+from cacas.simulator import ContextSource, ResponseModel, StateGenerator, preference_states, steps_per_day
 from cacas.user_model import DecisionModel, UserData, UserModel
 
 Progress = Callable[[float, str], None]
@@ -73,7 +73,7 @@ class CACAAConfig:
     @property
     def adapt_updates(self) -> int:
         """SAC gradient updates of one adaptation (step 2): simulated days x steps x updates."""
-        return self.adapt_train_days * int(24 * 60 // self.k_minutes) * self.updates_per_step
+        return self.adapt_train_days * steps_per_day(self.k_minutes) * self.updates_per_step
 
 
 @dataclass

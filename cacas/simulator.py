@@ -108,6 +108,11 @@ class ContextSource:
         return cls(weights, scene, slot)
 
 
+def steps_per_day(k_minutes: float) -> int:
+    """generate_state steps of one simulated day, 00:00 to 23:59 every K minutes."""
+    return int(24 * 60 // k_minutes)
+
+
 class StateGenerator:
     """``generate_state`` for E parallel simulated days, K minutes a step (Section IV-B.3).
 
@@ -125,7 +130,7 @@ class StateGenerator:
         self.K = k_minutes
         self.rng = rng
         self.follow_up_rate = follow_up_rate
-        self.steps_per_day = int(24 * 60 // k_minutes)
+        self.steps_per_day = steps_per_day(k_minutes)
         self.reset()
 
     def reset(self) -> None:

@@ -221,16 +221,12 @@ def decode_states(vectors: np.ndarray) -> list[State]:
     parts = 7 if dim == STATE_DIM else 6 if dim == USER_INPUT_DIM else None
     if parts is None:
         raise CacasError(f"a state vector has {dim} dimensions; valid: {STATE_DIM} or {USER_INPUT_DIM}")
-    out = []
-    for row in vec:
-        idx = []
-        for p in range(parts):
-            seg = row[_OFFS[p]:_OFFS[p] + _SIZES[p]]
-            if not np.isclose(seg.sum(), 1.0) or not np.isclose(seg.max(), 1.0):
-                raise CacasError(f"state part {STATE_PARTS[p][0]} is not one-hot")
-            idx.append(int(seg.argmax()))
-        out.append(State(*idx) if parts == 7 else State(*idx, OTHERS))
-    return out
+    for p in range(parts):
+        seg = vec[:, _OFFS[p]:_OFFS[p] + _SIZES[p]]
+        if not (np.isclose(seg.sum(1), 1.0).all() and np.isclose(seg.max(1), 1.0).all()):
+            raise CacasError(f"state part {STATE_PARTS[p][0]} is not one-hot")
+    return [State(*map(int, row)) if parts == 7 else State(*map(int, row), OTHERS)
+            for row in indices_from_onehot(vec, parts)]
 
 
 def parse_names(kind: str, names: Iterable[str]) -> list[int]:

@@ -83,7 +83,8 @@ else:
     c3.metric("Policy in force", "initial" if status.policy_version is None else f"version {status.policy_version}")
     with st.expander("Options"):
         st.selectbox("Method", METHODS, key="adapt-method",
-                     help="CACAS for the study; the others are the paper's baselines (Fig. 4) and a bandit.")
+                     help="CACAS for the study; the others are the paper's baselines (Fig. 4), a bandit and SAC "
+                          "on the user data alone.")
         st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
     if status.open:
         st.button(f"Close day {day} and adapt", type="primary", icon=":material/model_training:",

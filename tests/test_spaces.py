@@ -60,3 +60,16 @@ def test_names_decoding():
 def test_bad_vector_refused():
     with pytest.raises(CacasError, match="94 or 91"):
         spaces.decode_states(np.zeros((1, 10)))
+
+
+def test_vector_that_is_not_one_hot_is_refused_naming_the_part():
+    v = spaces.encode_states(np.array([[3, 1, 4, 2, 0, 5, 1], [0, 0, 0, 0, 0, 0, 0]]))
+    v[1, spaces.OFFSETS[1] + 2] = 1.0  # two scenes at once in the second row
+    with pytest.raises(CacasError, match="scene is not one-hot"):
+        spaces.decode_states(v)
+
+
+def test_indices_from_onehot_inverts_encoding():
+    rows = np.array([[3, 1, 4, 2, 0, 5, 1], [32, 5, 11, 11, 13, 13, 2]])
+    assert np.array_equal(spaces.indices_from_onehot(spaces.encode_states(rows)), rows)
+    assert np.array_equal(spaces.indices_from_onehot(spaces.encode_states(rows, parts=6), parts=6), rows[:, :6])
