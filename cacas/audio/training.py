@@ -19,7 +19,7 @@ import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -32,16 +32,9 @@ from cacas.audio.library import Clip, scan, sounds_dir
 from cacas.audio.model import SoundCNN, SoundRecognizer
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, stratified_group_split
-
-Progress = Callable[[float, str], None] | None
-TEST_FRACTION = 0.1  #: V-A: "divided into a training set and a testing set with a ratio of 9:1"
-
-
-def _tell(progress: Progress, frac: float, msg: str) -> None:
-    if progress:
-        progress(float(min(1.0, max(0.0, frac))), msg)
-
+from cacas.recognition import Metrics, compute_metrics, restores_torch_threads
+from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, relative_path, split_table, \
+    tell, training_split
 
 @dataclass
 class TrainingResult:
@@ -54,18 +47,11 @@ class TrainingResult:
     seconds: float
 
 
-def _rel(path: Path, root: Path) -> str:
-    try:
-        return str(path.resolve().relative_to(root.resolve()))
-    except ValueError:
-        return str(path)
-
-
 def load_recordings(clips: Sequence[Clip], progress: Progress = None, span=(0.0, 1.0)) -> list[np.ndarray]:
     out = []
     for i, c in enumerate(clips):
         out.append(load_clip(c.path))
-        _tell(progress, span[0] + (span[1] - span[0]) * (i + 1) / len(clips), f"loading {c.path.name}")
+        tell(progress, span[0] + (span[1] - span[0]) * (i + 1) / len(clips), f"loading {c.path.name}")
     return out
 
 
@@ -158,22 +144,14 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
         raise CacasError(f"{root}: no recordings; generate the library with `cacas sound generate`")
     classes = list(spaces.ACTIVITIES)
     labels = np.array([classes.index(c.activity) for c in clips])
-    counts = np.bincount(labels, minlength=len(classes))
-    thin = [classes[i] for i in range(len(classes)) if 0 < counts[i] < 2]
-    if thin:
-        raise CacasError(f"{root}: activities with a single recording cannot be split 9:1: {', '.join(thin)}")
+    train, val, test = training_split(labels, classes, test_fraction, seed, root, "activities", "recording")
     if len(np.unique(labels)) < 2:
         raise CacasError(f"{root}: recordings of at least 2 activities are needed to train")
 
-    _tell(progress, 0.0, f"loading {len(clips)} recordings")
+    tell(progress, 0.0, f"loading {len(clips)} recordings")
     signals = load_recordings(clips, progress, (0.0, 0.12))
-    keep, test = stratified_group_split(labels, test_fraction, seed)
-    tr_sub, val_sub = stratified_group_split(labels[keep], 1.0 / 9.0, seed + 1)
-    train, val = keep[tr_sub], keep[val_sub]
-    if len(val) == 0:  # tiny data: early-stop on the training recordings themselves
-        val = train
 
-    _tell(progress, 0.13, "computing MFCC with augmentation")
+    tell(progress, 0.13, "computing MFCC with augmentation")
     tr_signals = [signals[i] for i in train]
     fixed, fixed_owner = mfcc_batch(tr_signals, return_groups=True)
     aug_w, aug_owner = augment_windows(tr_signals, augment_copies, rng)
@@ -189,7 +167,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
     Yt = torch.from_numpy(Y).long()
     val_signals = [signals[i] for i in val]
     val_feats, val_owner = mfcc_batch(val_signals, return_groups=True)
-    _tell(progress, 0.25, f"training on {len(X)} windows from {len(train)} recordings")
+    tell(progress, 0.25, f"training on {len(X)} windows from {len(train)} recordings")
 
     opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-4)
     steps = max(1, epochs * int(np.ceil(len(Xn) / batch_size)))
@@ -197,8 +175,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
     gen = torch.Generator().manual_seed(seed)
     loss_fn = nn.CrossEntropyLoss(label_smoothing=0.05)
     recognizer = SoundRecognizer(model, classes)
-    best = (-1.0, np.inf)
-    best_state, best_epoch, stale = None, 0, 0
+    stopping = EarlyStopping(patience)
     history = []
     for epoch in range(1, epochs + 1):
         model.train()
@@ -224,29 +201,20 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
         val_loss = float(-np.mean(np.log(wp[np.arange(len(wp)), labels[val][val_owner]] + 1e-9)))
         history.append({"epoch": epoch, "train_loss": total / len(Xn), "val_accuracy": val_acc,
                         "val_loss": val_loss, "seconds": time.perf_counter() - t0})
-        _tell(progress, 0.25 + 0.7 * epoch / epochs,
+        tell(progress, 0.25 + 0.7 * epoch / epochs,
               f"epoch {epoch}/{epochs}: loss {total / len(Xn):.3f}, validation accuracy {val_acc:.3f}")
-        if (val_acc, -val_loss) > (best[0], -best[1]):
-            best, best_epoch, stale = (val_acc, val_loss), epoch, 0
-            best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
-        else:
-            stale += 1
-            if stale >= patience:
-                break
-    model.load_state_dict(best_state)
-    model.eval()
+        if stopping.step(epoch, val_acc, val_loss, model):
+            break
+    stopping.restore_best(model)
 
-    _tell(progress, 0.96, f"testing on {len(test)} held-out recordings")
+    tell(progress, 0.96, f"testing on {len(test)} held-out recordings")
     if len(test):
         metrics = evaluate_signals(recognizer, [signals[i] for i in test], [classes[labels[i]] for i in test])
     else:  # pragma: no cover - guarded by the 2-recordings rule above
         metrics = compute_metrics([], [], classes)
     seconds = time.perf_counter() - t0
-    side = np.array(["train"] * len(clips), dtype=object)
-    side[val] = "validation"
-    side[test] = "test"
-    split = pd.DataFrame({"path": [_rel(c.path, root) for c in clips],
-                          "activity": [c.activity for c in clips], "side": side})
+    split = split_table([relative_path(c.path, root) for c in clips], "activity", [c.activity for c in clips],
+                        val, test)
     recognizer.metadata = {
         "kind": "sound",
         "trained": datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -255,10 +223,10 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
         "per_class_accuracy": dict(zip(metrics.per_class["label"], metrics.per_class["accuracy"].round(4))),
         "training_seconds": round(seconds, 1),
         "training_cpu_seconds": round(time.process_time() - c0, 1), "torch_threads": torch.get_num_threads(),
-        "best_epoch": best_epoch,
+        "best_epoch": stopping.best_epoch,
         "epochs_run": len(history),
         "training_data": {
-            "root": _rel(root, study_data_dir()), "recordings": len(clips),
+            "root": relative_path(root, study_data_dir()), "recordings": len(clips),
             "train": int(len(train)), "validation": int(len(val)), "test": int(len(test)),
             "windows_trained": int(len(X)), "seed": seed, "augment_copies": augment_copies,
             "clean_windows": clean_windows, "epochs": epochs, "patience": patience,
@@ -266,7 +234,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
         },
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
     }
-    _tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")
+    tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")
     return TrainingResult(recognizer, metrics, pd.DataFrame(history), split, seconds)
 
 
@@ -283,7 +251,7 @@ def evaluate_sound_model(recognizer: SoundRecognizer, root: Path | str | None = 
     which = "all"
     if held_out and recognizer.metadata.get("test_recordings"):
         wanted = set(recognizer.metadata["test_recordings"])
-        chosen = [c for c in clips if _rel(c.path, root) in wanted]
+        chosen = [c for c in clips if relative_path(c.path, root) in wanted]
         if chosen:
             clips, which = chosen, "held-out"
     if not clips:
@@ -291,5 +259,5 @@ def evaluate_sound_model(recognizer: SoundRecognizer, root: Path | str | None = 
     signals = load_recordings(clips, progress, (0.0, 0.9))
     metrics = evaluate_signals(recognizer, signals, [c.activity for c in clips])
     metrics.extra["set"] = which
-    _tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(clips)} recordings")
+    tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(clips)} recordings")
     return metrics

@@ -14,7 +14,6 @@ import time
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -24,17 +23,11 @@ from torch import nn
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, stratified_group_split
+from cacas.recognition import Metrics, compute_metrics, restores_torch_threads
+from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, relative_path, split_table, \
+    tell, training_split
 from cacas.vision.library import load_image, scan, scenes_dir
 from cacas.vision.model import IMAGE_SIZE, SceneRecognizer, build_resnet18, preprocess
-
-Progress = Callable[[float, str], None] | None
-
-
-def _tell(progress: Progress, frac: float, msg: str) -> None:
-    if progress:
-        progress(float(min(1.0, max(0.0, frac))), msg)
-
 
 @dataclass
 class SceneTrainingResult:
@@ -78,7 +71,7 @@ def evaluate_images(recognizer: SceneRecognizer, images, labels) -> Metrics:
 @restores_torch_threads
 def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patience: int = 4, seed: int = 0,
                       weights: str | Path | None = "auto", batch_size: int = 32, lr: float | None = None,
-                      test_fraction: float = 0.1, threads: int | None = None,
+                      test_fraction: float = TEST_FRACTION, threads: int | None = None,
                       progress: Progress = None) -> SceneTrainingResult:
     """Fine-tune (or train from scratch) ResNet-18 on the scene library at ``root``."""
     t0, c0 = time.perf_counter(), time.process_time()
@@ -91,17 +84,9 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
         raise CacasError(f"{root}: no images; generate them with `cacas scene generate`")
     classes = list(spaces.SCENES)
     labels = np.array([classes.index(p.scene) for p in photos])
-    counts = np.bincount(labels, minlength=len(classes))
-    thin = [classes[i] for i in range(len(classes)) if 0 < counts[i] < 2]
-    if thin:
-        raise CacasError(f"{root}: scenes with a single image cannot be split 9:1: {', '.join(thin)}")
-    _tell(progress, 0.0, f"loading {len(photos)} images")
+    train, val, test = training_split(labels, classes, test_fraction, seed, root, "scenes", "image")
+    tell(progress, 0.0, f"loading {len(photos)} images")
     images = [load_image(p.path) for p in photos]
-    keep, test = stratified_group_split(labels, test_fraction, seed)
-    tr_sub, val_sub = stratified_group_split(labels[keep], 1.0 / 9.0, seed + 1)
-    train, val = keep[tr_sub], keep[val_sub]
-    if len(val) == 0:
-        val = train
     model, source = build_resnet18(len(classes), weights)
     pretrained = not source.startswith("none")
     lr = lr or (3e-4 if pretrained else 2e-3)
@@ -111,8 +96,8 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
     recognizer = SceneRecognizer(model, classes)
     val_x = preprocess([images[i] for i in val])
     yt = torch.from_numpy(labels).long()
-    best, best_state, best_epoch, stale, history = (-1.0, np.inf), None, 0, 0, []
-    _tell(progress, 0.05, f"training on {len(train)} images ({source})")
+    stopping, history = EarlyStopping(patience), []
+    tell(progress, 0.05, f"training on {len(train)} images ({source})")
     for epoch in range(1, epochs + 1):
         model.train()
         order = rng.permutation(train)
@@ -135,49 +120,32 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
         val_loss = float(nn.functional.cross_entropy(logits, yt[val]))
         history.append({"epoch": epoch, "train_loss": total / len(train), "val_accuracy": val_acc,
                         "val_loss": val_loss, "seconds": time.perf_counter() - t0})
-        _tell(progress, 0.05 + 0.9 * epoch / epochs,
+        tell(progress, 0.05 + 0.9 * epoch / epochs,
               f"epoch {epoch}/{epochs}: loss {total / len(train):.3f}, validation accuracy {val_acc:.3f}")
-        if (val_acc, -val_loss) > (best[0], -best[1]):
-            best, best_epoch, stale = (val_acc, val_loss), epoch, 0
-            best_state = {k: v.detach().clone() for k, v in model.state_dict().items()}
-        else:
-            stale += 1
-            if stale >= patience:
-                break
-    model.load_state_dict(best_state)
-    model.eval()
+        if stopping.step(epoch, val_acc, val_loss, model):
+            break
+    stopping.restore_best(model)
     recognizer.compact()  # test exactly what will be saved
-    _tell(progress, 0.96, f"testing on {len(test)} held-out images")
+    tell(progress, 0.96, f"testing on {len(test)} held-out images")
     metrics = evaluate_images(recognizer, [images[i] for i in test], [classes[labels[i]] for i in test])
     seconds = time.perf_counter() - t0
-    side = np.array(["train"] * len(photos), dtype=object)
-    side[val] = "validation"
-    side[test] = "test"
-    rel = []
-    for p in photos:
-        try:
-            rel.append(str(p.path.resolve().relative_to(root.resolve())))
-        except ValueError:
-            rel.append(str(p.path))
-    split = pd.DataFrame({"path": rel, "scene": [p.scene for p in photos], "side": side})
-    try:
-        root_rel = str(root.resolve().relative_to(study_data_dir().resolve()))
-    except ValueError:
-        root_rel = str(root)
+    split = split_table([relative_path(p.path, root) for p in photos], "scene", [p.scene for p in photos],
+                        val, test)
+    root_rel = relative_path(root, study_data_dir())
     recognizer.metadata = {
         "kind": "scene", "trained": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "accuracy": metrics.accuracy,
         "per_class_accuracy": dict(zip(metrics.per_class["label"], metrics.per_class["accuracy"].round(4))),
         "training_seconds": round(seconds, 1),
         "training_cpu_seconds": round(time.process_time() - c0, 1), "torch_threads": torch.get_num_threads(),
-        "best_epoch": best_epoch, "epochs_run": len(history),
+        "best_epoch": stopping.best_epoch, "epochs_run": len(history),
         "initial_weights": source, "image_size": IMAGE_SIZE,
         "training_data": {"root": root_rel, "images": len(photos), "train": int(len(train)),
                           "validation": int(len(val)), "test": int(len(test)), "seed": seed,
                           "synthetic": all(p.path.name.startswith("synthetic_") for p in photos)},
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
     }
-    _tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")
+    tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")
     return SceneTrainingResult(recognizer, metrics, pd.DataFrame(history), split, seconds)
 
 
@@ -197,8 +165,8 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
     images = []
     for i, p in enumerate(photos):
         images.append(load_image(p.path))
-        _tell(progress, 0.9 * (i + 1) / len(photos), f"loading {p.path.name}")
+        tell(progress, 0.9 * (i + 1) / len(photos), f"loading {p.path.name}")
     metrics = evaluate_images(recognizer, images, [p.scene for p in photos])
     metrics.extra["set"] = which
-    _tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(photos)} images")
+    tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(photos)} images")
     return metrics
