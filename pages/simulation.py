@@ -30,13 +30,15 @@ st.caption("Simulated participants act in the contexts their preferences cover, 
            "interactions (Fig. 4).")
 
 # --- personas -----------------------------------------------------------------------------------------
-EXAMPLE = study_data_dir() / "personas" / "example.json"
-choice = st.radio("Personas", ["Example personas (P01-P08)", "Upload a persona file", "This study's participants"],
-                  horizontal=True, key="sim-source")
+EXAMPLES = {"Example personas (P01-P08)": "example.json",
+            "The same, each with a 'leave me alone' preference (Q01-Q08)": "example_leave_me_alone.json"}
+choice = st.radio("Personas", [*EXAMPLES, "Upload a persona file", "This study's participants"],
+                  horizontal=True, key="sim-source",
+                  help="Q01-Q08 are P01-P08 with one more preference: a context where the robot should do nothing.")
 people, problem = [], None
 try:
-    if choice.startswith("Example"):
-        people = load_personas(EXAMPLE)
+    if choice in EXAMPLES:
+        people = load_personas(study_data_dir() / "personas" / EXAMPLES[choice])
     elif choice.startswith("Upload"):
         up = st.file_uploader("Persona file (.json, design.md's format)", type=["json"], key="sim-upload")
         if up is not None:

@@ -34,6 +34,21 @@ def test_simulated_participant_accepts_rejects_and_asks():
     assert 15 <= len(asked) <= 45  # about 30 a day
 
 
+def test_a_leave_me_alone_preference_gives_no_accept_data():
+    """Where the participant prefers "do nothing", the robot's actions are rejected and its silence
+    is not answered with a request: the "accept" data (NN's only data) never hold that context."""
+    from cacas.policy import accept_pairs
+
+    quiet = parse_personas({"participants": [{"id": "Q", "preferences": [
+        {"activity": ["watch TV"], "action": "do nothing"}]}]})[0]
+    rng = np.random.default_rng(0)
+    acting = pd.DataFrame(simulated_day(Always(2), quiet, 1, 30, rng, 0.0, "cacas"))
+    idle = pd.DataFrame(simulated_day(Always(0), quiet, 1, 30, rng, 0.0, "cacas"))
+    assert (acting["response"] == "reject").all()
+    assert (idle["type"] == "type_1").all() and (idle["response"] == "others").all()
+    assert len(accept_pairs(pd.concat([acting, idle]))[1]) == 0
+
+
 def test_study_tables_follow_the_contract(small_config, small_initial):
     res = simulate_study(PEOPLE, days=2, interactions=6, methods=["cacas", "nn"], seed=1,
                          config=small_config, initial_policy=small_initial)

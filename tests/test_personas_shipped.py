@@ -12,6 +12,7 @@ from cacas.preferences import load_personas, parse_personas
 
 EXAMPLE = study_data_dir() / "personas" / "example.json"
 HOLDOUT = Path(__file__).parent / "data" / "holdout_personas.json"
+LEAVE_ME_ALONE = study_data_dir() / "personas" / "example_leave_me_alone.json"
 FILES = {"example": (EXAMPLE, 8, "P"), "holdout": (HOLDOUT, 6, "H")}
 
 
@@ -93,3 +94,13 @@ def test_readme_table_is_the_computed_one():
     spec.loader.exec_module(module)
     readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
     assert module.markdown(EXAMPLE) in readme
+
+
+def test_leave_me_alone_examples_are_the_examples_plus_one_do_nothing_preference():
+    for p, q in zip(load_personas(EXAMPLE), load_personas(LEAVE_ME_ALONE), strict=True):
+        assert q.id == "Q" + p.id[1:]
+        assert q.preferences[:5] == p.preferences
+        quiet = q.preferences[5]
+        assert quiet.action == "do nothing" and quiet.description
+        # a context of its own: none of the other five preferences covers it
+        assert not (quiet.coverage_mask() & p.coverage_mask()).any()

@@ -34,3 +34,10 @@ def test_simulation_refuses_an_empty_choice(app):
     next(b for b in at.button if b.label == "Run simulation").click().run()
     no_exception(at)
     assert "Choose at least one method" in texts(at)
+
+
+def test_simulation_lab_offers_the_leave_me_alone_examples(app):
+    at = app(PAGE)
+    at.radio[0].set_value("The same, each with a 'leave me alone' preference (Q01-Q08)").run()
+    no_exception(at)
+    assert at.multiselect[0].value == [f"Q{i:02d}" for i in range(1, 9)]
