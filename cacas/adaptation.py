@@ -291,6 +291,25 @@ def preference_accuracy(policy, participant: Participant, n: int = 400, seed: in
     return float((policy.greedy(states) == preferred).mean())
 
 
+def accuracy_by_preference(policy, participant: Participant, states: np.ndarray) -> pd.DataFrame:
+    """Fig. 4's accuracy broken down by described preference: which preferences a policy has
+    learnt. One row per preference: preference (1-based), label, action, states (the test
+    states it covers), correct (of those, where the policy's Eq. 4 action is the preferred one),
+    accuracy. Evaluation only."""
+    chosen = policy.greedy(states)
+    rows = []
+    for k, pref in enumerate(participant.preferences, start=1):
+        covered = np.ones(len(states), bool)
+        for col, allowed in enumerate([pref.activity_indices(), pref.scene_indices(), pref.slot_indices(),
+                                       pref.interval_indices(), pref.task_indices()]):
+            covered &= np.isin(states[:, col], allowed)
+        correct = int((chosen[covered] == pref.action_index).sum())
+        n = int(covered.sum())
+        rows.append({"preference": k, "label": pref.label(), "action": pref.action, "states": n,
+                     "correct": correct, "accuracy": correct / n if n else float("nan")})
+    return pd.DataFrame(rows)
+
+
 def policy_changes(before, after, interactions: pd.DataFrame, top: int = 10) -> pd.DataFrame:
     """The participant's most frequent contexts (S1-S4) and the action of each policy there."""
     cols = ["activity", "scene", "time_slot", "interval"]

@@ -141,6 +141,32 @@ def default_jobs() -> int:
     return max(1, os.cpu_count() or 1)
 
 
+def participant_test_states(person: Participant, p_i: int, seed: int, n: int) -> np.ndarray:
+    """Fig. 4's test states of the study's ``p_i``-th participant (seeded by study and index)."""
+    return evaluation_states(person, n, seed=seed * 7919 + p_i)
+
+
+def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
+                      methods: tuple[str, ...], seed: int, no_response_rate: float,
+                      config: CACAAConfig | None, d4a: D4A):
+    """One participant's simulated study, day by day: yields (day, {method: policy in force that
+    day}, interaction rows so far) before the day's interactions are added to that same list, so
+    once the generator is exhausted the list holds every day's rows. The first method acts in
+    closed loop; after each day every method adapts from all interactions so far. Random streams
+    depend on (seed, participant index) only."""
+    rng = np.random.default_rng([seed, p_i])
+    loop_method = methods[0]
+    in_force = {m: initial for m in methods}
+    rows: list[dict] = []
+    for day in range(1, days + 1):
+        yield day, in_force, rows
+        rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method)
+        if day < days:
+            data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
+            in_force = {m: adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
+                                        config=config, d4a=d4a).policy for k, m in enumerate(methods)}
+
+
 def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,
                          methods: tuple[str, ...], seed: int, no_response_rate: float,
                          config: CACAAConfig | None, d4a: D4A, eval_states: int,
@@ -148,24 +174,20 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
     """One participant's simulated study: (interaction rows, preference-accuracy rows). Its
     random streams depend on (seed, participant index) only, so the result is the same whether
     participants run one after another or in parallel."""
-    rng = np.random.default_rng([seed, p_i])
-    test_states = evaluation_states(person, eval_states, seed=seed * 7919 + p_i)
-    loop_method = methods[0]
-    in_force = {m: initial for m in methods}
-    rows: list[dict] = []
+    test_states = participant_test_states(person, p_i, seed, eval_states)
     acc_rows: list[dict] = []
-    for day in range(1, days + 1):
+    rows: list[dict] = []
+    previous = None
+    for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
+                                                 no_response_rate, config, d4a):
+        if previous is not None and report:
+            report(f"participant {person.id}, day {previous}/{days}")
         for m in methods:
             acc_rows.append({"participant": person.id, "method": m, "day": day,
                              "preference_accuracy": preference_accuracy(in_force[m], person, states=test_states)})
-        rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method)
-        if day < days:
-            data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
-            for k, m in enumerate(methods):
-                in_force[m] = adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
-                                           config=config, d4a=d4a).policy
-        if report:
-            report(f"participant {person.id}, day {day}/{days}")
+        previous = day
+    if report:
+        report(f"participant {person.id}, day {days}/{days}")
     return rows, acc_rows
 
 

@@ -5,7 +5,8 @@ import pandas as pd
 import pytest
 
 from cacas import adaptation, preferences, records, spaces
-from cacas.adaptation import METHODS, adapt_policy, evaluation_states, policy_changes, preference_accuracy
+from cacas.adaptation import METHODS, accuracy_by_preference, adapt_policy, evaluation_states, policy_changes, \
+    preference_accuracy
 from cacas.errors import CacasError
 from cacas.policy import ReshapedPolicy, policy_from_bytes
 from cacas.preferences import parse_personas
@@ -99,6 +100,20 @@ def test_preference_accuracy_counts_the_preferred_action():
     states = evaluation_states(PERSON, 100, seed=3)
     mask = PERSON.coverage_mask()
     assert all(mask[tuple(s[:4])] for s in states) and np.all(states[:, 4] == 0)
+
+
+def test_accuracy_by_preference_says_which_preference_was_learnt():
+    states = evaluation_states(PERSON, 300, seed=1)
+    timer = spaces.action_index("set a timer")
+    table = accuracy_by_preference(Oracle(wrong=timer), PERSON, states)
+    assert list(table.columns) == ["preference", "label", "action", "states", "correct", "accuracy"]
+    assert table["states"].sum() == len(states)  # every test state belongs to one preference
+    right = table[table["action"] == "set a timer"].iloc[0]
+    wrong = table[table["action"] != "set a timer"].iloc[0]
+    assert right["accuracy"] == 1.0 and right["correct"] == right["states"] > 0
+    assert wrong["accuracy"] == 0.0 and wrong["correct"] == 0
+    assert table["correct"].sum() / len(states) == pytest.approx(
+        preference_accuracy(Oracle(wrong=timer), PERSON, states=states))
 
 
 def test_orl_goes_on_learning_from_its_step_1_memory(small_config, small_initial):
