@@ -310,6 +310,15 @@ def accuracy_by_preference(policy, participant: Participant, states: np.ndarray)
     return pd.DataFrame(rows)
 
 
+def preferences_learnt(before, after, participant: Participant, n: int = 400, seed: int = 0) -> pd.DataFrame:
+    """Each described preference, how often two policies choose its action on the same Fig. 4
+    test states: preference, label, action, states, before, after (accuracies). Evaluation only."""
+    states = evaluation_states(participant, n, seed)
+    out = accuracy_by_preference(before, participant, states).rename(columns={"accuracy": "before"})
+    out["after"] = accuracy_by_preference(after, participant, states)["accuracy"]
+    return out[["preference", "label", "action", "states", "before", "after"]]
+
+
 def policy_changes(before, after, interactions: pd.DataFrame, top: int = 10) -> pd.DataFrame:
     """The participant's most frequent contexts (S1-S4) and the action of each policy there."""
     cols = ["activity", "scene", "time_slot", "interval"]

@@ -8,7 +8,7 @@ import json
 import pandas as pd
 import streamlit as st
 
-from cacas.adaptation import METHODS, policy_changes
+from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
@@ -145,6 +145,18 @@ else:
             st.dataframe(view.style.apply(
                 lambda r: ["background-color: #fff4d6" if r["changed"] else "" for _ in r], axis=1),
                 hide_index=True, width="stretch")
+        described = store.get_preferences(code)
+        if described is not None and described.preferences:
+            st.markdown(f"**{code}'s described preferences**: how often each policy chooses the preferred action "
+                        "on states the preference covers (Fig. 4's test states; evaluation only).")
+            learnt = preferences_learnt(p_before, p_after, described).drop(columns="preference")
+            learnt[["before", "after"]] *= 100
+            bar = {"format": "%.0f%%", "min_value": 0, "max_value": 100}
+            st.dataframe(learnt, hide_index=True, width="stretch",
+                         column_config={"label": st.column_config.TextColumn("preference", width="large"),
+                                        "states": st.column_config.NumberColumn("test states"),
+                                        "before": st.column_config.ProgressColumn("before", **bar),
+                                        "after": st.column_config.ProgressColumn("after", **bar)})
 
 # --- 3. versions and roll back ----------------------------------------------------------------------
 st.subheader("Policy versions")

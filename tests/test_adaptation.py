@@ -6,7 +6,7 @@ import pytest
 
 from cacas import adaptation, preferences, records, spaces
 from cacas.adaptation import METHODS, accuracy_by_preference, adapt_policy, evaluation_states, policy_changes, \
-    preference_accuracy
+    preference_accuracy, preferences_learnt
 from cacas.errors import CacasError
 from cacas.policy import ReshapedPolicy, policy_from_bytes
 from cacas.preferences import parse_personas
@@ -114,6 +114,14 @@ def test_accuracy_by_preference_says_which_preference_was_learnt():
     assert wrong["accuracy"] == 0.0 and wrong["correct"] == 0
     assert table["correct"].sum() / len(states) == pytest.approx(
         preference_accuracy(Oracle(wrong=timer), PERSON, states=states))
+
+
+def test_preferences_learnt_compares_two_policies_on_the_same_states():
+    timer, pain = spaces.action_index("set a timer"), spaces.action_index("pain check")
+    table = preferences_learnt(Oracle(wrong=timer), Oracle(wrong=pain), PERSON, n=200, seed=2)
+    assert list(table["action"]) == ["set a timer", "pain check"]
+    assert list(table["before"]) == [1.0, 0.0] and list(table["after"]) == [0.0, 1.0]
+    assert table["states"].sum() == 200
 
 
 def test_orl_goes_on_learning_from_its_step_1_memory(small_config, small_initial):

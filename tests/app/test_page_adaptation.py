@@ -53,6 +53,11 @@ def test_close_day_and_adapt(app, store, quick_policy):
     assert f"policy version {active.version} is in force from day 2" in texts(at)
     assert "most frequent contexts" in texts(at)
     assert "Day 1 is closed and adapted" in texts(at)
+    # each described preference, before and after, on Fig. 4's test states
+    learnt = next(d.value for d in at.dataframe if "after" in d.value.columns and "label" in d.value.columns)
+    assert list(learnt["action"]) == ["pain check", "remind to turn off"]
+    assert learnt[["before", "after"]].apply(lambda c: c.between(0, 100)).all().all()  # percent
+    assert "P01's described preferences" in texts(at)
 
 
 def test_rollback_to_the_initial_policy(app, store, quick_policy):
