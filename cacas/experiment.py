@@ -177,15 +177,13 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
     test_states = participant_test_states(person, p_i, seed, eval_states)
     acc_rows: list[dict] = []
     rows: list[dict] = []
-    previous = None
     for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
                                                  no_response_rate, config, d4a):
-        if previous is not None and report:
-            report(f"participant {person.id}, day {previous}/{days}")
+        if day > 1 and report:  # the previous day was lived and adapted from
+            report(f"participant {person.id}, day {day - 1}/{days}")
         for m in methods:
             acc_rows.append({"participant": person.id, "method": m, "day": day,
                              "preference_accuracy": preference_accuracy(in_force[m], person, states=test_states)})
-        previous = day
     if report:
         report(f"participant {person.id}, day {days}/{days}")
     return rows, acc_rows
