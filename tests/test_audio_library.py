@@ -97,3 +97,11 @@ def test_import_refuses_a_bad_file_and_copies_nothing(tmp_path):
     assert not lib.exists()
     with pytest.raises(CacasError, match="no such folder"):
         library.import_folder(tmp_path / "absent", root=lib)
+
+
+def test_files_with_extensions_lists_only_matching_files_of_the_folder(tmp_path):
+    for name in ("b.WAV", "a.ogg", "notes.txt"):
+        (tmp_path / name).write_bytes(b"x")
+    (tmp_path / "sub.wav").mkdir()
+    assert [p.name for p in library.files_with_extensions(tmp_path, (".wav", ".ogg"))] == ["a.ogg", "b.WAV"]
+    assert library.files_with_extensions(tmp_path / "missing", (".wav",)) == []

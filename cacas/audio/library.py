@@ -45,10 +45,16 @@ def activity_of_folder(folder: str) -> str:
     return spaces.canonical("activity", str(folder).replace("_", " "))
 
 
-def _audio_files(folder: Path) -> list[Path]:
+def files_with_extensions(folder: Path, extensions) -> list[Path]:
+    """The files of ``folder`` (not below it) whose extension is one of ``extensions``, sorted;
+    none if the folder does not exist. Shared by the sound and the scene libraries."""
     if not folder.is_dir():
         return []
-    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in SUPPORTED_EXTENSIONS)
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in extensions)
+
+
+def _audio_files(folder: Path) -> list[Path]:
+    return files_with_extensions(folder, SUPPORTED_EXTENSIONS)
 
 
 def clip_paths(activity: str, root: Path | str | None = None) -> list[Path]:

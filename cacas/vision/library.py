@@ -15,7 +15,7 @@ from typing import Callable
 import numpy as np
 
 from cacas import spaces
-from cacas.audio.library import slug
+from cacas.audio.library import files_with_extensions, slug
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 
@@ -37,9 +37,7 @@ def scene_of_folder(folder: str) -> str:
 
 
 def _images(folder: Path) -> list[Path]:
-    if not folder.is_dir():
-        return []
-    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in IMAGE_EXTENSIONS)
+    return files_with_extensions(folder, IMAGE_EXTENSIONS)
 
 
 def image_paths(scene: str, root: Path | str | None = None) -> list[Path]:
