@@ -293,9 +293,9 @@ def preference_accuracy(policy, participant: Participant, n: int = 400, seed: in
 
 def accuracy_by_preference(policy, participant: Participant, states: np.ndarray) -> pd.DataFrame:
     """Fig. 4's accuracy broken down by described preference: which preferences a policy has
-    learnt. One row per preference: preference (1-based), label, action, states (the test
-    states it covers), correct (of those, where the policy's Eq. 4 action is the preferred one),
-    accuracy. Evaluation only."""
+    learnt. One row per preference: preference (1-based), label, activity, action, states (the
+    test states it covers), correct (of those, where the policy's Eq. 4 action is the preferred
+    one), accuracy. Evaluation only."""
     chosen = policy.greedy(states)
     rows = []
     for k, pref in enumerate(participant.preferences, start=1):
@@ -305,7 +305,8 @@ def accuracy_by_preference(policy, participant: Participant, states: np.ndarray)
             covered &= np.isin(states[:, col], allowed)
         correct = int((chosen[covered] == pref.action_index).sum())
         n = int(covered.sum())
-        rows.append({"preference": k, "label": pref.label(), "action": pref.action, "states": n,
+        rows.append({"preference": k, "label": pref.label(), "activity": "/".join(pref.activity),
+                     "action": pref.action, "states": n,
                      "correct": correct, "accuracy": correct / n if n else float("nan")})
     return pd.DataFrame(rows)
 

@@ -9,7 +9,9 @@ nothing (a user-initiated, type_2 interaction).
 Day 1 uses the initial policy (CACAA step 1). After each day every method adapts from the same
 interactions (as in the paper's Fig. 4: the interactions come from the closed loop of the first
 method, CACAS by default), so the policy in force on day d has seen days 1..d-1. ``daily`` holds
-the closed-loop method's success rate (Fig. 3) and every method's preference accuracy (Fig. 4).
+the closed-loop method's success rate (Fig. 3) and every method's preference accuracy (Fig. 4);
+``by_preference`` the same accuracy broken down by described preference (which preferences each
+method learnt, and when).
 """
 
 from __future__ import annotations
@@ -24,8 +26,8 @@ import numpy as np
 import pandas as pd
 
 from cacas import records, spaces
-from cacas.adaptation import CACAAConfig, METHODS, adapt_policy, evaluation_states, load_initial_policy, \
-    preference_accuracy
+from cacas.adaptation import CACAAConfig, METHODS, accuracy_by_preference, adapt_policy, evaluation_states, \
+    load_initial_policy, preference_accuracy
 from cacas.d4a import D4A, load_d4a
 from cacas.errors import CacasError
 from cacas.policy import policy_from_bytes
@@ -38,8 +40,9 @@ Progress = Callable[[float, str], None]
 
 @dataclass
 class StudyResult:
-    daily: pd.DataFrame         # records.DAILY_COLUMNS
-    interactions: pd.DataFrame  # records.INTERACTION_COLUMNS
+    daily: pd.DataFrame          # records.DAILY_COLUMNS
+    interactions: pd.DataFrame   # records.INTERACTION_COLUMNS
+    by_preference: pd.DataFrame  # records.BY_PREFERENCE_COLUMNS
 
 
 def check_study_arguments(days: int, interactions: int, no_response_rate: float) -> None:
@@ -131,9 +134,10 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
         results = [simulate_participant(initial, *a, report=tick) for a in args]
     else:
         results = _run_parallel(initial, args, jobs, tick)
-    inter = pd.DataFrame([r for rows, _ in results for r in rows], columns=records.INTERACTION_COLUMNS)
-    accuracy = pd.DataFrame([r for _, acc in results for r in acc])
-    return StudyResult(combine_daily(inter, accuracy, methods), inter)
+    inter = pd.DataFrame([r for rows, _, _ in results for r in rows], columns=records.INTERACTION_COLUMNS)
+    accuracy = pd.DataFrame([r for _, acc, _ in results for r in acc])
+    by_preference = pd.concat([b for _, _, b in results], ignore_index=True)
+    return StudyResult(combine_daily(inter, accuracy, methods), inter, by_preference)
 
 
 def default_jobs() -> int:
@@ -170,12 +174,15 @@ def policies_in_force(initial, person: Participant, p_i: int, days: int, interac
 def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,
                          methods: tuple[str, ...], seed: int, no_response_rate: float,
                          config: CACAAConfig | None, d4a: D4A, eval_states: int,
-                         report: Callable[[str], None] | None = None) -> tuple[list[dict], list[dict]]:
-    """One participant's simulated study: (interaction rows, preference-accuracy rows). Its
-    random streams depend on (seed, participant index) only, so the result is the same whether
-    participants run one after another or in parallel."""
+                         report: Callable[[str], None] | None = None
+                         ) -> tuple[list[dict], list[dict], pd.DataFrame]:
+    """One participant's simulated study: (interaction rows, preference-accuracy rows, the
+    accuracy by preference: records.BY_PREFERENCE_COLUMNS). Its random streams depend on (seed,
+    participant index) only, so the result is the same whether participants run one after
+    another or in parallel."""
     test_states = participant_test_states(person, p_i, seed, eval_states)
     acc_rows: list[dict] = []
+    by_preference: list[pd.DataFrame] = []
     rows: list[dict] = []
     for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
                                                  no_response_rate, config, d4a):
@@ -184,12 +191,14 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
         for m in methods:
             acc_rows.append({"participant": person.id, "method": m, "day": day,
                              "preference_accuracy": preference_accuracy(in_force[m], person, states=test_states)})
+            by_preference.append(accuracy_by_preference(in_force[m], person, test_states)
+                                 .assign(participant=person.id, method=m, day=day))
     if report:
         report(f"participant {person.id}, day {days}/{days}")
-    return rows, acc_rows
+    return rows, acc_rows, pd.concat(by_preference, ignore_index=True)[records.BY_PREFERENCE_COLUMNS]
 
 
-def _worker(initial_bytes: bytes, args: tuple, queue) -> tuple[list[dict], list[dict]]:
+def _worker(initial_bytes: bytes, args: tuple, queue) -> tuple[list[dict], list[dict], pd.DataFrame]:
     import torch
 
     torch.set_num_threads(1)

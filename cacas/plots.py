@@ -80,3 +80,53 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
     fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
     return fig
+
+
+def preference_rows(by_preference: pd.DataFrame) -> pd.Series:
+    """The heatmaps' row label of each by_preference row: participant, preference number,
+    activities -> action (activities shortened to fit)."""
+    act = by_preference["activity"].astype(str)
+    act = act.where(act.str.len() <= 28, act.str.slice(0, 27) + "…")
+    return (by_preference["participant"].astype(str) + " · " + by_preference["preference"].astype(str) + ". "
+            + act + " → " + by_preference["action"].astype(str))
+
+
+def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str) -> go.Figure:
+    rows = rows.assign(_row=preference_rows(rows))
+    order = list(dict.fromkeys(rows.sort_values(["participant", "preference"])["_row"]))
+    grid = rows.pivot_table(index="_row", columns=column, values="accuracy", aggfunc="first").reindex(
+        index=order, columns=columns)
+    info = rows.drop_duplicates("_row").set_index("_row").reindex(order)
+    hover = [[f"{info.loc[r, 'label']}<br>{x_title} {c}: " + (
+        "no test state" if pd.isna(grid.loc[r, c]) else f"{grid.loc[r, c]:.0%} of {int(info.loc[r, 'states'])} test states")
+        for c in columns] for r in order]
+    fig = go.Figure(go.Heatmap(
+        z=grid.to_numpy(dtype=float), x=[METHOD_LABELS.get(c, c) if column == "method" else c for c in columns],
+        y=order, zmin=0, zmax=1, colorscale=[[0, "#f4f1ea"], [0.5, "#9cc3d5"], [1, "#2f6f8f"]],
+        texttemplate="%{z:.0%}", hovertext=hover, hovertemplate="%{hovertext}<extra></extra>",
+        colorbar=dict(title="accuracy", tickformat=".0%"), xgap=2, ygap=2))
+    fig.update_yaxes(autorange="reversed", title_text=None, automargin=True)
+    fig.update_xaxes(title_text=x_title, type="category", side="top")
+    fig.update_layout(title=title, template="plotly_white", height=140 + 26 * len(order),
+                      margin=dict(l=20, r=20, t=100, b=20))
+    return fig
+
+
+def preference_days_figure(by_preference: pd.DataFrame, method: str = "cacas") -> go.Figure:
+    """Fig. 4 by described preference, for one method: each preference's accuracy on its test
+    states, day by day (which preferences the method learnt, and when)."""
+    rows = by_preference[by_preference["method"] == method]
+    days = sorted(int(d) for d in rows["day"].unique())
+    return _preference_heatmap(rows.assign(day=rows["day"].astype(int)), "day", days,
+                               f"Accuracy by described preference, day by day ({METHOD_LABELS.get(method, method)})",
+                               "day")
+
+
+def preference_methods_figure(by_preference: pd.DataFrame, day: int | None = None) -> go.Figure:
+    """Fig. 4 by described preference on one day (default the last): each method's accuracy on
+    each preference's test states, side by side."""
+    day = int(by_preference["day"].max()) if day is None else int(day)
+    rows = by_preference[by_preference["day"].astype(int) == day]
+    methods = list(dict.fromkeys(rows["method"]))
+    return _preference_heatmap(rows, "method", methods, f"Accuracy by described preference and method, day {day}",
+                               "method")

@@ -37,6 +37,15 @@ DAILY_COLUMNS = [
     "cumulative_feedback", "interactions", "successes", "user_initiated", "feedback",
 ]
 
+#: Columns of by_preference.csv (Fig. 4 broken down by described preference), in order:
+#: participant, method, day (the policy in force that day), preference (1-based, in the persona
+#: file's order), label (the participant's description, else "activities -> action"), activity
+#: (its activities, "/"-joined), action, states (test states it covers), correct (of those, where
+#: the policy's Eq. 4 action is the preferred one), accuracy.
+BY_PREFERENCE_COLUMNS = [
+    "participant", "method", "day", "preference", "label", "activity", "action", "states", "correct", "accuracy",
+]
+
 
 def feedback_points(interactions: pd.DataFrame) -> pd.Series:
     """User data points each interaction gives (Section V-B): a robot action answered with

@@ -1,42 +1,31 @@
-"""Which preferences each method learnt: the last day's Fig. 4 accuracy broken down by described
-preference, for the same simulated study `cacas simulate` runs (same seed, same policies).
+"""Which preferences each method learnt: a day's Fig. 4 accuracy broken down by described
+preference, from the by_preference.csv that `cacas simulate --out DIR` writes.
 
-    python3 scripts/accuracy_by_preference.py --personas study_data/personas/example_leave_me_alone.json \
-        [--methods cacas,cacas-no-pr,orl,nn] [--days 7] [--interactions 15] [--seed 0] [--jobs 2] [--out FILE.csv]
+    cacas simulate --personas study_data/personas/example_leave_me_alone.json --out results
+    python3 scripts/accuracy_by_preference.py results/by_preference.csv [--day 7]
 
-Prints, per method, the accuracy on the test states of "do nothing" preferences ("leave me
-alone"), on those of the other preferences, and on all of them (state-weighted, so "all" equals
-the last day's preference_accuracy in daily.csv); --out writes every participant's
-per-preference rows.
+Prints, per method, the mean over participants of the accuracy on the test states of "do
+nothing" preferences ("leave me alone"), on those of the other preferences, and on all of them
+(state-weighted, so "all" equals that day's preference_accuracy in daily.csv where no two
+preferences of a participant cover the same state). --day defaults to the last day.
 """
 from __future__ import annotations
 
 import argparse
-import os
-from concurrent.futures import ProcessPoolExecutor
-import multiprocessing as mp
+import sys
 
 import pandas as pd
 
+COLUMNS = ("participant", "method", "day", "action", "states", "correct")
 
-def participant_rows(p_i: int, personas: str, methods: tuple[str, ...], days: int, interactions: int,
-                     seed: int) -> pd.DataFrame:
-    import torch
 
-    torch.set_num_threads(1)
-    from cacas.adaptation import accuracy_by_preference, load_initial_policy
-    from cacas.d4a import load_d4a
-    from cacas.experiment import participant_test_states, policies_in_force
-    from cacas.preferences import load_personas
-
-    person = load_personas(personas)[p_i]
-    in_force = None
-    for _, in_force, _ in policies_in_force(load_initial_policy(), person, p_i, days, interactions, methods, seed,
-                                            0.1, None, load_d4a()):
-        pass
-    states = participant_test_states(person, p_i, seed, 400)
-    return pd.concat([accuracy_by_preference(in_force[m], person, states).assign(participant=person.id, method=m)
-                      for m in methods], ignore_index=True)
+def load(path: str) -> pd.DataFrame:
+    """A by_preference.csv, checked for the columns this script needs."""
+    rows = pd.read_csv(path)
+    missing = [c for c in COLUMNS if c not in rows.columns]
+    if missing:
+        raise ValueError(f"{path}: not a by_preference.csv; missing columns: {', '.join(missing)}")
+    return rows
 
 
 def summary(rows: pd.DataFrame) -> pd.DataFrame:
@@ -49,39 +38,35 @@ def summary(rows: pd.DataFrame) -> pd.DataFrame:
     return acc.groupby("method").mean().reindex(list(dict.fromkeys(rows["method"])))
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--personas", required=True)
-    ap.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn")
-    ap.add_argument("--days", type=int, default=7)
-    ap.add_argument("--interactions", type=int, default=15)
-    ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--jobs", type=int, default=os.cpu_count() or 1)
-    ap.add_argument("--out", default=None)
-    args = ap.parse_args()
-    from cacas.cli.progress import ProgressBar
-    from cacas.experiment import check_methods
-    from cacas.preferences import load_personas
-
-    methods = check_methods(args.methods.split(","))
-    n = len(load_personas(args.personas))
-    jobs = [(i, args.personas, methods, args.days, args.interactions, args.seed) for i in range(n)]
-    frames = []
-    with ProgressBar("participants") as bar, \
-            ProcessPoolExecutor(max(1, min(args.jobs, n)), mp_context=mp.get_context("spawn")) as pool:
-        for k, frame in enumerate(pool.map(participant_rows, *zip(*jobs)), start=1):
-            frames.append(frame)
-            bar(k / n, f"{k}/{n} participants")
-    rows = pd.concat(frames, ignore_index=True)
-    if args.out:
-        rows.to_csv(args.out, index=False)
-    table = summary(rows)
-    print(f"day {args.days}, seed {args.seed}: mean over {n} participants of the accuracy on each group's test states")
-    print("| method | " + " | ".join(table.columns) + " |")
-    print("|---|" + "---|" * len(table.columns))
+def markdown(table: pd.DataFrame) -> str:
+    lines = ["| method | " + " | ".join(table.columns) + " |", "|---|" + "---|" * len(table.columns)]
     for method, r in table.iterrows():
-        print(f"| {method} | " + " | ".join("-" if pd.isna(v) else f"{v:.3f}" for v in r) + " |")
+        lines.append(f"| {method} | " + " | ".join("-" if pd.isna(v) else f"{v:.3f}" for v in r) + " |")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("by_preference", help="by_preference.csv written by cacas simulate --out DIR")
+    ap.add_argument("--day", type=int, default=None, help="study day (default: the last)")
+    args = ap.parse_args(argv)
+    try:
+        rows = load(args.by_preference)
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        print(f"accuracy_by_preference: {exc}", file=sys.stderr)
+        return 2
+    days = sorted(rows["day"].unique())
+    day = days[-1] if args.day is None else args.day
+    if day not in days:
+        print(f"accuracy_by_preference: --day {day} is not in {args.by_preference}; valid: "
+              f"{', '.join(str(d) for d in days)}", file=sys.stderr)
+        return 2
+    rows = rows[rows["day"] == day]
+    print(f"day {day}: mean over {rows['participant'].nunique()} participants of the accuracy on each group's "
+          "test states")
+    print(markdown(summary(rows)))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

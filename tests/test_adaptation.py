@@ -106,8 +106,9 @@ def test_accuracy_by_preference_says_which_preference_was_learnt():
     states = evaluation_states(PERSON, 300, seed=1)
     timer = spaces.action_index("set a timer")
     table = accuracy_by_preference(Oracle(wrong=timer), PERSON, states)
-    assert list(table.columns) == ["preference", "label", "action", "states", "correct", "accuracy"]
+    assert list(table.columns) == ["preference", "label", "activity", "action", "states", "correct", "accuracy"]
     assert table["states"].sum() == len(states)  # every test state belongs to one preference
+    assert list(table["activity"]) == ["/".join(p.activity) for p in PERSON.preferences]
     right = table[table["action"] == "set a timer"].iloc[0]
     wrong = table[table["action"] != "set a timer"].iloc[0]
     assert right["accuracy"] == 1.0 and right["correct"] == right["states"] > 0

@@ -71,6 +71,10 @@ def test_same_seed_writes_the_same_daily_csv_byte_for_byte(tmp_path, capsys):
     a, b = (tmp_path / "a" / "daily.csv").read_bytes(), (tmp_path / "b" / "daily.csv").read_bytes()
     assert a == b and a.startswith(b"participant,method,day,success_rate,preference_accuracy,cumulative_feedback,"
                                    b"interactions")
-    assert (tmp_path / "a" / "interactions.csv").read_bytes() == (tmp_path / "b" / "interactions.csv").read_bytes()
+    for name in ("interactions.csv", "by_preference.csv"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+    assert (tmp_path / "a" / "by_preference.csv").read_text().startswith(
+        "participant,method,day,preference,label,activity,action,states,correct,accuracy\n")
     assert (tmp_path / "plots" / "fig3_success.html").stat().st_size > 1000
     assert (tmp_path / "plots" / "fig4_methods.html").exists()
+    assert "Accuracy by described preference" in (tmp_path / "plots" / "fig4_by_preference.html").read_text()

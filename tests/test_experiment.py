@@ -67,6 +67,16 @@ def test_study_tables_follow_the_contract(small_config, small_initial):
     assert (day1 == 1).all()
     table = summary_table(d)
     assert set(table["method"]) == {"cacas", "nn"}
+    # Fig. 4 by described preference: every participant, method, day and preference; the
+    # state-weighted accuracy is daily.csv's (these preferences do not overlap)
+    b = res.by_preference
+    assert list(b.columns) == records.BY_PREFERENCE_COLUMNS and len(b) == (2 + 1) * 2 * 2
+    assert list(b.loc[(b.participant == "P01") & (b.method == "nn") & (b.day == 1), "action"]) == \
+        ["set a timer", "pain check"]
+    weighted = b.groupby(["participant", "method", "day"])[["correct", "states"]].sum()
+    merged = d.set_index(["participant", "method", "day"])["preference_accuracy"]
+    assert (weighted["correct"] / weighted["states"]).to_dict() == pytest.approx(merged.to_dict())
+    assert (b["accuracy"] == b["correct"] / b["states"]).all()
 
 
 def test_same_seed_same_tables(small_config, small_initial):
@@ -93,4 +103,5 @@ def test_parallel_workers_give_the_same_tables(small_config, small_initial):
     two = simulate_study(PEOPLE, jobs=2, progress=lambda f, m: ticks.append(f), **kw)
     pd.testing.assert_frame_equal(one.daily, two.daily)
     pd.testing.assert_frame_equal(one.interactions, two.interactions)
+    pd.testing.assert_frame_equal(one.by_preference, two.by_preference)
     assert len(ticks) == 4 and ticks[-1] == 1.0  # participant-days, reported from the workers

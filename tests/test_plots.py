@@ -1,7 +1,8 @@
 import numpy as np
 import pandas as pd
 
-from cacas.plots import accuracy_by_day, methods_figure, success_by_day, success_figure
+from cacas.plots import accuracy_by_day, methods_figure, preference_days_figure, preference_methods_figure, \
+    preference_rows, success_by_day, success_figure
 
 
 def daily():
@@ -33,3 +34,37 @@ def test_fig4_one_line_per_method():
     fig = methods_figure(daily())
     assert [t.name for t in fig.data] == ["CACAS", "NN"]
     assert np.allclose(fig.data[1].y, [0.3, 0.3, 0.3])
+
+
+def by_preference():
+    rows = []
+    for method, learnt in (("cacas", 0.9), ("nn", 0.0)):
+        for day in (1, 2):
+            rows.append({"participant": "P02", "method": method, "day": day, "preference": 1,
+                         "label": "TV: leave me alone", "activity": "watch TV", "action": "do nothing",
+                         "states": 40, "correct": 0, "accuracy": learnt * (day - 1)})
+            rows.append({"participant": "P01", "method": method, "day": day, "preference": 2,
+                         "label": "Many sounds", "activity": "cough/sneeze/sniff/clear throat/yawn/burp",
+                         "action": "show compassion", "states": 0, "correct": 0, "accuracy": np.nan})
+            rows.append({"participant": "P01", "method": method, "day": day, "preference": 1,
+                         "label": "Stove: timer", "activity": "use stove", "action": "set a timer",
+                         "states": 20, "correct": 10, "accuracy": 0.5})
+    return pd.DataFrame(rows)
+
+
+def test_preference_rows_name_participant_preference_and_shorten_long_activity_lists():
+    labels = preference_rows(by_preference().head(3))
+    assert labels.iloc[0] == "P02 · 1. watch TV → do nothing"
+    assert labels.iloc[1] == "P01 · 2. cough/sneeze/sniff/clear th… → show compassion"
+
+
+def test_accuracy_by_preference_heatmaps():
+    days = preference_days_figure(by_preference(), "nn")
+    heat = days.data[0]
+    assert list(heat.x) == [1, 2] and heat.y[0].startswith("P01 · 1.") and heat.y[2].startswith("P02 · 1.")
+    assert np.allclose(heat.z[0], [0.5, 0.5]) and np.isnan(heat.z[1]).all() and np.allclose(heat.z[2], [0, 0])
+    assert "no test state" in heat.hovertext[1][0] and "50% of 20 test states" in heat.hovertext[0][0]
+    methods = preference_methods_figure(by_preference())  # the last day by default
+    heat = methods.data[0]
+    assert list(heat.x) == ["CACAS", "NN"] and "day 2" in methods.layout.title.text
+    assert np.allclose(heat.z[2], [0.9, 0.0])

@@ -1,13 +1,12 @@
-"""scripts/accuracy_by_preference.py: the last day's accuracy per described preference, for the
-same study `cacas simulate` runs."""
+"""scripts/accuracy_by_preference.py: a day's accuracy per described preference, from the
+by_preference.csv of a simulated study."""
 
 import importlib.util
-import json
 
 import pandas as pd
 import pytest
-import torch
 
+from cacas import records
 from cacas.experiment import simulate_study
 from cacas.paths import PROJECT_ROOT
 from cacas.preferences import parse_personas
@@ -26,19 +25,18 @@ def script():
     return module
 
 
-def test_rows_add_up_to_the_studys_preference_accuracy(script, tmp_path):
-    path = tmp_path / "personas.json"
-    path.write_text(json.dumps(PERSONAS))
-    threads = torch.get_num_threads()
-    try:
-        rows = script.participant_rows(0, str(path), ("nn",), 2, 6, 0)
-    finally:
-        torch.set_num_threads(threads)
-    daily = simulate_study(parse_personas(PERSONAS), days=2, interactions=6, methods=["nn"], seed=0).daily
-    day2 = daily[daily["day"] == 2]["preference_accuracy"].iloc[0]
-    assert list(rows["action"]) == ["set a timer", "do nothing"]
-    assert rows["correct"].sum() / rows["states"].sum() == pytest.approx(day2)
-    assert rows.loc[rows["action"] == "do nothing", "correct"].item() == 0  # NN never learns to stay quiet
+def test_all_equals_the_studys_preference_accuracy(script, tmp_path, capsys, small_config, small_initial):
+    res = simulate_study(parse_personas(PERSONAS), days=2, interactions=6, methods=["cacas", "nn"], seed=0,
+                         config=small_config, initial_policy=small_initial)
+    path = tmp_path / "by_preference.csv"
+    records.write_csv(res.by_preference, path)
+    table = script.summary(script.load(str(path)).query("day == 2"))
+    daily = res.daily[res.daily["day"] == 2].set_index("method")["preference_accuracy"]
+    assert table["all"].to_dict() == pytest.approx(daily.to_dict())
+    assert table.loc["nn", "do nothing"] == 0  # NN never learns to stay quiet
+    assert script.main([str(path)]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("day 2: mean over 1 participants") and "| nn | 0.000 |" in out
 
 
 def test_summary_weights_each_participants_states(script):
@@ -50,3 +48,16 @@ def test_summary_weights_each_participants_states(script):
     assert table.loc["cacas", "do nothing"] == 0.5  # only A has one
     assert table.loc["cacas", "other actions"] == pytest.approx((1.0 + 0.5) / 2)
     assert table.loc["cacas", "all"] == pytest.approx((35 / 40 + 0.5) / 2)
+
+
+def test_bad_file_and_day(script, tmp_path, capsys):
+    daily = tmp_path / "daily.csv"
+    daily.write_text("participant,method,day,success_rate\nP01,cacas,1,0.5\n")
+    assert script.main([str(daily)]) == 2
+    assert "not a by_preference.csv; missing columns: action, states, correct" in capsys.readouterr().err
+    good = tmp_path / "by_preference.csv"
+    pd.DataFrame([{"participant": "A", "method": "nn", "day": 1, "action": "chitchat", "states": 3,
+                   "correct": 1}]).to_csv(good, index=False)
+    assert script.main([str(good), "--day", "7"]) == 2
+    err = capsys.readouterr().err
+    assert "--day 7 is not in" in err and err.strip().endswith("valid: 1")

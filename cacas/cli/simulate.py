@@ -3,8 +3,10 @@
     cacas simulate --personas FILE [--days 7] [--interactions 15]
                    [--methods cacas,cacas-no-pr,orl,nn] [--seed 0] --out DIR [--plot DIR]
 
-Writes DIR/daily.csv and DIR/interactions.csv, prints the per-method, per-day table of means,
-and with --plot writes Fig. 3 and Fig. 4 as Plotly HTML.
+Writes DIR/daily.csv, DIR/interactions.csv and DIR/by_preference.csv (Fig. 4's accuracy per
+described preference: which preferences each method learnt, day by day), prints the
+per-method, per-day table of means, and with --plot writes Fig. 3, Fig. 4 and the accuracy by
+preference as Plotly HTML.
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ def register(sub) -> None:
     p.add_argument("--no-response-rate", type=float, default=0.1,
                    help="share of robot actions the simulated participant does not answer (default 0.1)")
     p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
-    p.add_argument("--out", required=True, metavar="DIR", help="folder for daily.csv and interactions.csv")
+    p.add_argument("--out", required=True, metavar="DIR",
+                   help="folder for daily.csv, interactions.csv and by_preference.csv")
     p.add_argument("--plot", metavar="DIR", help="also write Fig. 3 and Fig. 4 as Plotly HTML here")
     p.add_argument("--jobs", type=int, default=None,
                    help="worker processes (default: one per core; results do not depend on it)")
@@ -64,20 +67,25 @@ def run(args) -> int:
                             seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
                             jobs=args.jobs or default_jobs())
     out.mkdir(parents=True, exist_ok=True)
-    for name, df in (("daily.csv", result.daily), ("interactions.csv", result.interactions)):
+    written = {"daily.csv": result.daily, "interactions.csv": result.interactions,
+               "by_preference.csv": result.by_preference}
+    for name, df in written.items():
         tmp = out / f".{name}.tmp"
         records.write_csv(df, tmp)
         tmp.replace(out / name)
     table = summary_table(result.daily)
     with pd.option_context("display.width", 120, "display.max_rows", 200):
         print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
-    print(f"wrote {out / 'daily.csv'} and {out / 'interactions.csv'}")
+    print("wrote " + ", ".join(str(out / name) for name in written))
     if args.plot:
-        from cacas.plots import methods_figure, success_figure
+        from cacas.plots import methods_figure, preference_methods_figure, success_figure
 
         plot_dir = Path(args.plot)
         plot_dir.mkdir(parents=True, exist_ok=True)
-        success_figure(result.daily, methods[0]).write_html(plot_dir / "fig3_success.html", include_plotlyjs="directory")
-        methods_figure(result.daily).write_html(plot_dir / "fig4_methods.html", include_plotlyjs="directory")
-        print(f"wrote {plot_dir / 'fig3_success.html'} and {plot_dir / 'fig4_methods.html'}")
+        figures = {"fig3_success.html": success_figure(result.daily, methods[0]),
+                   "fig4_methods.html": methods_figure(result.daily),
+                   "fig4_by_preference.html": preference_methods_figure(result.by_preference)}
+        for name, fig in figures.items():
+            fig.write_html(plot_dir / name, include_plotlyjs="directory")
+        print("wrote " + ", ".join(str(plot_dir / name) for name in figures))
     return 0
