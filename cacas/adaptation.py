@@ -311,6 +311,17 @@ def accuracy_by_preference(policy, participant: Participant, states: np.ndarray)
     return pd.DataFrame(rows)
 
 
+def fig4_metrics(policy, participant: Participant, seed: int = 0, n: int = 400) -> dict:
+    """Fig. 4's metrics of a policy as an adaptation run records them (JSON-able): on the
+    ``n`` test states of :func:`evaluation_states`, ``preference_accuracy`` and ``by_preference``,
+    one entry per described preference (preference, label, activity, action, states, correct; see
+    :func:`accuracy_by_preference`). Evaluation only."""
+    states = evaluation_states(participant, n, seed)
+    table = accuracy_by_preference(policy, participant, states).drop(columns="accuracy")
+    return {"preference_accuracy": preference_accuracy(policy, participant, states=states),
+            "by_preference": table.to_dict("records")}
+
+
 def preferences_learnt(before, after, participant: Participant, n: int = 400, seed: int = 0) -> pd.DataFrame:
     """Each described preference, how often two policies choose its action on the same Fig. 4
     test states: preference, label, action, states, before, after (accuracies). Evaluation only."""

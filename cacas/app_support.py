@@ -276,9 +276,11 @@ def runs_dir(db_path) -> Path:
     return Path(db_path).parent / "runs"
 
 
-def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, settings: dict) -> Path:
-    """Write a simulated run as ``cacas simulate`` does (daily.csv, interactions.csv) plus
-    settings.json, into ``root/name`` (written to a temporary folder, then renamed into place)."""
+def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, settings: dict,
+             by_preference: pd.DataFrame | None = None) -> Path:
+    """Write a simulated run as ``cacas simulate`` does (daily.csv, interactions.csv and, when
+    given, by_preference.csv) plus settings.json, into ``root/name`` (written to a temporary
+    folder, then renamed into place)."""
     root = Path(root)
     root.mkdir(parents=True, exist_ok=True)
     final = root / name
@@ -287,6 +289,8 @@ def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, s
     tmp.mkdir()
     records.write_csv(daily, tmp / "daily.csv")
     records.write_csv(interactions, tmp / "interactions.csv")
+    if by_preference is not None:
+        records.write_csv(by_preference, tmp / "by_preference.csv")
     (tmp / "settings.json").write_text(json.dumps(settings, indent=2, default=str), encoding="utf-8")
     if final.exists():
         shutil.rmtree(final)
@@ -313,6 +317,13 @@ def load_daily(path) -> pd.DataFrame:
     return df
 
 
+def load_by_preference(folder) -> pd.DataFrame | None:
+    """A run's by_preference.csv (Fig. 4 by described preference), or None for a run saved
+    before the Simulation lab wrote it."""
+    path = Path(folder) / "by_preference.csv"
+    return pd.read_csv(path) if path.exists() else None
+
+
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
                    seed: int = 0, no_response_rate: float = 0.1, progress=None) -> Path:
     """A simulated study (:func:`cacas.experiment.simulate_study`) saved as a run under
@@ -329,4 +340,4 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
     name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,
                 "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate}
-    return save_run(out_root, name, result.daily, result.interactions, settings)
+    return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)

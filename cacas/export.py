@@ -7,6 +7,8 @@ The tables (long format; issue 4, item 4):
 * ``daily.csv``: :func:`cacas.records.daily_table`, the columns of ``cacas simulate``'s
   ``daily.csv`` (Fig. 3 success rate and cumulative feedback; Fig. 4 preference accuracy, see
   :func:`accuracy_frame`), so one set of plots serves human and simulated studies;
+* ``by_preference.csv``: :func:`by_preference_frame`, Fig. 4 by described preference (the
+  columns ``cacas simulate`` writes);
 * ``participants.csv``, ``questionnaire.csv``, ``adaptations.csv``;
 * and, so that a study can move between machines, ``studies.csv``, ``preferences.csv``,
   ``days.csv``, ``policies.csv`` (+ the checkpoint files under ``policies/`` in the zip) and
@@ -21,6 +23,7 @@ fixed timestamps, so the same database gives the same bytes.
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
 import zipfile
@@ -30,14 +33,14 @@ from pathlib import Path
 import pandas as pd
 
 from cacas.errors import CacasError
-from cacas.records import INTERACTION_COLUMNS, daily_table, write_csv
+from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, daily_table, write_csv
 from cacas.store import StudyStore, files
 from cacas.store.restore import RESTORE_COLUMNS, restore
 
 #: Name of the zip of all tables inside the output folder.
 BUNDLE_NAME = "cacas-study.zip"
 #: The tables of a bundle, in the order they are written.
-TABLES = ("interactions", "daily", "participants", "questionnaire", "adaptations", "preferences", "days",
+TABLES = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences", "days",
           "policies", "studies", "events")
 _POLICY_PATH = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}/day\d+-[a-z0-9][a-z0-9_.-]*-[0-9a-f]{8}\.pt$")
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
@@ -51,38 +54,70 @@ class ExportResult:
     bundle: Path
 
 
-def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
-    """participant, method, day, preference_accuracy: Fig. 4's metric of the policy in force.
+def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
+    """participant, method, day, run: for every day a participant has, the adaptation run (its
+    position in ``adaptations``) whose policy each method had in force that day.
 
-    A run recorded for day d (adapted from days 1..d; day 0: the initial policy) gives the
-    accuracy of day d + 1 for its method. Where a day's interactions name the policy version in
-    force and a run produced that version, that run's metric is used instead (this follows a
-    roll-back). The metric is the run's ``metrics["preference_accuracy"]``, NaN if absent. Only
-    days the participant has are listed.
+    A run recorded for day d (adapted from days 1..d; day 0: the initial policy) is in force on
+    day d + 1 (the latest such run of its method). Where a day's interactions name the policy
+    version in force and a run produced that version, that run is used instead (this follows a
+    roll-back).
     """
-    cols = ["participant", "method", "day", "preference_accuracy"]
+    cols = ["participant", "method", "day", "run"]
     if not len(adaptations):
         return pd.DataFrame(columns=cols)
-    runs = adaptations.assign(day=adaptations["day"].astype(int) + 1)
-    acc = runs.drop_duplicates(["participant", "method", "day"], keep="last")[cols]
-    acc = acc.set_index(["participant", "method", "day"])["preference_accuracy"].astype(float)
-    linked = adaptations.dropna(subset=["policy_version"])
+    runs = adaptations.reset_index(drop=True)
+    keyed = pd.DataFrame({"participant": runs["participant"], "method": runs["method"],
+                          "day": runs["day"].astype(int) + 1, "run": runs.index})
+    run = keyed.drop_duplicates(["participant", "method", "day"], keep="last").set_index(
+        ["participant", "method", "day"])["run"]
+    linked = runs.dropna(subset=["policy_version"])
     if len(interactions):
         last = interactions.drop_duplicates(["participant", "method", "day"], keep="last")
         for who, method, day, version in zip(last["participant"], last["method"], last["day"],
                                              last["policy_version"]):
             if pd.isna(version):
-                hit = adaptations[(adaptations["participant"] == who) & (adaptations["method"] == method)
-                                  & (adaptations["day"] == 0)]
+                hit = runs[(runs["participant"] == who) & (runs["method"] == method) & (runs["day"] == 0)]
             else:
                 hit = linked[(linked["participant"] == who) & (linked["policy_version"] == version)]
             if len(hit):
-                acc.loc[(who, method, int(day))] = float(hit["preference_accuracy"].iloc[-1])
-    acc = acc.reset_index()
+                run.loc[(who, method, int(day))] = hit.index[-1]
+    run = run.reset_index()
     have = set(zip(days["participant"], days["day"].astype(int)))
-    keep = [(p, int(d)) in have for p, d in zip(acc["participant"], acc["day"])]
-    acc = acc[keep].astype({"day": "int64", "preference_accuracy": "float64"})
-    return acc.sort_values(["participant", "method", "day"]).reset_index(drop=True)[cols]
+    keep = [(p, int(d)) in have for p, d in zip(run["participant"], run["day"])]
+    run = run[keep].astype({"day": "int64", "run": "int64"})
+    return run.sort_values(["participant", "method", "day"]).reset_index(drop=True)[cols]
+
+
+def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
+    """participant, method, day, preference_accuracy: Fig. 4's metric of the policy in force
+    (the run of :func:`runs_in_force`): its ``metrics["preference_accuracy"]``, NaN if absent.
+    Only days the participant has are listed."""
+    cols = ["participant", "method", "day", "preference_accuracy"]
+    found = runs_in_force(interactions, adaptations, days)
+    if not len(found):
+        return pd.DataFrame(columns=cols)
+    value = adaptations["preference_accuracy"].astype(float).to_numpy()[found["run"].to_numpy()]
+    return found.assign(preference_accuracy=value)[cols]
+
+
+def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
+    """by_preference.csv of a human study (:data:`cacas.records.BY_PREFERENCE_COLUMNS`, as
+    ``cacas simulate`` writes it): Fig. 4 by described preference for the policy in force each
+    day (the run of :func:`runs_in_force`), from its ``metrics["by_preference"]``; runs recorded
+    without it (or for participants without described preferences) give no rows."""
+    found = runs_in_force(interactions, adaptations, days)
+    metrics = adaptations["metrics"].to_numpy()
+    rows = []
+    for who, method, day, run in found.itertuples(index=False):
+        m = metrics[run]
+        for pref in (json.loads(m) if isinstance(m, str) else m or {}).get("by_preference", []):
+            rows.append({"participant": who, "method": method, "day": int(day), **pref})
+    df = pd.DataFrame(rows, columns=BY_PREFERENCE_COLUMNS)
+    states = df["states"].astype(float)
+    df["accuracy"] = (df["correct"].astype(float) / states).where(states > 0)
+    return df.astype({"day": "int64", "preference": "int64", "states": "int64", "correct": "int64",
+                      "accuracy": "float64"})
 
 
 def daily_frame(store: StudyStore, study: str | None = None) -> pd.DataFrame:
@@ -92,6 +127,12 @@ def daily_frame(store: StudyStore, study: str | None = None) -> pd.DataFrame:
     interactions = store.interactions_frame(method=None, study=study, extra=True)
     accuracy = accuracy_frame(interactions, store.adaptations_frame(study=study), store.days_frame(study))
     return daily_table(interactions[INTERACTION_COLUMNS], accuracy)
+
+
+def by_preference_table(store: StudyStore, study: str | None = None) -> pd.DataFrame:
+    """by_preference.csv of the human study (:func:`by_preference_frame`)."""
+    return by_preference_frame(store.interactions_frame(method=None, study=study, extra=True),
+                               store.adaptations_frame(study=study), store.days_frame(study))
 
 
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
@@ -106,6 +147,7 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     return {
         "interactions": store.interactions_frame(method=None, study=study, extra=True),
         "daily": daily_frame(store, study),
+        "by_preference": by_preference_table(store, study),
         "participants": participants,
         "questionnaire": store.questionnaire_frame(study),
         "adaptations": store.adaptations_frame(study=study),
@@ -248,5 +290,6 @@ def same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame], names=No
     return all(_csv_bytes(a[n]) == _csv_bytes(b[n]) for n in (names or a.keys()))
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "daily_frame", "export_tables",
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "by_preference_table",
+           "daily_frame", "runs_in_force", "export_tables",
            "export_study", "read_bundle", "import_bundle", "same_tables"]

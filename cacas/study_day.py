@@ -13,7 +13,8 @@ The tablet page (the paper's "web page as a user interface to set the context") 
 After the day the researcher calls :func:`adapt_day` (in a background job): close the day, adapt
 the policy from all the participant's interactions so far (CACAS, or a baseline), store the new
 policy version and the run. The adaptation never reads the described preferences; they are read
-only afterwards, to score the new policy for Fig. 4 (``preference_accuracy``) when they exist.
+only afterwards, to score the new policy for Fig. 4 (``preference_accuracy`` and its breakdown
+by preference, :func:`cacas.adaptation.fig4_metrics`) when they exist.
 
 Conventions (as ``cacas simulate`` writes them, so one set of plots serves both):
 * the robot doing nothing and the participant not asking for anything: type_1, robot action
@@ -281,7 +282,7 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
     the participant described preferences, the new policy's preference accuracy (Fig. 4; the
     adaptation itself never reads them). Refuses a day with no interactions.
     """
-    from cacas.adaptation import adapt_policy, policy_changes, preference_accuracy
+    from cacas.adaptation import adapt_policy, fig4_metrics, policy_changes
     from cacas.store import StudyStore
 
     say = progress or (lambda f, m: None)
@@ -305,13 +306,13 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         accuracy = None
         if prefs is not None and prefs.preferences:
             say(0.94, "scoring the new policy on the described preferences (evaluation only)")
-            accuracy = float(preference_accuracy(result.policy, prefs, seed=seed))
-            metrics["preference_accuracy"] = accuracy
+            metrics.update(fig4_metrics(result.policy, prefs, seed=seed))
+            accuracy = metrics["preference_accuracy"]
             runs = store.adaptations_frame(participant)
             if before_version is None and not ((runs["day"] == 0) & (runs["method"] == method)).any():
                 # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
                 store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
-                                        {"preference_accuracy": float(preference_accuracy(before, prefs, seed=seed))})
+                                        fig4_metrics(before, prefs, seed=seed))
         version = store.save_policy(participant, day, method, result.policy.to_bytes(), activate=True)
         params = dict(result.parameters, log=result.log)
         store.record_adaptation(participant, day, method, params, float(result.duration_s), metrics, version)
@@ -330,11 +331,11 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
 
     For every participant with described preferences and every closed day d, each method adapts
     from days 1..d (its own chain, starting from the initial policy) and the result is scored
-    with ``preference_accuracy``; runs are recorded as adaptations of that method (day 0: the
-    initial policy), so the exported daily.csv has each method's accuracy. Runs already recorded
+    with ``fig4_metrics``; runs are recorded as adaptations of that method (day 0: the initial
+    policy), so the exported daily.csv and by_preference.csv have each method's. Runs already recorded
     are skipped. Returns the number of runs recorded.
     """
-    from cacas.adaptation import adapt_policy, load_initial_policy, preference_accuracy
+    from cacas.adaptation import adapt_policy, fig4_metrics, load_initial_policy
     from cacas.store import StudyStore
 
     say = progress or (lambda f, m: None)
@@ -357,7 +358,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                 policy = initial
                 if (method, 0) not in have:
                     store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
-                                            {"preference_accuracy": float(preference_accuracy(initial, person, seed=seed))})
+                                            fig4_metrics(initial, person, seed=seed))
                     recorded += 1
                 done += 1
                 for day in closed:
@@ -365,9 +366,8 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                     result = adapt_policy(policy, data[data["day"] <= day], method=method, seed=seed + day)
                     policy = result.policy
                     if (method, day) not in have:
-                        acc = float(preference_accuracy(policy, person, seed=seed))
                         store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
-                                                float(result.duration_s), {"preference_accuracy": acc})
+                                                float(result.duration_s), fig4_metrics(policy, person, seed=seed))
                         recorded += 1
                     done += 1
         say(1.0, f"{recorded} comparison runs recorded")

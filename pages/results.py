@@ -49,6 +49,9 @@ elif source.startswith("Simulated run: "):
     folder = app_support.runs_dir(db) / name
     daily = app_support.load_daily(folder / "daily.csv")
     tables = {"daily": daily, "interactions": pd.read_csv(folder / "interactions.csv")}
+    by_preference = app_support.load_by_preference(folder)
+    if by_preference is not None:
+        tables["by_preference"] = by_preference
     st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
                f"participant(s), methods {', '.join(daily['method'].unique())}.")
 else:
@@ -107,6 +110,9 @@ with fig4:
         st.plotly_chart(plots.methods_figure(daily), width="stretch")
         summary = acc.groupby(["method", "day"])["preference_accuracy"].mean().unstack("day")
         st.dataframe(summary.style.format("{:.0%}"), width="stretch")
+        if "by_preference" in tables and len(tables["by_preference"]):
+            st.subheader("Which preferences each method learnt")
+            ui.preference_heatmaps(tables["by_preference"], key="results-prefs")
 
 with quest:
     st.markdown("*\"What is your satisfaction level regarding the robot's ability to adapt to your "

@@ -123,3 +123,7 @@ if runs:
         ui.download_csv(pd.read_csv(folder / "interactions.csv"), "interactions.csv", key="sim-dl-inter")
     with d3:
         ui.download_csv(summary, "summary.csv", key="sim-dl-summary")
+    by_preference = app_support.load_by_preference(folder)
+    if by_preference is not None:
+        st.subheader("Which preferences each method learnt")
+        ui.preference_heatmaps(by_preference, key="sim-prefs")

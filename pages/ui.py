@@ -8,7 +8,7 @@ import time
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support
+from cacas import app_support, plots
 from cacas.jobs import RUNNER, Job
 from cacas.store import StudyStore, default_db_path
 
@@ -110,3 +110,23 @@ def _job_fragment(key: str) -> None:
     if not job.running:
         time.sleep(0.05)
         st.rerun(scope="app")
+
+
+def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
+    """Fig. 4 by described preference (``by_preference.csv``): every method side by side on one
+    day, or one method day by day; then the table's download."""
+    st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
+               "learnt, and when. A row that stays pale is a preference the method never learnt.")
+    methods = list(dict.fromkeys(by_preference["method"]))
+    days = sorted(int(d) for d in by_preference["day"].unique())
+    by_method, by_day = "Methods on one day", "One method, day by day"
+    view = st.segmented_control("Show", [by_method, by_day], default=by_method, key=f"{key}-view") or by_method
+    if view == by_method:
+        day = st.select_slider("Day", days, value=days[-1], key=f"{key}-day") if len(days) > 1 else days[0]
+        fig = plots.preference_methods_figure(by_preference, day)
+    else:
+        method = st.selectbox("Method", methods, key=f"{key}-method",
+                              format_func=lambda m: plots.METHOD_LABELS.get(m, m))
+        fig = plots.preference_days_figure(by_preference, method)
+    st.plotly_chart(fig, width="stretch", key=f"{key}-chart")
+    download_csv(by_preference, "by_preference.csv", key=f"{key}-dl")

@@ -77,6 +77,11 @@ def test_runs_round_trip_and_bad_daily(tmp_path):
     app_support.save_run(root, "run1", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0})
     assert app_support.list_runs(root) == ["run1"]
     assert app_support.load_daily(root / "run1" / "daily.csv").equals(daily)
+    assert app_support.load_by_preference(root / "run1") is None  # a run saved without it
+    by_pref = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "preference": [1],
+                            "accuracy": [0.25]})
+    app_support.save_run(root, "run2", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0}, by_pref)
+    assert app_support.load_by_preference(root / "run2").equals(by_pref)
     (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
     with pytest.raises(CacasError, match="not a daily.csv; missing columns: participant"):
         app_support.load_daily(tmp_path / "bad.csv")

@@ -10,11 +10,11 @@ import pytest
 
 from cacas import export, spaces
 from cacas.errors import CacasError
-from cacas.records import DAILY_COLUMNS, INTERACTION_COLUMNS, USER_INITIATED
+from cacas.records import BY_PREFERENCE_COLUMNS, DAILY_COLUMNS, INTERACTION_COLUMNS, USER_INITIATED
 from cacas.store import StudyStore
 
 COUGH = {"activity": ["cough"], "action": "pain check"}
-ROUND_TRIP = ("interactions", "daily", "participants", "questionnaire", "adaptations", "preferences", "days",
+ROUND_TRIP = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences", "days",
               "policies", "studies")
 
 
@@ -24,7 +24,9 @@ def fill(store: StudyStore) -> None:
     store.add_participant("P01", "25-34", 'notes, "quoted"')
     store.add_participant("P02", "65+", study="pilot")
     store.save_preferences("P01", [COUGH])
-    store.record_adaptation("P01", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.30})
+    store.record_adaptation("P01", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.30, "by_preference": [
+        {"preference": 1, "label": "cough -> pain check", "activity": "cough", "action": "pain check",
+         "states": 400, "correct": 120}]})
     p = np.full(14, 1 / 14)
     for who in ("P01", "P02"):
         for d in (1, 2):
@@ -40,7 +42,10 @@ def fill(store: StudyStore) -> None:
             store.close_day(who, day)
             v = store.save_policy(who, day, "cacas", f"{who} policy after day {day}".encode())
             store.record_adaptation(who, day, "cacas", {"epochs": 3}, 1.5 * day,
-                                    {"preference_accuracy": 0.5 + day / 10}, policy_version=v)
+                                    {"preference_accuracy": 0.5 + day / 10, "by_preference": [
+                                        {"preference": 1, "label": "cough -> pain check", "activity": "cough",
+                                         "action": "pain check", "states": 400, "correct": 200 + 40 * day}]},
+                                    policy_version=v)
             store.record_adaptation(who, day, "nn", {"epochs": 3}, 0.5, {"preference_accuracy": 0.1 * day})
     store.record_questionnaire("P01", 9, "it learned, mostly")
     store.record_questionnaire("P02", 7)
@@ -93,6 +98,32 @@ def test_daily_table_metrics(store):
     nn = daily.loc[("P01", "nn", 2)]
     assert math.isclose(nn["preference_accuracy"], 0.1) and pd.isna(nn["success_rate"])
     assert ("P01", "nn", 3) not in daily.index  # no day 3 yet
+
+
+def test_by_preference_table_follows_the_runs_in_force(store):
+    table = export.by_preference_frame(store.interactions_frame(method=None, extra=True), store.adaptations_frame(),
+                                       store.days_frame())
+    assert list(table.columns) == BY_PREFERENCE_COLUMNS
+    # P01's cacas: day 1 the initial policy (120/400), day 2 the policy adapted after day 1 (240/400)
+    p01 = table[(table["participant"] == "P01") & (table["method"] == "cacas")].set_index("day")
+    assert list(p01["correct"]) == [120, 240] and list(p01["accuracy"]) == [0.3, 0.6]
+    assert (table["method"] == "nn").sum() == 0  # recorded without a breakdown
+    assert list(table.loc[table["participant"] == "P02", "day"]) == [2]  # no initial run recorded for P02
+    # the same as daily.csv's accuracy where both exist
+    daily = export.daily_frame(store).set_index(["participant", "method", "day"])["preference_accuracy"]
+    for row in table.itertuples():
+        assert math.isclose(daily.loc[(row.participant, row.method, row.day)], row.accuracy)
+
+
+def test_by_preference_of_a_preference_without_test_states_is_empty_not_zero():
+    adaptations = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [0], "policy_version": [pd.NA],
+                                "preference_accuracy": [0.0], "metrics": [
+                                    '{"by_preference": [{"preference": 1, "label": "x", "activity": "cough", '
+                                    '"action": "pain check", "states": 0, "correct": 0}]}']})
+    days = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    table = export.by_preference_frame(pd.DataFrame(columns=["participant", "method", "day", "policy_version"]),
+                                       adaptations, days)
+    assert len(table) == 1 and math.isnan(table["accuracy"].iloc[0])
 
 
 def test_daily_accuracy_follows_the_policy_in_force_after_rollback(tmp_path):

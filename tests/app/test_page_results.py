@@ -52,9 +52,30 @@ def test_results_of_a_simulated_run(app, db):
     daily = pd.DataFrame({"participant": ["P01", "P01"], "method": ["cacas", "cacas"], "day": [1, 2],
                           "success_rate": [0.3, 0.6], "preference_accuracy": [0.2, 0.5],
                           "cumulative_feedback": [8, 15], "interactions": [15, 15]})
-    app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    by_pref = pd.DataFrame({"participant": ["P01"] * 2, "method": ["cacas"] * 2, "day": [1, 2], "preference": [1, 1],
+                            "label": ["Cough: pain check"] * 2, "activity": ["cough"] * 2,
+                            "action": ["pain check"] * 2, "states": [40, 40], "correct": [8, 20],
+                            "accuracy": [0.2, 0.5]})
+    app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {},
+                         by_pref)
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
     assert at.selectbox(key="results-run").value == "run-a"
     assert at.metric[0].label == "Day 2 mean success rate" and at.metric[0].value == "60%"
+    assert at.select_slider(key="results-prefs-day").value == 2  # the last day first
+    assert "Which preferences each method learnt" in texts(at)
+    assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
+
+
+def test_human_study_accuracy_by_described_preference(app, store):
+    _study_with_a_day(store)
+    store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.5, "by_preference": [
+        {"preference": 1, "label": "cough -> pain check", "activity": "cough", "action": "pain check",
+         "states": 400, "correct": 200}]})
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "Which preferences each method learnt" in texts(at)
+    heat = [c for c in at.get("plotly_chart") if "Accuracy by described preference" in c.proto.spec]
+    assert len(heat) == 1 and "P01 · 1. cough → pain check" in heat[0].proto.spec
+    assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]

@@ -25,7 +25,13 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     no_exception(at)
     assert (job.result / "daily.csv").exists()
     assert "1 participant · 2 days · 4 interactions a day · methods nn · seed 0" in texts(at)
-    assert len(at.get("plotly_chart")) == 2
+    assert len(at.get("plotly_chart")) == 3  # Fig. 3, Fig. 4 and Fig. 4 by described preference
+    assert (job.result / "by_preference.csv").exists()
+    assert "Which preferences each method learnt" in texts(at)
+    at.button_group(key="sim-prefs-view").set_value("One method, day by day").run()
+    no_exception(at)
+    assert at.selectbox(key="sim-prefs-method").value == "nn"
+    assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 
 def test_simulation_refuses_an_empty_choice(app):

@@ -1,18 +1,22 @@
 """A mini-study end to end in real headless Chromium: create a participant with preferences, run
 five interactions on the tablet (accept, reject, no response, a picked and a typed request) with a
 page reload in the middle, close the day and adapt, see day 1 on the Results page, download the
-interactions CSV. Takes a screenshot of every page into docs/screenshots/."""
+interactions CSV. Takes a screenshot of every page: into $CACAS_SCREENSHOTS when set (to
+refresh the README's pictures: CACAS_SCREENSHOTS=docs/screenshots), else into a folder under the
+system's temporary directory, so that a test run does not rewrite files under version control."""
 
 from __future__ import annotations
 
 import csv
 import io
+import os
 import re
+import tempfile
 from pathlib import Path
 
 import pytest
 
-SCREENSHOTS = Path(__file__).resolve().parents[2] / "docs" / "screenshots"
+SCREENSHOTS = Path(os.environ.get("CACAS_SCREENSHOTS") or Path(tempfile.gettempdir()) / "cacas-screenshots")
 
 pytestmark = pytest.mark.browser
 
@@ -196,6 +200,7 @@ def test_mini_study(server, page, tmp_path):
     shot(page, "results")
     page.get_by_role("tab", name="Tables").click()
     page.locator("[data-testid='stExpander']", has_text="interactions.csv").first.click()
+    idle(page)  # the expander opens (and the page settles) before its button is clicked
     with page.expect_download() as dl:
         button(page, "Download interactions.csv").click()
     path = tmp_path / "interactions.csv"
