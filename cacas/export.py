@@ -40,8 +40,8 @@ from cacas.store.restore import RESTORE_COLUMNS, restore
 #: Name of the zip of all tables inside the output folder.
 BUNDLE_NAME = "cacas-study.zip"
 #: The tables of a bundle, in the order they are written.
-TABLES = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences", "days",
-          "policies", "studies", "events")
+TABLES = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences",
+          "days", "policies", "studies", "events")
 _POLICY_PATH = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}/day\d+-[a-z0-9][a-z0-9_.-]*-[0-9a-f]{8}\.pt$")
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
@@ -144,15 +144,17 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     studies = pd.DataFrame([s.__dict__ for s in store.studies()], columns=["name", "description", "created_at"])
     if study is not None:
         studies = studies[studies["name"] == study]
+    interactions = store.interactions_frame(method=None, study=study, extra=True)
+    adaptations, days = store.adaptations_frame(study=study), store.days_frame(study)
     return {
-        "interactions": store.interactions_frame(method=None, study=study, extra=True),
-        "daily": daily_frame(store, study),
-        "by_preference": by_preference_table(store, study),
+        "interactions": interactions,
+        "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days)),
+        "by_preference": by_preference_frame(interactions, adaptations, days),
         "participants": participants,
         "questionnaire": store.questionnaire_frame(study),
-        "adaptations": store.adaptations_frame(study=study),
+        "adaptations": adaptations,
         "preferences": store.preferences_frame(study),
-        "days": store.days_frame(study),
+        "days": days,
         "policies": store.policies_frame(study),
         "studies": studies.reset_index(drop=True),
         "events": events.drop(columns=["id"]).reset_index(drop=True),
@@ -291,5 +293,5 @@ def same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame], names=No
 
 
 __all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "by_preference_table",
-           "daily_frame", "runs_in_force", "export_tables",
-           "export_study", "read_bundle", "import_bundle", "same_tables"]
+           "daily_frame", "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle",
+           "same_tables"]
