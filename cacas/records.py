@@ -22,10 +22,11 @@ USER_INITIATED = "type_2"
 #: participant (code), method, day (1..), index (0.. within the day), time (simulated: "HH:MM",
 #: the simulated time of day; human studies: the UTC timestamp of the recording, as the context's
 #: time of day is the one set on the tablet, in time_slot), activity, scene (names), time_slot
-#: (S3 index 0-11), interval (S4 bin value in minutes: 0, 1, 2, 5 ... 200), task (S5 name), previous_action / previous_response (S6 / S7 of the policy state:
-#: names), type (type_1 robot-initiated, type_2 user-initiated), robot_action (name), response
-#: (accept / reject / others; "others" = no response), user_action (the action the participant
-#: asked for in a type_2 interaction, else empty).
+#: (S3 index 0-11), interval (S4 bin value in minutes: 0, 1, 2, 5 ... 200), task (S5 name),
+#: previous_action / previous_response (S6 / S7 of the policy state: names), type (type_1
+#: robot-initiated, type_2 user-initiated), robot_action (name), response (accept / reject /
+#: others; "others" = no response), user_action (the action the participant asked for in a
+#: type_2 interaction, else empty).
 INTERACTION_COLUMNS = [
     "participant", "method", "day", "index", "time", "activity", "scene", "time_slot",
     "interval", "task", "previous_action", "previous_response", "type", "robot_action",
