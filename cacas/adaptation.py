@@ -162,7 +162,9 @@ def load_initial_policy(progress: Progress | None = None, path: str | Path | Non
 
 def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
     """The recorded data points as SAC transitions (s, a, r, s'): a robot action answered with
-    accept / reject; for a user-initiated one the request (+1) and "do nothing" (-1). s' is the
+    accept / reject; for a user-initiated one the request (+1) and the robot's own action (-1):
+    "do nothing" when it stayed quiet (Section V-B), the proposal the participant answered with
+    a request instead otherwise. s' is the
     next interaction's state of the day (or s itself at the end of a day). Returns
     (s, a, r, s', day) arrays."""
     empty = (np.zeros((0, spaces.STATE_DIM), np.float32), np.zeros(0, np.int64), np.zeros(0, np.float32),
@@ -177,7 +179,7 @@ def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
     s, a, r, s2, days = [], [], [], [], []
     for i, row in df.iterrows():
         if row["type"] == records.USER_INITIATED:
-            pairs = [(spaces.action_index(row["user_action"]), 1.0), (spaces.DO_NOTHING_ACTION, -1.0)]
+            pairs = [(spaces.action_index(row["user_action"]), 1.0), (spaces.action_index(row["robot_action"]), -1.0)]
         elif row["robot_action"] != "do nothing" and row["response"] in ("accept", "reject"):
             pairs = [(spaces.action_index(row["robot_action"]), spaces.REWARDS[row["response"]])]
         else:

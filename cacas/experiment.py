@@ -4,7 +4,10 @@ Simulated participants follow their described preferences: each day they act in 
 ``interactions`` contexts their preferences cover, in time order; the robot acts with the policy
 in force (Eq. 4); the participant accepts the preferred action, rejects another one, sometimes
 does not respond (``no_response_rate``), and asks for the preferred action when the robot does
-nothing (a user-initiated, type_2 interaction).
+nothing (a user-initiated, type_2 interaction). Optionally (``ask_after_reject``, default 0:
+design.md's participant) they answer a share of the wrong proposals by asking for the preferred
+action instead, as the tablet's "Or ask the robot yourself" lets people do: a type_2
+interaction that rejects the robot's proposal.
 
 Day 1 uses the initial policy (CACAA step 1). After each day every method adapts from the same
 interactions (as in the paper's Fig. 4: the interactions come from the closed loop of the first
@@ -45,7 +48,8 @@ class StudyResult:
     by_preference: pd.DataFrame  # records.BY_PREFERENCE_COLUMNS
 
 
-def check_study_arguments(days: int, interactions: int, no_response_rate: float) -> None:
+def check_study_arguments(days: int, interactions: int, no_response_rate: float,
+                          ask_after_reject: float = 0.0) -> None:
     """A study's sizes, checked before any work (the messages name the command-line options)."""
     if days < 1:
         raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
@@ -53,6 +57,8 @@ def check_study_arguments(days: int, interactions: int, no_response_rate: float)
         raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number >= 1")
     if not 0 <= no_response_rate < 1:
         raise CacasError(f"--no-response-rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
+    if not 0 <= ask_after_reject <= 1:
+        raise CacasError(f"--ask-after-reject {ask_after_reject} is invalid; valid: 0 <= rate <= 1")
 
 
 def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
@@ -65,8 +71,12 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
 
 
 def simulated_day(policy, participant: Participant, day: int, n_interactions: int,
-                  rng: np.random.Generator, no_response_rate: float, method: str) -> list[dict]:
-    """One simulated study day of ``participant`` with the robot acting by ``policy``."""
+                  rng: np.random.Generator, no_response_rate: float, method: str,
+                  ask_after_reject: float = 0.0) -> list[dict]:
+    """One simulated study day of ``participant`` with the robot acting by ``policy``. With
+    ``ask_after_reject`` > 0, that share of the proposals the participant would reject become
+    requests for the preferred action instead (never for "do nothing", which is not a request);
+    at 0 the random stream is the same as without the option."""
     n = max(1, int(rng.poisson(n_interactions)))
     ctx = preference_states(participant, n, rng)
     minute = ctx[:, 2] * 120 + rng.integers(0, 120, n)
@@ -92,6 +102,9 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
         else:
             tp = records.ROBOT_INITIATED
             response = "others" if silent else "accept" if robot == preferred else "reject"
+            if response == "reject" and ask_after_reject > 0 and preferred not in (-1, spaces.DO_NOTHING_ACTION) \
+                    and rng.random() < ask_after_reject:
+                tp, response, user_action = records.USER_INITIATED, "accept", spaces.ACTIONS[preferred]
         rows.append({
             "participant": participant.id, "method": method, "day": day, "index": i,
             "time": f"{minute[i] // 60:02d}:{minute[i] % 60:02d}", "activity": spaces.ACTIVITIES[act],
@@ -111,17 +124,17 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
                    methods: Sequence[str] = PAPER_METHODS, seed: int = 0, no_response_rate: float = 0.1,
                    progress: Progress | None = None, config: CACAAConfig | None = None,
                    d4a: D4A | None = None, initial_policy=None, eval_states: int = 400,
-                   jobs: int | None = None) -> StudyResult:
+                   jobs: int | None = None, ask_after_reject: float = 0.0) -> StudyResult:
     """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
     number of worker processes (default 1; more need the caller's script to guard its entry
     point with ``if __name__ == "__main__":``, as worker processes are spawned)."""
-    check_study_arguments(days, interactions, no_response_rate)
+    check_study_arguments(days, interactions, no_response_rate, ask_after_reject)
     methods = check_methods(methods)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()
     jobs = max(1, min(jobs or 1, len(participants)))
-    args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states)
-            for p_i, person in enumerate(participants)]
+    args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,
+             ask_after_reject) for p_i, person in enumerate(participants)]
     total = len(participants) * days
     done = [0]
 
@@ -152,7 +165,7 @@ def participant_test_states(person: Participant, p_i: int, seed: int, n: int) ->
 
 def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
                       methods: tuple[str, ...], seed: int, no_response_rate: float,
-                      config: CACAAConfig | None, d4a: D4A):
+                      config: CACAAConfig | None, d4a: D4A, ask_after_reject: float = 0.0):
     """One participant's simulated study, day by day: yields (day, {method: policy in force that
     day}, interaction rows so far) before the day's interactions are added to that same list, so
     once the generator is exhausted the list holds every day's rows. The first method acts in
@@ -164,7 +177,8 @@ def policies_in_force(initial, person: Participant, p_i: int, days: int, interac
     rows: list[dict] = []
     for day in range(1, days + 1):
         yield day, in_force, rows
-        rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method)
+        rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method,
+                              ask_after_reject)
         if day < days:
             data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
             in_force = {m: adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
@@ -174,7 +188,7 @@ def policies_in_force(initial, person: Participant, p_i: int, days: int, interac
 def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,
                          methods: tuple[str, ...], seed: int, no_response_rate: float,
                          config: CACAAConfig | None, d4a: D4A, eval_states: int,
-                         report: Callable[[str], None] | None = None
+                         ask_after_reject: float = 0.0, report: Callable[[str], None] | None = None
                          ) -> tuple[list[dict], list[dict], pd.DataFrame]:
     """One participant's simulated study: (interaction rows, preference-accuracy rows, the
     accuracy by preference: records.BY_PREFERENCE_COLUMNS). Its random streams depend on (seed,
@@ -185,7 +199,7 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
     by_preference: list[pd.DataFrame] = []
     rows: list[dict] = []
     for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
-                                                 no_response_rate, config, d4a):
+                                                 no_response_rate, config, d4a, ask_after_reject):
         if day > 1 and report:  # the previous day was lived and adapted from
             report(f"participant {person.id}, day {day - 1}/{days}")
         for m in methods:

@@ -148,8 +148,9 @@ class BanditPolicy:
         self.rng = np.random.default_rng(seed)
 
     def fit(self, interactions: pd.DataFrame) -> "BanditPolicy":
-        """Counts from the user data: accepted actions win; rejected ones, and "do nothing" when
-        the participant asked for something, lose."""
+        """Counts from the user data: accepted actions win; rejected ones lose, and so does the
+        robot's own action when the participant asked for something ("do nothing" when it stayed
+        quiet, the proposal they answered with a request otherwise)."""
         self.wins[:] = 0
         self.losses[:] = 0
         if len(interactions) == 0:
@@ -159,7 +160,7 @@ class BanditPolicy:
                                                          interactions["response"], interactions["user_action"]):
             if tp == records.USER_INITIATED:
                 self.wins[act, slot, spaces.action_index(ua)] += 1
-                self.losses[act, slot, spaces.DO_NOTHING_ACTION] += 1
+                self.losses[act, slot, spaces.action_index(ra)] += 1
             elif resp in ("accept", "reject") and ra != "do nothing":
                 (self.wins if resp == "accept" else self.losses)[act, slot, spaces.action_index(ra)] += 1
         return self

@@ -62,11 +62,15 @@ running = job is not None and job.running
 with st.form("simulation", border=True):
     chosen = st.multiselect("Simulated participants", list(by_id), default=list(by_id),
                             help="Each follows their described preferences.")
-    c1, c2, c3, c4 = st.columns(4)
+    c1, c2, c3, c4, c5 = st.columns(5)
     days = c1.number_input("Days", 1, 14, 7)
     per_day = c2.number_input("Interactions a day", 1, 60, 15)
     seed = c3.number_input("Seed", 0, 10**6, 0, help="The same seed gives the same tables.")
     silent = c4.number_input("No-response rate", 0.0, 0.9, 0.1, step=0.05)
+    correct = c5.number_input("Ask after a rejection", 0.0, 1.0, 0.0, step=0.1,
+                              help="Share of wrong proposals the simulated participant answers by asking for what "
+                                   "they want instead, as the tablet allows. 0: they ask only when the robot does "
+                                   "nothing (design.md).")
     methods = st.multiselect("Methods", METHODS, default=list(PAPER_METHODS),
                              help="The first method runs in closed loop (its success rate is Fig. 3); all "
                                   "of them adapt from the same interactions (Fig. 4).")
@@ -82,6 +86,7 @@ if go:
         _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
+                                  ask_after_reject=float(correct),
                                   label="Simulating")
         if not started:
             st.warning("A simulation is already running.")
@@ -104,7 +109,8 @@ if runs:
         n = len(settings.get("participants", []))
         st.caption(f"{n} participant{'s' if n != 1 else ''} · {settings.get('days')} days · "
                    f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
-                   f" · seed {settings.get('seed')}")
+                   f" · seed {settings.get('seed')}" + (f" · asks after {ui.percent(settings['ask_after_reject'])} of "
+                                                         "rejections" if settings.get("ask_after_reject") else ""))
     c1, c2 = st.columns(2)
     loop_method = daily["method"].iloc[0]
     c1.plotly_chart(plots.success_figure(daily, method=loop_method), width="stretch")

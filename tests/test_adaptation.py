@@ -148,6 +148,21 @@ def test_orl_without_a_remembered_experience_is_a_clear_error(small_config, smal
         adapt_policy(ReshapedPolicy(bare, None, 1.0), stove_days(1, per_day=4), "orl", config=small_config)
 
 
+def test_orl_transitions_reject_the_robots_own_action_of_a_request():
+    from cacas.adaptation import orl_transitions
+
+    base = {"participant": "P01", "method": "cacas", "day": 1, "time": "08:00", "activity": "cough",
+            "scene": "bedroom", "time_slot": 4, "interval": 10, "task": "do nothing",
+            "previous_action": "do nothing", "previous_response": "others", "type": "type_2",
+            "response": "accept", "user_action": "pain check"}
+    rows = pd.DataFrame([dict(base, index=0, robot_action="do nothing"),   # asked while the robot was quiet
+                         dict(base, index=1, robot_action="chitchat")],    # asked instead of answering
+                        columns=records.INTERACTION_COLUMNS)
+    _, a, r, _, _ = orl_transitions(rows)
+    assert [(spaces.ACTIONS[x], float(y)) for x, y in zip(a, r)] == [
+        ("pain check", 1.0), ("do nothing", -1.0), ("pain check", 1.0), ("chitchat", -1.0)]
+
+
 def test_sac_user_data_is_online_sac_one_update_per_new_transition(small_config, small_initial):
     result = adapt_policy(small_initial, stove_days(3, per_day=8), "sac-user-data", seed=0, config=small_config)
     # each user-initiated interaction gives two transitions (the request +1, "do nothing" -1)

@@ -33,6 +33,7 @@ def bad_pref(**change):
     (GOOD, ["--days", "0"], ["--days 0"]),
     (GOOD, ["--methods", "cacas,dqn"], ["unknown method 'dqn'"]),
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
+    (GOOD, ["--ask-after-reject", "2"], ["--ask-after-reject 2.0", "0 <= rate <= 1"]),
     (GOOD, ["--days", "two"], ["--days", "invalid int"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):

@@ -2,7 +2,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from cacas import records
+from cacas import records, spaces
 from cacas.errors import CacasError
 from cacas.experiment import simulate_study, simulated_day, summary_table
 from cacas.preferences import parse_personas
@@ -32,6 +32,24 @@ def test_simulated_participant_accepts_rejects_and_asks():
     assert 0.35 < (silent["response"] == "others").mean() < 0.65
     assert list(asked["time"]) == sorted(asked["time"])  # a day in time order
     assert 15 <= len(asked) <= 45  # about 30 a day
+
+
+def test_participant_may_answer_a_wrong_proposal_with_a_request():
+    wrong = Always(spaces.action_index("chitchat"))
+    never = pd.DataFrame(simulated_day(wrong, PEOPLE[0], 1, 30, np.random.default_rng(0), 0.0, "cacas"))
+    same = pd.DataFrame(simulated_day(wrong, PEOPLE[0], 1, 30, np.random.default_rng(0), 0.0, "cacas", 0.0))
+    pd.testing.assert_frame_equal(never, same)  # the option at 0 draws nothing: the same study
+    always = pd.DataFrame(simulated_day(wrong, PEOPLE[0], 1, 30, np.random.default_rng(0), 0.0, "cacas", 1.0))
+    assert (always["type"] == "type_2").all() and (always["robot_action"] == "chitchat").all()
+    assert (always["response"] == "accept").all() and set(always["user_action"]) == {"set a timer", "pain check"}
+    half = pd.DataFrame(simulated_day(wrong, PEOPLE[0], 1, 400, np.random.default_rng(1), 0.0, "cacas", 0.5))
+    assert 0.4 < (half["type"] == "type_2").mean() < 0.6
+    assert set(half.loc[half["type"] == "type_1", "response"]) == {"reject"}
+    # "do nothing" is not a request: a leave-me-alone participant only rejects
+    quiet = parse_personas({"participants": [{"id": "Q", "preferences": [
+        {"activity": ["watch TV"], "action": "do nothing"}]}]})[0]
+    alone = pd.DataFrame(simulated_day(wrong, quiet, 1, 30, np.random.default_rng(0), 0.0, "cacas", 1.0))
+    assert (alone["response"] == "reject").all()
 
 
 def test_a_leave_me_alone_preference_gives_no_accept_data():
@@ -89,7 +107,8 @@ def test_same_seed_same_tables(small_config, small_initial):
 
 @pytest.mark.parametrize("kw,needle", [({"days": 0}, "--days 0"), ({"interactions": 0}, "--interactions 0"),
                                        ({"methods": ["cacas", "dqn"]}, "unknown method 'dqn'"),
-                                       ({"no_response_rate": 1.5}, "--no-response-rate 1.5")])
+                                       ({"no_response_rate": 1.5}, "--no-response-rate 1.5"),
+                                       ({"ask_after_reject": -0.1}, "--ask-after-reject -0.1")])
 def test_bad_arguments(kw, needle, small_initial):
     with pytest.raises(CacasError, match=needle):
         simulate_study(PEOPLE, initial_policy=small_initial, **kw)

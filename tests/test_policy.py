@@ -42,6 +42,16 @@ def test_mlp_policy_learns_accepted_actions():
     assert (mlp.action_probabilities(s).argmax(1) == actions).mean() > 0.9
 
 
+def test_bandit_counts_the_proposal_a_request_answered_as_lost():
+    rows = _interactions()
+    corrected = rows.iloc[[2]].assign(robot_action="chitchat")  # proposed chitchat, asked for a pain check
+    bandit = BanditPolicy(load_d4a().table).fit(corrected)
+    cough, slot = spaces.activity_index("cough"), 4
+    assert bandit.losses[cough, slot, spaces.action_index("chitchat")] == 1
+    assert bandit.losses[cough, slot, spaces.DO_NOTHING_ACTION] == 0
+    assert bandit.wins[cough, slot, spaces.action_index("pain check")] == 1
+
+
 def test_policy_bytes_round_trip_and_bad_bytes():
     s = _states()
     pi = ReshapedPolicy(DiscreteSAC(SACConfig(hidden=16)), MLPPolicy(hidden=8, epochs=5).fit(s, s[:, 0] % 14))

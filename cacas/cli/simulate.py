@@ -29,6 +29,10 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same daily.csv)")
     p.add_argument("--no-response-rate", type=float, default=0.1,
                    help="share of robot actions the simulated participant does not answer (default 0.1)")
+    p.add_argument("--ask-after-reject", type=float, default=0.0, metavar="RATE",
+                   help="share of wrong robot actions the simulated participant answers by asking for the "
+                        "preferred action instead (as the tablet allows; default 0: only when the robot does "
+                        "nothing)")
     p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
@@ -42,7 +46,7 @@ def register(sub) -> None:
 def run(args) -> int:
     from cacas.experiment import check_methods, check_study_arguments
 
-    check_study_arguments(args.days, args.interactions, args.no_response_rate)
+    check_study_arguments(args.days, args.interactions, args.no_response_rate, args.ask_after_reject)
     if args.jobs is not None and args.jobs < 1:
         raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
     methods = check_methods(args.methods.split(","))
@@ -65,7 +69,7 @@ def run(args) -> int:
 
     result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                             seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
-                            jobs=args.jobs or default_jobs())
+                            jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject)
     out.mkdir(parents=True, exist_ok=True)
     written = {"daily.csv": result.daily, "interactions.csv": result.interactions,
                "by_preference.csv": result.by_preference}

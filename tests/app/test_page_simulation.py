@@ -16,6 +16,7 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at.multiselect[0].set_value(["P01"])
     at.number_input[0].set_value(2)   # days
     at.number_input[1].set_value(4)   # interactions a day
+    at.number_input[4].set_value(0.5)  # ask after half of the rejections
     at.multiselect[1].set_value(["nn"])
     next(b for b in at.button if b.label == "Run simulation").click().run()
     job = RUNNER.get(f"simulate:{db}")
@@ -24,7 +25,8 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at.run()
     no_exception(at)
     assert (job.result / "daily.csv").exists()
-    assert "1 participant · 2 days · 4 interactions a day · methods nn · seed 0" in texts(at)
+    assert "1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections" \
+        in texts(at)
     assert len(at.get("plotly_chart")) == 3  # Fig. 3, Fig. 4 and Fig. 4 by described preference
     assert (job.result / "by_preference.csv").exists()
     assert "Which preferences each method learnt" in texts(at)
