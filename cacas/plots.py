@@ -107,7 +107,7 @@ def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: s
         colorbar=dict(title="accuracy", tickformat=".0%"), xgap=2, ygap=2))
     fig.update_yaxes(autorange="reversed", title_text=None, automargin=True)
     fig.update_xaxes(title_text=x_title, type="category", side="top")
-    fig.update_layout(title=title, template="plotly_white", height=140 + 26 * len(order),
+    fig.update_layout(title=title, template="plotly_white", height=max(320, 140 + 26 * len(order)),
                       margin=dict(l=20, r=20, t=100, b=20))
     return fig
 
