@@ -67,7 +67,7 @@ with st.form("simulation", border=True):
     per_day = c2.number_input("Interactions a day", 1, 60, 15)
     seed = c3.number_input("Seed", 0, 10**6, 0, help="The same seed gives the same tables.")
     silent = c4.number_input("No-response rate", 0.0, 0.9, 0.1, step=0.05)
-    correct = c5.number_input("Ask after a rejection", 0.0, 1.0, 0.0, step=0.1,
+    ask_rate = c5.number_input("Ask after a rejection", 0.0, 1.0, 0.0, step=0.1,
                               help="Share of wrong proposals the simulated participant answers by asking for what "
                                    "they want instead, as the tablet allows. 0: they ask only when the robot does "
                                    "nothing (design.md).")
@@ -86,7 +86,7 @@ if go:
         _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
-                                  ask_after_reject=float(correct),
+                                  ask_after_reject=float(ask_rate),
                                   label="Simulating")
         if not started:
             st.warning("A simulation is already running.")
