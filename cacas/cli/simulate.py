@@ -36,7 +36,8 @@ def register(sub) -> None:
     p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
-    p.add_argument("--plot", metavar="DIR", help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here")
+    p.add_argument("--plot", metavar="DIR",
+                   help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here")
     p.add_argument("--jobs", type=int, default=None,
                    help="worker processes (default: one per core; results do not depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
