@@ -129,12 +129,6 @@ def daily_frame(store: StudyStore, study: str | None = None) -> pd.DataFrame:
     return daily_table(interactions[INTERACTION_COLUMNS], accuracy)
 
 
-def by_preference_table(store: StudyStore, study: str | None = None) -> pd.DataFrame:
-    """by_preference.csv of the human study (:func:`by_preference_frame`)."""
-    return by_preference_frame(store.interactions_frame(method=None, study=study, extra=True),
-                               store.adaptations_frame(study=study), store.days_frame(study))
-
-
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
     """All tables of :data:`TABLES` as DataFrames (of one study, or all)."""
     participants = store.participants_frame(study)
@@ -292,6 +286,6 @@ def same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame], names=No
     return all(_csv_bytes(a[n]) == _csv_bytes(b[n]) for n in (names or a.keys()))
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "by_preference_table",
-           "daily_frame", "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle",
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "daily_frame",
+           "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle",
            "same_tables"]

@@ -47,6 +47,27 @@ def _model(kind: str):
         return None
 
 
+def _recognise(kind: str, name: str, data: bytes) -> None:
+    """Recognise an uploaded or recorded sound clip, or a photo, with the current model; show
+    the label and the top 3 (one message if there is no model or the file is bad)."""
+    model = _model(kind)
+    if model is None:
+        st.warning(f"No {kind} model yet: train one first.")
+        return
+    recognise = lab.recognize_sound_bytes if kind == "sound" else lab.recognize_scene_bytes
+    try:
+        r = recognise(model, name, data)
+    except CacasError as exc:
+        st.error(str(exc), icon=":material/error:")
+        return
+    if kind == "scene":
+        st.image(data, width=280)
+    st.markdown(f"### {r.label}")
+    st.dataframe(pd.DataFrame(r.top3, columns=["activity" if kind == "sound" else "scene", "probability"]),
+                 hide_index=True, column_config={"probability": st.column_config.ProgressColumn(
+                     min_value=0.0, max_value=1.0, format="percent")})
+
+
 def _add_clips() -> None:
     s = st.session_state
     files = [(f.name, f.getvalue()) for f in (s.get("clip-upload") or [])]
@@ -149,6 +170,7 @@ with train:
                 metrics = getattr(job.result, "metrics", job.result)
                 _metrics_view(metrics, kind)
 
+
 with tryit:
     c1, c2 = st.columns(2)
     with c1:
@@ -157,34 +179,9 @@ with tryit:
         rec = st.audio_input("Or record", key="try-record", sample_rate=32000)
         clip = up or rec
         if clip is not None:
-            model = _model("sound")
-            if model is None:
-                st.warning("No sound model yet: train one first.")
-            else:
-                try:
-                    r = lab.recognize_sound_bytes(model, getattr(clip, "name", "recording.wav"), clip.getvalue())
-                except CacasError as exc:
-                    st.error(str(exc), icon=":material/error:")
-                else:
-                    st.markdown(f"### {r.label}")
-                    st.dataframe(pd.DataFrame(r.top3, columns=["activity", "probability"]), hide_index=True,
-                                 column_config={"probability": st.column_config.ProgressColumn(
-                                     min_value=0.0, max_value=1.0, format="percent")})
+            _recognise("sound", getattr(clip, "name", "recording.wav"), clip.getvalue())
     with c2:
         st.markdown("**A photo**")
         photo = st.file_uploader("Photo", type=["png", "jpg", "jpeg"], key="try-photo")
         if photo is not None:
-            model = _model("scene")
-            if model is None:
-                st.warning("No scene model yet: train one first.")
-            else:
-                try:
-                    r = lab.recognize_scene_bytes(model, photo.name, photo.getvalue())
-                except CacasError as exc:
-                    st.error(str(exc), icon=":material/error:")
-                else:
-                    st.image(photo.getvalue(), width=280)
-                    st.markdown(f"### {r.label}")
-                    st.dataframe(pd.DataFrame(r.top3, columns=["scene", "probability"]), hide_index=True,
-                                 column_config={"probability": st.column_config.ProgressColumn(
-                                     min_value=0.0, max_value=1.0, format="percent")})
+            _recognise("scene", photo.name, photo.getvalue())

@@ -94,7 +94,7 @@ def test_store_interactions_give_the_recorded_state(store):
 
 def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, policy):
     import cacas.adaptation
-    from cacas.export import by_preference_table, daily_frame
+    from cacas.export import daily_frame, export_tables
     from cacas.study_day import compare_methods
 
     monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
@@ -120,7 +120,7 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
         # NN learnt the request: on day 2 (adapted from day 1) it prefers pain check for coughs
         assert nn["preference_accuracy"].iloc[1] == 1.0
         daily = daily_frame(s)
-        by_pref = by_preference_table(s)
+        by_pref = export_tables(s)["by_preference"]
     assert set(daily.loc[daily["method"] == "nn", "day"]) == {1, 2}
     # the same runs, by described preference (one here): day 2's NN learnt it
     nn = by_pref[by_pref["method"] == "nn"].set_index("day")
