@@ -310,11 +310,50 @@ def list_runs(root) -> list[str]:
 def load_daily(path) -> pd.DataFrame:
     """A daily.csv (of a run, or uploaded): checked for design.md's columns."""
     df = pd.read_csv(path)
-    missing = [c for c in ("participant", "method", "day", "success_rate", "preference_accuracy",
-                           "cumulative_feedback", "interactions") if c not in df.columns]
+    missing = [c for c in records.DAILY_CONTRACT_COLUMNS if c not in df.columns]
     if missing:
         raise CacasError(f"{getattr(path, 'name', path)}: not a daily.csv; missing columns: {', '.join(missing)}")
     return df
+
+
+#: The tables a researcher can upload to the Results page, each recognised by its columns.
+UPLOADABLE_TABLES = {
+    "daily": list(records.DAILY_CONTRACT_COLUMNS),
+    "by_preference": list(records.BY_PREFERENCE_COLUMNS),
+    "interactions": list(records.INTERACTION_COLUMNS),
+}
+
+
+def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.DataFrame]:
+    """Uploaded CSV files (name, content) as {"daily": ..., "by_preference": ..., "interactions":
+    ...}, each file recognised by its columns (``UPLOADABLE_TABLES``). A daily.csv is required;
+    the others are optional. Raises CacasError naming the file at fault: one that is none of
+    these tables, two of the same kind, or no daily.csv."""
+    tables: dict[str, pd.DataFrame] = {}
+    names: dict[str, str] = {}
+    for name, data in files:
+        try:
+            df = pd.read_csv(io.BytesIO(data))
+        except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+            raise CacasError(f"{name}: not a readable CSV file ({str(exc).splitlines()[0] if str(exc) else exc})")
+        kind = next((k for k, cols in UPLOADABLE_TABLES.items() if set(cols) <= set(df.columns)), None)
+        if kind is None:
+            raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv; a daily.csv "
+                             f"needs the columns {', '.join(UPLOADABLE_TABLES['daily'])}")
+        if kind in tables:
+            raise CacasError(f"{name} and {names[kind]} are both a {kind}.csv; upload one of each kind")
+        tables[kind], names[kind] = df, name
+    if "daily" not in tables:
+        raise CacasError(f"{', '.join(names.values()) or 'nothing uploaded'}: upload a daily.csv as well "
+                         "(the other tables are shown beside it)")
+    known = set(tables["daily"]["participant"].astype(str))
+    for kind in ("by_preference", "interactions"):
+        if kind in tables:
+            strangers = sorted(set(tables[kind]["participant"].astype(str)) - known)
+            if strangers:
+                raise CacasError(f"{names[kind]}: participant(s) {', '.join(strangers[:5])} are not in "
+                                 f"{names['daily']}; upload the tables of one study or run")
+    return {k: tables[k] for k in UPLOADABLE_TABLES if k in tables}
 
 
 def load_by_preference(folder) -> pd.DataFrame | None:

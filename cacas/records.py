@@ -39,6 +39,9 @@ DAILY_COLUMNS = [
     "cumulative_feedback", "interactions", "successes", "user_initiated", "feedback",
 ]
 
+#: The columns design.md's contract requires of every daily.csv (the first seven).
+DAILY_CONTRACT_COLUMNS = DAILY_COLUMNS[:7]
+
 #: Columns of by_preference.csv (Fig. 4 broken down by described preference), in order:
 #: participant, method, day (the policy in force that day), preference (1-based, in the persona
 #: file's order), label (the participant's description, else "activities -> action"), activity

@@ -3,7 +3,6 @@ accuracy per day), the satisfaction questionnaire, and a CSV download for every 
 
 from __future__ import annotations
 
-import io
 import tempfile
 from pathlib import Path
 
@@ -28,7 +27,7 @@ st.title("Results")
 
 # --- which data ------------------------------------------------------------------------------------
 runs = app_support.list_runs(app_support.runs_dir(db))
-SIMULATED, UPLOAD = "A simulated run", "Upload a daily.csv"
+SIMULATED, UPLOAD = "A simulated run", "Upload CSV files"
 source = st.segmented_control("Data", [HUMAN, SIMULATED, UPLOAD], default=HUMAN, key="results-source") or HUMAN
 if source == SIMULATED:
     if not runs:
@@ -55,16 +54,18 @@ elif source.startswith("Simulated run: "):
     st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
                f"participant(s), methods {', '.join(daily['method'].unique())}.")
 else:
-    up = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export", type=["csv"],
-                          key="results-upload")
-    if up is None:
+    ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
+                           "by_preference.csv and interactions.csv to see them too", type=["csv"],
+                           accept_multiple_files=True, key="results-upload")
+    if not ups:
         st.stop()
     try:
-        daily = app_support.load_daily(io.BytesIO(up.getvalue()))
-    except (CacasError, ValueError, pd.errors.ParserError) as exc:
-        st.error(f"{up.name}: {exc}", icon=":material/error:")
+        tables = app_support.load_uploaded_tables([(up.name, up.getvalue()) for up in ups])
+    except CacasError as exc:
+        st.error(str(exc), icon=":material/error:")
         st.stop()
-    tables = {"daily": daily}
+    daily = tables["daily"]
+    st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}.")
 
 fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"])
 

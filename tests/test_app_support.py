@@ -3,7 +3,7 @@ import math
 import pandas as pd
 import pytest
 
-from cacas import app_support
+from cacas import app_support, records
 from cacas.errors import CacasError
 from cacas.store import StudyStore
 
@@ -85,3 +85,37 @@ def test_runs_round_trip_and_bad_daily(tmp_path):
     (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
     with pytest.raises(CacasError, match="not a daily.csv; missing columns: participant"):
         app_support.load_daily(tmp_path / "bad.csv")
+
+
+def _csv(df: pd.DataFrame) -> bytes:
+    return df.to_csv(index=False).encode()
+
+
+def test_uploaded_tables_are_recognised_by_their_columns():
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
+    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(participant="P01")
+    tables = app_support.load_uploaded_tables([("b.csv", _csv(by_pref)), ("i.csv", _csv(inter)),
+                                               ("d.csv", _csv(daily))])
+    assert list(tables) == ["daily", "by_preference", "interactions"]
+    assert list(tables["daily"].columns) == records.DAILY_COLUMNS
+    assert tables["by_preference"]["participant"].tolist() == ["P01"]
+    assert list(app_support.load_uploaded_tables([("d.csv", _csv(daily))])) == ["daily"]
+
+
+@pytest.mark.parametrize("files, message", [
+    ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
+                                     r"a daily.csv needs the columns participant, method, day"),
+    ([("d1.csv", "daily"), ("d2.csv", "daily")], r"d2.csv and d1.csv are both a daily.csv; upload one of each kind"),
+    ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
+    ([], r"nothing uploaded: upload a daily.csv as well"),
+    ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),
+    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: not a readable CSV file"),
+])
+def test_bad_uploads_name_the_file(files, message):
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
+    made = {"daily": _csv(daily), "by_preference": _csv(by_pref), "stranger": _csv(by_pref.assign(participant="Q09"))}
+    files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
+    with pytest.raises(CacasError, match=message):
+        app_support.load_uploaded_tables(files)

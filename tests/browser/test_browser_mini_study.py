@@ -234,3 +234,44 @@ def test_mini_study(server, page, tmp_path):
     shot(page, "simulation")
     goto(page, f"{server}/sounds?participant=P01")
     shot(page, "sounds")
+
+
+def test_results_upload_daily_and_by_preference(server, page, tmp_path):
+    """The Results page takes a daily.csv with its by_preference.csv (files of a run elsewhere)
+    and shows Fig. 4 and the heatmap by preference; a stray CSV gets one message naming it."""
+    from cacas import records
+
+    daily, by_pref = [], []
+    for method, acc in (("cacas", (0.4, 0.9)), ("nn", (0.3, 0.6))):
+        for day in (1, 2):
+            daily.append({"participant": "S01", "method": method, "day": day, "preference_accuracy": acc[day - 1],
+                          "success_rate": 0.5 if method == "cacas" else "", "cumulative_feedback": 10 * day,
+                          "interactions": 15})
+            for pref, action in ((1, "remind to turn off"), (2, "pain check")):
+                correct = round(acc[day - 1] * 20) if pref == 1 else 20 - round(acc[day - 1] * 20)
+                by_pref.append({"participant": "S01", "method": method, "day": day, "preference": pref,
+                                "label": f"preference {pref}", "activity": "use stove", "action": action,
+                                "states": 20, "correct": correct, "accuracy": correct / 20})
+    folder = tmp_path / "elsewhere"
+    folder.mkdir()
+    records.write_csv(__import__("pandas").DataFrame(daily), folder / "daily.csv")
+    records.write_csv(__import__("pandas").DataFrame(by_pref), folder / "by_preference.csv")
+    (folder / "notes.csv").write_text("a,b\n1,2\n")
+
+    goto(page, f"{server}/results")
+    page.get_by_text("Upload CSV files", exact=True).click()
+    idle(page)
+    uploader = page.locator("[data-testid='stFileUploaderDropzoneInput']")
+    uploader.set_input_files([str(folder / "daily.csv"), str(folder / "notes.csv")])
+    idle(page)
+    assert "notes.csv: not a daily.csv, by_preference.csv or interactions.csv" in text_of(page)
+    page.get_by_role("button", name="Remove notes.csv").click()
+    idle(page)
+    uploader.set_input_files([str(folder / "by_preference.csv")])
+    idle(page)
+    assert "Uploaded: daily.csv, by_preference.csv." in text_of(page)
+    page.get_by_role("tab", name="Fig. 4 · methods").click()
+    idle(page)
+    assert "Which preferences each method learnt" in text_of(page)
+    assert page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").count() >= 2
+    shot(page, "results-upload")
