@@ -238,22 +238,14 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[str], N
 
 
 def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str]) -> pd.DataFrame:
-    """daily.csv rows for every method: the closed-loop method (the first) has its own success
-    rate; the others adapted from the same interactions, so they share its interaction and
-    feedback counts and have an empty success rate."""
-    loop = records.daily_table(interactions).drop(columns=["method", "preference_accuracy"])
-    frames = []
-    for m in methods:
-        d = loop.assign(method=m)
-        if m != methods[0]:
-            d["success_rate"] = np.nan
-            d["successes"] = pd.NA
-        frames.append(d)
-    daily = pd.concat(frames, ignore_index=True).merge(
-        accuracy, on=["participant", "method", "day"], how="outer")
+    """daily.csv rows for every method (:func:`cacas.records.daily_table`): the closed-loop
+    method (the first) has its own success rate; the others adapted from the same interactions,
+    so they share its interaction and feedback counts and have an empty success rate. Methods
+    in the order given."""
+    daily = records.daily_table(interactions, accuracy)
     order = {m: i for i, m in enumerate(methods)}
     daily = daily.sort_values(["participant", "method", "day"], key=lambda c: c.map(order) if c.name == "method" else c)
-    return daily.reindex(columns=records.DAILY_COLUMNS).reset_index(drop=True)
+    return daily.reset_index(drop=True)
 
 
 def summary_table(daily: pd.DataFrame) -> pd.DataFrame:

@@ -71,35 +71,41 @@ def is_success(interactions: pd.DataFrame) -> pd.Series:
 def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None) -> pd.DataFrame:
     """Per participant, method and day: the daily.csv table.
 
-    ``interactions`` has INTERACTION_COLUMNS; ``accuracy`` optionally has columns participant,
-    method, day, preference_accuracy (the policy in force that day on the described
-    preferences). Rows of ``accuracy`` with no interactions (a method not run in closed loop)
-    get an empty success_rate and the cumulative feedback of the data that method adapted from.
+    ``interactions`` has INTERACTION_COLUMNS; its ``method`` is the policy in force (closed
+    loop). ``accuracy`` optionally has columns participant, method, day, preference_accuracy
+    (the policy in force that day on the described preferences). A participant's data are one
+    stream, whichever method's policy was in force: ``cumulative_feedback`` counts all of the
+    participant's data points up to the end of the day. Rows of ``accuracy`` with no
+    interactions of their own (a method adapted from the same data but not run in closed loop,
+    Fig. 4) get an empty success rate and the day's interaction and feedback counts.
     """
     keys = ["participant", "method", "day"]
+    counts = ["interactions", "successes", "user_initiated", "feedback"]
     if len(interactions):
         df = interactions.assign(_success=is_success(interactions).astype(int),
                                  _points=feedback_points(interactions),
                                  _t2=(interactions["type"] == USER_INITIATED).astype(int))
         g = df.groupby(keys, sort=True)
-        daily = pd.DataFrame({
-            "interactions": g.size(),
-            "successes": g["_success"].sum(),
-            "user_initiated": g["_t2"].sum(),
-            "feedback": g["_points"].sum(),
-        }).reset_index()
+        daily = pd.DataFrame({"interactions": g.size(), "successes": g["_success"].sum(),
+                              "user_initiated": g["_t2"].sum(), "feedback": g["_points"].sum()}).reset_index()
         daily["success_rate"] = daily["successes"] / daily["interactions"]
-        daily = daily.sort_values(keys)
-        daily["cumulative_feedback"] = daily.groupby(["participant", "method"])["feedback"].cumsum()
+        per_day = daily.groupby(["participant", "day"])[["interactions", "user_initiated", "feedback"]].sum()
+        per_day["cumulative_feedback"] = per_day.groupby(level="participant")["feedback"].cumsum()
     else:
-        daily = pd.DataFrame(columns=keys + ["interactions", "successes", "user_initiated", "feedback",
-                                             "success_rate", "cumulative_feedback"])
+        daily = pd.DataFrame(columns=keys + counts + ["success_rate"])
+        per_day = pd.DataFrame(columns=["interactions", "user_initiated", "feedback", "cumulative_feedback"],
+                               index=pd.MultiIndex.from_tuples([], names=["participant", "day"]))
     if accuracy is not None and len(accuracy):
         daily = daily.merge(accuracy[keys + ["preference_accuracy"]], on=keys, how="outer")
     else:
         daily["preference_accuracy"] = np.nan
-    for col in ("interactions", "successes", "user_initiated", "feedback", "cumulative_feedback"):
-        daily[col] = daily[col].astype("Int64")
+    at = pd.MultiIndex.from_arrays([daily["participant"], daily["day"]])
+    daily["cumulative_feedback"] = per_day["cumulative_feedback"].reindex(at).to_numpy()
+    own = daily["interactions"].notna().to_numpy()
+    for col in ("interactions", "user_initiated", "feedback"):
+        daily[col] = np.where(own, daily[col], per_day[col].reindex(at).to_numpy())
+    for col in counts + ["cumulative_feedback"]:
+        daily[col] = pd.array(pd.to_numeric(daily[col]), dtype="Int64")
     return daily.sort_values(keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
 
 

@@ -135,10 +135,11 @@ def prepare_initial_policy(progress: Progress | None = None) -> None:
     load_initial_policy(progress=progress)
 
 
-def adapted_days(store, participant: str, method: str = "cacas") -> set[int]:
-    """Study days after which the participant's policy was adapted with ``method``."""
-    runs = store.adaptations_frame(participant)
-    return {int(d) for d in runs.loc[runs["method"] == method, "day"] if int(d) > 0}
+def adapted_days(store, participant: str) -> set[int]:
+    """Study days after which a policy was adapted for the participant and saved (with any
+    method, whether or not it is still in force). Comparison runs (:func:`compare_methods`)
+    save no policy and do not count: they never put a policy in force."""
+    return {p.day for p in store.policy_versions(participant) if p.day > 0}
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,6 @@ if day == 0:
 elif running is not None:
     ui.job_progress(running.key)
 else:
-    adapted = set(int(d) for d in runs["day"] if int(d) > 0)
     c1, c2, c3 = st.columns(3)
     c1.metric("Study day", f"{day} ({'open' if status.open else 'closed'})")
     c2.metric("Interactions that day", status.interactions_today)
@@ -92,7 +91,7 @@ else:
                   help="Closes the day (no more interactions on it) and adapts the policy.")
         if status.interactions_today == 0:
             st.caption("No interactions on this day yet.")
-    elif day not in adapted:
+    elif status.waiting_for_adaptation:
         st.button(f"Adapt after day {day}", type="primary", icon=":material/model_training:",
                   on_click=_start, args=(code, day))
     else:

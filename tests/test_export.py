@@ -97,7 +97,27 @@ def test_daily_table_metrics(store):
     # a baseline evaluated but not run in closed loop: accuracy only
     nn = daily.loc[("P01", "nn", 2)]
     assert math.isclose(nn["preference_accuracy"], 0.1) and pd.isna(nn["success_rate"])
+    # ... adapted from the same data, so it has the day's counts (as cacas simulate writes them)
+    assert (nn["interactions"], nn["feedback"], nn["cumulative_feedback"]) == (5, 5, 10) and pd.isna(nn["successes"])
     assert ("P01", "nn", 3) not in daily.index  # no day 3 yet
+
+
+def test_cumulative_feedback_is_one_stream_when_the_method_in_force_changes(store):
+    """A researcher puts a baseline's policy in force for day 3: day 3's interactions carry its
+    method, and the participant's cumulative feedback goes on from day 2's."""
+    version = store.save_policy("P01", 2, "nn", b"an nn policy after day 2")
+    store.set_active_policy("P01", version)
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                             robot_action="pain check", response="accept")
+    daily = export.daily_frame(store).set_index(["participant", "method", "day"])
+    assert store.interactions_frame("P01", method=None)["method"].iloc[-1] == "nn"
+    assert daily.loc[("P01", "nn", 3), "interactions"] == 1
+    assert daily.loc[("P01", "nn", 3), "cumulative_feedback"] == 10 + 1
+    # CACAS's policy after day 2 is not in force, but Fig. 4 still scores it on day 3 (as a baseline)
+    cacas = daily.loc[("P01", "cacas", 3)]
+    assert math.isclose(cacas["preference_accuracy"], 0.7) and pd.isna(cacas["success_rate"])
+    assert cacas["cumulative_feedback"] == 11
 
 
 def test_by_preference_table_follows_the_runs_in_force(store):

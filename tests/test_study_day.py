@@ -71,7 +71,11 @@ def test_next_day_waits_for_the_adaptation(store):
     assert day_status(store, "P01").waiting_for_adaptation
     with pytest.raises(CacasError, match="has not been adapted yet"):
         start_day(store, "P01")
-    store.record_adaptation("P01", day, "cacas", {}, 1.0, {})
+    store.record_adaptation("P01", day, "nn", {"comparison": True}, 1.0, {})  # a comparison run: no policy
+    assert day_status(store, "P01").waiting_for_adaptation
+    version = store.save_policy("P01", day, "nn", b"a policy adapted with a baseline")
+    store.set_active_policy("P01", None)  # adapted, then rolled back to the initial policy: still adapted
+    assert not day_status(store, "P01").waiting_for_adaptation and version == 1
     assert start_day(store, "P01") == day + 1
 
 
@@ -108,7 +112,8 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
                                  robot_action="do nothing", response="accept", type="type_2",
                                  user_action="pain check")
             s.close_day("P01", day)
-            s.record_adaptation("P01", day, "cacas", {}, 1.0, {})
+            s.record_adaptation("P01", day, "cacas", {}, 1.0, {},
+                                s.save_policy("P01", day, "cacas", policy.to_bytes(), activate=False))
     seen = []
     assert compare_methods(path, methods=("nn",), progress=lambda f, m: seen.append(f)) == 3  # days 0, 1, 2
     assert seen[-1] == 1.0

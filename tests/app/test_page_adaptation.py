@@ -70,3 +70,29 @@ def test_rollback_to_the_initial_policy(app, store, quick_policy):
     _button(at, "Put in force").click().run()
     no_exception(at)
     assert store.active_policy("P01") is None
+
+
+def test_a_comparison_run_is_not_an_adaptation_and_a_baseline_adaptation_is(app, store, quick_policy):
+    """Results' 'Compare methods' records runs without a policy: the closed day still waits for
+    its adaptation (the page offers it, the tablet agrees). A day adapted with a baseline is
+    adapted: the page says so and the next day can start."""
+    from cacas.study_day import day_status, start_day
+
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    store.record_adaptation("P01", day, "nn", {"comparison": True}, 0.1, {"preference_accuracy": 0.5})
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert day_status(store, "P01").waiting_for_adaptation
+    assert any(b.label == f"Adapt after day {day}" for b in at.button)
+    assert "closed and adapted" not in texts(at)
+    at.session_state["adapt-method"] = "nn"
+    _button(at, f"Adapt after day {day}").click().run()
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job.wait(120) and job.status == "done", job.error
+    at.run()
+    no_exception(at)
+    assert store.active_policy("P01").method == "nn"
+    assert f"Day {day} is closed and adapted" in texts(at)
+    assert not day_status(store, "P01").waiting_for_adaptation
+    assert start_day(store, "P01") == day + 1
