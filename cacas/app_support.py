@@ -22,13 +22,6 @@ from cacas.errors import CacasError
 from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status
 
 
-def csv_bytes(df: pd.DataFrame) -> bytes:
-    """The CSV a download button hands out (the same writer as every exported table)."""
-    buf = io.StringIO()
-    records.write_csv(df, buf)
-    return buf.getvalue().encode("utf-8")
-
-
 # --- overview ------------------------------------------------------------------------------------
 
 def next_step(has_preferences: bool, status) -> str:

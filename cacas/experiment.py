@@ -48,13 +48,21 @@ class StudyResult:
     by_preference: pd.DataFrame  # records.BY_PREFERENCE_COLUMNS
 
 
+#: Bounds of a simulated study: a year of days; at most one interaction a minute (a day has
+#: 1440); seeds as numpy takes them.
+MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
+
+
 def check_study_arguments(days: int, interactions: int, no_response_rate: float,
-                          ask_after_reject: float = 0.0) -> None:
+                          ask_after_reject: float = 0.0, seed: int = 0) -> None:
     """A study's sizes, checked before any work (the messages name the command-line options)."""
-    if days < 1:
-        raise CacasError(f"--days {days} is invalid; valid: a whole number of days >= 1")
-    if interactions < 1:
-        raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number >= 1")
+    if not 1 <= days <= MAX_DAYS:
+        raise CacasError(f"--days {days} is invalid; valid: a whole number of days from 1 to {MAX_DAYS}")
+    if not 1 <= interactions <= MAX_INTERACTIONS:
+        raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number from 1 to "
+                         f"{MAX_INTERACTIONS} (one a minute)")
+    if not 0 <= seed <= MAX_SEED:
+        raise CacasError(f"--seed {seed} is invalid; valid: a whole number from 0 to {MAX_SEED}")
     if not 0 <= no_response_rate < 1:
         raise CacasError(f"--no-response-rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
     if not 0 <= ask_after_reject <= 1:
@@ -128,7 +136,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
     number of worker processes (default 1; more need the caller's script to guard its entry
     point with ``if __name__ == "__main__":``, as worker processes are spawned)."""
-    check_study_arguments(days, interactions, no_response_rate, ask_after_reject)
+    check_study_arguments(days, interactions, no_response_rate, ask_after_reject, seed)
     methods = check_methods(methods)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()

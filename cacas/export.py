@@ -16,8 +16,9 @@ The tables (long format; issue 4, item 4):
 
 :func:`export_study` writes them and ``cacas-study.zip``; :func:`import_bundle` loads such a zip
 into a new database (export, import, export gives the same tables; the event log gains one
-"import_bundle" event). CSV is written with :func:`cacas.records.write_csv` and the zip with
-fixed timestamps, so the same database gives the same bytes.
+"import_bundle" event). CSV is written with :func:`cacas.records.csv_bytes` and the zip with
+fixed timestamps, so the same database gives the same bytes; the CSVs and the zip replace an
+earlier export's as one change (:func:`cacas.store.files.write_all`).
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from pathlib import Path
 import pandas as pd
 
 from cacas.errors import CacasError
-from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, daily_table, write_csv
+from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files
 from cacas.store.restore import RESTORE_COLUMNS, restore
 
@@ -155,12 +156,6 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     }
 
 
-def _csv_bytes(df: pd.DataFrame) -> bytes:
-    buf = io.StringIO()
-    write_csv(df, buf)
-    return buf.getvalue().encode("utf-8")
-
-
 def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
     info.compress_type = zipfile.ZIP_DEFLATED
@@ -178,6 +173,9 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     """
     store = db if isinstance(db, StudyStore) else StudyStore(db, readonly=True)
     try:
+        known = [s.name for s in store.studies()]
+        if study is not None and study not in known:
+            raise CacasError(f"unknown study {study!r}; known studies: {', '.join(known) or 'none'}")
         with store.snapshot():  # one consistent view, even while the app keeps writing
             tables = export_tables(store, study)
         policies = {rel: store.load_policy(who, version=int(ver))
@@ -186,26 +184,16 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     finally:
         if store is not db:
             store.close()
-    out = Path(out_dir)
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CacasError(f"{out}: cannot create the output folder ({exc})") from None
-    written, blobs = {}, {}
-    for name in TABLES:
-        blobs[name] = _csv_bytes(tables[name])
-        path = out / f"{name}.csv"
-        files.atomic_write(path, blobs[name])
-        written[name] = path
+    out = files.writable_folder(out_dir, str(out_dir))
+    blobs = {name: csv_bytes(tables[name]) for name in TABLES}
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as zf:
         for name in TABLES:
             _zip_entry(zf, f"{name}.csv", blobs[name])
         for rel in sorted(policies):
             _zip_entry(zf, f"policies/{rel}", policies[rel])
-    bundle = out / BUNDLE_NAME
-    files.atomic_write(bundle, buf.getvalue())
-    return ExportResult(written, bundle)
+    paths = files.write_all(out, {**{f"{name}.csv": blobs[name] for name in TABLES}, BUNDLE_NAME: buf.getvalue()})
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths[BUNDLE_NAME])
 
 
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
@@ -283,7 +271,7 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
 
 def same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame], names=None) -> bool:
     """Whether two sets of exported tables write the same CSV bytes (``names``: which tables)."""
-    return all(_csv_bytes(a[n]) == _csv_bytes(b[n]) for n in (names or a.keys()))
+    return all(csv_bytes(a[n]) == csv_bytes(b[n]) for n in (names or a.keys()))
 
 
 __all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "daily_frame",

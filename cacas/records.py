@@ -109,9 +109,17 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     return daily.sort_values(keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
 
 
+_CSV_FORMAT = dict(index=False, float_format="%.6f", lineterminator="\n")
+
+
 def write_csv(df: pd.DataFrame, path) -> None:
     """CSV with fixed float formatting, so the same data gives the same bytes."""
-    df.to_csv(path, index=False, float_format="%.6f", lineterminator="\n")
+    df.to_csv(path, **_CSV_FORMAT)
+
+
+def csv_bytes(df: pd.DataFrame) -> bytes:
+    """The CSV of :func:`write_csv` as UTF-8 bytes (downloads, bundles, atomic writes)."""
+    return df.to_csv(**_CSV_FORMAT).encode("utf-8")
 
 
 def policy_states(interactions: pd.DataFrame) -> np.ndarray:

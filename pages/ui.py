@@ -8,7 +8,7 @@ import time
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, plots
+from cacas import app_support, plots, records
 from cacas.jobs import RUNNER, Job
 from cacas.store import StudyStore, default_db_path
 
@@ -75,7 +75,7 @@ def link(page: str, label: str, icon: str | None = None, container=None) -> None
 
 
 def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
-    st.download_button(label or f"Download {file_name}", app_support.csv_bytes(df), file_name=file_name,
+    st.download_button(label or f"Download {file_name}", records.csv_bytes(df), file_name=file_name,
                        mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:")
 
 

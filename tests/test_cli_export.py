@@ -108,3 +108,36 @@ def test_import_of_a_missing_bundle_exits_2(run, tmp_path, capsys):
 
 def test_export_is_a_registered_sub_command():
     assert "export" in cli.COMMANDS
+
+
+def test_export_of_an_unknown_study_exits_2_and_keeps_an_earlier_export(run, study, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert run("export", "--db", study, "--out", out) == 0
+    before = tree(out)
+    assert run("export", "--db", study, "--out", out, "--study", "defualt") == 2
+    err = capsys.readouterr().err
+    assert "unknown study 'defualt'; known studies: default" in err and len(err.strip().splitlines()) == 1
+    assert tree(out) == before
+
+
+def test_export_of_a_database_with_a_damaged_table_exits_2(run, study, tmp_path, capsys):
+    """A damaged page inside a table (the file still opens as a study database): one line."""
+    with sqlite3.connect(study) as c:
+        c.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        root = c.execute("SELECT rootpage FROM sqlite_master WHERE name = 'interactions'").fetchone()[0]
+        page = c.execute("PRAGMA page_size").fetchone()[0]
+    c.close()
+    with open(study, "r+b") as fh:
+        fh.seek((root - 1) * page)
+        fh.write(b"\xab" * page)
+    code = run("export", "--db", study, "--out", tmp_path / "out")
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert "cannot be read" in err
+
+
+def test_export_into_a_folder_that_cannot_be_written_exits_2(run, study, tmp_path, capsys):
+    (tmp_path / "a_file").write_text("x")
+    assert run("export", "--db", study, "--out", tmp_path / "a_file" / "out") == 2
+    err = capsys.readouterr().err
+    assert "cannot write in this folder" in err and len(err.strip().splitlines()) == 1

@@ -27,3 +27,21 @@ def test_a_reader_that_leaves_early_is_not_an_error():
 def test_unknown_command_is_one_line_and_exit_2():
     proc = subprocess.run([sys.executable, "-m", "cacas", "frobnicate"], capture_output=True, text=True)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1 and "invalid choice" in proc.stderr
+
+
+def test_a_file_that_cannot_be_written_is_one_line_and_exit_2(tmp_path, capsys, monkeypatch):
+    """The last resort for any sub-command: an OSError names the path, no traceback."""
+    import argparse
+
+    import cacas.cli as cli
+
+    def build_parser():
+        p = argparse.ArgumentParser()
+        p.set_defaults(func=lambda args: (tmp_path / "a_file" / "x.csv").write_text("x"))
+        return p
+
+    (tmp_path / "a_file").write_text("not a folder")
+    monkeypatch.setattr(cli, "build_parser", build_parser)
+    assert cli.main([]) == 2
+    err = capsys.readouterr().err
+    assert err == f"cacas: error: {tmp_path / 'a_file' / 'x.csv'}: Not a directory\n"

@@ -35,6 +35,9 @@ def bad_pref(**change):
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
     (GOOD, ["--ask-after-reject", "2"], ["--ask-after-reject 2.0", "0 <= rate <= 1"]),
     (GOOD, ["--days", "two"], ["--days", "invalid int"]),
+    (GOOD, ["--days", "366"], ["--days 366", "from 1 to 365"]),
+    (GOOD, ["--interactions", "10000000000"], ["--interactions 10000000000", "from 1 to 1440"]),
+    (GOOD, ["--seed", "-1"], ["--seed -1", "from 0 to 4294967295"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):
     path = tmp_path / "missing.json" if content is None else write(tmp_path, content)
@@ -79,3 +82,47 @@ def test_same_seed_writes_the_same_daily_csv_byte_for_byte(tmp_path, capsys):
     assert (tmp_path / "plots" / "fig3_success.html").stat().st_size > 1000
     assert (tmp_path / "plots" / "fig4_methods.html").exists()
     assert "Accuracy by described preference" in (tmp_path / "plots" / "fig4_by_preference.html").read_text()
+
+
+@pytest.mark.parametrize("flag", ["--out", "--plot"])
+def test_an_output_folder_that_cannot_be_written_is_refused_before_the_simulation(tmp_path, capsys, monkeypatch,
+                                                                                    flag):
+    import cacas.experiment
+
+    def never(*a, **k):
+        raise AssertionError("the simulation ran before the output folder was checked")
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", never)
+    (tmp_path / "a_file").write_text("not a folder")
+    folders = {"--out": str(tmp_path / "out"), "--plot": str(tmp_path / "plots")}
+    folders[flag] = str(tmp_path / "a_file" / "sub")
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet",
+                 *[a for k, v in folders.items() for a in (k, v)]])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert f"{flag} {folders[flag]}: cannot write in this folder" in err
+
+
+def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypatch):
+    """The disk fills while the tables are written: the earlier run's three files stay as they
+    were (not a mix of two runs), no temporary file is left, one line, exit 2."""
+    from cacas.store import files
+
+    out = tmp_path / "out"
+    out.mkdir()
+    earlier = {name: f"earlier {name}\n" for name in ("daily.csv", "interactions.csv", "by_preference.csv")}
+    for name, text in earlier.items():
+        (out / name).write_text(text)
+    calls = []
+
+    def full_disk(fd):
+        calls.append(fd)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(files.os, "fsync", full_disk)
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                 "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and "interactions.csv: cannot be written (No space left on device)" in err
+    assert {p.name: p.read_text() for p in out.iterdir()} == earlier

@@ -3,13 +3,15 @@
 Each sub-command module exposes ``register(subparsers)``, which adds its parser and sets
 ``func`` (called with the parsed arguments, returning an exit code). Bad input raises
 :class:`cacas.errors.CacasError`; it is printed as one line and the command exits with code 2,
-never with a traceback.
+never with a traceback. So is, as a last resort, a file the command cannot read or write
+(OSError) and a study database found damaged while reading it.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import sqlite3
 import sys
 
 from cacas.errors import CacasError
@@ -40,14 +42,22 @@ def main(argv: list[str] | None = None) -> int:
     except CacasError as exc:
         print(f"cacas: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("cacas: interrupted", file=sys.stderr)
-        return 130
     except BrokenPipeError:  # e.g. `cacas sound eval | head`: the reader left; not an error of ours
         import os
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
         return 0
+    except OSError as exc:  # a file or folder the command could not read or write
+        where = f"{exc.filename}: " if exc.filename else ""
+        print(f"cacas: error: {where}{exc.strerror or exc}", file=sys.stderr)
+        return 2
+    except sqlite3.DatabaseError as exc:  # e.g. a damaged page found while reading the tables
+        print(f"cacas: error: the study database cannot be read ({exc}); restore it from a backup or an "
+              f"export", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("cacas: interrupted", file=sys.stderr)
+        return 130
     return int(code or 0)
 
 

@@ -12,8 +12,6 @@ preference as Plotly HTML.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
-
 from cacas.errors import CacasError
 
 
@@ -47,46 +45,40 @@ def register(sub) -> None:
 def run(args) -> int:
     from cacas.experiment import check_methods, check_study_arguments
 
-    check_study_arguments(args.days, args.interactions, args.no_response_rate, args.ask_after_reject)
+    check_study_arguments(args.days, args.interactions, args.no_response_rate, args.ask_after_reject, args.seed)
     if args.jobs is not None and args.jobs < 1:
         raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
     methods = check_methods(args.methods.split(","))
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise CacasError(f"--out {out} is a file; valid: a folder (created if missing)")
 
     import pandas as pd
 
     from cacas import records
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
-    from cacas.experiment import simulate_study, summary_table
+    from cacas.experiment import default_jobs, simulate_study, summary_table
     from cacas.preferences import load_personas
+    from cacas.store import files
 
     people = load_personas(args.personas)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
+    # the output folders are checked before the (long) simulation, not after it
+    out = files.writable_folder(args.out, f"--out {args.out}")
+    plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
     progress = None if args.quiet else ProgressBar("simulate")
-    from cacas.experiment import default_jobs
-
     result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                             seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
                             jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject)
-    out.mkdir(parents=True, exist_ok=True)
-    written = {"daily.csv": result.daily, "interactions.csv": result.interactions,
-               "by_preference.csv": result.by_preference}
-    for name, df in written.items():
-        tmp = out / f".{name}.tmp"
-        records.write_csv(df, tmp)
-        tmp.replace(out / name)
+    # the three tables replace an earlier run's together, or not at all
+    written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),
+                                    "interactions.csv": records.csv_bytes(result.interactions),
+                                    "by_preference.csv": records.csv_bytes(result.by_preference)})
     table = summary_table(result.daily)
     with pd.option_context("display.width", 120, "display.max_rows", 200):
         print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
-    print("wrote " + ", ".join(str(out / name) for name in written))
-    if args.plot:
+    print("wrote " + ", ".join(str(path) for path in written.values()))
+    if plot_dir is not None:
         from cacas.plots import methods_figure, preference_methods_figure, success_figure
 
-        plot_dir = Path(args.plot)
-        plot_dir.mkdir(parents=True, exist_ok=True)
         figures = {"fig3_success.html": success_figure(result.daily, methods[0]),
                    "fig4_methods.html": methods_figure(result.daily),
                    "fig4_by_preference.html": preference_methods_figure(result.by_preference)}

@@ -1,4 +1,4 @@
-"""Policy checkpoint files: written atomically, identified by their sha256.
+"""Files written atomically: policy checkpoints (identified by their sha256) and output folders.
 
 A checkpoint (the adapted policy of one participant after one day, CACAA's output, Table III)
 is written to a temporary file in the target folder, flushed and fsynced, renamed into place and
@@ -9,7 +9,10 @@ from __future__ import annotations
 
 import hashlib
 import os
+import tempfile
 from pathlib import Path
+
+from cacas.errors import CacasError
 
 
 def sha256(data: bytes) -> str:
@@ -29,11 +32,62 @@ def atomic_write(path: Path, data: bytes) -> None:
     finally:
         if tmp.exists():
             tmp.unlink()
+    _fsync_folder(path.parent)
+
+
+def _fsync_folder(folder: Path) -> None:
+    """Make renames in ``folder`` durable."""
     try:
-        fd = os.open(path.parent, os.O_RDONLY)
+        fd = os.open(folder, os.O_RDONLY)
     except OSError:  # pragma: no cover - folders cannot be opened on some systems
         return
     try:
         os.fsync(fd)
     finally:
         os.close(fd)
+
+
+def writable_folder(folder, what: str) -> Path:
+    """``folder``, created if missing, after checking that files can be written in it; else a
+    CacasError naming it (``what``: how the user named it, e.g. "--out results")."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise CacasError(f"{what}: is a file; valid: a folder (created if missing)")
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise CacasError(f"{what}: cannot write in this folder ({exc.strerror or exc})") from None
+    return folder
+
+
+def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
+    """Write several files into ``folder`` as one change: each to a temporary file first
+    (flushed and fsynced), and only when all are written are they renamed into place. A failure
+    (disk full, read-only folder) leaves the folder's files as they were, removes the temporary
+    ones and raises a CacasError naming the file. Returns name -> path."""
+    folder = Path(folder)
+    tmps: dict[str, Path] = {}
+    name = ""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, data in contents.items():
+            tmps[name] = folder / f".{name}.{os.getpid()}.tmp"
+            with open(tmps[name], "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        for name, tmp in tmps.items():
+            os.replace(tmp, folder / name)
+    except OSError as exc:
+        raise CacasError(f"{folder / name}: cannot be written ({exc.strerror or exc}); "
+                         f"the folder's files are unchanged") from None
+    finally:
+        for tmp in tmps.values():
+            try:
+                tmp.unlink(missing_ok=True)
+            except OSError:  # pragma: no cover - the folder went away meanwhile
+                pass
+    _fsync_folder(folder)
+    return {n: folder / n for n in contents}
