@@ -126,8 +126,12 @@ def _record(token: str, proposal, response: str | None = None, user_action: str 
     a second click (or a second tab) on the same proposal writes nothing."""
     s = st.session_state
     status = day_status(store, code)
-    if token != f"{status.day}:{status.interactions_today + 1}:{st.query_params.get('ctx')}" or not status.open:
+    if not status.open:  # the researcher closed the day while this proposal was on the tablet
+        s["session-error"] = (f"This answer was not saved: day {status.day} was closed meanwhile. Ask the researcher "
+                              "whether to start the next day.")
         return
+    if token != f"{status.day}:{status.interactions_today + 1}:{st.query_params.get('ctx')}":
+        return  # already saved (a second click, or another tab answered first)
     try:
         answer(store, code, status.day, proposal, response=response, user_action=user_action)
     except CacasError as exc:
@@ -233,8 +237,13 @@ else:
         else:
             ui.job_progress("initial-policy")
         st.stop()
-    with st.spinner("The robot is getting ready..."):
-        policy, version = _policy(ui.db_path(), code, status.policy_version)
+    try:
+        with st.spinner("The robot is getting ready..."):
+            policy, version = _policy(ui.db_path(), code, status.policy_version)
+    except CacasError as exc:
+        st.error(f"The robot's policy cannot be loaded ({exc}). The researcher can put another version in force "
+                 "on the Adaptation page.", icon=":material/error:")
+        st.stop()
     proposal = propose(policy, context, previous_interaction(store, code, day),
                        heard=heard[0] if heard else None, heard_confidence=heard[1] if heard else None,
                        policy_version=version, seen=seen[0] if seen else None)

@@ -472,3 +472,15 @@ def test_snapshot_reads_one_consistent_view(store):
     assert len(store.interactions_frame("P01")) == 1
     assert store.questionnaire_frame().empty
     other.close()
+
+
+def test_a_write_the_database_refuses_is_one_message_and_writes_nothing(store):
+    """A read-only (or full) database: a CacasError that says so, nothing half-written."""
+    day = store.open_day("P01")
+    store._conn.execute("PRAGMA query_only = 1")  # every write now fails as on a read-only file
+    with pytest.raises(CacasError, match=r"the study database cannot be written \(attempt to write a readonly "
+                                         r"database\); nothing was saved"):
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                                 robot_action="pain check", response="accept")
+    store._conn.execute("PRAGMA query_only = 0")
+    assert len(store.interactions_frame("P01")) == 0

@@ -111,7 +111,8 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
     """Run ``fn(conn)`` in one ``BEGIN IMMEDIATE`` ... ``COMMIT`` and return its result.
 
     Any exception rolls everything back (nothing written) and propagates; SQLITE_BUSY is retried
-    with a short random back-off, up to :data:`WRITE_RETRIES` times. With a ``queue``, the
+    with a short random back-off, up to :data:`WRITE_RETRIES` times; a write the database
+    refuses (still busy, read-only, disk full) becomes one CacasError. With a ``queue``, the
     transaction runs while holding it (see :class:`WriterQueue`).
     """
     if queue is not None:
@@ -124,7 +125,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
             if _is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
-            raise CacasError(f"the study database is busy ({exc}); try again") from None
+            raise _refused(exc) from None
         try:
             result = fn(conn)
             conn.execute("COMMIT")
@@ -134,12 +135,21 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
             if _is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
-            raise
+            raise _refused(exc) from None
         except BaseException:
             if conn.in_transaction:
                 conn.execute("ROLLBACK")
             raise
     raise AssertionError("unreachable")  # pragma: no cover
+
+
+def _refused(exc: sqlite3.Error) -> CacasError:
+    """A write the database refused: still busy after the retries, or a read-only file or
+    folder, a full disk, a damaged file."""
+    if _is_busy(exc):
+        return CacasError(f"the study database is busy ({exc}); try again")
+    return CacasError(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
+                      "folder are writable and the disk has room")
 
 
 def read(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
@@ -240,6 +250,9 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
             raise CacasError(f"{path}: cannot switch the study database to WAL mode (got {mode})")
     except sqlite3.DatabaseError as exc:
         conn.close()
+        if "unable to open" in str(exc) or "readonly" in str(exc):
+            raise CacasError(f"{path}: cannot open the study database for writing ({exc}); check that the file and "
+                             "its folder are writable") from None
         raise CacasError(f"{path}: is not a study database ({exc})") from None
     except BaseException:
         conn.close()

@@ -193,3 +193,29 @@ def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
     no_exception(at)
     assert "Choose a room first." in texts(at)
     assert "ctx" not in at.query_params
+
+
+def test_an_answer_after_the_day_was_closed_meanwhile_says_it_was_not_saved(app, store, p01, quick_policy):
+    day = store.open_day("P01")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    no_exception(at)
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)  # the researcher closes the day while the proposal is on the tablet
+    _button(at, next(b.label for b in at.button if b.label in ("Accept", "Nothing needed"))).click().run()
+    no_exception(at)
+    assert f"This answer was not saved: day {day} was closed meanwhile" in texts(at)
+    assert len(store.interactions_frame("P01", method=None)) == 1
+
+
+def test_a_missing_policy_file_is_a_message_not_a_crash(app, store, p01, quick_policy):
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
+    store.open_day("P01")
+    store.active_policy("P01").path.unlink()
+    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    no_exception(at)
+    assert "The robot's policy cannot be loaded" in texts(at) and "Adaptation page" in texts(at)
