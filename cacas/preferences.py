@@ -12,6 +12,7 @@ simulated participant and the evaluation of Fig. 4 only.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
@@ -185,7 +186,7 @@ def _interval(value: Any, where: str) -> tuple[int, int] | None:
         return None
     hint = f"[min, max] minutes with 0 <= min <= max, covering at least one of {list(spaces.INTERVAL_BINS)}"
     ok = (isinstance(value, list) and len(value) == 2
-          and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value))
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value))
     if not ok or value[0] < 0 or value[0] > value[1] or not any(
             value[0] <= b <= value[1] for b in spaces.INTERVAL_BINS):
         raise CacasError(f"{where}: {json.dumps(value)} is invalid; valid: {hint}")
@@ -287,16 +288,27 @@ def load_personas(path: str | Path) -> list[Participant]:
     """Read and validate a persona file; any problem is one CacasError naming file and field."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        data = path.read_bytes()
     except FileNotFoundError:
         raise CacasError(f"{path}: no such persona file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise CacasError(f"{path}: cannot be read as UTF-8 text ({exc.__class__.__name__})") from None
+    except OSError as exc:
+        raise CacasError(f"{path}: cannot be read ({exc.strerror or exc.__class__.__name__})") from None
+    return parse_personas(persona_json(data, str(path)), str(path))
+
+
+def persona_json(data: str | bytes, source: str) -> Any:
+    """The JSON document of a persona file's text or bytes; CacasError naming ``source`` if it is
+    not UTF-8 text, not JSON, or nested too deeply to be a persona file."""
     try:
-        data = json.loads(text)
+        text = data.decode("utf-8") if isinstance(data, bytes) else data
+    except UnicodeDecodeError:
+        raise CacasError(f"{source}: cannot be read as UTF-8 text; valid: a JSON persona file") from None
+    try:
+        return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise CacasError(f"{path}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
-    return parse_personas(data, str(path))
+        raise CacasError(f"{source}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    except RecursionError:
+        raise CacasError(f"{source}: nested too deeply to be a persona file; valid: design.md's format") from None
 
 
 def dumps_personas(participants: Iterable[Participant]) -> str:

@@ -122,9 +122,9 @@ if code:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
 
         existing = list(saved.preferences) if saved is not None else []
-        count = st.number_input("Preferences on the form", min_value=1, max_value=10,
+        count = st.number_input("Preferences on the form", min_value=1, max_value=max(10, len(existing)),
                                 value=max(5, len(existing)), key=f"count-{code}-v{version}",
-                                help="The paper asks each participant for 5.")
+                                help="The paper asks each participant for 5; an imported file may have more.")
         errors = st.session_state.get("pref-errors") or {}
         overall = st.session_state.get("pref-overall")
         tasks = {}

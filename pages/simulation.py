@@ -13,7 +13,7 @@ from cacas.errors import CacasError
 from cacas.experiment import METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.paths import study_data_dir
-from cacas.preferences import load_personas, parse_personas
+from cacas.preferences import load_personas, parse_personas, persona_json
 from pages import ui
 
 ui.require_app()
@@ -42,11 +42,7 @@ try:
     elif choice.startswith("Upload"):
         up = st.file_uploader("Persona file (.json, design.md's format)", type=["json"], key="sim-upload")
         if up is not None:
-            try:
-                data = json.loads(up.getvalue().decode("utf-8"))
-            except (UnicodeDecodeError, json.JSONDecodeError) as exc:
-                raise CacasError(f"{up.name}: not valid JSON ({exc})") from None
-            people = parse_personas(data, up.name)
+            people = parse_personas(persona_json(up.getvalue(), up.name), up.name)
     else:
         people = [p for p in (store.get_preferences(c.code) for c in store.list_participants(study)) if p is not None]
         if not people:

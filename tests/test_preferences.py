@@ -113,3 +113,20 @@ def test_save_load_round_trip(tmp_path):
     prefs.save_personas(people, path)
     assert prefs.load_personas(path) == people
     assert json.loads(path.read_text())["participants"][0]["preferences"][0] == STOVE
+
+
+@pytest.mark.parametrize("data, message", [
+    (b"\x89PNG\r\n\x1a\n\x00\x00", r"upload.json: cannot be read as UTF-8 text; valid: a JSON persona file"),
+    ("[" * 100_000 + "]" * 100_000, r"upload.json: nested too deeply to be a persona file"),
+    ("{", r"upload.json: not valid JSON \(line 1, column 2"),
+])
+def test_persona_json_that_is_not_a_persona_document(data, message):
+    with pytest.raises(CacasError, match=message):
+        prefs.persona_json(data, "upload.json")
+
+
+def test_an_infinite_interval_is_refused():
+    doc = json.loads('{"participants": [{"id": "P01", "preferences": [{"activity": ["cough"], '
+                     '"action": "pain check", "interval": [0, 1e999]}]}]}')
+    with pytest.raises(CacasError, match=r"participant P01.*field 'interval'.*Infinity.*is invalid"):
+        prefs.parse_personas(doc, "f.json")

@@ -484,3 +484,16 @@ def test_a_write_the_database_refuses_is_one_message_and_writes_nothing(store):
                                  robot_action="pain check", response="accept")
     store._conn.execute("PRAGMA query_only = 0")
     assert len(store.interactions_frame("P01")) == 0
+
+
+@pytest.mark.parametrize("data, message", [
+    (b"\x89PNG\r\n\x1a\n\x00", r"photo.json: cannot be read as UTF-8 text"),
+    ("[" * 100_000 + "]" * 100_000, r"photo.json: nested too deeply"),
+    ('{"participants": [{"id": "P 01", "preferences": [{"activity": ["cough"], "action": "pain check"}]}]}',
+     r"photo.json: participant code 'P 01' is invalid"),
+])
+def test_import_of_a_file_that_is_not_personas_names_it_and_writes_nothing(store, data, message):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match=message):
+        store.import_personas(data, source="photo.json")
+    assert snapshot(store.path) == before

@@ -174,14 +174,13 @@ class PeopleMixin:
         missing (to ``study``) and save each one's preferences as a new version. All or nothing:
         one invalid participant or preference raises CacasError and nothing is written."""
         if isinstance(data, (str, bytes)):
-            try:
-                data = json.loads(data)
-            except json.JSONDecodeError as exc:
-                raise CacasError(f"{source or 'persona file'}: not valid JSON (line {exc.lineno}, "
-                                 f"column {exc.colno}: {exc.msg})") from None
+            data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
         for p in people:
-            v.code(p.id)
+            try:
+                v.code(p.id)
+            except CacasError as exc:
+                raise CacasError(f"{source or 'persona file'}: {exc}") from None
         study = v.study(study)
 
         def fn(c):

@@ -2,6 +2,8 @@ import json
 
 from apphelpers import no_exception, texts
 
+from cacas.spaces import ACTIONS, ACTIVITIES
+
 PAGE = "pages/participants.py"
 
 
@@ -118,3 +120,15 @@ def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
     assert [v["version"] for v in store.preference_versions("P01")] == [1, 2]
     newest = store.get_preferences("P01").preferences[0]
     assert newest.action == "remind to be careful" and newest.hours == ((6, 10), (16, 20))
+
+
+def test_a_participant_with_more_than_ten_preferences_opens(app, store):
+    """An imported file may hold more preferences than the form's usual ten: all are shown."""
+    actions = [a for a in ACTIONS if a != "do nothing"]
+    prefs = [{"activity": [activity], "action": actions[i % len(actions)]}
+             for i, activity in enumerate(ACTIVITIES[:12])]
+    store.import_personas({"participants": [{"id": "P01", "preferences": prefs}]})
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert at.number_input(key="count-P01-v1").value == 12
+    assert "12 preferences" in texts(at)
