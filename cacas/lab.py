@@ -85,24 +85,28 @@ def evaluate_scene(progress: Progress = None):
 
 def recognize_sound_bytes(recognizer, name: str, data: bytes):
     """Recognise an uploaded or recorded clip (bytes); a bad file raises CacasError naming it."""
-    if not data:
-        raise CacasError(f"{name}: is empty (0 bytes)")
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / _safe_name(name, "recording.wav")
-        if path.suffix == "":
-            path = path.with_suffix(".wav")
-        path.write_bytes(data)
-        return recognizer.recognize(path)
+    return _recognize_bytes(recognizer, name, data, "recording.wav")
 
 
 def recognize_scene_bytes(recognizer, name: str, data: bytes):
-    """Recognise an uploaded photo or a camera picture (bytes)."""
+    """Recognise an uploaded photo or a camera picture (bytes); a bad file raises CacasError naming it."""
+    return _recognize_bytes(recognizer, name, data, "photo.jpg")
+
+
+def _recognize_bytes(recognizer, name: str, data: bytes, default_name: str):
+    """The recognizer on ``data`` written to a temporary file named like the upload; its
+    messages name the upload, not the temporary file."""
     if not data:
         raise CacasError(f"{name}: is empty (0 bytes)")
     with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / _safe_name(name, "photo.jpg")
+        path = Path(tmp) / _safe_name(name, default_name)
+        if path.suffix == "":
+            path = path.with_suffix(Path(default_name).suffix)
         path.write_bytes(data)
-        return recognizer.recognize(path)
+        try:
+            return recognizer.recognize(path)
+        except CacasError as exc:
+            raise CacasError(str(exc).replace(str(path), name)) from None
 
 
 def model_stamp(kind: str) -> float | None:

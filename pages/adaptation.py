@@ -52,8 +52,8 @@ def _start(who: str, day: int) -> None:
     s["adapt-note"] = None if started else "This adaptation is already running (started in another tab?)."
 
 
-def _rollback(who: str) -> None:
-    choice = st.session_state.get("rollback-version")
+def _rollback(who: str, key: str) -> None:
+    choice = st.session_state.get(key)
     try:
         store.set_active_policy(who, None if choice == 0 else choice)
     except CacasError as exc:
@@ -120,11 +120,13 @@ if not versions:
 else:
     labels = {0: "initial policy"} | {v.version: f"version {v.version} (after day {v.day}, {v.method})" for v in versions}
     active = next((v.version for v in versions if v.active), 0)
+    # the widgets start afresh when a version is added or put in force, at the policy in force
+    stamp = f"{code}-{versions[-1].version}-{active}"
     c1, c2 = st.columns(2)
     keys = list(labels)
-    after = c2.selectbox("After", keys, index=keys.index(active), format_func=labels.get, key="cmp-after")
+    after = c2.selectbox("After", keys, index=keys.index(active), format_func=labels.get, key=f"cmp-after-{stamp}")
     before_default = max(0, keys.index(after) - 1)
-    before = c1.selectbox("Before", keys, index=before_default, format_func=labels.get, key="cmp-before")
+    before = c1.selectbox("Before", keys, index=before_default, format_func=labels.get, key=f"cmp-before-{stamp}")
     data = store.interactions_frame(code, method=None)
     try:
         p_before = _initial() if before == 0 else _load(db, code, before)
@@ -172,9 +174,9 @@ if versions:
         st.markdown("**Roll back (or forward)**: put an earlier policy in force for the next interactions.")
         options = [0] + [v.version for v in versions]
         st.selectbox("Policy", options, format_func=lambda v: "initial policy" if v == 0 else f"version {v}",
-                     index=options.index(next((v.version for v in versions if v.active), 0)),
-                     key="rollback-version")
-        st.form_submit_button("Put in force", on_click=_rollback, args=(code,), icon=":material/history:")
+                     index=options.index(active), key=f"rollback-version-{stamp}")
+        st.form_submit_button("Put in force", on_click=_rollback, args=(code, f"rollback-version-{stamp}"),
+                              icon=":material/history:")
     if st.session_state.get("rollback-error"):
         st.error(st.session_state["rollback-error"])
 else:

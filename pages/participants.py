@@ -128,7 +128,7 @@ if code:
         errors = st.session_state.get("pref-errors") or {}
         overall = st.session_state.get("pref-overall")
         tasks = {}
-        with st.form(f"prefs-{code}-v{version}", border=False):
+        with st.form(f"prefs-{code}-v{version}", border=False, enter_to_submit=False):
             for n in range(1, int(count) + 1):
                 old = existing[n - 1] if n <= len(existing) else None
                 if old is not None and old.task:

@@ -55,7 +55,7 @@ if problem:
 by_id = {p.id: p for p in people}
 job = RUNNER.get(JOB)
 running = job is not None and job.running
-with st.form("simulation", border=True):
+with st.form("simulation", border=True, enter_to_submit=False):  # a run starts only on its button
     chosen = st.multiselect("Simulated participants", list(by_id), default=list(by_id),
                             help="Each follows their described preferences.")
     c1, c2, c3, c4, c5 = st.columns(5)

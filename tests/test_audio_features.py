@@ -141,3 +141,19 @@ def test_integer_pcm_arrays_are_scaled():
     assert 0.25 < np.max(np.abs(features.check_signal(u8))) < 0.35
     with pytest.raises(CacasError, match="silence"):
         features.check_signal(np.full(1000, 128, dtype=np.uint8))
+
+
+def test_a_clips_features_do_not_depend_on_the_clips_beside_it():
+    """The robot hears one clip at a time; training and evaluation take many at once. A clip's
+    MFCC must be the same both ways (power_to_db's 80 dB floor is per window, not per batch)."""
+    import librosa
+
+    rng = np.random.default_rng(0)
+    quiet = (0.001 * rng.standard_normal(features.WINDOW_SAMPLES)).astype(np.float32)
+    loud = rng.standard_normal(features.WINDOW_SAMPLES).astype(np.float32)
+    alone = features.mfcc_windows(quiet)[0]
+    in_a_batch = features.mfcc_batch([loud, quiet])[1]
+    assert np.array_equal(alone, in_a_batch)
+    # and it is librosa's MFCC of that 1-s window with the paper's parameters
+    expected = librosa.feature.mfcc(y=quiet, sr=features.SAMPLE_RATE, n_mfcc=64, n_fft=2048, hop_length=1024, n_mels=64)
+    np.testing.assert_allclose(alone, expected, rtol=1e-5, atol=1e-4)

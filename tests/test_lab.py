@@ -32,3 +32,22 @@ def test_app_sound_training_uses_the_command_line_defaults(monkeypatch, tmp_path
     parser = argparse.ArgumentParser()
     sound_cli.register(parser.add_subparsers())
     assert parser.parse_args(["sound", "train"]).epochs == default
+
+
+def test_a_bad_upload_is_named_as_uploaded_not_by_its_temporary_file():
+    import pytest
+
+    from cacas import lab
+    from cacas.audio.features import load_clip
+    from cacas.errors import CacasError
+
+    class Hears:
+        def recognize(self, path):
+            return load_clip(path)
+
+    with pytest.raises(CacasError) as exc:
+        lab.recognize_sound_bytes(Hears(), "notes.wav", b"these are notes, not sound")
+    message = str(exc.value)
+    assert message.startswith("notes.wav: ") and "/tmp" not in message and "tmp" not in message.split(":")[0]
+    with pytest.raises(CacasError, match=r"^photo.jpg: is empty \(0 bytes\)$"):
+        lab.recognize_scene_bytes(Hears(), "photo.jpg", b"")

@@ -29,6 +29,7 @@ N_FFT = 2_048  #: FFT window (IV-A)
 HOP_LENGTH = 1_024  #: FFT step (IV-A)
 N_MELS = 64  #: Mel bands (IV-A)
 N_MFCC = 64  #: coefficients kept: the feature is 64 x 32 (IV-A)
+TOP_DB = 80.0  #: dynamic range of the log-mel spectrogram, per 1-s window (librosa's default)
 N_FRAMES = 1 + WINDOW_SAMPLES // HOP_LENGTH  # 32 frames with librosa's centred framing
 FEATURE_SHAPE = (N_MFCC, N_FRAMES)  # (64, 32)
 
@@ -132,8 +133,12 @@ def mfcc_of_windows(frames: np.ndarray) -> np.ndarray:
         raise CacasError(f"expected windows of shape (n, {WINDOW_SAMPLES}), got {frames.shape}")
     if len(frames) == 0:
         return np.zeros((0, *FEATURE_SHAPE), dtype=np.float32)
-    m = librosa.feature.mfcc(y=frames, sr=SAMPLE_RATE, n_mfcc=N_MFCC, n_fft=N_FFT,
-                             hop_length=HOP_LENGTH, n_mels=N_MELS)
+    mel = librosa.feature.melspectrogram(y=frames, sr=SAMPLE_RATE, n_fft=N_FFT, hop_length=HOP_LENGTH,
+                                         n_mels=N_MELS)
+    # log-mel per window: power_to_db's 80 dB floor is taken from the loudest bin of the array it
+    # is given, so one call over the batch would make a clip's features depend on its batch-mates
+    log_mel = np.stack([librosa.power_to_db(window_mel, top_db=TOP_DB) for window_mel in mel])
+    m = librosa.feature.mfcc(S=log_mel, n_mfcc=N_MFCC)
     return m.astype(np.float32)
 
 

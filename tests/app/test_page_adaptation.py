@@ -66,7 +66,7 @@ def test_rollback_to_the_initial_policy(app, store, quick_policy):
     store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
     at = app(PAGE, participant="P01")
     no_exception(at)
-    at.selectbox(key="rollback-version").set_value(0)
+    at.selectbox(key="rollback-version-P01-1-1").set_value(0)
     _button(at, "Put in force").click().run()
     no_exception(at)
     assert store.active_policy("P01") is None
@@ -96,3 +96,22 @@ def test_a_comparison_run_is_not_an_adaptation_and_a_baseline_adaptation_is(app,
     assert f"Day {day} is closed and adapted" in texts(at)
     assert not day_status(store, "P01").waiting_for_adaptation
     assert start_day(store, "P01") == day + 1
+
+
+
+def test_what_changed_and_roll_back_follow_the_newest_version(app, store, quick_policy):
+    """After a new version is saved, the comparison and the roll-back start at the policy in
+    force (the widgets kept the earlier choice)."""
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    after = next(s for s in at.selectbox if s.label == "After")
+    assert after.value == 1 and next(s for s in at.selectbox if s.label == "Before").value == 0
+    store.save_policy("P01", day, "cacas", quick_policy.to_bytes())  # e.g. adapted again: version 2 in force
+    at.run()
+    no_exception(at)
+    assert next(s for s in at.selectbox if s.label == "After").value == 2
+    assert next(s for s in at.selectbox if s.label == "Before").value == 1
+    assert next(s for s in at.selectbox if s.label == "Policy").value == 2

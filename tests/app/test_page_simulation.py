@@ -49,3 +49,19 @@ def test_simulation_lab_offers_the_leave_me_alone_examples(app):
     at.radio[0].set_value("The same, each with a 'leave me alone' preference (Q01-Q08)").run()
     no_exception(at)
     assert at.multiselect[0].value == [f"Q{i:02d}" for i in range(1, 9)]
+
+
+def _forms(node):
+    """The form blocks under an AppTest node (AppTest has no accessor for forms)."""
+    found = [node] if getattr(node, "type", None) == "form" else []
+    for child in (node.children.values() if isinstance(getattr(node, "children", None), dict) else []):
+        found += _forms(child)
+    return found
+
+
+def test_enter_in_a_field_does_not_start_a_run(app):
+    """A long run starts only on its button, not when Enter is pressed in "Days"."""
+    at = app(PAGE)
+    no_exception(at)
+    form = next(f for f in _forms(at._tree) if f.proto.form.form_id == "simulation")
+    assert form.proto.form.enter_to_submit is False
