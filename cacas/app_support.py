@@ -248,18 +248,27 @@ def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
 # --- interactions as a readable table ------------------------------------------------------------
 
 def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
-    """The interactions table with names instead of indices, for reading on a page."""
+    """The interactions table with names instead of indices, for reading on a page: what the
+    participant set, what the robot heard and saw (when ``df`` has the store's extra columns and
+    a recogniser was used; else the activity and room set), the robot's proposal and the answer
+    ("asked for X" for a participant's request, where the robot's proposal was not taken)."""
+    columns = ["day", "#", "time of day", "activity", "room", "robot heard", "robot saw", "robot proposed", "answer"]
     if df.empty:
-        return pd.DataFrame(columns=["day", "#", "time of day", "activity", "room", "robot", "answer",
-                                     "asked for"])
+        return pd.DataFrame(columns=columns)
     slot = df["time_slot"].astype(int)
-    who = np.where(df["type"] == records.USER_INITIATED, "asked for " + df["user_action"].astype(str),
-                   df["response"].map({"accept": "accepted", "reject": "rejected", "others": "no response"}))
+    request = (df["type"] == records.USER_INITIATED).to_numpy()
+    answer = np.where(request, "asked for " + df["user_action"].astype(str),
+                      df["response"].map({"accept": "accepted", "reject": "rejected", "others": "no response"}))
+    heard = df["recognised_activity"] if "recognised_activity" in df else pd.Series([None] * len(df), index=df.index)
+    saw = df["recognised_scene"] if "recognised_scene" in df else pd.Series([None] * len(df), index=df.index)
     return pd.DataFrame({
         "day": df["day"].astype(int), "#": df["index"].astype(int),
         "time of day": [spaces.time_slot_label(s) for s in slot],
-        "activity": df["activity"], "room": df["scene"], "robot": df["robot_action"], "answer": who,
-    })
+        "activity": df["activity"], "room": df["scene"],
+        "robot heard": heard.where(heard.notna() & (heard != ""), df["activity"]),
+        "robot saw": saw.where(saw.notna() & (saw != ""), df["scene"]),
+        "robot proposed": df["robot_action"], "answer": answer,
+    }, columns=columns)
 
 
 # --- simulated runs kept beside the study database -------------------------------------------------

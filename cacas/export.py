@@ -171,7 +171,9 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     read-only *before* anything is created, so a missing file or one that is not a study
     database raises CacasError and changes and creates nothing.
     """
-    store = db if isinstance(db, StudyStore) else StudyStore(db, readonly=True)
+    # a path is opened here; anything else is an open store (also one of a class reloaded since,
+    # as Streamlit does when the code changes under a running app)
+    store = StudyStore(db, readonly=True) if isinstance(db, (str, os.PathLike)) else db
     try:
         known = [s.name for s in store.studies()]
         if study is not None and study not in known:

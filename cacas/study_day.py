@@ -220,13 +220,21 @@ def _normalised(probs: np.ndarray) -> list[float]:
     return (p / p.sum()).tolist() if p.sum() > 0 else None
 
 
+def request_accepts_proposal(proposal: Proposal, user_action: str) -> bool:
+    """Whether asking for ``user_action`` is accepting the robot's proposal: the participant asked
+    for exactly what the robot offered. It is recorded as accepted (a success, Fig. 3), not as a
+    request of their own (which would also reject "do nothing", Section V-B)."""
+    return proposal.robot_speaks and spaces.canonical("action", user_action) == proposal.action
+
+
 def answer(store, participant: str, day: int, proposal: Proposal, response: str | None = None,
            user_action: str | None = None) -> int:
     """Record the participant's answer at once (committed before this returns); the row id.
 
     ``response``: "accept", "reject" or "no response" to the robot's proposal (type_1). Or
-    ``user_action``: the action the participant asked for and confirmed (type_2). When the robot
-    did nothing, "no response" records that nothing was needed.
+    ``user_action``: the action the participant asked for and confirmed (type_2; asking for
+    exactly what the robot offered is accepting it, see :func:`request_accepts_proposal`). When
+    the robot did nothing, "no response" records that nothing was needed.
     """
     if (response is None) == (user_action is None):
         raise CacasError("give either the answer to the robot (accept, reject, no response) or the "
@@ -246,8 +254,10 @@ def answer(store, participant: str, day: int, proposal: Proposal, response: str 
         wanted = spaces.canonical("action", user_action)
         if wanted == "do nothing":
             raise CacasError("'do nothing' is not a request; valid: one of the 13 other actions")
-        return store.record_interaction(participant, day, type=records.USER_INITIATED, response="accept",
-                                        user_action=wanted, **common)
+        if not request_accepts_proposal(proposal, wanted):
+            return store.record_interaction(participant, day, type=records.USER_INITIATED, response="accept",
+                                            user_action=wanted, **common)
+        response = "accept"
     key = str(response).strip().lower()
     if key not in ANSWERS:
         raise CacasError(f"answer {response!r} is invalid; valid: {', '.join(ANSWERS)}")

@@ -16,7 +16,7 @@ from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
-                             propose, start_day)
+                             propose, request_accepts_proposal, start_day)
 from pages import ui
 
 ui.require_app()
@@ -140,8 +140,11 @@ def _record(token: str, proposal, response: str | None = None, user_action: str 
     s["session-error"] = None
     s.pop("request-match", None)
     st.query_params.pop("ctx", None)
-    what = f"you asked for: {user_action}" if user_action else {"accept": "accepted", "reject": "rejected",
-                                                               "no response": "no response"}[response]
+    if user_action and request_accepts_proposal(proposal, user_action):
+        what = "accepted: that is what the robot offered"
+    else:
+        what = f"you asked for: {user_action}" if user_action else {"accept": "accepted", "reject": "rejected",
+                                                                   "no response": "no response"}[response]
     s["last-saved"] = f"Interaction {status.interactions_today + 1} saved ({what})."
 
 
@@ -310,5 +313,5 @@ else:
 
 if done and not tablet:
     with st.expander(f"Today's interactions ({done})"):
-        today = store.interactions_frame(code, method=None)
+        today = store.interactions_frame(code, method=None, extra=True)
         st.dataframe(app_support.interactions_view(today[today["day"] == day]), hide_index=True, width="stretch")

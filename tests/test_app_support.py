@@ -119,3 +119,20 @@ def test_bad_uploads_name_the_file(files, message):
     files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
     with pytest.raises(CacasError, match=message):
         app_support.load_uploaded_tables(files)
+
+
+def test_interactions_view_shows_what_the_robot_heard_and_a_request(tmp_path):
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="use stove", scene="kitchen", hour=8, interval_minutes=5,
+                             robot_action="remind to put back", response="reject", recognised_activity="use scissor")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                             robot_action="set a timer", response="accept", type="type_2", user_action="pain check")
+    view = app_support.interactions_view(store.interactions_frame("P01", method=None, extra=True))
+    assert list(view["robot heard"]) == ["use scissor", "cough"]  # misheard; no recogniser: as set
+    assert list(view["robot saw"]) == ["kitchen", "bedroom"]
+    assert list(view["robot proposed"]) == ["remind to put back", "set a timer"]
+    assert list(view["answer"]) == ["rejected", "asked for pain check"]
+    assert list(app_support.interactions_view(view.iloc[0:0]).columns) == list(view.columns)
+    store.close()

@@ -141,3 +141,18 @@ def test_the_robot_acts_on_the_room_it_saw(store, policy):
     answer(store, "P01", day, p, user_action="pain check")
     row = store.interactions_frame("P01", extra=True).iloc[0]
     assert (row["scene"], row["recognised_scene"]) == ("bedroom", "living room")
+
+
+def test_asking_for_what_the_robot_offered_is_accepting_it(store, policy):
+    day = start_day(store, "P01")
+    p = propose(policy, Context.from_choices(3, 6, "use stove", "kitchen"))
+    if not p.robot_speaks:  # make the robot speak: the proposal is what the policy chose
+        p = propose(policy, Context.from_choices(8, 6, "cough", "bedroom"))
+    assert p.robot_speaks
+    other = next(a for a in spaces.ACTIONS[1:] if a != p.action)
+    answer(store, "P01", day, p, user_action=p.action.upper())  # names match case-insensitively
+    answer(store, "P01", day, p, user_action=other)
+    df = store.interactions_frame("P01")
+    assert list(df["type"]) == [records.ROBOT_INITIATED, records.USER_INITIATED]
+    assert list(df["response"]) == ["accept", "accept"] and list(df["user_action"]) == ["", other]
+    assert records.is_success(df).tolist() == [True, False]
