@@ -13,7 +13,7 @@ from cacas import app_support, plots
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables
 from cacas.jobs import FAILED, RUNNER
-from cacas.study_day import compare_methods
+from cacas.study_day import STUDY_DAYS, compare_methods, day_status
 from pages import ui
 
 ui.require_app()
@@ -109,8 +109,11 @@ with fig4:
                 "described preferences.")
     else:
         st.plotly_chart(plots.methods_figure(daily), width="stretch")
-        summary = acc.groupby(["method", "day"])["preference_accuracy"].mean().unstack("day")
+        summary = acc.groupby(["method", "day"], sort=False)["preference_accuracy"].mean().unstack("day")
+        summary.index = [plots.METHOD_LABELS.get(m, m) for m in summary.index]
+        summary.columns = [f"day {int(d)}" for d in summary.columns]
         st.dataframe(summary.style.format("{:.0%}"), width="stretch")
+        st.caption("Mean preference accuracy over participants, per method and day (Fig. 4).")
         if "by_preference" in tables and len(tables["by_preference"]):
             st.subheader("Which preferences each method learnt")
             ui.preference_heatmaps(tables["by_preference"], key="results-prefs")
@@ -131,15 +134,22 @@ with quest:
     if codes:
         with st.form("questionnaire", border=True, clear_on_submit=True):
             who = st.selectbox("Participant", codes, index=codes.index(ui.participant()) if ui.participant() in codes else 0)
-            score = st.slider("Satisfaction", 1, 10, 8)
+            # no preset score: an answer is the participant's choice, never a default saved by accident
+            score = st.segmented_control("Satisfaction (1 = very dissatisfied, 10 = very satisfied)",
+                                         list(range(1, 11)), default=None, key="quest-score")
             comments = st.text_area("Comments (optional; no names)")
             if st.form_submit_button("Save answer", icon=":material/save:"):
                 try:
+                    if score is None:
+                        raise CacasError("choose the participant's score, from 1 (very dissatisfied) to 10 "
+                                         "(very satisfied)")
                     store.record_questionnaire(who, score, comments)
                 except CacasError as exc:
                     st.error(str(exc), icon=":material/error:")
                 else:
-                    st.success(f"Saved {who}'s answer ({score}).", icon=":material/check_circle:")
+                    days_done = day_status(store, who).day
+                    note = "" if days_done >= STUDY_DAYS else f" It was given after day {days_done} of {STUDY_DAYS}."
+                    st.toast(f"Saved {who}'s answer ({score}).{note}", icon=":material/check_circle:")
                     st.rerun()
     if len(answers):
         st.dataframe(answers, hide_index=True, width="stretch")

@@ -212,17 +212,19 @@ if token_ctx:
 if context is None:
     previous = previous_interaction(store, code, day)
     slot_default = int(previous["time_slot"]) if previous else 4
+    # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
+    part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     with st.form("context", border=True):
         st.markdown("#### What are you doing?")
         c1, c2 = st.columns(2)
-        c1.selectbox("Time of day (S3)", range(spaces.N_SLOTS), index=slot_default, key="ctx-slot",
+        c1.selectbox(f"Time of day{part('S3')}", range(spaces.N_SLOTS), index=slot_default, key="ctx-slot",
                      format_func=spaces.time_slot_label)
-        c2.selectbox("Time since your last activity (S4)", range(spaces.N_INTERVALS), index=6, key="ctx-interval",
+        c2.selectbox(f"Time since your last activity{part('S4')}", range(spaces.N_INTERVALS), index=6, key="ctx-interval",
                      format_func=lambda i: f"{spaces.INTERVAL_BINS[i]} min" + ("+" if i == spaces.N_INTERVALS - 1 else ""))
         c3, c4 = st.columns(2)
-        c3.selectbox("Activity (S1)", spaces.ACTIVITIES, index=None, key="ctx-activity",
+        c3.selectbox(f"Activity{part('S1')}", spaces.ACTIVITIES, index=None, key="ctx-activity",
                      placeholder="choose an activity")
-        c4.selectbox("Room (S2)", spaces.SCENES, index=None, key="ctx-scene", placeholder="choose a room")
+        c4.selectbox(f"Room{part('S2')}", spaces.SCENES, index=None, key="ctx-scene", placeholder="choose a room")
         st.form_submit_button("Do it", type="primary", icon=":material/play_arrow:", on_click=_set_context,
                               width="stretch")
 else:

@@ -112,10 +112,13 @@ if runs:
     c1.plotly_chart(plots.success_figure(daily, method=loop_method), width="stretch")
     c2.plotly_chart(plots.methods_figure(daily), width="stretch")
     summary = summary_table(daily)
-    st.dataframe(summary, hide_index=True, width="stretch",
-                 column_config={"success_rate": st.column_config.NumberColumn("success rate", format="percent"),
+    shown = summary.assign(method=summary["method"].map(lambda m: plots.METHOD_LABELS.get(m, m)),
+                           success_rate=100 * summary["success_rate"],
+                           preference_accuracy=100 * summary["preference_accuracy"])
+    st.dataframe(shown, hide_index=True, width="stretch",
+                 column_config={"success_rate": st.column_config.NumberColumn("success rate", format="%.0f%%"),
                                 "preference_accuracy": st.column_config.NumberColumn("preference accuracy",
-                                                                                     format="percent"),
+                                                                                     format="%.0f%%"),
                                 "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
                                                                                      format="%.1f")})
     d1, d2, d3 = st.columns(3)

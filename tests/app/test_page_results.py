@@ -35,11 +35,16 @@ def test_results_show_day_one_and_downloads(app, store):
 def test_questionnaire_entry_and_summary(app, store):
     _study_with_a_day(store)
     at = app(PAGE, participant="P01")
-    at.slider[0].set_value(9)
+    next(b for b in at.button if b.label == "Save answer").click().run()  # no score chosen: refused
+    no_exception(at)
+    assert "choose the participant's score, from 1 (very dissatisfied) to 10" in texts(at)
+    assert len(store.questionnaire_frame()) == 0
+    at.button_group(key="quest-score").set_value(9)
     next(b for b in at.button if b.label == "Save answer").click().run()
     no_exception(at)
     answers = store.questionnaire_frame()
     assert list(answers["satisfaction"]) == [9]
+    assert "Saved P01's answer (9). It was given after day 1 of 7." in [t.value for t in at.toast]
     values = {m.label: m.value for m in at.metric}
     assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"
 

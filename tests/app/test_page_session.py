@@ -219,3 +219,14 @@ def test_a_missing_policy_file_is_a_message_not_a_crash(app, store, p01, quick_p
     at = app(PAGE, participant="P01", ctx="3.6.20.2")
     no_exception(at)
     assert "The robot's policy cannot be loaded" in texts(at) and "Adaptation page" in texts(at)
+
+
+def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_policy):
+    """The paper's sub-state names label the researcher's form, not the participant's tablet."""
+    store.open_day("P01")
+    tablet = app(participant="P01", view="tablet")
+    no_exception(tablet)
+    assert [s.label for s in tablet.selectbox] == ["Time of day", "Time since your last activity", "Activity", "Room"]
+    researcher = app(PAGE, participant="P01")
+    assert [s.label for s in researcher.selectbox if s.key and s.key.startswith("ctx-")] == [
+        "Time of day (S3)", "Time since your last activity (S4)", "Activity (S1)", "Room (S2)"]

@@ -87,9 +87,9 @@ def shot(page, name: str) -> None:
 
 def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     """Set a context and press "Do it"; True if the robot proposes an action (not quiet)."""
-    choose(page, "Time of day (S3)", slot)
-    choose(page, "Activity (S1)", activity)
-    choose(page, "Room (S2)", room)
+    choose(page, "Time of day", slot)
+    choose(page, "Activity", activity)
+    choose(page, "Room", room)
     click(page, "Do it")
     if "getting ready" in text_of(page):  # first use: the initial policy is being trained
         page.wait_for_selector("text=Or ask the robot yourself", timeout=600_000)
