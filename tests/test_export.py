@@ -206,6 +206,8 @@ def _rewrite(bundle, out, table, change):
 
 @pytest.mark.parametrize("table,change,message", [
     ("interactions", lambda df: df.assign(activity="juggle"), "interactions.csv, row 2: activity"),
+    ("days", lambda df: df.assign(day="100000000000000000000"),
+     r"days.csv, row 2: value 100000000000000000000 is invalid; valid: a whole number 1..9223372036854775807"),
     ("interactions", lambda df: df.assign(response="maybe"), "unknown response 'maybe'"),
     ("interactions", lambda df: df.assign(interval="7"), "interval 7 is not an S4 bin value"),
     ("questionnaire", lambda df: df.assign(satisfaction="11"), "satisfaction"),

@@ -223,9 +223,10 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
             raise CacasError(f"{path}: cannot be read as a study database ({exc})") from None
         if version != SCHEMA_VERSION or not set(TABLES) <= names:
             conn.close()
+            remedy = ("it was written by a newer CACAS Studio: update this one" if version > SCHEMA_VERSION
+                      else "open it with the app once to migrate it")
             raise CacasError(f"{path}: study database schema version {version} cannot be read here "
-                             f"(this CACAS Studio reads version {SCHEMA_VERSION}; open it with the app "
-                             f"once to migrate it)")
+                             f"(this CACAS Studio reads version {SCHEMA_VERSION}; {remedy})")
         return conn
     if path.exists():
         if not path.is_file():

@@ -38,12 +38,16 @@ RESTORE_COLUMNS: dict[str, list[str]] = {
 }
 
 
+#: The largest whole number a study database column holds (SQLite's 64-bit INTEGER).
+_MAX_INT = 2**63 - 1
+
+
 def _int(cell: str, low: int = 0) -> int:
     try:
         value = int(cell)
     except ValueError:
         raise CacasError(f"{cell!r} is not a whole number") from None
-    return v.integer(value, "value", low)
+    return v.integer(value, "value", low, _MAX_INT)
 
 
 def _opt_int(cell: str) -> int | None:
