@@ -8,13 +8,18 @@ to the researcher's pages, no preferences, no other participants.
 """
 
 
+from pathlib import Path
+
 import streamlit as st
 
 from cacas.errors import CacasError
 from cacas.study_day import day_status
 from pages import ui
 
-st.set_page_config(page_title="CACAS Studio", page_icon=":material/smart_toy:", layout="wide")
+# A local favicon: a ":material/..." page icon makes the browser fetch it from Google's servers,
+# and the app makes no requests beyond this machine.
+ICON = Path(__file__).resolve().parent / "study_data" / "icon.png"
+st.set_page_config(page_title="CACAS Studio", page_icon=str(ICON) if ICON.exists() else None, layout="wide")
 
 #: (section, file, title, icon) of each page, in navigation order.
 PAGES = [

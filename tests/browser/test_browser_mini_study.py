@@ -112,6 +112,10 @@ CANDIDATES = [("use stove", "kitchen"), ("cough", "bedroom"), ("fall down", "liv
 
 
 def test_mini_study(server, page, tmp_path):
+    # the app asks nothing of any other machine (study data stay here; no network at run time)
+    elsewhere = []
+    page.on("request", lambda r: elsewhere.append(r.url)
+            if r.url.split(":")[0] in ("http", "https", "ws", "wss") and not r.url.startswith(server) else None)
     # --- overview and participants -------------------------------------------------------------------
     goto(page, server)
     assert "No participants yet" in text_of(page)
@@ -234,6 +238,7 @@ def test_mini_study(server, page, tmp_path):
     shot(page, "simulation")
     goto(page, f"{server}/sounds?participant=P01")
     shot(page, "sounds")
+    assert elsewhere == [], f"requests to other machines: {sorted(set(elsewhere))}"
 
 
 def test_results_upload_daily_and_by_preference(server, page, tmp_path):
