@@ -312,10 +312,34 @@ def list_runs(root) -> list[str]:
 def load_daily(path) -> pd.DataFrame:
     """A daily.csv (of a run, or uploaded): checked for design.md's columns."""
     df = pd.read_csv(path)
+    name = getattr(path, "name", path)
     missing = [c for c in records.DAILY_CONTRACT_COLUMNS if c not in df.columns]
     if missing:
-        raise CacasError(f"{getattr(path, 'name', path)}: not a daily.csv; missing columns: {', '.join(missing)}")
-    return df
+        raise CacasError(f"{name}: not a daily.csv; missing columns: {', '.join(missing)}")
+    return check_daily_values(df, str(name))
+
+
+def _shown(value) -> str:
+    """A cell as a message shows it: text quoted, numbers plain."""
+    return repr(value) if isinstance(value, str) else str(value)
+
+
+def check_daily_values(df: pd.DataFrame, name: str) -> pd.DataFrame:
+    """A daily.csv's days are whole numbers >= 1 and its rates are shares from 0 to 1 (or empty);
+    else CacasError naming the file, the column and the first bad row (1-based, after the header)."""
+    day = pd.to_numeric(df["day"], errors="coerce")
+    bad = ~(day.notna() & (day >= 1) & (day == day.round()))
+    if bad.any():
+        row = int(np.flatnonzero(bad.to_numpy())[0])
+        raise CacasError(f"{name}, row {row + 2}: day {_shown(df['day'].iloc[row])} is invalid; valid: a whole number >= 1")
+    for col in ("success_rate", "preference_accuracy"):
+        value = pd.to_numeric(df[col], errors="coerce")
+        bad = (value.isna() & df[col].notna()) | ~value.between(0, 1) & value.notna()
+        if bad.any():
+            row = int(np.flatnonzero(bad.to_numpy())[0])
+            raise CacasError(f"{name}, row {row + 2}: {col} {_shown(df[col].iloc[row])} is invalid; valid: a share "
+                             "from 0 to 1, or empty")
+    return df.assign(day=day.astype(int))
 
 
 #: The tables a researcher can upload to the Results page, each recognised by its columns.
@@ -344,7 +368,7 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
                              f"needs the columns {', '.join(UPLOADABLE_TABLES['daily'])}")
         if kind in tables:
             raise CacasError(f"{name} and {names[kind]} are both a {kind}.csv; upload one of each kind")
-        tables[kind], names[kind] = df, name
+        tables[kind], names[kind] = (check_daily_values(df, name) if kind == "daily" else df), name
     if "daily" not in tables:
         raise CacasError(f"{', '.join(names.values()) or 'nothing uploaded'}: upload a daily.csv as well "
                          "(the other tables are shown beside it)")
