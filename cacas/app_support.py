@@ -88,7 +88,8 @@ def _event_words(what: str, details: str) -> str:
         answer = {"accept": "accepted", "reject": "rejected", "others": "no response"}.get(d.get("response"), "")
         return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
     if what == "record_adaptation":
-        return (f"adaptation ({d.get('method')}) from days 1-{d.get('day')}" if d.get("day")
+        days = f"day {d.get('day')}" if d.get("day") == 1 else f"days 1-{d.get('day')}"
+        return (f"adaptation ({d.get('method')}) from {days}" if d.get("day")
                 else f"initial policy scored ({d.get('method')})")
     if what in ("open_day", "close_day"):
         return f"day {d.get('day')} {'started' if what == 'open_day' else 'closed'}"

@@ -34,7 +34,8 @@ def _add_participant() -> None:
     s[ui.PARTICIPANT_KEY] = info.code
     st.query_params["participant"] = info.code
     s["new-code"], s["new-age"], s["new-notes"] = "", "", ""
-    st.toast(f"Participant {info.code} added.", icon=":material/check_circle:")
+    st.toast(f"Participant {info.code} added: describe their preferences in the tab \"Preferences of "
+             f"{info.code}\".", icon=":material/check_circle:")
 
 
 def _update_details(who: str) -> None:
@@ -74,6 +75,8 @@ def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
         s["pref-overall"] = str(exc)
         return
     s["pref-saved"] = (who, new_version, len(person.preferences), person.covered_count())
+    # the page may be scrolled to the form's end, far from the banner at its top
+    st.toast(f"Saved version {new_version} of {who}'s preferences.", icon=":material/check_circle:")
 
 
 def _import_personas() -> None:

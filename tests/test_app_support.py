@@ -139,3 +139,15 @@ def test_interactions_view_shows_what_the_robot_heard_and_a_request(tmp_path):
     assert list(view["answer"]) == ["rejected", "asked for pain check"]
     assert list(app_support.interactions_view(view.iloc[0:0]).columns) == list(view.columns)
     store.close()
+
+
+def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    for day in (1, 2, 3):
+        store.close_day("P01", store.open_day("P01"))
+        if day != 2:
+            store.record_adaptation("P01", day, "nn", {}, 1.0, {})
+    words = [w for w in app_support.recent_events(store, limit=20)["what"] if w.startswith("adaptation")]
+    assert words == ["adaptation (nn) from days 1-3", "adaptation (nn) from day 1"]
+    store.close()

@@ -52,6 +52,7 @@ def test_save_valid_preferences(app, store):
     first = saved.preferences[0]
     assert first.hours == ((6, 10),) and first.interval == (0, 30) and first.scene == ("kitchen",)
     assert "Saved version 1" in texts(at)
+    assert "Saved version 1 of P01's preferences." in [t.value for t in at.toast]  # also where the form ends
     # the saved preferences show with their covered-state counts
     table = at.dataframe[0].value
     assert list(table["covered states"]) == [p.covered_count() for p in saved.preferences]
