@@ -151,6 +151,10 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
         if progress:
             progress(done[0] / total, message)
 
+    if progress:  # the first day's tick comes after a day lived and adapted by every method
+        progress(0.0, f"simulating day 1 of {len(participants)} participant{'s' if len(participants) != 1 else ''} "
+                      f"({len(methods)} method{'s' if len(methods) != 1 else ''}, {jobs} worker "
+                      f"process{'es' if jobs != 1 else ''})")
     if jobs == 1:
         results = [simulate_participant(initial, *a, report=tick) for a in args]
     else:

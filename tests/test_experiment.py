@@ -117,10 +117,12 @@ def test_bad_arguments(kw, needle, small_initial):
 def test_parallel_workers_give_the_same_tables(small_config, small_initial):
     kw = dict(days=2, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
               initial_policy=small_initial)
-    ticks = []
+    ticks, words = [], []
     one = simulate_study(PEOPLE, jobs=1, **kw)
-    two = simulate_study(PEOPLE, jobs=2, progress=lambda f, m: ticks.append(f), **kw)
+    two = simulate_study(PEOPLE, jobs=2, progress=lambda f, m: (ticks.append(f), words.append(m)), **kw)
     pd.testing.assert_frame_equal(one.daily, two.daily)
     pd.testing.assert_frame_equal(one.interactions, two.interactions)
     pd.testing.assert_frame_equal(one.by_preference, two.by_preference)
-    assert len(ticks) == 4 and ticks[-1] == 1.0  # participant-days, reported from the workers
+    # at once, what is starting; then the participant-days, reported from the workers
+    assert ticks[0] == 0.0 and words[0] == f"simulating day 1 of {len(PEOPLE)} participants (2 methods, 2 worker processes)"
+    assert len(ticks) == 5 and ticks[-1] == 1.0
