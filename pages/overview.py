@@ -31,14 +31,17 @@ rates = table["success rate so far"].dropna()
 c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
 
 st.subheader("Participants")
+small = st.column_config.TextColumn
 st.dataframe(
-    table, hide_index=True, width="stretch",
+    table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
     column_config={
+        "participant": small("participant", width="small"), "age range": small("age", width="small"),
+        "day": small("day", width="small"), "policy": small("policy", width="small"),
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", help="Robot-initiated actions the participant accepted, of all "
-            "interactions so far (Fig. 3's definition)", min_value=0.0, max_value=1.0, format="percent"),
+            "interactions so far (Fig. 3's definition)", min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
-            "interactions today", help=f"Target: about {TARGET_INTERACTIONS} a day"),
+            "today", help=f"Interactions today; target: about {TARGET_INTERACTIONS} a day", width="small"),
         "next step": st.column_config.TextColumn("next step", width="large"),
     })
 
