@@ -121,8 +121,8 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
             info = sac.update(cfg.updates_per_step)
             s, x = s2, x2
         if progress:
-            progress((day + 1) / days, f"{label}: simulated day {day + 1}/{days}, "
-                                       f"accepted {accepted / max(n, 1):.0%} of actions")
+            progress((day + 1) / days, f"{label}: training day {day + 1}/{days} against the simulated user "
+                                       f"(it accepted {accepted / max(n, 1):.0%} of the robot's actions)")
     info["accept_rate"] = accepted / max(n, 1)
     info["steps"] = total
     return info
