@@ -179,7 +179,7 @@ def test_mini_study(server, page, tmp_path):
     click(page, "Ask")
     assert "Interaction 4 saved (you asked for: pain check)" in text_of(page)
 
-    interact(page, "use stove", "kitchen", slot="18:00-20:00")
+    interact(page, "use hair dryer", "bathroom", slot="18:00-20:00")  # no described preference here
     fill(page, "Or type your request", "please set a timer for me")
     click(page, "Say it")
     assert "You would like me to set a timer. Is that right?" in text_of(page)
