@@ -251,3 +251,18 @@ def test_interaction_names_survive_in_paper_spelling(store):
     inter = export.export_tables(store)["interactions"]
     assert set(inter["activity"]) <= set(spaces.ACTIVITIES)
     assert set(inter["robot_action"]) <= set(spaces.ACTIONS)
+
+
+def test_times_survive_export_and_import_to_the_last_decimal(tmp_path):
+    """A time just below a slot's end is kept as the 6 decimals the CSV holds, so the exported
+    bundle imports (23.9999999 h was written as 24.000000 and refused)."""
+    path = tmp_path / "a" / "s.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=23.9999999,
+                             interval_minutes=4.9999999, robot_action="pain check", response="accept")
+        row = s.interactions_frame("P01", extra=True).iloc[0]
+        assert (row["hour"], row["interval_minutes"], row["time_slot"], row["interval"]) == (23.999999, 4.999999, 11, 2)
+        bundle = export.export_study(s, tmp_path / "out").bundle
+    assert export.import_bundle(bundle, tmp_path / "b" / "s.sqlite") == 1

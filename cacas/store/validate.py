@@ -110,11 +110,17 @@ def conversation_type(value: Any) -> str:
     return value
 
 
+def _as_exported(x: float | None) -> float | None:
+    """A time kept to the 6 decimals that CSV export writes (cut, not rounded, so that it stays in
+    its slot or bin: 23.9999999 h would be written as 24.000000, which no import accepts)."""
+    return None if x is None else math.floor(x * 1e6) / 1e6
+
+
 def time_slot(hour: Any, slot: Any) -> tuple[float | None, int]:
     """S3 from an hour of the day and/or a slot index; both given must agree."""
     if hour is None and slot is None:
         raise CacasError("time of day is missing; give hour (0 <= hour < 24) or time_slot (0..11)")
-    h = None if hour is None else number(hour, "hour", 0, 24)
+    h = None if hour is None else _as_exported(number(hour, "hour", 0, 24))
     s = None if slot is None else integer(slot, "time_slot", 0, spaces.N_SLOTS - 1)
     if h is not None and s is not None and spaces.time_slot(h) != s:
         raise CacasError(f"hour {h:g} is in time slot {spaces.time_slot(h)}, not {s}; give one of them")
@@ -125,7 +131,7 @@ def interval(minutes: Any, bin_index: Any) -> tuple[float | None, int]:
     """S4 from minutes since the previous activity and/or a bin index; both given must agree."""
     if minutes is None and bin_index is None:
         raise CacasError("repeat interval is missing; give interval_minutes (>= 0) or interval_bin (0..11)")
-    m = None if minutes is None else number(minutes, "interval_minutes", 0)
+    m = None if minutes is None else _as_exported(number(minutes, "interval_minutes", 0))
     b = None if bin_index is None else integer(bin_index, "interval_bin", 0, spaces.N_INTERVALS - 1)
     if m is not None and b is not None and spaces.interval_bin(m) != b:
         raise CacasError(f"interval {m:g} minutes is in bin {spaces.interval_bin(m)}, not {b}; give one of them")
