@@ -52,7 +52,7 @@ class ExportResult:
     """What :func:`export_study` wrote: one CSV per table and the zip of them all."""
 
     tables: dict[str, Path]
-    bundle: Path
+    bundle: Path | None  # None: tables only
 
 
 def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
@@ -163,9 +163,11 @@ def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     zf.writestr(info, data)
 
 
-def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | None = None) -> ExportResult:
+def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | None = None,
+                 bundle: bool = True) -> ExportResult:
     """Write every table as ``<out_dir>/<table>.csv`` and all of them (with the policy
-    checkpoints) as ``<out_dir>/cacas-study.zip``.
+    checkpoints) as ``<out_dir>/cacas-study.zip``; with ``bundle=False`` the tables only (they
+    need no checkpoint file, so a missing or damaged one does not stop them).
 
     ``db`` is an open StudyStore or the path of a study database; a path is checked and opened
     read-only *before* anything is created, so a missing file or one that is not a study
@@ -180,14 +182,21 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
             raise CacasError(f"unknown study {study!r}; known studies: {', '.join(known) or 'none'}")
         with store.snapshot():  # one consistent view, even while the app keeps writing
             tables = export_tables(store, study)
-        policies = {rel: store.load_policy(who, version=int(ver))
-                    for who, ver, rel in zip(tables["policies"]["participant"], tables["policies"]["version"],
-                                             tables["policies"]["path"])}
+        try:
+            policies = {rel: store.load_policy(who, version=int(ver))
+                        for who, ver, rel in zip(tables["policies"]["participant"], tables["policies"]["version"],
+                                                 tables["policies"]["path"])} if bundle else {}
+        except CacasError as exc:  # the zip must hold every checkpoint to be imported; the tables do not
+            raise CacasError(f"{exc}; the zip needs every policy file (restore it from a backup), and "
+                             f"`cacas export --tables-only` writes the CSV tables without it") from None
     finally:
         if store is not db:
             store.close()
     out = files.writable_folder(out_dir, str(out_dir))
     blobs = {name: csv_bytes(tables[name]) for name in TABLES}
+    if not bundle:
+        paths = files.write_all(out, {f"{name}.csv": blobs[name] for name in TABLES})
+        return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, None)
     buf = io.BytesIO()
     with zipfile.ZipFile(buf, "w") as zf:
         for name in TABLES:

@@ -141,3 +141,17 @@ def test_export_into_a_folder_that_cannot_be_written_exits_2(run, study, tmp_pat
     assert run("export", "--db", study, "--out", tmp_path / "a_file" / "out") == 2
     err = capsys.readouterr().err
     assert "cannot write in this folder" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_missing_policy_file_stops_the_zip_not_the_tables(run, study, tmp_path, capsys):
+    """The zip must hold every checkpoint to be imported; the message says how to get the
+    tables out all the same, and --tables-only does."""
+    with StudyStore(study) as s:
+        s.active_policy("P01").path.unlink()
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 2
+    err = capsys.readouterr().err
+    assert "policy version 1 of participant P01 is missing" in err and "--tables-only" in err
+    assert not (tmp_path / "out" / "interactions.csv").exists()
+    assert run("export", "--db", study, "--out", tmp_path / "out", "--tables-only") == 0
+    out = tmp_path / "out"
+    assert (out / "interactions.csv").read_text().count("\n") == 2 and not (out / "cacas-study.zip").exists()

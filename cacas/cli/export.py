@@ -1,6 +1,6 @@
 """``cacas export`` and ``cacas import``: a study database to CSV tables + zip, and back.
 
-    cacas export --db PATH --out DIR [--study NAME]
+    cacas export --db PATH --out DIR [--study NAME] [--tables-only]
     cacas import --bundle ZIP --db NEWPATH
 
 ``export`` opens the database read-only after checking it is a study database, so a missing
@@ -24,6 +24,8 @@ def register(subparsers) -> None:
     p.add_argument("--db", required=True, help="the study database (.sqlite)")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--study", default=None, help="export one study only (default: all)")
+    p.add_argument("--tables-only", action="store_true",
+                   help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file)")
     p.set_defaults(func=run_export)
 
     q = subparsers.add_parser("import", help="load an exported bundle into a new study database",
@@ -35,10 +37,11 @@ def register(subparsers) -> None:
 
 
 def run_export(args: argparse.Namespace) -> int:
-    result = export_study(args.db, args.out, study=args.study)
+    result = export_study(args.db, args.out, study=args.study, bundle=not args.tables_only)
     for name, path in result.tables.items():
         print(f"wrote {path}")
-    print(f"wrote {result.bundle}")
+    if result.bundle is not None:
+        print(f"wrote {result.bundle}")
     return 0
 
 
