@@ -168,5 +168,13 @@ with data:
             with tempfile.TemporaryDirectory() as tmp:
                 return Path(export_study(ui.store(), tmp, study).bundle).read_bytes()
 
-        st.download_button("Download everything (zip of every table and policy file)", _bundle,
-                           file_name=f"cacas-study-{study}.zip", mime="application/zip", icon=":material/folder_zip:")
+        missing = store.missing_policy_files(study)
+        if missing:
+            st.warning(f"No zip: {len(missing)} policy file(s) are missing from `{store.policy_dir}` "
+                       f"({', '.join(missing[:3])}{', ...' if len(missing) > 3 else ''}), and the zip must hold every "
+                       "one to be imported. Restore them from a backup; the tables above download one by one.",
+                       icon=":material/warning:")
+        else:
+            st.download_button("Download everything (zip of every table and policy file)", _bundle,
+                               file_name=f"cacas-study-{study}.zip", mime="application/zip",
+                               icon=":material/folder_zip:")

@@ -159,6 +159,11 @@ class PoliciesMixin:
                              f"its recorded sha256 (the file was changed or damaged)")
         return data
 
+    def missing_policy_files(self, study: str | None = None) -> list[str]:
+        """Policy files the database names but the policies folder lacks (paths relative to it),
+        e.g. before an export whose zip must hold them all."""
+        return [rel for rel in self.policies_frame(study)["path"] if not (self.policy_dir / rel).is_file()]
+
     def policies_frame(self, study: str | None = None) -> pd.DataFrame:
         """policies.csv: participant, version, day, method, path (relative to the policies
         folder), sha256, size, created_at, active."""

@@ -84,3 +84,14 @@ def test_human_study_accuracy_by_described_preference(app, store):
     heat = [c for c in at.get("plotly_chart") if "Accuracy by described preference" in c.proto.spec]
     assert len(heat) == 1 and "P01 · 1. cough → pain check" in heat[0].proto.spec
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
+
+
+def test_no_zip_offered_while_a_policy_file_is_missing(app, store):
+    _study_with_a_day(store)
+    store.save_policy("P01", 1, "cacas", b"a policy")
+    store.active_policy("P01").path.unlink()
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "No zip: 1 policy file(s) are missing" in texts(at)
+    labels = [b.label for b in at.get("download_button")]
+    assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
