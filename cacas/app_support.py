@@ -335,7 +335,7 @@ def check_daily_values(df: pd.DataFrame, name: str) -> pd.DataFrame:
         raise CacasError(f"{name}, row {row + 2}: day {_shown(df['day'].iloc[row])} is invalid; valid: a whole number >= 1")
     for col in ("success_rate", "preference_accuracy"):
         value = pd.to_numeric(df[col], errors="coerce")
-        bad = (value.isna() & df[col].notna()) | ~value.between(0, 1) & value.notna()
+        bad = (value.isna() & df[col].notna()) | (value.notna() & ~value.between(0, 1))
         if bad.any():
             row = int(np.flatnonzero(bad.to_numpy())[0])
             raise CacasError(f"{name}, row {row + 2}: {col} {_shown(df[col].iloc[row])} is invalid; valid: a share "
