@@ -3,8 +3,6 @@ what changed, and roll back to an earlier day's policy."""
 
 from __future__ import annotations
 
-import json
-
 import pandas as pd
 import streamlit as st
 
@@ -166,10 +164,10 @@ if versions:
     table = pd.DataFrame([{
         "version": v.version, "adapted from": ("day 1" if v.day == 1 else f"days 1-{v.day}") if v.day else "-", "method": v.method,
         "saved (UTC)": v.created_at[:16].replace("T", " "), "in force": "yes" if v.active else "",
-        "preference accuracy": acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
+        "preference accuracy": 100 * acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
     } for v in versions])
     st.dataframe(table, hide_index=True, width="stretch",
-                 column_config={"preference accuracy": st.column_config.NumberColumn(format="percent")})
+                 column_config={"preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
     with st.form("rollback", border=True):
         st.markdown("**Roll back (or forward)**: put an earlier policy in force for the next interactions.")
         options = [0] + [v.version for v in versions]
@@ -185,10 +183,11 @@ else:
 if len(runs):
     with st.expander(f"Adaptation runs ({len(runs)})"):
         view = runs.assign(
-            log_lines=[len(json.loads(p).get("log", [])) for p in runs["parameters"]],
+            preference_accuracy=100 * runs["preference_accuracy"].astype(float),
             created_at=[c[:16].replace("T", " ") for c in runs["created_at"]],
         )[["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]]
         st.dataframe(view, hide_index=True, width="stretch",
                      column_config={"duration_s": st.column_config.NumberColumn("duration (s)", format="%.1f"),
-                                    "preference_accuracy": st.column_config.NumberColumn(format="percent")})
+                                    "preference_accuracy": st.column_config.NumberColumn("preference accuracy",
+                                                                                         format="%.0f%%")})
         ui.download_csv(store.adaptations_frame(code), f"adaptations-{code}.csv")
