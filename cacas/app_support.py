@@ -22,6 +22,11 @@ from cacas.errors import CacasError
 from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status
 
 
+def adapted_from(day: int) -> str:
+    """The study days a policy adapted after ``day`` learnt from, in words: "day 1", "days 1-3"."""
+    return "day 1" if day == 1 else f"days 1-{day}"
+
+
 # --- overview ------------------------------------------------------------------------------------
 
 def next_step(has_preferences: bool, status) -> str:
@@ -88,8 +93,7 @@ def _event_words(what: str, details: str) -> str:
         answer = {"accept": "accepted", "reject": "rejected", "others": "no response"}.get(d.get("response"), "")
         return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
     if what == "record_adaptation":
-        days = f"day {d.get('day')}" if d.get("day") == 1 else f"days 1-{d.get('day')}"
-        return (f"adaptation ({d.get('method')}) from {days}" if d.get("day")
+        return (f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))}" if d.get("day")
                 else f"initial policy scored ({d.get('method')})")
     if what in ("open_day", "close_day"):
         return f"day {d.get('day')} {'started' if what == 'open_day' else 'closed'}"

@@ -193,18 +193,17 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
         if store is not db:
             store.close()
     out = files.writable_folder(out_dir, str(out_dir))
-    blobs = {name: csv_bytes(tables[name]) for name in TABLES}
-    if not bundle:
-        paths = files.write_all(out, {f"{name}.csv": blobs[name] for name in TABLES})
-        return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, None)
-    buf = io.BytesIO()
-    with zipfile.ZipFile(buf, "w") as zf:
-        for name in TABLES:
-            _zip_entry(zf, f"{name}.csv", blobs[name])
-        for rel in sorted(policies):
-            _zip_entry(zf, f"policies/{rel}", policies[rel])
-    paths = files.write_all(out, {**{f"{name}.csv": blobs[name] for name in TABLES}, BUNDLE_NAME: buf.getvalue()})
-    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths[BUNDLE_NAME])
+    contents = {f"{name}.csv": csv_bytes(tables[name]) for name in TABLES}
+    if bundle:
+        buf = io.BytesIO()
+        with zipfile.ZipFile(buf, "w") as zf:
+            for name, data in contents.items():
+                _zip_entry(zf, name, data)
+            for rel in sorted(policies):
+                _zip_entry(zf, f"policies/{rel}", policies[rel])
+        contents[BUNDLE_NAME] = buf.getvalue()
+    paths = files.write_all(out, contents)
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME))
 
 
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:

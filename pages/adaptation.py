@@ -6,6 +6,7 @@ from __future__ import annotations
 import pandas as pd
 import streamlit as st
 
+from cacas import app_support
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -162,7 +163,7 @@ st.subheader("Policy versions")
 if versions:
     acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
     table = pd.DataFrame([{
-        "version": v.version, "adapted from": ("day 1" if v.day == 1 else f"days 1-{v.day}") if v.day else "-", "method": v.method,
+        "version": v.version, "adapted from": app_support.adapted_from(v.day) if v.day else "-", "method": v.method,
         "saved (UTC)": v.created_at[:16].replace("T", " "), "in force": "yes" if v.active else "",
         "preference accuracy": 100 * acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
     } for v in versions])
