@@ -93,8 +93,11 @@ def _event_words(what: str, details: str) -> str:
         answer = {"accept": "accepted", "reject": "rejected", "others": "no response"}.get(d.get("response"), "")
         return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
     if what == "record_adaptation":
-        return (f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))}" if d.get("day")
-                else f"initial policy scored ({d.get('method')})")
+        if not d.get("day"):
+            return f"initial policy scored ({d.get('method')})"
+        if d.get("policy_version") is None:  # a Fig. 4 comparison run: scored, no policy saved
+            return f"comparison run ({d.get('method')}) on {adapted_from(d.get('day'))}, no policy saved"
+        return f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))}: version {d.get('policy_version')}"
     if what in ("open_day", "close_day"):
         return f"day {d.get('day')} {'started' if what == 'open_day' else 'closed'}"
     if what == "save_policy":

@@ -147,7 +147,11 @@ def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
     for day in (1, 2, 3):
         store.close_day("P01", store.open_day("P01"))
         if day != 2:
-            store.record_adaptation("P01", day, "nn", {}, 1.0, {})
-    words = [w for w in app_support.recent_events(store, limit=20)["what"] if w.startswith("adaptation")]
-    assert words == ["adaptation (nn) from days 1-3", "adaptation (nn) from day 1"]
+            version = store.save_policy("P01", day, "nn", b"policy bytes")
+            store.record_adaptation("P01", day, "nn", {}, 1.0, {}, version)
+    store.record_adaptation("P01", 2, "orl", {"comparison": True}, 1.0, {})  # a Fig. 4 comparison run
+    words = [w for w in app_support.recent_events(store, limit=20)["what"]
+             if w.startswith(("adaptation", "comparison"))]
+    assert words == ["comparison run (orl) on days 1-2, no policy saved",
+                     "adaptation (nn) from days 1-3: version 2", "adaptation (nn) from day 1: version 1"]
     store.close()
