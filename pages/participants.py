@@ -19,6 +19,7 @@ st.caption("Participants are known by pseudonymous codes only (e.g. P01), never 
 
 SLOT_LABELS = {i: f"{spaces.time_slot_label(i)}" for i in range(spaces.N_SLOTS)}
 ANY = "(choose an action)"
+OPEN_TAB = "participants-open-tab"
 
 
 # --- callbacks: validate everything first, write once --------------------------------------------
@@ -34,8 +35,8 @@ def _add_participant() -> None:
     s[ui.PARTICIPANT_KEY] = info.code
     st.query_params["participant"] = info.code
     s["new-code"], s["new-age"], s["new-notes"] = "", "", ""
-    st.toast(f"Participant {info.code} added: describe their preferences in the tab \"Preferences of "
-             f"{info.code}\".", icon=":material/check_circle:")
+    s[OPEN_TAB] = f"Preferences of {info.code}"  # the next step: describe their preferences
+    st.toast(f"Participant {info.code} added: describe their preferences below.", icon=":material/check_circle:")
 
 
 def _update_details(who: str) -> None:
@@ -95,6 +96,7 @@ def _import_personas() -> None:
     if codes:
         s[ui.PARTICIPANT_KEY] = codes[0]
         st.query_params["participant"] = codes[0]
+        s[OPEN_TAB] = f"Preferences of {codes[0]}"
 
 
 # --- page -------------------------------------------------------------------------------------------
@@ -102,7 +104,10 @@ def _import_personas() -> None:
 people = store.list_participants(study)
 tab_names = ([f"Preferences of {code}", f"Details of {code}"] if code else []) + ["Add a participant",
                                                                                   "Import / export"]
-tabs = dict(zip(tab_names, st.tabs(tab_names)))
+if st.session_state.get(OPEN_TAB) not in tab_names:  # e.g. another participant chosen in the sidebar
+    st.session_state.pop(OPEN_TAB, None)
+# after adding or importing participants, the callbacks open their preferences tab
+tabs = dict(zip(tab_names, st.tabs(tab_names, key=OPEN_TAB, on_change="rerun")))
 
 if code:
     saved = store.get_preferences(code)

@@ -35,6 +35,9 @@ def test_add_participant_valid_and_invalid(app, store):
     assert [p.code for p in store.list_participants()] == ["P01"]
     assert store.get_participant("P01").age_range == "25-34"
     assert at.session_state["participant"] == "P01"
+    # the next step is describing their preferences: that tab opens
+    assert at.session_state["participants-open-tab"] == "Preferences of P01"
+    assert [t.label for t in at.tabs][0] == "Preferences of P01"
 
 
 def test_save_valid_preferences(app, store):

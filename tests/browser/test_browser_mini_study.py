@@ -122,10 +122,12 @@ def test_mini_study(server, page, tmp_path):
     page.locator("[data-testid='stSidebarNav'] a", has_text="Participants").click()
     idle(page)
     page.get_by_role("tab", name="Add a participant").click()
+    idle(page)  # switching tabs reruns the page
     fill(page, "Pseudonymous code", "P01")
     fill(page, "Age range", "25-34")
     click(page, "Add participant")
-    page.get_by_role("tab", name="Preferences of P01").click()
+    # the next step opens by itself: the new participant's preferences
+    assert page.get_by_role("tab", name="Preferences of P01").get_attribute("aria-selected") == "true"
 
     fill(page, "In the participant's words", "When I use the stove, remind me to turn it off.", first=True)
     choose(page, "Activities (S1)", "use stove", "stMultiSelect")
