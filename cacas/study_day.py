@@ -154,10 +154,6 @@ class DayStatus:
     waiting_for_adaptation: bool   # the latest day is closed and not yet adapted
     finished: bool                 # STUDY_DAYS days done (closed)
 
-    @property
-    def next_day(self) -> int:
-        return self.day if self.open else self.day + 1
-
 
 def day_status(store, participant: str) -> DayStatus:
     r = store.resume(participant)

@@ -1,3 +1,6 @@
+import dataclasses
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -40,12 +43,8 @@ def test_answers_are_recorded_with_the_state(store, policy):
     p1 = propose(policy, ctx, None, policy_version=None)
     assert p1.state == spaces.State.from_names("cough", "bedroom", 8, 20)
     assert np.isclose(p1.probabilities.sum(), 1.0)
-    if p1.robot_speaks:
-        answer(store, "P01", day, p1, response="reject")
-    else:
-        with pytest.raises(CacasError, match="did not propose anything"):
-            answer(store, "P01", day, p1, response="reject")
-        answer(store, "P01", day, p1, response="no response")
+    assert p1.robot_speaks  # the seed-0 policy proposes something here
+    answer(store, "P01", day, p1, response="reject")
     p2 = propose(policy, ctx, store.interactions_frame("P01").iloc[-1].to_dict(), heard="sneeze",
                  heard_confidence=0.6)
     assert p2.heard == "sneeze" and p2.state.activity == spaces.activity_index("sneeze")
@@ -62,6 +61,21 @@ def test_answers_are_recorded_with_the_state(store, policy):
     with pytest.raises(CacasError, match="not both"):
         answer(store, "P01", day, p2, response="accept", user_action="chitchat")
     assert len(store.interactions_frame("P01")) == 2  # the refused answers wrote nothing
+
+
+def test_when_the_robot_did_nothing_only_no_response_is_an_answer(store, policy):
+    day = start_day(store, "P01")
+    spoken = propose(policy, Context.from_choices(4, 6, "cough", "bedroom"))
+    silent = dataclasses.replace(spoken, action="do nothing")  # the policy chose to do nothing
+    assert not silent.robot_speaks
+    for refused in ("accept", "reject"):
+        with pytest.raises(CacasError, match="the robot did not propose anything; answer 'no response'"):
+            answer(store, "P01", day, silent, response=refused)
+    assert store.interactions_frame("P01").empty  # the refused answers wrote nothing
+    answer(store, "P01", day, silent, response="no response")
+    row = store.interactions_frame("P01").iloc[0]
+    assert (row["type"], row["robot_action"], row["response"]) == (records.ROBOT_INITIATED, "do nothing",
+                                                                   "others")
 
 
 def test_next_day_waits_for_the_adaptation(store):
@@ -82,7 +96,11 @@ def test_next_day_waits_for_the_adaptation(store):
 def test_clip_choice_is_stable():
     ctx = Context.from_choices(3, 7, "cough", "kitchen")
     clips = [f"c{i}.ogg" for i in range(10)]
-    assert clip_for(ctx, "P01", 1, 2, clips) == clip_for(ctx, "P01", 1, 2, clips)
+    chosen = clip_for(ctx, "P01", 1, 2, clips)
+    assert chosen == clip_for(ctx, "P01", 1, 2, clips)  # a reload plays the same clip
+    assert chosen in {Path(c) for c in clips}
+    # the choice depends on the interaction: other indices of the day play other clips
+    assert {clip_for(ctx, "P01", 1, i, clips) for i in range(20)} - {chosen}
     assert clip_for(ctx, "P01", 1, 2, []) is None
 
 
