@@ -34,9 +34,26 @@ def test_scene_slugs_and_generator(tmp_path):
     assert len(paths) == 6 and library.image_paths("kitchen", tmp_path)[0].suffix == ".jpg"
 
 
-def test_resnet18_without_weights_never_downloads(monkeypatch):
-    monkeypatch.setattr(torch.hub, "load_state_dict_from_url",
-                        lambda *a, **k: pytest.fail("tried to download weights"))
+@pytest.fixture
+def no_downloads(monkeypatch):
+    """Fail the test on any attempt to fetch weights: torchvision looks the downloader up in its own
+    module (torchvision.models._api), so it is patched there and in torch.hub, and any network
+    connection is refused as well."""
+    import socket
+
+    import torchvision.models._api
+
+    def refuse(*a, **k):
+        pytest.fail("tried to download weights")
+
+    monkeypatch.setattr(torchvision.models._api, "load_state_dict_from_url", refuse)
+    monkeypatch.setattr(torch.hub, "load_state_dict_from_url", refuse)
+    monkeypatch.setattr(torch.hub, "download_url_to_file", refuse)
+    monkeypatch.setattr(socket.socket, "connect", refuse)
+    monkeypatch.setattr(socket.socket, "connect_ex", refuse)
+
+
+def test_resnet18_without_weights_never_downloads(no_downloads):
     model, source = build_resnet18(6, weights="none")
     assert source.startswith("none") and model.fc.out_features == 6
     model, source = build_resnet18(6, weights="auto")  # cache only
