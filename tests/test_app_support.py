@@ -43,12 +43,10 @@ def test_preference_form_and_checks():
     person, errors, overall = app_support.check_preferences("P01", [stove, bad], numbers=[1, 2])
     assert person is None and list(errors) == [2] and errors[2].startswith("field 'action'")
     person, errors, overall = app_support.check_preferences("P01", [stove])
-    assert person.covered_count() == stove_count(person) and not errors and overall is None
+    # 1 activity (use stove) x 1 room (kitchen) x 1 time slot (06:00-08:00) x 8 interval bins in
+    # 0-30 min (0, 1, 2, 5, 10, 15, 20, 30) = 8 S1-S4 states
+    assert person.covered_count() == 8 and not errors and overall is None
     assert app_support.check_preferences("P01", [])[2].startswith("describe at least one")
-
-
-def stove_count(person):
-    return person.preferences[0].covered_count()
 
 
 def test_overview_and_events(tmp_path):
