@@ -278,6 +278,7 @@ def test_interaction_for_missing_participant_or_day_or_closed_day(store):
         store.record_interaction("P01", 2, **GOOD)
     with pytest.raises(CacasError, match="day 0"):
         store.record_interaction("P01", 0, **GOOD)
+    assert snapshot(store.path) == before
     store.close_day("P01", 1)
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="day 1 of participant P01 is closed"):
@@ -420,10 +421,8 @@ def test_interactions_frame_filters(store):
 
 def test_frame_gives_back_the_recorded_policy_states(store):
     """The user data the adaptation reads (records.policy_states) is the state that was recorded."""
-    from cacas import records
-    policy_states = getattr(records, "policy_states", None)
-    if policy_states is None:  # pragma: no cover - the core library adds it
-        pytest.skip("cacas.records.policy_states is not there yet")
+    from cacas.records import policy_states
+
     day = store.open_day("P01")
     recorded = []
     for i, (minutes, hour) in enumerate([(0, 0.5), (1.5, 7), (12, 13.9), (59, 22), (250, 23.99)]):
