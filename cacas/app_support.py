@@ -9,7 +9,7 @@ from __future__ import annotations
 import io
 import json
 import math
-import shutil
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Sequence
 
@@ -70,13 +70,13 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
             "interactions today": status.interactions_today if status.open else 0,
             "success rate so far": success,
             "policy": "initial" if status.policy_version is None else f"version {status.policy_version}",
-            "last activity": _short_time(last.iloc[-1]) if len(last) else "",
+            "last activity": short_time(last.iloc[-1]) if len(last) else "",
             "next step": next_step(has_prefs, status),
         })
     return pd.DataFrame(rows, columns=cols)
 
 
-def _short_time(stamp: str) -> str:
+def short_time(stamp: str) -> str:
     """'2026-11-21T09:47:34.123Z' -> '2026-11-21 09:47 UTC'."""
     s = str(stamp)
     return f"{s[:10]} {s[11:16]} UTC" if len(s) >= 16 else s
@@ -90,7 +90,7 @@ def _event_words(what: str, details: str) -> str:
     if what == "record_interaction":
         if d.get("type") == records.USER_INITIATED:
             return f"day {d.get('day')}, interaction {d.get('index')}: asked for an action"
-        answer = {"accept": "accepted", "reject": "rejected", "others": "no response"}.get(d.get("response"), "")
+        answer = records.RESPONSE_WORDS.get(d.get("response"), "")
         return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
     if what == "record_adaptation":
         if not d.get("day"):
@@ -116,7 +116,7 @@ def _event_words(what: str, details: str) -> str:
 def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:
     """The last events in words, newest first: when, who, what."""
     ev = store.events(participant=participant, limit=limit)
-    return pd.DataFrame({"when": [_short_time(a) for a in ev["at"]],
+    return pd.DataFrame({"when": [short_time(a) for a in ev["at"]],
                          "participant": ev["participant"].fillna(""),
                          "what": [_event_words(w, d) for w, d in zip(ev["what"], ev["details"])]}).iloc[::-1]
 
@@ -124,10 +124,11 @@ def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.D
 # --- preferences form ----------------------------------------------------------------------------
 
 def hours_to_slots(hours) -> list[int]:
-    """The S3 slots (0..11) a preference's hours cover; [] for any time."""
+    """The S3 slots (0..11) a preference's hours cover (:meth:`Preference.slot_indices`, the one
+    definition); [] for any time, the form's empty choice."""
     if not hours:
         return []
-    return sorted({i for i, (s0, s1) in enumerate(spaces.TIME_SLOTS) for (h0, h1) in hours if h0 <= s0 and s1 <= h1})
+    return prefs.Preference(activity=(), action="", hours=tuple(tuple(h) for h in hours)).slot_indices()
 
 
 def slots_to_hours(slots: Sequence[int]) -> list[list[int]] | None:
@@ -266,7 +267,7 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
     slot = df["time_slot"].astype(int)
     request = (df["type"] == records.USER_INITIATED).to_numpy()
     answer = np.where(request, "asked for " + df["user_action"].astype(str),
-                      df["response"].map({"accept": "accepted", "reject": "rejected", "others": "no response"}))
+                      df["response"].map(records.RESPONSE_WORDS))
     heard = df["recognised_activity"] if "recognised_activity" in df else pd.Series([None] * len(df), index=df.index)
     saw = df["recognised_scene"] if "recognised_scene" in df else pd.Series([None] * len(df), index=df.index)
     return pd.DataFrame({
@@ -289,23 +290,21 @@ def runs_dir(db_path) -> Path:
 def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, settings: dict,
              by_preference: pd.DataFrame | None = None) -> Path:
     """Write a simulated run as ``cacas simulate`` does (daily.csv, interactions.csv and, when
-    given, by_preference.csv) plus settings.json, into ``root/name`` (written to a temporary
-    folder, then renamed into place)."""
-    root = Path(root)
-    root.mkdir(parents=True, exist_ok=True)
-    final = root / name
-    tmp = root / f".{name}.tmp"
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir()
-    records.write_csv(daily, tmp / "daily.csv")
-    records.write_csv(interactions, tmp / "interactions.csv")
+    given, by_preference.csv) plus settings.json, into ``root/name``, all or nothing
+    (:func:`cacas.store.files.write_all`): a failure part-way leaves an earlier run of that name
+    as it was. daily.csv, by which :func:`list_runs` knows a run, is put in place last."""
+    from cacas.store import files
+
+    folder = files.writable_folder(Path(root) / name, f"run folder {Path(root) / name}")
+    contents = {"interactions.csv": records.csv_bytes(interactions)}
     if by_preference is not None:
-        records.write_csv(by_preference, tmp / "by_preference.csv")
-    (tmp / "settings.json").write_text(json.dumps(settings, indent=2, default=str), encoding="utf-8")
-    if final.exists():
-        shutil.rmtree(final)
-    tmp.replace(final)
-    return final
+        contents["by_preference.csv"] = records.csv_bytes(by_preference)
+    contents["settings.json"] = json.dumps(settings, indent=2, default=str).encode("utf-8")
+    contents["daily.csv"] = records.csv_bytes(daily)
+    files.write_all(folder, contents)
+    if by_preference is None:  # an earlier run of this name had one: it is not this run's
+        (folder / "by_preference.csv").unlink(missing_ok=True)
+    return folder
 
 
 def list_runs(root) -> list[str]:
@@ -395,6 +394,50 @@ def load_by_preference(folder) -> pd.DataFrame | None:
     before the Simulation lab wrote it."""
     path = Path(folder) / "by_preference.csv"
     return pd.read_csv(path) if path.exists() else None
+
+
+@dataclass(frozen=True)
+class Run:
+    """A saved simulated run: its tables and the settings it was run with ({} if none saved)."""
+
+    name: str
+    daily: pd.DataFrame
+    interactions: pd.DataFrame
+    by_preference: pd.DataFrame | None
+    settings: dict
+
+    @property
+    def tables(self) -> dict[str, pd.DataFrame]:
+        """daily, interactions and (when saved) by_preference, as the Results page lists them."""
+        out = {"daily": self.daily, "interactions": self.interactions}
+        if self.by_preference is not None:
+            out["by_preference"] = self.by_preference
+        return out
+
+
+def load_run(folder) -> Run:
+    """A run folder of :func:`save_run` (or ``cacas simulate --out``): daily.csv (checked,
+    :func:`load_daily`), interactions.csv, by_preference.csv when there is one and settings.json
+    when there is one. A missing folder or table, or unreadable settings, is a CacasError
+    naming it."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise CacasError(f"{folder}: no such run folder")
+    for table in ("daily.csv", "interactions.csv"):
+        if not (folder / table).is_file():
+            raise CacasError(f"{folder}: no {table}; not a complete run (valid: a folder the Simulation lab "
+                             "or `cacas simulate --out` wrote)")
+    settings: dict = {}
+    if (folder / "settings.json").exists():
+        try:
+            settings = json.loads((folder / "settings.json").read_text(encoding="utf-8"))
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise CacasError(f"{folder / 'settings.json'}: not readable JSON ({exc})") from None
+        if not isinstance(settings, dict):
+            raise CacasError(f"{folder / 'settings.json'}: not a JSON object of settings")
+    return Run(name=folder.name, daily=load_daily(folder / "daily.csv"),
+               interactions=pd.read_csv(folder / "interactions.csv"),
+               by_preference=load_by_preference(folder), settings=settings)
 
 
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),

@@ -18,6 +18,9 @@ import pandas as pd
 ROBOT_INITIATED = "type_1"
 USER_INITIATED = "type_2"
 
+#: A response (interactions.csv's ``response``) in words, as pages and event logs show it.
+RESPONSE_WORDS = {"accept": "accepted", "reject": "rejected", "others": "no response"}
+
 #: Columns of interactions.csv, in order (both simulated and human studies):
 #: participant (code), method, day (1..), index (0.. within the day), time (simulated: "HH:MM",
 #: the simulated time of day; human studies: the UTC timestamp of the recording, as the context's

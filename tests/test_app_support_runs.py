@@ -1,0 +1,96 @@
+"""app_support: simulated runs saved all or nothing and read back in one call, and the small
+helpers the pages share (slots of a preference's hours, short timestamps, answers in words)."""
+
+import json
+
+import pandas as pd
+import pytest
+
+from cacas import app_support, records
+from cacas.errors import CacasError
+from cacas.preferences import Preference
+from cacas.store import files
+
+
+def _daily(rate=0.3):
+    return pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [rate],
+                         "preference_accuracy": [0.2], "cumulative_feedback": [10], "interactions": [15]})
+
+
+def _by_pref():
+    return pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "preference": [1],
+                         "accuracy": [0.25]})
+
+
+@pytest.mark.parametrize("hours", [[[6, 10], [16, 20]], [[7, 11]], [[0, 24]], [[22, 24], [0, 2]], [[9, 10]]])
+def test_hours_to_slots_counts_slots_as_a_preference_does(hours):
+    expected = Preference(activity=("cough",), action="pain check", hours=tuple(map(tuple, hours))).slot_indices()
+    assert app_support.hours_to_slots(hours) == expected
+    assert app_support.hours_to_slots([[7, 11]]) == [4]  # only the slots wholly inside: 08-10
+    assert app_support.hours_to_slots(None) == [] and app_support.hours_to_slots([]) == []  # any time
+
+
+def test_short_time_and_answers_in_words():
+    assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
+    assert app_support.short_time("?") == "?"
+    assert records.RESPONSE_WORDS == {"accept": "accepted", "reject": "rejected", "others": "no response"}
+    inter = pd.DataFrame({"day": [1, 1], "index": [0, 1], "time_slot": [3, 3], "activity": ["cough"] * 2,
+                          "scene": ["bedroom"] * 2, "type": [records.ROBOT_INITIATED] * 2,
+                          "robot_action": ["pain check", "chitchat"], "response": ["others", "reject"],
+                          "user_action": ["", ""]})
+    assert list(app_support.interactions_view(inter)["answer"]) == ["no response", "rejected"]
+
+
+def test_load_run_reads_what_save_run_wrote(tmp_path):
+    root = tmp_path / "runs"
+    inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    folder = app_support.save_run(root, "run1", _daily(), inter, {"seed": 4, "methods": ["cacas"]}, _by_pref())
+    run = app_support.load_run(folder)
+    assert run.name == "run1" and run.settings == {"seed": 4, "methods": ["cacas"]}
+    assert run.daily.equals(_daily()) and run.interactions.equals(inter) and run.by_preference.equals(_by_pref())
+    assert list(run.tables) == ["daily", "interactions", "by_preference"]
+    assert sorted(p.name for p in folder.iterdir()) == ["by_preference.csv", "daily.csv", "interactions.csv",
+                                                        "settings.json"]  # no temporary file left
+    # the same name saved again without by_preference: the earlier one is not left behind as this run's
+    app_support.save_run(root, "run1", _daily(0.6), inter, {})
+    run = app_support.load_run(folder)
+    assert run.by_preference is None and "by_preference" not in run.tables and run.settings == {}
+    assert run.daily["success_rate"].tolist() == [0.6]
+
+
+def test_load_run_names_what_is_missing_or_unreadable(tmp_path):
+    with pytest.raises(CacasError, match="no such run folder"):
+        app_support.load_run(tmp_path / "absent")
+    folder = app_support.save_run(tmp_path, "r", _daily(), pd.DataFrame({"participant": ["P01"]}), {})
+    (folder / "settings.json").write_text("{not json")
+    with pytest.raises(CacasError, match=r"settings\.json: not readable JSON"):
+        app_support.load_run(folder)
+    (folder / "settings.json").write_text("[1, 2]")
+    with pytest.raises(CacasError, match="not a JSON object"):
+        app_support.load_run(folder)
+    (folder / "interactions.csv").unlink()
+    with pytest.raises(CacasError, match="no interactions.csv; not a complete run"):
+        app_support.load_run(folder)
+
+
+def test_a_failure_part_way_leaves_the_earlier_run_whole(tmp_path, monkeypatch):
+    root = tmp_path / "runs"
+    inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    folder = app_support.save_run(root, "run1", _daily(0.3), inter, {"seed": 1}, _by_pref())
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    opened = []
+
+    def disk_full_on_the_second_file(path, mode="r", *args, **kwargs):
+        opened.append(path)
+        if len(opened) == 2:
+            raise OSError(28, "No space left on device")
+        return open(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(files, "open", disk_full_on_the_second_file, raising=False)
+    with pytest.raises(CacasError, match="No space left on device"):
+        app_support.save_run(root, "run1", _daily(0.9), inter.assign(day=2), {"seed": 2}, _by_pref())
+    monkeypatch.undo()
+    assert len(opened) == 2  # the failure came part-way through the files
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # old run whole, no temporary file
+    assert app_support.load_run(folder).settings == {"seed": 1}
+    assert app_support.list_runs(root) == ["run1"]
