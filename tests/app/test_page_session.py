@@ -1,3 +1,5 @@
+import json
+
 import pytest
 
 from apphelpers import no_exception, texts
@@ -49,7 +51,8 @@ def test_start_day_then_accept_is_saved_at_once(app, store, p01, quick_policy):
     row = df.iloc[0]
     assert (row["activity"], row["scene"], row["time_slot"], row["type"]) == ("use stove", "kitchen", 3, "type_1")
     assert row["response"] == ("accept" if robot_speaks else "others")
-    assert row["probabilities"]  # the policy's 14 probabilities are kept
+    probs = json.loads(row["probabilities"])  # the policy's 14 probabilities (Eq. 4) are kept
+    assert len(probs) == 14 and sum(probs) == pytest.approx(1.0) and min(probs) >= 0
     assert "Interaction 1 saved" in texts(at)
     assert "ctx" not in at.query_params
     assert line  # the robot said something (or stayed quiet, shown as a line)
