@@ -274,23 +274,27 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
 
 
 def evaluation_states(participant: Participant, n: int = 400, seed: int = 0) -> np.ndarray:
-    """Fig. 4's test states (n, 7) from the described preferences: covered S1-S4 contexts, the
-    robot idle (S5 "do nothing"), and a random previous action and response (S6, S7)."""
+    """Fig. 4's test states (n, 7) from the described preferences: covered S1-S5 contexts (the
+    robot idle, S5 "do nothing", unless a preference names the tasks it applies during), and a
+    random previous action and response (S6, S7)."""
     rng = np.random.default_rng(seed)
     ctx = preference_states(participant, n, rng)
-    return np.concatenate([ctx, np.full((n, 1), spaces.DO_NOTHING_ACTION),
-                           rng.integers(spaces.N_ACTIONS, size=(n, 1)),
+    return np.concatenate([ctx, rng.integers(spaces.N_ACTIONS, size=(n, 1)),
                            rng.integers(spaces.N_RESPONSES, size=(n, 1))], axis=1)
 
 
 def preference_accuracy(policy, participant: Participant, n: int = 400, seed: int = 0,
                         states: np.ndarray | None = None) -> float:
     """Fig. 4: on states generated from the described preferences, the share where the
-    policy's chosen action (Eq. 4) is the preferred one. Evaluation only."""
+    policy's chosen action (Eq. 4) is the preferred one (given ``states`` that no preference
+    covers are not counted; NaN if none is covered). Evaluation only."""
     states = evaluation_states(participant, n, seed) if states is None else states
     table = participant.preferred_action_table()
     preferred = table[states[:, 0], states[:, 1], states[:, 2], states[:, 3], states[:, 4]]
-    return float((policy.greedy(states) == preferred).mean())
+    covered = preferred >= 0
+    if not covered.any():
+        return float("nan")
+    return float((policy.greedy(states[covered]) == preferred[covered]).mean())
 
 
 def accuracy_by_preference(policy, participant: Participant, states: np.ndarray) -> pd.DataFrame:

@@ -80,11 +80,15 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
 
 def simulated_day(policy, participant: Participant, day: int, n_interactions: int,
                   rng: np.random.Generator, no_response_rate: float, method: str,
-                  ask_after_reject: float = 0.0) -> list[dict]:
+                  ask_after_reject: float = 0.0, d4a: D4A | None = None) -> list[dict]:
     """One simulated study day of ``participant`` with the robot acting by ``policy``. With
     ``ask_after_reject`` > 0, that share of the proposals the participant would reject become
     requests for the preferred action instead (never for "do nothing", which is not a request);
-    at 0 the random stream is the same as without the option."""
+    at 0 the random stream is the same as without the option. Where no preference covers the
+    state (one that names robot tasks, S5, while the robot is busy with another), the
+    participant answers as ``generate_response`` does: by the D4A pairs (``d4a``, the shipped
+    file by default), and asks for nothing."""
+    d4a = d4a or load_d4a()
     n = max(1, int(rng.poisson(n_interactions)))
     ctx = preference_states(participant, n, rng)
     minute = ctx[:, 2] * 120 + rng.integers(0, 120, n)
@@ -94,7 +98,7 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
     rows = []
     prev_action, prev_response = spaces.DO_NOTHING_ACTION, spaces.OTHERS
     for i in range(n):
-        act, scene, slot, interval = (int(v) for v in ctx[i])
+        act, scene, slot, interval = (int(v) for v in ctx[i, :4])  # S5 is the robot's, from the day so far
         task = int(current_task(np.array([prev_action]), np.array([prev_response]),
                                 np.array([spaces.INTERVAL_BINS[interval]]))[0])
         state = np.array([[act, scene, slot, interval, task, prev_action, prev_response]])
@@ -109,7 +113,12 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
                 tp, response = records.ROBOT_INITIATED, "others"
         else:
             tp = records.ROBOT_INITIATED
-            response = "others" if silent else "accept" if robot == preferred else "reject"
+            if silent:
+                response = "others"
+            elif preferred == -1:  # preference first, D4A second
+                response = spaces.RESPONSES[d4a.response(act, robot)]
+            else:
+                response = "accept" if robot == preferred else "reject"
             if response == "reject" and ask_after_reject > 0 and preferred not in (-1, spaces.DO_NOTHING_ACTION) \
                     and rng.random() < ask_after_reject:
                 tp, response, user_action = records.USER_INITIATED, "accept", spaces.ACTIONS[preferred]
@@ -190,7 +199,7 @@ def policies_in_force(initial, person: Participant, p_i: int, days: int, interac
     for day in range(1, days + 1):
         yield day, in_force, rows
         rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method,
-                              ask_after_reject)
+                              ask_after_reject, d4a)
         if day < days:
             data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
             in_force = {m: adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,

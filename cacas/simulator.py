@@ -211,15 +211,22 @@ def dialog_state(activity: str, scene: str, hour: float, interval_minutes: float
 
 
 def preference_states(participant: Participant, n: int, rng: np.random.Generator) -> np.ndarray:
-    """n S1-S4 contexts (n, 4) drawn from a participant's described preferences: a preference
-    chosen at random, then one of the states it covers, uniformly. Used by the simulated
-    participant (who acts in the contexts their preferences describe) and by Fig. 4's
-    evaluation; never by the adaptation."""
-    cells = [np.argwhere(p.coverage_mask()) for p in participant.preferences]
+    """n S1-S5 contexts (n, 5) drawn from a participant's described preferences: a preference
+    chosen at random, then one of the S1-S4 states it covers, uniformly, with S5 (the robot's
+    task) "do nothing" (the robot idle) where the preference allows it, else one of the tasks it
+    names. Used by the simulated participant (who acts in the contexts their preferences
+    describe) and by Fig. 4's evaluation; never by the adaptation."""
+    prefs = participant.preferences
+    cells = [np.argwhere(p.coverage_mask()) for p in prefs]
     which = rng.integers(len(cells), size=n)
-    out = np.empty((n, 4), dtype=np.int64)
+    out = np.full((n, 5), spaces.DO_NOTHING_ACTION, dtype=np.int64)
     for k, c in enumerate(cells):
         idx = np.flatnonzero(which == k)
         if len(idx):
-            out[idx] = c[rng.integers(len(c), size=len(idx))]
+            out[idx, :4] = c[rng.integers(len(c), size=len(idx))]
+    for k, p in enumerate(prefs):  # draws only for a preference that needs the robot busy
+        tasks = p.task_indices()
+        idx = np.flatnonzero(which == k)
+        if len(idx) and spaces.DO_NOTHING_ACTION not in tasks:
+            out[idx, 4] = np.asarray(tasks)[rng.integers(len(tasks), size=len(idx))]
     return out

@@ -169,3 +169,37 @@ def test_sac_user_data_is_online_sac_one_update_per_new_transition(small_config,
     assert result.parameters["updates"] == 16
     assert result.policy.sac.updates == small_initial.sac.updates + 16
     assert result.policy.sac.memory is None and result.policy.sac.buffer.size == 3 * 8 * 2
+
+
+class _Oracle:
+    """A policy that always chooses the described preference's action (evaluation only)."""
+
+    def __init__(self, person):
+        self.table = person.preferred_action_table()
+
+    def greedy(self, states):
+        return self.table[tuple(np.asarray(states)[:, :5].T)].astype(np.int64)
+
+
+def test_a_preference_that_names_robot_tasks_is_evaluated_in_those_tasks():
+    busy = parse_personas({"participants": [{"id": "P09", "preferences": [
+        {"activity": ["cough"], "action": "pain check"},
+        {"activity": ["use stove"], "task": ["set a timer"], "action": "remind to turn off"}]}]})[0]
+    states = evaluation_states(busy, 200, seed=0)
+    assert set(states[states[:, 0] == spaces.activity_index("use stove"), 4]) == {spaces.action_index("set a timer")}
+    oracle = _Oracle(busy)
+    assert preference_accuracy(oracle, busy, states=states) == 1.0  # was 0.45: idle-robot states counted as misses
+    table = accuracy_by_preference(oracle, busy, states)
+    assert list(table["accuracy"]) == [1.0, 1.0] and table["states"].sum() == 200
+
+
+def test_preference_accuracy_counts_only_covered_states():
+    states = np.array([spaces.State.from_names("use stove", "kitchen", 9, 30).as_tuple(),
+                       spaces.State.from_names("use stove", "bedroom", 9, 30).as_tuple()])
+    timer = spaces.action_index("set a timer")
+
+    class Timer:
+        def greedy(self, s):
+            return np.full(len(s), timer)
+    assert preference_accuracy(Timer(), PERSON, states=states) == 1.0  # the bedroom is no preference's
+    assert np.isnan(preference_accuracy(Timer(), PERSON, states=states[1:]))

@@ -126,3 +126,22 @@ def test_parallel_workers_give_the_same_tables(small_config, small_initial):
     # at once, what is starting; then the participant-days, reported from the workers
     assert ticks[0] == 0.0 and words[0] == f"simulating day 1 of {len(PEOPLE)} participants (2 methods, 2 worker processes)"
     assert len(ticks) == 5 and ticks[-1] == 1.0
+
+
+def test_outside_every_preference_the_simulated_participant_answers_by_the_d4a_pairs():
+    """A preference that applies while the robot sets a timer: with the robot idle, no preference
+    covers the stove, so the participant answers as generate_response does (D4A second) and
+    asks for nothing."""
+    from cacas.d4a import load_d4a
+    busy = parse_personas({"participants": [{"id": "P09", "preferences": [
+        {"activity": ["use stove"], "task": ["set a timer"], "action": "remind to turn off"}]}]})[0]
+    d4a = load_d4a()
+    stove, off = spaces.activity_index("use stove"), spaces.action_index("remind to turn off")
+    chat = spaces.action_index("chitchat")
+    for action in (off, chat):
+        day = pd.DataFrame(simulated_day(Always(action), busy, 1, 30, np.random.default_rng(0), 0.0, "cacas"))
+        assert "set a timer" not in set(day["task"])  # the robot never set a timer: not the preference's state
+        assert set(day["response"]) == {spaces.RESPONSES[d4a.response(stove, action)]}
+    idle = pd.DataFrame(simulated_day(Always(0), busy, 1, 30, np.random.default_rng(0), 0.0, "cacas"))
+    assert (idle["type"] == "type_1").all() and (idle["response"] == "others").all()  # no request
+    assert d4a.response(stove, off) == spaces.ACCEPT and d4a.response(stove, chat) != spaces.ACCEPT

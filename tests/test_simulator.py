@@ -84,5 +84,33 @@ def test_current_task_and_dialog_state():
 def test_preference_states_are_covered():
     ctx = preference_states(P, 300, np.random.default_rng(0))
     mask = P.coverage_mask()
-    assert all(mask[tuple(c)] for c in ctx)
+    assert all(mask[tuple(c[:4])] for c in ctx)
     assert set(ctx[:, 0]) == {STOVE, COUGH}
+
+
+def test_preference_states_draw_the_robot_task_a_preference_names():
+    busy = parse_personas({"participants": [{"id": "P09", "preferences": [
+        {"activity": ["cough"], "action": "pain check"},
+        {"activity": ["use stove"], "task": ["set a timer", "chitchat"], "action": "remind to turn off"}]}]})[0]
+    ctx = preference_states(busy, 400, np.random.default_rng(0))
+    assert ctx.shape == (400, 5)
+    stove = ctx[:, 0] == STOVE
+    assert 100 < stove.sum() < 300
+    tasks = {spaces.action_index("set a timer"), spaces.action_index("chitchat")}
+    assert set(ctx[stove, 4]) == tasks  # the robot busy with a task the preference names
+    assert set(ctx[~stove, 4]) == {spaces.DO_NOTHING_ACTION}  # elsewhere the robot is idle
+    table = busy.preferred_action_table()
+    assert (table[tuple(ctx.T)] >= 0).all()  # every state drawn is one a preference covers
+
+
+def test_preference_states_without_tasks_keep_the_same_random_stream():
+    """Preferences that name no task draw exactly what they drew before S5 was added."""
+    rng = np.random.default_rng(7)
+    which = rng.integers(2, size=50)
+    cells = [np.argwhere(p.coverage_mask()) for p in P.preferences]
+    expected = np.empty((50, 4), dtype=np.int64)
+    for k, c in enumerate(cells):
+        idx = np.flatnonzero(which == k)
+        expected[idx] = c[rng.integers(len(c), size=len(idx))]
+    ctx = preference_states(P, 50, np.random.default_rng(7))
+    assert (ctx[:, :4] == expected).all() and (ctx[:, 4] == spaces.DO_NOTHING_ACTION).all()
