@@ -15,7 +15,7 @@ raises :class:`cacas.errors.CacasError` naming it and listing the valid ones.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable
 
 import numpy as np
 
@@ -196,11 +196,6 @@ def encode_states(states, parts: int = 7) -> np.ndarray:
     return out
 
 
-def encode_state(state: State) -> np.ndarray:
-    """The 94-D one-hot policy state of Table I."""
-    return encode_states([state])[0]
-
-
 def encode_user_input(state: State, judged_action: int | None = None) -> np.ndarray:
     """The 91-D user-model input S_u = S1..S6, with S6 the action being judged."""
     s = state if judged_action is None else State(*state.as_tuple()[:5], judged_action, state.response)
@@ -232,7 +227,3 @@ def decode_states(vectors: np.ndarray) -> list[State]:
 def parse_names(kind: str, names: Iterable[str]) -> list[int]:
     """Indices of several names of one kind (each checked by :func:`index_of`)."""
     return [index_of(kind, n) for n in names]
-
-
-def names_of(kind: str, indices: Sequence[int]) -> list[str]:
-    return [_NAMES[kind][i] for i in indices]

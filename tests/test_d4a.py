@@ -204,9 +204,9 @@ def test_empty_cell(tmp_path):
 
 
 def test_table_object_validates_shape_and_values():
-    with pytest.raises(CacasError):
+    with pytest.raises(CacasError, match=r"has shape \(33, 13\); valid: \(33, 14\)"):
         D4A(np.zeros((33, 13), dtype=np.int8))
-    with pytest.raises(CacasError):
+    with pytest.raises(CacasError, match=r"value other than ACCEPT, REJECT or OTHERS \(0, 1, 2\)"):
         D4A(np.full((33, 14), 3, dtype=np.int8))
 
 

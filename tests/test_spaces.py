@@ -28,7 +28,7 @@ def test_interval_bins(minutes, expected):
 
 def test_time_slots():
     assert spaces.time_slot(0) == 0 and spaces.time_slot(1.99) == 0 and spaces.time_slot(23.5) == 11
-    with pytest.raises(CacasError):
+    with pytest.raises(CacasError, match="hour 24 is outside the day; valid: 0 <= hour < 24"):
         spaces.time_slot(24)
 
 
