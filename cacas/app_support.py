@@ -440,6 +440,16 @@ def load_run(folder) -> Run:
                by_preference=load_by_preference(folder), settings=settings)
 
 
+def check_simulation(participants, methods) -> tuple[str, ...]:
+    """The Simulation lab's choice, checked before a run starts: at least one participant and
+    known methods (:func:`cacas.experiment.check_methods`); returns the methods."""
+    from cacas.experiment import check_methods
+
+    if not participants:
+        raise CacasError("choose at least one simulated participant")
+    return check_methods(methods)
+
+
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
                    seed: int = 0, no_response_rate: float = 0.1, progress=None,
                    ask_after_reject: float = 0.0) -> Path:
@@ -449,8 +459,7 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
 
     from cacas.experiment import simulate_study
 
-    if not participants:
-        raise CacasError("choose at least one simulated participant")
+    methods = check_simulation(participants, methods)
     result = simulate_study(list(participants), days=days, interactions=interactions, methods=tuple(methods),
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
                             ask_after_reject=ask_after_reject)

@@ -16,10 +16,20 @@ METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b"
                   "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
+def loop_method(daily: pd.DataFrame) -> str | None:
+    """The method whose success rate Fig. 3 shows: the one that ran in closed loop (the others
+    adapted from its interactions and have no success rate). "cacas" when it has a success rate,
+    else the first method that has one; None when no day has one."""
+    methods = list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))
+    if not methods:
+        return None
+    return "cacas" if "cacas" in methods else methods[0]
+
+
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
     """Per day: mean, min and max success rate across participants, mean cumulative feedback."""
     d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
-    g = d.groupby("day")
+    g = d.assign(day=d["day"].astype(int)).groupby("day")
     return pd.DataFrame({
         "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
         "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
@@ -63,6 +73,17 @@ def accuracy_by_day(daily: pd.DataFrame) -> pd.DataFrame:
     d = daily[daily["preference_accuracy"].notna()]
     g = d.groupby(["method", "day"], sort=False)["preference_accuracy"]
     return pd.DataFrame({"mean": g.mean(), "min": g.min(), "max": g.max()}).reset_index()
+
+
+def accuracy_table(daily: pd.DataFrame) -> pd.DataFrame:
+    """Fig. 4 as a table: the mean preference accuracy of each method (rows, by label, in the
+    table's order) on each day (columns "day 1", "day 2", ...)."""
+    a = accuracy_by_day(daily)
+    table = a.pivot(index="method", columns="day", values="mean")
+    table = table.reindex(index=list(dict.fromkeys(a["method"])), columns=sorted(table.columns))
+    table.index = [METHOD_LABELS.get(m, m) for m in table.index]
+    table.columns = [f"day {int(d)}" for d in table.columns]
+    return table
 
 
 def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:

@@ -45,12 +45,12 @@ if source == HUMAN:
                "days 1..d-1 (Section V-B.2).")
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
-    folder = app_support.runs_dir(db) / name
-    daily = app_support.load_daily(folder / "daily.csv")
-    tables = {"daily": daily, "interactions": pd.read_csv(folder / "interactions.csv")}
-    by_preference = app_support.load_by_preference(folder)
-    if by_preference is not None:
-        tables["by_preference"] = by_preference
+    try:
+        run = app_support.load_run(app_support.runs_dir(db) / name)
+    except CacasError as exc:
+        st.error(str(exc), icon=":material/error:")
+        st.stop()
+    tables, daily = run.tables, run.daily
     st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
                f"participant(s), methods {', '.join(daily['method'].unique())}.")
 else:
@@ -70,27 +70,23 @@ else:
 fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"])
 
 with fig3:
-    loop = daily.dropna(subset=["success_rate"])
-    if loop.empty:
+    method = plots.loop_method(daily)
+    if method is None:
         st.info("No study day with interactions yet. Run a day on the **Study session** page.")
     else:
-        method = loop["method"].iloc[0] if "cacas" not in set(loop["method"]) else "cacas"
-        loop = loop.assign(day=loop["day"].astype(int))
-        per_day = loop[loop["method"] == method].groupby("day").agg(
-            success=("success_rate", "mean"), feedback=("cumulative_feedback", "mean"), n=("participant", "nunique"))
+        per_day = plots.success_by_day(daily, method).set_index("day")
         last = per_day.index.max()
         c1, c2, c3 = st.columns(3)
-        c1.metric(f"Day {last} mean success rate", ui.percent(per_day.loc[last, "success"]),
-                  None if len(per_day) < 2 else f"{100 * (per_day.loc[last, 'success'] - per_day['success'].iloc[0]):+.0f} "
+        c1.metric(f"Day {last} mean success rate", ui.percent(per_day.loc[last, "mean"]),
+                  None if len(per_day) < 2 else f"{100 * (per_day.loc[last, 'mean'] - per_day['mean'].iloc[0]):+.0f} "
                                                 f"points since day {per_day.index.min()}")
-        c2.metric("Mean cumulative feedback", f"{per_day.loc[last, 'feedback']:.0f} data points")
-        c3.metric("Participants", int(per_day["n"].max()))
+        c2.metric("Mean cumulative feedback", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
+        c3.metric("Participants", int(per_day["participants"].max()))
         st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
         st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
                    "is a robot-initiated action the participant accepted; requests by the participant are not.")
 
 with fig4:
-    acc = daily.dropna(subset=["preference_accuracy"])
     if source == HUMAN:
         st.markdown("The paper did not rerun the study with each method: it adapted each one from the same "
                     "daily interactions and scored it on states generated from the described preferences.")
@@ -104,14 +100,12 @@ with fig4:
                 st.rerun()
             if job is not None and job.status == FAILED:
                 st.error(f"The comparison failed: {job.error}")
-    if acc.empty:
+    summary = plots.accuracy_table(daily)
+    if summary.empty:
         st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
                 "described preferences.")
     else:
         st.plotly_chart(plots.methods_figure(daily), width="stretch")
-        summary = acc.groupby(["method", "day"], sort=False)["preference_accuracy"].mean().unstack("day")
-        summary.index = [plots.METHOD_LABELS.get(m, m) for m in summary.index]
-        summary.columns = [f"day {int(d)}" for d in summary.columns]
         st.dataframe(summary.style.format("{:.0%}"), width="stretch")
         st.caption("Mean preference accuracy over participants, per method and day (Fig. 4).")
         if "by_preference" in tables and len(tables["by_preference"]):

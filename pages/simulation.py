@@ -3,9 +3,6 @@
 
 from __future__ import annotations
 
-import json
-
-import pandas as pd
 import streamlit as st
 
 from cacas import app_support, plots
@@ -74,10 +71,10 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                "on this machine.")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
 if go:
-    if not chosen:
-        st.error("Choose at least one simulated participant.", icon=":material/error:")
-    elif not methods:
-        st.error("Choose at least one method.", icon=":material/error:")
+    try:
+        app_support.check_simulation(chosen, methods)
+    except CacasError as exc:
+        st.error(str(exc), icon=":material/error:")
     else:
         _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
@@ -98,9 +95,12 @@ if runs:
     st.subheader("Runs")
     default = job.result.name if job is not None and job.status == DONE and job.result.name in runs else runs[0]
     name = st.selectbox("Run", runs, index=runs.index(default), key="sim-run")
-    folder = app_support.runs_dir(db) / name
-    daily = app_support.load_daily(folder / "daily.csv")
-    settings = json.loads((folder / "settings.json").read_text()) if (folder / "settings.json").exists() else {}
+    try:
+        run = app_support.load_run(app_support.runs_dir(db) / name)
+    except CacasError as exc:
+        st.error(str(exc), icon=":material/error:")
+        st.stop()
+    daily, settings = run.daily, run.settings
     if settings:
         n = len(settings.get("participants", []))
         st.caption(f"{n} participant{'s' if n != 1 else ''} · {settings.get('days')} days · "
@@ -108,8 +108,8 @@ if runs:
                    f" · seed {settings.get('seed')}" + (f" · asks after {ui.percent(settings['ask_after_reject'])} of "
                                                          "rejections" if settings.get("ask_after_reject") else ""))
     c1, c2 = st.columns(2)
-    loop_method = daily["method"].iloc[0]
-    c1.plotly_chart(plots.success_figure(daily, method=loop_method), width="stretch")
+    c1.plotly_chart(plots.success_figure(daily, method=plots.loop_method(daily) or daily["method"].iloc[0]),
+                    width="stretch")
     c2.plotly_chart(plots.methods_figure(daily), width="stretch")
     summary = summary_table(daily)
     shown = summary.assign(method=summary["method"].map(lambda m: plots.METHOD_LABELS.get(m, m)),
@@ -125,10 +125,9 @@ if runs:
     with d1:
         ui.download_csv(daily, "daily.csv", key="sim-dl-daily")
     with d2:
-        ui.download_csv(pd.read_csv(folder / "interactions.csv"), "interactions.csv", key="sim-dl-inter")
+        ui.download_csv(run.interactions, "interactions.csv", key="sim-dl-inter")
     with d3:
         ui.download_csv(summary, "summary.csv", key="sim-dl-summary")
-    by_preference = app_support.load_by_preference(folder)
-    if by_preference is not None:
+    if run.by_preference is not None:
         st.subheader("Which preferences each method learnt")
-        ui.preference_heatmaps(by_preference, key="sim-prefs")
+        ui.preference_heatmaps(run.by_preference, key="sim-prefs")

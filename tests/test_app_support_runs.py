@@ -94,3 +94,14 @@ def test_a_failure_part_way_leaves_the_earlier_run_whole(tmp_path, monkeypatch):
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # old run whole, no temporary file
     assert app_support.load_run(folder).settings == {"seed": 1}
     assert app_support.list_runs(root) == ["run1"]
+
+
+def test_a_simulation_choice_is_checked_before_a_run(tmp_path):
+    with pytest.raises(CacasError, match="choose at least one simulated participant"):
+        app_support.run_simulation([], tmp_path, methods=("cacas",))
+    with pytest.raises(CacasError, match="no method given"):
+        app_support.check_simulation(["P01"], [])
+    with pytest.raises(CacasError, match="unknown method 'dqn'"):
+        app_support.check_simulation(["P01"], ["cacas", "dqn"])
+    assert app_support.check_simulation(["P01"], ["NN", "cacas", "nn"]) == ("nn", "cacas")
+    assert not tmp_path.joinpath("runs").exists() and list(tmp_path.iterdir()) == []

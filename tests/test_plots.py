@@ -68,3 +68,29 @@ def test_accuracy_by_preference_heatmaps():
     heat = methods.data[0]
     assert list(heat.x) == ["CACAS", "NN"] and "day 2" in methods.layout.title.text
     assert np.allclose(heat.z[2], [0.9, 0.0])
+
+
+def test_loop_method_is_the_one_with_a_success_rate():
+    from cacas.plots import loop_method
+
+    assert loop_method(daily()) == "cacas"
+    only_nn = daily().assign(success_rate=lambda d: np.where(d["method"] == "nn", 0.5, np.nan))
+    assert loop_method(only_nn) == "nn"  # cacas adapted offline here: no success rate of its own
+    assert loop_method(daily().assign(success_rate=np.nan)) is None
+
+
+def test_accuracy_table_is_fig4_as_a_table():
+    from cacas.plots import accuracy_table
+
+    d = daily()
+    d = pd.concat([d[d["day"] == 2], d[d["day"] != 2]])  # days out of order in the file
+    table = accuracy_table(d.assign(day=d["day"].astype(float)))
+    assert list(table.index) == ["CACAS", "NN"] and list(table.columns) == ["day 1", "day 2", "day 3"]
+    assert np.allclose(table.loc["CACAS"], [0.5, 0.7, 0.9]) and np.allclose(table.loc["NN"], [0.3, 0.3, 0.3])
+    assert accuracy_table(daily().assign(preference_accuracy=np.nan)).empty
+
+
+def test_success_by_day_has_whole_days_for_a_table_read_with_float_days():
+    s = success_by_day(daily().assign(day=lambda d: d["day"].astype(float)))
+    assert s["day"].tolist() == [1, 2, 3] and s["day"].dtype.kind == "i"
+    assert s["participants"].tolist() == [2, 2, 2]

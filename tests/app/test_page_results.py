@@ -68,6 +68,11 @@ def test_results_of_a_simulated_run(app, db):
     no_exception(at)
     assert at.selectbox(key="results-run").value == "run-a"
     assert at.metric[0].label == "Day 2 mean success rate" and at.metric[0].value == "60%"
+    assert at.metric[0].delta == "+30 points since day 1"
+    assert at.metric[1].value == "15 data points" and at.metric[2].value == "1"
+    fig4 = at.dataframe[0].value  # the per-method, per-day means under Fig. 4
+    assert list(fig4.index) == ["CACAS"] and list(fig4.columns) == ["day 1", "day 2"]
+    assert fig4.loc["CACAS"].tolist() == [0.2, 0.5]
     assert at.select_slider(key="results-prefs-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
@@ -95,3 +100,18 @@ def test_no_zip_offered_while_a_policy_file_is_missing(app, store):
     assert "No zip: 1 policy file(s) are missing" in texts(at)
     labels = [b.label for b in at.get("download_button")]
     assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
+
+
+def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
+                          "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
+    folder = app_support.save_run(app_support.runs_dir(db), "run-b", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    (folder / "interactions.csv").unlink()
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert "run-b: no interactions.csv; not a complete run" in texts(at)

@@ -36,12 +36,37 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 
-def test_simulation_refuses_an_empty_choice(app):
+def test_simulation_refuses_an_empty_choice_with_the_library_message(app, db):
     at = app(PAGE)
     at.multiselect[1].set_value([])
     next(b for b in at.button if b.label == "Run simulation").click().run()
     no_exception(at)
-    assert "Choose at least one method" in texts(at)
+    assert "no method given; valid: cacas, cacas-no-pr" in texts(at)  # app_support.check_simulation's words
+    at.multiselect[0].set_value([])
+    at.multiselect[1].set_value(["nn"])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert "choose at least one simulated participant" in texts(at)
+    assert RUNNER.get(f"simulate:{db}") is None  # nothing started
+
+
+def test_a_run_folder_without_its_interactions_is_named_not_a_crash(app, db):
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
+                          "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
+    folder = app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}),
+                                  {"participants": ["P01"], "days": 1, "interactions": 15, "methods": ["cacas"],
+                                   "seed": 3})
+    at = app(PAGE)
+    no_exception(at)
+    assert "1 participant · 1 days · 15 interactions a day · methods cacas · seed 3" in texts(at)
+    (folder / "interactions.csv").unlink()
+    at.run()
+    no_exception(at)
+    assert "no interactions.csv; not a complete run" in texts(at)
 
 
 def test_simulation_lab_offers_the_leave_me_alone_examples(app):
