@@ -124,10 +124,9 @@ def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, d
 def daily_frame(store: StudyStore, study: str | None = None) -> pd.DataFrame:
     """daily.csv of the human study (:data:`cacas.records.DAILY_COLUMNS`): success rate,
     interactions and cumulative feedback per participant, method and day (Fig. 3), with the
-    preference accuracy of :func:`accuracy_frame` (Fig. 4)."""
-    interactions = store.interactions_frame(method=None, study=study, extra=True)
-    accuracy = accuracy_frame(interactions, store.adaptations_frame(study=study), store.days_frame(study))
-    return daily_table(interactions[INTERACTION_COLUMNS], accuracy)
+    preference accuracy of :func:`accuracy_frame` (Fig. 4): the ``daily`` table of
+    :func:`export_tables`."""
+    return export_tables(store, study)["daily"]
 
 
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
@@ -279,11 +278,5 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
             p.unlink(missing_ok=True)
 
 
-def same_tables(a: dict[str, pd.DataFrame], b: dict[str, pd.DataFrame], names=None) -> bool:
-    """Whether two sets of exported tables write the same CSV bytes (``names``: which tables)."""
-    return all(csv_bytes(a[n]) == csv_bytes(b[n]) for n in (names or a.keys()))
-
-
 __all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "daily_frame",
-           "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle",
-           "same_tables"]
+           "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]

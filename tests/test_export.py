@@ -2,6 +2,8 @@
 
 import io
 import math
+import re
+import sqlite3
 import zipfile
 
 import numpy as np
@@ -12,6 +14,7 @@ from cacas import export, spaces
 from cacas.errors import CacasError
 from cacas.records import BY_PREFERENCE_COLUMNS, DAILY_COLUMNS, INTERACTION_COLUMNS, USER_INITIATED
 from cacas.store import StudyStore
+from cacas.store.restore import restore
 
 COUGH = {"activity": ["cough"], "action": "pain check"}
 ROUND_TRIP = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences", "days",
@@ -266,3 +269,99 @@ def test_times_survive_export_and_import_to_the_last_decimal(tmp_path):
         assert (row["hour"], row["interval_minutes"], row["time_slot"], row["interval"]) == (23.999999, 4.999999, 11, 2)
         bundle = export.export_study(s, tmp_path / "out").bundle
     assert export.import_bundle(bundle, tmp_path / "b" / "s.sqlite") == 1
+
+
+# --- what read_bundle lets through: only the tables and policies/<participant>/<checkpoint>.pt ------
+
+def _with_entries(bundle, out, add=(), policies_csv=None):
+    """A copy of ``bundle`` with extra zip entries ``add`` ((name, bytes) pairs) and, if given,
+    policies.csv's path column changed by ``policies_csv(path) -> path``."""
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(out, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "policies.csv" and policies_csv is not None:
+                df = pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False)
+                data = df.assign(path=df["path"].map(policies_csv)).to_csv(index=False).encode()
+            zout.writestr(name, data)
+        for name, data in add:
+            zout.writestr(name, data)
+    return out
+
+
+@pytest.mark.parametrize("entry", ["policies/../../escaped.pt", "policies//etc/cron.d/x.pt",
+                                   "policies/P01/notes.txt", "policies/P01/sub/day1-cacas-0123abcd.pt"])
+def test_bundle_with_an_unexpected_policy_file_is_refused(store, tmp_path, entry):
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    bad = _with_entries(bundle, tmp_path / "bad.zip", add=[(entry, b"not a policy")])
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=f"bad.zip: unexpected file '{re.escape(entry)}' in the bundle"):
+        export.import_bundle(bad, target)
+    assert not target.exists() and not (tmp_path / "escaped.pt").exists()
+    assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
+
+
+@pytest.mark.parametrize("path", ["../x.pt", "/tmp/x.pt", "P01/../../x.pt", "P01/day1-cacas-0123abcd.txt"])
+def test_bundle_naming_a_policy_path_outside_policies_is_refused(store, tmp_path, path):
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    bad = _with_entries(bundle, tmp_path / "bad.zip", policies_csv=lambda _: path)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=f"policies.csv names an unexpected policy path '{re.escape(path)}'"):
+        export.import_bundle(bad, target)
+    assert not target.exists()
+    assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
+
+
+def test_other_files_in_the_zip_are_never_written(store, tmp_path):
+    """Only the tables and the policies/ checkpoints are read; anything else (even a name that
+    climbs out of the folder) is left in the zip."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    odd = _with_entries(bundle, tmp_path / "odd.zip", add=[("../outside.txt", b"x"), ("readme.txt", b"y")])
+    target = tmp_path / "new" / "study.sqlite"
+    assert export.import_bundle(odd, target) == 20
+    written = {p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file()}
+    assert not {"outside.txt", "new/readme.txt", "readme.txt"} & written
+    assert sorted(p.name for p in (target.parent / "policies").rglob("*") if p.is_file()) == sorted(
+        p.rsplit("/", 1)[-1] for p in pd.read_csv(tmp_path / "out" / "policies.csv")["path"])
+
+
+# --- restore's consistency checks: a bundle that does not fit together writes nothing --------------
+
+def _counts(path):
+    con = sqlite3.connect(path)
+    try:
+        names = [n for (n,) in con.execute("SELECT name FROM sqlite_master WHERE type = 'table' "
+                                           "AND name NOT LIKE 'sqlite_%'")]
+        return {n: con.execute(f'SELECT COUNT(*) FROM "{n}"').fetchone()[0] for n in names}
+    finally:
+        con.close()
+
+
+@pytest.fixture
+def bundle_tables(store, tmp_path):
+    return export.read_bundle(export.export_study(store, tmp_path / "out").bundle)
+
+
+@pytest.mark.parametrize("table,change,message", [
+    ("participants", lambda df: df.assign(study=df["study"].replace("pilot", "ghost")),
+     "participants.csv: participant P02 is in study 'ghost', which studies.csv does not have"),
+    ("days", lambda df: df.assign(participant=df["participant"].replace("P02", "P09")),
+     "days.csv names participant 'P09', which participants.csv does not have"),
+    ("questionnaire", lambda df: df.assign(participant=df["participant"].replace("P01", "P07")),
+     "questionnaire.csv names participant 'P07', which participants.csv does not have"),
+])
+def test_restore_refuses_tables_that_do_not_fit_and_writes_nothing(bundle_tables, tmp_path, table, change,
+                                                                   message):
+    tables, policies = bundle_tables
+    with StudyStore(tmp_path / "fresh.sqlite") as fresh:
+        before = _counts(fresh.path)
+        with pytest.raises(CacasError, match=re.escape(message)):
+            restore(fresh, {**tables, table: change(tables[table])}, policies)
+        assert _counts(fresh.path) == before
+        assert restore(fresh, tables, policies) == 20  # the same tables, unchanged, restore
+
+
+def test_restore_refuses_a_database_that_has_participants(store, bundle_tables):
+    before = _counts(store.path)
+    with pytest.raises(CacasError, match="already holds participants; import into a new database"):
+        restore(store, *bundle_tables)
+    assert _counts(store.path) == before
