@@ -23,6 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from cacas import spaces
+from cacas.errors import CacasError
 from cacas.preferences import Participant
 
 #: A robot task started and accepted is still "in progress" (S5) for this many minutes.
@@ -154,7 +155,11 @@ class StateGenerator:
         return np.minimum(np.searchsorted(cdf, self.rng.random(self.E), side="right"), spaces.N_ACTIVITIES - 1)
 
     def generate_state(self) -> np.ndarray:
-        """The next state of every parallel day: (E, 7) Table I indices."""
+        """The next state of every parallel day: (E, 7) Table I indices. After 23:59 (``done``)
+        there is none: asking for one is an error."""
+        if self.done:
+            raise CacasError(f"the simulated day is over: it has {self.steps_per_day} states, one every "
+                             f"{self.K:g} minutes from 00:00; start a new StateGenerator for another day")
         E, rng = self.E, self.rng
         now = self.t * self.K + rng.uniform(0, self.K, E)
         # Activities between two K-minute observations still count in h: now and then the

@@ -1,7 +1,9 @@
 import numpy as np
+import pytest
 
 from cacas import spaces
 from cacas.d4a import load_d4a
+from cacas.errors import CacasError
 from cacas.preferences import parse_personas
 from cacas.simulator import (ContextSource, ResponseModel, StateGenerator, current_task, dialog_state,
                              preference_states)
@@ -38,8 +40,9 @@ def test_generate_state_steps_a_day_every_k_minutes():
         gen.observe(np.full(3, 2), np.full(3, spaces.ACCEPT))
         slots.append(s[0, 2])
     assert slots == sorted(slots) and slots[0] == 0 and slots[-1] == 11
-    s = gen.generate_state() if not gen.done else None
-    assert s is None
+    assert len(slots) == 48
+    with pytest.raises(CacasError, match="the simulated day is over: it has 48 states, one every 30 minutes"):
+        gen.generate_state()
 
 
 def test_generate_state_history_feeds_s6_s7_and_is_seeded():
