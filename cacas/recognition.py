@@ -158,6 +158,8 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
         meta = json.loads(meta_path.read_text())
     except (OSError, ValueError) as exc:
         raise CacasError(f"{meta_path}: not valid JSON metadata ({exc})") from None
+    if not isinstance(meta, dict):
+        raise CacasError(f"{meta_path}: not a model's metadata; expected a JSON object with its kind and classes")
     if meta.get("kind") != kind:
         raise CacasError(f"{path}: not a {kind} model (metadata kind {meta.get('kind')!r})")
     try:
