@@ -122,6 +122,19 @@ def model_stamp(kind: str) -> float | None:
     return path.stat().st_mtime if path.exists() else None
 
 
+def load_recognizer(kind: str):
+    """The saved sound (:class:`~cacas.audio.model.SoundRecognizer`) or scene
+    (:class:`~cacas.vision.model.SceneRecognizer`) model, or None when none is saved. An unknown
+    kind, or a saved model that cannot be read, raises CacasError naming it."""
+    if model_stamp(kind) is None:
+        return None
+    if kind == "sound":
+        from cacas.audio.model import SoundRecognizer as Recognizer
+    else:
+        from cacas.vision.model import SceneRecognizer as Recognizer
+    return Recognizer.load()
+
+
 AUDIO_MIME = {".wav": "audio/wav", ".ogg": "audio/ogg", ".flac": "audio/flac"}
 
 

@@ -164,7 +164,7 @@ if versions:
     acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
     table = pd.DataFrame([{
         "version": v.version, "adapted from": app_support.adapted_from(v.day) if v.day else "-", "method": v.method,
-        "saved (UTC)": v.created_at[:16].replace("T", " "), "in force": "yes" if v.active else "",
+        "saved": app_support.short_time(v.created_at), "in force": "yes" if v.active else "",
         "preference accuracy": 100 * acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
     } for v in versions])
     st.dataframe(table, hide_index=True, width="stretch",
@@ -185,7 +185,7 @@ if len(runs):
     with st.expander(f"Adaptation runs ({len(runs)})"):
         view = runs.assign(
             preference_accuracy=100 * runs["preference_accuracy"].astype(float),
-            created_at=[c[:16].replace("T", " ") for c in runs["created_at"]],
+            created_at=[app_support.short_time(c) for c in runs["created_at"]],
         )[["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]]
         st.dataframe(view, hide_index=True, width="stretch",
                      column_config={"duration_s": st.column_config.NumberColumn("duration (s)", format="%.1f"),

@@ -3,6 +3,7 @@
 import streamlit as st
 
 from cacas import app_support, spaces
+from cacas.preferences import persona_json
 from cacas.errors import CacasError
 from pages import ui
 
@@ -121,8 +122,9 @@ if code:
                        icon=":material/check_circle:")
         if saved is not None:
             n_prefs = len(saved.preferences)
+            states = spaces.N_ACTIVITIES * spaces.N_SCENES * spaces.N_SLOTS * spaces.N_INTERVALS
             st.markdown(f"**Saved (version {version})** · {n_prefs} preference{'s' if n_prefs != 1 else ''} covering "
-                        f"**{saved.covered_count():,}** of the {33 * 6 * 12 * 12:,} S1-S4 states "
+                        f"**{saved.covered_count():,}** of the {states:,} S1-S4 states "
                         "(the paper counts 1,564 on average for 5 preferences).")
             st.dataframe(app_support.preferences_table(saved), hide_index=True, width="stretch",
                          column_config={"covered states": st.column_config.NumberColumn(format="%d")})
@@ -179,7 +181,7 @@ if code:
             if st.session_state.get("details-error"):
                 st.error(st.session_state["details-error"], icon=":material/error:")
             st.form_submit_button("Save details", on_click=_update_details, args=(code,))
-        st.caption(f"Added {info.created_at[:16].replace('T', ' ')} UTC · study {info.study} · "
+        st.caption(f"Added {app_support.short_time(info.created_at)} · study {info.study} · "
                    f"tablet address: `?participant={code}&view=tablet`")
 
 with tabs["Add a participant"]:
@@ -211,7 +213,7 @@ with tabs["Import / export"]:
     with c2:
         st.markdown("**Export the study's preferences**")
         text = store.export_personas(study=study)
-        n = text.count('"id"')
+        n = len(persona_json(text, "the study's persona file")["participants"])
         st.caption(f"{n} participant(s) with preferences in study '{study}'.")
         st.download_button("Download personas.json", text.encode("utf-8"), file_name=f"personas-{study}.json",
                            mime="application/json", disabled=n == 0, icon=":material/download:")

@@ -7,7 +7,7 @@ from __future__ import annotations
 import pandas as pd
 import streamlit as st
 
-from cacas import lab, spaces
+from cacas import app_support, lab, spaces
 from cacas.audio.library import clip_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -24,17 +24,9 @@ st.caption("The robot knows the context from what it hears (33 sound activities;
 
 
 @st.cache_resource(show_spinner=False)
-def _sound_model(stamp: float):
-    from cacas.audio.model import SoundRecognizer
-
-    return SoundRecognizer.load()
-
-
-@st.cache_resource(show_spinner=False)
-def _scene_model(stamp: float):
-    from cacas.vision.model import SceneRecognizer
-
-    return SceneRecognizer.load()
+def _saved_model(kind: str, stamp: float):
+    """The saved model of ``kind``, loaded once per file version (``stamp``: its file time)."""
+    return lab.load_recognizer(kind)
 
 
 def _model(kind: str):
@@ -42,7 +34,7 @@ def _model(kind: str):
     if stamp is None:
         return None
     try:
-        return _sound_model(stamp) if kind == "sound" else _scene_model(stamp)
+        return _saved_model(kind, stamp)
     except CacasError:
         return None
 
@@ -146,7 +138,7 @@ with train:
         else:
             meta = model.metadata
             data = meta.get("training_data", {})
-            st.caption(f"Trained {str(meta.get('trained', '?'))[:16].replace('T', ' ')} · test accuracy "
+            st.caption(f"Trained {app_support.short_time(meta.get('trained', '?'))} · test accuracy "
                        f"{100 * float(meta.get('accuracy', float('nan'))):.1f}% · "
                        f"{data.get('recordings', data.get('images', '?'))} items"
                        f"{' (synthetic)' if data.get('synthetic') else ''} · "

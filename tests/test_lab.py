@@ -51,3 +51,90 @@ def test_a_bad_upload_is_named_as_uploaded_not_by_its_temporary_file():
     assert message.startswith("notes.wav: ") and "/tmp" not in message and "tmp" not in message.split(":")[0]
     with pytest.raises(CacasError, match=r"^photo.jpg: is empty \(0 bytes\)$"):
         lab.recognize_scene_bytes(Hears(), "photo.jpg", b"")
+
+
+# --- the saved models: stamp, loading by kind, training and evaluating in the app --------------------
+
+import pytest  # noqa: E402
+
+from cacas.errors import CacasError  # noqa: E402
+
+
+@pytest.fixture
+def study_data(tmp_path, monkeypatch):
+    """An empty study data folder (no model saved, no library) in place of the shipped one."""
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path))
+    return tmp_path
+
+
+def _saved_sound_model():
+    from cacas.audio.model import SoundCNN, SoundRecognizer, default_model_path
+
+    return SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.5}).save(default_model_path())
+
+
+def test_model_stamp_is_the_saved_model_file_time(study_data):
+    import os
+
+    assert lab.model_stamp("sound") is None and lab.model_stamp("scene") is None
+    path = _saved_sound_model()
+    os.utime(path, (1_700_000_000, 1_700_000_000))
+    assert lab.model_stamp("sound") == 1_700_000_000 and lab.model_stamp("scene") is None
+    with pytest.raises(CacasError, match=r"^unknown model kind 'speech'; valid: sound, scene$"):
+        lab.model_stamp("speech")
+
+
+def test_load_recognizer_by_kind(study_data):
+    from cacas.audio.model import SoundRecognizer
+
+    assert lab.load_recognizer("sound") is None and lab.load_recognizer("scene") is None  # none saved
+    path = _saved_sound_model()
+    rec = lab.load_recognizer("sound")
+    assert isinstance(rec, SoundRecognizer) and rec.metadata["accuracy"] == 0.5
+    with pytest.raises(CacasError, match="unknown model kind 'photo'"):
+        lab.load_recognizer("photo")
+    path.write_bytes(b"not a model")
+    with pytest.raises(CacasError, match="sound_cnn"):
+        lab.load_recognizer("sound")
+
+
+def test_evaluate_sound_tests_the_saved_model_on_the_library(study_data):
+    from cacas.audio.library import generate_library
+
+    generate_library(2, seconds=1.0, root=study_data / "sounds", activities=["cough", "watch TV"])
+    with pytest.raises(CacasError, match="no such sound model"):
+        lab.evaluate_sound()
+    _saved_sound_model()
+    told = []
+    metrics = lab.evaluate_sound(progress=lambda f, m: told.append(f))
+    assert metrics.n == 4 and 0.0 <= metrics.accuracy <= 1.0 and metrics.extra["set"] == "all"
+    assert told and told[-1] == 1.0
+
+
+def test_train_scene_saves_the_model_evaluate_scene_tests_it(study_data, monkeypatch):
+    """train_scene with the ResNet-18 training itself replaced by an untrained network (the
+    training is tested in test_vision_model); what lab adds, passing the options and saving
+    where the pages load the model, really runs, as does the evaluation."""
+    import cacas.vision.training
+    from cacas.vision.library import generate_scenes
+    from cacas.vision.model import SceneRecognizer, build_resnet18
+
+    generate_scenes(1, size=64, root=study_data / "scenes")
+    calls = []
+
+    def train_scene_model(**kw):
+        calls.append(kw)
+        model, _ = build_resnet18(weights="none")
+        return cacas.vision.training.SceneTrainingResult(SceneRecognizer(model, metadata={"accuracy": 0.25}),
+                                                         None, None, None, 0.0)
+
+    monkeypatch.setattr(cacas.vision.training, "train_scene_model", train_scene_model)
+    progress = lambda f, m: None  # noqa: E731
+    result = lab.train_scene(progress, epochs=2, seed=7)
+    assert calls == [{"epochs": 2, "seed": 7, "progress": progress}]
+    assert lab.model_stamp("scene") is not None
+    loaded = lab.load_recognizer("scene")
+    assert isinstance(loaded, SceneRecognizer) and loaded.metadata["accuracy"] == 0.25
+    assert result.recognizer.metadata["kind"] == "scene"
+    metrics = lab.evaluate_scene()
+    assert metrics.n == 6 and metrics.classes == list(loaded.classes) and metrics.extra["set"] == "all"

@@ -62,7 +62,7 @@ def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, mo
     monkeypatch.setattr(cacas.lab, "evaluate_sound", evaluate)
     at = app(PAGE)
     no_exception(at)
-    assert "test accuracy 50.0%" in texts(at)
+    assert "Trained 2026-11-21 10:00 UTC · test accuracy 50.0%" in texts(at)
     next(b for b in at.button if b.label == "Evaluate the saved sound model").click().run()
     job = RUNNER.get("eval-sound")
     assert job is not None and job.wait(30) and job.status == "done"
