@@ -1,0 +1,96 @@
+"""cacas.records: what a success is, the user data points, daily.csv's metrics, CSV bytes
+(paper, Section V-B; design.md's daily.csv contract). Small hand-built frames, exact numbers."""
+
+import numpy as np
+import pandas as pd
+
+from cacas.records import (DAILY_COLUMNS, ROBOT_INITIATED, USER_INITIATED, csv_bytes, daily_table,
+                           feedback_points, is_success)
+
+T1, T2 = ROBOT_INITIATED, USER_INITIATED
+
+
+def frame(rows):
+    """Interactions with the columns the metrics read: participant, method, day, type,
+    robot_action, response, user_action."""
+    return pd.DataFrame(rows, columns=["participant", "method", "day", "type", "robot_action", "response",
+                                       "user_action"])
+
+
+# P01 day 1 under CACAS; day 2 under a baseline's policy (nn) put in force; P02 day 1 under CACAS
+STUDY = frame([
+    ("P01", "cacas", 1, T1, "pain check", "accept", ""),    # success; 1 point
+    ("P01", "cacas", 1, T1, "chitchat", "reject", ""),      # 1 point
+    ("P01", "cacas", 1, T1, "set a timer", "others", ""),   # no response: 0 points
+    ("P01", "cacas", 1, T1, "do nothing", "accept", ""),    # the robot did nothing: no success, 0 points
+    ("P01", "cacas", 1, T2, "do nothing", "accept", "pain check"),  # asked for: 2 points, no success
+    ("P01", "nn", 2, T1, "pain check", "accept", ""),       # success; 1 point
+    ("P01", "nn", 2, T2, "pain check", "accept", "chitchat"),  # asked for something else: 2 points
+    ("P02", "cacas", 1, T1, "chitchat", "accept", ""),      # success; 1 point
+])
+
+
+def test_a_success_is_a_robot_initiated_action_the_participant_accepted():
+    assert is_success(STUDY).tolist() == [True, False, False, False, False, True, False, True]
+
+
+def test_user_data_points_per_interaction():
+    # answered robot action: 1; user-initiated: 2 (request accepted, the robot's action rejected);
+    # no response or the robot doing nothing: 0
+    assert feedback_points(STUDY).tolist() == [1, 1, 0, 0, 2, 1, 2, 1]
+
+
+def _rows(daily):
+    """The table as plain tuples (NaN / NA as None) in DAILY_COLUMNS order."""
+    return [tuple(None if pd.isna(x) else x for x in row) for row in daily.itertuples(index=False)]
+
+
+def test_daily_table_counts_rates_and_one_feedback_stream_per_participant():
+    daily = daily_table(STUDY)
+    assert list(daily.columns) == DAILY_COLUMNS
+    # participant, method, day, success_rate, preference_accuracy, cumulative_feedback,
+    # interactions, successes, user_initiated, feedback
+    assert _rows(daily) == [
+        ("P01", "cacas", 1, 1 / 5, None, 4, 5, 1, 1, 4),   # 1 success of 5; points 1+1+0+0+2
+        ("P01", "nn", 2, 1 / 2, None, 7, 2, 1, 1, 3),      # cumulative goes on from day 1: 4 + 3
+        ("P02", "cacas", 1, 1 / 1, None, 1, 1, 1, 0, 1),   # P02's own total
+    ]
+    for col in ("cumulative_feedback", "interactions", "successes", "user_initiated", "feedback"):
+        assert daily[col].dtype == "Int64", col
+
+
+def test_accuracy_rows_without_interactions_carry_the_days_counts():
+    """Fig. 4 scores methods adapted from the same data but not run in closed loop: their rows get
+    the preference accuracy, no success rate, and the day's interaction and feedback counts."""
+    accuracy = pd.DataFrame([("P01", "cacas", 1, 0.25), ("P01", "cacas", 2, 0.5), ("P01", "nn", 2, 0.75)],
+                            columns=["participant", "method", "day", "preference_accuracy"])
+    rows = _rows(daily_table(STUDY, accuracy))
+    assert rows == [
+        ("P01", "cacas", 1, 0.2, 0.25, 4, 5, 1, 1, 4),
+        ("P01", "cacas", 2, None, 0.5, 7, 2, None, 1, 3),  # not in force on day 2: day 2's counts
+        ("P01", "nn", 2, 0.5, 0.75, 7, 2, 1, 1, 3),
+        ("P02", "cacas", 1, 1.0, None, 1, 1, 1, 0, 1),
+    ]
+
+
+def test_two_methods_on_one_day_share_the_participants_cumulative_feedback():
+    both = pd.concat([STUDY, frame([("P01", "cacas", 2, T1, "chitchat", "reject", "")])], ignore_index=True)
+    daily = daily_table(both).set_index(["participant", "method", "day"])
+    assert daily.loc[("P01", "cacas", 2), "feedback"] == 1 and daily.loc[("P01", "nn", 2), "feedback"] == 3
+    # day 2's points of both methods count once each in the participant's running total: 4 + 1 + 3
+    assert daily.loc[("P01", "cacas", 2), "cumulative_feedback"] == 8
+    assert daily.loc[("P01", "nn", 2), "cumulative_feedback"] == 8
+
+
+def test_daily_table_of_no_interactions():
+    empty = daily_table(STUDY.iloc[:0])
+    assert list(empty.columns) == DAILY_COLUMNS and len(empty) == 0
+    only_accuracy = daily_table(STUDY.iloc[:0], pd.DataFrame([("P01", "nn", 1, 0.5)], columns=[
+        "participant", "method", "day", "preference_accuracy"]))
+    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, None, None, None, None, None)]
+
+
+def test_csv_bytes_are_fixed_format():
+    df = pd.DataFrame({"name": ["a", "b"], "x": [1 / 3, np.nan], "n": [1, 2]})
+    # no index, floats to 6 decimals, NaN empty, "\n" line ends: the same data give the same bytes
+    assert csv_bytes(df) == b"name,x,n\na,0.333333,1\nb,,2\n"
