@@ -95,11 +95,79 @@ def test_import_refuses_a_bad_file_and_copies_nothing(tmp_path):
     with pytest.raises(CacasError, match="broken.wav"):
         library.import_folder(src, root=lib)
     assert not lib.exists()
-    with pytest.raises(CacasError, match="no such folder"):
+    with pytest.raises(CacasError, match=r"absent: no such folder; expected <folder>/<activity>/<recording>"
+                                         r"\.wav\|\.flac\|\.ogg$"):
         library.import_folder(tmp_path / "absent", root=lib)
 
 
+def test_import_refuses_an_unsupported_file_naming_it_and_the_valid_types(tmp_path):
+    src = _researcher_folder(tmp_path)
+    (src / "cough" / "notes.txt").write_text("recorded on Monday")
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match=r"notes\.txt: unsupported file type '\.txt'; valid: \.wav, \.flac, \.ogg$"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+    (src / "cough" / "notes.txt").unlink()
+    (src / "stray.wav").write_bytes((src / "cough" / "c1.flac").read_bytes())  # beside the activity folders
+    with pytest.raises(CacasError, match=r"stray\.wav: not in an activity folder; expected <folder>/<activity>/"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+
+
+def test_import_of_a_folder_with_no_recording_is_refused(tmp_path):
+    src = tmp_path / "mine"
+    (src / "cough").mkdir(parents=True)
+    (src / "cough" / ".DS_Store").write_bytes(b"x")  # hidden files are not recordings
+    with pytest.raises(CacasError, match=r"mine: no recordings found; expected <folder>/<activity>/<recording>"):
+        library.import_folder(src, root=tmp_path / "lib")
+    with pytest.raises(CacasError, match="no recordings found"):
+        library.import_folder(tmp_path / "mine" / "cough", root=tmp_path / "lib")  # nothing inside: not usable
+
+
+def test_import_that_fails_part_way_leaves_the_library_as_it_was(tmp_path, monkeypatch):
+    import shutil
+
+    from cacas import media_library
+
+    src = _researcher_folder(tmp_path)
+    lib = tmp_path / "lib"
+    first = library.import_folder(src, root=lib)
+    before = sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*"))
+    copies, real_copy = [], shutil.copy2
+
+    def disk_full_on_the_second_copy(a, b):
+        copies.append(b)
+        if len(copies) == 2:
+            raise OSError(28, "No space left on device")
+        return real_copy(a, b)
+
+    monkeypatch.setattr(media_library.shutil, "copy2", disk_full_on_the_second_copy)
+    with pytest.raises(CacasError, match="No space left on device.*nothing was imported"):
+        library.import_folder(src, root=lib)
+    monkeypatch.undo()
+    assert len(copies) == 2 and sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*")) == before
+    assert sorted(library.clip_paths("cough", lib) + library.clip_paths("watch TV", lib)) == sorted(first)
+
+
+def test_scan_refuses_what_it_cannot_read_and_leaves_notes_beside_the_folders(tmp_path):
+    library.generate_library(1, seconds=1.0, root=tmp_path, activities=["sneeze", "cough"])
+    (tmp_path / "README.md").write_text("about this library")  # beside the folders: left alone
+    assert [c.activity for c in library.scan(tmp_path)] == ["cough", "sneeze"]  # Table I order
+    (tmp_path / "cough" / "notes.txt").write_text("x")
+    with pytest.raises(CacasError, match=r"cough/notes\.txt: unsupported file type '\.txt'; valid: \.wav"):
+        library.scan(tmp_path)
+    (tmp_path / "cough" / "notes.txt").unlink()
+    (tmp_path / "make_coffee").mkdir()
+    with pytest.raises(CacasError, match=r"folder name 'make_coffee' is not an activity; valid: .*watch_tv"):
+        library.scan(tmp_path)
+    with pytest.raises(CacasError, match=r"absent: no such sound folder; expected <folder>/<activity>/<recording>"):
+        library.scan(tmp_path / "absent")
+
+
 def test_files_with_extensions_lists_only_matching_files_of_the_folder(tmp_path):
+    from cacas.media_library import files_with_extensions
+
+    assert library.files_with_extensions is files_with_extensions  # the one the scene library uses too
     for name in ("b.WAV", "a.ogg", "notes.txt"):
         (tmp_path / name).write_bytes(b"x")
     (tmp_path / "sub.wav").mkdir()

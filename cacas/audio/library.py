@@ -10,17 +10,16 @@
 
 from __future__ import annotations
 
-import re
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from cacas import spaces
+from cacas import media_library, spaces
 from cacas.audio.features import SAMPLE_RATE, SUPPORTED_EXTENSIONS, load_clip
 from cacas.errors import CacasError
+from cacas.media_library import files_with_extensions, slug
 from cacas.paths import study_data_dir
 
 Progress = Callable[[float, str], None] | None
@@ -29,11 +28,6 @@ Progress = Callable[[float, str], None] | None
 def sounds_dir() -> Path:
     """The library folder: ``<study data>/sounds``."""
     return study_data_dir() / "sounds"
-
-
-def slug(name: str) -> str:
-    """Filesystem-safe folder name of a Table I name: "watch TV" -> "watch_tv"."""
-    return re.sub(r"[^a-z0-9]+", "_", name.strip().lower()).strip("_")
 
 
 def activity_slug(activity: str) -> str:
@@ -45,12 +39,9 @@ def activity_of_folder(folder: str) -> str:
     return spaces.canonical("activity", str(folder).replace("_", " "))
 
 
-def files_with_extensions(folder: Path, extensions) -> list[Path]:
-    """The files of ``folder`` (not below it) whose extension is one of ``extensions``, sorted;
-    none if the folder does not exist. Shared by the sound and the scene libraries."""
-    if not folder.is_dir():
-        return []
-    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in extensions)
+#: The sound library's kind for :mod:`cacas.media_library`.
+SOUNDS = media_library.MediaKind(what="sound", label="activity", item="recording", names=spaces.ACTIVITIES,
+                                 extensions=SUPPORTED_EXTENSIONS, name_of_folder=activity_of_folder, check=load_clip)
 
 
 def _audio_files(folder: Path) -> list[Path]:
@@ -71,26 +62,12 @@ class Clip:
     activity: str
 
 
-def scan(root: Path | str | None = None, strict: bool = True) -> list[Clip]:
-    """Every clip under ``root`` (default: the library), one per file, ordered by activity then name.
-
-    With ``strict``, a sub-folder that is not an activity slug raises :class:`CacasError`.
-    """
+def scan(root: Path | str | None = None) -> list[Clip]:
+    """Every clip under ``root`` (default: the library), one per file, ordered by activity then
+    name (:func:`cacas.media_library.scan`: a folder that is not an activity, or a file that is
+    not WAV/FLAC/OGG, is refused with a message naming it)."""
     root = Path(root) if root is not None else sounds_dir()
-    if not root.is_dir():
-        raise CacasError(f"{root}: no such sound folder; expected <folder>/<activity>/<clip>.wav|flac|ogg")
-    clips = []
-    for sub in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        try:
-            name = activity_of_folder(sub.name)
-        except CacasError:
-            if strict:
-                valid = ", ".join(slug(a) for a in spaces.ACTIVITIES)
-                raise CacasError(f"{sub}: folder name {sub.name!r} is not an activity; valid: {valid}") from None
-            continue
-        clips += [Clip(p, name) for p in _audio_files(sub)]
-    clips.sort(key=lambda c: (spaces.activity_index(c.activity), c.path.name))
-    return clips
+    return [Clip(path, name) for path, name in media_library.scan(root, SOUNDS)]
 
 
 def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: int = 0,
@@ -137,46 +114,13 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
 
     Sub-folders may be named by slug ("watch_tv") or Table I name ("watch TV"). Every file is
     checked first (:func:`load_clip`: readable WAV/FLAC/OGG, not empty, not silent, no NaN);
-    if any folder or file is bad, :class:`CacasError` names it and nothing is copied. Files keep
+    if any folder or file is bad, :class:`CacasError` names it and nothing is copied
+    (:func:`cacas.media_library.import_folder`, shared with the scene library). Files keep
     their format; a name already in the library gets an ``imported_`` prefix and a number.
     Returns the new paths.
     """
-    source = Path(source)
-    if not source.is_dir():
-        raise CacasError(f"{source}: no such folder; expected <folder>/<activity>/<clip>.wav|flac|ogg")
     root = Path(root) if root is not None else sounds_dir()
-    plan: list[tuple[Path, str]] = []
-    for sub in sorted(p for p in source.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        try:
-            name = activity_of_folder(sub.name)
-        except CacasError:
-            valid = ", ".join(slug(a) for a in spaces.ACTIVITIES)
-            raise CacasError(f"{sub}: folder name {sub.name!r} is not an activity; valid: {valid}") from None
-        for f in sorted(p for p in sub.iterdir() if p.is_file() and not p.name.startswith(".")):
-            if f.suffix.lower() not in SUPPORTED_EXTENSIONS:
-                raise CacasError(f"{f}: unsupported file type {f.suffix or '(none)'!r}; "
-                                 f"valid: {', '.join(SUPPORTED_EXTENSIONS)}")
-            plan.append((f, name))
-    if not plan:
-        raise CacasError(f"{source}: no recordings found; expected <folder>/<activity>/<clip>.wav|flac|ogg")
-    for i, (f, _) in enumerate(plan):  # validate everything before copying anything
-        load_clip(f)
-        if progress:
-            progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
-    copied = []
-    for i, (f, name) in enumerate(plan):
-        folder = root / slug(name)
-        folder.mkdir(parents=True, exist_ok=True)
-        target = folder / f.name
-        k = 1
-        while target.exists():
-            target = folder / f"imported_{k}_{f.name}"
-            k += 1
-        shutil.copy2(f, target)
-        copied.append(target)
-        if progress:
-            progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
-    return copied
+    return media_library.import_folder(source, root, SOUNDS, progress)
 
 
 def library_size_bytes(root: Path | str | None = None) -> int:

@@ -7,16 +7,15 @@ images are SYNTHETIC (:mod:`cacas.vision.synth`); :func:`generate_scenes` makes 
 
 from __future__ import annotations
 
-import shutil
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import numpy as np
 
-from cacas import spaces
-from cacas.audio.library import files_with_extensions, slug
+from cacas import media_library, spaces
 from cacas.errors import CacasError
+from cacas.media_library import files_with_extensions, slug
 from cacas.paths import study_data_dir
 
 Progress = Callable[[float, str], None] | None
@@ -66,6 +65,11 @@ def load_image(path):
                          f"valid: {', '.join(IMAGE_EXTENSIONS)}") from None
 
 
+#: The scene library's kind for :mod:`cacas.media_library`.
+SCENE_IMAGES = media_library.MediaKind(what="scene", label="scene", item="image", names=spaces.SCENES,
+                                       extensions=IMAGE_EXTENSIONS, name_of_folder=scene_of_folder, check=load_image)
+
+
 @dataclass(frozen=True)
 class Photo:
     path: Path
@@ -73,20 +77,11 @@ class Photo:
 
 
 def scan(root: Path | str | None = None) -> list[Photo]:
-    """Every image under ``root`` (default: the library), ordered by scene then name."""
+    """Every image under ``root`` (default: the library), ordered by scene then name
+    (:func:`cacas.media_library.scan`: a folder that is not a scene, or a file that is not an
+    image type, is refused with a message naming it)."""
     root = Path(root) if root is not None else scenes_dir()
-    if not root.is_dir():
-        raise CacasError(f"{root}: no such scene folder; expected <folder>/<scene>/<image>.jpg|png")
-    out = []
-    for sub in sorted(p for p in root.iterdir() if p.is_dir() and not p.name.startswith(".")):
-        try:
-            name = scene_of_folder(sub.name)
-        except CacasError:
-            valid = ", ".join(slug(s) for s in spaces.SCENES)
-            raise CacasError(f"{sub}: folder name {sub.name!r} is not a scene; valid: {valid}") from None
-        out += [Photo(p, name) for p in _images(sub)]
-    out.sort(key=lambda p: (spaces.scene_index(p.scene), p.path.name))
-    return out
+    return [Photo(path, name) for path, name in media_library.scan(root, SCENE_IMAGES)]
 
 
 def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, root: Path | str | None = None,
@@ -115,25 +110,9 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
 
 
 def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None) -> list[Path]:
-    """Copy a researcher's photos (``source/<scene>/<image>``) into the library, all checked first."""
-    source = Path(source)
-    if not source.is_dir():
-        raise CacasError(f"{source}: no such folder; expected <folder>/<scene>/<image>.jpg|png")
-    plan = [(p.path, p.scene) for p in scan(source)]
-    if not plan:
-        raise CacasError(f"{source}: no images found; expected <folder>/<scene>/<image>.jpg|png")
-    for f, _ in plan:
-        load_image(f)
+    """Copy a researcher's photos (``source/<scene slug or name>/<image>``) into the library, all
+    or nothing: every file is checked first (:func:`load_image`), and a bad folder or file is a
+    CacasError naming it (:func:`cacas.media_library.import_folder`, shared with the sound
+    library). A name already in the library gets an ``imported_`` prefix and a number."""
     root = Path(root) if root is not None else scenes_dir()
-    copied = []
-    for i, (f, name) in enumerate(plan):
-        folder = root / slug(name)
-        folder.mkdir(parents=True, exist_ok=True)
-        target, k = folder / f.name, 1
-        while target.exists():
-            target, k = folder / f"imported_{k}_{f.name}", k + 1
-        shutil.copy2(f, target)
-        copied.append(target)
-        if progress:
-            progress((i + 1) / len(plan), f"copied {f.name}")
-    return copied
+    return media_library.import_folder(source, root, SCENE_IMAGES, progress)

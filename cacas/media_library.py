@@ -1,0 +1,151 @@
+"""What the sound and the scene libraries share: one folder per Table I name, of media files.
+
+A library is ``<root>/<slug>/<file>``, where the slug is a filesystem-safe form of an activity
+(``watch_tv``) or a scene (``living_room``) name. :class:`MediaKind` says which (its names, file
+types and checker), and the same two functions serve both libraries:
+
+* :func:`scan`: every media file of a library, by Table I order then name. A sub-folder that is
+  not a name, or a file of a type the kind cannot read, is refused with one message naming it
+  and what is valid; files beside the sub-folders (a README, a figure) are left alone.
+* :func:`import_folder`: a researcher's folder of the same layout copied into a library. Every
+  file is checked first (type, then readable by the kind's checker); one bad folder or file and
+  nothing is copied. The copies are staged under temporary names and renamed into place only
+  when all are written.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Sequence
+
+from cacas.errors import CacasError
+
+Progress = Callable[[float, str], None] | None
+
+
+def slug(name: str) -> str:
+    """Filesystem-safe folder name of a Table I name: "watch TV" -> "watch_tv"."""
+    return re.sub(r"[^a-z0-9]+", "_", name.strip().lower()).strip("_")
+
+
+def files_with_extensions(folder: Path, extensions) -> list[Path]:
+    """The files of ``folder`` (not below it) whose extension is one of ``extensions``, sorted;
+    none if the folder does not exist."""
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in extensions)
+
+
+@dataclass(frozen=True)
+class MediaKind:
+    """One kind of library: ``what`` ("sound"), its ``label`` ("activity") and ``item``
+    ("recording") words for messages, the Table I ``names``, the file ``extensions`` it reads,
+    ``name_of_folder`` (folder name -> Table I name, CacasError if none) and ``check`` (raises
+    CacasError naming a file it cannot use)."""
+
+    what: str
+    label: str
+    item: str
+    names: Sequence[str]
+    extensions: Sequence[str]
+    name_of_folder: Callable[[str], str]
+    check: Callable[[Path], object]
+
+    @property
+    def layout(self) -> str:
+        return f"<folder>/<{self.label}>/<{self.item}>{'|'.join(self.extensions)}"
+
+    def folder_name(self, sub: Path) -> str:
+        """The Table I name of a sub-folder; CacasError naming it and the valid folder names."""
+        try:
+            return self.name_of_folder(sub.name)
+        except CacasError:
+            valid = ", ".join(slug(n) for n in self.names)
+            raise CacasError(f"{sub}: folder name {sub.name!r} is not {_a(self.label)}; valid: {valid}") from None
+
+    def supported(self, path: Path) -> Path:
+        """``path`` if its type is one the kind reads; else CacasError naming it and what is valid."""
+        if path.suffix.lower() not in self.extensions:
+            raise CacasError(f"{path}: unsupported file type {path.suffix or '(none)'!r}; "
+                             f"valid: {', '.join(self.extensions)}")
+        return path
+
+
+def _a(word: str) -> str:
+    return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
+def _visible(folder: Path) -> list[Path]:
+    return sorted(p for p in folder.iterdir() if not p.name.startswith("."))
+
+
+def _entries(folder: Path, kind: MediaKind) -> list[tuple[Path, str]]:
+    """(file, Table I name) of every visible file in the name folders of ``folder``, every
+    folder name and file type checked."""
+    out = []
+    for sub in (p for p in _visible(folder) if p.is_dir()):
+        name = kind.folder_name(sub)
+        out += [(kind.supported(f), name) for f in _visible(sub) if f.is_file()]
+    return out
+
+
+def scan(root: Path, kind: MediaKind) -> list[tuple[Path, str]]:
+    """Every file of the library at ``root`` as (path, Table I name), by Table I order then file
+    name; [] for a library with none. A missing ``root``, a sub-folder that is not a name or a
+    file of another type is a CacasError naming it."""
+    root = Path(root)
+    if not root.is_dir():
+        raise CacasError(f"{root}: no such {kind.what} folder; expected {kind.layout}")
+    order = {n: i for i, n in enumerate(kind.names)}
+    return sorted(_entries(root, kind), key=lambda e: (order[e[1]], e[0].name))
+
+
+def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Progress = None) -> list[Path]:
+    """Copy ``source/<name or slug>/<file>`` into the library at ``root`` (``root/<slug>/<file>``),
+    all or nothing. Refused, with nothing copied: a missing folder, a file beside the name
+    folders, a folder that is not a name, a file of another type or one ``kind.check`` refuses,
+    and a folder with no file at all. A name already in the library gets an ``imported_<k>_``
+    prefix. Returns the new paths."""
+    source, root = Path(source), Path(root)
+    if not source.is_dir():
+        raise CacasError(f"{source}: no such folder; expected {kind.layout}")
+    stray = [p for p in _visible(source) if p.is_file()]
+    if stray:
+        raise CacasError(f"{stray[0]}: not in {_a(kind.label)} folder; expected {kind.layout}")
+    plan = _entries(source, kind)
+    if not plan:
+        raise CacasError(f"{source}: no {kind.item}s found; expected {kind.layout}")
+    for i, (f, _) in enumerate(plan):  # every file checked before anything is copied
+        kind.check(f)
+        if progress:
+            progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
+    targets, taken = [], set()
+    for f, name in plan:
+        folder = root / slug(name)
+        target, k = folder / f.name, 1
+        while target.exists() or target in taken:
+            target, k = folder / f"imported_{k}_{f.name}", k + 1
+        taken.add(target)
+        targets.append(target)
+    staged: list[Path] = []
+    placed: list[Path] = []  # new names only (taken ones get a prefix), so removing them undoes the import
+    try:
+        for i, ((f, _), target) in enumerate(zip(plan, targets)):
+            target.parent.mkdir(parents=True, exist_ok=True)
+            staged.append(target.with_name(f".{target.name}.{os.getpid()}.tmp"))
+            shutil.copy2(f, staged[-1])
+            if progress:
+                progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
+        for tmp, target in zip(staged, targets):
+            os.replace(tmp, target)
+            placed.append(target)
+    except OSError as exc:
+        for path in staged + placed:
+            path.unlink(missing_ok=True)
+        raise CacasError(f"{root}: cannot copy into the {kind.what} library ({exc.strerror or exc}); "
+                         "nothing was imported") from None
+    return targets

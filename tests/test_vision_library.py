@@ -1,0 +1,68 @@
+"""The scene library's scan and importer: the same rules as the sound library's
+(cacas.media_library), with images."""
+
+import pytest
+from PIL import Image
+
+from cacas.errors import CacasError
+from cacas.vision import library
+
+
+def _photos(tmp_path):
+    src = tmp_path / "photos"
+    (src / "Living Room").mkdir(parents=True)
+    (src / "bedroom").mkdir()
+    Image.new("RGB", (40, 30), (10, 20, 30)).save(src / "Living Room" / "a.png")
+    Image.new("RGB", (40, 30), (90, 20, 30)).save(src / "bedroom" / "b.jpg")
+    return src
+
+
+def test_import_copies_checked_photos_by_scene(tmp_path):
+    lib = tmp_path / "lib"
+    told = []
+    copied = library.import_folder(_photos(tmp_path), root=lib, progress=lambda f, m: told.append(f))
+    assert sorted(p.relative_to(lib).as_posix() for p in copied) == ["bedroom/b.jpg", "living_room/a.png"]
+    assert told[-1] == 1.0
+    again = library.import_folder(tmp_path / "photos", root=lib)  # same names: kept apart, not overwritten
+    assert sorted(p.name for p in again) == ["imported_1_a.png", "imported_1_b.jpg"]
+    assert [p.scene for p in library.scan(lib)] == ["bedroom", "bedroom", "living room", "living room"]
+
+
+def test_import_refuses_an_unsupported_file_and_copies_nothing(tmp_path):
+    src = _photos(tmp_path)
+    (src / "bedroom" / "notes.txt").write_text("taken on Monday")
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match=r"notes\.txt: unsupported file type '\.txt'; valid: \.jpg, \.jpeg, \.png"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+
+
+def test_import_refuses_an_unreadable_image_and_copies_nothing(tmp_path):
+    src = _photos(tmp_path)
+    (src / "bedroom" / "broken.jpg").write_text("no image here")
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match=r"broken\.jpg: not a readable image"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+
+
+def test_import_of_a_missing_or_empty_folder_is_one_clear_message(tmp_path):
+    with pytest.raises(CacasError, match=r"absent: no such folder; expected <folder>/<scene>/<image>\.jpg\|"):
+        library.import_folder(tmp_path / "absent", root=tmp_path / "lib")
+    (tmp_path / "photos" / "kitchen").mkdir(parents=True)
+    with pytest.raises(CacasError, match=r"photos: no images found; expected <folder>/<scene>/<image>"):
+        library.import_folder(tmp_path / "photos", root=tmp_path / "lib")
+    (tmp_path / "photos" / "garage").mkdir()
+    with pytest.raises(CacasError, match=r"folder name 'garage' is not a scene; valid: .*living_room"):
+        library.import_folder(tmp_path / "photos", root=tmp_path / "lib")
+    assert not (tmp_path / "lib").exists()
+
+
+def test_scan_is_strict_about_folders_and_file_types(tmp_path):
+    with pytest.raises(CacasError, match=r"absent: no such scene folder; expected <folder>/<scene>/<image>"):
+        library.scan(tmp_path / "absent")
+    assert library.scan(tmp_path) == []  # an empty library: the trainer says what to do
+    src = _photos(tmp_path)
+    (src / "bedroom" / "readme.md").write_text("x")
+    with pytest.raises(CacasError, match=r"readme\.md: unsupported file type '\.md'"):
+        library.scan(src)
