@@ -45,7 +45,7 @@ from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, 
 from cacas.preferences import Participant
 from cacas.sac import DiscreteSAC, SACConfig
 from cacas.simulator import ContextSource, ResponseModel, StateGenerator, preference_states, steps_per_day
-from cacas.user_model import DecisionModel, UserData, UserModel
+from cacas.user_model import UMA, DecisionModel
 
 Progress = Callable[[float, str], None]
 METHODS = ("cacas", "cacas-no-pr", "orl", "nn", "bandit", "sac-user-data")
@@ -65,6 +65,7 @@ class CACAAConfig:
     beta: float = 0.7                # Eq. 5 importance weight
     recorded_share: float = 0.8      # generate_state(t, h, D): share of steps with a recorded activity
     user_data_updates_per_transition: int = 1  # sac-user-data: update-to-data ratio on real transitions
+    user_model_interval: int = 1     # Table II's N: f_mu (and MLP_policy) retrained when idx % N == 0
     sac: SACConfig = field(default_factory=SACConfig)
 
     def to_dict(self) -> dict:
@@ -251,13 +252,15 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
         return AdaptationResult(ReshapedPolicy(sac, None, 1.0, method), log, params, time.perf_counter() - t0)
 
     # cacas / cacas-no-pr: UMA (Table II) -> f_mu; MLP_policy; SAC against DM on states from D.
-    data = UserData.from_interactions(interactions)
-    user_model = UserModel(seed=seed).fit(data)
-    say(0.05, f"user model trained on {len(data)} samples (D_f {len(data.subset('D_f'))}, "
-              f"D_i {len(data.subset('D_i'))}, D_g {len(data.subset('D_g'))})")
+    uma = UMA.replay(interactions, cfg.user_model_interval, seed=seed)
+    data, user_model = uma.data, uma.model
+    stale = (f", as retrained after interaction {uma.fitted_interactions} of {len(interactions)} "
+             f"(N = {cfg.user_model_interval})") if uma.fitted_interactions < len(interactions) else ""
+    say(0.05, f"user model trained on {user_model.trained_on} samples{stale}; D holds {len(data)} "
+              f"(D_f {len(data.subset('D_f'))}, D_i {len(data.subset('D_i'))}, D_g {len(data.subset('D_g'))})")
     mlp = None
-    if method == "cacas":
-        states, actions = accept_pairs(interactions)
+    if method == "cacas":  # Table III: "If f_mu is new, MLP_policy <- MLP_policy(D)", on the same D
+        states, actions = accept_pairs(uma.fitted_rows(interactions))
         mlp = MLPPolicy(seed=seed).fit(states, actions) if len(actions) else None
         say(0.1, f"MLP policy trained on {len(actions)} accepted actions")
     policy = ReshapedPolicy(sac, mlp, cfg.beta, method)

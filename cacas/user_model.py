@@ -8,7 +8,10 @@ User data D (Section IV-C.1):
   included: "the robot action do nothing is regarded as rejected in the current state").
 * remove_duplicate: for the same S_u the latest sample wins, whichever of D_f, D_i, D_g it is in.
 
-The user model f_mu is an MLP 91 -> 3 (accept / reject / others) retrained every N interactions.
+The user model f_mu is an MLP 91 -> 3 (accept / reject / others) retrained every N interactions
+(:class:`UMA`). The adaptation runs after each study day and replays the day's interactions into
+UMA (:meth:`UMA.replay`); with N = 1 (``CACAAConfig.user_model_interval``, the default) f_mu is
+retrained on all of D at every adaptation.
 The DM (Table III) takes f_mu's answer when it is not "others" and its probability exceeds
 ``threshold``; otherwise the generic user simulator answers.
 """
@@ -145,19 +148,46 @@ class UserModel:
 
 
 class UMA:
-    """Table II: collect data interaction by interaction, retrain f_mu every N interactions."""
+    """Table II: collect data interaction by interaction, retrain f_mu every N interactions
+    (``idx % N == 0``; idx counts every interaction, recorded or not)."""
 
     def __init__(self, update_interval: int = 15, seed: int = 0):
+        if not isinstance(update_interval, int) or isinstance(update_interval, bool) or update_interval < 1:
+            raise ValueError(f"the user model's update interval N is {update_interval!r}; valid: an integer >= 1")
         self.N = update_interval
         self.data = UserData()
         self.model = UserModel(seed=seed)
         self.is_new = False
+        self.fitted_interactions = 0  # idx at f_mu's last retraining
+
+    @classmethod
+    def replay(cls, interactions: pd.DataFrame, update_interval: int = 1, seed: int = 0) -> "UMA":
+        """Table II over recorded interactions (records.INTERACTION_COLUMNS), in the order they
+        happened, as stepping them one by one leaves it: ``data`` is D of them all, and f_mu was
+        last retrained at the last idx with idx % N == 0, on D as it was then (trained once here,
+        not every N). With N = 1, f_mu is trained on all of D."""
+        uma = cls(update_interval, seed)
+        ordered = interactions.sort_values(["day", "index"], kind="stable") if len(interactions) else interactions
+        uma.data = UserData.from_interactions(ordered)
+        uma.fitted_interactions = len(ordered) // uma.N * uma.N
+        if uma.fitted_interactions:
+            seen = ordered.iloc[:uma.fitted_interactions]
+            uma.model.fit(uma.data if uma.fitted_interactions == len(ordered) else UserData.from_interactions(seen))
+        uma.is_new = uma.fitted_interactions > 0 and uma.fitted_interactions == len(ordered)
+        return uma
+
+    def fitted_rows(self, interactions: pd.DataFrame) -> pd.DataFrame:
+        """The interactions (in the order they happened) f_mu was last retrained on."""
+        if not len(interactions):
+            return interactions
+        return interactions.sort_values(["day", "index"], kind="stable").iloc[:self.fitted_interactions]
 
     def step(self, state, tp: str, robot_action: int, response: int, user_action: int | None = None) -> UserModel:
         self.data.data_collection(state, tp, robot_action, response, user_action)
         self.is_new = self.data.interactions % self.N == 0
         if self.is_new:
             self.model.fit(self.data)
+            self.fitted_interactions = self.data.interactions
         return self.model
 
 

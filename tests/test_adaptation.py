@@ -208,3 +208,18 @@ def test_preference_accuracy_counts_only_covered_states():
             return np.full(len(s), timer)
     assert preference_accuracy(Timer(), PERSON, states=states) == 1.0  # the bedroom is no preference's
     assert np.isnan(preference_accuracy(Timer(), PERSON, states=states[1:]))
+
+
+def test_user_model_interval_n_is_table_ii_s(small_config, small_initial):
+    """With N larger than the interactions so far, f_mu has not been retrained yet (Table II:
+    idx % N == 0), so neither has MLP_policy (Table III: "If f_mu is new")."""
+    from dataclasses import replace
+    late = adapt_policy(small_initial, stove_days(3), "cacas", seed=0,
+                        config=replace(small_config, user_model_interval=1000))
+    assert any("user model trained on 0 samples, as retrained after interaction 0 of 24 (N = 1000)" in line
+               for line in late.log)
+    assert late.policy.mlp is None
+    every = adapt_policy(small_initial, stove_days(3), "cacas", seed=0, config=small_config)  # N = 1
+    # 6 time slots x the same stove context: 6 S_u requested, each with its 13 D_g rejects
+    assert any("user model trained on 84 samples; D holds 84" in line for line in every.log)
+    assert every.policy.mlp is not None

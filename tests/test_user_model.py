@@ -1,5 +1,6 @@
 import numpy as np
 import pandas as pd
+import pytest
 
 from cacas import records, spaces
 from cacas.simulator import ResponseModel
@@ -121,3 +122,44 @@ def test_user_model_fits_its_data():
     m = UserModel(epochs=200).fit(d)
     p = m.predict_proba(np.array([STATE] * 2), np.array([TIMER, PAIN]))
     assert p[0].argmax() == spaces.ACCEPT and p[1].argmax() == spaces.REJECT
+
+
+def _rows(n):
+    """n interactions of one day: the participant asks for a timer while using the stove, each
+    in another time slot (so each is its own S_u)."""
+    return pd.DataFrame([{"participant": "P01", "method": "cacas", "day": 1, "index": i, "time": "08:00",
+                          "activity": "use stove", "scene": "kitchen", "time_slot": i % 12, "interval": 30,
+                          "task": "do nothing", "previous_action": "do nothing", "previous_response": "others",
+                          "type": "type_2", "robot_action": "do nothing", "response": "accept",
+                          "user_action": "set a timer"} for i in range(n)], columns=records.INTERACTION_COLUMNS)
+
+
+def test_uma_replay_is_table_ii_stepped_interaction_by_interaction():
+    rows = _rows(5)
+    replayed = UMA.replay(rows, update_interval=2)
+    stepped = UMA(update_interval=2)
+    for s, tp, u in zip(records.policy_states(rows), rows["type"], rows["user_action"]):
+        stepped.step(s, tp, spaces.DO_NOTHING_ACTION, spaces.ACCEPT, spaces.action_index(u))
+    assert replayed.fitted_interactions == stepped.fitted_interactions == 4  # idx 4 % 2 == 0; idx 5 is not
+    assert replayed.model.trained_on == stepped.model.trained_on == 4 * 14  # D as it was at idx 4
+    assert len(replayed.data) == len(stepped.data) == 5 * 14  # D holds all five
+    assert not replayed.is_new and not stepped.is_new
+    assert list(replayed.fitted_rows(rows)["index"]) == [0, 1, 2, 3]
+    x = records.policy_states(rows)
+    timer = np.full(5, spaces.action_index("set a timer"))
+    # both models learnt the participant's request (their initial weights differ: torch's global stream)
+    assert (replayed.model.predict_proba(x, timer).argmax(1) == spaces.ACCEPT).all()
+    assert (stepped.model.predict_proba(x, timer).argmax(1) == spaces.ACCEPT).all()
+
+
+def test_uma_replay_with_n_1_trains_on_all_of_d():
+    uma = UMA.replay(_rows(3), update_interval=1)
+    assert uma.is_new and uma.fitted_interactions == 3 and uma.model.trained_on == len(uma.data) == 42
+    empty = UMA.replay(_rows(0))
+    assert empty.model.trained_on == 0 and len(empty.data) == 0 and not empty.is_new
+
+
+@pytest.mark.parametrize("bad", [0, -3, 1.5, True])
+def test_uma_update_interval_must_be_a_positive_integer(bad):
+    with pytest.raises(ValueError, match="update interval N is .*; valid: an integer >= 1"):
+        UMA(update_interval=bad)
