@@ -7,3 +7,8 @@ class CacasError(ValueError):
     The message is one line meant for a person: it names the file / participant / preference /
     field at fault and what would be valid. The command line prints it and exits with code 2.
     """
+
+
+class AlreadyRecorded(CacasError):
+    """The answer was already written (a second click, or another tab answered first): nothing
+    more was written."""

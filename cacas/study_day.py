@@ -224,13 +224,15 @@ def request_accepts_proposal(proposal: Proposal, user_action: str) -> bool:
 
 
 def answer(store, participant: str, day: int, proposal: Proposal, response: str | None = None,
-           user_action: str | None = None) -> int:
+           user_action: str | None = None, index: int | None = None) -> int:
     """Record the participant's answer at once (committed before this returns); the row id.
 
     ``response``: "accept", "reject" or "no response" to the robot's proposal (type_1). Or
     ``user_action``: the action the participant asked for and confirmed (type_2; asking for
     exactly what the robot offered is accepting it, see :func:`request_accepts_proposal`). When
-    the robot did nothing, "no response" records that nothing was needed.
+    the robot did nothing, "no response" records that nothing was needed. ``index``: the day's
+    interaction number the proposal was made for; the answer is written once, and a second one
+    for the same number (a second click, another tab) raises AlreadyRecorded and writes nothing.
     """
     if (response is None) == (user_action is None):
         raise CacasError("give either the answer to the robot (accept, reject, no response) or the "
@@ -252,7 +254,7 @@ def answer(store, participant: str, day: int, proposal: Proposal, response: str 
             raise CacasError("'do nothing' is not a request; valid: one of the 13 other actions")
         if not request_accepts_proposal(proposal, wanted):
             return store.record_interaction(participant, day, type=records.USER_INITIATED, response="accept",
-                                            user_action=wanted, **common)
+                                            user_action=wanted, index=index, **common)
         response = "accept"
     key = str(response).strip().lower()
     if key not in ANSWERS:
@@ -261,7 +263,7 @@ def answer(store, participant: str, day: int, proposal: Proposal, response: str 
         raise CacasError("the robot did not propose anything; answer 'no response' (nothing needed) "
                          "or ask for an action")
     return store.record_interaction(participant, day, type=records.ROBOT_INITIATED, response=ANSWERS[key],
-                                    **common)
+                                    index=index, **common)
 
 
 # --- after the day: adaptation ---------------------------------------------------------------------

@@ -11,10 +11,11 @@ from __future__ import annotations
 import streamlit as st
 
 from cacas import app_support, dialogue, spaces
-from cacas.errors import CacasError
+from cacas.records import RESPONSE_WORDS
+from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
-from cacas.lab import audio_mime
-from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
+from cacas.lab import audio_mime, load_recognizer, model_stamp
+from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
                              propose, request_accepts_proposal, start_day)
 from pages import ui
@@ -34,22 +35,14 @@ def _policy(db: str, who: str, version: int | None):
     return policy_in_force(ui.store(), who)
 
 
-def _recognizer_class(kind: str):
-    if kind == "sound":
-        from cacas.audio import SoundRecognizer
-        return SoundRecognizer
-    from cacas.vision import SceneRecognizer
-    return SceneRecognizer
-
-
 @st.cache_resource(show_spinner=False)
 def _recognizer(kind: str, stamp: float | None):
     """The saved sound or scene model (reloaded when retrained: ``stamp`` is its file time), or
-    None when there is none: the robot then takes the activity or room as chosen."""
+    None when there is none or it cannot be read: the robot then takes the activity or room as chosen."""
     if stamp is None:
         return None
     try:
-        return _recognizer_class(kind).load()
+        return load_recognizer(kind)
     except (CacasError, OSError):
         return None
 
@@ -80,8 +73,6 @@ def _recognise(kind: str, path: str, stamp: float | None) -> tuple[str, float, l
 
 
 def _stamp(kind: str) -> float | None:
-    from cacas.lab import model_stamp
-
     try:
         return model_stamp(kind)
     except (CacasError, OSError):
@@ -121,19 +112,21 @@ def _cancel() -> None:
     st.session_state.pop("request-match", None)
 
 
-def _record(token: str, proposal, response: str | None = None, user_action: str | None = None) -> None:
-    """Write the answer once: the token names the day and the interaction number it answers, so
-    a second click (or a second tab) on the same proposal writes nothing."""
+def _record(day: int, index: int, proposal, response: str | None = None, user_action: str | None = None) -> None:
+    """Write the answer once: it is for the day's interaction ``index``, so a second click (or a
+    second tab) on the same proposal writes nothing (the store checks it as it writes)."""
     s = st.session_state
     status = day_status(store, code)
-    if not status.open:  # the researcher closed the day while this proposal was on the tablet
-        s["session-error"] = (f"This answer was not saved: day {status.day} was closed meanwhile. Ask the researcher "
+    if not status.open or status.day != day:  # the researcher closed the day while this proposal was on the tablet
+        s["session-error"] = (f"This answer was not saved: day {day} was closed meanwhile. Ask the researcher "
                               "whether to start the next day.")
         return
-    if token != f"{status.day}:{status.interactions_today + 1}:{st.query_params.get('ctx')}":
-        return  # already saved (a second click, or another tab answered first)
     try:
-        answer(store, code, status.day, proposal, response=response, user_action=user_action)
+        answer(store, code, day, proposal, response=response, user_action=user_action, index=index)
+    except AlreadyRecorded:  # already saved (a second click, or another tab answered first)
+        s.pop("request-match", None)
+        st.query_params.pop("ctx", None)
+        return
     except CacasError as exc:
         s["session-error"] = str(exc)
         return
@@ -143,9 +136,8 @@ def _record(token: str, proposal, response: str | None = None, user_action: str 
     if user_action and request_accepts_proposal(proposal, user_action):
         what = "accepted: that is what the robot offered"
     else:
-        what = f"you asked for: {user_action}" if user_action else {"accept": "accepted", "reject": "rejected",
-                                                                   "no response": "no response"}[response]
-    s["last-saved"] = f"Interaction {status.interactions_today + 1} saved ({what})."
+        what = f"you asked for: {user_action}" if user_action else RESPONSE_WORDS[ANSWERS[response]]
+    s["last-saved"] = f"Interaction {index} saved ({what})."
 
 
 def _match_request() -> None:
@@ -229,7 +221,6 @@ if context is None:
                               width="stretch")
 else:
     index = done + 1
-    token = f"{day}:{index}:{token_ctx}"
     clip = clip_for(context, code, day, index, _library("sound", context.activity))
     heard = _recognise("sound", str(clip), _stamp("sound")) if clip else None
     photo = clip_for(context, code, day, index, _library("scene", context.scene))  # what the robot's camera sees
@@ -283,13 +274,13 @@ else:
     if proposal.robot_speaks:
         b1, b2, b3 = st.columns(3)
         b1.button("Accept", type="primary", icon=":material/thumb_up:", width="stretch",
-                  on_click=_record, args=(token, proposal, "accept"))
+                  on_click=_record, args=(day, index, proposal, "accept"))
         b2.button("Reject", icon=":material/thumb_down:", width="stretch",
-                  on_click=_record, args=(token, proposal, "reject"))
+                  on_click=_record, args=(day, index, proposal, "reject"))
         b3.button("No response", icon=":material/do_not_disturb_on:", width="stretch",
-                  on_click=_record, args=(token, proposal, "no response"))
+                  on_click=_record, args=(day, index, proposal, "no response"))
     else:
-        st.button("Nothing needed", icon=":material/check:", on_click=_record, args=(token, proposal, "no response"))
+        st.button("Nothing needed", icon=":material/check:", on_click=_record, args=(day, index, proposal, "no response"))
 
     with st.container(border=True):
         st.markdown("**Or ask the robot yourself**")
@@ -297,7 +288,7 @@ else:
         pick = c1.selectbox("Pick an action", list(dialogue.REQUESTS), index=None, key="request-pick",
                             format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
         c2.button("Ask", icon=":material/record_voice_over:", disabled=pick is None, width="stretch",
-                  on_click=_record, args=(token, proposal), kwargs={"user_action": pick})
+                  on_click=_record, args=(day, index, proposal), kwargs={"user_action": pick})
         c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
         c3.text_input("Or type your request", key="request-text", placeholder="e.g. remind me to turn off the stove")
         c4.button("Say it", icon=":material/chat:", on_click=_match_request, width="stretch")
@@ -309,7 +300,7 @@ else:
                 st.markdown(dialogue.confirmation_line(matched, proposal.heard))
             y, n, _ = st.columns([1, 1, 2])
             y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
-                     on_click=_record, args=(token, proposal), kwargs={"user_action": matched})
+                     on_click=_record, args=(day, index, proposal), kwargs={"user_action": matched})
             n.button("No", icon=":material/close:", width="stretch", on_click=_reject_match)
     st.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:")
 

@@ -174,3 +174,25 @@ def test_asking_for_what_the_robot_offered_is_accepting_it(store, policy):
     assert list(df["type"]) == [records.ROBOT_INITIATED, records.USER_INITIATED]
     assert list(df["response"]) == ["accept", "accept"] and list(df["user_action"]) == ["", other]
     assert records.is_success(df).tolist() == [True, False]
+
+
+def test_an_answer_is_written_once_for_its_interaction_number(store, policy):
+    """A second click, or a second tab answering the same proposal: the store checks the day's
+    interaction number in the same transaction as the write, so nothing is written twice."""
+    from cacas.errors import AlreadyRecorded
+
+    day = start_day(store, "P01")
+    p = propose(policy, Context.from_choices(4, 6, "cough", "bedroom"), None, policy_version=None)
+    answer(store, "P01", day, p, response="accept", index=1)
+    with pytest.raises(AlreadyRecorded, match="interaction 1 of day 1 of participant P01 is recorded already; "
+                                              "the next one is 2"):
+        answer(store, "P01", day, p, response="reject", index=1)
+    with pytest.raises(AlreadyRecorded):
+        answer(store, "P01", day, p, user_action="pain check", index=1)
+    df = store.interactions_frame("P01")
+    assert list(df["response"]) == ["accept"]  # the first answer stands
+    answer(store, "P01", day, p, response="no response", index=2)
+    assert len(store.interactions_frame("P01")) == 2
+    with pytest.raises(CacasError, match="index"):
+        answer(store, "P01", day, p, response="accept", index=0)
+    assert len(store.interactions_frame("P01")) == 2

@@ -7,7 +7,7 @@ from typing import Any, Sequence
 import pandas as pd
 
 from cacas import spaces
-from cacas.errors import CacasError
+from cacas.errors import AlreadyRecorded, CacasError
 from cacas.records import INTERACTION_COLUMNS, ROBOT_INITIATED, USER_INITIATED
 from cacas.store import validate as v
 from cacas.store.base import DayInfo, ResumeInfo
@@ -95,7 +95,7 @@ class SessionsMixin:
                            probabilities: Sequence[float] | None = None,
                            recognised_activity: str | None = None, recognised_scene: str | None = None,
                            policy_version: int | None = None, method: str | None = None,
-                           time: Any = None) -> int:
+                           time: Any = None, index: int | None = None) -> int:
         """Record one interaction of an open study day; return its row id once committed.
 
         The context as set (Table I): ``activity`` S1, ``scene`` S2, ``hour`` (0 <= h < 24) or
@@ -108,7 +108,10 @@ class SessionsMixin:
         ``response`` accept / reject / others. ``policy_version``: default the participant's
         active policy; ``method``: default the method of that policy, else "cacas". ``time``:
         when it happened (default now). Any bad name or value raises CacasError and nothing is
-        written; so does a participant or day that does not exist, or a closed day.
+        written; so does a participant or day that does not exist, or a closed day. ``index``:
+        the day's interaction number (1..) this answer is for; if it is taken already (a second
+        click, another tab), nothing is written and :class:`~cacas.errors.AlreadyRecorded` is
+        raised (checked in the same transaction as the write).
         """
         values = dict(
             activity=v.name("activity", activity, "activity"),
@@ -143,6 +146,7 @@ class SessionsMixin:
         if method is not None:
             method = v.method(method)
         code, day = str(participant).strip(), v.integer(day, "day", 1)
+        expected = None if index is None else v.integer(index, "index", 1)
 
         def fn(c):
             pid = self._pid(c, participant)
@@ -159,6 +163,9 @@ class SessionsMixin:
             m = m or "cacas"
             idx = c.execute("SELECT COALESCE(MAX(idx), 0) + 1 FROM interactions WHERE participant_id = ? AND day = ?",
                             (pid, day)).fetchone()[0]
+            if expected is not None and expected != idx:
+                raise AlreadyRecorded(f"interaction {expected} of day {day} of participant {code} is recorded "
+                                      f"already; the next one is {idx}")
             cols = ["participant_id", "day", "idx", "method", "policy_version", "created_at", *values]
             vals = [pid, day, idx, m, version, v.now(), *values.values()]
             cur = c.execute(f"INSERT INTO interactions ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",

@@ -233,3 +233,18 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
     researcher = app(PAGE, participant="P01")
     assert [s.label for s in researcher.selectbox if s.key and s.key.startswith("ctx-")] == [
         "Time of day (S3)", "Time since your last activity (S4)", "Activity (S1)", "Room (S2)"]
+
+
+def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, quick_policy):
+    day = store.open_day("P01")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    no_exception(at)
+    label = next(b.label for b in at.button if b.label in ("Accept", "Nothing needed"))
+    store.record_interaction("P01", day, activity="use stove", scene="kitchen", hour=7, interval_minutes=20,
+                             robot_action="set a timer", response="reject", index=1)  # another tab answered
+    _button(at, label).click().run()
+    no_exception(at)
+    df = store.interactions_frame("P01", method=None)
+    assert list(df["response"]) == ["reject"]  # the other tab's answer stands, nothing added
+    assert "ctx" not in at.query_params  # back to the context form
+    assert not at.error
