@@ -64,11 +64,15 @@ def writable_folder(folder, what: str) -> Path:
 
 def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
     """Write several files into ``folder`` as one change: each to a temporary file first
-    (flushed and fsynced), and only when all are written are they renamed into place. A failure
-    (disk full, read-only folder) leaves the folder's files as they were, removes the temporary
-    ones and raises a CacasError naming the file. Returns name -> path."""
+    (flushed and fsynced), and only when all are written are they renamed into place, each file
+    it replaces kept aside (a hard link) until all renames are done. A failure (disk full,
+    read-only folder, a rename refused) puts back the files already replaced, removes the
+    temporary ones and raises a CacasError naming the file: the folder's files are as they were.
+    Returns name -> path."""
     folder = Path(folder)
     tmps: dict[str, Path] = {}
+    kept: dict[str, Path | None] = {}  # name -> the replaced file's copy (None: there was none)
+    done: list[str] = []
     name = ""
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -78,15 +82,31 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
                 fh.write(data)
                 fh.flush()
                 os.fsync(fh.fileno())
+        for name in tmps:
+            target = folder / name
+            kept[name] = None
+            if target.exists():
+                kept[name] = folder / f".{name}.{os.getpid()}.old"
+                kept[name].unlink(missing_ok=True)
+                os.link(target, kept[name])
         for name, tmp in tmps.items():
             os.replace(tmp, folder / name)
+            done.append(name)
     except OSError as exc:
+        for n in reversed(done):  # put back what was replaced
+            try:
+                if kept[n] is None:
+                    (folder / n).unlink(missing_ok=True)
+                else:
+                    os.replace(kept[n], folder / n)
+            except OSError:  # pragma: no cover - the folder went away meanwhile
+                pass
         raise CacasError(f"{folder / name}: cannot be written ({exc.strerror or exc}); "
                          f"the folder's files are unchanged") from None
     finally:
-        for tmp in tmps.values():
+        for path in [*tmps.values(), *(p for p in kept.values() if p is not None)]:
             try:
-                tmp.unlink(missing_ok=True)
+                path.unlink(missing_ok=True)
             except OSError:  # pragma: no cover - the folder went away meanwhile
                 pass
     _fsync_folder(folder)

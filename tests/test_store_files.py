@@ -1,0 +1,52 @@
+"""store.files: atomic single files and all-or-nothing folder writes."""
+
+import os
+
+import pytest
+
+from cacas.errors import CacasError
+from cacas.store import files
+
+
+def test_write_all_replaces_every_file(tmp_path):
+    (tmp_path / "daily.csv").write_bytes(b"old daily")
+    paths = files.write_all(tmp_path, {"daily.csv": b"new daily", "interactions.csv": b"new rows"})
+    assert paths == {"daily.csv": tmp_path / "daily.csv", "interactions.csv": tmp_path / "interactions.csv"}
+    assert (tmp_path / "daily.csv").read_bytes() == b"new daily"
+    assert (tmp_path / "interactions.csv").read_bytes() == b"new rows"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["daily.csv", "interactions.csv"]  # nothing left over
+
+
+def test_a_refused_rename_puts_back_what_was_already_replaced(tmp_path, monkeypatch):
+    (tmp_path / "a.csv").write_bytes(b"old a")
+    (tmp_path / "b.csv").write_bytes(b"old b")
+    real_replace, calls = os.replace, []
+
+    def refuse_the_third(src, dst):
+        calls.append(dst)
+        if len(calls) == 3:
+            raise PermissionError(13, "Permission denied")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", refuse_the_third)
+    with pytest.raises(CacasError, match=r"c\.csv: cannot be written \(Permission denied\); "
+                                         r"the folder's files are unchanged"):
+        files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b", "c.csv": b"new c"})
+    monkeypatch.setattr(files.os, "replace", real_replace)
+    assert (tmp_path / "a.csv").read_bytes() == b"old a" and (tmp_path / "b.csv").read_bytes() == b"old b"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "b.csv"]  # no c.csv, no temporary files
+
+
+def test_a_file_that_was_not_there_is_removed_again(tmp_path, monkeypatch):
+    real_replace, calls = os.replace, []
+
+    def refuse_the_second(src, dst):
+        calls.append(dst)
+        if len(calls) == 2:
+            raise OSError(28, "No space left on device")
+        return real_replace(src, dst)
+
+    monkeypatch.setattr(files.os, "replace", refuse_the_second)
+    with pytest.raises(CacasError, match="b.csv: cannot be written"):
+        files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b"})
+    assert list(tmp_path.iterdir()) == []
