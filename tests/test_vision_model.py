@@ -152,3 +152,12 @@ def test_auto_weights_use_the_local_torchvision_cache(tmp_path, monkeypatch):
     assert source.startswith("pretrained:") and torch.equal(model.conv1.weight, donor.conv1.weight)
     monkeypatch.setattr(torch.hub, "get_dir", lambda: str(tmp_path / "empty"))
     assert build_resnet18(6, weights="auto")[1].startswith("none")
+
+
+@pytest.mark.parametrize("size", [32, 33, 47, 128])
+def test_every_scene_renders_at_the_sizes_generate_scenes_accepts(size):
+    """generate_scenes accepts 32-1024 pixels; small rooms crashed (the furniture had no room)."""
+    for scene in spaces.SCENES:
+        for seed in range(5):
+            img = synth.render(scene, np.random.default_rng(seed), size)
+            assert img.size == (size, size) and img.mode == "RGB"

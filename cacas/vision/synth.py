@@ -262,7 +262,7 @@ assert tuple(GENERATORS) == spaces.SCENES
 def render(scene: str, rng: Rng, size: int = 128) -> Image.Image:
     """One synthetic ``size`` x ``size`` RGB image of ``scene`` (a Table I scene name)."""
     name = spaces.canonical("scene", scene)
-    big = 2 * size  # draw at twice the size, then shrink: smoother edges
+    big = max(2 * size, 96)  # draw at twice the size (at least 96: the furniture needs room), then shrink
     img = GENERATORS[name](rng, big)
     # lighting: a brightness gradient and a colour cast, then sensor noise and slight blur
     arr = np.asarray(img, dtype=np.float32)
