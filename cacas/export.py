@@ -227,9 +227,14 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
                     policies[rel] = zf.read(name)
     except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
-    for rel in tables["policies"].get("path", []):
+    listed = list(tables["policies"].get("path", []))
+    for rel in listed:
         if not _POLICY_PATH.match(rel):
             raise CacasError(f"{path}: policies.csv names an unexpected policy path {rel!r}")
+    unlisted = sorted(set(policies) - set(listed))
+    if unlisted:
+        raise CacasError(f"{path}: policies/{unlisted[0]} is in the bundle but not in policies.csv; "
+                         "valid: only the checkpoints policies.csv lists")
     return tables, policies
 
 

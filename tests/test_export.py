@@ -365,3 +365,17 @@ def test_restore_refuses_a_database_that_has_participants(store, bundle_tables):
     with pytest.raises(CacasError, match="already holds participants; import into a new database"):
         restore(store, *bundle_tables)
     assert _counts(store.path) == before
+
+
+def test_a_checkpoint_policies_csv_does_not_list_is_refused(store, tmp_path):
+    """A well-named checkpoint that no policies.csv row lists would be written beside the study's
+    own checkpoints and never used: the bundle is refused instead."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    stray = "policies/P01/day9-cacas-0123abcd.pt"
+    bad = _with_entries(bundle, tmp_path / "bad.zip", add=[(stray, b"not listed")])
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match="bad.zip: policies/P01/day9-cacas-0123abcd.pt is in the bundle but not "
+                                         "in policies.csv; valid: only the checkpoints policies.csv lists"):
+        export.import_bundle(bad, target)
+    assert not target.exists()
+    assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
