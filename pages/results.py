@@ -45,11 +45,7 @@ if source == HUMAN:
                "days 1..d-1 (Section V-B.2).")
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
-    try:
-        run = app_support.load_run(app_support.runs_dir(db) / name)
-    except CacasError as exc:
-        st.error(str(exc), icon=":material/error:")
-        st.stop()
+    run = ui.load_run(db, name)
     tables, daily = run.tables, run.daily
     st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
                f"participant(s), methods {', '.join(daily['method'].unique())}.")

@@ -95,11 +95,7 @@ if runs:
     st.subheader("Runs")
     default = job.result.name if job is not None and job.status == DONE and job.result.name in runs else runs[0]
     name = st.selectbox("Run", runs, index=runs.index(default), key="sim-run")
-    try:
-        run = app_support.load_run(app_support.runs_dir(db) / name)
-    except CacasError as exc:
-        st.error(str(exc), icon=":material/error:")
-        st.stop()
+    run = ui.load_run(db, name)
     daily, settings = run.daily, run.settings
     if settings:
         n = len(settings.get("participants", []))

@@ -9,6 +9,7 @@ import pandas as pd
 import streamlit as st
 
 from cacas import app_support, plots, records
+from cacas.errors import CacasError
 from cacas.jobs import RUNNER, Job
 from cacas.store import StudyStore, default_db_path
 
@@ -72,6 +73,15 @@ def link(page: str, label: str, icon: str | None = None, container=None) -> None
         (container or st).page_link(page, label=label, icon=icon)
     except st.errors.StreamlitPageNotFoundError:
         pass
+
+
+def load_run(db: str, name: str) -> app_support.Run:
+    """A saved simulated run of the Simulation lab, or its error shown and the page stopped."""
+    try:
+        return app_support.load_run(app_support.runs_dir(db) / name)
+    except CacasError as exc:
+        st.error(str(exc), icon=":material/error:")
+        st.stop()
 
 
 def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
