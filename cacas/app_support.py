@@ -113,6 +113,19 @@ def _event_words(what: str, details: str) -> str:
             "create_study": f"study {d.get('study', '')} created"}.get(what, what.replace("_", " "))
 
 
+def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
+    """The Adaptation page's policy versions: version, adapted from, method, saved, in force,
+    preference accuracy (percent, from the run that saved it; NaN if none), sha256 (12 digits).
+    ``versions``: the store's policy versions; ``runs``: its adaptations_frame."""
+    cols = ["version", "adapted from", "method", "saved", "in force", "preference accuracy", "sha256"]
+    acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
+    return pd.DataFrame([{
+        "version": v.version, "adapted from": adapted_from(v.day) if v.day else "-", "method": v.method,
+        "saved": short_time(v.created_at), "in force": "yes" if v.active else "",
+        "preference accuracy": 100 * float(acc.get(v.version, float("nan"))), "sha256": v.sha256[:12],
+    } for v in versions], columns=cols)
+
+
 def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:
     """The last events in words, newest first: when, who, what."""
     ev = store.events(participant=participant, limit=limit)

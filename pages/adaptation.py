@@ -3,7 +3,6 @@ what changed, and roll back to an earlier day's policy."""
 
 from __future__ import annotations
 
-import pandas as pd
 import streamlit as st
 
 from cacas import app_support
@@ -161,13 +160,7 @@ else:
 # --- 3. versions and roll back ----------------------------------------------------------------------
 st.subheader("Policy versions")
 if versions:
-    acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
-    table = pd.DataFrame([{
-        "version": v.version, "adapted from": app_support.adapted_from(v.day) if v.day else "-", "method": v.method,
-        "saved": app_support.short_time(v.created_at), "in force": "yes" if v.active else "",
-        "preference accuracy": 100 * acc.get(v.version, float("nan")), "sha256": v.sha256[:12],
-    } for v in versions])
-    st.dataframe(table, hide_index=True, width="stretch",
+    st.dataframe(app_support.versions_table(versions, runs), hide_index=True, width="stretch",
                  column_config={"preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
     with st.form("rollback", border=True):
         st.markdown("**Roll back (or forward)**: put an earlier policy in force for the next interactions.")

@@ -105,3 +105,21 @@ def test_a_simulation_choice_is_checked_before_a_run(tmp_path):
         app_support.check_simulation(["P01"], ["cacas", "dqn"])
     assert app_support.check_simulation(["P01"], ["NN", "cacas", "nn"]) == ("nn", "cacas")
     assert not tmp_path.joinpath("runs").exists() and list(tmp_path.iterdir()) == []
+
+
+def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
+    from cacas.store import StudyStore
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    for day in (1, 2):
+        store.close_day("P01", store.open_day("P01"))
+        version = store.save_policy("P01", day, "cacas", f"policy {day}".encode())
+        store.record_adaptation("P01", day, "cacas", {}, 1.0, {"preference_accuracy": 0.5 + 0.25 * day}, version)
+    store.record_adaptation("P01", 2, "nn", {"comparison": True}, 1.0, {"preference_accuracy": 0.1})  # no version
+    table = app_support.versions_table(store.policy_versions("P01"), store.adaptations_frame("P01"))
+    assert list(table["version"]) == [1, 2] and list(table["adapted from"]) == ["day 1", "days 1-2"]
+    assert list(table["preference accuracy"]) == [75.0, 100.0]  # the comparison run is no version's
+    assert list(table["in force"]) == ["", "yes"] and all(len(h) == 12 for h in table["sha256"])
+    assert list(app_support.versions_table([], store.adaptations_frame("P01")).columns)[0] == "version"
+    store.close()
