@@ -121,14 +121,6 @@ def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, d
                       "accuracy": "float64"})
 
 
-def daily_frame(store: StudyStore, study: str | None = None) -> pd.DataFrame:
-    """daily.csv of the human study (:data:`cacas.records.DAILY_COLUMNS`): success rate,
-    interactions and cumulative feedback per participant, method and day (Fig. 3), with the
-    preference accuracy of :func:`accuracy_frame` (Fig. 4): the ``daily`` table of
-    :func:`export_tables`."""
-    return export_tables(store, study)["daily"]
-
-
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
     """All tables of :data:`TABLES` as DataFrames (of one study, or all)."""
     participants = store.participants_frame(study)
@@ -283,5 +275,5 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "daily_frame",
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame",
            "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]

@@ -86,7 +86,7 @@ def test_same_database_gives_same_bytes(store, tmp_path):
 
 
 def test_daily_table_metrics(store):
-    daily = export.daily_frame(store).set_index(["participant", "method", "day"])
+    daily = export.export_tables(store)["daily"].set_index(["participant", "method", "day"])
     row = daily.loc[("P01", "cacas", 1)]
     # 4 robot-initiated pain checks: 2 accepted; 1 user-initiated request
     assert row["interactions"] == 5 and row["successes"] == 2 and row["user_initiated"] == 1
@@ -113,7 +113,7 @@ def test_cumulative_feedback_is_one_stream_when_the_method_in_force_changes(stor
     day = store.open_day("P01")
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
                              robot_action="pain check", response="accept")
-    daily = export.daily_frame(store).set_index(["participant", "method", "day"])
+    daily = export.export_tables(store)["daily"].set_index(["participant", "method", "day"])
     assert store.interactions_frame("P01", method=None)["method"].iloc[-1] == "nn"
     assert daily.loc[("P01", "nn", 3), "interactions"] == 1
     assert daily.loc[("P01", "nn", 3), "cumulative_feedback"] == 10 + 1
@@ -133,7 +133,7 @@ def test_by_preference_table_follows_the_runs_in_force(store):
     assert (table["method"] == "nn").sum() == 0  # recorded without a breakdown
     assert list(table.loc[table["participant"] == "P02", "day"]) == [2]  # no initial run recorded for P02
     # the same as daily.csv's accuracy where both exist
-    daily = export.daily_frame(store).set_index(["participant", "method", "day"])["preference_accuracy"]
+    daily = export.export_tables(store)["daily"].set_index(["participant", "method", "day"])["preference_accuracy"]
     for row in table.itertuples():
         assert math.isclose(daily.loc[(row.participant, row.method, row.day)], row.accuracy)
 
@@ -161,7 +161,7 @@ def test_daily_accuracy_follows_the_policy_in_force_after_rollback(tmp_path):
         day = s.open_day("P01")
         s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
                              robot_action="pain check", response="accept")
-        daily = export.daily_frame(s).set_index(["participant", "method", "day"])
+        daily = export.export_tables(s)["daily"].set_index(["participant", "method", "day"])
         assert math.isclose(daily.loc[("P01", "cacas", 3), "preference_accuracy"], 0.1)
 
 

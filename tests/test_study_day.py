@@ -116,7 +116,7 @@ def test_store_interactions_give_the_recorded_state(store):
 
 def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, policy):
     import cacas.adaptation
-    from cacas.export import daily_frame, export_tables
+    from cacas.export import export_tables
     from cacas.study_day import compare_methods
 
     monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
@@ -142,7 +142,7 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
         assert list(nn["day"]) == [0, 1, 2] and nn["preference_accuracy"].between(0, 1).all()
         # NN learnt the request: on day 2 (adapted from day 1) it prefers pain check for coughs
         assert nn["preference_accuracy"].iloc[1] == 1.0
-        daily = daily_frame(s)
+        daily = export_tables(s)["daily"]
         by_pref = export_tables(s)["by_preference"]
     assert set(daily.loc[daily["method"] == "nn", "day"]) == {1, 2}
     # the same runs, by described preference (one here): day 2's NN learnt it
