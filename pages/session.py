@@ -14,7 +14,7 @@ from cacas import app_support, dialogue, spaces
 from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
-from cacas.lab import audio_mime, load_recognizer, model_stamp
+from cacas.lab import audio_mime
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
                              propose, request_accepts_proposal, start_day)
@@ -35,18 +35,6 @@ def _policy(db: str, who: str, version: int | None):
     return policy_in_force(ui.store(), who)
 
 
-@st.cache_resource(show_spinner=False)
-def _recognizer(kind: str, stamp: float | None):
-    """The saved sound or scene model (reloaded when retrained: ``stamp`` is its file time), or
-    None when there is none or it cannot be read: the robot then takes the activity or room as chosen."""
-    if stamp is None:
-        return None
-    try:
-        return load_recognizer(kind)
-    except (CacasError, OSError):
-        return None
-
-
 @st.cache_data(show_spinner=False)
 def _library(kind: str, name: str) -> list[str]:
     """The library's clips of an activity ("sound") or photos of a room ("scene")."""
@@ -62,7 +50,7 @@ def _library(kind: str, name: str) -> list[str]:
 @st.cache_data(show_spinner=False, max_entries=256)
 def _recognise(kind: str, path: str, stamp: float | None) -> tuple[str, float, list] | None:
     """(label, confidence, top 3) of a clip or photo, or None without a model or for a bad file."""
-    rec = _recognizer(kind, stamp)
+    rec = ui.recognizer(kind)  # ``stamp`` keys the cache: a retrained model recognises afresh
     if rec is None:
         return None
     try:
@@ -70,13 +58,6 @@ def _recognise(kind: str, path: str, stamp: float | None) -> tuple[str, float, l
     except CacasError:
         return None
     return r.label, float(r.confidence), [(a, float(p)) for a, p in r.top3]
-
-
-def _stamp(kind: str) -> float | None:
-    try:
-        return model_stamp(kind)
-    except (CacasError, OSError):
-        return None
 
 
 # --- callbacks ------------------------------------------------------------------------------------
@@ -222,9 +203,9 @@ if context is None:
 else:
     index = done + 1
     clip = clip_for(context, code, day, index, _library("sound", context.activity))
-    heard = _recognise("sound", str(clip), _stamp("sound")) if clip else None
+    heard = _recognise("sound", str(clip), ui.model_stamp("sound")) if clip else None
     photo = clip_for(context, code, day, index, _library("scene", context.scene))  # what the robot's camera sees
-    seen = _recognise("scene", str(photo), _stamp("scene")) if photo else None
+    seen = _recognise("scene", str(photo), ui.model_stamp("scene")) if photo else None
     if status.policy_version is None and not initial_policy_ready():
         # first use on this machine: the initial policy is trained once, in the background
         job, _ = RUNNER.start("initial-policy", prepare_initial_policy, label="The robot is getting ready (first use only)")

@@ -23,26 +23,10 @@ st.caption("The robot knows the context from what it hears (33 sound activities;
            "real study. The paper's 94.7% sound accuracy is on real recordings.")
 
 
-@st.cache_resource(show_spinner=False)
-def _saved_model(kind: str, stamp: float):
-    """The saved model of ``kind``, loaded once per file version (``stamp``: its file time)."""
-    return lab.load_recognizer(kind)
-
-
-def _model(kind: str):
-    stamp = lab.model_stamp(kind)
-    if stamp is None:
-        return None
-    try:
-        return _saved_model(kind, stamp)
-    except CacasError:
-        return None
-
-
 def _recognise(kind: str, name: str, data: bytes) -> None:
     """Recognise an uploaded or recorded sound clip, or a photo, with the current model; show
     the label and the top 3 (one message if there is no model or the file is bad)."""
-    model = _model(kind)
+    model = ui.recognizer(kind)
     if model is None:
         st.warning(f"No {kind} model yet: train one first.")
         return
@@ -132,7 +116,7 @@ with train:
     for kind, trainer, evaluator in (("Sound", lab.train_sound, lab.evaluate_sound),
                                      ("Scene", lab.train_scene, lab.evaluate_scene)):
         st.subheader(f"{kind} model")
-        model = _model(kind.lower())
+        model = ui.recognizer(kind.lower())
         if model is None:
             st.caption("No trained model saved yet.")
         else:

@@ -8,7 +8,7 @@ import time
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, plots, records
+from cacas import app_support, lab, plots, records
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER, Job
 from cacas.store import StudyStore, default_db_path
@@ -73,6 +73,31 @@ def link(page: str, label: str, icon: str | None = None, container=None) -> None
         (container or st).page_link(page, label=label, icon=icon)
     except st.errors.StreamlitPageNotFoundError:
         pass
+
+
+def model_stamp(kind: str) -> float | None:
+    """The saved sound or scene model's file time (None: no model, or it cannot be read)."""
+    try:
+        return lab.model_stamp(kind)
+    except (CacasError, OSError):
+        return None
+
+
+@st.cache_resource(show_spinner=False)
+def _saved_recognizer(kind: str, stamp: float):
+    return lab.load_recognizer(kind)
+
+
+def recognizer(kind: str):
+    """The saved sound or scene model, loaded once per file version (reloaded when retrained),
+    or None when there is none or it cannot be read."""
+    stamp = model_stamp(kind)
+    if stamp is None:
+        return None
+    try:
+        return _saved_recognizer(kind, stamp)
+    except (CacasError, OSError):
+        return None
 
 
 def load_run(db: str, name: str) -> app_support.Run:
