@@ -352,7 +352,7 @@ def check_daily_values(df: pd.DataFrame, name: str) -> pd.DataFrame:
     if bad.any():
         row = int(np.flatnonzero(bad.to_numpy())[0])
         raise CacasError(f"{name}, row {row + 2}: day {_shown(df['day'].iloc[row])} is invalid; valid: a whole number >= 1")
-    for col in ("success_rate", "preference_accuracy"):
+    for col in [c for c in ("success_rate", "preference_accuracy", "success_ceiling") if c in df.columns]:
         value = pd.to_numeric(df[col], errors="coerce")
         bad = (value.isna() & df[col].notna()) | (value.notna() & ~value.between(0, 1))
         if bad.any():

@@ -171,7 +171,8 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     inter = pd.DataFrame([r for rows, _, _ in results for r in rows], columns=records.INTERACTION_COLUMNS)
     accuracy = pd.DataFrame([r for _, acc, _ in results for r in acc])
     by_preference = pd.concat([b for _, _, b in results], ignore_index=True)
-    return StudyResult(combine_daily(inter, accuracy, methods), inter, by_preference)
+    preferred = {p.id: p.preferred_action_table() for p in participants}
+    return StudyResult(combine_daily(inter, accuracy, methods, preferred), inter, by_preference)
 
 
 def default_jobs() -> int:
@@ -258,20 +259,26 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[str], N
         return [f.result() for f in futures]
 
 
-def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str]) -> pd.DataFrame:
+def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str],
+                  preferred: dict[str, np.ndarray] | None = None) -> pd.DataFrame:
     """daily.csv rows for every method (:func:`cacas.records.daily_table`): the closed-loop
-    method (the first) has its own success rate; the others adapted from the same interactions,
-    so they share its interaction and feedback counts and have an empty success rate. Methods
-    in the order given."""
-    daily = records.daily_table(interactions, accuracy)
+    method (the first) has its own success rate (and, given the participants' ``preferred``
+    action tables, its success ceiling); the others adapted from the same interactions, so they
+    share its interaction and feedback counts and have an empty success rate. Methods in the
+    order given."""
+    daily = records.daily_table(interactions, accuracy, preferred)
     order = {m: i for i, m in enumerate(methods)}
     daily = daily.sort_values(["participant", "method", "day"], key=lambda c: c.map(order) if c.name == "method" else c)
     return daily.reset_index(drop=True)
 
 
 def summary_table(daily: pd.DataFrame) -> pd.DataFrame:
-    """Mean success rate and preference accuracy per method and day (the printed table)."""
+    """Mean success rate (and its ceiling, where daily has one) and preference accuracy per
+    method and day (the printed table)."""
     g = daily.groupby(["method", "day"], sort=False)
-    out = g.agg(success_rate=("success_rate", "mean"), preference_accuracy=("preference_accuracy", "mean"),
+    means = dict(success_rate=("success_rate", "mean"))
+    if "success_ceiling" in daily.columns:
+        means["success_ceiling"] = ("success_ceiling", "mean")
+    out = g.agg(**means, preference_accuracy=("preference_accuracy", "mean"),
                 cumulative_feedback=("cumulative_feedback", "mean")).reset_index()
     return out

@@ -121,6 +121,17 @@ def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, d
                       "accuracy": "float64"})
 
 
+def described_preferences(store: StudyStore, interactions: pd.DataFrame) -> dict:
+    """Participant code -> preferred-action table of their latest described preferences, for
+    daily.csv's success ceiling (evaluation only); participants without any are left out."""
+    out = {}
+    for code in dict.fromkeys(interactions["participant"].astype(str)):
+        described = store.get_preferences(code)
+        if described is not None and described.preferences:
+            out[code] = described.preferred_action_table()
+    return out
+
+
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
     """All tables of :data:`TABLES` as DataFrames (of one study, or all)."""
     participants = store.participants_frame(study)
@@ -134,7 +145,8 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     adaptations, days = store.adaptations_frame(study=study), store.days_frame(study)
     return {
         "interactions": interactions,
-        "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days)),
+        "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days),
+                             described_preferences(store, interactions)),
         "by_preference": by_preference_frame(interactions, adaptations, days),
         "participants": participants,
         "questionnaire": store.questionnaire_frame(study),

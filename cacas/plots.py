@@ -27,19 +27,23 @@ def loop_method(daily: pd.DataFrame) -> str | None:
 
 
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
-    """Per day: mean, min and max success rate across participants, mean cumulative feedback."""
+    """Per day: mean, min and max success rate across participants, mean cumulative feedback,
+    and the mean success ceiling (NaN where daily.csv has none)."""
     d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
     g = d.assign(day=d["day"].astype(int)).groupby("day")
+    ceiling = d["success_ceiling"] if "success_ceiling" in d.columns else pd.Series(float("nan"), index=d.index)
     return pd.DataFrame({
         "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
         "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
         "participants": g["participant"].nunique(),
+        "ceiling": pd.to_numeric(ceiling, errors="coerce").groupby(d["day"].astype(int)).mean(),
     }).reset_index()
 
 
 def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None = None) -> go.Figure:
-    """Fig. 3: mean success rate per day, a min-max band across participants, and the mean
-    cumulative number of feedback on a second axis."""
+    """Fig. 3: mean success rate per day, a min-max band across participants, the mean success
+    ceiling where daily.csv has one (dashed), and the mean cumulative number of feedback on a
+    second axis."""
     s = success_by_day(daily, method)
     fig = make_subplots(specs=[[{"secondary_y": True}]])
     colour = METHOD_COLOURS.get(method, "#2f6f8f")
@@ -51,6 +55,10 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
                              line=dict(color=colour, width=3),
                              hovertemplate="day %{x}: %{y:.0%}<extra></extra>"), secondary_y=False)
+    if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
+        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines", name="ceiling: always the described "
+                                 "preference (mean)", line=dict(color=colour, width=1.5, dash="dash"),
+                                 hovertemplate="day %{x}: at most %{y:.0%}<extra></extra>"), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
                              mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
                              marker=dict(symbol="square", size=7),

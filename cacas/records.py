@@ -11,6 +11,8 @@ action, two interaction data points are recorded".
 
 from __future__ import annotations
 
+from typing import Mapping
+
 import numpy as np
 import pandas as pd
 
@@ -36,10 +38,14 @@ INTERACTION_COLUMNS = [
     "response", "user_action",
 ]
 
-#: Columns of daily.csv, in order: design.md's contract first.
+#: Columns of daily.csv, in order: design.md's contract first. ``success_ceiling`` (closed-loop
+#: rows, like ``success_rate``): of that day's interactions, the share in whose context a described
+#: preference names an action other than "do nothing", i.e. the success rate of a robot that always
+#: proposed the described preference and was always answered (empty without described preferences).
+#: Where a participant wants to be left alone, even a perfect robot cannot "succeed" (Section V-B).
 DAILY_COLUMNS = [
     "participant", "method", "day", "success_rate", "preference_accuracy",
-    "cumulative_feedback", "interactions", "successes", "user_initiated", "feedback",
+    "cumulative_feedback", "interactions", "successes", "user_initiated", "feedback", "success_ceiling",
 ]
 
 #: The columns design.md's contract requires of every daily.csv (the first seven).
@@ -71,7 +77,30 @@ def is_success(interactions: pd.DataFrame) -> pd.Series:
             & (interactions["response"] == "accept"))
 
 
-def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None) -> pd.DataFrame:
+def preferred_action_contexts(interactions: pd.DataFrame, preferred: Mapping[str, np.ndarray]) -> np.ndarray:
+    """Per interaction row: 1.0 where the participant's described preferences name an action
+    other than "do nothing" for its context (S1-S5), 0.0 where they name "do nothing" or cover
+    nothing, NaN for a participant without described preferences. ``preferred`` maps a
+    participant code to its preferred-action table (``Participant.preferred_action_table``).
+    Evaluation only: the adaptation never sees it."""
+    from cacas import spaces
+
+    out = np.full(len(interactions), np.nan)
+    if len(interactions) == 0 or not preferred:
+        return out
+    states = policy_states(interactions)
+    who = interactions["participant"].astype(str).to_numpy()
+    for code, table in preferred.items():
+        rows = np.flatnonzero(who == code)
+        if len(rows):
+            s = states[rows]
+            action = table[s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4]]
+            out[rows] = ((action >= 0) & (action != spaces.DO_NOTHING_ACTION)).astype(float)
+    return out
+
+
+def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None,
+                preferred: Mapping[str, np.ndarray] | None = None) -> pd.DataFrame:
     """Per participant, method and day: the daily.csv table.
 
     ``interactions`` has INTERACTION_COLUMNS; its ``method`` is the policy in force (closed
@@ -81,21 +110,26 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     participant's data points up to the end of the day. Rows of ``accuracy`` with no
     interactions of their own (a method adapted from the same data but not run in closed loop,
     Fig. 4) get an empty success rate and the day's interaction and feedback counts.
+    ``preferred`` (participant code -> preferred-action table) gives ``success_ceiling``
+    (:func:`preferred_action_contexts`, averaged over the day's interactions); without it, or
+    for a participant not in it, the ceiling is empty.
     """
     keys = ["participant", "method", "day"]
     counts = ["interactions", "successes", "user_initiated", "feedback"]
     if len(interactions):
         df = interactions.assign(_success=is_success(interactions).astype(int),
                                  _points=feedback_points(interactions),
-                                 _t2=(interactions["type"] == USER_INITIATED).astype(int))
+                                 _t2=(interactions["type"] == USER_INITIATED).astype(int),
+                                 _ceiling=preferred_action_contexts(interactions, preferred or {}))
         g = df.groupby(keys, sort=True)
         daily = pd.DataFrame({"interactions": g.size(), "successes": g["_success"].sum(),
-                              "user_initiated": g["_t2"].sum(), "feedback": g["_points"].sum()}).reset_index()
+                              "user_initiated": g["_t2"].sum(), "feedback": g["_points"].sum(),
+                              "success_ceiling": g["_ceiling"].mean()}).reset_index()
         daily["success_rate"] = daily["successes"] / daily["interactions"]
         per_day = daily.groupby(["participant", "day"])[["interactions", "user_initiated", "feedback"]].sum()
         per_day["cumulative_feedback"] = per_day.groupby(level="participant")["feedback"].cumsum()
     else:
-        daily = pd.DataFrame(columns=keys + counts + ["success_rate"])
+        daily = pd.DataFrame(columns=keys + counts + ["success_rate", "success_ceiling"])
         per_day = pd.DataFrame(columns=["interactions", "user_initiated", "feedback", "cumulative_feedback"],
                                index=pd.MultiIndex.from_tuples([], names=["participant", "day"]))
     if accuracy is not None and len(accuracy):

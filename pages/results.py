@@ -80,7 +80,10 @@ with fig3:
         c3.metric("Participants", int(per_day["participants"].max()))
         st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
         st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
-                   "is a robot-initiated action the participant accepted; requests by the participant are not.")
+                   "is a robot-initiated action the participant accepted; requests by the participant are not."
+                   + (" The dashed line is the ceiling: the success rate of a robot that always proposed the "
+                      "described preference and was always answered (below 100% where participants want the robot "
+                      "to do nothing)." if per_day["ceiling"].notna().any() else ""))
 
 with fig4:
     if source == HUMAN:

@@ -108,11 +108,16 @@ if runs:
                     width="stretch")
     c2.plotly_chart(plots.methods_figure(daily), width="stretch")
     summary = summary_table(daily)
+    shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]
     shown = summary.assign(method=summary["method"].map(lambda m: plots.METHOD_LABELS.get(m, m)),
-                           success_rate=100 * summary["success_rate"],
-                           preference_accuracy=100 * summary["preference_accuracy"])
+                           **{c: 100 * summary[c] for c in shares})
     st.dataframe(shown, hide_index=True, width="stretch",
                  column_config={"success_rate": st.column_config.NumberColumn("success rate", format="%.0f%%"),
+                                "success_ceiling": st.column_config.NumberColumn(
+                                    "success ceiling", format="%.0f%%",
+                                    help="The success rate of a robot that always proposed the described preference "
+                                         "and was always answered: below 100% where the participant wants the robot "
+                                         "to do nothing."),
                                 "preference_accuracy": st.column_config.NumberColumn("preference accuracy",
                                                                                      format="%.0f%%"),
                                 "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",

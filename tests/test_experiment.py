@@ -97,6 +97,26 @@ def test_study_tables_follow_the_contract(small_config, small_initial):
     assert (b["accuracy"] == b["correct"] / b["states"]).all()
 
 
+def test_success_ceiling_of_a_simulated_study(small_config, small_initial):
+    """Simulated participants act where their preferences name an action (ceiling 1), except
+    where they want to be left alone: there even a perfect robot cannot succeed."""
+    people = parse_personas({"participants": [
+        {"id": "A", "preferences": [{"activity": ["cough"], "action": "pain check"}]},
+        {"id": "Q", "preferences": [{"activity": ["cough"], "action": "pain check"},
+                                    {"activity": ["watch TV"], "action": "do nothing"}]}]})
+    res = simulate_study(people, days=2, interactions=10, methods=["cacas", "nn"], seed=2, config=small_config,
+                         initial_policy=small_initial)
+    d = res.daily.set_index(["participant", "method", "day"])
+    assert (d.xs("A")["success_ceiling"].xs("cacas") == 1.0).all()
+    inter = res.interactions[res.interactions["participant"] == "Q"]
+    for day in (1, 2):
+        share = (inter.loc[inter["day"] == day, "activity"] == "cough").mean()
+        assert 0 < share < 1 and d.loc[("Q", "cacas", day), "success_ceiling"] == pytest.approx(share)
+        assert d.loc[("Q", "cacas", day), "success_rate"] <= share
+    assert d.xs("nn", level="method")["success_ceiling"].isna().all()
+    assert "success_ceiling" in summary_table(res.daily).columns
+
+
 def test_same_seed_same_tables(small_config, small_initial):
     kw = dict(days=2, interactions=5, methods=["cacas", "orl"], config=small_config, initial_policy=small_initial)
     a = simulate_study(PEOPLE[:1], seed=3, **kw)

@@ -103,6 +103,9 @@ def test_daily_table_metrics(store):
     # ... adapted from the same data, so it has the day's counts (as cacas simulate writes them)
     assert (nn["interactions"], nn["feedback"], nn["cumulative_feedback"]) == (5, 5, 10) and pd.isna(nn["successes"])
     assert ("P01", "nn", 3) not in daily.index  # no day 3 yet
+    # the success ceiling from the described preferences (cough -> pain check): 4 coughs of 5
+    assert math.isclose(row["success_ceiling"], 4 / 5) and pd.isna(nn["success_ceiling"])
+    assert daily.xs("P02")["success_ceiling"].isna().all()  # P02 described no preferences
 
 
 def test_cumulative_feedback_is_one_stream_when_the_method_in_force_changes(store):

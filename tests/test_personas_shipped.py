@@ -13,6 +13,9 @@ from cacas.preferences import load_personas, parse_personas
 EXAMPLE = study_data_dir() / "personas" / "example.json"
 HOLDOUT = Path(__file__).parent / "data" / "holdout_personas.json"
 LEAVE_ME_ALONE = study_data_dir() / "personas" / "example_leave_me_alone.json"
+#: Written by someone who had seen design.md and the paper but not our personas or results (README,
+#: "Personas written independently"): like a reviewer's, with several "leave me alone" preferences.
+INDEPENDENT = Path(__file__).parent / "data" / "independent_personas.json"
 FILES = {"example": (EXAMPLE, 8, "P"), "holdout": (HOLDOUT, 6, "H")}
 
 
@@ -67,6 +70,14 @@ def test_variety_and_no_do_nothing(kind):
     assert any(pref.hours is not None for pref in prefs) and any(pref.interval is not None for pref in prefs)
     for p in people:  # each participant's preferences span several activities
         assert len({a for pref in p.preferences for a in pref.activity}) >= 4
+
+
+def test_independent_personas_load_and_include_leave_me_alone_preferences():
+    people = load_personas(INDEPENDENT)
+    assert [p.id for p in people] == [f"R{i:02d}" for i in range(1, 9)]
+    assert all(len(p.preferences) == 5 and all(pref.description for pref in p.preferences) for p in people)
+    quiet = [p.id for p in people if any(pref.action == "do nothing" for pref in p.preferences)]
+    assert quiet == ["R02", "R03", "R05", "R08"]
 
 
 def test_example_uses_every_action_but_do_nothing():

@@ -28,6 +28,16 @@ def test_fig3_mean_and_min_max_band_and_feedback_axis():
     assert fig.data[-1].yaxis == "y2"
 
 
+def test_fig3_draws_the_success_ceiling_where_daily_has_one():
+    assert "ceiling: always the described preference (mean)" not in [t.name for t in success_figure(daily()).data]
+    d = daily()
+    d["success_ceiling"] = np.where(d["method"] == "cacas", np.where(d["participant"] == "P01", 1.0, 0.6), np.nan)
+    d.loc[(d["participant"] == "P02") & (d["day"] == 3), "success_ceiling"] = 0.8
+    assert np.allclose(success_by_day(d)["ceiling"], [0.8, 0.8, 0.9])
+    line = [t for t in success_figure(d).data if t.name == "ceiling: always the described preference (mean)"]
+    assert len(line) == 1 and np.allclose(line[0].y, [0.8, 0.8, 0.9]) and line[0].line.dash == "dash"
+
+
 def test_fig4_one_line_per_method():
     a = accuracy_by_day(daily())
     assert np.allclose(a[a.method == "cacas"]["mean"], [0.5, 0.7, 0.9])

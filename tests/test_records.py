@@ -4,8 +4,9 @@
 import numpy as np
 import pandas as pd
 
+from cacas.preferences import parse_participant
 from cacas.records import (DAILY_COLUMNS, ROBOT_INITIATED, USER_INITIATED, csv_bytes, daily_table,
-                           feedback_points, is_success)
+                           feedback_points, is_success, preferred_action_contexts)
 
 T1, T2 = ROBOT_INITIATED, USER_INITIATED
 
@@ -49,11 +50,11 @@ def test_daily_table_counts_rates_and_one_feedback_stream_per_participant():
     daily = daily_table(STUDY)
     assert list(daily.columns) == DAILY_COLUMNS
     # participant, method, day, success_rate, preference_accuracy, cumulative_feedback,
-    # interactions, successes, user_initiated, feedback
+    # interactions, successes, user_initiated, feedback, success_ceiling (none: no preferences given)
     assert _rows(daily) == [
-        ("P01", "cacas", 1, 1 / 5, None, 4, 5, 1, 1, 4),   # 1 success of 5; points 1+1+0+0+2
-        ("P01", "nn", 2, 1 / 2, None, 7, 2, 1, 1, 3),      # cumulative goes on from day 1: 4 + 3
-        ("P02", "cacas", 1, 1 / 1, None, 1, 1, 1, 0, 1),   # P02's own total
+        ("P01", "cacas", 1, 1 / 5, None, 4, 5, 1, 1, 4, None),   # 1 success of 5; points 1+1+0+0+2
+        ("P01", "nn", 2, 1 / 2, None, 7, 2, 1, 1, 3, None),      # cumulative goes on from day 1: 4 + 3
+        ("P02", "cacas", 1, 1 / 1, None, 1, 1, 1, 0, 1, None),   # P02's own total
     ]
     for col in ("cumulative_feedback", "interactions", "successes", "user_initiated", "feedback"):
         assert daily[col].dtype == "Int64", col
@@ -66,10 +67,10 @@ def test_accuracy_rows_without_interactions_carry_the_days_counts():
                             columns=["participant", "method", "day", "preference_accuracy"])
     rows = _rows(daily_table(STUDY, accuracy))
     assert rows == [
-        ("P01", "cacas", 1, 0.2, 0.25, 4, 5, 1, 1, 4),
-        ("P01", "cacas", 2, None, 0.5, 7, 2, None, 1, 3),  # not in force on day 2: day 2's counts
-        ("P01", "nn", 2, 0.5, 0.75, 7, 2, 1, 1, 3),
-        ("P02", "cacas", 1, 1.0, None, 1, 1, 1, 0, 1),
+        ("P01", "cacas", 1, 0.2, 0.25, 4, 5, 1, 1, 4, None),
+        ("P01", "cacas", 2, None, 0.5, 7, 2, None, 1, 3, None),  # not in force on day 2: day 2's counts
+        ("P01", "nn", 2, 0.5, 0.75, 7, 2, 1, 1, 3, None),
+        ("P02", "cacas", 1, 1.0, None, 1, 1, 1, 0, 1, None),
     ]
 
 
@@ -87,7 +88,44 @@ def test_daily_table_of_no_interactions():
     assert list(empty.columns) == DAILY_COLUMNS and len(empty) == 0
     only_accuracy = daily_table(STUDY.iloc[:0], pd.DataFrame([("P01", "nn", 1, 0.5)], columns=[
         "participant", "method", "day", "preference_accuracy"]))
-    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, None, None, None, None, None)]
+    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, None, None, None, None, None, None)]
+
+
+def contexts(rows):
+    """Interactions with full contexts: participant, day, activity, scene, time_slot, robot_action,
+    response (the robot idle, 20 min since the last activity, nothing before)."""
+    return pd.DataFrame([{"participant": p, "method": "cacas", "day": d, "activity": a, "scene": sc,
+                          "time_slot": slot, "interval": 20, "task": "do nothing", "previous_action": "do nothing",
+                          "previous_response": "others", "type": T1, "robot_action": r, "response": resp,
+                          "user_action": ""} for p, d, a, sc, slot, r, resp in rows])
+
+
+def test_success_ceiling_is_the_share_of_contexts_whose_preference_names_an_action():
+    """A robot that always chose the described preference succeeds at most where the preference
+    names an action: not where the participant wants to be left alone, nor outside every
+    preference."""
+    person = parse_participant({"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check"},
+        {"activity": ["watch TV"], "scene": ["living room"], "action": "do nothing"}]})
+    rows = contexts([
+        ("P01", 1, "cough", "bedroom", 3, "pain check", "accept"),          # an action: 1
+        ("P01", 1, "watch TV", "living room", 10, "do nothing", "others"),  # left alone: 0
+        ("P01", 1, "watch TV", "kitchen", 10, "chitchat", "reject"),        # no preference: 0
+        ("P01", 1, "cough", "kitchen", 11, "chitchat", "reject"),           # an action: 1
+        ("P01", 2, "cough", "bedroom", 3, "pain check", "accept"),
+        ("P02", 1, "cough", "bedroom", 3, "pain check", "accept"),          # no described preferences
+    ])
+    table = {"P01": person.preferred_action_table()}
+    shares = preferred_action_contexts(rows, table)
+    assert shares[:5].tolist() == [1.0, 0.0, 0.0, 1.0, 1.0] and np.isnan(shares[5])
+    accuracy = pd.DataFrame([("P01", "nn", 1, 0.5)], columns=["participant", "method", "day", "preference_accuracy"])
+    daily = daily_table(rows, accuracy, table).set_index(["participant", "method", "day"])
+    assert daily.loc[("P01", "cacas", 1), "success_ceiling"] == 0.5    # 2 of 4
+    assert daily.loc[("P01", "cacas", 1), "success_rate"] == 0.25      # 1 of those 2 succeeded
+    assert daily.loc[("P01", "cacas", 2), "success_ceiling"] == 1.0
+    assert pd.isna(daily.loc[("P02", "cacas", 1), "success_ceiling"])  # no preferences: empty
+    assert pd.isna(daily.loc[("P01", "nn", 1), "success_ceiling"])     # not in closed loop: empty
+    assert daily_table(rows)["success_ceiling"].isna().all()            # no preferences given
 
 
 def test_csv_bytes_are_fixed_format():
