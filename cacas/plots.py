@@ -56,8 +56,9 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              line=dict(color=colour, width=3),
                              hovertemplate="day %{x}: %{y:.0%}<extra></extra>"), secondary_y=False)
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
-        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines", name="ceiling: always the described "
-                                 "preference (mean)", line=dict(color=colour, width=1.5, dash="dash"),
+        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name="ceiling: always the "
+                                 "described preference (mean)", line=dict(color=colour, width=1.5, dash="dash"),
+                                 marker=dict(symbol="line-ew-open", size=14, color=colour),  # seen on day 1 alone
                                  hovertemplate="day %{x}: at most %{y:.0%}<extra></extra>"), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
                              mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
