@@ -3,6 +3,7 @@
     python3 scripts/persona_table.py [PERSONA_FILE]
 """
 
+import argparse
 import sys
 from pathlib import Path
 
@@ -24,4 +25,7 @@ def markdown(path) -> str:
 
 
 if __name__ == "__main__":
-    print(markdown(sys.argv[1] if len(sys.argv) > 1 else study_data_dir() / "personas" / "example.json"))
+    parser = argparse.ArgumentParser(description="Print a persona file's table: covered states, twists vs D4A.")
+    parser.add_argument("persona_file", nargs="?", default=str(study_data_dir() / "personas" / "example.json"),
+                        help="a persona file (default: the shipped example personas)")
+    print(markdown(parser.parse_args().persona_file))
