@@ -43,6 +43,8 @@ INTERACTION_COLUMNS = [
 #: preference names an action other than "do nothing", i.e. the success rate of a robot that always
 #: proposed the described preference and was always answered (empty without described preferences).
 #: Where a participant wants to be left alone, even a perfect robot cannot "succeed" (Section V-B).
+#: Outside every described preference it counts 0, though the participant may accept something
+#: there (the simulated one answers by the D4A pairs), so it bounds what the preferences allow.
 DAILY_COLUMNS = [
     "participant", "method", "day", "success_rate", "preference_accuracy",
     "cumulative_feedback", "interactions", "successes", "user_initiated", "feedback", "success_ceiling",
