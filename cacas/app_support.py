@@ -126,6 +126,15 @@ def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
     } for v in versions], columns=cols)
 
 
+def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
+    """The Adaptation page's adaptation runs (the store's adaptations_frame): day, method,
+    duration_s, preference_accuracy (percent; NaN if not scored), policy_version (empty for a
+    comparison run, which saves none), created_at (short)."""
+    cols = ["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]
+    return runs.assign(preference_accuracy=100 * runs["preference_accuracy"].astype(float),
+                       created_at=[short_time(c) for c in runs["created_at"]])[cols]
+
+
 def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:
     """The last events in words, newest first: when, who, what."""
     ev = store.events(participant=participant, limit=limit)

@@ -176,11 +176,7 @@ else:
 
 if len(runs):
     with st.expander(f"Adaptation runs ({len(runs)})"):
-        view = runs.assign(
-            preference_accuracy=100 * runs["preference_accuracy"].astype(float),
-            created_at=[app_support.short_time(c) for c in runs["created_at"]],
-        )[["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]]
-        st.dataframe(view, hide_index=True, width="stretch",
+        st.dataframe(app_support.runs_table(runs), hide_index=True, width="stretch",
                      column_config={"duration_s": st.column_config.NumberColumn("duration (s)", format="%.1f"),
                                     "preference_accuracy": st.column_config.NumberColumn("preference accuracy",
                                                                                          format="%.0f%%")})

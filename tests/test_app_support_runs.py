@@ -122,4 +122,9 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(table["preference accuracy"]) == [75.0, 100.0]  # the comparison run is no version's
     assert list(table["in force"]) == ["", "yes"] and all(len(h) == 12 for h in table["sha256"])
     assert list(app_support.versions_table([], store.adaptations_frame("P01")).columns)[0] == "version"
+    runs = app_support.runs_table(store.adaptations_frame("P01"))
+    assert list(runs.columns) == ["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]
+    assert list(runs["method"]) == ["cacas", "cacas", "nn"] and list(runs["preference_accuracy"]) == [75.0, 100.0, 10.0]
+    assert list(runs["policy_version"].isna()) == [False, False, True]  # a comparison run saves no policy
+    assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["created_at"])  # "YYYY-MM-DD HH:MM UTC"
     store.close()
