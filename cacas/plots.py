@@ -30,13 +30,12 @@ def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
     """Per day: mean, min and max success rate across participants, mean cumulative feedback,
     and the mean success ceiling (NaN where daily.csv has none)."""
     d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
-    g = d.assign(day=d["day"].astype(int)).groupby("day")
-    ceiling = d["success_ceiling"] if "success_ceiling" in d.columns else pd.Series(float("nan"), index=d.index)
+    ceiling = pd.to_numeric(d["success_ceiling"], errors="coerce") if "success_ceiling" in d.columns else float("nan")
+    g = d.assign(day=d["day"].astype(int), _ceiling=ceiling).groupby("day")
     return pd.DataFrame({
         "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
         "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
-        "participants": g["participant"].nunique(),
-        "ceiling": pd.to_numeric(ceiling, errors="coerce").groupby(d["day"].astype(int)).mean(),
+        "participants": g["participant"].nunique(), "ceiling": g["_ceiling"].mean(),
     }).reset_index()
 
 
