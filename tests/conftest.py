@@ -27,3 +27,27 @@ def small_initial(small_config):
     from cacas.adaptation import train_initial_policy
 
     return train_initial_policy(config=small_config, seed=0)
+
+
+class FailOnCall:
+    """A stand-in for ``real`` that raises ``error`` on its ``n``-th call and passes the others
+    through; ``calls`` holds each call's first argument (the file, path or descriptor)."""
+
+    def __init__(self, real, n: int, error: Exception):
+        self.real, self.n, self.error, self.calls = real, n, error, []
+
+    def __call__(self, *args, **kwargs):
+        self.calls.append(args[0] if args else None)
+        if len(self.calls) == self.n:
+            raise self.error
+        return self.real(*args, **kwargs)
+
+
+DISK_FULL = OSError(28, "No space left on device")
+
+
+@pytest.fixture
+def fail_on_call():
+    """``fail_on_call(real, n, error=DISK_FULL)``: a failure part-way through a write (disk full,
+    a refused rename), for the "nothing is lost or half-written" tests."""
+    return lambda real, n, error=DISK_FULL: FailOnCall(real, n, error)

@@ -1,7 +1,6 @@
 """app_support: simulated runs saved all or nothing and read back in one call, and the small
 helpers the pages share (slots of a preference's hours, short timestamps, answers in words)."""
 
-import json
 
 import pandas as pd
 import pytest
@@ -73,24 +72,17 @@ def test_load_run_names_what_is_missing_or_unreadable(tmp_path):
         app_support.load_run(folder)
 
 
-def test_a_failure_part_way_leaves_the_earlier_run_whole(tmp_path, monkeypatch):
+def test_a_failure_part_way_leaves_the_earlier_run_whole(tmp_path, monkeypatch, fail_on_call):
     root = tmp_path / "runs"
     inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
     folder = app_support.save_run(root, "run1", _daily(0.3), inter, {"seed": 1}, _by_pref())
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
-    opened = []
-
-    def disk_full_on_the_second_file(path, mode="r", *args, **kwargs):
-        opened.append(path)
-        if len(opened) == 2:
-            raise OSError(28, "No space left on device")
-        return open(path, mode, *args, **kwargs)
-
-    monkeypatch.setattr(files, "open", disk_full_on_the_second_file, raising=False)
+    opened = fail_on_call(open, 2)
+    monkeypatch.setattr(files, "open", opened, raising=False)
     with pytest.raises(CacasError, match="No space left on device"):
         app_support.save_run(root, "run1", _daily(0.9), inter.assign(day=2), {"seed": 2}, _by_pref())
     monkeypatch.undo()
-    assert len(opened) == 2  # the failure came part-way through the files
+    assert len(opened.calls) == 2  # the failure came part-way through the files
     assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # old run whole, no temporary file
     assert app_support.load_run(folder).settings == {"seed": 1}
     assert app_support.list_runs(root) == ["run1"]

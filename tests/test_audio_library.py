@@ -124,7 +124,7 @@ def test_import_of_a_folder_with_no_recording_is_refused(tmp_path):
         library.import_folder(tmp_path / "mine" / "cough", root=tmp_path / "lib")  # nothing inside: not usable
 
 
-def test_import_that_fails_part_way_leaves_the_library_as_it_was(tmp_path, monkeypatch):
+def test_import_that_fails_part_way_leaves_the_library_as_it_was(tmp_path, monkeypatch, fail_on_call):
     import shutil
 
     from cacas import media_library
@@ -133,19 +133,12 @@ def test_import_that_fails_part_way_leaves_the_library_as_it_was(tmp_path, monke
     lib = tmp_path / "lib"
     first = library.import_folder(src, root=lib)
     before = sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*"))
-    copies, real_copy = [], shutil.copy2
-
-    def disk_full_on_the_second_copy(a, b):
-        copies.append(b)
-        if len(copies) == 2:
-            raise OSError(28, "No space left on device")
-        return real_copy(a, b)
-
-    monkeypatch.setattr(media_library.shutil, "copy2", disk_full_on_the_second_copy)
+    copy = fail_on_call(shutil.copy2, 2)
+    monkeypatch.setattr(media_library.shutil, "copy2", copy)
     with pytest.raises(CacasError, match="No space left on device.*nothing was imported"):
         library.import_folder(src, root=lib)
     monkeypatch.undo()
-    assert len(copies) == 2 and sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*")) == before
+    assert len(copy.calls) == 2 and sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*")) == before
     assert sorted(library.clip_paths("cough", lib) + library.clip_paths("watch TV", lib)) == sorted(first)
 
 

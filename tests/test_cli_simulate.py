@@ -103,7 +103,7 @@ def test_an_output_folder_that_cannot_be_written_is_refused_before_the_simulatio
     assert f"{flag} {folders[flag]}: cannot write in this folder" in err
 
 
-def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypatch):
+def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypatch, fail_on_call):
     """The disk fills while the tables are written: the earlier run's three files stay as they
     were (not a mix of two runs), no temporary file is left, one line, exit 2."""
     from cacas.store import files
@@ -113,14 +113,7 @@ def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypat
     earlier = {name: f"earlier {name}\n" for name in ("daily.csv", "interactions.csv", "by_preference.csv")}
     for name, text in earlier.items():
         (out / name).write_text(text)
-    calls = []
-
-    def full_disk(fd):
-        calls.append(fd)
-        if len(calls) == 2:
-            raise OSError(28, "No space left on device")
-
-    monkeypatch.setattr(files.os, "fsync", full_disk)
+    monkeypatch.setattr(files.os, "fsync", fail_on_call(files.os.fsync, 2))
     code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
                  "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out)])
     err = capsys.readouterr().err

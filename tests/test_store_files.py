@@ -17,36 +17,20 @@ def test_write_all_replaces_every_file(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["daily.csv", "interactions.csv"]  # nothing left over
 
 
-def test_a_refused_rename_puts_back_what_was_already_replaced(tmp_path, monkeypatch):
+def test_a_refused_rename_puts_back_what_was_already_replaced(tmp_path, monkeypatch, fail_on_call):
     (tmp_path / "a.csv").write_bytes(b"old a")
     (tmp_path / "b.csv").write_bytes(b"old b")
-    real_replace, calls = os.replace, []
-
-    def refuse_the_third(src, dst):
-        calls.append(dst)
-        if len(calls) == 3:
-            raise PermissionError(13, "Permission denied")
-        return real_replace(src, dst)
-
-    monkeypatch.setattr(files.os, "replace", refuse_the_third)
+    monkeypatch.setattr(files.os, "replace", fail_on_call(os.replace, 3, PermissionError(13, "Permission denied")))
     with pytest.raises(CacasError, match=r"c\.csv: cannot be written \(Permission denied\); "
                                          r"the folder's files are unchanged"):
         files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b", "c.csv": b"new c"})
-    monkeypatch.setattr(files.os, "replace", real_replace)
+    monkeypatch.undo()
     assert (tmp_path / "a.csv").read_bytes() == b"old a" and (tmp_path / "b.csv").read_bytes() == b"old b"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "b.csv"]  # no c.csv, no temporary files
 
 
-def test_a_file_that_was_not_there_is_removed_again(tmp_path, monkeypatch):
-    real_replace, calls = os.replace, []
-
-    def refuse_the_second(src, dst):
-        calls.append(dst)
-        if len(calls) == 2:
-            raise OSError(28, "No space left on device")
-        return real_replace(src, dst)
-
-    monkeypatch.setattr(files.os, "replace", refuse_the_second)
+def test_a_file_that_was_not_there_is_removed_again(tmp_path, monkeypatch, fail_on_call):
+    monkeypatch.setattr(files.os, "replace", fail_on_call(os.replace, 2))
     with pytest.raises(CacasError, match="b.csv: cannot be written"):
         files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b"})
     assert list(tmp_path.iterdir()) == []

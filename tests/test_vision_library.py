@@ -28,20 +28,15 @@ def test_import_copies_checked_photos_by_scene(tmp_path):
     assert [p.scene for p in library.scan(lib)] == ["bedroom", "bedroom", "living room", "living room"]
 
 
-def test_import_refuses_an_unsupported_file_and_copies_nothing(tmp_path):
+@pytest.mark.parametrize("name, message", [
+    ("notes.txt", r"notes\.txt: unsupported file type '\.txt'; valid: \.jpg, \.jpeg, \.png"),
+    ("broken.jpg", r"broken\.jpg: not a readable image"),
+])
+def test_import_refuses_a_bad_file_and_copies_nothing(tmp_path, name, message):
     src = _photos(tmp_path)
-    (src / "bedroom" / "notes.txt").write_text("taken on Monday")
+    (src / "bedroom" / name).write_text("not an image")
     lib = tmp_path / "lib"
-    with pytest.raises(CacasError, match=r"notes\.txt: unsupported file type '\.txt'; valid: \.jpg, \.jpeg, \.png"):
-        library.import_folder(src, root=lib)
-    assert not lib.exists()
-
-
-def test_import_refuses_an_unreadable_image_and_copies_nothing(tmp_path):
-    src = _photos(tmp_path)
-    (src / "bedroom" / "broken.jpg").write_text("no image here")
-    lib = tmp_path / "lib"
-    with pytest.raises(CacasError, match=r"broken\.jpg: not a readable image"):
+    with pytest.raises(CacasError, match=message):
         library.import_folder(src, root=lib)
     assert not lib.exists()
 
