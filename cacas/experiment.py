@@ -185,6 +185,13 @@ def participant_test_states(person: Participant, p_i: int, seed: int, n: int) ->
     return evaluation_states(person, n, seed=seed * 7919 + p_i)
 
 
+def adaptation_seed(seed: int, p_i: int, day: int, method: str) -> int:
+    """The seed of ``method``'s adaptation after ``day`` for the study's ``p_i``-th participant:
+    from the method's name, not its place in the list, so a method's results do not depend on
+    which other methods run beside it (given the same closed-loop method)."""
+    return seed * 100_003 + p_i * 101 + day * 7 + METHODS.index(method)
+
+
 def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
                       methods: tuple[str, ...], seed: int, no_response_rate: float,
                       config: CACAAConfig | None, d4a: D4A, ask_after_reject: float = 0.0):
@@ -203,8 +210,8 @@ def policies_in_force(initial, person: Participant, p_i: int, days: int, interac
                               ask_after_reject, d4a)
         if day < days:
             data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
-            in_force = {m: adapt_policy(in_force[m], data, m, seed=seed * 100_003 + p_i * 101 + day * 7 + k,
-                                        config=config, d4a=d4a).policy for k, m in enumerate(methods)}
+            in_force = {m: adapt_policy(in_force[m], data, m, seed=adaptation_seed(seed, p_i, day, m),
+                                        config=config, d4a=d4a).policy for m in methods}
 
 
 def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,

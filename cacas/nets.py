@@ -2,16 +2,30 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 import torch
 from torch import nn
 from torch.nn import functional as F
 
 
-def mlp(n_in: int, hidden: int, n_out: int) -> nn.Sequential:
-    """n_in -> hidden (ReLU) -> hidden (ReLU) -> n_out logits."""
-    return nn.Sequential(nn.Linear(n_in, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
-                         nn.Linear(hidden, n_out))
+def mlp(n_in: int, hidden: int, n_out: int, seed: int) -> nn.Sequential:
+    """n_in -> hidden (ReLU) -> hidden (ReLU) -> n_out logits, its initial weights drawn from
+    ``seed`` alone: torch's global random stream is neither read nor changed, so the network
+    does not depend on what the process did before (another method, another participant)."""
+    with seeded_torch(seed):
+        return nn.Sequential(nn.Linear(n_in, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
+                             nn.Linear(hidden, n_out))
+
+
+@contextmanager
+def seeded_torch(seed: int):
+    """Run the block with torch's global random stream seeded with ``seed`` and put the
+    stream back as it was afterwards (layers draw their initial weights from it)."""
+    with torch.random.fork_rng(devices=[]):
+        torch.manual_seed(seed)
+        yield
 
 
 def fit_classifier(model: nn.Module, x: np.ndarray, y: np.ndarray, epochs: int = 150, lr: float = 1e-2,
@@ -19,7 +33,6 @@ def fit_classifier(model: nn.Module, x: np.ndarray, y: np.ndarray, epochs: int =
                    sample_weight: np.ndarray | None = None) -> nn.Module:
     """Cross-entropy training with Adam (full batch when the data are small, as here)."""
     g = torch.Generator().manual_seed(seed)
-    torch.manual_seed(seed)
     xt = torch.as_tensor(np.asarray(x, np.float32))
     yt = torch.as_tensor(np.asarray(y, np.int64))
     wt = None if sample_weight is None else torch.as_tensor(np.asarray(sample_weight, np.float32))

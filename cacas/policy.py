@@ -58,11 +58,11 @@ class MLPPolicy:
 
     def __init__(self, hidden: int = 64, epochs: int = 150, seed: int = 0):
         self.hidden, self.epochs, self.seed = hidden, epochs, seed
-        self.net = nets.mlp(spaces.STATE_DIM, hidden, spaces.N_ACTIONS)
+        self.net = nets.mlp(spaces.STATE_DIM, hidden, spaces.N_ACTIONS, seed)
         self.trained_on = 0
 
     def fit(self, states: np.ndarray, actions: np.ndarray) -> "MLPPolicy":
-        self.net = nets.mlp(spaces.STATE_DIM, self.hidden, spaces.N_ACTIONS)
+        self.net = nets.mlp(spaces.STATE_DIM, self.hidden, spaces.N_ACTIONS, self.seed)
         if len(actions):
             nets.fit_classifier(self.net, _state_matrix(states), actions, epochs=self.epochs, seed=self.seed)
         self.trained_on = int(len(actions))

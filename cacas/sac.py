@@ -38,6 +38,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from cacas import spaces
+from cacas.nets import seeded_torch
 
 
 @dataclass
@@ -232,11 +233,11 @@ class DiscreteSAC:
     def __init__(self, config: SACConfig | None = None, seed: int = 0):
         self.config = config or SACConfig()
         c = self.config
-        torch.manual_seed(seed)
         self.generator = torch.Generator().manual_seed(seed)
-        self.actor = actor_network(c.state_dim, c.n_actions, c.hidden)
-        self.critic = TwinCritic(c.state_dim, c.n_actions, c.hidden)
-        self.critic_target = TwinCritic(c.state_dim, c.n_actions, c.hidden)
+        with seeded_torch(seed):  # initial weights from the seed alone
+            self.actor = actor_network(c.state_dim, c.n_actions, c.hidden)
+            self.critic = TwinCritic(c.state_dim, c.n_actions, c.hidden)
+            self.critic_target = TwinCritic(c.state_dim, c.n_actions, c.hidden)
         self.critic_target.load_state_dict(self.critic.state_dict())
         for p in self.critic_target.parameters():
             p.requires_grad_(False)

@@ -129,12 +129,12 @@ class UserModel:
 
     def __init__(self, hidden: int = 64, epochs: int = 150, seed: int = 0):
         self.hidden, self.epochs, self.seed = hidden, epochs, seed
-        self.net = nets.mlp(spaces.USER_INPUT_DIM, hidden, spaces.N_RESPONSES)
+        self.net = nets.mlp(spaces.USER_INPUT_DIM, hidden, spaces.N_RESPONSES, seed)
         self.trained_on = 0
 
     def fit(self, data: UserData) -> "UserModel":
         x, y = data.arrays()
-        self.net = nets.mlp(spaces.USER_INPUT_DIM, self.hidden, spaces.N_RESPONSES)
+        self.net = nets.mlp(spaces.USER_INPUT_DIM, self.hidden, spaces.N_RESPONSES, self.seed)
         if len(y):
             nets.fit_classifier(self.net, x, y, epochs=self.epochs, seed=self.seed)
         self.trained_on = len(y)

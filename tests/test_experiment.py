@@ -134,8 +134,11 @@ def test_bad_arguments(kw, needle, small_initial):
         simulate_study(PEOPLE, initial_policy=small_initial, **kw)
 
 
-def test_parallel_workers_give_the_same_tables(small_config, small_initial):
-    kw = dict(days=2, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
+@pytest.mark.parametrize("methods", [["cacas", "nn"], ["nn", "bandit"]])
+def test_parallel_workers_give_the_same_tables(methods, small_config, small_initial):
+    # ["nn", "bandit"] creates no SAC agent while adapting: the MLP's initial weights once came
+    # from torch's global stream, i.e. from whichever participant the worker had run before
+    kw = dict(days=2, interactions=4, methods=methods, seed=2, config=small_config,
               initial_policy=small_initial)
     ticks, words = [], []
     one = simulate_study(PEOPLE, jobs=1, **kw)
@@ -146,6 +149,15 @@ def test_parallel_workers_give_the_same_tables(small_config, small_initial):
     # at once, what is starting; then the participant-days, reported from the workers
     assert ticks[0] == 0.0 and words[0] == f"simulating day 1 of {len(PEOPLE)} participants (2 methods, 2 worker processes)"
     assert len(ticks) == 5 and ticks[-1] == 1.0
+
+
+def test_a_method_gives_the_same_results_whichever_methods_run_beside_it(small_config, small_initial):
+    kw = dict(days=3, interactions=5, seed=4, config=small_config, initial_policy=small_initial)
+    two = simulate_study(PEOPLE, methods=["cacas", "nn"], **kw).daily
+    three = simulate_study(PEOPLE, methods=["cacas", "orl", "nn"], **kw).daily
+    nn_two, nn_three = (d[d["method"] == "nn"].reset_index(drop=True) for d in (two, three))
+    assert nn_two["preference_accuracy"].nunique() > 1  # it learns: the comparison means something
+    pd.testing.assert_frame_equal(nn_two, nn_three)
 
 
 def test_outside_every_preference_the_simulated_participant_answers_by_the_d4a_pairs():
