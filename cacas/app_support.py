@@ -474,7 +474,7 @@ def check_simulation(participants, methods) -> tuple[str, ...]:
 
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
                    seed: int = 0, no_response_rate: float = 0.1, progress=None,
-                   ask_after_reject: float = 0.0) -> Path:
+                   ask_after_reject: float = 0.0, loop: str = "first") -> Path:
     """A simulated study (:func:`cacas.experiment.simulate_study`) saved as a run under
     ``out_root`` (see :func:`save_run`); returns the run's folder. For a background job."""
     from datetime import datetime, timezone
@@ -484,10 +484,10 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
     methods = check_simulation(participants, methods)
     result = simulate_study(list(participants), days=days, interactions=interactions, methods=tuple(methods),
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
-                            ask_after_reject=ask_after_reject)
+                            ask_after_reject=ask_after_reject, loop=loop)
     stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
     name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,
                 "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate,
-                "ask_after_reject": ask_after_reject}
+                "ask_after_reject": ask_after_reject, "loop": loop}
     return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)

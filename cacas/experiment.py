@@ -15,6 +15,14 @@ method, CACAS by default), so the policy in force on day d has seen days 1..d-1.
 the closed-loop method's success rate (Fig. 3) and every method's preference accuracy (Fig. 4);
 ``by_preference`` the same accuracy broken down by described preference (which preferences each
 method learnt, and when).
+
+With ``loop="each"`` every method instead runs its own study in closed loop: the robot acts
+with that method's policy and the method adapts from the interactions its own actions brought
+about, so each has a success rate (Fig. 3 for every method). The simulated participant's random
+stream starts the same for every method (common random numbers): day 1, lived with the same
+initial policy, is identical for all, and later days differ only through the methods' actions.
+The paper's Section IV-C.2 names what this shows: a supervised policy "when it comes to
+performing as an agent policy" has only the "accept" data its own proposals earned.
 """
 
 from __future__ import annotations
@@ -38,6 +46,9 @@ from cacas.preferences import Participant
 from cacas.simulator import current_task, preference_states
 
 PAPER_METHODS = ("cacas", "cacas-no-pr", "orl", "nn")
+#: Who acts in the simulated study: the first method, every method adapting from its interactions
+#: (the paper's Fig. 4), or each method in a closed loop of its own.
+LOOPS = ("first", "each")
 Progress = Callable[[float, str], None]
 
 
@@ -67,6 +78,13 @@ def check_study_arguments(days: int, interactions: int, no_response_rate: float,
         raise CacasError(f"--no-response-rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
     if not 0 <= ask_after_reject <= 1:
         raise CacasError(f"--ask-after-reject {ask_after_reject} is invalid; valid: 0 <= rate <= 1")
+
+
+def check_loop(loop: str) -> str:
+    if loop not in LOOPS:
+        raise CacasError(f"--loop {loop!r} is invalid; valid: first (every method adapts from the first "
+                         "method's interactions, as the paper's Fig. 4) or each (every method in its own closed loop)")
+    return loop
 
 
 def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
@@ -141,17 +159,19 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
                    methods: Sequence[str] = PAPER_METHODS, seed: int = 0, no_response_rate: float = 0.1,
                    progress: Progress | None = None, config: CACAAConfig | None = None,
                    d4a: D4A | None = None, initial_policy=None, eval_states: int = 400,
-                   jobs: int | None = None, ask_after_reject: float = 0.0) -> StudyResult:
+                   jobs: int | None = None, ask_after_reject: float = 0.0, loop: str = "first") -> StudyResult:
     """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
     number of worker processes (default 1; more need the caller's script to guard its entry
-    point with ``if __name__ == "__main__":``, as worker processes are spawned)."""
+    point with ``if __name__ == "__main__":``, as worker processes are spawned). ``loop``: see
+    :data:`LOOPS` and the module's docstring."""
     check_study_arguments(days, interactions, no_response_rate, ask_after_reject, seed)
     methods = check_methods(methods)
+    check_loop(loop)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()
     jobs = max(1, min(jobs or 1, len(participants)))
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,
-             ask_after_reject) for p_i, person in enumerate(participants)]
+             ask_after_reject, loop) for p_i, person in enumerate(participants)]
     total = len(participants) * days
     done = [0]
 
@@ -162,8 +182,9 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
 
     if progress:  # the first day's tick comes after a day lived and adapted by every method
         progress(0.0, f"simulating day 1 of {len(participants)} participant{'s' if len(participants) != 1 else ''} "
-                      f"({len(methods)} method{'s' if len(methods) != 1 else ''}, {jobs} worker "
-                      f"process{'es' if jobs != 1 else ''})")
+                      f"({len(methods)} method{'s' if len(methods) != 1 else ''}"
+                      f"{', each in its own closed loop' if loop == 'each' and len(methods) > 1 else ''}, "
+                      f"{jobs} worker process{'es' if jobs != 1 else ''})")
     if jobs == 1:
         results = [simulate_participant(initial, *a, report=tick) for a in args]
     else:
@@ -172,7 +193,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     accuracy = pd.DataFrame([r for _, acc, _ in results for r in acc])
     by_preference = pd.concat([b for _, _, b in results], ignore_index=True)
     preferred = {p.id: p.preferred_action_table() for p in participants}
-    return StudyResult(combine_daily(inter, accuracy, methods, preferred), inter, by_preference)
+    return StudyResult(combine_daily(inter, accuracy, methods, preferred, loop), inter, by_preference)
 
 
 def default_jobs() -> int:
@@ -194,31 +215,35 @@ def adaptation_seed(seed: int, p_i: int, day: int, method: str) -> int:
 
 def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
                       methods: tuple[str, ...], seed: int, no_response_rate: float,
-                      config: CACAAConfig | None, d4a: D4A, ask_after_reject: float = 0.0):
+                      config: CACAAConfig | None, d4a: D4A, ask_after_reject: float = 0.0, loop: str = "first"):
     """One participant's simulated study, day by day: yields (day, {method: policy in force that
-    day}, interaction rows so far) before the day's interactions are added to that same list, so
-    once the generator is exhausted the list holds every day's rows. The first method acts in
-    closed loop; after each day every method adapts from all interactions so far. Random streams
-    depend on (seed, participant index) only."""
-    rng = np.random.default_rng([seed, p_i])
-    loop_method = methods[0]
+    day}, {closed-loop method: its interaction rows so far}) before the day's interactions are
+    added to those same lists, so once the generator is exhausted they hold every day's rows.
+    With ``loop="first"`` the first method acts in closed loop and after each day every method
+    adapts from all its interactions so far; with ``loop="each"`` every method acts and adapts
+    from its own. Random streams depend on (seed, participant index) only, and every closed loop
+    starts from the same stream."""
+    actors = methods[:1] if loop == "first" else methods
+    rngs = {m: np.random.default_rng([seed, p_i]) for m in actors}
     in_force = {m: initial for m in methods}
-    rows: list[dict] = []
+    rows: dict[str, list[dict]] = {m: [] for m in actors}
     for day in range(1, days + 1):
         yield day, in_force, rows
-        rows += simulated_day(in_force[loop_method], person, day, interactions, rng, no_response_rate, loop_method,
-                              ask_after_reject, d4a)
+        for m in actors:
+            rows[m] += simulated_day(in_force[m], person, day, interactions, rngs[m], no_response_rate, m,
+                                     ask_after_reject, d4a)
         if day < days:
-            data = pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
-            in_force = {m: adapt_policy(in_force[m], data, m, seed=adaptation_seed(seed, p_i, day, m),
-                                        config=config, d4a=d4a).policy for m in methods}
+            data = {m: pd.DataFrame(rows[m], columns=records.INTERACTION_COLUMNS) for m in actors}
+            in_force = {m: adapt_policy(in_force[m], data[m if m in data else actors[0]], m,
+                                        seed=adaptation_seed(seed, p_i, day, m), config=config, d4a=d4a).policy
+                        for m in methods}
 
 
 def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,
                          methods: tuple[str, ...], seed: int, no_response_rate: float,
                          config: CACAAConfig | None, d4a: D4A, eval_states: int,
-                         ask_after_reject: float = 0.0, report: Callable[[str], None] | None = None
-                         ) -> tuple[list[dict], list[dict], pd.DataFrame]:
+                         ask_after_reject: float = 0.0, loop: str = "first",
+                         report: Callable[[str], None] | None = None) -> tuple[list[dict], list[dict], pd.DataFrame]:
     """One participant's simulated study: (interaction rows, preference-accuracy rows, the
     accuracy by preference: records.BY_PREFERENCE_COLUMNS). Its random streams depend on (seed,
     participant index) only, so the result is the same whether participants run one after
@@ -226,9 +251,9 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
     test_states = participant_test_states(person, p_i, seed, eval_states)
     acc_rows: list[dict] = []
     by_preference: list[pd.DataFrame] = []
-    rows: list[dict] = []
+    rows: dict[str, list[dict]] = {}
     for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
-                                                 no_response_rate, config, d4a, ask_after_reject):
+                                                 no_response_rate, config, d4a, ask_after_reject, loop):
         if day > 1 and report:  # the previous day was lived and adapted from
             report(f"participant {person.id}, day {day - 1}/{days}")
         for m in methods:
@@ -238,7 +263,8 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
                                  .assign(participant=person.id, method=m, day=day))
     if report:
         report(f"participant {person.id}, day {days}/{days}")
-    return rows, acc_rows, pd.concat(by_preference, ignore_index=True)[records.BY_PREFERENCE_COLUMNS]
+    return ([r for m in rows for r in rows[m]], acc_rows,
+            pd.concat(by_preference, ignore_index=True)[records.BY_PREFERENCE_COLUMNS])
 
 
 def _worker(initial_bytes: bytes, args: tuple, queue) -> tuple[list[dict], list[dict], pd.DataFrame]:
@@ -267,13 +293,19 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[str], N
 
 
 def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str],
-                  preferred: dict[str, np.ndarray] | None = None) -> pd.DataFrame:
+                  preferred: dict[str, np.ndarray] | None = None, loop: str = "first") -> pd.DataFrame:
     """daily.csv rows for every method (:func:`cacas.records.daily_table`): the closed-loop
     method (the first) has its own success rate (and, given the participants' ``preferred``
     action tables, its success ceiling); the others adapted from the same interactions, so they
-    share its interaction and feedback counts and have an empty success rate. Methods in the
-    order given."""
-    daily = records.daily_table(interactions, accuracy, preferred)
+    share its interaction and feedback counts and have an empty success rate. With
+    ``loop="each"`` every method's rows come from its own interactions, counts and cumulative
+    feedback included (each is a study of its own). Methods in the order given."""
+    if loop == "each":
+        daily = pd.concat([records.daily_table(interactions[interactions["method"] == m],
+                                               accuracy[accuracy["method"] == m], preferred) for m in methods],
+                          ignore_index=True)
+    else:
+        daily = records.daily_table(interactions, accuracy, preferred)
     order = {m: i for i, m in enumerate(methods)}
     daily = daily.sort_values(["participant", "method", "day"], key=lambda c: c.map(order) if c.name == "method" else c)
     return daily.reset_index(drop=True)

@@ -20,10 +20,16 @@ def loop_method(daily: pd.DataFrame) -> str | None:
     """The method whose success rate Fig. 3 shows: the one that ran in closed loop (the others
     adapted from its interactions and have no success rate). "cacas" when it has a success rate,
     else the first method that has one; None when no day has one."""
-    methods = list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))
+    methods = closed_loop_methods(daily)
     if not methods:
         return None
     return "cacas" if "cacas" in methods else methods[0]
+
+
+def closed_loop_methods(daily: pd.DataFrame) -> list[str]:
+    """The methods with a success rate, in daily's order: those that ran in closed loop (one in
+    the paper's Fig. 4 protocol; every method with ``cacas simulate --loop each``)."""
+    return list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))
 
 
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
@@ -73,6 +79,25 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                                      f"{n} participant{'s' if n != 1 else ''})",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
                       template="plotly_white")
+    return fig
+
+
+def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
+    """Fig. 3 for every method that ran in a closed loop of its own (``--loop each``): each
+    method's mean success rate per day, with its min-max across participants in the hover."""
+    fig = go.Figure()
+    for method in closed_loop_methods(daily):
+        s = success_by_day(daily, method)
+        fig.add_trace(go.Scatter(
+            x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
+            line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
+            customdata=s[["min", "max", "cumulative_feedback"]],
+            hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
+                          "%{customdata[2]:.0f} data points)<extra></extra>"))
+    fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%")
+    fig.update_xaxes(title_text="day", dtick=1)
+    fig.update_layout(title=title or "Success rate by method, each in its own closed loop", template="plotly_white",
+                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
     return fig
 
 

@@ -66,10 +66,15 @@ else:
 fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"])
 
 with fig3:
-    method = plots.loop_method(daily)
+    method, looped = plots.loop_method(daily), plots.closed_loop_methods(daily)
     if method is None:
         st.info("No study day with interactions yet. Run a day on the **Study session** page.")
     else:
+        if len(looped) > 1:  # a simulated run with every method in its own closed loop
+            st.plotly_chart(plots.success_methods_figure(daily), width="stretch")
+            method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method",
+                                  format_func=lambda m: plots.METHOD_LABELS.get(m, m),
+                                  help="Each of these methods acted in a study of its own; Fig. 3 below shows one.")
         per_day = plots.success_by_day(daily, method).set_index("day")
         last = per_day.index.max()
         c1, c2, c3 = st.columns(3)

@@ -7,7 +7,7 @@ import streamlit as st
 
 from cacas import app_support, plots
 from cacas.errors import CacasError
-from cacas.experiment import METHODS, PAPER_METHODS, summary_table
+from cacas.experiment import LOOPS, METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.paths import study_data_dir
 from cacas.preferences import load_personas, parse_personas, persona_json
@@ -49,6 +49,8 @@ except CacasError as exc:
 if problem:
     st.error(problem, icon=":material/error:")
 
+LOOP_LABELS = {"first": "the first method; all adapt from its interactions (Fig. 4)",
+               "each": "each method, in a study of its own"}
 by_id = {p.id: p for p in people}
 job = RUNNER.get(JOB)
 running = job is not None and job.running
@@ -67,6 +69,10 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
     methods = st.multiselect("Methods", METHODS, default=list(PAPER_METHODS),
                              help="The first method runs in closed loop (its success rate is Fig. 3); all "
                                   "of them adapt from the same interactions (Fig. 4).")
+    loop = st.radio("Who acts with the participants", LOOPS, horizontal=True, format_func=LOOP_LABELS.get,
+                    help="The paper compared methods on CACAS's interactions (Fig. 4). With 'each method', every "
+                         "method runs a study of its own and has its own success rate: how it would do as the "
+                         "robot's policy.")
     st.caption(f"About {len(chosen) * max(int(days) - 1, 0) * len(methods)} adaptations; a few seconds each "
                "on this machine.")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
@@ -79,7 +85,7 @@ if go:
         _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
-                                  ask_after_reject=float(ask_rate),
+                                  ask_after_reject=float(ask_rate), loop=loop,
                                   label="Simulating")
         if not started:
             st.warning("A simulation is already running.")
@@ -102,10 +108,14 @@ if runs:
         st.caption(f"{n} participant{'s' if n != 1 else ''} · {settings.get('days')} days · "
                    f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
                    f" · seed {settings.get('seed')}" + (f" · asks after {ui.percent(settings['ask_after_reject'])} of "
-                                                         "rejections" if settings.get("ask_after_reject") else ""))
+                                                         "rejections" if settings.get("ask_after_reject") else "")
+                   + (" · each method in its own closed loop" if settings.get("loop") == "each" else ""))
     c1, c2 = st.columns(2)
-    c1.plotly_chart(plots.success_figure(daily, method=plots.loop_method(daily) or daily["method"].iloc[0]),
-                    width="stretch")
+    if len(plots.closed_loop_methods(daily)) > 1:
+        c1.plotly_chart(plots.success_methods_figure(daily), width="stretch")
+    else:
+        c1.plotly_chart(plots.success_figure(daily, method=plots.loop_method(daily) or daily["method"].iloc[0]),
+                        width="stretch")
     c2.plotly_chart(plots.methods_figure(daily), width="stretch")
     summary = summary_table(daily)
     shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]

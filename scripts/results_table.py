@@ -18,21 +18,27 @@ def main(path: str) -> None:
     daily = pd.read_csv(path)
     methods = list(dict.fromkeys(daily["method"]))
     acc = daily.pivot_table(index="day", columns="method", values="preference_accuracy", aggfunc="mean")[methods]
-    loop = methods[0]
+    looped = list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))  # --loop each: all of them
+    loop = looped[0] if looped else methods[0]
     succ = daily[daily["method"] == loop].groupby("day").agg(
         success_rate=("success_rate", "mean"), success_min=("success_rate", "min"),
-        success_max=("success_rate", "max"), cumulative_feedback=("cumulative_feedback", "mean"))
-    head = ["day", f"success rate ({loop}) mean [min-max]", "cumulative feedback"] + \
-        [f"accuracy {m}" for m in methods]
+        success_max=("success_rate", "max"), cumulative_feedback=("cumulative_feedback", "mean"),
+        ceiling=("success_ceiling", "mean"))
+    others = daily.pivot_table(index="day", columns="method", values="success_rate", aggfunc="mean")
+    with_ceiling = bool((succ["ceiling"] < 1).any())  # shown where participants want the robot quiet somewhere
+    head = ["day", f"success rate ({loop}) mean [min-max]"] + [f"success rate {m}" for m in looped[1:]] + \
+        (["success ceiling"] if with_ceiling else []) + ["cumulative feedback"] + [f"accuracy {m}" for m in methods]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for day in acc.index:
         s = succ.loc[day]
-        cells = [str(day), f"{s.success_rate:.2f} [{s.success_min:.2f}-{s.success_max:.2f}]",
-                 f"{s.cumulative_feedback:.1f}"] + [f"{acc.loc[day, m]:.3f}" for m in methods]
+        cells = [str(day), f"{s.success_rate:.2f} [{s.success_min:.2f}-{s.success_max:.2f}]"] + \
+            [f"{others.loc[day, m]:.2f}" for m in looped[1:]] + ([f"{s.ceiling:.2f}"] if with_ceiling else []) + \
+            [f"{s.cumulative_feedback:.1f}"] + [f"{acc.loc[day, m]:.3f}" for m in methods]
         print("| " + " | ".join(cells) + " |")
     last = acc.index.max()
-    paper = ["paper", f"{PAPER['success day 1']:.2f} (day 1), {PAPER['success day 7']:.2f} (day 7)", "104 (day 7)"] + \
+    paper = ["paper", f"{PAPER['success day 1']:.2f} (day 1), {PAPER['success day 7']:.2f} (day 7)"] + \
+        ["-"] * (len(looped[1:]) + with_ceiling) + ["104 (day 7)"] + \
         [f"{PAPER[m + ' day 7']:.2f} (day 7)" if m + " day 7" in PAPER else "-" for m in methods]
     print("| " + " | ".join(paper) + " |")
     print(f"\nparticipants: {daily['participant'].nunique()}, days: {last}")

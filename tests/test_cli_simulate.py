@@ -34,6 +34,7 @@ def bad_pref(**change):
     (GOOD, ["--methods", "cacas,dqn"], ["unknown method 'dqn'"]),
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
     (GOOD, ["--ask-after-reject", "2"], ["--ask-after-reject 2.0", "0 <= rate <= 1"]),
+    (GOOD, ["--loop", "both"], ["--loop 'both' is invalid", "valid: first", "or each"]),
     (GOOD, ["--days", "two"], ["--days", "invalid int"]),
     (GOOD, ["--days", "366"], ["--days 366", "from 1 to 365"]),
     (GOOD, ["--interactions", "10000000000"], ["--interactions 10000000000", "from 1 to 1440"]),
@@ -82,6 +83,24 @@ def test_same_seed_writes_the_same_daily_csv_byte_for_byte(tmp_path, capsys):
     assert (tmp_path / "plots" / "fig3_success.html").stat().st_size > 1000
     assert (tmp_path / "plots" / "fig4_methods.html").exists()
     assert "Accuracy by described preference" in (tmp_path / "plots" / "fig4_by_preference.html").read_text()
+
+
+def test_loop_each_gives_every_method_its_success_rate_and_fig3(tmp_path, capsys):
+    import pandas as pd
+
+    personas = write(tmp_path, GOOD)
+    assert main(["simulate", "--personas", str(personas), "--days", "2", "--interactions", "4", "--methods",
+                 "cacas,nn", "--loop", "each", "--quiet", "--out", str(tmp_path / "o"),
+                 "--plot", str(tmp_path / "p")]) == 0
+    daily = pd.read_csv(tmp_path / "o" / "daily.csv")
+    assert set(daily["method"]) == {"cacas", "nn"} and daily["success_rate"].notna().all()
+    assert set(pd.read_csv(tmp_path / "o" / "interactions.csv")["method"]) == {"cacas", "nn"}
+    assert "Success rate by method" in (tmp_path / "p" / "fig3_methods.html").read_text()
+    # the paper's protocol (default) has one closed loop and no such figure
+    assert main(["simulate", "--personas", str(personas), "--days", "2", "--interactions", "4", "--methods",
+                 "cacas,nn", "--quiet", "--out", str(tmp_path / "o2"), "--plot", str(tmp_path / "p2")]) == 0
+    assert pd.read_csv(tmp_path / "o2" / "daily.csv").query("method == 'nn'")["success_rate"].isna().all()
+    assert not (tmp_path / "p2" / "fig3_methods.html").exists()
 
 
 @pytest.mark.parametrize("flag", ["--out", "--plot"])

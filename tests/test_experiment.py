@@ -125,10 +125,36 @@ def test_same_seed_same_tables(small_config, small_initial):
     pd.testing.assert_frame_equal(a.interactions, b.interactions)
 
 
+def test_each_method_in_its_own_closed_loop(small_config, small_initial):
+    kw = dict(days=3, interactions=6, seed=5, config=small_config, initial_policy=small_initial)
+    res = simulate_study(PEOPLE, methods=["cacas", "nn"], loop="each", **kw)
+    inter, d = res.interactions, res.daily
+    assert set(inter["method"]) == {"cacas", "nn"}
+    assert d["success_rate"].notna().all()  # every method has a success rate of its own
+    key = ["participant", "day", "index", "activity", "scene", "time", "robot_action", "response"]
+    by = {m: inter[inter["method"] == m][key].reset_index(drop=True) for m in ("cacas", "nn")}
+    day1 = {m: f[f["day"] == 1] for m, f in by.items()}
+    pd.testing.assert_frame_equal(day1["cacas"], day1["nn"])  # same initial policy, same participant stream
+    assert not by["cacas"].equals(by["nn"])  # later days follow each method's own actions
+    for m in ("cacas", "nn"):  # counts and cumulative feedback from the method's own interactions
+        own = records.daily_table(inter[inter["method"] == m])
+        mine = d[d["method"] == m].reset_index(drop=True)
+        assert list(mine["interactions"]) == list(own["interactions"])
+        assert list(mine["cumulative_feedback"]) == list(own["cumulative_feedback"])
+    # each method adapted from its own data: the same policies as a study it runs alone
+    alone = simulate_study(PEOPLE, methods=["nn"], **kw)
+    pd.testing.assert_frame_equal(d[d["method"] == "nn"].reset_index(drop=True), alone.daily)
+    # the default protocol is unchanged: the first method acts, the others have no success rate
+    first = simulate_study(PEOPLE, methods=["cacas", "nn"], **kw)
+    assert set(first.interactions["method"]) == {"cacas"}
+    pd.testing.assert_frame_equal(first.interactions, inter[inter["method"] == "cacas"].reset_index(drop=True))
+
+
 @pytest.mark.parametrize("kw,needle", [({"days": 0}, "--days 0"), ({"interactions": 0}, "--interactions 0"),
                                        ({"methods": ["cacas", "dqn"]}, "unknown method 'dqn'"),
                                        ({"no_response_rate": 1.5}, "--no-response-rate 1.5"),
-                                       ({"ask_after_reject": -0.1}, "--ask-after-reject -0.1")])
+                                       ({"ask_after_reject": -0.1}, "--ask-after-reject -0.1"),
+                                       ({"loop": "all"}, "--loop 'all' is invalid; valid: first .* or each")])
 def test_bad_arguments(kw, needle, small_initial):
     with pytest.raises(CacasError, match=needle):
         simulate_study(PEOPLE, initial_policy=small_initial, **kw)

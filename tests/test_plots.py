@@ -89,6 +89,18 @@ def test_loop_method_is_the_one_with_a_success_rate():
     assert loop_method(daily().assign(success_rate=np.nan)) is None
 
 
+def test_fig3_for_every_method_in_its_own_closed_loop():
+    from cacas.plots import closed_loop_methods, success_methods_figure
+
+    assert closed_loop_methods(daily()) == ["cacas"]
+    each = daily().assign(success_rate=lambda d: np.where(d["method"] == "nn", 0.1, d["success_rate"]))
+    assert closed_loop_methods(each) == ["cacas", "nn"]
+    fig = success_methods_figure(each)
+    assert [t.name for t in fig.data] == ["CACAS", "NN"]
+    assert np.allclose(fig.data[0].y, [0.4, 0.5, 0.6]) and np.allclose(fig.data[1].y, [0.1, 0.1, 0.1])
+    assert [t.name for t in success_methods_figure(daily()).data] == ["CACAS"]
+
+
 def test_accuracy_table_is_fig4_as_a_table():
     from cacas.plots import accuracy_table
 

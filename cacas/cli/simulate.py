@@ -7,6 +7,10 @@ Writes DIR/daily.csv, DIR/interactions.csv and DIR/by_preference.csv (Fig. 4's a
 described preference: which preferences each method learnt, day by day), prints the
 per-method, per-day table of means, and with --plot writes Fig. 3, Fig. 4 and the accuracy by
 preference as Plotly HTML.
+
+The first method acts and every method adapts from its interactions (the paper's Fig. 4). With
+--loop each, every method runs its own closed-loop study instead (its own interactions and
+success rate; --plot also writes fig3_methods.html, Fig. 3 for every method).
 """
 
 from __future__ import annotations
@@ -31,6 +35,9 @@ def register(sub) -> None:
                    help="share of wrong robot actions the simulated participant answers by asking for the "
                         "preferred action instead (as the tablet allows; default 0: only when the robot does "
                         "nothing)")
+    p.add_argument("--loop", default="first", metavar="{first,each}",
+                   help="first: the first method acts, every method adapts from its interactions (the paper's "
+                        "Fig. 4; default); each: every method acts and adapts in a closed loop of its own")
     p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
     p.add_argument("--out", required=True, metavar="DIR",
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
@@ -43,9 +50,10 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from cacas.experiment import check_methods, check_study_arguments
+    from cacas.experiment import check_loop, check_methods, check_study_arguments
 
     check_study_arguments(args.days, args.interactions, args.no_response_rate, args.ask_after_reject, args.seed)
+    check_loop(args.loop)
     if args.jobs is not None and args.jobs < 1:
         raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
     methods = check_methods(args.methods.split(","))
@@ -67,7 +75,8 @@ def run(args) -> int:
     progress = None if args.quiet else ProgressBar("simulate")
     result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                             seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
-                            jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject)
+                            jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
+                            loop=args.loop)
     # the three tables replace an earlier run's together, or not at all
     written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),
                                     "interactions.csv": records.csv_bytes(result.interactions),
@@ -77,11 +86,13 @@ def run(args) -> int:
         print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
     print("wrote " + ", ".join(str(path) for path in written.values()))
     if plot_dir is not None:
-        from cacas.plots import methods_figure, preference_methods_figure, success_figure
+        from cacas.plots import methods_figure, preference_methods_figure, success_figure, success_methods_figure
 
         figures = {"fig3_success.html": success_figure(result.daily, methods[0]),
                    "fig4_methods.html": methods_figure(result.daily),
                    "fig4_by_preference.html": preference_methods_figure(result.by_preference)}
+        if args.loop == "each" and len(methods) > 1:
+            figures["fig3_methods.html"] = success_methods_figure(result.daily)
         for name, fig in figures.items():
             fig.write_html(plot_dir / name, include_plotlyjs="directory")
         print("wrote " + ", ".join(str(plot_dir / name) for name in figures))

@@ -78,6 +78,28 @@ def test_results_of_a_simulated_run(app, db):
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 
+def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01"] * 4, "method": ["cacas", "cacas", "nn", "nn"], "day": [1, 2, 1, 2],
+                          "success_rate": [0.3, 0.6, 0.3, 0.4], "preference_accuracy": [0.2, 0.5, 0.2, 0.3],
+                          "cumulative_feedback": [8, 15, 8, 14], "interactions": [15, 15, 15, 14]})
+    app_support.save_run(app_support.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+                         {"loop": "each"})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    titles = [c.proto.spec for c in at.get("plotly_chart")]
+    assert any("Success rate by method, each in its own closed loop" in t for t in titles)
+    assert at.selectbox(key="results-fig3-method").value == "cacas"
+    assert at.metric[0].value == "60%"
+    at.selectbox(key="results-fig3-method").set_value("nn").run()
+    no_exception(at)
+    assert at.metric[0].value == "40%" and at.metric[1].value == "14 data points"
+
+
 def test_human_study_accuracy_by_described_preference(app, store):
     _study_with_a_day(store)
     store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.5, "by_preference": [

@@ -36,6 +36,30 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 
+def test_each_method_in_its_own_closed_loop(app, db):
+    import pandas as pd
+
+    at = app(PAGE)
+    at.multiselect[0].set_value(["P01"])
+    at.number_input[0].set_value(2)   # days
+    at.number_input[1].set_value(4)   # interactions a day
+    at.multiselect[1].set_value(["nn", "bandit"])
+    loop = next(r for r in at.radio if r.label == "Who acts with the participants")
+    assert loop.value == "first"  # the paper's protocol by default
+    loop.set_value("each")
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    job = RUNNER.get(f"simulate:{db}")
+    assert job is not None and job.wait(300), "simulation did not finish"
+    assert job.status == "done", job.error
+    at.run()
+    no_exception(at)
+    assert "methods nn, bandit · seed 0 · each method in its own closed loop" in texts(at)
+    daily = pd.read_csv(job.result / "daily.csv")
+    assert daily["success_rate"].notna().all()  # both acted
+    titles = [c.proto.spec for c in at.get("plotly_chart")]
+    assert any("Success rate by method, each in its own closed loop" in t for t in titles)
+
+
 def test_simulation_refuses_an_empty_choice_with_the_library_message(app, db):
     at = app(PAGE)
     at.multiselect[1].set_value([])

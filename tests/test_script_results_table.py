@@ -1,0 +1,52 @@
+"""scripts/results_table.py: the README's table of means per day from a daily.csv."""
+
+import importlib.util
+
+import pandas as pd
+import pytest
+
+from cacas.paths import PROJECT_ROOT
+
+
+@pytest.fixture(scope="module")
+def script():
+    spec = importlib.util.spec_from_file_location("results_table", PROJECT_ROOT / "scripts" / "results_table.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def daily(nn_success, ceiling=1.0):
+    rows = []
+    for p, bump in (("P01", 0.0), ("P02", 0.2)):
+        for day in (1, 2):
+            rows.append(dict(participant=p, method="cacas", day=day, success_rate=0.2 * day + bump,
+                             preference_accuracy=0.3 * day, cumulative_feedback=10 * day, interactions=15,
+                             success_ceiling=ceiling))
+            rows.append(dict(participant=p, method="nn", day=day, success_rate=nn_success,
+                             preference_accuracy=0.1 * day, cumulative_feedback=10 * day, interactions=15,
+                             success_ceiling=ceiling if nn_success == nn_success else float("nan")))
+    return pd.DataFrame(rows)
+
+
+def table(script, frame, tmp_path, capsys):
+    path = tmp_path / "daily.csv"
+    frame.to_csv(path, index=False)
+    script.main(str(path))
+    lines = [line for line in capsys.readouterr().out.splitlines() if line.startswith("|")]
+    return [[cell.strip() for cell in line.strip("|").split("|")] for line in lines]
+
+
+def test_the_closed_loop_methods_success_and_each_methods_accuracy(script, tmp_path, capsys):
+    rows = table(script, daily(float("nan")), tmp_path, capsys)
+    assert rows[0] == ["day", "success rate (cacas) mean [min-max]", "cumulative feedback", "accuracy cacas",
+                       "accuracy nn"]
+    assert rows[2] == ["1", "0.30 [0.20-0.40]", "10.0", "0.300", "0.100"]
+    assert rows[-1][0] == "paper" and rows[-1][-1] == "0.21 (day 7)"
+
+
+def test_every_closed_loop_and_the_ceiling_where_it_is_below_one(script, tmp_path, capsys):
+    rows = table(script, daily(0.05, ceiling=0.8), tmp_path, capsys)
+    assert rows[0][:4] == ["day", "success rate (cacas) mean [min-max]", "success rate nn", "success ceiling"]
+    assert rows[3][:5] == ["2", "0.50 [0.40-0.60]", "0.05", "0.80", "20.0"]
+    assert len(rows[-1]) == len(rows[0])
