@@ -48,7 +48,8 @@ elif source.startswith("Simulated run: "):
     run = ui.load_run(db, name)
     tables, daily = run.tables, run.daily
     st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
-               f"participant(s), methods {', '.join(daily['method'].unique())}.")
+               f"participant(s), methods {', '.join(daily['method'].unique())}"
+               + (", each in its own closed loop." if run.settings.get("loop") == "each" else "."))
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
                            "by_preference.csv and interactions.csv to see them too", type=["csv"],

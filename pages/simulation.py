@@ -24,7 +24,7 @@ st.title("Simulation lab")
 st.caption("Simulated participants act in the contexts their preferences cover, accept the preferred action, "
            "reject others, sometimes do not respond, and ask for the preferred action when the robot does "
            "nothing. Day 1 uses the initial policy; after each day every method adapts from the same "
-           "interactions (Fig. 4).")
+           "interactions (Fig. 4), or, if you choose, each method acts and adapts in a study of its own.")
 
 # --- personas -----------------------------------------------------------------------------------------
 EXAMPLES = {"Example personas (P01-P08)": "example.json",
