@@ -11,19 +11,26 @@ def test_simulation_lab_opens_with_the_example_personas(app):
     assert at.multiselect[0].value[:2] == ["P01", "P02"]
 
 
-def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
-    at = app(PAGE)
+def run_small_study(at, db, methods, choose=lambda at: None):
+    """P01, 2 days of 4 interactions with ``methods`` (and whatever ``choose`` sets), run on the
+    page's button; waits for the background job and reruns the page. Returns the job."""
     at.multiselect[0].set_value(["P01"])
     at.number_input[0].set_value(2)   # days
     at.number_input[1].set_value(4)   # interactions a day
-    at.number_input[4].set_value(0.5)  # ask after half of the rejections
-    at.multiselect[1].set_value(["nn"])
+    at.multiselect[1].set_value(methods)
+    choose(at)
     next(b for b in at.button if b.label == "Run simulation").click().run()
     job = RUNNER.get(f"simulate:{db}")
     assert job is not None and job.wait(300), "simulation did not finish"
     assert job.status == "done", job.error
     at.run()
     no_exception(at)
+    return job
+
+
+def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
+    at = app(PAGE)
+    job = run_small_study(at, db, ["nn"], lambda at: at.number_input[4].set_value(0.5))  # ask after half
     assert (job.result / "daily.csv").exists()
     assert "1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections" \
         in texts(at)
@@ -40,19 +47,9 @@ def test_each_method_in_its_own_closed_loop(app, db):
     import pandas as pd
 
     at = app(PAGE)
-    at.multiselect[0].set_value(["P01"])
-    at.number_input[0].set_value(2)   # days
-    at.number_input[1].set_value(4)   # interactions a day
-    at.multiselect[1].set_value(["nn", "bandit"])
     loop = next(r for r in at.radio if r.label == "Who acts with the participants")
     assert loop.value == "first"  # the paper's protocol by default
-    loop.set_value("each")
-    next(b for b in at.button if b.label == "Run simulation").click().run()
-    job = RUNNER.get(f"simulate:{db}")
-    assert job is not None and job.wait(300), "simulation did not finish"
-    assert job.status == "done", job.error
-    at.run()
-    no_exception(at)
+    job = run_small_study(at, db, ["nn", "bandit"], lambda at: loop.set_value("each"))
     assert "methods nn, bandit · seed 0 · each method in its own closed loop" in texts(at)
     daily = pd.read_csv(job.result / "daily.csv")
     assert daily["success_rate"].notna().all()  # both acted
