@@ -81,6 +81,8 @@ def check_study_arguments(days: int, interactions: int, no_response_rate: float,
 
 
 def check_loop(loop: str) -> str:
+    """One of :data:`LOOPS` (any case, spaces trimmed), or a CacasError naming the valid ones."""
+    loop = str(loop).strip().lower()
     if loop not in LOOPS:
         raise CacasError(f"--loop {loop!r} is invalid; valid: first (every method adapts from the first "
                          "method's interactions, as the paper's Fig. 4) or each (every method in its own closed loop)")
@@ -166,7 +168,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     :data:`LOOPS` and the module's docstring."""
     check_study_arguments(days, interactions, no_response_rate, ask_after_reject, seed)
     methods = check_methods(methods)
-    check_loop(loop)
+    loop = check_loop(loop)
     d4a = d4a or load_d4a()
     initial = initial_policy or load_initial_policy()
     jobs = max(1, min(jobs or 1, len(participants)))

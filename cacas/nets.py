@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from contextlib import contextmanager
+import math
 
 import numpy as np
 import torch
@@ -11,21 +11,25 @@ from torch.nn import functional as F
 
 
 def mlp(n_in: int, hidden: int, n_out: int, seed: int) -> nn.Sequential:
-    """n_in -> hidden (ReLU) -> hidden (ReLU) -> n_out logits, its initial weights drawn from
-    ``seed`` alone: torch's global random stream is neither read nor changed, so the network
-    does not depend on what the process did before (another method, another participant)."""
-    with seeded_torch(seed):
-        return nn.Sequential(nn.Linear(n_in, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
-                             nn.Linear(hidden, n_out))
+    """n_in -> hidden (ReLU) -> hidden (ReLU) -> n_out logits, its initial weights drawn from a
+    generator of its own seeded with ``seed``: torch's global random stream is neither read nor
+    changed, so the network does not depend on what the process, or another thread of it (the
+    app's background jobs), did before or does meanwhile."""
+    g = torch.Generator().manual_seed(seed)
+    return nn.Sequential(linear(n_in, hidden, g), nn.ReLU(), linear(hidden, hidden, g), nn.ReLU(),
+                         linear(hidden, n_out, g))
 
 
-@contextmanager
-def seeded_torch(seed: int):
-    """Run the block with torch's global random stream seeded with ``seed`` and put the
-    stream back as it was afterwards (layers draw their initial weights from it)."""
-    with torch.random.fork_rng(devices=[]):
-        torch.manual_seed(seed)
-        yield
+@torch.no_grad()
+def linear(n_in: int, n_out: int, generator: torch.Generator) -> nn.Linear:
+    """An ``nn.Linear`` with torch's default initialisation (weight and bias uniform in
+    +-1/sqrt(n_in), i.e. kaiming-uniform with a = sqrt(5)) drawn from ``generator`` alone; built
+    on the meta device first, so that nothing is drawn from the global stream."""
+    layer = nn.Linear(n_in, n_out, device="meta").to_empty(device="cpu")
+    nn.init.kaiming_uniform_(layer.weight, a=math.sqrt(5), generator=generator)
+    bound = 1 / math.sqrt(n_in)
+    nn.init.uniform_(layer.bias, -bound, bound, generator=generator)
+    return layer
 
 
 def fit_classifier(model: nn.Module, x: np.ndarray, y: np.ndarray, epochs: int = 150, lr: float = 1e-2,

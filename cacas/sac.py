@@ -38,7 +38,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from cacas import spaces
-from cacas.nets import seeded_torch
+from cacas import nets
 
 
 @dataclass
@@ -58,11 +58,11 @@ class SACConfig:
 class EnsembleLinear(nn.Module):
     """``k`` independent linear layers applied to ``k`` stacked inputs with one batched matmul."""
 
-    def __init__(self, k: int, n_in: int, n_out: int):
+    def __init__(self, k: int, n_in: int, n_out: int, generator: torch.Generator):
         super().__init__()
         bound = 1.0 / math.sqrt(n_in)
-        self.weight = nn.Parameter(torch.empty(k, n_in, n_out).uniform_(-bound, bound))
-        self.bias = nn.Parameter(torch.empty(k, 1, n_out).uniform_(-bound, bound))
+        self.weight = nn.Parameter(torch.empty(k, n_in, n_out).uniform_(-bound, bound, generator=generator))
+        self.bias = nn.Parameter(torch.empty(k, 1, n_out).uniform_(-bound, bound, generator=generator))
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:  # x: (k, n, n_in)
         return torch.baddbmm(self.bias, x, self.weight)
@@ -71,11 +71,11 @@ class EnsembleLinear(nn.Module):
 class TwinCritic(nn.Module):
     """Q_w1 and Q_w2 (Eq. 1): two independent MLPs state -> Q over actions, evaluated together."""
 
-    def __init__(self, state_dim: int, n_actions: int, hidden: int):
+    def __init__(self, state_dim: int, n_actions: int, hidden: int, generator: torch.Generator):
         super().__init__()
-        self.l1 = EnsembleLinear(2, state_dim, hidden)
-        self.l2 = EnsembleLinear(2, hidden, hidden)
-        self.l3 = EnsembleLinear(2, hidden, n_actions)
+        self.l1 = EnsembleLinear(2, state_dim, hidden, generator)
+        self.l2 = EnsembleLinear(2, hidden, hidden, generator)
+        self.l3 = EnsembleLinear(2, hidden, n_actions, generator)
 
     def forward(self, s: torch.Tensor) -> torch.Tensor:  # -> (2, n, n_actions)
         x = s.unsqueeze(0).expand(2, -1, -1)
@@ -84,10 +84,10 @@ class TwinCritic(nn.Module):
         return self.l3(x)
 
 
-def actor_network(state_dim: int, n_actions: int, hidden: int) -> nn.Sequential:
+def actor_network(state_dim: int, n_actions: int, hidden: int, generator: torch.Generator) -> nn.Sequential:
     """pi_theta: state -> logits over the 14 actions (a categorical policy)."""
-    return nn.Sequential(nn.Linear(state_dim, hidden), nn.ReLU(), nn.Linear(hidden, hidden), nn.ReLU(),
-                         nn.Linear(hidden, n_actions))
+    return nn.Sequential(nets.linear(state_dim, hidden, generator), nn.ReLU(), nets.linear(hidden, hidden, generator),
+                         nn.ReLU(), nets.linear(hidden, n_actions, generator))
 
 
 class ReplayBuffer:
@@ -233,11 +233,11 @@ class DiscreteSAC:
     def __init__(self, config: SACConfig | None = None, seed: int = 0):
         self.config = config or SACConfig()
         c = self.config
-        self.generator = torch.Generator().manual_seed(seed)
-        with seeded_torch(seed):  # initial weights from the seed alone
-            self.actor = actor_network(c.state_dim, c.n_actions, c.hidden)
-            self.critic = TwinCritic(c.state_dim, c.n_actions, c.hidden)
-            self.critic_target = TwinCritic(c.state_dim, c.n_actions, c.hidden)
+        self.generator = torch.Generator().manual_seed(seed)  # replay sampling
+        init = torch.Generator().manual_seed(seed)  # initial weights: from the seed alone, never the global stream
+        self.actor = actor_network(c.state_dim, c.n_actions, c.hidden, init)
+        self.critic = TwinCritic(c.state_dim, c.n_actions, c.hidden, init)
+        self.critic_target = TwinCritic(c.state_dim, c.n_actions, c.hidden, init)
         self.critic_target.load_state_dict(self.critic.state_dict())
         for p in self.critic_target.parameters():
             p.requires_grad_(False)

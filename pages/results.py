@@ -71,11 +71,15 @@ with fig3:
     if method is None:
         st.info("No study day with interactions yet. Run a day on the **Study session** page.")
     else:
-        if len(looped) > 1:  # a simulated run with every method in its own closed loop
-            st.plotly_chart(plots.success_methods_figure(daily), width="stretch")
+        if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
+            human = source == HUMAN
+            st.plotly_chart(plots.success_methods_figure(
+                daily, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
             method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method",
                                   format_func=lambda m: plots.METHOD_LABELS.get(m, m),
-                                  help="Each of these methods acted in a study of its own; Fig. 3 below shows one.")
+                                  help=("Participants' days count under the method whose policy was in force that "
+                                        "day; Fig. 3 below shows one method." if human else
+                                        "Each of these methods acted in a study of its own; Fig. 3 below shows one."))
         per_day = plots.success_by_day(daily, method).set_index("day")
         last = per_day.index.max()
         c1, c2, c3 = st.columns(3)

@@ -67,10 +67,11 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                                    "they want instead, as the tablet allows. 0: they ask only when the robot does "
                                    "nothing (design.md).")
     methods = st.multiselect("Methods", METHODS, default=list(PAPER_METHODS),
-                             help="The first method runs in closed loop (its success rate is Fig. 3); all "
-                                  "of them adapt from the same interactions (Fig. 4).")
+                             help="By default the first method runs in closed loop (its success rate is Fig. 3) "
+                                  "and all of them adapt from the same interactions (Fig. 4); see 'Who acts'.")
     loop = st.radio("Who acts with the participants", LOOPS, horizontal=True, format_func=LOOP_LABELS.get,
-                    help="The paper compared methods on CACAS's interactions (Fig. 4). With 'each method', every "
+                    help="The paper adapted its baselines from the day-by-day interactions with CACAS (Fig. 4). "
+                         "With 'each method', every "
                          "method runs a study of its own and has its own success rate: how it would do as the "
                          "robot's policy.")
     st.caption(f"About {len(chosen) * max(int(days) - 1, 0) * len(methods)} adaptations; a few seconds each "

@@ -1,5 +1,7 @@
 """Print the README's results table (means per day, next to the paper's numbers) from a
-daily.csv written by `cacas simulate`.
+daily.csv written by `cacas simulate`: the closed-loop method's success rate (CACAS where it has
+one), every method's preference accuracy, and, for a run with `--loop each`, every other
+method's success rate too (the ceiling and feedback columns are then the first one's, and say so).
 
     python3 scripts/results_table.py results/daily.csv
 """
@@ -19,7 +21,9 @@ def main(path: str) -> None:
     methods = list(dict.fromkeys(daily["method"]))
     acc = daily.pivot_table(index="day", columns="method", values="preference_accuracy", aggfunc="mean")[methods]
     looped = list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))  # --loop each: all of them
-    loop = looped[0] if looped else methods[0]
+    loop = "cacas" if "cacas" in looped else looped[0] if looped else methods[0]  # as plots.loop_method
+    looped = [loop] + [m for m in looped if m != loop]
+    whose = f" ({loop})" if len(looped) > 1 else ""
     succ = daily[daily["method"] == loop].groupby("day").agg(
         success_rate=("success_rate", "mean"), success_min=("success_rate", "min"),
         success_max=("success_rate", "max"), cumulative_feedback=("cumulative_feedback", "mean"),
@@ -27,7 +31,8 @@ def main(path: str) -> None:
     others = daily.pivot_table(index="day", columns="method", values="success_rate", aggfunc="mean")
     with_ceiling = bool((succ["ceiling"] < 1).any())  # shown where participants want the robot quiet somewhere
     head = ["day", f"success rate ({loop}) mean [min-max]"] + [f"success rate {m}" for m in looped[1:]] + \
-        (["success ceiling"] if with_ceiling else []) + ["cumulative feedback"] + [f"accuracy {m}" for m in methods]
+        ([f"success ceiling{whose}"] if with_ceiling else []) + [f"cumulative feedback{whose}"] + \
+        [f"accuracy {m}" for m in methods]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for day in acc.index:

@@ -117,6 +117,18 @@ def test_success_ceiling_of_a_simulated_study(small_config, small_initial):
     assert "success_ceiling" in summary_table(res.daily).columns
 
 
+def test_each_closed_loop_has_the_success_ceiling_of_its_own_interactions(small_config, small_initial):
+    quiet = parse_personas({"participants": [{"id": "Q", "preferences": [
+        {"activity": ["cough"], "action": "pain check"}, {"activity": ["watch TV"], "action": "do nothing"}]}]})
+    res = simulate_study(quiet, days=3, interactions=8, methods=["cacas", "nn"], loop="EACH", seed=1,
+                         config=small_config, initial_policy=small_initial)
+    preferred = {"Q": quiet[0].preferred_action_table()}
+    for m in ("cacas", "nn"):
+        own = records.daily_table(res.interactions[res.interactions["method"] == m], preferred=preferred)
+        np.testing.assert_allclose(res.daily[res.daily["method"] == m]["success_ceiling"], own["success_ceiling"])
+    assert (res.daily["success_ceiling"] < 1).any()  # the quiet preference lowers it
+
+
 def test_same_seed_same_tables(small_config, small_initial):
     kw = dict(days=2, interactions=5, methods=["cacas", "orl"], config=small_config, initial_policy=small_initial)
     a = simulate_study(PEOPLE[:1], seed=3, **kw)
@@ -147,6 +159,7 @@ def test_each_method_in_its_own_closed_loop(small_config, small_initial):
     # the default protocol is unchanged: the first method acts, the others have no success rate
     first = simulate_study(PEOPLE, methods=["cacas", "nn"], **kw)
     assert set(first.interactions["method"]) == {"cacas"}
+    assert first.daily.query("method == 'nn'")["success_rate"].isna().all()
     pd.testing.assert_frame_equal(first.interactions, inter[inter["method"] == "cacas"].reset_index(drop=True))
 
 

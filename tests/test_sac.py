@@ -78,3 +78,18 @@ def test_replay_memory_round_trip_is_compact_and_kept_only_when_asked(tmp_path):
     loaded.restore_memory(loaded.memory)
     assert loaded.buffer.size == 50 and torch.equal(loaded.buffer.s[:50], agent.buffer.s[:50])
     assert torch.equal(loaded.buffer.r[:50], agent.buffer.r[:50])
+
+
+def test_initial_weights_come_from_the_seed_alone_and_leave_the_global_stream_alone():
+    import torch
+
+    first = DiscreteSAC(SACConfig(hidden=16), seed=3)
+    torch.manual_seed(99)
+    torch.rand(100)
+    state = torch.get_rng_state()
+    again = DiscreteSAC(SACConfig(hidden=16), seed=3)
+    assert torch.equal(torch.get_rng_state(), state)
+    for a, b in ((first.actor, again.actor), (first.critic, again.critic)):
+        assert all(torch.equal(x, y) for x, y in zip(a.parameters(), b.parameters()))
+    other = DiscreteSAC(SACConfig(hidden=16), seed=4)
+    assert not torch.equal(other.actor[0].weight, first.actor[0].weight)

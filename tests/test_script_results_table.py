@@ -47,6 +47,13 @@ def test_the_closed_loop_methods_success_and_each_methods_accuracy(script, tmp_p
 
 def test_every_closed_loop_and_the_ceiling_where_it_is_below_one(script, tmp_path, capsys):
     rows = table(script, daily(0.05, ceiling=0.8), tmp_path, capsys)
-    assert rows[0][:4] == ["day", "success rate (cacas) mean [min-max]", "success rate nn", "success ceiling"]
+    assert rows[0][:5] == ["day", "success rate (cacas) mean [min-max]", "success rate nn", "success ceiling (cacas)",
+                           "cumulative feedback (cacas)"]
     assert rows[3][:5] == ["2", "0.50 [0.40-0.60]", "0.05", "0.80", "20.0"]
     assert len(rows[-1]) == len(rows[0])
+
+
+def test_cacas_leads_the_table_wherever_it_is_in_the_file(script, tmp_path, capsys):
+    frame = daily(0.05)
+    rows = table(script, pd.concat([frame[frame["method"] == "nn"], frame[frame["method"] == "cacas"]]), tmp_path, capsys)
+    assert rows[0][1:3] == ["success rate (cacas) mean [min-max]", "success rate nn"]

@@ -10,7 +10,8 @@ preference as Plotly HTML.
 
 The first method acts and every method adapts from its interactions (the paper's Fig. 4). With
 --loop each, every method runs its own closed-loop study instead (its own interactions and
-success rate; --plot also writes fig3_methods.html, Fig. 3 for every method).
+success rate; with more than one method, --plot also writes fig3_methods.html, Fig. 3 for every
+method).
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ def register(sub) -> None:
     p.add_argument("--days", type=int, default=7, help="study days (default 7)")
     p.add_argument("--interactions", type=int, default=15, help="interactions a day, about (default 15)")
     p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
-                   help="comma-separated methods; the first runs in closed loop "
+                   help="comma-separated methods; the first runs in closed loop, or every one with --loop each "
                         "(cacas, cacas-no-pr, orl, nn, bandit, sac-user-data; default the paper's four)")
     p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same daily.csv)")
     p.add_argument("--no-response-rate", type=float, default=0.1,
@@ -53,7 +54,7 @@ def run(args) -> int:
     from cacas.experiment import check_loop, check_methods, check_study_arguments
 
     check_study_arguments(args.days, args.interactions, args.no_response_rate, args.ask_after_reject, args.seed)
-    check_loop(args.loop)
+    args.loop = check_loop(args.loop)
     if args.jobs is not None and args.jobs < 1:
         raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
     methods = check_methods(args.methods.split(","))

@@ -101,6 +101,29 @@ def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
     assert at.metric[0].value == "40%" and at.metric[1].value == "14 data points"
 
 
+def test_a_human_study_adapted_with_two_methods_shows_each_method_in_force(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    for day_no, answers in ((1, ["accept", "reject"]), (2, ["accept", "accept"])):
+        if day_no == 2:  # the researcher adapted day 1 with NN: its policy is in force on day 2
+            store.save_policy("P01", 1, "nn", b"policy bytes")
+        day = store.open_day("P01")
+        for resp in answers:
+            store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                     robot_action="pain check", response=resp)
+        store.close_day("P01", day)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    titles = [c.proto.spec for c in at.get("plotly_chart")]
+    assert any("Success rate by the method whose policy was in force" in t for t in titles)
+    assert not any("each in its own closed loop" in t for t in titles)  # that is a simulated run's wording
+    assert at.selectbox(key="results-fig3-method").value == "cacas"
+    assert at.metric[0].label == "Day 1 mean success rate" and at.metric[0].value == "50%"
+    at.selectbox(key="results-fig3-method").set_value("nn").run()
+    no_exception(at)
+    assert at.metric[0].label == "Day 2 mean success rate" and at.metric[0].value == "100%"
+
+
 def test_human_study_accuracy_by_described_preference(app, store):
     _study_with_a_day(store)
     store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.5, "by_preference": [
