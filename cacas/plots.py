@@ -45,11 +45,19 @@ def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
     }).reset_index()
 
 
+def _gaps_for_missing_days(s: pd.DataFrame, daily: pd.DataFrame) -> pd.DataFrame:
+    """``s`` (one row per day) with empty rows for the study's other days, so that a line breaks
+    where its method was not in force (a human study adapted with another method that day)
+    instead of joining the days around it."""
+    days = sorted(int(d) for d in daily.loc[daily["success_rate"].notna(), "day"].unique())
+    return s.set_index("day").reindex(days).rename_axis("day").reset_index()
+
+
 def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None = None) -> go.Figure:
     """Fig. 3: mean success rate per day, a min-max band across participants, the mean success
     ceiling where daily.csv has one (dashed), and the mean cumulative number of feedback on a
     second axis."""
-    s = success_by_day(daily, method)
+    s = _gaps_for_missing_days(success_by_day(daily, method), daily)
     fig = make_subplots(specs=[[{"secondary_y": True}]])
     colour = METHOD_COLOURS.get(method, "#2f6f8f")
     fig.add_trace(go.Scatter(x=s["day"], y=s["max"], mode="lines", line=dict(width=0), hoverinfo="skip",
@@ -70,11 +78,11 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              marker=dict(symbol="square", size=7),
                              hovertemplate="day %{x}: %{y:.0f} data points<extra></extra>"), secondary_y=True)
     fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%", secondary_y=False)
-    top = float(s["cumulative_feedback"].max()) if len(s) else 1.0
+    top = float(s["cumulative_feedback"].max()) if s["cumulative_feedback"].notna().any() else 1.0
     fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
                      tickmode="auto", nticks=6, secondary_y=True)
     fig.update_xaxes(title_text="day", dtick=1)
-    n = int(s["participants"].max()) if len(s) else 0
+    n = int(s["participants"].max()) if s["participants"].notna().any() else 0
     fig.update_layout(title=title or f"Success rate and cumulative feedback ({METHOD_LABELS.get(method, method)}, "
                                      f"{n} participant{'s' if n != 1 else ''})",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
@@ -87,7 +95,7 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     method's mean success rate per day, with its min-max across participants in the hover."""
     fig = go.Figure()
     for method in closed_loop_methods(daily):
-        s = success_by_day(daily, method)
+        s = _gaps_for_missing_days(success_by_day(daily, method), daily)
         fig.add_trace(go.Scatter(
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),

@@ -101,6 +101,22 @@ def test_fig3_for_every_method_in_its_own_closed_loop():
     assert [t.name for t in success_methods_figure(daily()).data] == ["CACAS"]
 
 
+def test_a_line_breaks_on_days_its_method_was_not_in_force():
+    from cacas.plots import success_methods_figure
+
+    d = pd.DataFrame({"participant": ["P01"] * 3, "method": ["cacas", "nn", "cacas"], "day": [1, 2, 3],
+                      "success_rate": [0.2, 0.5, 0.9], "preference_accuracy": [0.1, 0.2, 0.3],
+                      "cumulative_feedback": [5, 10, 15], "interactions": [5, 5, 5]})
+    cacas = success_figure(d).data
+    mean = next(t for t in cacas if t.name == "success rate (mean)")
+    assert list(mean.x) == [1, 2, 3] and mean.y[0] == 0.2 and np.isnan(mean.y[1]) and mean.y[2] == 0.9
+    assert not mean.connectgaps  # a gap, not a line through day 2
+    by_method = {t.name: t for t in success_methods_figure(d).data}
+    assert np.isnan(by_method["NN"].y[0]) and by_method["NN"].y[1] == 0.5 and np.isnan(by_method["NN"].y[2])
+    assert "NN, 1 participant" in success_figure(d, "nn").layout.title.text
+    assert "0 participants" in success_figure(d.assign(method="cacas"), "orl").layout.title.text  # no row at all
+
+
 def test_accuracy_table_is_fig4_as_a_table():
     from cacas.plots import accuracy_table
 
