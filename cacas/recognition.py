@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import json
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -167,6 +168,33 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
     except Exception as exc:
         raise CacasError(f"{path}: not a readable model file ({' '.join(str(exc).split())[:200]})") from None
     return tensors, meta
+
+
+_TRAINING = threading.Lock()
+
+
+def trains_alone(fn):
+    """Decorator for the recognisers' training functions: one training at a time in a process.
+    They seed torch's global random stream and draw from it (layer initialisation, dropout), so
+    two trainings in threads of one process (the app's background jobs: the sound CNN and the
+    scene ResNet at once) would draw each other's numbers and neither would be reproducible; the
+    second waits for the first. (The policy's networks draw from generators of their own and do
+    not wait: ``cacas.nets``.)"""
+    import functools
+
+    @functools.wraps(fn)
+    def wrapper(*args, **kwargs):
+        if not _TRAINING.acquire(blocking=False):
+            if kwargs.get("progress"):
+                kwargs["progress"](0.0, "waiting for the other model's training to finish")
+            _TRAINING.acquire()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            _TRAINING.release()
+
+    wrapper.trains_alone = True
+    return wrapper
 
 
 def restores_torch_threads(fn):

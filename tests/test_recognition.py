@@ -55,3 +55,50 @@ def test_missing_or_unreadable_files_are_refused(sound_file, tmp_path):
     sound_file.write_bytes(b"not tensors")
     with pytest.raises(CacasError, match=r"m\.pt: not a readable model file"):
         load_model_file(sound_file, "sound")
+
+
+def test_trainings_take_turns_so_each_draws_only_its_own_seeds_numbers():
+    import threading
+    import time
+
+    import torch
+
+    from cacas.audio.training import train_sound_model
+    from cacas.recognition import trains_alone
+    from cacas.vision.training import train_scene_model
+
+    @trains_alone
+    def training(seed):  # seeds the global stream and draws from it along the way, as training does
+        torch.manual_seed(seed)
+        drawn = []
+        for _ in range(5):
+            drawn.append(torch.rand(1).item())
+            time.sleep(0.01)  # the other thread runs meanwhile
+        return drawn
+
+    alone = {seed: training(seed) for seed in (1, 2)}
+    together = {}
+    threads = [threading.Thread(target=lambda s=seed: together.__setitem__(s, training(s))) for seed in (1, 2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert together == alone
+    assert train_sound_model.trains_alone and train_scene_model.trains_alone
+
+
+def test_a_training_that_waits_says_so():
+    import threading
+
+    from cacas.recognition import _TRAINING, trains_alone
+
+    said = []
+    trained = trains_alone(lambda progress=None: "trained")
+    _TRAINING.acquire()  # another training is running
+    t = threading.Thread(target=lambda: said.append(trained(progress=lambda f, m: said.append((f, m)))))
+    t.start()
+    t.join(0.2)
+    assert t.is_alive() and said == [(0.0, "waiting for the other model's training to finish")]
+    _TRAINING.release()
+    t.join(5)
+    assert said[-1] == "trained"

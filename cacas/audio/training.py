@@ -32,7 +32,7 @@ from cacas.audio.library import Clip, scan, sounds_dir
 from cacas.audio.model import SoundCNN, SoundRecognizer
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Metrics, compute_metrics, restores_torch_threads
+from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, trains_alone
 from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, relative_path, split_table, \
     tell, training_split
 
@@ -121,6 +121,7 @@ def evaluate_signals(recognizer: SoundRecognizer, signals: Sequence[np.ndarray],
                            window_accuracy=win_acc, windows=int(len(owner)), set="held-out")
 
 
+@trains_alone
 @restores_torch_threads
 def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patience: int = 3, seed: int = 0,
                       augment_copies: int = 1, batch_size: int = 64, lr: float = 3e-3,

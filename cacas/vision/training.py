@@ -23,7 +23,7 @@ from torch import nn
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Metrics, compute_metrics, restores_torch_threads
+from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, trains_alone
 from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, relative_path, split_table, \
     tell, training_split
 from cacas.vision.library import load_image, scan, scenes_dir
@@ -68,6 +68,7 @@ def evaluate_images(recognizer: SceneRecognizer, images, labels) -> Metrics:
     return compute_metrics(y, pred, recognizer.classes, set="held-out")
 
 
+@trains_alone
 @restores_torch_threads
 def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patience: int = 4, seed: int = 0,
                       weights: str | Path | None = "auto", batch_size: int = 32, lr: float | None = None,
