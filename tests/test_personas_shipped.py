@@ -16,6 +16,8 @@ LEAVE_ME_ALONE = study_data_dir() / "personas" / "example_leave_me_alone.json"
 #: Written by someone who had seen design.md and the paper but not our personas or results (README,
 #: "Personas written independently"): like a reviewer's, with several "leave me alone" preferences.
 INDEPENDENT = Path(__file__).parent / "data" / "independent_personas.json"
+#: A second set written the same way in session 8, by a helper who saw design.md and the paper only.
+INDEPENDENT_S = Path(__file__).parent / "data" / "independent_personas_s.json"
 FILES = {"example": (EXAMPLE, 8, "P"), "holdout": (HOLDOUT, 6, "H")}
 
 
@@ -72,12 +74,14 @@ def test_variety_and_no_do_nothing(kind):
         assert len({a for pref in p.preferences for a in pref.activity}) >= 4
 
 
-def test_independent_personas_load_and_include_leave_me_alone_preferences():
-    people = load_personas(INDEPENDENT)
-    assert [p.id for p in people] == [f"R{i:02d}" for i in range(1, 9)]
+@pytest.mark.parametrize("path,letter,quiet_ones", [(INDEPENDENT, "R", ["R02", "R03", "R05", "R08"]),
+                                                     (INDEPENDENT_S, "S", ["S02", "S04", "S06", "S07", "S08"])])
+def test_independent_personas_load_and_include_leave_me_alone_preferences(path, letter, quiet_ones):
+    people = load_personas(path)
+    assert [p.id for p in people] == [f"{letter}{i:02d}" for i in range(1, 9)]
     assert all(len(p.preferences) == 5 and all(pref.description for pref in p.preferences) for p in people)
     quiet = [p.id for p in people if any(pref.action == "do nothing" for pref in p.preferences)]
-    assert quiet == ["R02", "R03", "R05", "R08"]
+    assert quiet == quiet_ones
 
 
 def test_example_uses_every_action_but_do_nothing():
