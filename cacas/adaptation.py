@@ -264,7 +264,7 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
         mlp = MLPPolicy(seed=seed).fit(states, actions) if len(actions) else None
         say(0.1, f"MLP policy trained on {len(actions)} accepted actions")
     policy = ReshapedPolicy(sac, mlp, cfg.beta, method)
-    dm = DecisionModel(user_model, ResponseModel(d4a.table), cfg.threshold, data.support())
+    dm = DecisionModel(user_model, ResponseModel(d4a.table), cfg.threshold, data.support(), data.answered_pairs())
     source = ContextSource.from_user_data(data.contexts(), cfg.recorded_share)
     info = run_sac_training(sac, policy.action_probabilities, dm, source, cfg.adapt_train_days, cfg, rng,
                             (lambda f, m: say(0.1 + 0.9 * f, m)), "adaptation")

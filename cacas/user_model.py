@@ -118,6 +118,15 @@ class UserData:
         sup[:, spaces.DO_NOTHING_ACTION] = nothing
         return sup
 
+    def answered_pairs(self) -> np.ndarray:
+        """(33, 14) bool: the activity-action pairs D holds a sample of (the participant's answer
+        to that action during that activity, a request for it, or D_g's reject of it); see
+        :class:`DecisionModel`."""
+        pairs = np.zeros((spaces.N_ACTIVITIES, spaces.N_ACTIONS), bool)
+        for r in self._samples.values():
+            pairs[r.su[0], r.su[5]] = True
+        return pairs
+
     def contexts(self) -> np.ndarray:
         """The recorded S1..S4 contexts (one per sample of D_f and D_i)."""
         rows = [r.su[:4] for r in self._samples.values() if r.source != "D_g"]
@@ -201,14 +210,24 @@ class DecisionModel:
     has asked for something during that activity (the only data about the robot doing nothing).
     Without this, an MLP trained mostly on rejections answers "reject" everywhere, and SAC can
     no longer tell the participant's actions apart.
+
+    And f_mu's "accept" counts only for an activity-action pair D holds (``answered``, from
+    :meth:`UserData.answered_pairs`). An accept for a pair the participant was never asked about
+    is carried over from other activities or actions (a participant who wants a call for help
+    after falls and coughs is "accepting" it after using the stove), and it makes the robot
+    propose what nobody asked for; the generic simulator answers such pairs instead. f_mu's
+    rejections stand: a wrong reject only sends SAC to other actions, or to silence, where the
+    participant can ask (letting D4A answer every unasked pair, rejects included, made CACAS fall
+    to 0.59 on the example personas in an experiment).
     """
 
     def __init__(self, user_model: UserModel | None, fallback, threshold: float = 0.7,
-                 support: np.ndarray | None = None):
+                 support: np.ndarray | None = None, answered: np.ndarray | None = None):
         self.user_model = user_model
         self.fallback = fallback
         self.threshold = threshold
         self.support = support
+        self.answered = answered
 
     def respond(self, states: np.ndarray, actions: np.ndarray) -> np.ndarray:
         fallback = self.fallback.respond(states, actions)
@@ -217,6 +236,9 @@ class DecisionModel:
         proba = self.user_model.predict_proba(states, actions)
         pred = proba.argmax(1)
         confident = (pred != spaces.OTHERS) & (proba.max(1) > self.threshold)
+        activity, actions = np.asarray(states)[:, 0], np.asarray(actions)
         if self.support is not None:
-            confident &= self.support[np.asarray(states)[:, 0], np.asarray(actions)]
+            confident &= self.support[activity, actions]
+        if self.answered is not None:
+            confident &= (pred != spaces.ACCEPT) | self.answered[activity, actions]
         return np.where(confident, pred, fallback)

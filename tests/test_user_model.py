@@ -116,6 +116,21 @@ def test_decision_model_support_limits_the_user_model_to_recorded_activities():
     assert list(out) == [spaces.REJECT, spaces.ACCEPT, spaces.ACCEPT]
 
 
+def test_decision_model_takes_an_accept_only_for_an_activity_action_pair_the_data_hold():
+    d = UserData()
+    d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)  # cough: pain check accepted
+    answered = d.answered_pairs()
+    assert answered[COUGH, PAIN] and answered.sum() == 1
+    generic = ResponseModel(np.full((33, 14), spaces.REJECT))
+    says_accept = DecisionModel(_Fixed([0.96, 0.02, 0.02]), generic, 0.7, d.support(), answered)
+    states = np.array([STATE, STATE])
+    # pain check was answered: f_mu's accept stands; a timer never was: the generic user answers
+    assert list(says_accept.respond(states, np.array([PAIN, TIMER]))) == [spaces.ACCEPT, spaces.REJECT]
+    says_reject = DecisionModel(_Fixed([0.02, 0.96, 0.02]), ResponseModel(np.full((33, 14), spaces.ACCEPT)), 0.7,
+                                d.support(), answered)
+    assert list(says_reject.respond(states, np.array([PAIN, TIMER]))) == [spaces.REJECT, spaces.REJECT]  # rejects stand
+
+
 def test_user_model_fits_its_data():
     d = UserData()
     d.data_collection(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)
