@@ -71,9 +71,8 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                                   "and all of them adapt from the same interactions (Fig. 4); see 'Who acts'.")
     loop = st.radio("Who acts with the participants", LOOPS, horizontal=True, format_func=LOOP_LABELS.get,
                     help="The paper adapted its baselines from the day-by-day interactions with CACAS (Fig. 4). "
-                         "With 'each method', every "
-                         "method runs a study of its own and has its own success rate: how it would do as the "
-                         "robot's policy.")
+                         "With 'each method', every method runs a study of its own and has its own success rate: "
+                         "how it would do as the robot's policy.")
     st.caption(f"About {len(chosen) * max(int(days) - 1, 0) * len(methods)} adaptations; a few seconds each "
                "on this machine.")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)

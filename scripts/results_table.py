@@ -18,6 +18,8 @@ PAPER = {"success day 1": 0.30, "success day 7": 0.85, "cacas day 7": 0.89,
 
 def main(path: str) -> None:
     daily = pd.read_csv(path)
+    if "success_ceiling" not in daily.columns:  # written before the column existed
+        daily["success_ceiling"] = float("nan")
     methods = list(dict.fromkeys(daily["method"]))
     acc = daily.pivot_table(index="day", columns="method", values="preference_accuracy", aggfunc="mean")[methods]
     looped = list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))  # --loop each: all of them

@@ -57,3 +57,9 @@ def test_cacas_leads_the_table_wherever_it_is_in_the_file(script, tmp_path, caps
     frame = daily(0.05)
     rows = table(script, pd.concat([frame[frame["method"] == "nn"], frame[frame["method"] == "cacas"]]), tmp_path, capsys)
     assert rows[0][1:3] == ["success rate (cacas) mean [min-max]", "success rate nn"]
+
+
+def test_a_daily_csv_written_before_the_success_ceiling_existed(script, tmp_path, capsys):
+    rows = table(script, daily(float("nan")).drop(columns="success_ceiling"), tmp_path, capsys)
+    assert rows[0][:3] == ["day", "success rate (cacas) mean [min-max]", "cumulative feedback"]
+    assert rows[2][:3] == ["1", "0.30 [0.20-0.40]", "10.0"]
