@@ -10,12 +10,13 @@ from torch import nn
 from torch.nn import functional as F
 
 
-def mlp(n_in: int, hidden: int, n_out: int, seed: int) -> nn.Sequential:
+def mlp(n_in: int, hidden: int, n_out: int, seed: int | torch.Generator) -> nn.Sequential:
     """n_in -> hidden (ReLU) -> hidden (ReLU) -> n_out logits, its initial weights drawn from a
-    generator of its own seeded with ``seed``: torch's global random stream is neither read nor
-    changed, so the network does not depend on what the process, or another thread of it (the
-    app's background jobs), did before or does meanwhile."""
-    g = torch.Generator().manual_seed(seed)
+    generator of its own seeded with ``seed`` (or from the generator given, which goes on to
+    other networks): torch's global random stream is neither read nor changed, so the network
+    does not depend on what the process, or another thread of it (the app's background jobs),
+    did before or does meanwhile."""
+    g = seed if isinstance(seed, torch.Generator) else torch.Generator().manual_seed(seed)
     return nn.Sequential(linear(n_in, hidden, g), nn.ReLU(), linear(hidden, hidden, g), nn.ReLU(),
                          linear(hidden, n_out, g))
 

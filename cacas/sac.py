@@ -37,8 +37,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from cacas import spaces
-from cacas import nets
+from cacas import nets, spaces
 
 
 @dataclass
@@ -86,8 +85,7 @@ class TwinCritic(nn.Module):
 
 def actor_network(state_dim: int, n_actions: int, hidden: int, generator: torch.Generator) -> nn.Sequential:
     """pi_theta: state -> logits over the 14 actions (a categorical policy)."""
-    return nn.Sequential(nets.linear(state_dim, hidden, generator), nn.ReLU(), nets.linear(hidden, hidden, generator),
-                         nn.ReLU(), nets.linear(hidden, n_actions, generator))
+    return nets.mlp(state_dim, hidden, n_actions, generator)
 
 
 class ReplayBuffer:
