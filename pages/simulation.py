@@ -73,8 +73,8 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                     help="The paper adapted its baselines from the day-by-day interactions with CACAS (Fig. 4). "
                          "With 'each method', every method runs a study of its own and has its own success rate: "
                          "how it would do as the robot's policy.")
-    st.caption(f"About {len(chosen) * max(int(days) - 1, 0) * len(methods)} adaptations; a few seconds each "
-               "on this machine.")
+    st.caption("Every participant, method and day but the last is one adaptation, a few seconds on a laptop CPU "
+               "(8 participants x 7 days x 4 methods: about two minutes on two cores).")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
 if go:
     try:
@@ -99,8 +99,12 @@ if job is not None and job.status == FAILED:
 runs = app_support.list_runs(app_support.runs_dir(db))
 if runs:
     st.subheader("Runs")
-    default = job.result.name if job is not None and job.status == DONE and job.result.name in runs else runs[0]
-    name = st.selectbox("Run", runs, index=runs.index(default), key="sim-run")
+    finished = job.result.name if job is not None and job.status == DONE and job.result.name in runs else None
+    if finished and st.session_state.get("sim-shown") != finished:  # a run that just ended is shown once
+        st.session_state["sim-run"] = st.session_state["sim-shown"] = finished
+    if st.session_state.get("sim-run") not in runs:
+        st.session_state["sim-run"] = runs[0]
+    name = st.selectbox("Run", runs, key="sim-run")
     run = ui.load_run(db, name)
     daily, settings = run.daily, run.settings
     if settings:

@@ -43,6 +43,19 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 
+def test_a_second_run_is_shown_when_it_ends_not_the_one_looked_at_before(app, db):
+    at = app(PAGE)
+    first = run_small_study(at, db, ["nn"])
+    assert at.selectbox(key="sim-run").value == first.result.name
+    second = run_small_study(at, db, ["nn"], lambda at: at.number_input[2].set_value(1))  # seed 1
+    assert second.result.name != first.result.name
+    assert at.selectbox(key="sim-run").value == second.result.name
+    assert "methods nn · seed 1" in texts(at)
+    at.selectbox(key="sim-run").set_value(first.result.name).run()  # going back to the first one stays there
+    assert at.selectbox(key="sim-run").value == first.result.name
+    assert "methods nn · seed 0" in texts(at)
+
+
 def test_each_method_in_its_own_closed_loop(app, db):
     import pandas as pd
 
