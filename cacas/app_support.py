@@ -182,8 +182,10 @@ def preference_from_form(description: str, activities: Sequence[str], scenes: Se
                          action: str | None, task: Sequence[str] | None = None) -> dict[str, Any] | None:
     """A persona-format preference dict from the form's widgets: no rooms = any room, no time
     slot (or all) = any time, the whole interval range = any. None for an untouched slot (no
-    words, activity or action). Validate the result with :func:`check_preferences`."""
-    if not (description or "").strip() and not activities and not action:
+    words, activity, room, time, interval or action); a slot with only some fields filled in is
+    returned as it is, for :func:`check_preferences` to name what is missing."""
+    full = interval is None or tuple(interval) == (spaces.INTERVAL_BINS[0], spaces.INTERVAL_BINS[-1])
+    if not (description or "").strip() and not activities and not action and not scenes and not slots and full:
         return None
     out: dict[str, Any] = {}
     if description and description.strip():

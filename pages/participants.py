@@ -68,13 +68,13 @@ def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
             items.append(item)
             numbers.append(n)
     person, errors, overall = app_support.check_preferences(who, items, numbers)
-    s["pref-errors"], s["pref-overall"] = errors, overall
+    s["pref-check"] = (who, errors, overall)  # shown on this participant's form only
     if person is None:
         return
     try:
         new_version = store.save_preferences(who, person)
     except CacasError as exc:
-        s["pref-overall"] = str(exc)
+        s["pref-check"] = (who, {}, str(exc))
         return
     s["pref-saved"] = (who, new_version, len(person.preferences), person.covered_count())
     # the page may be scrolled to the form's end, far from the banner at its top
@@ -98,6 +98,23 @@ def _import_personas() -> None:
         s[ui.PARTICIPANT_KEY] = codes[0]
         st.query_params["participant"] = codes[0]
         s[OPEN_TAB] = f"Preferences of {codes[0]}"
+
+
+def _create_study() -> None:
+    """Create the study and switch the sidebar to it (callbacks run before the sidebar is drawn)."""
+    s = st.session_state
+    try:
+        new = store.create_study(s["new-study-name"], s["new-study-description"])
+    except CacasError as exc:
+        s["study-error"] = str(exc)
+        return
+    s["study-error"] = None
+    s[ui.STUDY_KEY] = new.name
+    s[ui.PARTICIPANT_KEY] = None
+    st.query_params.pop("participant", None)
+    s["new-study-name"] = s["new-study-description"] = ""
+    s[OPEN_TAB] = "Add a participant"  # the next step: its participants
+    st.toast(f"Study {new.name!r} created and selected: add its participants.", icon=":material/check_circle:")
 
 
 # --- page -------------------------------------------------------------------------------------------
@@ -135,8 +152,9 @@ if code:
         count = st.number_input("Preferences on the form", min_value=1, max_value=max(10, len(existing)),
                                 value=max(5, len(existing)), key=f"count-{code}-v{version}",
                                 help="The paper asks each participant for 5; an imported file may have more.")
-        errors = st.session_state.get("pref-errors") or {}
-        overall = st.session_state.get("pref-overall")
+        checked, errors, overall = st.session_state.get("pref-check") or (None, {}, None)
+        if checked != code:  # messages about another participant's form stay with it
+            errors, overall = {}, None
         tasks = {}
         with st.form(f"prefs-{code}-v{version}", border=False, enter_to_submit=False):
             for n in range(1, int(count) + 1):
@@ -201,8 +219,9 @@ with tabs["Import / export"]:
     with c1:
         st.markdown("**Import a persona file**")
         st.caption("design.md's format: `{\"participants\": [{\"id\": \"P01\", \"preferences\": [...]}]}`. "
-                   "Missing participants are added; each one's preferences are saved as a new version. "
-                   "All or nothing: one bad entry and nothing is imported.")
+                   f"Missing participants are added to study '{study}'; each one's preferences are saved as a "
+                   "new version. All or nothing: one bad entry, or a participant of another study, and nothing "
+                   "is imported.")
         st.file_uploader("Persona file", type=["json"], key="persona-upload")
         st.button("Import", on_click=_import_personas, icon=":material/upload:")
         if st.session_state.get("import-error"):
@@ -219,12 +238,8 @@ with tabs["Import / export"]:
                            mime="application/json", disabled=n == 0, icon=":material/download:")
     with st.expander("New study"):
         with st.form("new-study", border=False):
-            name = st.text_input("Study name", placeholder="e.g. pilot-2026")
-            desc = st.text_input("Description")
-            if st.form_submit_button("Create study"):
-                try:
-                    store.create_study(name, desc)
-                except CacasError as exc:
-                    st.error(str(exc), icon=":material/error:")
-                else:
-                    st.success(f"Study {name!r} created; pick it in the sidebar.")
+            st.text_input("Study name", placeholder="e.g. pilot-2026", key="new-study-name")
+            st.text_input("Description", key="new-study-description")
+            if st.session_state.get("study-error"):
+                st.error(st.session_state["study-error"], icon=":material/error:")
+            st.form_submit_button("Create study", on_click=_create_study)

@@ -144,6 +144,8 @@ def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="P01 already exists"):
         store.add_participant("P01")
+    with pytest.raises(CacasError, match="participant p01 differs from participant P01 only in letter case"):
+        store.add_participant("p01")
     with pytest.raises(CacasError, match="age range"):
         store.add_participant("P03", age_range="old")
     with pytest.raises(CacasError, match="age range"):
@@ -162,6 +164,8 @@ def test_preferences_are_versioned_and_validated(store):
     assert len(store.get_preferences("P01").preferences) == 2
     assert len(store.get_preferences("P01", version=1).preferences) == 1
     assert [v["count"] for v in store.preference_versions("P01")] == [1, 2]
+    assert store.save_preferences("P01", [dict(STOVE), dict(COUGH)]) == 2  # unchanged: no new version
+    assert len(store.preference_versions("P01")) == 2
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="activity"):
         store.save_preferences("P01", [{"activity": ["juggle"], "action": "chitchat"}])
@@ -187,7 +191,24 @@ def test_persona_json_round_trip(store, tmp_path):
     with pytest.raises(CacasError, match="participant code"):
         other.import_personas({"participants": [{"id": "Jane Doe", "preferences": [COUGH]}]})
     assert snapshot(other.path) == before
+    assert other.import_personas(text) == ["P01"]  # the same file again: no new version
+    assert len(other.preference_versions("P01")) == 1
     other.close()
+
+
+def test_import_never_touches_another_studys_participants(store):
+    store.create_study("pilot")
+    store.import_personas({"participants": [{"id": "P10", "preferences": [COUGH]}]}, study="pilot")
+    before = snapshot(store.path)
+    clash = {"participants": [{"id": "P11", "preferences": [COUGH]}, {"id": "P10", "preferences": [STOVE]}]}
+    with pytest.raises(CacasError, match="new.json: participant P10 belongs to study 'pilot', not 'default'; "
+                                         "nothing was imported"):
+        store.import_personas(clash, source="new.json")
+    with pytest.raises(CacasError, match="participant p10 differs from participant P10 only in letter case"):
+        store.import_personas({"participants": [{"id": "p10", "preferences": [STOVE]}]}, study="pilot")
+    assert snapshot(store.path) == before  # all or nothing: P11 was not added either
+    assert store.import_personas(clash, study="pilot") == ["P11", "P10"]  # into its own study it goes
+    assert store.get_preferences("P10").preferences[0].action == "remind to turn off"
 
 
 # --- days and interactions ------------------------------------------------------------------------

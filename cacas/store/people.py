@@ -51,8 +51,7 @@ class PeopleMixin:
 
         def fn(c):
             sid = self._study_id(c, study)
-            if c.execute("SELECT 1 FROM participants WHERE code = ?", (code,)).fetchone():
-                raise CacasError(f"participant {code} already exists; codes must be unique")
+            self._check_new_code(c, code)
             at = v.now()
             c.execute("INSERT INTO participants (study_id, code, age_range, notes, created_at, updated_at) "
                       "VALUES (?, ?, ?, ?, ?, ?)", (sid, code, age_range, notes, at, at))
@@ -117,7 +116,8 @@ class PeopleMixin:
         return prefs.parse_participant({"id": code, "preferences": items})
 
     def save_preferences(self, code: str, preferences: Any) -> int:
-        """Store a participant's described preferences as a new version; return the version.
+        """Store a participant's described preferences as a new version; return the version
+        (preferences equal to the latest version are not stored again: its number is returned).
 
         ``preferences``: a list of Preference objects or persona-format dicts, or a
         :class:`cacas.preferences.Participant`. Validated with
@@ -126,17 +126,33 @@ class PeopleMixin:
         """
         code = str(code).strip()
         person = self._parse_preferences(code, preferences)
-        payload = json.dumps([p.to_dict() for p in person.preferences], ensure_ascii=False)
 
         def fn(c):
-            pid = self._pid(c, code)
-            version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM preferences WHERE participant_id = ?",
-                                (pid,)).fetchone()[0]
-            c.execute("INSERT INTO preferences (participant_id, version, preferences, created_at) "
-                      "VALUES (?, ?, ?, ?)", (pid, version, payload, v.now()))
-            self._event(c, "save_preferences", code, version=version, count=len(person.preferences))
-            return version
+            return self._save_version(c, self._pid(c, code), code, person)
         return self._write(fn)
+
+    @staticmethod
+    def _check_new_code(c, code: str) -> None:
+        """A new code must differ from every code in use, also in letter case (P01 and p01 would
+        be two participants a reader takes for one)."""
+        row = c.execute("SELECT code FROM participants WHERE code = ? COLLATE NOCASE", (code,)).fetchone()
+        if row is not None:
+            same = "already exists" if row[0] == code else f"differs from participant {row[0]} only in letter case"
+            raise CacasError(f"participant {code} {same}; codes must be unique")
+
+    def _save_version(self, c, pid: int, code: str, person: prefs.Participant, **event: Any) -> int:
+        """Write ``person``'s preferences as the participant's next version, unless they equal the
+        latest one (then nothing is written); return the version now in force."""
+        payload = json.dumps([p.to_dict() for p in person.preferences], ensure_ascii=False)
+        latest = c.execute("SELECT version, preferences FROM preferences WHERE participant_id = ? "
+                           "ORDER BY version DESC LIMIT 1", (pid,)).fetchone()
+        if latest is not None and json.loads(latest[1]) == json.loads(payload):
+            return latest[0]
+        version = 1 if latest is None else latest[0] + 1
+        c.execute("INSERT INTO preferences (participant_id, version, preferences, created_at) "
+                  "VALUES (?, ?, ?, ?)", (pid, version, payload, v.now()))
+        self._event(c, "save_preferences", code, version=version, count=len(person.preferences), **event)
+        return version
 
     def get_preferences(self, code: str, version: int | None = None) -> prefs.Participant | None:
         """The participant's described preferences (latest version, or ``version``); None if none saved."""
@@ -171,8 +187,10 @@ class PeopleMixin:
 
     def import_personas(self, data: Any, study: str = DEFAULT_STUDY, source: str | None = None) -> list[str]:
         """Import a persona document (JSON text or parsed JSON): add participants that are
-        missing (to ``study``) and save each one's preferences as a new version. All or nothing:
-        one invalid participant or preference raises CacasError and nothing is written."""
+        missing (to ``study``) and save each one's preferences as a new version (unless they equal
+        the latest). All or nothing: one invalid participant or preference, a participant of
+        another study, or a code that differs from one in use only in letter case raises
+        CacasError and nothing is written."""
         if isinstance(data, (str, bytes)):
             data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
@@ -185,21 +203,24 @@ class PeopleMixin:
 
         def fn(c):
             sid = self._study_id(c, study)
-            for p in people:
-                at = v.now()
-                row = c.execute("SELECT id FROM participants WHERE code = ?", (p.id,)).fetchone()
+            for p in people:  # check every code first: all or nothing
+                row = c.execute("SELECT p.code, s.name FROM participants p JOIN studies s ON s.id = p.study_id "
+                                "WHERE p.code = ? COLLATE NOCASE", (p.id,)).fetchone()
                 if row is None:
+                    continue
+                if row[0] != p.id:
+                    self._check_new_code(c, p.id)
+                if row[1] != study:
+                    raise CacasError(f"{source or 'persona file'}: participant {p.id} belongs to study {row[1]!r}, "
+                                     f"not {study!r}; nothing was imported. Import into study {row[1]!r}, or give "
+                                     "the new participant a code not in use")
+            for p in people:
+                if c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None:
+                    at = v.now()
                     c.execute("INSERT INTO participants (study_id, code, created_at, updated_at) "
                               "VALUES (?, ?, ?, ?)", (sid, p.id, at, at))
                     self._event(c, "add_participant", p.id, study=study, source="personas")
-                pid = self._pid(c, p.id)
-                version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM preferences "
-                                    "WHERE participant_id = ?", (pid,)).fetchone()[0]
-                payload = json.dumps([x.to_dict() for x in p.preferences], ensure_ascii=False)
-                c.execute("INSERT INTO preferences (participant_id, version, preferences, created_at) "
-                          "VALUES (?, ?, ?, ?)", (pid, version, payload, at))
-                self._event(c, "save_preferences", p.id, version=version, count=len(p.preferences),
-                            source="personas")
+                self._save_version(c, self._pid(c, p.id), p.id, p, source="personas")
         self._write(fn)
         return [p.id for p in people]
 

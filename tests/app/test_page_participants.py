@@ -136,3 +136,56 @@ def test_a_participant_with_more_than_ten_preferences_opens(app, store):
     no_exception(at)
     assert at.number_input(key="count-P01-v1").value == 12
     assert "12 preferences" in texts(at)
+
+
+def test_form_messages_stay_with_the_participant_they_are_about(app, store):
+    store.add_participant("P01")
+    store.add_participant("P02")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 2, words="something", action="chitchat")  # no activity
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    assert any(e.value.startswith("Preference 2: field 'activity'") for e in at.error)
+    at.selectbox(key="participant").set_value("P02").run()  # the sidebar's choice
+    no_exception(at)
+    assert [t.label for t in at.tabs][0] == "Preferences of P02"
+    assert not any(e.value.startswith("Preference") for e in at.error)
+    at.selectbox(key="participant").set_value("P01").run()  # back: P01's message is still there
+    assert any(e.value.startswith("Preference 2: field 'activity'") for e in at.error)
+
+
+def test_a_half_filled_preference_is_named_not_dropped(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 1, activity=["cough"], action="pain check")
+    _fill(at, "P01", 0, 2, scene=["kitchen"], slots=[3])  # rooms and time only
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert any(e.value.startswith("Preference 2: field 'action': is missing") for e in at.error)
+    assert store.get_preferences("P01") is None  # nothing saved, not preference 1 alone
+
+
+def test_saving_unchanged_preferences_keeps_the_version(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert [v["version"] for v in store.preference_versions("P01")] == [1]
+    assert "Saved version 1" in texts(at)
+
+
+def test_a_new_study_is_created_and_selected(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    at.text_input(key="new-study-name").set_value("pilot-2026")
+    next(b for b in at.button if b.label == "Create study").click().run()
+    no_exception(at)
+    assert [s.name for s in store.studies()] == ["default", "pilot-2026"]
+    assert at.selectbox(key="study").value == "pilot-2026"  # the sidebar shows it at once
+    assert "pilot-2026" in at.selectbox(key="study").options
+    assert at.session_state["participant"] is None
+    assert [t.label for t in at.tabs][0] == "Add a participant"
+    at.text_input(key="new-study-name").set_value("pilot-2026")
+    next(b for b in at.button if b.label == "Create study").click().run()
+    assert "study 'pilot-2026' already exists" in texts(at)
+
