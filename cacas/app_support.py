@@ -127,12 +127,18 @@ def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
-    """The Adaptation page's adaptation runs (the store's adaptations_frame): day, method,
-    duration_s, preference_accuracy (percent; NaN if not scored), policy_version (empty for a
-    comparison run, which saves none), created_at (short)."""
-    cols = ["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]
-    return runs.assign(preference_accuracy=100 * runs["preference_accuracy"].astype(float),
-                       created_at=[short_time(c) for c in runs["created_at"]])[cols]
+    """The Adaptation page's adaptation runs (the store's adaptations_frame), in words: day,
+    what (the method; the initial policy's Fig. 4 score, recorded as day 0, says so; a run that
+    saved no policy is a comparison), duration (s), preference accuracy (percent; NaN if not
+    scored), policy version (empty where none was saved), saved (short time)."""
+    initial = [json.loads(p or "{}").get("initial", False) for p in runs["parameters"]]
+    what = [("initial policy, scored for Fig. 4" if first else
+             f"{m} (comparison)" if pd.isna(v) else m)
+            for m, v, first in zip(runs["method"], runs["policy_version"], initial)]
+    return pd.DataFrame({"day": runs["day"], "what": what, "duration (s)": runs["duration_s"],
+                         "preference accuracy": 100 * runs["preference_accuracy"].astype(float),
+                         "policy version": runs["policy_version"],
+                         "saved": [short_time(c) for c in runs["created_at"]]})
 
 
 def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:

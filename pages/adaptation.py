@@ -103,8 +103,11 @@ else:
         st.error(f"The adaptation failed: {job.error}", icon=":material/error:")
     elif job is not None and job.status == DONE:
         res = job.result
+        now = "initial" if status.policy_version is None else f"version {status.policy_version}"
         msg = (f"Adapted with {res.method} in {res.duration_s:.1f} s; policy version {res.policy_version} is in "
-               f"force from day {res.day + 1}.")
+               f"force from day {res.day + 1}." if status.policy_version == res.policy_version else
+               f"Adapted with {res.method} in {res.duration_s:.1f} s into policy version {res.policy_version}; "
+               f"since then the {now} policy was put in force (Roll back, below).")
         if res.preference_accuracy is not None:
             msg += f" Preference accuracy (Fig. 4): {ui.percent(res.preference_accuracy)}."
         st.success(msg, icon=":material/check_circle:")
@@ -123,7 +126,8 @@ else:
     c1, c2 = st.columns(2)
     keys = list(labels)
     after = c2.selectbox("After", keys, index=keys.index(active), format_func=labels.get, key=f"cmp-after-{stamp}")
-    before_default = max(0, keys.index(after) - 1)
+    # before: the version preceding "after"; after a roll back to the initial policy, the latest version
+    before_default = keys.index(after) - 1 if after != 0 else len(keys) - 1
     before = c1.selectbox("Before", keys, index=before_default, format_func=labels.get, key=f"cmp-before-{stamp}")
     data = store.interactions_frame(code, method=None)
     try:
@@ -177,7 +181,6 @@ else:
 if len(runs):
     with st.expander(f"Adaptation runs ({len(runs)})"):
         st.dataframe(app_support.runs_table(runs), hide_index=True, width="stretch",
-                     column_config={"duration_s": st.column_config.NumberColumn("duration (s)", format="%.1f"),
-                                    "preference_accuracy": st.column_config.NumberColumn("preference accuracy",
-                                                                                         format="%.0f%%")})
+                     column_config={"duration (s)": st.column_config.NumberColumn(format="%.1f"),
+                                    "preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
         ui.download_csv(store.adaptations_frame(code), f"adaptations-{code}.csv")

@@ -114,9 +114,11 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(table["preference accuracy"]) == [75.0, 100.0]  # the comparison run is no version's
     assert list(table["in force"]) == ["", "yes"] and all(len(h) == 12 for h in table["sha256"])
     assert list(app_support.versions_table([], store.adaptations_frame("P01")).columns)[0] == "version"
+    store.record_adaptation("P01", 0, "cacas", {"initial": True}, 0.0, {"preference_accuracy": 0.25})
     runs = app_support.runs_table(store.adaptations_frame("P01"))
-    assert list(runs.columns) == ["day", "method", "duration_s", "preference_accuracy", "policy_version", "created_at"]
-    assert list(runs["method"]) == ["cacas", "cacas", "nn"] and list(runs["preference_accuracy"]) == [75.0, 100.0, 10.0]
-    assert list(runs["policy_version"].isna()) == [False, False, True]  # a comparison run saves no policy
-    assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["created_at"])  # "YYYY-MM-DD HH:MM UTC"
+    assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "policy version", "saved"]
+    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4"]
+    assert list(runs["preference accuracy"]) == [75.0, 100.0, 10.0, 25.0]
+    assert list(runs["policy version"].isna()) == [False, False, True, True]  # a comparison run saves no policy
+    assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
     store.close()

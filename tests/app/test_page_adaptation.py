@@ -70,6 +70,15 @@ def test_close_day_and_adapt(app, store, quick_policy):
     np.testing.assert_allclose(learnt[["before", "after"]].to_numpy(dtype=float),
                                100 * expected[["before", "after"]].to_numpy(dtype=float))
     assert "P01's described preferences" in texts(at)
+    # roll back: the banner no longer claims the new version is in force; What changed shows the step back
+    at.selectbox(key=f"rollback-version-P01-{active.version}-{active.version}").set_value(0)
+    _button(at, "Put in force").click().run()
+    no_exception(at)
+    assert store.active_policy("P01") is None
+    assert f"policy version {active.version} is in force" not in texts(at)
+    assert "since then the initial policy was put in force" in texts(at)
+    assert next(s for s in at.selectbox if s.label == "After").value == 0
+    assert next(s for s in at.selectbox if s.label == "Before").value == active.version
 
 
 def test_rollback_to_the_initial_policy(app, store, quick_policy):
