@@ -122,6 +122,9 @@ with fig4:
             ui.preference_heatmaps(tables["by_preference"], key="results-prefs")
 
 with quest:
+    if source != HUMAN:
+        st.info(f"Simulated participants answer no questionnaire. The answers of study **{study}** are under "
+                "\"Human study (this database)\" above.", icon=":material/info:")
     st.markdown("*\"What is your satisfaction level regarding the robot's ability to adapt to your "
                 "preferences?\"* 1 = very dissatisfied, 10 = very satisfied (Section V-B.1).")
     answers = store.questionnaire_frame(study)
@@ -155,7 +158,8 @@ with quest:
                     st.toast(f"Saved {who}'s answer ({score}).{note}", icon=":material/check_circle:")
                     st.rerun()
     if len(answers):
-        st.dataframe(answers, hide_index=True, width="stretch")
+        st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
+                     .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
         ui.download_csv(answers, "questionnaire.csv")
 
 with data:

@@ -368,6 +368,11 @@ def test_bad_satisfaction_is_refused(store, score):
 
 
 def test_questionnaire(store):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="participant P01 has had no study day yet"):
+        store.record_questionnaire("P01", 10)
+    assert snapshot(store.path) == before
+    store.open_day("P01")
     store.record_questionnaire("P01", 10, "it learned my stove habit")
     store.record_questionnaire("P01", 1)
     df = store.questionnaire_frame()

@@ -23,6 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from cacas.errors import CacasError
 from cacas.store import validate as v
 from cacas.store.base import (DB_ENV, DEFAULT_STUDY, DayInfo, ParticipantInfo, PolicyVersion, ResumeInfo,
                               StoreBase, Study, default_db_path)
@@ -54,12 +55,16 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
     def record_questionnaire(self, participant: str, satisfaction: int, comments: str = "") -> int:
         """The post-test question "What is your satisfaction level regarding the robot's ability to
         adapt to your preferences?": ``satisfaction`` 1 (very dissatisfied) .. 10 (very
-        satisfied), with free-text ``comments``. Returns the row id."""
+        satisfied), with free-text ``comments``. Returns the row id. A participant who has had no
+        study day yet cannot answer it (most likely the wrong participant was picked)."""
         score, comments = v.satisfaction(satisfaction), v.text(comments, "comments")
         code = str(participant).strip()
 
         def fn(c):
             pid = self._pid(c, participant)
+            if c.execute("SELECT 1 FROM days WHERE participant_id = ?", (pid,)).fetchone() is None:
+                raise CacasError(f"participant {code} has had no study day yet; the questionnaire asks about "
+                                 "the robot's adaptation, after the study days")
             cur = c.execute("INSERT INTO questionnaires (participant_id, satisfaction, comments, created_at) "
                             "VALUES (?, ?, ?, ?)", (pid, score, comments, v.now()))
             self._event(c, "record_questionnaire", code, satisfaction=score, id=cur.lastrowid)

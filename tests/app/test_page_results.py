@@ -47,6 +47,21 @@ def test_questionnaire_entry_and_summary(app, store):
     assert "Saved P01's answer (9). It was given after day 1 of 7." in [t.value for t in at.toast]
     values = {m.label: m.value for m in at.metric}
     assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"
+    shown = next(d.value for d in at.dataframe if "satisfaction" in d.value.columns)
+    assert list(shown.columns) == ["participant", "satisfaction", "comments", "saved"]
+    assert shown["saved"].iloc[0].endswith(" UTC")
+    assert not any("Simulated participants answer no questionnaire" in i.value for i in at.info)
+
+
+def test_questionnaire_of_a_participant_without_a_day_is_refused(app, store):
+    _study_with_a_day(store)
+    store.add_participant("P02")
+    at = app(PAGE, participant="P02")
+    at.button_group(key="quest-score").set_value(9)
+    next(b for b in at.button if b.label == "Save answer").click().run()
+    no_exception(at)
+    assert "participant P02 has had no study day yet" in texts(at)
+    assert len(store.questionnaire_frame()) == 0
 
 
 def test_results_of_a_simulated_run(app, db):
@@ -76,6 +91,7 @@ def test_results_of_a_simulated_run(app, db):
     assert at.select_slider(key="results-prefs-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
+    assert any("Simulated participants answer no questionnaire" in i.value for i in at.info)
 
 
 def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
