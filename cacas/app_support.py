@@ -89,7 +89,10 @@ def _event_words(what: str, details: str) -> str:
         d = {}
     if what == "record_interaction":
         if d.get("type") == records.USER_INITIATED:
-            return f"day {d.get('day')}, interaction {d.get('index')}: asked for an action"
+            asked = f"asked for {d['user_action']}" if d.get("user_action") else "asked for an action"
+            if d.get("robot_action") not in (None, "do nothing"):  # a request that answered a proposal
+                asked = f"robot {d['robot_action']}, participant {asked} instead"
+            return f"day {d.get('day')}, interaction {d.get('index')}: {asked}"
         answer = records.RESPONSE_WORDS.get(d.get("response"), "")
         return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
     if what == "record_adaptation":
@@ -106,7 +109,8 @@ def _event_words(what: str, details: str) -> str:
         v = d.get("version")
         return "initial policy put in force" if v is None else f"policy version {v} put in force"
     if what == "save_preferences":
-        return f"preferences saved (version {d.get('version')}, {d.get('count')} preferences)"
+        n = d.get("count")
+        return f"preferences saved (version {d.get('version')}, {n} preference{'' if n == 1 else 's'})"
     if what == "record_questionnaire":
         return f"questionnaire: satisfaction {d.get('satisfaction')}"
     return {"add_participant": "participant added", "update_participant": "details edited",
@@ -258,14 +262,16 @@ def hours_label(hours) -> str:
 
 
 def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
-    """The described preferences as a readable table with each one's covered-state count."""
+    """The described preferences as a readable table with each one's covered-state count: the
+    context and the action first (what the robot should learn), the participant's words last (the
+    widest column, cut first on a narrow screen)."""
     rows = []
     for i, p in enumerate(participant.preferences, 1):
         rows.append({
-            "#": i, "in their words": p.description, "activities": ", ".join(p.activity),
+            "#": i, "activities": ", ".join(p.activity), "action": p.action,
             "rooms": ", ".join(p.scene) if p.scene else "any room", "hours": hours_label(p.hours),
             "interval (min)": f"{p.interval[0]:g}-{p.interval[1]:g}" if p.interval else "any",
-            "action": p.action, "covered states": p.covered_count(),
+            "covered states": p.covered_count(), "in their words": p.description,
         })
     return pd.DataFrame(rows)
 

@@ -209,10 +209,15 @@ def participant_test_states(person: Participant, p_i: int, seed: int, n: int) ->
 
 
 def adaptation_seed(seed: int, p_i: int, day: int, method: str) -> int:
-    """The seed of ``method``'s adaptation after ``day`` for the study's ``p_i``-th participant:
-    from the method's name, not its place in the list, so a method's results do not depend on
+    """The seed of ``method``'s adaptation after ``day`` for the study's ``p_i``-th participant.
+
+    numpy's SeedSequence hashes (seed, participant index, day, method), so no two adaptations of
+    a study share a random stream, whatever the number of participants and days (an arithmetic
+    formula such as seed * K + p_i * 101 + day * 7 collides once days run past the stride). The
+    method enters by its name, not its place in the list, so a method's results do not depend on
     which other methods run beside it (given the same closed-loop method)."""
-    return seed * 100_003 + p_i * 101 + day * 7 + METHODS.index(method)
+    entropy = [seed, p_i, day, METHODS.index(method)]
+    return int(np.random.SeedSequence(entropy).generate_state(1, np.uint64)[0] >> 1)  # 63 bits: torch takes it
 
 
 def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
@@ -257,14 +262,14 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
     for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
                                                  no_response_rate, config, d4a, ask_after_reject, loop):
         if day > 1 and report:  # the previous day was lived and adapted from
-            report(f"participant {person.id}, day {day - 1}/{days}")
+            report(f"participant {person.id}: day {day - 1} of {days} done")
         for m in methods:
             acc_rows.append({"participant": person.id, "method": m, "day": day,
                              "preference_accuracy": preference_accuracy(in_force[m], person, states=test_states)})
             by_preference.append(accuracy_by_preference(in_force[m], person, test_states)
                                  .assign(participant=person.id, method=m, day=day))
     if report:
-        report(f"participant {person.id}, day {days}/{days}")
+        report(f"participant {person.id}: day {days} of {days} done")
     return ([r for m in rows for r in rows[m]], acc_rows,
             pd.concat(by_preference, ignore_index=True)[records.BY_PREFERENCE_COLUMNS])
 

@@ -31,7 +31,11 @@ RESPONSE_WORDS = {"accept": "accepted", "reject": "rejected", "others": "no resp
 #: previous_action / previous_response (S6 / S7 of the policy state: names), type (type_1
 #: robot-initiated, type_2 user-initiated), robot_action (name), response (accept / reject /
 #: others; "others" = no response), user_action (the action the participant asked for in a
-#: type_2 interaction, else empty).
+#: type_2 interaction, else empty). In a type_2 row, response "accept" is the participant's own
+#: request (confirmed), not an answer to robot_action: robot_action is "do nothing" (the robot
+#: was silent) or the proposal the participant answered by asking for something else instead
+#: (the tablet's "Or ask the robot yourself"), i.e. a proposal not accepted. Count acceptances
+#: of the robot's proposals with :func:`is_success` (type_1 rows only).
 INTERACTION_COLUMNS = [
     "participant", "method", "day", "index", "time", "activity", "scene", "time_slot",
     "interval", "task", "previous_action", "previous_response", "type", "robot_action",

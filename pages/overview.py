@@ -26,7 +26,8 @@ started = table["day"] != "not started"
 c1, c2, c3, c4 = st.columns(4)
 c1.metric("Participants", len(table))
 c2.metric("Started", int(started.sum()))
-c3.metric("Interactions today", int(table["interactions today"].sum()))
+c3.metric("Interactions on open days", int(table["interactions today"].sum()),
+          help="Interactions recorded so far on the study days now open (a closed day counts 0 here).")
 rates = table["success rate so far"].dropna()
 c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
 
@@ -41,7 +42,8 @@ st.dataframe(
             "success rate so far", help="Robot-initiated actions the participant accepted, of all "
             "interactions so far (Fig. 3's definition)", min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
-            "today", help=f"Interactions today; target: about {TARGET_INTERACTIONS} a day", width="small"),
+            "today", help=f"Interactions on the open day (0 once it is closed); target: about "
+                          f"{TARGET_INTERACTIONS} a day", width="small"),
         "next step": st.column_config.TextColumn("next step", width="large"),
     })
 

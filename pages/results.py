@@ -83,9 +83,10 @@ with fig3:
         per_day = plots.success_by_day(daily, method).set_index("day")
         last = per_day.index.max()
         c1, c2, c3 = st.columns(3)
+        change = round(100 * (per_day.loc[last, "mean"] - per_day["mean"].iloc[0]))
         c1.metric(f"Day {last} mean success rate", ui.percent(per_day.loc[last, "mean"]),
-                  None if len(per_day) < 2 else f"{100 * (per_day.loc[last, 'mean'] - per_day['mean'].iloc[0]):+.0f} "
-                                                f"points since day {per_day.index.min()}")
+                  None if len(per_day) < 2 else f"{change:+d} points since day {per_day.index.min()}",
+                  delta_color="normal" if change else "off")
         c2.metric("Mean cumulative feedback", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
         c3.metric("Participants", int(per_day["participants"].max()))
         st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
@@ -115,7 +116,8 @@ with fig4:
                 "described preferences.")
     else:
         st.plotly_chart(plots.methods_figure(daily), width="stretch")
-        st.dataframe(summary.style.format("{:.0%}"), width="stretch")
+        st.dataframe(summary.style.format("{:.0%}"), width="stretch",
+                     column_config={"_index": st.column_config.TextColumn("method", width="medium")})
         st.caption("Mean preference accuracy over participants, per method and day (Fig. 4).")
         if "by_preference" in tables and len(tables["by_preference"]):
             st.subheader("Which preferences each method learnt")

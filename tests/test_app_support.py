@@ -65,6 +65,13 @@ def test_overview_and_events(tmp_path):
     assert row["next step"] == "Day 1: 13 more interactions on the tablet"
     words = list(app_support.recent_events(store)["what"])
     assert words[0] == "day 1, interaction 2: robot chitchat, rejected"
+    assert "preferences saved (version 1, 1 preference)" in words
+    for robot in ("do nothing", "chitchat"):  # a request on the robot's silence, or instead of its proposal
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action=robot, response="accept", type="type_2", user_action="pain check")
+    words = list(app_support.recent_events(store)["what"])
+    assert words[:2] == ["day 1, interaction 4: robot chitchat, participant asked for pain check instead",
+                         "day 1, interaction 3: asked for pain check"]
     store.close()
 
 

@@ -4,7 +4,8 @@ import pytest
 
 from cacas import records, spaces
 from cacas.errors import CacasError
-from cacas.experiment import simulate_study, simulated_day, summary_table
+from cacas.adaptation import METHODS
+from cacas.experiment import MAX_DAYS, adaptation_seed, simulate_study, simulated_day, summary_table
 from cacas.preferences import parse_personas
 
 PEOPLE = parse_personas({"participants": [
@@ -127,6 +128,16 @@ def test_each_closed_loop_has_the_success_ceiling_of_its_own_interactions(small_
         own = records.daily_table(res.interactions[res.interactions["method"] == m], preferred=preferred)
         np.testing.assert_allclose(res.daily[res.daily["method"] == m]["success_ceiling"], own["success_ceiling"])
     assert (res.daily["success_ceiling"] < 1).any()  # the quiet preference lowers it
+
+
+def test_adaptation_seeds_never_collide_within_a_study():
+    # 40 participants x a year of days x every method, for two study seeds: one stream each
+    for seed in (0, 1):
+        seeds = {adaptation_seed(seed, p_i, day, m) for p_i in range(40) for day in range(1, MAX_DAYS + 1)
+                 for m in METHODS}
+        assert len(seeds) == 40 * MAX_DAYS * len(METHODS)
+    assert adaptation_seed(0, 0, 1, "cacas") == adaptation_seed(0, 0, 1, "cacas")
+    assert adaptation_seed(0, 0, 1, "cacas") != adaptation_seed(1, 0, 1, "cacas")
 
 
 def test_same_seed_same_tables(small_config, small_initial):

@@ -171,7 +171,8 @@ class SessionsMixin:
             cur = c.execute(f"INSERT INTO interactions ({', '.join(cols)}) VALUES ({', '.join('?' * len(cols))})",
                             vals)
             self._event(c, "record_interaction", code, day=day, index=idx, id=cur.lastrowid,
-                        type=values["type"], robot_action=values["robot_action"], response=values["response"])
+                        type=values["type"], robot_action=values["robot_action"], response=values["response"],
+                        user_action=values.get("user_action") or None)
             return cur.lastrowid
         return self._write(fn)
 
