@@ -7,6 +7,7 @@ importers), train a model and save it where the study page loads it, evaluate th
 
 from __future__ import annotations
 
+import os
 import re
 import tempfile
 from pathlib import Path
@@ -43,7 +44,10 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
             if target.suffix == "":
                 target = target.with_suffix(".wav")
             target.write_bytes(data)
-        return import_folder(tmp, root)
+        try:
+            return import_folder(tmp, root)
+        except CacasError as exc:  # name the file as the researcher gave it, not our temporary copy
+            raise CacasError(str(exc).replace(str(folder) + os.sep, "")) from None
 
 
 def train_sound(progress: Progress = None, **options):

@@ -38,6 +38,7 @@ def test_add_clips_valid_and_invalid(tmp_path, monkeypatch):
             lab.add_clips("cough", [("good.wav", _wav())] + files if files else files, root)
         except CacasError as exc:
             assert message in str(exc).lower() or message in str(exc)
+            assert "/tmp" not in str(exc)  # the name given, not our temporary copy
         else:
             raise AssertionError(f"{files} was accepted")
     assert clip_paths("cough", root) == added  # nothing half-added
