@@ -22,7 +22,13 @@ import traceback
 from dataclasses import dataclass, field
 from typing import Any, Callable
 
-RUNNING, DONE, FAILED = "running", "done", "failed"
+RUNNING, DONE, FAILED, STOPPED = "running", "done", "failed", "stopped"
+
+
+class Stopped(Exception):
+    """Raised inside the work by its ``progress`` callback once someone asked the job to stop.
+    Work that writes its results only at its end (training, simulation, adaptation) then writes
+    nothing."""
 
 
 @dataclass
@@ -40,10 +46,22 @@ class Job:
     started: float = field(default_factory=time.time)
     finished: float | None = None
     _done: threading.Event = field(default_factory=threading.Event, repr=False)
+    _stop: threading.Event = field(default_factory=threading.Event, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
+    def stop(self) -> None:
+        """Ask the work to stop: its next progress report raises :class:`Stopped`."""
+        self._stop.set()
+
+    @property
+    def stopping(self) -> bool:
+        return self._stop.is_set() and self.running
+
     def progress(self, fraction: float, message: str = "") -> None:
-        """The ``progress`` callback handed to the work: record the fraction and a log line."""
+        """The ``progress`` callback handed to the work: record the fraction and a log line;
+        raise :class:`Stopped` if the job was asked to stop."""
+        if self._stop.is_set():
+            raise Stopped(f"{self.label}: stopped on request")
         with self._lock:
             self.fraction = min(1.0, max(0.0, float(fraction)))
             if message:
@@ -95,6 +113,10 @@ class JobRunner:
         def body() -> None:
             try:
                 result = work(*args, progress=job.progress, **kwargs)
+            except Stopped:
+                with job._lock:
+                    job.log.append("stopped on request; nothing saved")
+                    job.status = STOPPED
             except Exception as exc:  # the page shows the message; the log keeps the trace
                 with job._lock:
                     job.error = str(exc) or exc.__class__.__name__
@@ -117,8 +139,17 @@ class JobRunner:
         with self._lock:
             return self._jobs.get(key)
 
+    def stop(self, key: str) -> bool:
+        """Ask the running job under ``key`` to stop at its next progress report; False if none runs."""
+        with self._lock:
+            job = self._jobs.get(key)
+        if job is None or not job.running:
+            return False
+        job.stop()
+        return True
+
     def forget(self, key: str) -> None:
-        """Drop an ended job (a running one stays: it cannot be cancelled half-way)."""
+        """Drop an ended job (a running one stays: stop it first, :meth:`stop`)."""
         with self._lock:
             job = self._jobs.get(key)
             if job is not None and not job.running:

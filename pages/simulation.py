@@ -91,7 +91,7 @@ if go:
             st.warning("A simulation is already running.")
         st.rerun()
 
-job = ui.job_progress(JOB)
+job = ui.job_progress(JOB, stoppable=True)
 if job is not None and job.status == FAILED:
     st.error(f"The simulation failed: {job.error}", icon=":material/error:")
 

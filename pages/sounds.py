@@ -104,6 +104,12 @@ with add:
         st.success(st.session_state["clip-added"], icon=":material/check_circle:")
 
 
+def _iso(seconds: float) -> str:
+    from datetime import datetime, timezone
+
+    return datetime.fromtimestamp(seconds, timezone.utc).isoformat(timespec="seconds")
+
+
 def _metrics_view(metrics, kind: str) -> None:
     st.metric(f"{kind} test accuracy", f"{100 * metrics.accuracy:.1f}%", help=f"on {metrics.n} held-out items")
     st.plotly_chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
@@ -138,13 +144,14 @@ with train:
                      key=f"btn-{key_eval}", icon=":material/fact_check:"):
             RUNNER.start(key_eval, evaluator, label=f"Evaluating the {kind.lower()} model")
             st.rerun()
-        for key in (key_train, key_eval):
-            job = ui.job_progress(key)
-            if job is not None and job.status == FAILED:
-                st.error(f"{job.label} failed: {job.error}", icon=":material/error:")
-            elif job is not None and job.status == DONE:
-                metrics = getattr(job.result, "metrics", job.result)
-                _metrics_view(metrics, kind)
+        jobs = [j for j in (ui.job_progress(k, stoppable=True) for k in (key_train, key_eval)) if j is not None]
+        ended = [j for j in jobs if not j.running]
+        last = max(ended, key=lambda j: j.finished or 0) if ended and not busy else None
+        if last is not None and last.status == FAILED:  # the latest result only, never under running work
+            st.error(f"{last.label} failed: {last.error}", icon=":material/error:")
+        elif last is not None and last.status == DONE:
+            st.caption(f"{last.label}: finished {app_support.short_time(_iso(last.finished))}.")
+            _metrics_view(getattr(last.result, "metrics", last.result), kind)
 
 
 with tryit:

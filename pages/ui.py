@@ -10,7 +10,7 @@ import streamlit as st
 
 from cacas import app_support, lab, plots, records
 from cacas.errors import CacasError
-from cacas.jobs import RUNNER, Job
+from cacas.jobs import RUNNER, STOPPED, Job
 from cacas.store import StudyStore, default_db_path
 
 def require_app() -> None:
@@ -118,8 +118,9 @@ def percent(x: float) -> str:
     return "–" if x is None or pd.isna(x) else f"{100 * x:.0f}%"
 
 
-def job_progress(key: str, done_message: str = "Done.") -> Job | None:
-    """Show a background job's progress bar and log; rerun the page when it ends.
+def job_progress(key: str, done_message: str = "Done.", stoppable: bool = False) -> Job | None:
+    """Show a background job's progress bar and log (and, if ``stoppable``, a Stop button);
+    rerun the page when it ends. A stopped job shows a note that nothing was saved.
 
     Returns the job (running or ended) or None if there is none under ``key``.
     """
@@ -127,18 +128,24 @@ def job_progress(key: str, done_message: str = "Done.") -> Job | None:
     if job is None:
         return None
     if job.running:
-        _job_fragment(key)
+        _job_fragment(key, stoppable)
+    elif job.status == STOPPED:
+        st.info(f"{job.label} was stopped after {job.elapsed:.0f} s; nothing was saved.", icon=":material/stop_circle:")
     return job
 
 
 @st.fragment(run_every=0.5)
-def _job_fragment(key: str) -> None:
+def _job_fragment(key: str, stoppable: bool = False) -> None:
     job = RUNNER.get(key)
     if job is None:
         return
     snap = job.snapshot()
     st.progress(snap["fraction"], text=f"{snap['label']}: {snap['message'] or 'starting'} "
                                        f"({snap['elapsed']:.0f} s)")
+    if stoppable and job.running:
+        st.button("Stopping..." if job.stopping else "Stop", key=f"stop-{key}", icon=":material/stop:",
+                  disabled=job.stopping, on_click=RUNNER.stop, args=(key,),
+                  help="Stops at the next progress step; nothing of this run is saved.")
     if snap["log"]:
         with st.expander("Log", expanded=False):
             st.code("\n".join(snap["log"][-30:]), language=None)

@@ -1,6 +1,6 @@
 import threading
 
-from cacas.jobs import DONE, FAILED, JobRunner
+from cacas.jobs import DONE, FAILED, STOPPED, JobRunner
 
 
 def test_job_reports_progress_and_result():
@@ -58,3 +58,29 @@ def test_failure_is_reported_not_raised():
     assert job.result is None
     runner.forget("bad")
     assert runner.get("bad") is None
+
+
+def test_a_stopped_job_ends_at_its_next_progress_report_and_keeps_nothing(tmp_path):
+    runner = JobRunner()
+    started = threading.Event()
+    out = tmp_path / "model.pt"
+
+    def work(progress):
+        for i in range(10_000):
+            progress(i / 10_000, f"epoch {i}")
+            started.set()
+            threading.Event().wait(0.01)
+        out.write_bytes(b"trained")  # written only at the end, like the trainers
+        return "ok"
+
+    job, _ = runner.start("train-sound", work, label="Training")
+    assert started.wait(10)
+    assert runner.stop("train-sound") and job.stopping
+    assert job.wait(10)
+    assert job.status == STOPPED and job.result is None and job.error is None
+    assert job.log[-1] == "stopped on request; nothing saved"
+    assert not out.exists()
+    assert not runner.stop("train-sound")  # nothing runs under that key any more
+    assert not runner.stop("no-such-job")
+    again, started_again = runner.start("train-sound", lambda progress: "ok")  # the key is free again
+    assert started_again and again.wait(10) and again.status == DONE

@@ -72,3 +72,35 @@ def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, mo
     assert any(m.label == "Sound test accuracy" and m.value == "75.0%" for m in at.metric)
     assert len(at.get("plotly_chart")) == 1
     RUNNER.forget("eval-sound")
+
+
+def test_a_training_can_be_stopped_and_saves_nothing(app, monkeypatch):
+    import threading
+
+    import cacas.lab
+    from cacas.jobs import RUNNER
+
+    saved, reported = [], threading.Event()
+
+    def train(progress=None):
+        for epoch in range(100_000):
+            progress(epoch / 100_000, f"epoch {epoch}")
+            reported.set()
+            threading.Event().wait(0.01)
+        saved.append("model")  # the real trainers save only at the end
+
+    monkeypatch.setattr(cacas.lab, "train_sound", train)
+    at = app(PAGE)
+    next(b for b in at.button if b.label == "Train the sound model").click().run()
+    job = RUNNER.get("train-sound")
+    assert job is not None and reported.wait(30)
+    at.run()
+    stop = next(b for b in at.button if b.label == "Stop")  # under the running job's progress bar
+    stop.click().run()
+    assert job.wait(30) and job.status == "stopped"
+    at.run()
+    no_exception(at)
+    assert saved == []
+    assert any("Training the sound model was stopped" in i.value and "nothing was saved" in i.value for i in at.info)
+    assert any(b.label == "Train the sound model" and not b.disabled for b in at.button)  # it can start again
+    RUNNER.forget("train-sound")
