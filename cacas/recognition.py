@@ -22,6 +22,10 @@ import pandas as pd
 from cacas.errors import CacasError
 
 
+#: Below this top-class probability a recognition is flagged as unsure (:attr:`Recognition.unsure`).
+UNSURE_BELOW = 0.5
+
+
 @dataclass(frozen=True)
 class Recognition:
     """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``."""
@@ -33,6 +37,12 @@ class Recognition:
     @property
     def confidence(self) -> float:
         return self.probabilities[self.label]
+
+    @property
+    def unsure(self) -> bool:
+        """The top class has less than :data:`UNSURE_BELOW` of the probability: the input may be
+        none of the classes (a photo of no home scene, a sound of no listed activity)."""
+        return self.confidence < UNSURE_BELOW
 
 
 def make_recognition(probs: np.ndarray, classes: Sequence[str]) -> Recognition:

@@ -39,6 +39,10 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
     if kind == "scene":
         st.image(data, width=280)
     st.markdown(f"### {r.label}")
+    if r.unsure:
+        what = "sound activities" if kind == "sound" else "home scenes"
+        st.warning(f"Unsure: {100 * r.confidence:.0f}% for {r.label}. It may be none of the "
+                   f"{len(r.probabilities)} {what} the model knows.", icon=":material/help:")
     st.dataframe(pd.DataFrame(r.top3, columns=["activity" if kind == "sound" else "scene", "probability"]),
                  hide_index=True, column_config={"probability": st.column_config.ProgressColumn(
                      min_value=0.0, max_value=1.0, format="percent")})

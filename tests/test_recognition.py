@@ -102,3 +102,13 @@ def test_a_training_that_waits_says_so():
     _TRAINING.release()
     t.join(5)
     assert said[-1] == "trained"
+
+
+def test_a_recognition_below_half_the_probability_is_unsure():
+    from cacas.recognition import UNSURE_BELOW, make_recognition
+
+    sure = make_recognition([0.1, 0.8, 0.1], ["bedroom", "kitchen", "bathroom"])
+    assert sure.label == "kitchen" and sure.top3[0] == ("kitchen", 0.8) and not sure.unsure
+    unsure = make_recognition([0.3, 0.35, 0.35], ["bedroom", "kitchen", "bathroom"])
+    assert unsure.label == "kitchen" and unsure.unsure  # ties go to the first class
+    assert make_recognition([1 - UNSURE_BELOW, UNSURE_BELOW], ["a", "b"]).unsure is False
