@@ -208,16 +208,24 @@ def participant_test_states(person: Participant, p_i: int, seed: int, n: int) ->
     return evaluation_states(person, n, seed=seed * 7919 + p_i)
 
 
+#: adaptation_seed's arithmetic form is collision-free below these (and kept there, so results
+#: published with it stay reproducible): days 1..13 adapted after (a study of up to 14 days,
+#: the Simulation lab's maximum) and 990 participants.
+_ARITHMETIC_DAYS, _ARITHMETIC_PARTICIPANTS = 13, 990
+
+
 def adaptation_seed(seed: int, p_i: int, day: int, method: str) -> int:
     """The seed of ``method``'s adaptation after ``day`` for the study's ``p_i``-th participant.
 
-    numpy's SeedSequence hashes (seed, participant index, day, method), so no two adaptations of
-    a study share a random stream, whatever the number of participants and days (an arithmetic
-    formula such as seed * K + p_i * 101 + day * 7 collides once days run past the stride). The
-    method enters by its name, not its place in the list, so a method's results do not depend on
-    which other methods run beside it (given the same closed-loop method)."""
-    entropy = [seed, p_i, day, METHODS.index(method)]
-    return int(np.random.SeedSequence(entropy).generate_state(1, np.uint64)[0] >> 1)  # 63 bits: torch takes it
+    Up to day 13 and participant 990: seed * 100003 + p_i * 101 + day * 7 + the method's index
+    (distinct there). Beyond, where that formula would give two adaptations the same random
+    stream, numpy's SeedSequence hashes (seed, participant, day, method) to 63 bits. The method
+    enters by its name, not its place in the list, so a method's results do not depend on which
+    other methods run beside it (given the same closed-loop method)."""
+    k = METHODS.index(method)
+    if day <= _ARITHMETIC_DAYS and p_i < _ARITHMETIC_PARTICIPANTS:
+        return seed * 100_003 + p_i * 101 + day * 7 + k
+    return int(np.random.SeedSequence([seed, p_i, day, k]).generate_state(1, np.uint64)[0] >> 1)
 
 
 def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
