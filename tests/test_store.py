@@ -1,6 +1,7 @@
 """The study database (issue 4): what it keeps, bad input refused with nothing written, resume."""
 
 import json
+import re
 import sqlite3
 
 import numpy as np
@@ -138,6 +139,23 @@ def test_bad_participant_code_is_refused(store, code):
     with pytest.raises(CacasError, match="participant code"):
         store.add_participant(code)
     assert snapshot(store.path) == before
+
+
+@pytest.mark.parametrize("notes, found", [("Call John at 555-1234", "555-1234"), ("mail: jo.doe@uni.edu", "jo.doe@uni.edu"),
+                                          ("+44 20 7946 0958 (home)", "+44 20 7946 0958"),
+                                          ("office (405) 744-5000", "(405) 744-5000")])
+def test_contact_details_in_free_text_are_refused(store, notes, found):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match=f"notes contain what looks like contact details \\({re.escape(repr(found))}\\)"):
+        store.add_participant("P03", notes=notes)
+    with pytest.raises(CacasError, match="comments contain what looks like contact details"):
+        store.record_questionnaire("P01", 8, notes)
+    assert snapshot(store.path) == before
+
+
+def test_dates_times_and_counts_in_free_text_are_not_contact_details(store):
+    notes = "first session 2026-11-21 10:00-12:00, again on 21.11.2026; 3 kids, rated 8 9 10; age 65+"
+    assert store.add_participant("P03", notes=notes).notes == notes
 
 
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):

@@ -60,13 +60,39 @@ def age_range(value: Any) -> str:
     return text
 
 
+#: Contact details a note must not hold: an e-mail address, or a phone number (7 or more digits,
+#: with spaces, dots, dashes, brackets or a leading +; a date such as 2026-11-21 or 21.11.2026 is not one).
+_EMAIL_RE = re.compile(r"[\w.+-]+@[\w-]+\.[\w.-]+")
+_PHONE_RE = re.compile(r"(?<![\w-])\+?\(?\d[\d\s().-]{5,}\d(?![\w-])")
+_DATE_TIME_RE = re.compile(r"\b(\d{4}-\d{1,2}-\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{4}|\d{1,2}:\d{2}(:\d{2})?)\b")
+
+
+def contact_details(value: str) -> str | None:
+    """The first e-mail address or phone number in ``value``, or None (study data hold
+    pseudonymous codes, never contact details)."""
+    email = _EMAIL_RE.search(value)
+    if email:
+        return email.group(0)
+    for m in _PHONE_RE.finditer(_DATE_TIME_RE.sub(";", value)):  # dates and times apart
+        if sum(ch.isdigit() for ch in m.group(0)) >= 7:
+            return m.group(0).strip()
+    return None
+
+
 def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
+    """Free text (notes, comments, descriptions): at most ``limit`` characters, and no contact
+    details (:func:`contact_details`)."""
     if value is None:
         return ""
     if not isinstance(value, str):
         raise CacasError(f"{field} must be text, got {type(value).__name__}")
     if len(value) > limit:
         raise CacasError(f"{field} is {len(value)} characters long; valid: at most {limit}")
+    found = contact_details(value)
+    if found:
+        raise CacasError(f"{field} contain{'' if field.endswith('s') else 's'} what looks like contact details "
+                         f"({found!r}); valid: no names, e-mail addresses or phone numbers (study data "
+                         "are pseudonymous)")
     return value.strip()
 
 

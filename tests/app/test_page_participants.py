@@ -108,6 +108,10 @@ def test_edit_details_valid_and_invalid(app, store):
     no_exception(at)
     info = store.get_participant("P01")
     assert (info.age_range, info.notes) == ("65+", "uses a walking frame")
+    at.text_area(key="notes-P01").set_value("daughter: call 555-1234 if needed")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    assert "notes contain what looks like contact details ('555-1234')" in texts(at)
+    assert store.get_participant("P01").notes == "uses a walking frame"
 
 
 def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
