@@ -76,8 +76,12 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=cols)
 
 
-def short_time(stamp: str) -> str:
-    """'2026-11-21T09:47:34.123Z' -> '2026-11-21 09:47 UTC'."""
+def short_time(stamp) -> str:
+    """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'."""
+    if isinstance(stamp, (int, float)):
+        from datetime import datetime, timezone
+
+        stamp = datetime.fromtimestamp(stamp, timezone.utc).isoformat()
     s = str(stamp)
     return f"{s[:10]} {s[11:16]} UTC" if len(s) >= 16 else s
 

@@ -108,12 +108,6 @@ with add:
         st.success(st.session_state["clip-added"], icon=":material/check_circle:")
 
 
-def _iso(seconds: float) -> str:
-    from datetime import datetime, timezone
-
-    return datetime.fromtimestamp(seconds, timezone.utc).isoformat(timespec="seconds")
-
-
 def _metrics_view(metrics, kind: str) -> None:
     st.metric(f"{kind} test accuracy", f"{100 * metrics.accuracy:.1f}%", help=f"on {metrics.n} held-out items")
     st.plotly_chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
@@ -154,7 +148,7 @@ with train:
         if last is not None and last.status == FAILED:  # the latest result only, never under running work
             st.error(f"{last.label} failed: {last.error}", icon=":material/error:")
         elif last is not None and last.status == DONE:
-            st.caption(f"{last.label}: finished {app_support.short_time(_iso(last.finished))}.")
+            st.caption(f"{last.label}: finished {app_support.short_time(last.finished)}.")
             _metrics_view(getattr(last.result, "metrics", last.result), kind)
 
 

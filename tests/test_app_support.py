@@ -162,3 +162,9 @@ def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
     assert words == ["comparison run (orl) on days 1-2, no policy saved",
                      "adaptation (nn) from days 1-3: version 2", "adaptation (nn) from day 1: version 1"]
     store.close()
+
+
+def test_short_time_of_a_stamp_or_epoch_seconds():
+    assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
+    assert app_support.short_time(0.0) == "1970-01-01 00:00 UTC"
+    assert app_support.short_time(1_795_000_000) == "2026-11-18 11:06 UTC"
