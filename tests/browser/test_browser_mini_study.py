@@ -195,7 +195,7 @@ def test_mini_study(server, page, tmp_path):
     shot(page, "overview")
     goto(page, f"{server}/adaptation?participant=P01")
     click(page, "Close day 1 and adapt")
-    page.wait_for_selector("text=is in force from day 2", timeout=120_000)
+    page.wait_for_selector("text=is in force from day 2", timeout=600_000)  # a loaded machine only slows it
     idle(page)
     assert "Day 1 is closed and adapted" in text_of(page)
     shot(page, "adaptation")
@@ -235,7 +235,7 @@ def test_mini_study(server, page, tmp_path):
         box.fill(value)
         box.press("Tab")
     click(page, "Run simulation")
-    page.wait_for_selector("text=1 participant · 2 days", timeout=180_000)
+    page.wait_for_selector("text=1 participant · 2 days", timeout=600_000)
     idle(page)
     shot(page, "simulation")
     goto(page, f"{server}/sounds?participant=P01")
