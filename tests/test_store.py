@@ -227,6 +227,14 @@ def test_import_never_touches_another_studys_participants(store):
     assert snapshot(store.path) == before  # all or nothing: P11 was not added either
     assert store.import_personas(clash, study="pilot") == ["P11", "P10"]  # into its own study it goes
     assert store.get_preferences("P10").preferences[0].action == "remind to turn off"
+    # a database from before the case check may hold both P12 and p12: each imports as itself
+    with sqlite3.connect(store.path) as con:
+        sid = con.execute("SELECT id FROM studies WHERE name = 'default'").fetchone()[0]
+        for code in ("P12", "p12"):
+            con.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES (?, ?, '', '')",
+                        (sid, code))
+    assert store.import_personas({"participants": [{"id": "p12", "preferences": [COUGH]}]}) == ["p12"]
+    assert store.get_preferences("P12") is None and store.get_preferences("p12") is not None
 
 
 # --- days and interactions ------------------------------------------------------------------------

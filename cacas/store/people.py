@@ -204,15 +204,13 @@ class PeopleMixin:
         def fn(c):
             sid = self._study_id(c, study)
             for p in people:  # check every code first: all or nothing
-                row = c.execute("SELECT p.code, s.name FROM participants p JOIN studies s ON s.id = p.study_id "
-                                "WHERE p.code = ? COLLATE NOCASE", (p.id,)).fetchone()
+                row = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
+                                "WHERE p.code = ?", (p.id,)).fetchone()
                 if row is None:
-                    continue
-                if row[0] != p.id:
-                    self._check_new_code(c, p.id)
-                if row[1] != study:
-                    raise CacasError(f"{source or 'persona file'}: participant {p.id} belongs to study {row[1]!r}, "
-                                     f"not {study!r}; nothing was imported. Import into study {row[1]!r}, or give "
+                    self._check_new_code(c, p.id)  # a new participant: not a case twin of a code in use
+                elif row[0] != study:
+                    raise CacasError(f"{source or 'persona file'}: participant {p.id} belongs to study {row[0]!r}, "
+                                     f"not {study!r}; nothing was imported. Import into study {row[0]!r}, or give "
                                      "the new participant a code not in use")
             for p in people:
                 if c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None:
