@@ -18,7 +18,7 @@ st.caption("Participants are known by pseudonymous codes only (e.g. P01), never 
            "about 5 preferences: in which context they want which robot action. The robot never sees them; "
            "they drive the simulated participant and the evaluation of Fig. 4 (Su & Sheng, Section V-B).")
 
-SLOT_LABELS = {i: f"{2 * i:02d}-{2 * i + 2:02d} h" for i in range(spaces.N_SLOTS)}  # short: six fit in a row
+SLOT_LABELS = {i: app_support.hours_label([(2 * i, 2 * i + 2)]) for i in range(spaces.N_SLOTS)}  # "06-08 h"
 ANY = "(choose an action)"
 OPEN_TAB = "participants-open-tab"
 

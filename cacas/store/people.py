@@ -143,11 +143,12 @@ class PeopleMixin:
     def _save_version(self, c, pid: int, code: str, person: prefs.Participant, **event: Any) -> int:
         """Write ``person``'s preferences as the participant's next version, unless they equal the
         latest one (then nothing is written); return the version now in force."""
-        payload = json.dumps([p.to_dict() for p in person.preferences], ensure_ascii=False)
+        items = [p.to_dict() for p in person.preferences]
         latest = c.execute("SELECT version, preferences FROM preferences WHERE participant_id = ? "
                            "ORDER BY version DESC LIMIT 1", (pid,)).fetchone()
-        if latest is not None and json.loads(latest[1]) == json.loads(payload):
+        if latest is not None and json.loads(latest[1]) == items:
             return latest[0]
+        payload = json.dumps(items, ensure_ascii=False)
         version = 1 if latest is None else latest[0] + 1
         c.execute("INSERT INTO preferences (participant_id, version, preferences, created_at) "
                   "VALUES (?, ?, ?, ?)", (pid, version, payload, v.now()))
@@ -203,7 +204,12 @@ class PeopleMixin:
 
         def fn(c):
             sid = self._study_id(c, study)
+            twins = {}
             for p in people:  # check every code first: all or nothing
+                first = twins.setdefault(p.id.casefold(), p.id)
+                if first != p.id:
+                    raise CacasError(f"{source or 'persona file'}: participants {first} and {p.id} differ only in "
+                                     "letter case; codes must be unique. Nothing was imported")
                 row = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                                 "WHERE p.code = ?", (p.id,)).fetchone()
                 if row is None:
