@@ -123,19 +123,20 @@ if runs:
     c2.plotly_chart(plots.methods_figure(daily), width="stretch")
     summary = summary_table(daily)
     shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]
+    # as text: "–" where a method has no success rate (it did not act: the Fig. 4 protocol); the
+    # table's renderer shows "None" for an empty number whatever its format
     shown = summary.assign(method=summary["method"].map(lambda m: plots.METHOD_LABELS.get(m, m)),
-                           **{c: 100 * summary[c] for c in shares})
-    # "–" where a method has no success rate (it did not act: the Fig. 4 protocol), not "None"
-    styled = shown.style.format({c: "{:.0f}%" for c in shares} | {"cumulative_feedback": "{:.1f}"}, na_rep="–")
-    st.dataframe(styled, hide_index=True, width="stretch",
-                 column_config={"success_rate": st.column_config.Column("success rate"),
-                                "success_ceiling": st.column_config.Column(
+                           **{c: summary[c].map(ui.percent) for c in shares})
+    st.dataframe(shown, hide_index=True, width="stretch",
+                 column_config={"success_rate": st.column_config.TextColumn("success rate"),
+                                "success_ceiling": st.column_config.TextColumn(
                                     "success ceiling",
                                     help="The success rate of a robot that always proposed the described preference "
                                          "and was always answered: below 100% where the participant wants the robot "
                                          "to do nothing."),
-                                "preference_accuracy": st.column_config.Column("preference accuracy"),
-                                "cumulative_feedback": st.column_config.Column("cumulative feedback")})
+                                "preference_accuracy": st.column_config.TextColumn("preference accuracy"),
+                                "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
+                                                                                     format="%.1f")})
     d1, d2, d3 = st.columns(3)
     with d1:
         ui.download_csv(daily, "daily.csv", key="sim-dl-daily")

@@ -124,3 +124,13 @@ def test_enter_in_a_field_does_not_start_a_run(app):
     no_exception(at)
     form = next(f for f in _forms(at._tree) if f.proto.form.form_id == "simulation")
     assert form.proto.form.enter_to_submit is False
+
+
+def test_a_method_without_a_success_rate_shows_a_dash_not_none(app, db):
+    at = app(PAGE)
+    run_small_study(at, db, ["nn", "bandit"])  # Fig. 4 protocol: only nn acts
+    table = next(d.value for d in at.dataframe if "success_rate" in d.value.columns)
+    rows = table.set_index(["method", "day"])
+    assert set(rows.loc["Bandit (TS)", "success_rate"]) == {"–"}
+    assert all(v.endswith("%") for v in rows.loc["NN", "success_rate"])
+    assert all(v.endswith("%") for v in table["preference_accuracy"])
