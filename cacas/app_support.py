@@ -61,7 +61,7 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     for p in people:
         status = day_status(store, p.code)
         mine = inter[inter["participant"] == p.code]
-        success = float(records.is_success(mine).mean()) if len(mine) else math.nan
+        success = records.success_rate(mine)
         last = events.loc[events["participant"] == p.code, "at"]
         has_prefs = store.get_preferences(p.code) is not None
         rows.append({

@@ -42,16 +42,22 @@ INTERACTION_COLUMNS = [
     "response", "user_action",
 ]
 
-#: Columns of daily.csv, in order: design.md's contract first. ``success_ceiling`` (closed-loop
-#: rows, like ``success_rate``): of that day's interactions, the share in whose context a described
-#: preference names an action other than "do nothing", i.e. the success rate of a robot that always
-#: proposed the described preference and was always answered (empty without described preferences).
-#: Where a participant wants to be left alone, even a perfect robot cannot "succeed" (Section V-B).
-#: Outside every described preference it counts 0, though the participant may accept something
-#: there (the simulated one answers by the D4A pairs), so it bounds what the preferences allow.
+#: Columns of daily.csv, in order: design.md's contract first. ``interactions`` counts the day's
+#: recorded interactions, as the paper does (Section V-B: "If the user does not respond, the
+#: interaction is not recorded"): a robot action answered with accept or reject, or a
+#: user-initiated action. ``success_rate`` is of those (Fig. 3). ``unanswered`` counts the day's
+#: other moments: a proposal left unanswered, or the robot quiet and nothing asked (where the
+#: participant wants to be left alone, that is the right outcome, and not an interaction).
+#: ``success_ceiling`` (closed-loop rows, like ``success_rate``): of the day's recorded
+#: interactions, the share in whose context a described preference names an action other than
+#: "do nothing", i.e. the success rate a robot proposing the described preference could have had
+#: there (empty without described preferences). Outside every described preference it counts 0,
+#: though the participant may accept something there (the simulated one answers by the D4A
+#: pairs), so it bounds what the preferences allow.
 DAILY_COLUMNS = [
     "participant", "method", "day", "success_rate", "preference_accuracy",
     "cumulative_feedback", "interactions", "successes", "user_initiated", "feedback", "success_ceiling",
+    "unanswered",
 ]
 
 #: The columns design.md's contract requires of every daily.csv (the first seven).
@@ -75,6 +81,20 @@ def feedback_points(interactions: pd.DataFrame) -> pd.Series:
         & interactions["response"].isin(["accept", "reject"])
     t2 = interactions["type"] == USER_INITIATED
     return t1.astype(int) + 2 * t2.astype(int)
+
+
+def is_recorded(interactions: pd.DataFrame) -> pd.Series:
+    """The interaction is one the paper records (Section V-B): the participant answered the
+    robot's action (accept or reject) or initiated one. A proposal left unanswered, or the robot
+    doing nothing with nothing asked, is not recorded: it gives no user data point."""
+    return feedback_points(interactions) > 0
+
+
+def success_rate(interactions: pd.DataFrame) -> float:
+    """Fig. 3's success rate: of the recorded interactions (:func:`is_recorded`), the share in
+    which the robot initiated an action and the participant accepted it (NaN if none)."""
+    recorded = int(is_recorded(interactions).sum())
+    return int(is_success(interactions).sum()) / recorded if recorded else float("nan")
 
 
 def is_success(interactions: pd.DataFrame) -> pd.Series:
@@ -116,27 +136,33 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     participant's data points up to the end of the day. Rows of ``accuracy`` with no
     interactions of their own (a method adapted from the same data but not run in closed loop,
     Fig. 4) get an empty success rate and the day's interaction and feedback counts.
-    ``preferred`` (participant code -> preferred-action table) gives ``success_ceiling``
-    (:func:`preferred_action_contexts`, averaged over the day's interactions); without it, or
-    for a participant not in it, the ceiling is empty.
+    ``interactions`` and the success rate count recorded interactions only (:func:`is_recorded`);
+    ``unanswered`` counts the rest. ``preferred`` (participant code -> preferred-action table)
+    gives ``success_ceiling`` (:func:`preferred_action_contexts`, averaged over the day's
+    recorded interactions); without it, or for a participant not in it, the ceiling is empty.
     """
     keys = ["participant", "method", "day"]
-    counts = ["interactions", "successes", "user_initiated", "feedback"]
+    counts = ["interactions", "successes", "user_initiated", "feedback", "unanswered"]
+    shared = ["interactions", "user_initiated", "feedback", "unanswered"]  # one stream per participant
     if len(interactions):
+        recorded = is_recorded(interactions).to_numpy()
+        ceiling = preferred_action_contexts(interactions, preferred or {})
         df = interactions.assign(_success=is_success(interactions).astype(int),
                                  _points=feedback_points(interactions),
                                  _t2=(interactions["type"] == USER_INITIATED).astype(int),
-                                 _ceiling=preferred_action_contexts(interactions, preferred or {}))
+                                 _recorded=recorded.astype(int), _unanswered=(~recorded).astype(int),
+                                 _ceiling=np.where(recorded, ceiling, np.nan))
         g = df.groupby(keys, sort=True)
-        daily = pd.DataFrame({"interactions": g.size(), "successes": g["_success"].sum(),
+        daily = pd.DataFrame({"interactions": g["_recorded"].sum(), "successes": g["_success"].sum(),
                               "user_initiated": g["_t2"].sum(), "feedback": g["_points"].sum(),
+                              "unanswered": g["_unanswered"].sum(),
                               "success_ceiling": g["_ceiling"].mean()}).reset_index()
-        daily["success_rate"] = daily["successes"] / daily["interactions"]
-        per_day = daily.groupby(["participant", "day"])[["interactions", "user_initiated", "feedback"]].sum()
+        daily["success_rate"] = daily["successes"] / daily["interactions"].where(daily["interactions"] > 0)
+        per_day = daily.groupby(["participant", "day"])[shared].sum()
         per_day["cumulative_feedback"] = per_day.groupby(level="participant")["feedback"].cumsum()
     else:
         daily = pd.DataFrame(columns=keys + counts + ["success_rate", "success_ceiling"])
-        per_day = pd.DataFrame(columns=["interactions", "user_initiated", "feedback", "cumulative_feedback"],
+        per_day = pd.DataFrame(columns=shared + ["cumulative_feedback"],
                                index=pd.MultiIndex.from_tuples([], names=["participant", "day"]))
     if accuracy is not None and len(accuracy):
         daily = daily.merge(accuracy[keys + ["preference_accuracy"]], on=keys, how="outer")
@@ -145,7 +171,7 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     at = pd.MultiIndex.from_arrays([daily["participant"], daily["day"]])
     daily["cumulative_feedback"] = per_day["cumulative_feedback"].reindex(at).to_numpy()
     own = daily["interactions"].notna().to_numpy()
-    for col in ("interactions", "user_initiated", "feedback"):
+    for col in shared:
         daily[col] = np.where(own, daily[col], per_day[col].reindex(at).to_numpy())
     for col in counts + ["cumulative_feedback"]:
         daily[col] = pd.array(pd.to_numeric(daily[col]), dtype="Int64")

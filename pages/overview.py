@@ -39,8 +39,9 @@ st.dataframe(
         "participant": small("participant", width="small"), "age range": small("age", width="small"),
         "day": small("day", width="small"), "policy": small("policy", width="small"),
         "success rate so far": st.column_config.ProgressColumn(
-            "success rate so far", help="Robot-initiated actions the participant accepted, of all "
-            "interactions so far (Fig. 3's definition)", min_value=0.0, max_value=100.0, format="%.0f%%"),
+            "success rate so far", help="Robot-initiated actions the participant accepted, of the "
+            "recorded interactions so far: proposals answered and requests (Fig. 3; as in the paper, an "
+            "unanswered proposal is not recorded)", min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
             "today", help=f"Interactions on the open day (0 once it is closed); target: about "
                           f"{TARGET_INTERACTIONS} a day", width="small"),

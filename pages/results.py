@@ -91,10 +91,12 @@ with fig3:
         c3.metric("Participants", int(per_day["participants"].max()))
         st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
         st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
-                   "is a robot-initiated action the participant accepted; requests by the participant are not."
-                   + (" The dashed line is the ceiling: the success rate of a robot that always proposed the "
-                      "described preference and was always answered (below 100% where participants want the robot "
-                      "to do nothing)." if per_day["ceiling"].notna().any() else ""))
+                   "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
+                   "and requests, which are not successes); as in the paper, a proposal left unanswered, or the robot "
+                   "quiet with nothing asked, is not recorded."
+                   + (" The dashed line is the ceiling: the success rate the described preferences allow on the same "
+                      "interactions (below 100% where the robot spoke though the participant wants it to do nothing, "
+                      "or outside every described preference)." if per_day["ceiling"].notna().any() else ""))
 
 with fig4:
     if source == HUMAN:

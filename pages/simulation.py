@@ -131,9 +131,9 @@ if runs:
                  column_config={"success_rate": st.column_config.TextColumn("success rate"),
                                 "success_ceiling": st.column_config.TextColumn(
                                     "success ceiling",
-                                    help="The success rate of a robot that always proposed the described preference "
-                                         "and was always answered: below 100% where the participant wants the robot "
-                                         "to do nothing."),
+                                    help="The success rate the described preferences allow on the same recorded "
+                                         "interactions: below 100% where the robot spoke though the participant "
+                                         "wants it to do nothing, or outside every described preference."),
                                 "preference_accuracy": st.column_config.TextColumn("preference accuracy"),
                                 "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
                                                                                      format="%.1f")})

@@ -72,6 +72,10 @@ def test_overview_and_events(tmp_path):
     words = list(app_support.recent_events(store)["what"])
     assert words[:2] == ["day 1, interaction 4: robot chitchat, participant asked for pain check instead",
                          "day 1, interaction 3: asked for pain check"]
+    # Fig. 3's rate is of the recorded interactions: an unanswered proposal is not one (Section V-B)
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="others")
+    assert app_support.overview_frame(store).iloc[0]["success rate so far"] == pytest.approx(1 / 4)
     store.close()
 
 

@@ -100,7 +100,8 @@ def test_study_tables_follow_the_contract(small_config, small_initial):
 
 def test_success_ceiling_of_a_simulated_study(small_config, small_initial):
     """Simulated participants act where their preferences name an action (ceiling 1), except
-    where they want to be left alone: there even a perfect robot cannot succeed."""
+    where they want to be left alone: there even a perfect robot cannot succeed. Of the recorded
+    interactions, as the success rate: a quiet robot where quiet is wanted is not one."""
     people = parse_personas({"participants": [
         {"id": "A", "preferences": [{"activity": ["cough"], "action": "pain check"}]},
         {"id": "Q", "preferences": [{"activity": ["cough"], "action": "pain check"},
@@ -110,10 +111,16 @@ def test_success_ceiling_of_a_simulated_study(small_config, small_initial):
     d = res.daily.set_index(["participant", "method", "day"])
     assert (d.xs("A")["success_ceiling"].xs("cacas") == 1.0).all()
     inter = res.interactions[res.interactions["participant"] == "Q"]
+    shares = []
     for day in (1, 2):
-        share = (inter.loc[inter["day"] == day, "activity"] == "cough").mean()
-        assert 0 < share < 1 and d.loc[("Q", "cacas", day), "success_ceiling"] == pytest.approx(share)
-        assert d.loc[("Q", "cacas", day), "success_rate"] <= share
+        today = inter[inter["day"] == day]
+        recorded = today[records.is_recorded(today)]
+        shares.append((recorded["activity"] == "cough").mean())
+        assert d.loc[("Q", "cacas", day), "success_ceiling"] == pytest.approx(shares[-1])
+        assert d.loc[("Q", "cacas", day), "success_rate"] <= shares[-1]
+        assert d.loc[("Q", "cacas", day), "interactions"] == len(recorded)
+        assert d.loc[("Q", "cacas", day), "unanswered"] == len(today) - len(recorded) > 0
+    assert 0 < min(shares) < 1   # the initial policy spoke where Q wants quiet, and was rejected
     assert d.xs("nn", level="method")["success_ceiling"].isna().all()
     assert "success_ceiling" in summary_table(res.daily).columns
 

@@ -88,9 +88,10 @@ def test_same_database_gives_same_bytes(store, tmp_path):
 def test_daily_table_metrics(store):
     daily = export.export_tables(store)["daily"].set_index(["participant", "method", "day"])
     row = daily.loc[("P01", "cacas", 1)]
-    # 4 robot-initiated pain checks: 2 accepted; 1 user-initiated request
-    assert row["interactions"] == 5 and row["successes"] == 2 and row["user_initiated"] == 1
-    assert math.isclose(row["success_rate"], 2 / 5)
+    # 4 robot-initiated pain checks: 2 accepted, 1 rejected, 1 not answered (not recorded, as in
+    # the paper); 1 user-initiated request
+    assert row["interactions"] == 4 and row["successes"] == 2 and row["user_initiated"] == 1
+    assert row["unanswered"] == 1 and math.isclose(row["success_rate"], 2 / 4)
     assert row["feedback"] == 3 + 2  # accept, reject, accept + two points for the request
     assert daily.loc[("P01", "cacas", 2), "cumulative_feedback"] == 10
     # day 1 ran the initial policy (its day-0 run: 0.30); day 2 the policy adapted after day 1
@@ -101,10 +102,11 @@ def test_daily_table_metrics(store):
     nn = daily.loc[("P01", "nn", 2)]
     assert math.isclose(nn["preference_accuracy"], 0.1) and pd.isna(nn["success_rate"])
     # ... adapted from the same data, so it has the day's counts (as cacas simulate writes them)
-    assert (nn["interactions"], nn["feedback"], nn["cumulative_feedback"]) == (5, 5, 10) and pd.isna(nn["successes"])
+    assert (nn["interactions"], nn["feedback"], nn["cumulative_feedback"]) == (4, 5, 10) and pd.isna(nn["successes"])
     assert ("P01", "nn", 3) not in daily.index  # no day 3 yet
-    # the success ceiling from the described preferences (cough -> pain check): 4 coughs of 5
-    assert math.isclose(row["success_ceiling"], 4 / 5) and pd.isna(nn["success_ceiling"])
+    # the success ceiling from the described preferences (cough -> pain check): 3 coughs of the 4
+    # recorded interactions
+    assert math.isclose(row["success_ceiling"], 3 / 4) and pd.isna(nn["success_ceiling"])
     assert daily.xs("P02")["success_ceiling"].isna().all()  # P02 described no preferences
 
 

@@ -6,7 +6,7 @@ import pandas as pd
 
 from cacas.preferences import parse_participant
 from cacas.records import (DAILY_COLUMNS, ROBOT_INITIATED, USER_INITIATED, csv_bytes, daily_table,
-                           feedback_points, is_success, preferred_action_contexts)
+                           feedback_points, is_recorded, is_success, preferred_action_contexts, success_rate)
 
 T1, T2 = ROBOT_INITIATED, USER_INITIATED
 
@@ -41,6 +41,17 @@ def test_user_data_points_per_interaction():
     assert feedback_points(STUDY).tolist() == [1, 1, 0, 0, 2, 1, 2, 1]
 
 
+def test_an_interaction_is_recorded_only_when_the_participant_answered_or_asked():
+    """Section V-B: "If the user does not respond, the interaction is not recorded"; the robot
+    doing nothing with nothing asked gives no answer either."""
+    assert is_recorded(STUDY).tolist() == [True, True, False, False, True, True, True, True]
+
+
+def test_success_rate_is_of_the_recorded_interactions():
+    assert success_rate(STUDY[STUDY["day"] == 1]) == 2 / 4   # P01: 1 of 3 recorded; P02: 1 of 1
+    assert success_rate(STUDY.iloc[2:4]) != success_rate(STUDY.iloc[2:4])  # nothing recorded: NaN
+
+
 def _rows(daily):
     """The table as plain tuples (NaN / NA as None) in DAILY_COLUMNS order."""
     return [tuple(None if pd.isna(x) else x for x in row) for row in daily.itertuples(index=False)]
@@ -50,13 +61,14 @@ def test_daily_table_counts_rates_and_one_feedback_stream_per_participant():
     daily = daily_table(STUDY)
     assert list(daily.columns) == DAILY_COLUMNS
     # participant, method, day, success_rate, preference_accuracy, cumulative_feedback,
-    # interactions, successes, user_initiated, feedback, success_ceiling (none: no preferences given)
+    # interactions (recorded), successes, user_initiated, feedback, success_ceiling (none: no
+    # preferences given), unanswered
     assert _rows(daily) == [
-        ("P01", "cacas", 1, 1 / 5, None, 4, 5, 1, 1, 4, None),   # 1 success of 5; points 1+1+0+0+2
-        ("P01", "nn", 2, 1 / 2, None, 7, 2, 1, 1, 3, None),      # cumulative goes on from day 1: 4 + 3
-        ("P02", "cacas", 1, 1 / 1, None, 1, 1, 1, 0, 1, None),   # P02's own total
+        ("P01", "cacas", 1, 1 / 3, None, 4, 3, 1, 1, 4, None, 2),  # 1 success of 3 recorded; points 1+1+0+0+2
+        ("P01", "nn", 2, 1 / 2, None, 7, 2, 1, 1, 3, None, 0),     # cumulative goes on from day 1: 4 + 3
+        ("P02", "cacas", 1, 1 / 1, None, 1, 1, 1, 0, 1, None, 0),  # P02's own total
     ]
-    for col in ("cumulative_feedback", "interactions", "successes", "user_initiated", "feedback"):
+    for col in ("cumulative_feedback", "interactions", "successes", "user_initiated", "feedback", "unanswered"):
         assert daily[col].dtype == "Int64", col
 
 
@@ -67,10 +79,10 @@ def test_accuracy_rows_without_interactions_carry_the_days_counts():
                             columns=["participant", "method", "day", "preference_accuracy"])
     rows = _rows(daily_table(STUDY, accuracy))
     assert rows == [
-        ("P01", "cacas", 1, 0.2, 0.25, 4, 5, 1, 1, 4, None),
-        ("P01", "cacas", 2, None, 0.5, 7, 2, None, 1, 3, None),  # not in force on day 2: day 2's counts
-        ("P01", "nn", 2, 0.5, 0.75, 7, 2, 1, 1, 3, None),
-        ("P02", "cacas", 1, 1.0, None, 1, 1, 1, 0, 1, None),
+        ("P01", "cacas", 1, 1 / 3, 0.25, 4, 3, 1, 1, 4, None, 2),
+        ("P01", "cacas", 2, None, 0.5, 7, 2, None, 1, 3, None, 0),  # not in force on day 2: day 2's counts
+        ("P01", "nn", 2, 0.5, 0.75, 7, 2, 1, 1, 3, None, 0),
+        ("P02", "cacas", 1, 1.0, None, 1, 1, 1, 0, 1, None, 0),
     ]
 
 
@@ -88,7 +100,12 @@ def test_daily_table_of_no_interactions():
     assert list(empty.columns) == DAILY_COLUMNS and len(empty) == 0
     only_accuracy = daily_table(STUDY.iloc[:0], pd.DataFrame([("P01", "nn", 1, 0.5)], columns=[
         "participant", "method", "day", "preference_accuracy"]))
-    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, None, None, None, None, None, None)]
+    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, None, None, None, None, None, None, None)]
+
+
+def test_a_day_with_nothing_recorded_has_no_success_rate():
+    quiet = daily_table(STUDY.iloc[2:4])   # an unanswered proposal, the robot quiet
+    assert _rows(quiet) == [("P01", "cacas", 1, None, None, 0, 0, 0, 0, 0, None, 2)]
 
 
 def contexts(rows):
@@ -103,7 +120,7 @@ def contexts(rows):
 def test_success_ceiling_is_the_share_of_contexts_whose_preference_names_an_action():
     """A robot that always chose the described preference succeeds at most where the preference
     names an action: not where the participant wants to be left alone, nor outside every
-    preference."""
+    preference. Like the success rate, of the recorded interactions."""
     person = parse_participant({"id": "P01", "preferences": [
         {"activity": ["cough"], "action": "pain check"},
         {"activity": ["watch TV"], "scene": ["living room"], "action": "do nothing"}]})
@@ -112,16 +129,19 @@ def test_success_ceiling_is_the_share_of_contexts_whose_preference_names_an_acti
         ("P01", 1, "watch TV", "living room", 10, "do nothing", "others"),  # left alone: 0
         ("P01", 1, "watch TV", "kitchen", 10, "chitchat", "reject"),        # no preference: 0
         ("P01", 1, "cough", "kitchen", 11, "chitchat", "reject"),           # an action: 1
+        ("P01", 1, "watch TV", "living room", 11, "chitchat", "reject"),    # left alone: 0
+        ("P01", 1, "cough", "kitchen", 11, "pain check", "others"),         # an action, but unanswered
         ("P01", 2, "cough", "bedroom", 3, "pain check", "accept"),
         ("P02", 1, "cough", "bedroom", 3, "pain check", "accept"),          # no described preferences
     ])
     table = {"P01": person.preferred_action_table()}
     shares = preferred_action_contexts(rows, table)
-    assert shares[:5].tolist() == [1.0, 0.0, 0.0, 1.0, 1.0] and np.isnan(shares[5])
+    assert shares[:7].tolist() == [1.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0] and np.isnan(shares[7])
     accuracy = pd.DataFrame([("P01", "nn", 1, 0.5)], columns=["participant", "method", "day", "preference_accuracy"])
     daily = daily_table(rows, accuracy, table).set_index(["participant", "method", "day"])
+    # recorded on day 1: rows 1, 3, 4, 5 (the quiet robot and the unanswered proposal are not)
     assert daily.loc[("P01", "cacas", 1), "success_ceiling"] == 0.5    # 2 of 4
-    assert daily.loc[("P01", "cacas", 1), "success_rate"] == 0.25      # 1 of those 2 succeeded
+    assert daily.loc[("P01", "cacas", 1), "success_rate"] == 0.25      # 1 of those 4 succeeded
     assert daily.loc[("P01", "cacas", 2), "success_ceiling"] == 1.0
     assert pd.isna(daily.loc[("P02", "cacas", 1), "success_ceiling"])  # no preferences: empty
     assert pd.isna(daily.loc[("P01", "nn", 1), "success_ceiling"])     # not in closed loop: empty
