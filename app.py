@@ -116,7 +116,7 @@ def _sidebar(store) -> None:
                 state = "open" if status.open else "closed"
                 st.caption(f"Day {status.day} ({state}) · {status.interactions_today} interactions that day · "
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
-            st.caption(f"Participant's tablet: [open the tablet view](?participant={code}&view=tablet)")
+            st.caption(f"Participant's tablet: [open the tablet view](./?participant={code}&view=tablet)")
         st.caption(f"Database: `{ui.db_path()}`")
 
 

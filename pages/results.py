@@ -9,7 +9,7 @@ from pathlib import Path
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, plots
+from cacas import app_support, plots, records
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables
 from cacas.jobs import FAILED, RUNNER
@@ -41,7 +41,9 @@ if source == HUMAN:
     daily = tables["daily"]
     n_people = daily["participant"].nunique()
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''}, "
-               f"{len(tables['interactions'])} interactions. Day d's success rate uses the policy adapted from "
+               f"{len(tables['interactions'])} interactions logged, "
+               f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for: "
+               "the success rate's). Day d's success rate uses the policy adapted from "
                "days 1..d-1 (Section V-B.2).")
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")

@@ -48,3 +48,13 @@ def test_choosing_another_participant_in_the_sidebar(app, store):
     assert at.session_state["participant"] == "P02"
     assert at.query_params["participant"] in ("P02", ["P02"])
     assert "Next for P02" in texts(at)
+
+
+def test_the_tablet_link_leads_to_the_apps_root_from_any_page(app, store):
+    """A link relative to the current page (/results?participant=...&view=tablet) opened
+    Streamlit's "Page not found" dialog: the tablet has only the session page, at the root."""
+    store.add_participant("P01")
+    at = app(participant="P01")
+    no_exception(at)
+    links = [str(c.value) for c in at.sidebar.caption if "tablet view" in str(c.value)]
+    assert links == ["Participant's tablet: [open the tablet view](./?participant=P01&view=tablet)"]
