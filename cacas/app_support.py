@@ -232,6 +232,11 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
     errors: dict[int, str] = {}
     parsed = []
     for n, item in zip(numbers, items):
+        missing = [what for key, what in (("activity", "at least one activity"), ("action", "an action"))
+                   if not item.get(key)]
+        if missing:  # in the form's words; a persona file gets the library's message
+            errors[n] = f"choose {' and '.join(missing)}: a preference says which activities lead to which action"
+            continue
         try:
             parsed.append(prefs.parse_preference(item, None, code, n - 1))
         except CacasError as exc:

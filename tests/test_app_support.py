@@ -41,12 +41,18 @@ def test_preference_form_and_checks():
     assert person is None and not errors and overall.startswith("preferences 1 and 4 both cover")
     bad = app_support.preference_from_form("", ["use stove"], [], [], (0, 200), None)
     person, errors, overall = app_support.check_preferences("P01", [stove, bad], numbers=[1, 2])
-    assert person is None and list(errors) == [2] and errors[2].startswith("field 'action'")
+    assert person is None and list(errors) == [2] and errors[2].startswith("choose an action: ")
     person, errors, overall = app_support.check_preferences("P01", [stove])
     # 1 activity (use stove) x 1 room (kitchen) x 1 time slot (06:00-08:00) x 8 interval bins in
     # 0-30 min (0, 1, 2, 5, 10, 15, 20, 30) = 8 S1-S4 states
     assert person.covered_count() == 8 and not errors and overall is None
     assert app_support.check_preferences("P01", [])[2].startswith("describe at least one")
+    # what is missing, in the form's words; a wrong value gets the library's message naming the field
+    nothing = app_support.preference_from_form("just words", [], [], [], (0, 200), None)
+    assert app_support.check_preferences("P01", [nothing])[1] == {
+        1: "choose at least one activity and an action: a preference says which activities lead to which action"}
+    typo = {"activity": ["coughing"], "action": "pain check"}
+    assert app_support.check_preferences("P01", [typo])[1][1].startswith("field 'activity': unknown activity 'coughing'")
 
 
 def test_overview_and_events(tmp_path):

@@ -69,8 +69,8 @@ def test_invalid_preferences_show_messages_in_place_and_save_nothing(app, store)
     next(b for b in at.button if b.label == "Save preferences").click().run()
     no_exception(at)
     msgs = [e.value for e in at.error]
-    assert any(m.startswith("Preference 1: field 'action'") for m in msgs)
-    assert any(m.startswith("Preference 3: field 'activity'") for m in msgs)
+    assert any(m.startswith("Preference 1: choose an action: ") for m in msgs)
+    assert any(m.startswith("Preference 3: choose at least one activity: ") for m in msgs)
     assert store.get_preferences("P01") is None
 
 
@@ -148,13 +148,13 @@ def test_form_messages_stay_with_the_participant_they_are_about(app, store):
     at = app(PAGE, participant="P01")
     _fill(at, "P01", 0, 2, words="something", action="chitchat")  # no activity
     next(b for b in at.button if b.label == "Save preferences").click().run()
-    assert any(e.value.startswith("Preference 2: field 'activity'") for e in at.error)
+    assert any(e.value.startswith("Preference 2: choose at least one activity: ") for e in at.error)
     at.selectbox(key="participant").set_value("P02").run()  # the sidebar's choice
     no_exception(at)
     assert [t.label for t in at.tabs][0] == "Preferences of P02"
     assert not any(e.value.startswith("Preference") for e in at.error)
     at.selectbox(key="participant").set_value("P01").run()  # back: P01's message is still there
-    assert any(e.value.startswith("Preference 2: field 'activity'") for e in at.error)
+    assert any(e.value.startswith("Preference 2: choose at least one activity: ") for e in at.error)
 
 
 def test_a_half_filled_preference_is_named_not_dropped(app, store):
@@ -164,7 +164,7 @@ def test_a_half_filled_preference_is_named_not_dropped(app, store):
     _fill(at, "P01", 0, 2, scene=["kitchen"], slots=[3])  # rooms and time only
     next(b for b in at.button if b.label == "Save preferences").click().run()
     no_exception(at)
-    assert any(e.value.startswith("Preference 2: field 'action': is missing") for e in at.error)
+    assert any(e.value.startswith("Preference 2: choose at least one activity and an action: ") for e in at.error)
     assert store.get_preferences("P01") is None  # nothing saved, not preference 1 alone
 
 
