@@ -47,6 +47,19 @@ def test_generate_and_clip_paths(tmp_path):
     assert [c.activity for c in found] == ["cough", "cough", "watch TV", "watch TV"]
 
 
+def test_generating_a_seed_again_leaves_its_clips_bytes_alone(tmp_path):
+    """The OGG encoder stamps a random serial number: without the check, the same audio would be
+    written with other bytes (the shipped clips showed as modified in git). A clip whose audio
+    changed, or an unreadable one, is rewritten."""
+    paths = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"])
+    before = [p.read_bytes() for p in paths]
+    assert library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"]) == paths
+    assert [p.read_bytes() for p in paths] == before
+    paths[0].write_bytes(b"not audio")
+    library.generate_library(2, seconds=2.0, root=tmp_path, activities=["cough"])  # other audio: longer clips
+    assert len(library.load_clip(paths[0])) == 2 * library.SAMPLE_RATE and paths[1].read_bytes() != before[1]
+
+
 def test_generate_refuses_bad_arguments(tmp_path):
     with pytest.raises(CacasError):
         library.generate_library(0, root=tmp_path)

@@ -75,9 +75,13 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
                      fmt: str = "ogg") -> list[Path]:
     """Write SYNTHETIC clips (:mod:`cacas.audio.synth`) into ``root/<slug>/synthetic_<seed>_<k>.<fmt>``.
 
-    Existing files with the same name are overwritten; other files are left alone, so a new seed
-    adds clips. Returns the written paths.
+    Existing files with the same name are overwritten, unless they already hold the same audio:
+    an OGG encoder stamps each file with a random stream serial number, so rewriting the shipped
+    clips with their own seed would change their bytes (and show them modified in git) for
+    nothing. Other files are left alone, so a new seed adds clips. Returns the clips' paths.
     """
+    import io
+
     import soundfile as sf
 
     from cacas.audio import synth
@@ -102,11 +106,30 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
             rng = np.random.default_rng([seed, spaces.activity_index(name), k])
             y = synth.render(name, rng, seconds)
             path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
-            sf.write(str(path), y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
+            encoded = io.BytesIO()
+            sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
+            if not _same_audio(path, encoded.getvalue()):
+                path.write_bytes(encoded.getvalue())
             written.append(path)
             if progress:
                 progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
     return written
+
+
+def _same_audio(path: Path, encoded: bytes) -> bool:
+    """``path`` exists and decodes to the same samples as ``encoded``."""
+    import io
+
+    import soundfile as sf
+
+    if not path.is_file():
+        return False
+    try:
+        old, old_rate = sf.read(str(path), dtype="float32")
+    except (RuntimeError, sf.LibsndfileError):  # unreadable: rewrite it
+        return False
+    new, new_rate = sf.read(io.BytesIO(encoded), dtype="float32")
+    return old_rate == new_rate and old.shape == new.shape and bool(np.array_equal(old, new))
 
 
 def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None) -> list[Path]:
