@@ -105,7 +105,8 @@ with fig4:
         st.markdown("The paper did not rerun the study with each method: it adapted each one from the same "
                     "daily interactions and scored it on states generated from the described preferences.")
         key = f"compare:{db}:{study}"
-        job = ui.job_progress(key)
+        job = ui.job_progress(key, stoppable=True, when_stopped="the runs recorded so far are kept, and comparing "
+                                                                "again goes on from where it stopped.")
         if job is None or not job.running:
             if st.button("Compare methods on this study's data", icon=":material/compare_arrows:",
                          help="Adapts CACAS w/o PR, ORL and NN day by day from each participant's interactions "

@@ -118,9 +118,14 @@ def percent(x: float) -> str:
     return "–" if x is None or pd.isna(x) else f"{100 * x:.0f}%"
 
 
-def job_progress(key: str, done_message: str = "Done.", stoppable: bool = False) -> Job | None:
+#: What a stopped job leaves, for work that saves only at its end (trainers, simulations).
+NOTHING_SAVED = "nothing was saved."
+
+
+def job_progress(key: str, done_message: str = "Done.", stoppable: bool = False,
+                 when_stopped: str = NOTHING_SAVED) -> Job | None:
     """Show a background job's progress bar and log (and, if ``stoppable``, a Stop button);
-    rerun the page when it ends. A stopped job shows a note that nothing was saved.
+    rerun the page when it ends. A stopped job shows ``when_stopped``: what it left behind.
 
     Returns the job (running or ended) or None if there is none under ``key``.
     """
@@ -128,14 +133,14 @@ def job_progress(key: str, done_message: str = "Done.", stoppable: bool = False)
     if job is None:
         return None
     if job.running:
-        _job_fragment(key, stoppable)
+        _job_fragment(key, stoppable, when_stopped)
     elif job.status == STOPPED:
-        st.info(f"{job.label} was stopped after {job.elapsed:.0f} s; nothing was saved.", icon=":material/stop_circle:")
+        st.info(f"{job.label} was stopped after {job.elapsed:.0f} s; {when_stopped}", icon=":material/stop_circle:")
     return job
 
 
 @st.fragment(run_every=0.5)
-def _job_fragment(key: str, stoppable: bool = False) -> None:
+def _job_fragment(key: str, stoppable: bool = False, when_stopped: str = NOTHING_SAVED) -> None:
     job = RUNNER.get(key)
     if job is None:
         return
@@ -145,7 +150,7 @@ def _job_fragment(key: str, stoppable: bool = False) -> None:
     if stoppable and job.running:
         st.button("Stopping..." if job.stopping else "Stop", key=f"stop-{key}", icon=":material/stop:",
                   disabled=job.stopping, on_click=RUNNER.stop, args=(key,),
-                  help="Stops at the next progress step; nothing of this run is saved.")
+                  help=f"Stops at the next progress step; {when_stopped}")
     if snap["log"]:
         with st.expander("Log", expanded=False):
             st.code("\n".join(snap["log"][-30:]), language=None)

@@ -177,3 +177,36 @@ def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
     assert "run-b: no interactions.csv; not a complete run" in texts(at)
+
+
+def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, store, monkeypatch):
+    """Compare methods records each run as it goes (and skips recorded ones when started again),
+    so a stopped comparison keeps its runs: the page says so, not "nothing was saved"."""
+    import threading
+
+    import cacas.study_day
+    from cacas.jobs import RUNNER
+
+    _study_with_a_day(store)
+    reported = threading.Event()
+
+    def compare(db, study=None, progress=None):
+        for run in range(100_000):
+            progress(run / 100_000, f"run {run}")
+            reported.set()
+            threading.Event().wait(0.01)
+
+    monkeypatch.setattr(cacas.study_day, "compare_methods", compare)
+    at = app(PAGE, participant="P01")
+    next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
+    job = RUNNER.get(f"compare:{db}:default")
+    assert job is not None and reported.wait(30)
+    at.run()
+    next(b for b in at.button if b.label == "Stop").click().run()
+    assert job.wait(30) and job.status == "stopped"
+    at.run()
+    no_exception(at)
+    assert any("Comparing methods was stopped" in i.value and "the runs recorded so far are kept" in i.value
+               for i in at.info)
+    assert any(b.label == "Compare methods on this study's data" for b in at.button)  # it can go on
+    RUNNER.forget(f"compare:{db}:default")
