@@ -76,7 +76,8 @@ def run_generate(args) -> int:
     with ProgressBar() as bar:
         paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
     root = args.out or sounds_dir()
-    print(f"wrote {len(paths)} synthetic clips to {root} (library now {library_size_bytes(root) / 1e6:.1f} MB)")
+    print(f"{len(paths)} synthetic clips of seed {args.seed} in {root} (a clip already holding the same audio "
+          f"is left as it is; library now {library_size_bytes(root) / 1e6:.1f} MB)")
     return 0
 
 
