@@ -42,8 +42,8 @@ if source == HUMAN:
     n_people = daily["participant"].nunique()
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''}, "
                f"{len(tables['interactions'])} interactions logged, "
-               f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for: "
-               "the success rate's). Day d's success rate uses the policy adapted from "
+               f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for), "
+               "which the success rate counts. Day d's success rate uses the policy adapted from "
                "days 1..d-1 (Section V-B.2).")
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
