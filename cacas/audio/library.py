@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -80,8 +81,6 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     clips with their own seed would change their bytes (and show them modified in git) for
     nothing. Other files are left alone, so a new seed adds clips. Returns the clips' paths.
     """
-    import io
-
     import soundfile as sf
 
     from cacas.audio import synth
@@ -118,8 +117,6 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
 
 def _same_audio(path: Path, encoded: bytes) -> bool:
     """``path`` exists and decodes to the same samples as ``encoded``."""
-    import io
-
     import soundfile as sf
 
     if not path.is_file():
