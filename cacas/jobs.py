@@ -28,7 +28,8 @@ RUNNING, DONE, FAILED, STOPPED = "running", "done", "failed", "stopped"
 class Stopped(Exception):
     """Raised inside the work by its ``progress`` callback once someone asked the job to stop.
     Work that writes its results only at its end (training, simulation, adaptation) then writes
-    nothing."""
+    nothing; work that records as it goes (``study_day.compare_methods``) keeps what it recorded,
+    so what a stopped job left is for its page to say."""
 
 
 @dataclass
@@ -115,7 +116,7 @@ class JobRunner:
                 result = work(*args, progress=job.progress, **kwargs)
             except Stopped:
                 with job._lock:
-                    job.log.append("stopped on request; nothing saved")
+                    job.log.append("stopped on request")
                     job.status = STOPPED
             except Exception as exc:  # the page shows the message; the log keeps the trace
                 with job._lock:

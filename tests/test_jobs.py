@@ -78,7 +78,7 @@ def test_a_stopped_job_ends_at_its_next_progress_report_and_keeps_nothing(tmp_pa
     assert runner.stop("train-sound") and job.stopping
     assert job.wait(10)
     assert job.status == STOPPED and job.result is None and job.error is None
-    assert job.log[-1] == "stopped on request; nothing saved"
+    assert job.log[-1] == "stopped on request"
     assert not out.exists()
     assert not runner.stop("train-sound")  # nothing runs under that key any more
     assert not runner.stop("no-such-job")
