@@ -1,0 +1,57 @@
+"""The README and the pages under docs/ link to each other and to figures: every relative link
+must reach a file, and every #anchor a heading of that file (GitHub's heading slugs)."""
+import re
+from pathlib import Path
+
+import pytest
+
+PROJECT_ROOT = Path(__file__).resolve().parents[1]
+DOCUMENTS = [PROJECT_ROOT / "README.md", *sorted((PROJECT_ROOT / "docs").glob("*.md"))]
+LINK = re.compile(r"\]\(([^)\s]*)\)")
+
+
+def heading_slugs(markdown: str) -> set[str]:
+    """GitHub's anchors: headings lower-cased, punctuation but '-' and '_' dropped, spaces as '-'."""
+    slugs = set()
+    for line in markdown.splitlines():
+        m = re.match(r"#+\s+(.*)", line)
+        if m:
+            slugs.add(re.sub(r"[^\w\- ]", "", m.group(1).strip().lower()).replace(" ", "-"))
+    return slugs
+
+
+def broken_links(document: Path) -> list[str]:
+    text = document.read_text(encoding="utf-8")
+    broken = []
+    for target in LINK.findall(text):
+        if target.startswith(("http://", "https://", "mailto:")):
+            continue
+        path, _, anchor = target.partition("#")
+        file = (document.parent / path) if path else document
+        if not file.exists():
+            broken.append(f"{target}: no such file")
+        elif anchor and anchor not in heading_slugs(file.read_text(encoding="utf-8")):
+            broken.append(f"{target}: no heading #{anchor} in {file.name}")
+    return broken
+
+
+def test_slugs_follow_github():
+    assert heading_slugs("#### Where our results differ from the paper's, and why\n## Study database") == {
+        "where-our-results-differ-from-the-papers-and-why", "study-database"}
+
+
+def test_a_missing_file_or_heading_is_found(tmp_path):
+    doc = tmp_path / "a.md"
+    doc.write_text("# Title\n[ok](#title) [gone](missing.png) [bad](#nowhere)\n", encoding="utf-8")
+    assert broken_links(doc) == ["missing.png: no such file", "#nowhere: no heading #nowhere in a.md"]
+
+
+@pytest.mark.parametrize("document", DOCUMENTS, ids=lambda p: p.name)
+def test_every_link_reaches_its_target(document):
+    assert broken_links(document) == []
+
+
+def test_the_readme_points_to_every_page_under_docs():
+    readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
+    for page in DOCUMENTS[1:]:
+        assert f"](docs/{page.name}" in readme, page.name
