@@ -118,9 +118,11 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
     rows = []
     prev_action, prev_response = spaces.DO_NOTHING_ACTION, spaces.OTHERS
     for i in range(n):
-        act, scene, slot, interval = (int(v) for v in ctx[i, :4])  # S5 is the robot's, from the day so far
-        task = int(current_task(np.array([prev_action]), np.array([prev_response]),
-                                np.array([spaces.INTERVAL_BINS[interval]]))[0])
+        act, scene, slot, interval = (int(v) for v in ctx[i, :4])
+        # S5 is the robot's, from the day so far: the action accepted at the previous interaction,
+        # while in progress by the day's clock (S4 is the time since the previous *activity*)
+        since = minute[i] - minute[i - 1] if i else np.inf
+        task = int(current_task(np.array([prev_action]), np.array([prev_response]), np.array([since]))[0])
         state = np.array([[act, scene, slot, interval, task, prev_action, prev_response]])
         robot = int(policy.greedy(state)[0])
         preferred = int(table[act, scene, slot, interval, task])

@@ -10,6 +10,13 @@ actions (Christodoulou, "Soft Actor-Critic for Discrete Action Settings", 2019):
 * Eq. 3  L_actor(theta) = mean_i sum_a pi(a|s_i) [alpha log pi(a|s_i) - min_j Q_wj(s_i, a)]
 * Eq. 4  a = argmax_a pi_theta(a|s)
 
+Eq. 2 as printed, y_i = r_i + gamma min_j Q_wj(s_{i+1}, a_{i+1}) - alpha log pi(a_{i+1}|s_{i+1}),
+leaves the entropy term outside the discount and takes the critics themselves. We use the target
+of SAC as its reference [18] and Christodoulou define it: the next state's soft value (entropy
+term included) discounted as a whole, from the target critics Qbar (the issue asks for "twin
+critics with targets"; they keep the targets from chasing the critics). With gamma = 0.1 the
+entropy term weighs a tenth of the printed form's in the target.
+
 Temperature: alpha is tuned so that the policy's entropy tracks ``target_entropy_ratio * log|A|``.
 The common default 0.98 keeps a 14-action policy almost uniform (entropy 2.59 of a maximum
 2.64 nats), so its greedy action (Eq. 4) is decided by noise and, in the reshaped policy (Eq. 5),

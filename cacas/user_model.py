@@ -6,7 +6,9 @@ User data D (Section IV-C.1):
 * D_i: a user-initiated interaction (type_2): S6 replaced by the requested action, "accept".
 * D_g: generate_new: the 13 other actions in that S_u, "reject" (the robot doing nothing
   included: "the robot action do nothing is regarded as rejected in the current state").
-* remove_duplicate: for the same S_u the latest sample wins, whichever of D_f, D_i, D_g it is in.
+* remove_duplicate: "For the same S_u, the latest data sample from D_f and D_i can replace the
+  data in D_f, D_i and D_g" (IV-C.1). A D_g sample is assumed, not observed: it replaces only an
+  earlier D_g sample, and an answer the participant gave for that S_u (D_f, D_i) stays.
 
 The user model f_mu is an MLP 91 -> 3 (accept / reject / others) retrained every N interactions
 (:class:`UMA`). The adaptation runs after each study day and replays the day's interactions into
@@ -52,6 +54,9 @@ class UserData:
         self._samples.pop(su, None)
 
     def _add(self, su: tuple[int, ...], response: int, source: str) -> None:
+        held = self._samples.get(su)
+        if source == "D_g" and held is not None and held.source != "D_g":
+            return  # an observed answer is not replaced by an assumed one (IV-C.1)
         self.remove_duplicate(su)
         self._order += 1
         self._samples[su] = UserSample(su, response, source, self._order)
@@ -72,7 +77,7 @@ class UserData:
             self._add(ctx + (int(robot_action),), int(response), "D_f")
         elif tp == records.USER_INITIATED:
             su = ctx + (int(user_action),)  # S_u[-1] = UR
-            for new in self.generate_new(su):  # D_g first, so the D_i sample is the latest of this S_u
+            for new in self.generate_new(su):  # the 13 other actions: never this S_u itself
                 self._add(new, spaces.REJECT, "D_g")
             self._add(su, spaces.ACCEPT, "D_i")
         else:

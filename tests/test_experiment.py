@@ -158,7 +158,7 @@ def test_same_seed_same_tables(small_config, small_initial):
 
 
 def test_each_method_in_its_own_closed_loop(small_config, small_initial):
-    kw = dict(days=3, interactions=6, seed=5, config=small_config, initial_policy=small_initial)
+    kw = dict(days=3, interactions=10, seed=5, config=small_config, initial_policy=small_initial)
     res = simulate_study(PEOPLE, methods=["cacas", "nn"], loop="each", **kw)
     inter, d = res.interactions, res.daily
     assert set(inter["method"]) == {"cacas", "nn"}
@@ -176,6 +176,8 @@ def test_each_method_in_its_own_closed_loop(small_config, small_initial):
     # each method adapted from its own data: the same policies as a study it runs alone
     alone = simulate_study(PEOPLE, methods=["nn"], **kw)
     pd.testing.assert_frame_equal(d[d["method"] == "nn"].reset_index(drop=True), alone.daily)
+    # later days follow each method's own actions: NN's loop is the one NN runs alone
+    pd.testing.assert_frame_equal(inter[inter["method"] == "nn"].reset_index(drop=True), alone.interactions)
     # the default protocol is unchanged: the first method acts, the others have no success rate
     first = simulate_study(PEOPLE, methods=["cacas", "nn"], **kw)
     assert set(first.interactions["method"]) == {"cacas"}
@@ -236,3 +238,33 @@ def test_outside_every_preference_the_simulated_participant_answers_by_the_d4a_p
     idle = pd.DataFrame(simulated_day(Always(0), busy, 1, 30, np.random.default_rng(0), 0.0, "cacas"))
     assert (idle["type"] == "type_1").all() and (idle["response"] == "others").all()  # no request
     assert d4a.response(stove, off) == spaces.ACCEPT and d4a.response(stove, chat) != spaces.ACCEPT
+
+
+class Preferred:
+    """The robot always proposes what the participant prefers: every proposal is accepted."""
+
+    def __init__(self, person):
+        self.table = person.preferred_action_table()
+
+    def greedy(self, states):
+        s = np.asarray(states)
+        return np.maximum(self.table[s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4]], 0)
+
+
+def test_the_robots_task_s5_is_in_progress_by_the_days_clock():
+    """S5 is the action accepted at the previous interaction for TASK_DURATION_MIN minutes of the
+    day's clock (the rows' times), whatever the participant's S4 (time since their previous
+    activity, drawn from the preferences)."""
+    from cacas.simulator import TASK_DURATION_MIN
+    busy_rows = 0
+    for seed in range(6):
+        day = pd.DataFrame(simulated_day(Preferred(PEOPLE[0]), PEOPLE[0], 1, 120, np.random.default_rng(seed),
+                                         0.0, "cacas"))
+        minutes = day["time"].map(lambda t: int(t[:2]) * 60 + int(t[3:]))
+        since = minutes.diff()
+        running = (day["previous_response"] == "accept") & (day["previous_action"] != "do nothing") \
+            & (since < TASK_DURATION_MIN)
+        expected = day["previous_action"].where(running, "do nothing")
+        assert list(day["task"]) == list(expected)
+        busy_rows += int(running.sum())
+    assert busy_rows > 0  # the check saw tasks in progress, not only idle rows

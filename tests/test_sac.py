@@ -44,6 +44,24 @@ def test_target_entropy_and_temperature_move_towards_target():
     assert info["entropy"] < 0.6 * np.log(4)  # learnt a clear preference, far from uniform
 
 
+def test_temperature_rises_below_the_target_entropy_and_falls_above_it():
+    """The temperature loss moves alpha so that the policy's entropy tracks the target."""
+    cfg = dict(state_dim=8, n_actions=4, hidden=32, batch_size=64)
+    low = DiscreteSAC(SACConfig(**cfg, target_entropy_ratio=0.2), seed=0)
+    toy_buffer(low)
+    alpha0 = low.alpha
+    early = low.update(100)
+    assert early["entropy"] > low.target_entropy and low.alpha < alpha0  # too random: alpha falls
+    alpha1 = low.alpha
+    late = low.update(300)
+    assert late["entropy"] < low.target_entropy and low.alpha > alpha1  # too sure: alpha rises
+    high = DiscreteSAC(SACConfig(**cfg, target_entropy_ratio=0.9), seed=0)
+    toy_buffer(high)
+    info = high.update(600)
+    # a learnt task, yet kept near the high target by a much larger alpha (without it: ~0 nats)
+    assert abs(info["entropy"] - high.target_entropy) < 0.15 and high.alpha > 10 * alpha0
+
+
 def test_save_load_same_policy(tmp_path):
     agent = DiscreteSAC(SACConfig(state_dim=8, n_actions=4, hidden=16), seed=3)
     toy_buffer(agent)
