@@ -162,6 +162,15 @@ def day_status(store, participant: str) -> DayStatus:
                      waiting, bool(r.day >= STUDY_DAYS and not r.day_open))
 
 
+def questionnaire_timing(status: DayStatus) -> str:
+    """A note for a questionnaire answer given before the study's end (Section V-B.1 asks it
+    after the 7 days), naming the day as it stands: during an open day, or after a closed one."""
+    if status.finished or status.day == 0:
+        return ""
+    when = "during" if status.open else "after"
+    return f"It was given {when} day {status.day} of {STUDY_DAYS}."
+
+
 def start_day(store, participant: str) -> int:
     """Open the participant's next study day (or return the open one).
 

@@ -13,7 +13,7 @@ from cacas import app_support, plots, records
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables
 from cacas.jobs import FAILED, RUNNER
-from cacas.study_day import STUDY_DAYS, compare_methods, day_status
+from cacas.study_day import compare_methods, day_status, questionnaire_timing
 from pages import ui
 
 ui.require_app()
@@ -145,12 +145,15 @@ with quest:
                "87.5% at 8 or higher.")
     codes = [p.code for p in store.list_participants(study)]
     if codes:
-        with st.form("questionnaire", border=True, clear_on_submit=True):
+        # a refused answer keeps what was entered; a saved one empties the form (new widget keys)
+        entry = st.session_state.setdefault("quest-entry", 0)
+        with st.form("questionnaire", border=True):
             who = st.selectbox("Participant", codes, index=codes.index(ui.participant()) if ui.participant() in codes else 0)
             # no preset score: an answer is the participant's choice, never a default saved by accident
             score = st.segmented_control("Satisfaction (1 = very dissatisfied, 10 = very satisfied)",
-                                         list(range(1, 11)), default=None, key="quest-score")
-            comments = st.text_area("Comments (optional; no names)")
+                                         list(range(1, 11)), default=None, key=f"quest-score-{entry}")
+            comments = st.text_area("Comments (optional; no names)", key=f"quest-comments-{entry}")
+            refused = st.empty()
             if st.form_submit_button("Save answer", icon=":material/save:"):
                 try:
                     if score is None:
@@ -158,11 +161,12 @@ with quest:
                                          "(very satisfied)")
                     store.record_questionnaire(who, score, comments)
                 except CacasError as exc:
-                    st.error(str(exc), icon=":material/error:")
+                    refused.error(str(exc), icon=":material/error:")
                 else:
-                    days_done = day_status(store, who).day
-                    note = "" if days_done >= STUDY_DAYS else f" It was given after day {days_done} of {STUDY_DAYS}."
-                    st.toast(f"Saved {who}'s answer ({score}).{note}", icon=":material/check_circle:")
+                    note = questionnaire_timing(day_status(store, who))
+                    st.toast(f"Saved {who}'s answer ({score}).{' ' + note if note else ''}",
+                             icon=":material/check_circle:")
+                    st.session_state["quest-entry"] = entry + 1
                     st.rerun()
     if len(answers):
         st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])

@@ -9,7 +9,8 @@ from cacas.errors import CacasError
 from cacas.policy import ReshapedPolicy
 from cacas.sac import DiscreteSAC, SACConfig
 from cacas.store import StudyStore
-from cacas.study_day import Context, answer, clip_for, day_status, propose, start_day
+from cacas.study_day import (STUDY_DAYS, Context, answer, clip_for, day_status, propose, questionnaire_timing,
+                             start_day)
 
 
 @pytest.fixture
@@ -196,3 +197,13 @@ def test_an_answer_is_written_once_for_its_interaction_number(store, policy):
     with pytest.raises(CacasError, match="index"):
         answer(store, "P01", day, p, response="accept", index=0)
     assert len(store.interactions_frame("P01")) == 2
+
+
+def test_questionnaire_timing_names_the_day_as_it_stands(store):
+    assert questionnaire_timing(day_status(store, "P01")) == ""  # no day yet (the answer is refused)
+    day = start_day(store, "P01")
+    assert questionnaire_timing(day_status(store, "P01")) == f"It was given during day 1 of {STUDY_DAYS}."
+    store.close_day("P01", day)
+    assert questionnaire_timing(day_status(store, "P01")) == f"It was given after day 1 of {STUDY_DAYS}."
+    finished = dataclasses.replace(day_status(store, "P01"), day=STUDY_DAYS, finished=True)
+    assert questionnaire_timing(finished) == ""  # asked after the study, as the paper does

@@ -35,16 +35,20 @@ def test_results_show_day_one_and_downloads(app, store):
 def test_questionnaire_entry_and_summary(app, store):
     _study_with_a_day(store)
     at = app(PAGE, participant="P01")
+    at.text_area(key="quest-comments-0").input("The robot learnt my evenings.")
     next(b for b in at.button if b.label == "Save answer").click().run()  # no score chosen: refused
     no_exception(at)
     assert "choose the participant's score, from 1 (very dissatisfied) to 10" in texts(at)
     assert len(store.questionnaire_frame()) == 0
-    at.button_group(key="quest-score").set_value(9)
+    assert at.text_area(key="quest-comments-0").value == "The robot learnt my evenings."  # kept to fix the score
+    at.button_group(key="quest-score-0").set_value(9)
     next(b for b in at.button if b.label == "Save answer").click().run()
     no_exception(at)
     answers = store.questionnaire_frame()
-    assert list(answers["satisfaction"]) == [9]
+    assert list(answers["satisfaction"]) == [9] and list(answers["comments"]) == ["The robot learnt my evenings."]
     assert "Saved P01's answer (9). It was given after day 1 of 7." in [t.value for t in at.toast]
+    # saved: the form is empty for the next participant's answer
+    assert at.button_group(key="quest-score-1").value is None and at.text_area(key="quest-comments-1").value == ""
     values = {m.label: m.value for m in at.metric}
     assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"
     shown = next(d.value for d in at.dataframe if "satisfaction" in d.value.columns)
@@ -57,11 +61,12 @@ def test_questionnaire_of_a_participant_without_a_day_is_refused(app, store):
     _study_with_a_day(store)
     store.add_participant("P02")
     at = app(PAGE, participant="P02")
-    at.button_group(key="quest-score").set_value(9)
+    at.button_group(key="quest-score-0").set_value(9)
     next(b for b in at.button if b.label == "Save answer").click().run()
     no_exception(at)
     assert "participant P02 has had no study day yet" in texts(at)
     assert len(store.questionnaire_frame()) == 0
+    assert at.button_group(key="quest-score-0").value == 9  # the score stays for another pick of participant
 
 
 def test_results_of_a_simulated_run(app, db):

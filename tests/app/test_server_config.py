@@ -1,0 +1,25 @@
+"""The app's server settings (.streamlit/config.toml), read by Streamlit's own config loader."""
+from pathlib import Path
+
+from streamlit import config
+
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
+
+
+def options(monkeypatch):
+    monkeypatch.chdir(PROJECT_ROOT)  # Streamlit reads ./.streamlit/config.toml
+    config.get_config_options(force_reparse=True)
+    return {name: config.get_option(name) for name in
+            ("server.address", "server.fileWatcherType", "server.runOnSave", "browser.gatherUsageStats")}
+
+
+def test_study_data_stays_on_this_machine_and_code_on_disk_is_not_reloaded_into_a_running_study(monkeypatch):
+    try:
+        got = options(monkeypatch)
+    finally:
+        monkeypatch.undo()
+        config.get_config_options(force_reparse=True)
+    # localhost only; no usage statistics; a git pull during a study is not half-loaded into the
+    # running server (modules reloaded while cached stores and policies keep the old classes)
+    assert got == {"server.address": "localhost", "server.fileWatcherType": "none",
+                   "server.runOnSave": False, "browser.gatherUsageStats": False}
