@@ -135,6 +135,13 @@ REQUESTS: dict[str, str] = {
 QUIET_LINE = "(The robot stays quiet.)"
 
 
+def request_words(action: str) -> str:
+    """A request in the participant's words inside a sentence: "check whether I am in pain" for
+    "pain check" (the REQUESTS phrase with its first letter lower-cased; unknown name: CacasError)."""
+    words = REQUESTS[spaces.canonical("action", action)]
+    return words[0].lower() + words[1:]
+
+
 def heard_line(activity: str) -> str:
     """What the robot says it heard, e.g. "I heard you coughing." (unknown name: CacasError)."""
     return HEARD[spaces.canonical("activity", activity)]
@@ -304,7 +311,7 @@ def match_request(text: str) -> RequestMatch:
                          "e.g. 'remind me to turn off the stove'")
     ranked = score_request(text)
     if not ranked:
-        examples = "; ".join(f"'{REQUESTS[a].lower()}'" for a in
+        examples = "; ".join(f"'{request_words(a)}'" for a in
                              ("remind to turn off", "pain check", "set a timer", "call someone for help"))
         raise CacasError(f"the robot did not understand {text.strip()!r}; try e.g. {examples}, "
                          f"or pick an action from the list")

@@ -69,6 +69,7 @@ def _start_day() -> None:
         st.session_state["session-error"] = str(exc)
     else:
         st.session_state["session-error"] = None
+        _cancel()  # a new day never opens on a context left from the day before
         st.toast(f"Day {day} started.", icon=":material/today:")
 
 
@@ -101,6 +102,7 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     if not status.open or status.day != day:  # the researcher closed the day while this proposal was on the tablet
         s["session-error"] = (f"This answer was not saved: day {day} was closed meanwhile. Ask the researcher "
                               "whether to start the next day.")
+        _cancel()  # the proposal belongs to the closed day: the next day starts with a context of its own
         return
     try:
         answer(store, code, day, proposal, response=response, user_action=user_action, index=index)
@@ -117,7 +119,8 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     if user_action and request_accepts_proposal(proposal, user_action):
         what = "accepted: that is what the robot offered"
     else:
-        what = f"you asked for: {user_action}" if user_action else RESPONSE_WORDS[ANSWERS[response]]
+        what = (f"you asked: {dialogue.request_words(user_action)}" + ("" if tablet else f"; recorded as {user_action}")
+                if user_action else RESPONSE_WORDS[ANSWERS[response]])
     s["last-saved"] = f"Interaction {index} saved ({what})."
 
 

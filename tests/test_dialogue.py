@@ -78,7 +78,7 @@ def test_empty_request_is_refused(text):
 
 
 def test_unknown_request_is_refused_with_examples():
-    with pytest.raises(CacasError, match="did not understand 'sing a song'.*turn it off"):
+    with pytest.raises(CacasError, match="did not understand 'sing a song'.*'check whether I am in pain'"):
         dialogue.match_request("sing a song")
 
 
@@ -88,3 +88,12 @@ def test_request_label_and_confirmation():
         dialogue.request_label("do nothing")
     assert dialogue.confirmation_line("remind to turn off", "use stove") == \
         "You would like me to remind you to turn the stove off. Is that right?"
+
+
+def test_request_words_are_the_participants_words_inside_a_sentence():
+    from cacas.dialogue import request_words
+
+    assert request_words("pain check") == "check whether I am in pain"  # "I" stays upper-case
+    assert request_words("Set a timer") == "set a timer"
+    with pytest.raises(CacasError, match="unknown action 'dance'"):
+        request_words("dance")

@@ -66,6 +66,7 @@ def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
     at.selectbox(key="request-pick").set_value("pain check").run()
     _button(at, "Ask").click().run()
     no_exception(at)
+    assert "Interaction 1 saved (you asked: check whether I am in pain; recorded as pain check)." in texts(at)
     # a typed request, matched and confirmed (type_2)
     _choose(at)
     at.text_input(key="request-text").set_value("please remind me to switch the stove off")
@@ -209,6 +210,7 @@ def test_an_answer_after_the_day_was_closed_meanwhile_says_it_was_not_saved(app,
     no_exception(at)
     assert f"This answer was not saved: day {day} was closed meanwhile" in texts(at)
     assert len(store.interactions_frame("P01", method=None)) == 1
+    assert "ctx" not in at.query_params  # the closed day's proposal is gone: day 2 starts afresh
 
 
 def test_a_missing_policy_file_is_a_message_not_a_crash(app, store, p01, quick_policy):

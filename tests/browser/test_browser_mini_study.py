@@ -179,7 +179,7 @@ def test_mini_study(server, page, tmp_path):
     interact(page, "cough", "bedroom")
     choose(page, "Pick an action", "Check whether I am in pain")
     click(page, "Ask")
-    assert "Interaction 4 saved (you asked for: pain check)" in text_of(page)
+    assert "Interaction 4 saved (you asked: check whether I am in pain)" in text_of(page)
 
     interact(page, "use hair dryer", "bathroom", slot="18:00-20:00")  # no described preference here
     fill(page, "Or type your request", "please set a timer for me")
@@ -187,7 +187,7 @@ def test_mini_study(server, page, tmp_path):
     assert "You would like me to set a timer. Is that right?" in text_of(page)
     click(page, "Yes, please")
     body = text_of(page)
-    assert "Interaction 5 saved (you asked for: set a timer)" in body
+    assert "Interaction 5 saved (you asked: set a timer)" in body
     assert "5 of about 15 interactions today" in body
 
     # --- researcher: close the day and adapt ---------------------------------------------------------
