@@ -122,8 +122,9 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
             info = sac.update(cfg.updates_per_step)
             s, x = s2, x2
         if progress:
-            progress((day + 1) / days, f"{label}: training day {day + 1}/{days} against the simulated user "
-                                       f"(it accepted {accepted / max(n, 1):.0%} of the robot's actions)")
+            progress((day + 1) / days, f"{label}: round {day + 1}/{days} of {cfg.parallel_days} simulated days "
+                                       f"side by side against the simulated user (it accepted "
+                                       f"{accepted / max(n, 1):.0%} of the robot's actions)")
     info["accept_rate"] = accepted / max(n, 1)
     info["steps"] = total
     return info
@@ -271,7 +272,8 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
     params.update(beta=policy.beta, threshold=cfg.threshold, train_days=cfg.adapt_train_days,
                   k_minutes=cfg.k_minutes, parallel_days=cfg.parallel_days,
                   target_entropy_ratio=cfg.sac.target_entropy_ratio, gamma=cfg.sac.gamma)
-    say(1.0, f"SAC adapted: {info['steps']} steps x {cfg.parallel_days} simulated days, "
+    say(1.0, f"SAC adapted: {cfg.adapt_train_days} rounds of {cfg.parallel_days} simulated days side by side "
+             f"({info['steps']} steps of {cfg.k_minutes:g} minutes, {cfg.adapt_updates} updates), "
              f"entropy {info.get('entropy', float('nan')):.2f}, alpha {info.get('alpha', float('nan')):.3f}")
     return AdaptationResult(policy, log, params, time.perf_counter() - t0)
 
@@ -341,14 +343,17 @@ def preferences_learnt(before, after, participant: Participant, n: int = 400, se
 
 
 def policy_changes(before, after, interactions: pd.DataFrame, top: int = 10) -> pd.DataFrame:
-    """The participant's most frequent contexts (S1-S4) and the action of each policy there."""
+    """The participant's most frequent contexts (S1-S4) and the action of each policy there, in
+    the state of the context's latest interaction (its S5-S7: the robot's task, previous action
+    and response), so that a policy that was in force then chooses what the robot did."""
     cols = ["activity", "scene", "time_slot", "interval"]
     if len(interactions) == 0:
         return pd.DataFrame(columns=cols + ["times", "action_before", "action_after", "changed"])
-    freq = (interactions.groupby(cols).size().rename("times").reset_index()
+    ordered = interactions.sort_values(["day", "index"], kind="stable")
+    latest = ordered.groupby(cols)[["task", "previous_action", "previous_response"]].last()
+    freq = (ordered.groupby(cols).size().rename("times").reset_index()
             .sort_values("times", ascending=False, kind="stable").head(top).reset_index(drop=True))
-    st = records.policy_states(freq.assign(task="do nothing", previous_action="do nothing",
-                                           previous_response="others"))
+    st = records.policy_states(freq.join(latest, on=cols))
     freq["action_before"] = [spaces.ACTIONS[a] for a in before.greedy(st)]
     freq["action_after"] = [spaces.ACTIONS[a] for a in after.greedy(st)]
     freq["changed"] = freq["action_before"] != freq["action_after"]

@@ -76,6 +76,17 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=cols)
 
 
+def open_days(store, study: str | None = None) -> dict[str, int]:
+    """The participants whose study day is open (in progress), with that day: their figures for
+    it are so far, not final (Fig. 3 of a study under way)."""
+    out = {}
+    for p in store.list_participants(study):
+        status = day_status(store, p.code)
+        if status.open:
+            out[p.code] = status.day
+    return out
+
+
 def short_time(stamp) -> str:
     """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'."""
     if isinstance(stamp, (int, float)):

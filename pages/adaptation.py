@@ -141,7 +141,8 @@ else:
             st.caption("No interactions yet.")
         else:
             n = int(changes["changed"].sum())
-            st.markdown(f"The robot's action in {code}'s **{len(changes)} most frequent contexts**: "
+            st.markdown(f"The robot's action in {code}'s **{len(changes)} most frequent contexts**, each as at "
+                        f"its latest interaction (the robot's task, its previous action and the answer): "
                         f"**{n}** changed.")
             view = changes.rename(columns={"time_slot": "time of day", "interval": "interval (min)",
                                            "times": "seen", "action_before": "before", "action_after": "after"})
@@ -156,10 +157,11 @@ else:
             learnt[["before", "after"]] *= 100
             bar = {"format": "%.0f%%", "min_value": 0, "max_value": 100}
             st.dataframe(learnt, hide_index=True, width="stretch",
-                         column_config={"label": st.column_config.TextColumn("preference", width="large"),
-                                        "states": st.column_config.NumberColumn("test states"),
-                                        "before": st.column_config.ProgressColumn("before", **bar),
-                                        "after": st.column_config.ProgressColumn("after", **bar)})
+                         column_config={"label": st.column_config.TextColumn("preference", width=330),
+                                        "action": st.column_config.TextColumn("action", width=150),
+                                        "states": st.column_config.NumberColumn("test states", width=85),
+                                        "before": st.column_config.ProgressColumn("before", width=130, **bar),
+                                        "after": st.column_config.ProgressColumn("after", width=130, **bar)})
 
 # --- 3. versions and roll back ----------------------------------------------------------------------
 st.subheader("Policy versions")

@@ -33,19 +33,22 @@ c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) els
 
 st.subheader("Participants")
 small = st.column_config.TextColumn
+# widths in pixels so that the table fits beside the sidebar at 1360 px (the age range is on
+# Participants; "next step" is repeated in full under the table)
 st.dataframe(
     table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
+    column_order=[c for c in table.columns if c != "age range"],
     column_config={
-        "participant": small("participant", width="small"), "age range": small("age", width="small"),
-        "day": small("day", width="small"), "policy": small("policy", width="small"),
+        "participant": small("participant", width=85), "day": small("day", width=105),
+        "policy": small("policy", width=75), "last activity": small("last activity", width=165),
         "success rate so far": st.column_config.ProgressColumn(
-            "success rate so far", help="Robot-initiated actions the participant accepted, of the "
+            "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
             "recorded interactions so far: proposals answered and requests (Fig. 3; as in the paper, an "
             "unanswered proposal is not recorded)", min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
             "today", help=f"Interactions on the open day (0 once it is closed); target: about "
-                          f"{TARGET_INTERACTIONS} a day", width="small"),
-        "next step": st.column_config.TextColumn("next step", width="large"),
+                          f"{TARGET_INTERACTIONS} a day", width=60),
+        "next step": st.column_config.TextColumn("next step", width=320),
     })
 
 code = ui.participant()

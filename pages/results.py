@@ -86,11 +86,19 @@ with fig3:
         last = per_day.index.max()
         c1, c2, c3 = st.columns(3)
         change = round(100 * (per_day.loc[last, "mean"] - per_day["mean"].iloc[0]))
-        c1.metric(f"Day {last} mean success rate", ui.percent(per_day.loc[last, "mean"]),
+        in_progress = sorted(c for c, d in app_support.open_days(store, study).items() if d == last) \
+            if source == HUMAN else []
+        c1.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
+                  ui.percent(per_day.loc[last, "mean"]),
                   None if len(per_day) < 2 else f"{change:+d} points since day {per_day.index.min()}",
-                  delta_color="normal" if change else "off")
+                  delta_color="normal" if change else "off",
+                  help=(f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the "
+                        "day is closed." if in_progress else None))
         c2.metric("Mean cumulative feedback", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
         c3.metric("Participants", int(per_day["participants"].max()))
+        if in_progress:
+            st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
+                       "are so far, and change until the day is closed.")
         st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
         st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
                    "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "

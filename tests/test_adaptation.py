@@ -50,8 +50,12 @@ def test_every_method_adapts_to_a_participant_who_asks_for_a_timer(method, small
 
 def test_cacas_moves_from_the_initial_action(small_config, small_initial):
     before = small_initial.decide(stove_state())[0]
-    after = adapt_policy(small_initial, stove_days(), "cacas", seed=0, config=small_config).policy
+    result = adapt_policy(small_initial, stove_days(), "cacas", seed=0, config=small_config)
+    after = result.policy
     assert spaces.ACTIONS[before] != "set a timer"
+    c = small_config  # the log counts rounds of simulated days side by side, and SAC's updates
+    assert result.log[-1].startswith(f"SAC adapted: {c.adapt_train_days} rounds of {c.parallel_days} simulated "
+                                     f"days side by side") and f"{c.adapt_updates} updates" in result.log[-1]
     changes = policy_changes(small_initial, after, stove_days(), top=3)
     assert len(changes) == 3 and changes["changed"].all() and set(changes["action_after"]) == {"set a timer"}
 
@@ -223,3 +227,25 @@ def test_user_model_interval_n_is_table_ii_s(small_config, small_initial):
     # 6 time slots x the same stove context: 6 S_u requested, each with its 13 D_g rejects
     assert any("user model trained on 84 samples; D holds 84" in line for line in every.log)
     assert every.policy.mlp is not None
+
+
+def test_policy_changes_judge_each_context_in_its_latest_recorded_state(small_initial):
+    """The "before" policy, if it was in force, chooses there what the robot did: the state has
+    the context's latest S5-S7, not an idle robot with no previous action."""
+    rows = stove_days(days=1, per_day=3)
+    rows["time_slot"] = 3  # one context, three interactions
+    rows.loc[2, ["task", "previous_action", "previous_response"]] = ["set a timer", "set a timer", "accept"]
+
+    class Seen:
+        def __init__(self):
+            self.states = None
+
+        def greedy(self, states):
+            self.states = np.asarray(states)
+            return np.zeros(len(states), np.int64)
+
+    seen = Seen()
+    changes = policy_changes(seen, small_initial, rows.iloc[::-1], top=5)  # the rows' order does not matter
+    assert list(changes["times"]) == [3]
+    timer, accept = spaces.action_index("set a timer"), spaces.ACCEPT
+    assert tuple(seen.states[0, 4:]) == (timer, timer, accept)  # S5-S7 of interaction index 2, the latest

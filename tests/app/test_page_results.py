@@ -32,6 +32,20 @@ def test_results_show_day_one_and_downloads(app, store):
     assert any("zip" in label for label in labels)
 
 
+def test_a_day_in_progress_is_shown_as_so_far(app, store):
+    _study_with_a_day(store)
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="chitchat", response="reject")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert at.metric[0].label == "Day 2 mean success rate so far" and at.metric[0].value == "0%"
+    assert "Day 2 is still open for P01: its figures are so far" in texts(at)
+    store.close_day("P01", day)
+    at = app(PAGE, participant="P01")
+    assert at.metric[0].label == "Day 2 mean success rate" and "still open" not in texts(at)
+
+
 def test_questionnaire_entry_and_summary(app, store):
     _study_with_a_day(store)
     at = app(PAGE, participant="P01")
