@@ -114,7 +114,8 @@ def _sidebar(store) -> None:
                 st.caption("Not started yet.")
             else:
                 state = "open" if status.open else "closed"
-                st.caption(f"Day {status.day} ({state}) · {status.interactions_today} interactions that day · "
+                n = status.interactions_today
+                st.caption(f"Day {status.day} ({state}) · {n} interaction{'' if n == 1 else 's'} that day · "
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
             st.caption(f"Participant's tablet: [open the tablet view](./?participant={code}&view=tablet)")
         st.caption(f"Database: `{ui.db_path()}`")

@@ -68,4 +68,7 @@ events = app_support.recent_events(store, limit=10)
 if events.empty:
     st.caption("Nothing recorded yet.")
 else:
-    st.dataframe(events, hide_index=True, width="stretch")
+    st.dataframe(events, hide_index=True, width="stretch",
+                 column_config={"when": st.column_config.TextColumn("when", width=165),
+                                "participant": st.column_config.TextColumn("participant", width=85),
+                                "what": st.column_config.TextColumn("what", width=640)})

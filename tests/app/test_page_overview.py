@@ -58,3 +58,18 @@ def test_the_tablet_link_leads_to_the_apps_root_from_any_page(app, store):
     no_exception(at)
     links = [str(c.value) for c in at.sidebar.caption if "tablet view" in str(c.value)]
     assert links == ["Participant's tablet: [open the tablet view](./?participant=P01&view=tablet)"]
+
+
+def test_sidebar_counts_the_days_interactions_in_words(app, store):
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    at = app(participant="P01")
+    no_exception(at)
+    captions = [c.value for c in at.sidebar.caption]
+    assert "Day 1 (open) · 1 interaction that day · policy initial" in captions
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    at = app(participant="P01")
+    assert "Day 1 (open) · 2 interactions that day · policy initial" in [c.value for c in at.sidebar.caption]
