@@ -147,12 +147,14 @@ class StateGenerator:
     def done(self) -> bool:
         return self.t >= self.steps_per_day
 
-    def _draw_activities(self, slot: int) -> np.ndarray:
-        w = self.source.activity_weights
+    def _draw_activities(self, slots: np.ndarray) -> np.ndarray:
+        """One activity per parallel day, re-weighted by that day's time slot S3 (``slots``, (E,))."""
+        w = np.broadcast_to(self.source.activity_weights, (self.E, spaces.N_ACTIVITIES))
         if self.source.slot_activity is not None:
-            w = w * self.source.slot_activity[slot]
-        cdf = np.cumsum(w / w.sum())
-        return np.minimum(np.searchsorted(cdf, self.rng.random(self.E), side="right"), spaces.N_ACTIVITIES - 1)
+            w = w * self.source.slot_activity[slots]
+        cdf = np.cumsum(w / w.sum(1, keepdims=True), axis=1)
+        u = self.rng.random((self.E, 1))
+        return np.minimum((cdf <= u).sum(1), spaces.N_ACTIVITIES - 1)
 
     def generate_state(self) -> np.ndarray:
         """The next state of every parallel day: (E, 7) Table I indices. After 23:59 (``done``)
@@ -166,14 +168,14 @@ class StateGenerator:
         # previous activity was only a few minutes ago (short repeat intervals, S4 < 5 min).
         follow = rng.random(E) < self.follow_up_rate
         self.last_activity_time = np.where(follow, now - rng.uniform(0, 5, E), self.last_activity_time)
-        slot = int(self.t * self.K // 120)
+        slot = (now // 120).astype(int)  # S3 from each day's clock (a step may cross a slot's end)
         activity = self._draw_activities(slot)
         scene_cdf = np.cumsum(self.source.scene_table[activity], axis=1)
         scene = np.minimum((scene_cdf < rng.random((E, 1))).sum(1), spaces.N_SCENES - 1)
         interval = np.searchsorted(spaces.INTERVAL_BINS, np.maximum(now - self.last_activity_time, 0),
                                    side="right") - 1
         task = current_task(self.prev_action, self.prev_response, now - self.last_interaction_time)
-        state = np.stack([activity, scene, (now // 120).astype(int), interval, task,
+        state = np.stack([activity, scene, slot, interval, task,
                           self.prev_action, self.prev_response], axis=1).astype(np.int64)
         active = activity != spaces.DO_NOTHING_ACTIVITY
         self.last_activity_time = np.where(active, now, self.last_activity_time)

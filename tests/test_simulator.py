@@ -69,6 +69,24 @@ def test_user_data_makes_recorded_activities_more_likely():
     assert (acts0 == COUGH).mean() < 0.1
 
 
+def test_activities_follow_each_state_own_time_slot_for_any_k():
+    """With K = 45 minutes a step can straddle two time slots (90-135 min): the activity is
+    drawn for the slot S3 the state carries, not for the slot the step began in."""
+    slot_activity = np.zeros((spaces.N_SLOTS, spaces.N_ACTIVITIES))
+    slot_activity[0::2, COUGH] = 1.0   # even slots: only coughing
+    slot_activity[1::2, STOVE] = 1.0   # odd slots: only the stove
+    src = ContextSource(np.full(spaces.N_ACTIVITIES, 1 / spaces.N_ACTIVITIES), ContextSource.generic().scene_table,
+                        slot_activity)
+    gen = StateGenerator(src, 40, 45, np.random.default_rng(0))
+    rows = []
+    while not gen.done:
+        rows.append(gen.generate_state())
+        gen.observe(np.zeros(40, int), np.full(40, spaces.OTHERS))
+    s = np.concatenate(rows)
+    assert set(s[s[:, 2] % 2 == 0, 0]) == {COUGH} and set(s[s[:, 2] % 2 == 1, 0]) == {STOVE}
+    assert len(set(s[:, 2])) == spaces.N_SLOTS
+
+
 def test_current_task_and_dialog_state():
     t = current_task(np.array([3, 3, 3, 0]), np.array([spaces.ACCEPT, spaces.REJECT, spaces.ACCEPT, spaces.ACCEPT]),
                      np.array([2.0, 2.0, 30.0, 1.0]))
