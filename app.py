@@ -1,7 +1,8 @@
 """CACAS Studio: the study dashboard (``streamlit run app.py``).
 
 Navigation and the shared sidebar (study and participant); no study logic here. The address
-carries the participant and their day (``?participant=P03&day=2``), so a browser refresh, or
+carries the participant and the day the tablet is about (``?participant=P03&day=2``: the open
+day, or the next one once the previous day is adapted), so a browser refresh, or
 coming back the next day, returns to the same place; the data comes from the study database.
 ``?participant=P03&view=tablet`` shows the tablet page alone for that participant: no navigation
 to the researcher's pages, no preferences, no other participants.
@@ -66,11 +67,7 @@ def _write_address(store) -> None:
     qp = st.query_params
     if code:
         qp["participant"] = code
-        status = day_status(store, code)
-        if status.day:
-            qp["day"] = str(status.day)
-        else:
-            qp.pop("day", None)
+        qp["day"] = str(day_status(store, code).day_on_screen)
     else:
         qp.pop("participant", None)
         qp.pop("day", None)

@@ -44,7 +44,7 @@ def next_step(has_preferences: bool, status) -> str:
         return f"Close day {status.day} and adapt (Adaptation)"
     if status.waiting_for_adaptation:
         return f"Adapt after day {status.day} (Adaptation)"
-    return f"Start day {status.day + 1} on the tablet (Study session)"
+    return f"Start day {status.day_on_screen} on the tablet (Study session)"
 
 
 def overview_frame(store, study: str | None = None) -> pd.DataFrame:

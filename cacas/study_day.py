@@ -154,6 +154,15 @@ class DayStatus:
     waiting_for_adaptation: bool   # the latest day is closed and not yet adapted
     finished: bool                 # STUDY_DAYS days done (closed)
 
+    @property
+    def day_on_screen(self) -> int:
+        """The day the tablet is about: the open day; a closed day while it waits for its
+        adaptation (or the last one); once adapted, the next day, ready to start (1 before the
+        first). The app's address carries it, so address and tablet agree."""
+        if self.open or self.waiting_for_adaptation or self.finished:
+            return max(self.day, 1)
+        return self.day + 1
+
 
 def day_status(store, participant: str) -> DayStatus:
     r = store.resume(participant)

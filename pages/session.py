@@ -165,9 +165,10 @@ if not status.open:
         if not tablet:
             ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
     else:
-        st.markdown(f"Day **{status.day + 1}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
+        st.markdown(f"Day **{status.day_on_screen}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
                     "with the robot, following your daily routine.")
-        st.button(f"Start day {status.day + 1}", type="primary", on_click=_start_day, icon=":material/play_arrow:")
+        st.button(f"Start day {status.day_on_screen}", type="primary", on_click=_start_day,
+                  icon=":material/play_arrow:")
     st.stop()
 
 day = status.day

@@ -80,10 +80,13 @@ def test_when_the_robot_did_nothing_only_no_response_is_an_answer(store, policy)
 
 
 def test_next_day_waits_for_the_adaptation(store):
+    assert day_status(store, "P01").day_on_screen == 1  # before the study: day 1, ready to start
     day = start_day(store, "P01")
     assert start_day(store, "P01") == day  # a reload opens nothing new
+    assert day_status(store, "P01").day_on_screen == day
     store.close_day("P01", day)
     assert day_status(store, "P01").waiting_for_adaptation
+    assert day_status(store, "P01").day_on_screen == day  # "day 1 is finished", until adapted
     with pytest.raises(CacasError, match="has not been adapted yet"):
         start_day(store, "P01")
     store.record_adaptation("P01", day, "nn", {"comparison": True}, 1.0, {})  # a comparison run: no policy
@@ -91,7 +94,10 @@ def test_next_day_waits_for_the_adaptation(store):
     version = store.save_policy("P01", day, "nn", b"a policy adapted with a baseline")
     store.set_active_policy("P01", None)  # adapted, then rolled back to the initial policy: still adapted
     assert not day_status(store, "P01").waiting_for_adaptation and version == 1
+    assert day_status(store, "P01").day_on_screen == day + 1  # the next day, ready to start
     assert start_day(store, "P01") == day + 1
+    finished = dataclasses.replace(day_status(store, "P01"), day=STUDY_DAYS, open=False, finished=True)
+    assert finished.day_on_screen == STUDY_DAYS
 
 
 def test_clip_choice_is_stable():

@@ -73,3 +73,25 @@ def test_sidebar_counts_the_days_interactions_in_words(app, store):
                              robot_action="pain check", response="accept")
     at = app(participant="P01")
     assert "Day 1 (open) · 2 interactions that day · policy initial" in [c.value for c in at.sidebar.caption]
+
+
+def test_the_address_day_is_the_day_the_tablet_shows(app, store):
+    """The address carried the last day recorded (day=1) while the tablet offered "Start day 2"."""
+    from cacas.study_day import start_day
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+
+    def address_day():
+        at = app(participant="P01")
+        no_exception(at)
+        value = at.query_params["day"]
+        return value[0] if isinstance(value, list) else value
+
+    assert address_day() == "1"
+    day = start_day(store, "P01")
+    store.close_day("P01", day)
+    assert address_day() == "1"  # day 1 finished, waiting for its adaptation
+    store.save_policy("P01", day, "cacas", b"an adapted policy")
+    assert address_day() == "2"
+    at = app("pages/session.py", participant="P01")
+    assert "Start day 2" in [b.label for b in at.button]
