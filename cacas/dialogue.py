@@ -62,8 +62,9 @@ HEARD: dict[str, str] = {
     "do nothing": "It is quiet here.",
 }
 
-#: The thing a reminder is about, per action and activity ("turn the stove off"); absent: a
-#: neutral word ("it", "things", nothing).
+#: The thing a reminder is about, per action and activity ("turn the stove off"); absent (a
+#: policy may well remind someone crying to turn something off), the reminder is a general one
+#: (:data:`GENERAL_REMINDERS`), never a dangling "it".
 OBJECTS: dict[str, dict[str, str]] = {
     "remind to turn off": {
         "wash hands": "the tap", "wash dishes": "the tap", "wash clothes": "the washing machine",
@@ -87,12 +88,15 @@ OBJECTS: dict[str, dict[str, str]] = {
         "use hair dryer": "the hair dryer", "drink soup": "the hot soup", "fall down": "your steps",
         "use microwave": "hot food", "wash hands": "the wet floor"},
 }
-_DEFAULT_OBJECT = {"remind to turn off": "it", "remind to unplug": "it", "remind to put back": "things"}
+#: A reminder with no object for the activity, as the robot says it after "remind you to".
+GENERAL_REMINDERS = {"remind to turn off": "switch off anything you left on",
+                     "remind to unplug": "unplug anything you left plugged in",
+                     "remind to put back": "put things back where they belong"}
 
 
 def _object(action: str, activity: str) -> str | None:
     act = spaces.canonical("action", action)
-    return OBJECTS.get(act, {}).get(spaces.canonical("activity", activity), _DEFAULT_OBJECT.get(act))
+    return OBJECTS.get(act, {}).get(spaces.canonical("activity", activity))
 
 
 # --- what the robot offers (S6) ------------------------------------------------------------------
@@ -151,6 +155,8 @@ def offer_line(action: str, activity: str = "do nothing") -> str:
     """The robot's offer for ``action`` about ``activity``; "" for "do nothing"."""
     act = spaces.canonical("action", action)
     obj = _object(act, activity)
+    if obj is None and act in GENERAL_REMINDERS:
+        return f"Shall I remind you to {GENERAL_REMINDERS[act]}?"
     return OFFERS[act].format(obj=obj, with_obj=f" with {obj}" if obj else "")
 
 
@@ -186,6 +192,8 @@ def confirmation_line(action: str, activity: str = "do nothing") -> str:
 def _infinitive(action: str, activity: str) -> str:
     act = spaces.canonical("action", action)
     obj = _object(act, activity)
+    if obj is None and act in GENERAL_REMINDERS:
+        return f"remind you to {GENERAL_REMINDERS[act]}"
     return {
         "show compassion": "keep you company for a moment",
         "chitchat": "chat with you",

@@ -28,6 +28,20 @@ def test_object_follows_the_activity():
     assert "turn the glass" not in dialogue.robot_line("pour water into glass", "remind to turn off")
 
 
+def test_a_reminder_with_no_object_for_the_activity_is_a_general_one():
+    """The policy may remind someone crying to turn something off: "turn it off" named nothing."""
+    assert dialogue.robot_line("cry", "remind to turn off") == \
+        "I heard you crying. Shall I remind you to switch off anything you left on?"
+    assert dialogue.offer_line("remind to unplug", "cough") == \
+        "Shall I remind you to unplug anything you left plugged in?"
+    assert dialogue.confirmation_line("remind to put back") == \
+        "You would like me to remind you to put things back where they belong. Is that right?"
+    for activity in spaces.ACTIVITIES:
+        for action in dialogue.GENERAL_REMINDERS:
+            for line in (dialogue.robot_line(activity, action), dialogue.confirmation_line(action, activity)):
+                assert " it " not in line and " it?" not in line and "None" not in line
+
+
 def test_names_are_case_insensitive_and_unknown_is_an_error():
     assert dialogue.robot_line("Watch tv", "Chitchat").startswith("I heard the TV.")
     with pytest.raises(CacasError, match="unknown activity 'dance'"):
