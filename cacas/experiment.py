@@ -177,14 +177,14 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,
              ask_after_reject, loop) for p_i, person in enumerate(participants)]
     total = len(participants) * days
-    done = [0]
+    where = [0.0] * len(participants)  # each participant's days done (a fraction while adapting)
 
-    def tick(message: str) -> None:
-        done[0] += 1
+    def tick(p_i: int, days_done: float, message: str) -> None:
+        where[p_i] = days_done
         if progress:
-            progress(done[0] / total, message)
+            progress(min(sum(where) / total, 1.0), message)
 
-    if progress:  # the first day's tick comes after a day lived and adapted by every method
+    if progress:  # then a report per method adapted and per participant-day
         progress(0.0, f"simulating day 1 of {len(participants)} participant{'s' if len(participants) != 1 else ''} "
                       f"({len(methods)} method{'s' if len(methods) != 1 else ''}"
                       f"{', each in its own closed loop' if loop == 'each' and len(methods) > 1 else ''}, "
@@ -232,10 +232,13 @@ def adaptation_seed(seed: int, p_i: int, day: int, method: str) -> int:
 
 def policies_in_force(initial, person: Participant, p_i: int, days: int, interactions: int,
                       methods: tuple[str, ...], seed: int, no_response_rate: float,
-                      config: CACAAConfig | None, d4a: D4A, ask_after_reject: float = 0.0, loop: str = "first"):
+                      config: CACAAConfig | None, d4a: D4A, ask_after_reject: float = 0.0, loop: str = "first",
+                      progress: Progress | None = None):
     """One participant's simulated study, day by day: yields (day, {method: policy in force that
     day}, {closed-loop method: its interaction rows so far}) before the day's interactions are
     added to those same lists, so once the generator is exhausted they hold every day's rows.
+    ``progress(f, message)``: f, the share of the day's adaptations done (every method's, in turn),
+    reported as the methods' SAC training goes (a stop request can act within an adaptation).
     With ``loop="first"`` the first method acts in closed loop and after each day every method
     adapts from all its interactions so far; with ``loop="each"`` every method acts and adapts
     from its own. Random streams depend on (seed, participant index) only, and every closed loop
@@ -251,35 +254,47 @@ def policies_in_force(initial, person: Participant, p_i: int, days: int, interac
                                      ask_after_reject, d4a)
         if day < days:
             data = {m: pd.DataFrame(rows[m], columns=records.INTERACTION_COLUMNS) for m in actors}
-            in_force = {m: adapt_policy(in_force[m], data[m if m in data else actors[0]], m,
-                                        seed=adaptation_seed(seed, p_i, day, m), config=config, d4a=d4a).policy
-                        for m in methods}
+            adapted = {}
+            for k, m in enumerate(methods):
+                say = None if progress is None else (
+                    lambda f, _, k=k, m=m: progress((k + f) / len(methods), f"adapting {m} after day {day} of {days}"))
+                adapted[m] = adapt_policy(in_force[m], data[m if m in data else actors[0]], m,
+                                          seed=adaptation_seed(seed, p_i, day, m), config=config, d4a=d4a,
+                                          progress=say).policy
+            in_force = adapted
 
 
 def simulate_participant(initial, person: Participant, p_i: int, days: int, interactions: int,
                          methods: tuple[str, ...], seed: int, no_response_rate: float,
                          config: CACAAConfig | None, d4a: D4A, eval_states: int,
                          ask_after_reject: float = 0.0, loop: str = "first",
-                         report: Callable[[str], None] | None = None) -> tuple[list[dict], list[dict], pd.DataFrame]:
+                         report: Callable[[int, float, str], None] | None = None
+                         ) -> tuple[list[dict], list[dict], pd.DataFrame]:
     """One participant's simulated study: (interaction rows, preference-accuracy rows, the
     accuracy by preference: records.BY_PREFERENCE_COLUMNS). Its random streams depend on (seed,
     participant index) only, so the result is the same whether participants run one after
-    another or in parallel."""
+    another or in parallel. ``report(p_i, days_done, message)`` follows it: days_done grows by a
+    fraction as each method adapts, and is a whole number once a day is lived and adapted from."""
     test_states = participant_test_states(person, p_i, seed, eval_states)
     acc_rows: list[dict] = []
     by_preference: list[pd.DataFrame] = []
     rows: dict[str, list[dict]] = {}
+    current = [1]  # the day being lived or adapted from
+    adapting = None if report is None else (
+        lambda f, msg: report(p_i, current[0] - 1 + f, f"participant {person.id}: {msg}"))
     for day, in_force, rows in policies_in_force(initial, person, p_i, days, interactions, methods, seed,
-                                                 no_response_rate, config, d4a, ask_after_reject, loop):
+                                                 no_response_rate, config, d4a, ask_after_reject, loop,
+                                                 progress=adapting):
+        current[0] = day
         if day > 1 and report:  # the previous day was lived and adapted from
-            report(f"participant {person.id}: day {day - 1} of {days} done")
+            report(p_i, day - 1, f"participant {person.id}: day {day - 1} of {days} done")
         for m in methods:
             acc_rows.append({"participant": person.id, "method": m, "day": day,
                              "preference_accuracy": preference_accuracy(in_force[m], person, states=test_states)})
             by_preference.append(accuracy_by_preference(in_force[m], person, test_states)
                                  .assign(participant=person.id, method=m, day=day))
     if report:
-        report(f"participant {person.id}: day {days} of {days} done")
+        report(p_i, days, f"participant {person.id}: day {days} of {days} done")
     return ([r for m in rows for r in rows[m]], acc_rows,
             pd.concat(by_preference, ignore_index=True)[records.BY_PREFERENCE_COLUMNS])
 
@@ -288,12 +303,13 @@ def _worker(initial_bytes: bytes, args: tuple, queue) -> tuple[list[dict], list[
     import torch
 
     torch.set_num_threads(1)
-    return simulate_participant(policy_from_bytes(initial_bytes), *args, report=queue.put)
+    return simulate_participant(policy_from_bytes(initial_bytes), *args,
+                                report=lambda p_i, days_done, message: queue.put((p_i, days_done, message)))
 
 
-def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[str], None]):
+def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, float, str], None]):
     """Participants in ``jobs`` worker processes (spawned: safe with torch's thread pools);
-    progress comes back through a queue, day by day."""
+    progress comes back through a queue, as each method adapts."""
     ctx = mp.get_context("spawn")
     blob = initial.to_bytes()
     with ctx.Manager() as manager, ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
@@ -303,9 +319,9 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[str], N
         while pending:
             finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
             while not queue.empty():
-                tick(queue.get())
+                tick(*queue.get())
         while not queue.empty():
-            tick(queue.get())
+            tick(*queue.get())
         return [f.result() for f in futures]
 
 

@@ -389,8 +389,10 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                     recorded += 1
                 done += 1
                 for day in closed:
-                    say(done / total, f"{code}: {method} after day {day}")
-                    result = adapt_policy(policy, data[data["day"] <= day], method=method, seed=seed + day)
+                    what = f"{code}: {method} after day {day}"
+                    say(done / total, what)
+                    result = adapt_policy(policy, data[data["day"] <= day], method=method, seed=seed + day,
+                                          progress=lambda f, _, at=done, what=what: say((at + f) / total, what))
                     policy = result.policy
                     if (method, day) not in have:
                         store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),

@@ -209,7 +209,34 @@ def test_parallel_workers_give_the_same_tables(methods, small_config, small_init
     pd.testing.assert_frame_equal(one.by_preference, two.by_preference)
     # at once, what is starting; then the participant-days, reported from the workers
     assert ticks[0] == 0.0 and words[0] == f"simulating day 1 of {len(PEOPLE)} participants (2 methods, 2 worker processes)"
-    assert len(ticks) == 5 and ticks[-1] == 1.0
+    assert ticks[-1] == 1.0 and words[-1].endswith("day 2 of 2 done")
+    # reports as each method adapts, not only once a participant-day is over: 2 people x 1 day
+    # adapted from x 2 methods, each reported at least once, besides the 4 participant-days
+    for m in methods:
+        assert sum(f"adapting {m} after day 1 of 2" in w for w in words) >= len(PEOPLE)
+    assert sum(w.endswith(" done") for w in words) == 2 * len(PEOPLE)
+
+
+def test_progress_moves_within_a_day_and_never_back(small_config, small_initial):
+    """One worker (the Simulation lab): a report per method adapted, rising to 1.0; a stop
+    request raised from a report ends the study there (jobs.Stopped), not a day later."""
+    from cacas.jobs import Stopped
+
+    kw = dict(days=3, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
+              initial_policy=small_initial, jobs=1)
+    seen = []
+    simulate_study(PEOPLE[:1], progress=lambda f, m: seen.append((f, m)), **kw)
+    fractions = [f for f, _ in seen]
+    assert fractions == sorted(fractions) and fractions[0] == 0.0 and fractions[-1] == 1.0
+    within_day_1 = [f for f, m in seen if "after day 1 of 3" in m]
+    assert within_day_1 and 0 < min(within_day_1) and max(within_day_1) <= 1 / 3
+    assert any(0 < f < 1 / 3 for f in within_day_1)  # between the day's start and its end
+
+    def stop_at_nn(f, m):
+        if "adapting nn after day 1" in m:
+            raise Stopped("stopped on request")
+    with pytest.raises(Stopped):
+        simulate_study(PEOPLE[:1], progress=stop_at_nn, **kw)
 
 
 def test_a_method_gives_the_same_results_whichever_methods_run_beside_it(small_config, small_initial):

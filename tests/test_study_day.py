@@ -140,8 +140,19 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
             s.record_adaptation("P01", day, "cacas", {}, 1.0, {},
                                 s.save_policy("P01", day, "cacas", policy.to_bytes(), activate=False))
     seen = []
-    assert compare_methods(path, methods=("nn",), progress=lambda f, m: seen.append(f)) == 3  # days 0, 1, 2
-    assert seen[-1] == 1.0
+    real_adapt = cacas.adaptation.adapt_policy
+
+    def adapt_reporting_halfway(*args, progress=None, **kw):  # as SAC training reports its rounds
+        progress(0.5, "round 1/2")
+        return real_adapt(*args, **kw)
+    monkeypatch.setattr(cacas.adaptation, "adapt_policy", adapt_reporting_halfway)
+    assert compare_methods(path, methods=("nn",), progress=lambda f, m: seen.append((f, m))) == 3  # days 0, 1, 2
+    monkeypatch.setattr(cacas.adaptation, "adapt_policy", real_adapt)
+    # 3 units (initial policy, day 1, day 2): each adaptation's own progress shows between its ends,
+    # so a stop request acts within an adaptation
+    assert seen == [(1 / 3, "P01: nn after day 1"), (1.5 / 3, "P01: nn after day 1"),
+                    (2 / 3, "P01: nn after day 2"), (2.5 / 3, "P01: nn after day 2"),
+                    (1.0, "3 comparison runs recorded")]
     assert compare_methods(path, methods=("nn",)) == 0  # already there: nothing recorded twice
     with StudyStore(path) as s:
         runs = s.adaptations_frame("P01")
