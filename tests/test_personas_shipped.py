@@ -18,6 +18,10 @@ LEAVE_ME_ALONE = study_data_dir() / "personas" / "example_leave_me_alone.json"
 INDEPENDENT = Path(__file__).parent / "data" / "independent_personas.json"
 #: A second set written the same way in session 8, by a helper who saw design.md and the paper only.
 INDEPENDENT_S = Path(__file__).parent / "data" / "independent_personas_s.json"
+#: Two more in session 12, by a helper told the format, Table I and the issue's wording only (it
+#: could glance at one example file for the format): T01-T08 and U01-U08.
+INDEPENDENT_T = Path(__file__).parent / "data" / "independent_personas_t.json"
+INDEPENDENT_U = Path(__file__).parent / "data" / "independent_personas_u.json"
 FILES = {"example": (EXAMPLE, 8, "P"), "holdout": (HOLDOUT, 6, "H")}
 
 
@@ -75,7 +79,9 @@ def test_variety_and_no_do_nothing(kind):
 
 
 @pytest.mark.parametrize("path,letter,quiet_ones", [(INDEPENDENT, "R", ["R02", "R03", "R05", "R08"]),
-                                                     (INDEPENDENT_S, "S", ["S02", "S04", "S06", "S07", "S08"])])
+                                                     (INDEPENDENT_S, "S", ["S02", "S04", "S06", "S07", "S08"]),
+                                                     (INDEPENDENT_T, "T", ["T02", "T04", "T05"]),
+                                                     (INDEPENDENT_U, "U", ["U02", "U04", "U06"])])
 def test_independent_personas_load_and_include_leave_me_alone_preferences(path, letter, quiet_ones):
     people = load_personas(path)
     assert [p.id for p in people] == [f"{letter}{i:02d}" for i in range(1, 9)]
