@@ -508,17 +508,20 @@ def check_simulation(participants, methods) -> tuple[str, ...]:
 
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
                    seed: int = 0, no_response_rate: float = 0.1, progress=None,
-                   ask_after_reject: float = 0.0, loop: str = "first") -> Path:
+                   ask_after_reject: float = 0.0, loop: str = "first", jobs: int | None = None) -> Path:
     """A simulated study (:func:`cacas.experiment.simulate_study`) saved as a run under
-    ``out_root`` (see :func:`save_run`); returns the run's folder. For a background job."""
+    ``out_root`` (see :func:`save_run`); returns the run's folder. For a background job.
+    Participants run side by side in ``jobs`` worker processes (default: one per core, as
+    ``cacas simulate``); the tables are the same whatever ``jobs``."""
     from datetime import datetime, timezone
 
-    from cacas.experiment import simulate_study
+    from cacas.experiment import default_jobs, simulate_study
 
     methods = check_simulation(participants, methods)
     result = simulate_study(list(participants), days=days, interactions=interactions, methods=tuple(methods),
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
-                            ask_after_reject=ask_after_reject, loop=loop)
+                            ask_after_reject=ask_after_reject, loop=loop,
+                            jobs=default_jobs() if jobs is None else jobs)
     stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
     name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,

@@ -41,6 +41,7 @@ from cacas.adaptation import CACAAConfig, METHODS, accuracy_by_preference, adapt
     load_initial_policy, preference_accuracy
 from cacas.d4a import D4A, load_d4a
 from cacas.errors import CacasError
+from cacas.jobs import Stopped
 from cacas.policy import policy_from_bytes
 from cacas.preferences import Participant
 from cacas.simulator import current_task, preference_states
@@ -299,29 +300,45 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
             pd.concat(by_preference, ignore_index=True)[records.BY_PREFERENCE_COLUMNS])
 
 
-def _worker(initial_bytes: bytes, args: tuple, queue) -> tuple[list[dict], list[dict], pd.DataFrame]:
+def _worker(initial_bytes: bytes, args: tuple, queue, stop) -> tuple[list[dict], list[dict], pd.DataFrame]:
     import torch
 
     torch.set_num_threads(1)
-    return simulate_participant(policy_from_bytes(initial_bytes), *args,
-                                report=lambda p_i, days_done, message: queue.put((p_i, days_done, message)))
+
+    def report(p_i: int, days_done: float, message: str) -> None:
+        if stop.is_set():  # the study was stopped (or failed) in the main process: end here
+            raise Stopped("stopped on request")
+        queue.put((p_i, days_done, message))
+    return simulate_participant(policy_from_bytes(initial_bytes), *args, report=report)
 
 
 def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, float, str], None]):
     """Participants in ``jobs`` worker processes (spawned: safe with torch's thread pools);
-    progress comes back through a queue, as each method adapts."""
+    progress comes back through a queue, as each method adapts. If ``tick`` raises (a stop
+    request, jobs.Stopped) every worker ends at its next report, within an adaptation, and the
+    participants not started never start; the exception then goes on, with a note of how many
+    studies were ended early."""
     ctx = mp.get_context("spawn")
     blob = initial.to_bytes()
     with ctx.Manager() as manager, ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
-        queue = manager.Queue()
-        futures = [pool.submit(_worker, blob, a, queue) for a in args]
-        pending = set(futures)
-        while pending:
-            finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+        queue, stop = manager.Queue(), manager.Event()
+        futures = [pool.submit(_worker, blob, a, queue, stop) for a in args]
+        try:
+            pending = set(futures)
+            while pending:
+                finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                while not queue.empty():
+                    tick(*queue.get())
             while not queue.empty():
                 tick(*queue.get())
-        while not queue.empty():
-            tick(*queue.get())
+        except BaseException as exc:
+            stop.set()
+            never = sum(f.cancel() for f in futures)
+            wait(futures)
+            ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
+            exc.add_note(f"{ended} of {len(futures)} participants' studies ended early in their worker "
+                         f"process, {never} never started")
+            raise
         return [f.result() for f in futures]
 
 

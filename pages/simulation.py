@@ -74,8 +74,8 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                          "With 'each method', every method runs a study of its own and has its own success rate: "
                          "how it would do as the robot's policy.")
     st.caption("Every participant, method and day but the last is one adaptation, a few seconds on a laptop CPU "
-               "(8 participants x 7 days x 4 methods: about 4-5 minutes here, where the app runs it in one "
-               "process; `cacas simulate` runs participants side by side, one per core: about 2 minutes on two).")
+               "(8 participants x 7 days x 4 methods: about three minutes on two cores; participants run side by "
+               "side, one process per core, as in `cacas simulate`).")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
 if go:
     try:

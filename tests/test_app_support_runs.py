@@ -122,3 +122,22 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(runs["policy version"].isna()) == [False, False, True, True]  # a comparison run saves no policy
     assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
     store.close()
+
+
+def test_the_lab_runs_participants_side_by_side_with_the_same_tables(tmp_path, monkeypatch):
+    """run_simulation (the Simulation lab) uses a worker process per core by default, as `cacas
+    simulate`; the saved tables are those of one process."""
+    import cacas.experiment
+    from cacas.preferences import load_personas
+    from cacas.paths import study_data_dir
+
+    people = load_personas(study_data_dir() / "personas" / "example.json")[:2]
+    used = []
+    real = cacas.experiment.simulate_study
+    monkeypatch.setattr(cacas.experiment, "simulate_study", lambda *a, **k: used.append(k["jobs"]) or real(*a, **k))
+    monkeypatch.setattr(cacas.experiment, "default_jobs", lambda: 2)
+    side_by_side = app_support.run_simulation(people, tmp_path / "a", days=2, interactions=4, methods=("nn",))
+    one = app_support.run_simulation(people, tmp_path / "b", days=2, interactions=4, methods=("nn",), jobs=1)
+    assert used == [2, 1]
+    for name in ("daily.csv", "interactions.csv", "by_preference.csv"):
+        assert (side_by_side / name).read_bytes() == (one / name).read_bytes()

@@ -239,6 +239,21 @@ def test_progress_moves_within_a_day_and_never_back(small_config, small_initial)
         simulate_study(PEOPLE[:1], progress=stop_at_nn, **kw)
 
 
+def test_a_stop_ends_every_worker_process_at_its_next_report(small_config, small_initial):
+    """Two worker processes (the Simulation lab, cacas simulate): a stop at the first report from
+    a worker ends both participants' studies in their workers, not after their last day."""
+    from cacas.jobs import Stopped
+
+    def stop_at_first_worker_report(f, m):
+        if m.startswith("participant "):
+            raise Stopped("stopped on request")
+    with pytest.raises(Stopped) as stopped:
+        simulate_study(PEOPLE[:2], days=5, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
+                       initial_policy=small_initial, jobs=2, progress=stop_at_first_worker_report)
+    assert stopped.value.__notes__ == ["2 of 2 participants' studies ended early in their worker process, "
+                                       "0 never started"]
+
+
 def test_a_method_gives_the_same_results_whichever_methods_run_beside_it(small_config, small_initial):
     kw = dict(days=3, interactions=5, seed=4, config=small_config, initial_policy=small_initial)
     two = simulate_study(PEOPLE, methods=["cacas", "nn"], **kw).daily
