@@ -331,7 +331,7 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, fl
                     tick(*queue.get())
             while not queue.empty():
                 tick(*queue.get())
-        except BaseException as exc:
+        except Exception as exc:  # a stop request; Ctrl-C reaches the workers itself
             stop.set()
             never = sum(f.cancel() for f in futures)
             wait(futures)
