@@ -15,6 +15,7 @@ from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
+from cacas.recognition import UNSURE_BELOW
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
                              propose, request_accepts_proposal, start_day)
@@ -244,14 +245,18 @@ else:
         if heard:
             mark = ":material/check:" if heard[0] == context.activity else ":material/help:"
             st.markdown(f"### {heard[0]} {mark}")
-            st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard[2][1:]) +
-                       f" · confidence {100 * heard[1]:.0f}%")
+            if heard[1] < UNSURE_BELOW:
+                st.caption(":material/help: The robot is not sure it heard that right.")
+            if not tablet:  # the participant sees plain labels; the researcher the numbers
+                st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard[2][1:]) +
+                           f" · confidence {100 * heard[1]:.0f}%")
         else:
             st.markdown(f"### {context.activity}")
             st.caption("No sound model: the robot uses the activity as chosen.")
         if seen:
             mark = ":material/check:" if seen[0] == context.scene else ":material/help:"
-            st.markdown(f"and sees the **{seen[0]}** {mark} ({100 * seen[1]:.0f}%)")
+            unsure = " (not sure)" if seen[1] < UNSURE_BELOW else ""
+            st.markdown(f"and sees the **{seen[0]}** {mark}{unsure}" + ("" if tablet else f" ({100 * seen[1]:.0f}%)"))
 
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")

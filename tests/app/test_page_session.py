@@ -179,9 +179,16 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     store.open_day("P01")
     at = app(PAGE, participant="P01", ctx="4.6.0.0")  # cough in the bedroom
     no_exception(at)
-    heard = recognizer.recognize(clip).label
+    recognised = recognizer.recognize(clip)
+    heard = recognised.label
+    assert recognised.unsure  # an untrained model: well under 50 % for its best guess
     assert "The robot heard" in texts(at) and f"### {heard}" in texts(at)
-    assert "confidence" in texts(at)
+    assert "confidence" in texts(at)  # the researcher's view shows the numbers
+    assert "The robot is not sure it heard that right." in texts(at)
+    tablet = app(PAGE, participant="P01", ctx="4.6.0.0", view="tablet")  # the participant's: plain labels
+    no_exception(tablet)
+    assert f"### {heard}" in texts(tablet) and "The robot is not sure it heard that right." in texts(tablet)
+    assert "confidence" not in texts(tablet) and "Also possible" not in texts(tablet)
     assert len(at.get("audio")) == 1
     label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
     next(b for b in at.button if b.label == label).click().run()
