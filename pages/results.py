@@ -39,9 +39,9 @@ if source == SIMULATED:
 if source == HUMAN:
     tables = export_tables(store, study)
     daily = tables["daily"]
-    n_people = daily["participant"].nunique()
-    st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''}, "
-               f"{len(tables['interactions'])} interactions logged, "
+    n_people, n_started = len(tables["participants"]), daily["participant"].nunique()
+    st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''} "
+               f"({n_started} with a study day), {len(tables['interactions'])} interactions logged, "
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
                "days 1..d-1 (Section V-B.2).")

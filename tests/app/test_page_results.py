@@ -22,8 +22,10 @@ def test_results_empty_study(app):
 
 def test_results_show_day_one_and_downloads(app, store):
     _study_with_a_day(store)
+    store.add_participant("P02")  # not started yet: counted among the study's participants
     at = app(PAGE, participant="P01")
     no_exception(at)
+    assert "2 participants (1 with a study day), 3 interactions logged" in texts(at)
     assert "Day 1 mean success rate" in [m.label for m in at.metric]
     assert at.metric[0].value == "67%"
     labels = [b.label for b in at.get("download_button")]
