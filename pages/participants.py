@@ -94,6 +94,9 @@ def _import_personas() -> None:
         return
     s["import-error"] = None
     s["import-done"] = codes
+    # the page opens the first participant's preferences, not the Import tab with its message
+    st.toast(f"Imported {len(codes)} participant{'' if len(codes) == 1 else 's'}: {', '.join(codes)}.",
+             icon=":material/check_circle:")
     if codes:
         s[ui.PARTICIPANT_KEY] = codes[0]
         st.query_params["participant"] = codes[0]
@@ -188,6 +191,11 @@ if code:
                         st.caption(f"Covers {old.covered_count():,} states.")
             if overall:
                 st.error(overall, icon=":material/error:")
+            elif errors:  # the messages sit with their preferences, maybe far above this button
+                bad = sorted(errors)
+                st.error(f"Not saved: preference{'s' if len(bad) > 1 else ''} {', '.join(map(str, bad))} "
+                         f"need{'' if len(bad) > 1 else 's'} fixing (the message is under "
+                         f"{'each' if len(bad) > 1 else 'it'} above).", icon=":material/error:")
             st.form_submit_button("Save preferences", type="primary", icon=":material/save:",
                                   on_click=_save_preferences, args=(code, version, int(count), tasks))
 

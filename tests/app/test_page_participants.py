@@ -71,6 +71,8 @@ def test_invalid_preferences_show_messages_in_place_and_save_nothing(app, store)
     msgs = [e.value for e in at.error]
     assert any(m.startswith("Preference 1: choose an action: ") for m in msgs)
     assert any(m.startswith("Preference 3: choose at least one activity: ") for m in msgs)
+    # and, beside the Save button (the messages may be far above it), which ones to fix
+    assert msgs[-1] == "Not saved: preferences 1, 3 need fixing (the message is under each above)."
     assert store.get_preferences("P01") is None
 
 

@@ -282,3 +282,23 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     assert "Which preferences each method learnt" in text_of(page)
     assert page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").count() >= 2
     shot(page, "results-upload")
+
+
+def test_importing_a_persona_file_says_so(server, page):
+    """After an import the page opens the first participant's preferences, so the confirmation
+    is a toast: it was drawn in the Import tab, out of sight."""
+    from cacas.paths import study_data_dir
+
+    goto(page, f"{server}/participants")
+    page.get_by_role("tab", name="Import / export").click()
+    idle(page)
+    page.locator("[data-testid='stFileUploaderDropzoneInput']").set_input_files(
+        str(study_data_dir() / "personas" / "example.json"))
+    idle(page)
+    click(page, "Import")
+    toast = page.locator("[data-testid='stToast']")
+    toast.first.wait_for(timeout=30_000)
+    assert "Imported 8 participants: P01, P02, P03, P04, P05, P06, P07, P08." in toast.first.inner_text()
+    idle(page)
+    assert "Preferences of P01" in text_of(page)
+    shot(page, "participants-imported")
