@@ -15,7 +15,7 @@ from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
-from cacas.recognition import UNSURE_BELOW
+from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
                              propose, request_accepts_proposal, start_day)
@@ -49,8 +49,8 @@ def _library(kind: str, name: str) -> list[str]:
 
 
 @st.cache_data(show_spinner=False, max_entries=256)
-def _recognise(kind: str, path: str, stamp: float | None) -> tuple[str, float, list] | None:
-    """(label, confidence, top 3) of a clip or photo, or None without a model or for a bad file."""
+def _recognise(kind: str, path: str, stamp: float | None) -> Recognition | None:
+    """The recognition of a clip or photo, or None without a model or for a bad file."""
     rec = ui.recognizer(kind)  # ``stamp`` keys the cache: a retrained model recognises afresh
     if rec is None:
         return None
@@ -58,7 +58,7 @@ def _recognise(kind: str, path: str, stamp: float | None) -> tuple[str, float, l
         r = rec.recognize(path)
     except CacasError:
         return None
-    return r.label, float(r.confidence), [(a, float(p)) for a, p in r.top3]
+    return r
 
 
 # --- callbacks ------------------------------------------------------------------------------------
@@ -227,8 +227,8 @@ else:
                  "on the Adaptation page.", icon=":material/error:")
         st.stop()
     proposal = propose(policy, context, previous_interaction(store, code, day),
-                       heard=heard[0] if heard else None, heard_confidence=heard[1] if heard else None,
-                       policy_version=version, seen=seen[0] if seen else None)
+                       heard=heard.label if heard else None, heard_confidence=heard.confidence if heard else None,
+                       policy_version=version, seen=seen.label if seen else None)
 
     left, right = st.columns([1, 1])
     with left.container(border=True):
@@ -243,20 +243,21 @@ else:
     with right.container(border=True):
         st.markdown("**The robot heard**")
         if heard:
-            mark = ":material/check:" if heard[0] == context.activity else ":material/help:"
-            st.markdown(f"### {heard[0]} {mark}")
-            if heard[1] < UNSURE_BELOW:
+            mark = ":material/check:" if heard.label == context.activity else ":material/help:"
+            st.markdown(f"### {heard.label} {mark}")
+            if heard.unsure:
                 st.caption(":material/help: The robot is not sure it heard that right.")
             if not tablet:  # the participant sees plain labels; the researcher the numbers
-                st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard[2][1:]) +
-                           f" · confidence {100 * heard[1]:.0f}%")
+                st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard.top3[1:]) +
+                           f" · confidence {100 * heard.confidence:.0f}%")
         else:
             st.markdown(f"### {context.activity}")
             st.caption("No sound model: the robot uses the activity as chosen.")
         if seen:
-            mark = ":material/check:" if seen[0] == context.scene else ":material/help:"
-            unsure = " (not sure)" if seen[1] < UNSURE_BELOW else ""
-            st.markdown(f"and sees the **{seen[0]}** {mark}{unsure}" + ("" if tablet else f" ({100 * seen[1]:.0f}%)"))
+            mark = ":material/check:" if seen.label == context.scene else ":material/help:"
+            unsure = " (not sure)" if seen.unsure else ""
+            st.markdown(f"and sees the **{seen.label}** {mark}{unsure}" +
+                        ("" if tablet else f" ({100 * seen.confidence:.0f}%)"))
 
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")
