@@ -379,7 +379,7 @@ def load_daily(path) -> pd.DataFrame:
     missing = [c for c in records.DAILY_CONTRACT_COLUMNS if c not in df.columns]
     if missing:
         raise CacasError(f"{name}: not a daily.csv; missing columns: {', '.join(missing)}")
-    return check_daily_values(df, str(name))
+    return records.whole_counts(check_daily_values(df, str(name)))
 
 
 def _shown(value) -> str:

@@ -180,15 +180,49 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
 
 _CSV_FORMAT = dict(index=False, float_format="%.6f", lineterminator="\n")
 
+#: Counts in the tables (daily.csv, by_preference.csv, the exports): whole numbers. A CSV read
+#: back with an empty cell in such a column (a baseline's ``successes`` in a Fig. 4 run) gives
+#: pandas floats; :func:`whole_counts` makes them whole again.
+COUNT_COLUMNS = ("cumulative_feedback", "interactions", "successes", "user_initiated", "feedback", "unanswered",
+                 "states", "correct", "policy_version")
+#: Measured quantities of the human study's interactions.csv (the tablet's hour of day, the
+#: minutes since the previous activity): written in their shortest form, 8 and 7.5, not 8.000000.
+PLAIN_NUMBER_COLUMNS = ("hour", "interval_minutes")
+
+
+def whole_counts(df: pd.DataFrame) -> pd.DataFrame:
+    """``df`` with its :data:`COUNT_COLUMNS` as nullable integers where they hold floats that are
+    all whole numbers (or empty); other columns, and counts that are not whole, are left as they are."""
+    out = {}
+    for col in COUNT_COLUMNS:
+        if col in df.columns and pd.api.types.is_float_dtype(df[col]):
+            values = df[col].dropna()
+            if (values == values.round()).all():
+                out[col] = df[col].astype("Int64")
+    return df.assign(**out) if out else df
+
+
+def _plain_number(value) -> str:
+    return "" if pd.isna(value) else np.format_float_positional(float(value), trim="-")
+
+
+def _csv_ready(df: pd.DataFrame) -> pd.DataFrame:
+    df = whole_counts(df)
+    plain = {col: df[col].map(_plain_number) for col in PLAIN_NUMBER_COLUMNS
+             if col in df.columns and pd.api.types.is_float_dtype(df[col])}
+    return df.assign(**plain) if plain else df
+
 
 def write_csv(df: pd.DataFrame, path) -> None:
-    """CSV with fixed float formatting, so the same data gives the same bytes."""
-    df.to_csv(path, **_CSV_FORMAT)
+    """CSV with fixed formatting, so the same data gives the same bytes: rates and other floats
+    to 6 decimals, counts (:data:`COUNT_COLUMNS`) as whole numbers, measured hours and minutes
+    (:data:`PLAIN_NUMBER_COLUMNS`) in their shortest form, empty cells for missing values."""
+    _csv_ready(df).to_csv(path, **_CSV_FORMAT)
 
 
 def csv_bytes(df: pd.DataFrame) -> bytes:
     """The CSV of :func:`write_csv` as UTF-8 bytes (downloads, bundles, atomic writes)."""
-    return df.to_csv(**_CSV_FORMAT).encode("utf-8")
+    return _csv_ready(df).to_csv(**_CSV_FORMAT).encode("utf-8")
 
 
 def policy_states(interactions: pd.DataFrame) -> np.ndarray:

@@ -5,8 +5,11 @@ import numpy as np
 import pandas as pd
 
 from cacas.preferences import parse_participant
+import io
+
 from cacas.records import (DAILY_COLUMNS, ROBOT_INITIATED, USER_INITIATED, csv_bytes, daily_table,
-                           feedback_points, is_recorded, is_success, preferred_action_contexts, success_rate)
+                           feedback_points, is_recorded, is_success, preferred_action_contexts, success_rate,
+                           whole_counts)
 
 T1, T2 = ROBOT_INITIATED, USER_INITIATED
 
@@ -152,3 +155,26 @@ def test_csv_bytes_are_fixed_format():
     df = pd.DataFrame({"name": ["a", "b"], "x": [1 / 3, np.nan], "n": [1, 2]})
     # no index, floats to 6 decimals, NaN empty, "\n" line ends: the same data give the same bytes
     assert csv_bytes(df) == b"name,x,n\na,0.333333,1\nb,,2\n"
+
+
+def test_counts_stay_whole_numbers_after_a_round_trip_through_a_csv_file():
+    # a Fig. 4 run's daily.csv: the baseline row has no successes, so pandas reads the column as floats
+    daily = daily_table(STUDY, pd.DataFrame({"participant": ["P01"], "method": ["nn"], "day": [1],
+                                            "preference_accuracy": [0.5]}))
+    first = csv_bytes(daily)
+    read_back = pd.read_csv(io.BytesIO(first))
+    assert read_back["successes"].dtype == float
+    assert csv_bytes(read_back) == first                     # not "1.000000"
+    assert str(whole_counts(read_back)["successes"].dtype) == "Int64"
+
+
+def test_counts_that_are_not_whole_are_left_as_they_are():
+    df = pd.DataFrame({"successes": [1.5, np.nan], "other": [2.0, 3.0]})
+    kept = whole_counts(df)
+    assert kept["successes"].dtype == float and kept["other"].dtype == float
+    assert csv_bytes(df) == b"successes,other\n1.500000,2.000000\n,3.000000\n"
+
+
+def test_measured_hours_and_minutes_are_written_in_their_shortest_form():
+    df = pd.DataFrame({"hour": [8.0, 7.5, np.nan], "interval_minutes": [20.0, 0.25, 1.0], "rate": [0.5, 1.0, 0.0]})
+    assert csv_bytes(df) == b"hour,interval_minutes,rate\n8,20,0.500000\n7.5,0.25,1.000000\n,1,0.000000\n"
