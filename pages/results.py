@@ -138,48 +138,51 @@ with fig4:
 
 with quest:
     if source != HUMAN:
-        st.info(f"Simulated participants answer no questionnaire. The answers of study **{study}** are under "
-                "\"Human study (this database)\" above.", icon=":material/info:")
-    st.markdown("*\"What is your satisfaction level regarding the robot's ability to adapt to your "
-                "preferences?\"* 1 = very dissatisfied, 10 = very satisfied (Section V-B.1).")
-    answers = store.questionnaire_frame(study)
-    s = app_support.questionnaire_summary(answers)
-    c1, c2, c3, c4 = st.columns(4)
-    c1.metric("Answers", s["n"])
-    c2.metric("Mean", "–" if pd.isna(s["mean"]) else f"{s['mean']:.2f}")
-    c3.metric("SD", "–" if pd.isna(s["sd"]) else f"{s['sd']:.2f}")
-    c4.metric("Rated 8 or higher", ui.percent(s["share_8_or_more"]))
-    st.caption("Latest answer per participant; sample standard deviation. The paper: mean 8.125, SD 0.64, "
-               "87.5% at 8 or higher.")
-    codes = [p.code for p in store.list_participants(study)]
-    if codes:
-        # a refused answer keeps what was entered; a saved one empties the form (new widget keys)
-        entry = st.session_state.setdefault("quest-entry", 0)
-        with st.form("questionnaire", border=True):
-            who = st.selectbox("Participant", codes, index=codes.index(ui.participant()) if ui.participant() in codes else 0)
-            # no preset score: an answer is the participant's choice, never a default saved by accident
-            score = st.segmented_control("Satisfaction (1 = very dissatisfied, 10 = very satisfied)",
-                                         list(range(1, 11)), default=None, key=f"quest-score-{entry}")
-            comments = st.text_area("Comments (optional; no names)", key=f"quest-comments-{entry}")
-            refused = st.empty()
-            if st.form_submit_button("Save answer", icon=":material/save:"):
-                try:
-                    if score is None:
-                        raise CacasError("choose the participant's score, from 1 (very dissatisfied) to 10 "
-                                         "(very satisfied)")
-                    store.record_questionnaire(who, score, comments)
-                except CacasError as exc:
-                    refused.error(str(exc), icon=":material/error:")
-                else:
-                    note = questionnaire_timing(day_status(store, who))
-                    st.toast(f"Saved {who}'s answer ({score}).{' ' + note if note else ''}",
-                             icon=":material/check_circle:")
-                    st.session_state["quest-entry"] = entry + 1
-                    st.rerun()
-    if len(answers):
-        st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
-                     .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
-        ui.download_csv(answers, "questionnaire.csv")
+        st.info(("Simulated participants answer no questionnaire. " if source != UPLOAD else
+                 "The questionnaire is recorded in the study database, not in uploaded tables. ")
+                + f"Study **{study}**'s answers, and the form to record one, are under \"Human study (this "
+                "database)\" above.", icon=":material/info:")
+    else:
+        st.markdown("*\"What is your satisfaction level regarding the robot's ability to adapt to your "
+                    "preferences?\"* 1 = very dissatisfied, 10 = very satisfied (Section V-B.1).")
+        answers = store.questionnaire_frame(study)
+        s = app_support.questionnaire_summary(answers)
+        c1, c2, c3, c4 = st.columns(4)
+        c1.metric("Answers", s["n"])
+        c2.metric("Mean", "–" if pd.isna(s["mean"]) else f"{s['mean']:.2f}")
+        c3.metric("SD", "–" if pd.isna(s["sd"]) else f"{s['sd']:.2f}")
+        c4.metric("Rated 8 or higher", ui.percent(s["share_8_or_more"]))
+        st.caption("Latest answer per participant; sample standard deviation. The paper: mean 8.125, SD 0.64, "
+                   "87.5% at 8 or higher.")
+        codes = [p.code for p in store.list_participants(study)]
+        if codes:
+            # a refused answer keeps what was entered; a saved one empties the form (new widget keys)
+            entry = st.session_state.setdefault("quest-entry", 0)
+            with st.form("questionnaire", border=True):
+                who = st.selectbox("Participant", codes, index=codes.index(ui.participant()) if ui.participant() in codes else 0)
+                # no preset score: an answer is the participant's choice, never a default saved by accident
+                score = st.segmented_control("Satisfaction (1 = very dissatisfied, 10 = very satisfied)",
+                                             list(range(1, 11)), default=None, key=f"quest-score-{entry}")
+                comments = st.text_area("Comments (optional; no names)", key=f"quest-comments-{entry}")
+                refused = st.empty()
+                if st.form_submit_button("Save answer", icon=":material/save:"):
+                    try:
+                        if score is None:
+                            raise CacasError("choose the participant's score, from 1 (very dissatisfied) to 10 "
+                                             "(very satisfied)")
+                        store.record_questionnaire(who, score, comments)
+                    except CacasError as exc:
+                        refused.error(str(exc), icon=":material/error:")
+                    else:
+                        note = questionnaire_timing(day_status(store, who))
+                        st.toast(f"Saved {who}'s answer ({score}).{' ' + note if note else ''}",
+                                 icon=":material/check_circle:")
+                        st.session_state["quest-entry"] = entry + 1
+                        st.rerun()
+        if len(answers):
+            st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
+                         .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
+            ui.download_csv(answers, "questionnaire.csv")
 
 with data:
     st.markdown("Long-format tables, the same columns as `cacas simulate` and `cacas export` write.")

@@ -406,6 +406,12 @@ def test_questionnaire(store):
     store.record_questionnaire("P01", 1)
     df = store.questionnaire_frame()
     assert df["satisfaction"].tolist() == [10, 1] and df["comments"].iloc[0] == "it learned my stove habit"
+    assert list(df.columns) == ["participant", "day", "satisfaction", "comments", "created_at"]
+    assert df["day"].tolist() == [1, 1]
+    store.close_day("P01", 1)
+    store.open_day("P01")
+    store.record_questionnaire("P01", 6)
+    assert store.questionnaire_frame()["day"].tolist() == [1, 1, 2]  # each answer keeps the day it was given on
     with pytest.raises(CacasError, match="unknown participant"):
         store.record_questionnaire("P02", 5)
 

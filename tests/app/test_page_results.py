@@ -68,7 +68,7 @@ def test_questionnaire_entry_and_summary(app, store):
     values = {m.label: m.value for m in at.metric}
     assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"
     shown = next(d.value for d in at.dataframe if "satisfaction" in d.value.columns)
-    assert list(shown.columns) == ["participant", "satisfaction", "comments", "saved"]
+    assert list(shown.columns) == ["participant", "day", "satisfaction", "comments", "saved"]
     assert shown["saved"].iloc[0].endswith(" UTC")
     assert not any("Simulated participants answer no questionnaire" in i.value for i in at.info)
 
@@ -113,6 +113,9 @@ def test_results_of_a_simulated_run(app, db):
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
     assert any("Simulated participants answer no questionnaire" in i.value for i in at.info)
+    # and no human-study form or summary beside that note
+    assert "Save answer" not in [b.label for b in at.button]
+    assert "Answers" not in [m.label for m in at.metric]
 
 
 def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
