@@ -87,6 +87,14 @@ def open_days(store, study: str | None = None) -> dict[str, int]:
     return out
 
 
+def study_file_name(prefix: str, study: str, suffix: str) -> str:
+    """A download's file name for a study: no spaces or other characters a shell or a file
+    system trips on ("pilot walkB" -> "cacas-study-pilot_walkb.zip"; "study" if nothing is left)."""
+    from cacas.media_library import slug
+
+    return f"{prefix}-{slug(study) or 'study'}{suffix}"
+
+
 def short_time(stamp) -> str:
     """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'."""
     if isinstance(stamp, (int, float)):

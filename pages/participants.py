@@ -242,7 +242,8 @@ with tabs["Import / export"]:
         text = store.export_personas(study=study)
         n = len(persona_json(text, "the study's persona file")["participants"])
         st.caption(f"{n} participant(s) with preferences in study '{study}'.")
-        st.download_button("Download personas.json", text.encode("utf-8"), file_name=f"personas-{study}.json",
+        st.download_button("Download personas.json", text.encode("utf-8"),
+                           file_name=app_support.study_file_name("personas", study, ".json"),
                            mime="application/json", disabled=n == 0, icon=":material/download:")
     with st.expander("New study"):
         with st.form("new-study", border=False):

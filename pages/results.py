@@ -205,5 +205,5 @@ with data:
                        icon=":material/warning:")
         else:
             st.download_button("Download everything (zip of every table and policy file)", _bundle,
-                               file_name=f"cacas-study-{study}.zip", mime="application/zip",
+                               file_name=app_support.study_file_name("cacas-study", study, ".zip"), mime="application/zip",
                                icon=":material/folder_zip:")

@@ -29,6 +29,12 @@ def test_hours_to_slots_counts_slots_as_a_preference_does(hours):
     assert app_support.hours_to_slots(None) == [] and app_support.hours_to_slots([]) == []  # any time
 
 
+def test_a_studys_download_names_have_no_spaces():
+    assert app_support.study_file_name("cacas-study", "pilot walkB", ".zip") == "cacas-study-pilot_walkb.zip"
+    assert app_support.study_file_name("personas", "default", ".json") == "personas-default.json"
+    assert app_support.study_file_name("personas", "?? ", ".json") == "personas-study.json"
+
+
 def test_short_time_and_answers_in_words():
     assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
     assert app_support.short_time("?") == "?"
