@@ -24,15 +24,26 @@ from cacas.errors import CacasError
 
 #: Below this top-class probability a recognition is flagged as unsure (:attr:`Recognition.unsure`).
 UNSURE_BELOW = 0.5
+#: A sound clip shorter than this (seconds) is mostly the silence that pads it to the model's 1-s
+#: window (Section IV-A: "The duration of the sound sample is set to 1 second"); a longer clip's
+#: last partial window is kept from this length on (cacas.audio.features.windows).
+SHORT_CLIP_SECONDS = 0.5
 
 
 @dataclass(frozen=True)
 class Recognition:
-    """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``."""
+    """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``;
+    for a sound, ``seconds``, the length of the clip heard (None for a photo)."""
 
     label: str
     probabilities: dict[str, float]
     top3: list[tuple[str, float]]
+    seconds: float | None = None
+
+    @property
+    def short(self) -> bool:
+        """A sound clip shorter than :data:`SHORT_CLIP_SECONDS`: the model heard mostly padding."""
+        return self.seconds is not None and self.seconds < SHORT_CLIP_SECONDS
 
     @property
     def confidence(self) -> float:
@@ -45,14 +56,15 @@ class Recognition:
         return self.confidence < UNSURE_BELOW
 
 
-def make_recognition(probs: np.ndarray, classes: Sequence[str]) -> Recognition:
-    """A :class:`Recognition` from a probability vector over ``classes``."""
+def make_recognition(probs: np.ndarray, classes: Sequence[str], seconds: float | None = None) -> Recognition:
+    """A :class:`Recognition` from a probability vector over ``classes`` (``seconds``: a sound's length)."""
     probs = np.asarray(probs, dtype=float)
     order = np.argsort(-probs, kind="stable")
     return Recognition(
         label=classes[int(order[0])],
         probabilities={c: float(p) for c, p in zip(classes, probs)},
         top3=[(classes[int(i)], float(probs[i])) for i in order[:3]],
+        seconds=seconds,
     )
 
 

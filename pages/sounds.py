@@ -38,7 +38,13 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
         return
     if kind == "scene":
         st.image(data, width=280)
+    else:  # hear what the model heard
+        st.audio(data, format=lab.audio_mime(name))
     st.markdown(f"### {r.label}")
+    if r.short:
+        st.warning(f"The clip is {r.seconds:.2f} s long: the model hears 1-s windows, so it heard mostly the "
+                   "silence that pads it, and the result says little. Record at least a second.",
+                   icon=":material/timer:")
     if r.unsure:
         what = "sound activities" if kind == "sound" else "home scenes"
         st.warning(f"Unsure: {100 * r.confidence:.0f}% for {r.label}. It may be none of the "

@@ -95,6 +95,9 @@ def test_recognize_returns_label_probabilities_top3(tiny):
     probs = result.recognizer.probabilities(noise)
     assert arr.label == spaces.ACTIVITIES[int(np.argmax(probs))]
     np.testing.assert_allclose(list(arr.probabilities.values()), probs)
+    assert arr.seconds == pytest.approx(1.5) and not arr.short  # 48,000 samples at 32 kHz
+    click = result.recognizer.recognize(noise[:800])
+    assert click.seconds == pytest.approx(0.025) and click.short
 
 
 def test_recognize_refuses_bad_input(tiny, tmp_path):

@@ -112,3 +112,12 @@ def test_a_recognition_below_half_the_probability_is_unsure():
     unsure = make_recognition([0.3, 0.35, 0.35], ["bedroom", "kitchen", "bathroom"])
     assert unsure.label == "kitchen" and unsure.unsure  # ties go to the first class
     assert make_recognition([1 - UNSURE_BELOW, UNSURE_BELOW], ["a", "b"]).unsure is False
+
+
+def test_a_sound_shorter_than_half_a_second_is_short():
+    from cacas.recognition import SHORT_CLIP_SECONDS, make_recognition
+
+    assert SHORT_CLIP_SECONDS == 0.5
+    assert make_recognition([0.9, 0.1], ["a", "b"], seconds=0.025).short
+    assert not make_recognition([0.9, 0.1], ["a", "b"], seconds=0.5).short
+    assert not make_recognition([0.9, 0.1], ["a", "b"]).short  # a photo has no length

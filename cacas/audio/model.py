@@ -25,7 +25,7 @@ import torch
 from torch import nn
 
 from cacas import spaces
-from cacas.audio.features import FEATURE_PARAMS, FEATURE_SHAPE, check_signal, load_clip, mfcc_windows
+from cacas.audio.features import FEATURE_PARAMS, FEATURE_SHAPE, SAMPLE_RATE, check_signal, load_clip, mfcc_windows
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.recognition import Recognition, load_model_file, make_recognition, save_model
@@ -112,12 +112,17 @@ class SoundRecognizer:
 
     def probabilities(self, clip) -> np.ndarray:
         """Pooled (mean over 1-s windows) class probabilities of a file path or 32-kHz signal."""
-        if isinstance(clip, (str, Path)):
-            y = load_clip(clip)
-        else:
-            y = check_signal(clip)
+        return self._pooled(self._signal(clip))
+
+    @staticmethod
+    def _signal(clip) -> np.ndarray:
+        return load_clip(clip) if isinstance(clip, (str, Path)) else check_signal(clip)
+
+    def _pooled(self, y: np.ndarray) -> np.ndarray:
         return self.window_probabilities(mfcc_windows(y)).mean(axis=0)
 
     def recognize(self, clip) -> Recognition:
-        """The activity of a sound file (WAV/FLAC/OGG) or a mono 32-kHz signal, with the top 3."""
-        return make_recognition(self.probabilities(clip), self.classes)
+        """The activity of a sound file (WAV/FLAC/OGG) or a mono 32-kHz signal, with the top 3
+        and the clip's length (:attr:`Recognition.short` flags one mostly padding)."""
+        y = self._signal(clip)
+        return make_recognition(self._pooled(y), self.classes, seconds=len(y) / SAMPLE_RATE)

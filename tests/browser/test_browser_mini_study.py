@@ -302,3 +302,25 @@ def test_importing_a_persona_file_says_so(server, page):
     idle(page)
     assert "Preferences of P01" in text_of(page)
     shot(page, "participants-imported")
+
+
+def test_a_clip_shorter_than_half_a_second_is_flagged(server, page, tmp_path):
+    """The model hears 1-s windows (IV-A): a 25-ms clip is mostly the silence that pads it, and
+    the Try tab says so beside whatever label comes out."""
+    import numpy as np
+    import soundfile as sf
+
+    clip = tmp_path / "click.wav"
+    t = np.arange(800) / 32_000  # 25 ms at 32 kHz
+    sf.write(clip, (0.3 * np.sin(2 * np.pi * 440 * t)).astype(np.float32), 32_000)
+    goto(page, f"{server}/sounds")
+    page.get_by_role("tab", name="Try a clip or a photo").click()
+    idle(page)
+    # the Try tab's first uploader (the clip's; the Add clips tab has one too, hidden)
+    page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first.set_input_files(
+        str(clip))
+    page.get_by_text("The clip is 0.03 s long").wait_for(timeout=60_000)
+    idle(page)
+    assert "heard mostly the silence that pads it" in text_of(page)
+    assert page.locator("[role='tabpanel']:visible [data-testid='stAudio']").count() == 1  # the clip, to hear
+    shot(page, "sounds-short-clip")
