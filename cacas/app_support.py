@@ -274,6 +274,16 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
     return prefs.Participant(code, tuple(parsed)), {}, None
 
 
+def redundancy_notes(participant: prefs.Participant) -> list[str]:
+    """One line per described preference that adds nothing (:func:`cacas.preferences.redundant_preferences`):
+    which one, which covers it, and what to do. Saving such a set is allowed (it says nothing
+    wrong), so the Participants page shows these beside the saved preferences."""
+    ps = participant.preferences
+    return [f"Preference {i + 1} adds nothing: preference {j + 1} already covers all its states with the same "
+            f"action ({ps[i].action}). Delete it or change it; Fig. 4's breakdown by preference would count "
+            "these states under both." for i, j in prefs.redundant_preferences(ps)]
+
+
 def _strip_where(message: str) -> str:
     """'participant P01, preference 2 ("..."), field 'hours': ...' -> "field 'hours': ..."."""
     if "field '" in message:

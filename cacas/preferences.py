@@ -250,6 +250,28 @@ def check_conflicts(preferences: Iterable[Preference], source: str | None = None
                     f"narrow their activity, scene, hours or interval so they do not overlap")
 
 
+def redundant_preferences(preferences: Iterable[Preference]) -> list[tuple[int, int]]:
+    """Pairs (inner, outer) of 0-based positions where preference ``inner`` asks for the same
+    action as ``outer`` in states ``outer`` already covers, all of them (S1-S4 and the tasks S5
+    it applies during): it adds nothing to what the participant described, and Fig. 4's
+    breakdown by preference counts those states under both. Each inner preference is listed
+    once, with the first preference that covers it (of two identical ones, the later is inner)."""
+    prefs = list(preferences)
+    masks = [p.coverage_mask() for p in prefs]
+    tasks = [set(p.task_indices()) for p in prefs]
+    out = []
+    for i, inner in enumerate(prefs):
+        for j, outer in enumerate(prefs):
+            if i == j or inner.action != outer.action:
+                continue
+            inside = not (masks[i] & ~masks[j]).any() and tasks[i] <= tasks[j]
+            identical = inside and tasks[i] == tasks[j] and bool((masks[i] == masks[j]).all())
+            if inside and not (identical and i < j):
+                out.append((i, j))
+                break
+    return out
+
+
 def parse_participant(obj: Any, source: str | None = None, index: int = 0) -> Participant:
     if not isinstance(obj, dict):
         raise CacasError(f"{_where(source)}: participant {index + 1} must be an object with 'id' and 'preferences'")

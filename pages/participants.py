@@ -148,6 +148,8 @@ if code:
                         "(the paper counts 1,564 on average for 5 preferences).")
             st.dataframe(app_support.preferences_table(saved), hide_index=True, width="stretch",
                          column_config={"covered states": st.column_config.NumberColumn(format="%d")})
+            for note in app_support.redundancy_notes(saved):
+                st.warning(note, icon=":material/content_copy:")
         else:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
 

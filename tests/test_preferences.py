@@ -88,6 +88,24 @@ def test_overlap_with_disjoint_tasks_is_fine():
     assert p.covered_count() == 6 * 12 * 12
 
 
+def test_a_preference_wholly_inside_another_with_the_same_action_is_redundant():
+    (p,) = prefs.parse_personas(doc(
+        {"activity": ["cough", "sneeze"], "action": "pain check"},
+        {"activity": ["cough"], "scene": ["bedroom"], "hours": [[22, 24]], "action": "pain check"},  # inside 1
+        {"activity": ["use stove"], "action": "remind to turn off"},
+        {"activity": ["sneeze", "snore"], "action": "pain check"},  # overlaps 1, not inside it
+        {"activity": ["cough", "sneeze"], "action": "pain check"},  # identical to 1: the later is the extra
+    ))
+    assert prefs.redundant_preferences(p.preferences) == [(1, 0), (4, 0)]
+    # inside by its states but for other tasks (S5) than the outer one's: not redundant
+    narrow_tasks = prefs.parse_preference({"activity": ["cough"], "action": "pain check", "task": ["chitchat"]})
+    all_tasks_inner = prefs.parse_preference({"activity": ["cough"], "action": "pain check"})
+    assert prefs.redundant_preferences([narrow_tasks, all_tasks_inner]) == [(0, 1)]
+    # the same states with another action is a conflict, not a redundancy
+    assert prefs.redundant_preferences([all_tasks_inner, prefs.parse_preference(
+        {"activity": ["cough"], "action": "chitchat", "task": ["set a timer"]})]) == []
+
+
 def test_duplicate_ids_and_bad_documents():
     d = {"participants": [doc(STOVE)["participants"][0], doc(STOVE)["participants"][0]]}
     with pytest.raises(CacasError, match="appears twice"):

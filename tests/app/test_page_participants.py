@@ -132,6 +132,19 @@ def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
     assert newest.action == "remind to be careful" and newest.hours == ((6, 10), (16, 20))
 
 
+def test_a_preference_that_adds_nothing_is_pointed_out_beside_the_saved_ones(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["use stove", "fry food"], "action": "remind to turn off"},
+                                   {"activity": ["use stove"], "scene": ["kitchen"], "action": "remind to turn off"}])
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert [w.value for w in at.warning] == [
+        "Preference 2 adds nothing: preference 1 already covers all its states with the same action (remind to "
+        "turn off). Delete it or change it; Fig. 4's breakdown by preference would count these states under both."]
+    store.save_preferences("P01", [{"activity": ["use stove", "fry food"], "action": "remind to turn off"}])
+    assert not app(PAGE, participant="P01").warning
+
+
 def test_a_participant_with_more_than_ten_preferences_opens(app, store):
     """An imported file may hold more preferences than the form's usual ten: all are shown."""
     actions = [a for a in ACTIONS if a != "do nothing"]
