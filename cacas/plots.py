@@ -53,6 +53,15 @@ def _gaps_for_missing_days(s: pd.DataFrame, daily: pd.DataFrame) -> pd.DataFrame
     return s.set_index("day").reindex(days).rename_axis("day").reset_index()
 
 
+def _day_axis(fig: go.Figure, days) -> None:
+    """The x axis of days: whole days, spanning the days drawn with a margin (one day alone is
+    drawn at its own place, not in the middle of an axis from day 0 to day 2)."""
+    d = pd.to_numeric(pd.Series(list(days)), errors="coerce").dropna()
+    lo, hi = (float(d.min()), float(d.max())) if len(d) else (1.0, 1.0)
+    pad = 0.5 if lo == hi else 0.25
+    fig.update_xaxes(title_text="day", dtick=1, range=[lo - pad, hi + pad])
+
+
 def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None = None) -> go.Figure:
     """Fig. 3: mean success rate per day, a min-max band across participants, the mean success
     ceiling where daily.csv has one (dashed), and the mean cumulative number of feedback on a
@@ -81,7 +90,7 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     top = float(s["cumulative_feedback"].max()) if s["cumulative_feedback"].notna().any() else 1.0
     fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
                      tickmode="auto", nticks=6, secondary_y=True)
-    fig.update_xaxes(title_text="day", dtick=1)
+    _day_axis(fig, s["day"])
     n = int(s["participants"].max()) if s["participants"].notna().any() else 0
     fig.update_layout(title=title or f"Success rate and cumulative feedback ({METHOD_LABELS.get(method, method)}, "
                                      f"{n} participant{'s' if n != 1 else ''})",
@@ -103,7 +112,7 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]:.0f} data points)<extra></extra>"))
     fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%")
-    fig.update_xaxes(title_text="day", dtick=1)
+    _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title or "Success rate by method, each in its own closed loop", template="plotly_white",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
     return fig
@@ -138,7 +147,7 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
             customdata=d[["min", "max"]],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%})<extra></extra>"))
     fig.update_yaxes(title_text="preference accuracy", range=[0, 1.02], tickformat=".0%")
-    fig.update_xaxes(title_text="day", dtick=1)
+    _day_axis(fig, a["day"])
     fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
     return fig

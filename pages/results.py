@@ -11,7 +11,7 @@ import streamlit as st
 
 from cacas import app_support, plots, records
 from cacas.errors import CacasError
-from cacas.export import export_study, export_tables
+from cacas.export import export_study, export_tables, fig4_ahead
 from cacas.jobs import FAILED, RUNNER
 from cacas.study_day import compare_methods, day_status, questionnaire_timing
 from pages import ui
@@ -123,18 +123,23 @@ with fig4:
                 st.rerun()
             if job is not None and job.status == FAILED:
                 st.error(f"The comparison failed: {job.error}")
-    summary = plots.accuracy_table(daily)
+    accuracy, by_pref, upcoming = (fig4_ahead(tables) if source == HUMAN
+                                   else (daily, tables.get("by_preference"), {}))
+    summary = plots.accuracy_table(accuracy)
     if summary.empty:
         st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
                 "described preferences.")
     else:
-        st.plotly_chart(plots.methods_figure(daily), width="stretch")
+        st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
         st.dataframe(summary.style.format("{:.0%}"), width="stretch",
                      column_config={"_index": st.column_config.TextColumn("method", width="medium")})
-        st.caption("Mean preference accuracy over participants, per method and day (Fig. 4).")
-        if "by_preference" in tables and len(tables["by_preference"]):
+        st.caption("Mean preference accuracy over participants, per method and day (Fig. 4)."
+                   + "".join(f" Day {d}: the policies adapted for it; {', '.join(who)} "
+                             f"{'has' if len(who) == 1 else 'have'} not started it yet."
+                             for d, who in sorted(upcoming.items())))
+        if by_pref is not None and len(by_pref):
             st.subheader("Which preferences each method learnt")
-            ui.preference_heatmaps(tables["by_preference"], key="results-prefs")
+            ui.preference_heatmaps(by_pref, key="results-prefs")
 
 with quest:
     if source != HUMAN:

@@ -143,6 +143,22 @@ def test_by_preference_table_follows_the_runs_in_force(store):
         assert math.isclose(daily.loc[(row.participant, row.method, row.day)], row.accuracy)
 
 
+def test_fig4_reaches_the_day_after_a_closed_and_adapted_day(store):
+    tables = export.export_tables(store)
+    accuracy, by_pref, upcoming = export.fig4_ahead(tables)
+    # both participants closed day 2 and adapted: those policies are for day 3, not started yet
+    assert upcoming == {3: ["P01", "P02"]}
+    day3 = accuracy[accuracy["day"] == 3].set_index(["participant", "method"])["preference_accuracy"]
+    assert day3.to_dict() == pytest.approx({("P01", "cacas"): 0.7, ("P01", "nn"): 0.2, ("P02", "cacas"): 0.7,
+                                            ("P02", "nn"): 0.2})
+    assert list(by_pref.loc[(by_pref["participant"] == "P01") & (by_pref["day"] == 3), "correct"]) == [280]
+    assert tables["daily"]["day"].max() == 2  # daily.csv lists days that have begun, as before
+    # once P01 opens day 3 it is a day like the others, and an open day has nothing ahead of it
+    store.open_day("P01")
+    accuracy, _, upcoming = export.fig4_ahead(export.export_tables(store))
+    assert upcoming == {3: ["P02"]} and accuracy["day"].max() == 3
+
+
 def test_by_preference_of_a_preference_without_test_states_is_empty_not_zero():
     adaptations = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [0], "policy_version": [pd.NA],
                                 "preference_accuracy": [0.0], "metrics": [

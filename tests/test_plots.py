@@ -1,7 +1,7 @@
 import numpy as np
 import pandas as pd
 
-from cacas.plots import accuracy_by_day, methods_figure, preference_days_figure, preference_methods_figure, \
+from cacas.plots import accuracy_by_day, methods_figure, success_methods_figure, preference_days_figure, preference_methods_figure, \
     preference_rows, success_by_day, success_figure
 
 
@@ -44,6 +44,14 @@ def test_fig4_one_line_per_method():
     fig = methods_figure(daily())
     assert [t.name for t in fig.data] == ["CACAS", "NN"]
     assert np.allclose(fig.data[1].y, [0.3, 0.3, 0.3])
+
+
+def test_the_day_axis_spans_the_days_drawn():
+    one_day = daily()[daily()["day"] == 1]
+    for fig in (success_figure(one_day), methods_figure(one_day), success_methods_figure(one_day)):
+        assert list(fig.layout.xaxis.range) == [0.5, 1.5]  # day 1 alone: not an axis from day 0 to day 2
+        assert fig.layout.xaxis.dtick == 1
+    assert list(methods_figure(daily()).layout.xaxis.range) == [0.75, 3.25]
 
 
 def by_preference():
