@@ -161,6 +161,9 @@ if code:
         if checked != code:  # messages about another participant's form stay with it
             errors, overall = {}, None
         tasks = {}
+        # a form sends nothing before its button: the browser holds what is typed, and another page drops it
+        st.caption(":material/info: Save before you open another page or participant: what is typed here is "
+                   "kept only on this page until it is saved.")
         with st.form(f"prefs-{code}-v{version}", border=False, enter_to_submit=False):
             for n in range(1, int(count) + 1):
                 old = existing[n - 1] if n <= len(existing) else None

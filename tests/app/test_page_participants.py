@@ -122,6 +122,7 @@ def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
                                     "action": "remind to turn off"}])
     at = app(PAGE, participant="P01")
     no_exception(at)
+    assert any(c.value.startswith(":material/info: Save before you open another page") for c in at.caption)
     assert at.multiselect(key="pf-P01-v1-1-slots").value == [3, 4, 8, 9]
     assert at.selectbox(key="pf-P01-v1-1-action").value == "remind to turn off"
     at.selectbox(key="pf-P01-v1-1-action").set_value("remind to be careful")
