@@ -140,8 +140,11 @@ with train:
         key_train, key_eval = f"train-{kind.lower()}", f"eval-{kind.lower()}"
         busy = any(RUNNER.get(k) is not None and RUNNER.get(k).running for k in (key_train, key_eval))
         c1, c2 = st.columns(2)
+        took = (model.metadata.get("training_seconds") if model is not None else None)
         if c1.button(f"Train the {kind.lower()} model", disabled=busy, key=f"btn-{key_train}",
-                     icon=":material/model_training:", help="A few minutes on 2 CPU cores; runs in the background."):
+                     icon=":material/model_training:",
+                     help=("Runs in the background; " + (f"the saved model took {float(took) / 60:.0f} min to train."
+                                                         if took else "several minutes on 2 CPU cores."))):
             RUNNER.start(key_train, trainer, label=f"Training the {kind.lower()} model")
             st.rerun()
         if c2.button(f"Evaluate the saved {kind.lower()} model", disabled=busy or model is None,

@@ -22,6 +22,22 @@ def test_sounds_page_opens(app):
     assert "activities" in texts(at)
 
 
+def test_training_says_how_long_the_saved_model_took(app, monkeypatch):
+    from types import SimpleNamespace
+
+    import cacas.lab
+
+    took = {"sound": 74.7, "scene": 424.1}  # the shipped models' training times
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0 if kind == "scene" else None)
+    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: SimpleNamespace(metadata={
+        "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": took[kind]}))
+    at = app(PAGE)
+    no_exception(at)
+    assert at.button(key="btn-train-scene").help == "Runs in the background; the saved model took 7 min to train."
+    # no saved model: no time to go by
+    assert at.button(key="btn-train-sound").help == "Runs in the background; several minutes on 2 CPU cores."
+
+
 def test_add_clips_valid_and_invalid(tmp_path, monkeypatch):
     from cacas import lab
     from cacas.audio.library import clip_paths
