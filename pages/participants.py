@@ -173,7 +173,7 @@ if code:
                 with st.container(border=True):
                     st.markdown(f"**Preference {n}**")
                     st.text_input("In the participant's words", value=old.description if old else "",
-                                  key=k("words"), placeholder="When I use the stove, remind me to turn it off.")
+                                  key=k("words"), placeholder="e.g. When I use the stove, remind me to turn it off.")
                     c1, c2 = st.columns(2)
                     c1.multiselect("Activities (S1)", spaces.ACTIVITIES, default=list(old.activity) if old else [],
                                    key=k("activity"), placeholder="one or more sound activities")
@@ -226,6 +226,13 @@ with tabs["Add a participant"]:
         st.form_submit_button("Add participant", type="primary", icon=":material/person_add:",
                               on_click=_add_participant)
     st.caption(f"{len(people)} participant(s) in study '{study}'.")
+    with st.expander("New study: participants are added to the study chosen in the sidebar"):
+        with st.form("new-study", border=False):
+            st.text_input("Study name", placeholder="e.g. pilot-2026", key="new-study-name")
+            st.text_input("Description", key="new-study-description")
+            if st.session_state.get("study-error"):
+                st.error(st.session_state["study-error"], icon=":material/error:")
+            st.form_submit_button("Create study", on_click=_create_study)
 
 with tabs["Import / export"]:
     c1, c2 = st.columns(2)
@@ -250,10 +257,3 @@ with tabs["Import / export"]:
         st.download_button("Download personas.json", text.encode("utf-8"),
                            file_name=app_support.study_file_name("personas", study, ".json"),
                            mime="application/json", disabled=n == 0, icon=":material/download:")
-    with st.expander("New study"):
-        with st.form("new-study", border=False):
-            st.text_input("Study name", placeholder="e.g. pilot-2026", key="new-study-name")
-            st.text_input("Description", key="new-study-description")
-            if st.session_state.get("study-error"):
-                st.error(st.session_state["study-error"], icon=":material/error:")
-            st.form_submit_button("Create study", on_click=_create_study)

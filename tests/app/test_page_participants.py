@@ -197,6 +197,10 @@ def test_saving_unchanged_preferences_keeps_the_version(app, store):
 def test_a_new_study_is_created_and_selected(app, store):
     store.add_participant("P01")
     at = app(PAGE, participant="P01")
+    # beside adding participants (it was at the end of the Import / export tab)
+    add_tab = next(t for t in at.tabs if t.label == "Add a participant")
+    assert [e.label for e in add_tab.expander] == ["New study: participants are added to the study chosen in the "
+                                                   "sidebar"]
     at.text_input(key="new-study-name").set_value("pilot-2026")
     next(b for b in at.button if b.label == "Create study").click().run()
     no_exception(at)
