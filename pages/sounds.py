@@ -162,6 +162,8 @@ with train:
 
 
 with tryit:
+    st.caption("Each model always answers with one of the classes it knows (33 activities, 6 scenes): a sound or "
+               "a photo of none of them can still get a high probability, so a sure answer is not proof.")
     c1, c2 = st.columns(2)
     with c1:
         st.markdown("**A sound**")

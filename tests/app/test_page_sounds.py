@@ -20,6 +20,7 @@ def test_sounds_page_opens(app):
     at = app(PAGE)
     no_exception(at)
     assert "activities" in texts(at)
+    assert any("a sure answer is not proof" in c.value for c in at.caption)  # closed-set models, said on Try
 
 
 def test_training_says_how_long_the_saved_model_took(app, monkeypatch):
