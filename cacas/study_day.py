@@ -284,6 +284,25 @@ def answer(store, participant: str, day: int, proposal: Proposal, response: str 
                                     index=index, **common)
 
 
+def recorded_answer(store, participant: str, day: int, index: int) -> dict | None:
+    """The day's interaction number ``index`` as recorded (an interactions.csv row), or None."""
+    df = store.interactions_frame(participant, method=None)
+    row = df[(df["day"] == day) & (df["index"] == index)]
+    return None if row.empty else row.iloc[0].to_dict()
+
+
+def is_same_answer(row: dict, proposal: Proposal, response: str | None = None,
+                   user_action: str | None = None) -> bool:
+    """``row`` (:func:`recorded_answer`) is this answer to this proposal, as :func:`answer` writes
+    it: a second click on the same screen, not another screen's answer to another proposal."""
+    if row["activity"] != proposal.context.activity or row["robot_action"] != proposal.action:
+        return False
+    if user_action is not None and not request_accepts_proposal(proposal, user_action):
+        return row["type"] == records.USER_INITIATED and row["user_action"] == spaces.canonical("action", user_action)
+    key = "accept" if user_action is not None else str(response).strip().lower()
+    return row["type"] == records.ROBOT_INITIATED and row["response"] == ANSWERS.get(key)
+
+
 # --- after the day: adaptation ---------------------------------------------------------------------
 
 @dataclass

@@ -11,14 +11,14 @@ from __future__ import annotations
 import streamlit as st
 
 from cacas import app_support, dialogue, spaces
-from cacas.records import RESPONSE_WORDS
+from cacas.records import RESPONSE_WORDS, USER_INITIATED
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
 from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
-                             initial_policy_ready, policy_in_force, prepare_initial_policy, previous_interaction,
-                             propose, request_accepts_proposal, start_day)
+                             initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
+                             previous_interaction, propose, recorded_answer, request_accepts_proposal, start_day)
 from pages import ui
 
 ui.require_app()
@@ -87,12 +87,20 @@ def _set_context() -> None:
         return
     s["session-error"] = None
     st.query_params["ctx"] = ctx.to_token()
-    s.pop("request-match", None)
+    _clear_request()
+
+
+def _clear_request() -> None:
+    """A new proposal starts clean: no typed or picked request, no message about the last one."""
+    s = st.session_state
+    for key in ("request-match", "request-error"):
+        s.pop(key, None)
+    s["request-text"], s["request-pick"] = "", None
 
 
 def _cancel() -> None:
     st.query_params.pop("ctx", None)
-    st.session_state.pop("request-match", None)
+    _clear_request()
 
 
 def _record(day: int, index: int, proposal, response: str | None = None, user_action: str | None = None) -> None:
@@ -107,22 +115,32 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         return
     try:
         answer(store, code, day, proposal, response=response, user_action=user_action, index=index)
-    except AlreadyRecorded:  # already saved (a second click, or another tab answered first)
-        s.pop("request-match", None)
-        st.query_params.pop("ctx", None)
+    except AlreadyRecorded:  # already saved: a second click (silent), or another screen answered first
+        _cancel()
+        other = recorded_answer(store, code, day, index)
+        if other is not None and not is_same_answer(other, proposal, response, user_action):
+            s["session-error"] = (f"This answer was not saved: interaction {index} was answered meanwhile on "
+                                  f"another screen ({other['activity']}, {_answer_words(other)}). Set what you "
+                                  "are doing again for the next one.")
         return
     except CacasError as exc:
         s["session-error"] = str(exc)
         return
     s["session-error"] = None
-    s.pop("request-match", None)
-    st.query_params.pop("ctx", None)
+    _cancel()
     if user_action and request_accepts_proposal(proposal, user_action):
         what = "accepted: that is what the robot offered"
     else:
         what = (f"you asked: {dialogue.request_words(user_action)}" + ("" if tablet else f"; recorded as {user_action}")
-                if user_action else RESPONSE_WORDS[ANSWERS[response]])
+                if user_action else RESPONSE_WORDS[ANSWERS[response]] if proposal.robot_speaks else "nothing needed")
     s["last-saved"] = f"Interaction {index} saved ({what})."
+
+
+def _answer_words(row: dict) -> str:
+    """A recorded interaction's answer in words: "asked for: ..." for a request, else the response."""
+    if row["type"] == USER_INITIATED:
+        return f"asked for: {dialogue.request_words(row['user_action'])}"
+    return RESPONSE_WORDS[row["response"]]
 
 
 def _match_request() -> None:

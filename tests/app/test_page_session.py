@@ -85,6 +85,11 @@ def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
     label = "No response" if any(b.label == "No response" for b in at.button) else "Nothing needed"
     _button(at, label).click().run()
     no_exception(at)
+    assert f"Interaction 3 saved ({'no response' if label == 'No response' else 'nothing needed'})." in texts(at)
+    # the next proposal starts clean: no word about the last one's request, nothing typed
+    _choose(at)
+    assert "did not understand" not in texts(at)
+    assert at.text_input(key="request-text").value == "" and at.selectbox(key="request-pick").value is None
     df = store.interactions_frame("P01", method=None)
     assert list(df["type"]) == ["type_2", "type_2", "type_1"]
     assert list(df["user_action"]) == ["pain check", "remind to turn off", ""]
@@ -286,4 +291,24 @@ def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, 
     df = store.interactions_frame("P01", method=None)
     assert list(df["response"]) == ["reject"]  # the other tab's answer stands, nothing added
     assert "ctx" not in at.query_params  # back to the context form
-    assert not at.error
+    # and this screen says its answer was not saved (it was silent)
+    assert [e.value for e in at.error] == [
+        "This answer was not saved: interaction 1 was answered meanwhile on another screen (use stove, rejected). "
+        "Set what you are doing again for the next one."]
+
+
+def test_an_answer_is_told_from_another_screens_answer(store, p01, quick_policy):
+    """A second click on the same answer is silent; only another screen's answer gets the notice."""
+    from cacas.study_day import Context, answer, is_same_answer, policy_in_force, propose, recorded_answer
+
+    store.open_day("P01")
+    policy, version = policy_in_force(store, "P01")
+    proposal = propose(policy, Context.from_token("3.6.20.2"), policy_version=version)
+    response = "accept" if proposal.robot_speaks else "no response"
+    answer(store, "P01", 1, proposal, response=response, index=1)
+    first = recorded_answer(store, "P01", 1, 1)
+    assert recorded_answer(store, "P01", 1, 2) is None
+    assert is_same_answer(first, proposal, response=response)
+    assert not is_same_answer(first, proposal, response="reject")
+    assert not is_same_answer(first, proposal, user_action="chitchat")
+    assert not is_same_answer({**first, "activity": "cough"}, proposal, response=response)
