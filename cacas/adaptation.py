@@ -278,6 +278,12 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
     return AdaptationResult(policy, log, params, time.perf_counter() - t0)
 
 
+#: The seed of a human study's Fig. 4 test states (:func:`fig4_metrics`): one test set per
+#: participant, whatever seed an adaptation ran with, so that every version and method of a
+#: participant is scored on the same states.
+EVALUATION_SEED = 0
+
+
 def evaluation_states(participant: Participant, n: int = 400, seed: int = 0) -> np.ndarray:
     """Fig. 4's test states (n, 7) from the described preferences: covered S1-S5 contexts (the
     robot idle, S5 "do nothing", unless a preference names the tasks it applies during), and a

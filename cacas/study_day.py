@@ -328,7 +328,7 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
     the participant described preferences, the new policy's preference accuracy (Fig. 4; the
     adaptation itself never reads them). Refuses a day with no interactions.
     """
-    from cacas.adaptation import adapt_policy, fig4_metrics, policy_changes
+    from cacas.adaptation import EVALUATION_SEED, adapt_policy, fig4_metrics, policy_changes
     from cacas.store import StudyStore
 
     say = progress or (lambda f, m: None)
@@ -352,13 +352,13 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         accuracy = None
         if prefs is not None and prefs.preferences:
             say(0.94, "scoring the new policy on the described preferences (evaluation only)")
-            metrics.update(fig4_metrics(result.policy, prefs, seed=seed))
+            metrics.update(fig4_metrics(result.policy, prefs, seed=EVALUATION_SEED))
             accuracy = metrics["preference_accuracy"]
             runs = store.adaptations_frame(participant)
             if before_version is None and not ((runs["day"] == 0) & (runs["method"] == method)).any():
                 # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
                 store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
-                                        fig4_metrics(before, prefs, seed=seed))
+                                        fig4_metrics(before, prefs, seed=EVALUATION_SEED))
         version = store.save_policy(participant, day, method, result.policy.to_bytes(), activate=True)
         params = dict(result.parameters, log=result.log)
         store.record_adaptation(participant, day, method, params, float(result.duration_s), metrics, version)
@@ -381,7 +381,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
     policy), so the exported daily.csv and by_preference.csv have each method's. Runs already recorded
     are skipped. Returns the number of runs recorded.
     """
-    from cacas.adaptation import adapt_policy, fig4_metrics, load_initial_policy
+    from cacas.adaptation import EVALUATION_SEED, adapt_policy, fig4_metrics, load_initial_policy
     from cacas.store import StudyStore
 
     say = progress or (lambda f, m: None)
@@ -404,7 +404,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                 policy = initial
                 if (method, 0) not in have:
                     store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
-                                            fig4_metrics(initial, person, seed=seed))
+                                            fig4_metrics(initial, person, seed=EVALUATION_SEED))
                     recorded += 1
                 done += 1
                 for day in closed:
@@ -415,7 +415,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                     policy = result.policy
                     if (method, day) not in have:
                         store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
-                                                float(result.duration_s), fig4_metrics(policy, person, seed=seed))
+                                                float(result.duration_s), fig4_metrics(policy, person, seed=EVALUATION_SEED))
                         recorded += 1
                     done += 1
         say(1.0, f"{recorded} comparison runs recorded")

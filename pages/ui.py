@@ -3,6 +3,7 @@ background-job progress. Layout only; everything that computes or stores is in `
 
 from __future__ import annotations
 
+import math
 import time
 
 import pandas as pd
@@ -115,7 +116,9 @@ def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key
 
 
 def percent(x: float) -> str:
-    return "–" if x is None or pd.isna(x) else f"{100 * x:.0f}%"
+    """A share as a whole percentage, halves rounded up as the tables' "%.0f%%" columns show them
+    (72.5 -> "73%" in both; Python's format rounds halves to even)."""
+    return "–" if x is None or pd.isna(x) else f"{math.floor(100 * x + 0.5):.0f}%"
 
 
 #: What a stopped job leaves, for work that saves only at its end (trainers, simulations).

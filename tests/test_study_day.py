@@ -224,3 +224,34 @@ def test_questionnaire_timing_names_the_day_as_it_stands(store):
     assert questionnaire_timing(day_status(store, "P01")) == f"It was given after day 1 of {STUDY_DAYS}."
     finished = dataclasses.replace(day_status(store, "P01"), day=STUDY_DAYS, finished=True)
     assert questionnaire_timing(finished) == ""  # asked after the study, as the paper does
+
+
+def test_every_version_is_scored_on_the_same_test_states_whatever_the_adaptation_seed(tmp_path, monkeypatch, policy):
+    """Fig. 4's test states are the participant's, not the adaptation's: a run with another seed
+    is scored on the states every other version is (the Adaptation page's table uses them too)."""
+    import json
+
+    import cacas.adaptation
+    from cacas.adaptation import fig4_metrics
+    from cacas.policy import policy_from_bytes
+    from cacas.study_day import adapt_day
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "s.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"},
+                                   {"activity": ["use stove"], "action": "remind to turn off"}])
+        start_day(s, "P01")
+        s.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="do nothing", response="accept", type="type_2", user_action="pain check")
+    adapt_day(path, "P01", 1, method="nn", seed=99_999)
+    with StudyStore(path) as s:
+        runs = s.adaptations_frame("P01")
+        described = s.get_preferences("P01")
+        adapted = policy_from_bytes(s.load_policy("P01", version=s.active_policy("P01").version))
+    recorded = [json.loads(m)["by_preference"] for m in runs["metrics"]]
+    expected = fig4_metrics(adapted, described)  # the page's test states (seed 0)
+    assert [p["states"] for p in recorded[-1]] == [p["states"] for p in expected["by_preference"]]
+    assert [p["states"] for p in recorded[0]] == [p["states"] for p in recorded[-1]]  # the initial policy's too
+    assert runs["preference_accuracy"].iloc[-1] == pytest.approx(expected["preference_accuracy"])

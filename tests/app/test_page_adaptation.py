@@ -136,3 +136,11 @@ def test_what_changed_and_roll_back_follow_the_newest_version(app, store, quick_
     assert next(s for s in at.selectbox if s.label == "After").value == 2
     assert next(s for s in at.selectbox if s.label == "Before").value == 1
     assert next(s for s in at.selectbox if s.label == "Policy").value == 2
+
+
+def test_a_percentage_in_text_is_rounded_as_the_tables_round_it():
+    from pages.ui import percent
+
+    # the banner said 72% and the versions table ("%.0f%%") 73% for the same 0.725
+    assert percent(0.725) == "73%" and percent(0.724) == "72%" and percent(0.0) == "0%" and percent(1.0) == "100%"
+    assert percent(None) == "–" and percent(float("nan")) == "–"
