@@ -49,9 +49,9 @@ def next_step(has_preferences: bool, status) -> str:
 
 def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     """One row per participant: day (of 7), interactions today, success rate so far (Fig. 3's
-    definition, all days), policy in force, last activity and what to do next."""
+    definition, all days), policy in force, when the last interaction was recorded and what to do next."""
     cols = ["participant", "age range", "day", "interactions today", "success rate so far",
-            "policy", "last activity", "next step"]
+            "policy", "last recorded", "next step"]
     rows = []
     people = store.list_participants(study)
     if not people:
@@ -70,7 +70,7 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
             "interactions today": status.interactions_today if status.open else 0,
             "success rate so far": success,
             "policy": "initial" if status.policy_version is None else f"version {status.policy_version}",
-            "last activity": short_time(last.iloc[-1]) if len(last) else "",
+            "last recorded": short_time(last.iloc[-1]) if len(last) else "",
             "next step": next_step(has_prefs, status),
         })
     return pd.DataFrame(rows, columns=cols)
@@ -112,12 +112,14 @@ def _event_words(what: str, details: str) -> str:
         d = {}
     if what == "record_interaction":
         if d.get("type") == records.USER_INITIATED:
-            asked = f"asked for {d['user_action']}" if d.get("user_action") else "asked for an action"
+            asked = f"asked for '{d['user_action']}'" if d.get("user_action") else "asked for an action"
             if d.get("robot_action") not in (None, "do nothing"):  # a request that answered a proposal
-                asked = f"robot {d['robot_action']}, participant {asked} instead"
+                asked = f"robot proposed '{d['robot_action']}', participant {asked} instead"
             return f"day {d.get('day')}, interaction {d.get('index')}: {asked}"
+        if d.get("robot_action") == "do nothing":
+            return f"day {d.get('day')}, interaction {d.get('index')}: robot stayed quiet, nothing asked"
         answer = records.RESPONSE_WORDS.get(d.get("response"), "")
-        return f"day {d.get('day')}, interaction {d.get('index')}: robot {d.get('robot_action')}, {answer}"
+        return f"day {d.get('day')}, interaction {d.get('index')}: robot proposed '{d.get('robot_action')}', {answer}"
     if what == "record_adaptation":
         if not d.get("day"):
             return f"initial policy scored ({d.get('method')})"
@@ -168,9 +170,10 @@ def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
                          "saved": [short_time(c) for c in runs["created_at"]]})
 
 
-def recent_events(store, participant: str | None = None, limit: int = 8) -> pd.DataFrame:
-    """The last events in words, newest first: when, who, what."""
-    ev = store.events(participant=participant, limit=limit)
+def recent_events(store, participant: str | None = None, limit: int = 8, study: str | None = None) -> pd.DataFrame:
+    """The last events in words, newest first: when, who, what (of one participant, or of the
+    participants of one ``study``)."""
+    ev = store.events(participant=participant, limit=limit, study=study)
     return pd.DataFrame({"when": [short_time(a) for a in ev["at"]],
                          "participant": ev["participant"].fillna(""),
                          "what": [_event_words(w, d) for w, d in zip(ev["what"], ev["details"])]}).iloc[::-1]

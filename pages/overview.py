@@ -40,7 +40,7 @@ st.dataframe(
     column_order=[c for c in table.columns if c != "age range"],
     column_config={
         "participant": small("participant", width=85), "day": small("day", width=105),
-        "policy": small("policy", width=75), "last activity": small("last activity", width=165),
+        "policy": small("policy", width=75), "last recorded": small("last recorded", width=165, help="When the participant's last interaction was recorded"),
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
             "recorded interactions so far: proposals answered and requests (Fig. 3; as in the paper, an "
@@ -64,7 +64,7 @@ if code:
         ui.link("pages/results.py", "Results", ":material/monitoring:", cols[2])
 
 st.subheader("Recent activity")
-events = app_support.recent_events(store, limit=10)
+events = app_support.recent_events(store, limit=10, study=study)
 if events.empty:
     st.caption("Nothing recorded yet.")
 else:

@@ -253,7 +253,8 @@ else:
         st.markdown("**Your activity**")
         st.markdown(f"### {context.activity}")
         st.caption(f"in the {context.scene} · {spaces.time_slot_label(context.time_slot)} · "
-                   f"{context.interval_minutes} min since your last activity")
+                   f"{context.interval_minutes} min{'+' if context.interval_bin == spaces.N_INTERVALS - 1 else ''} "
+                   "since your last activity")
         if clip:
             st.audio(str(clip), format=audio_mime(clip), autoplay=True)
         else:

@@ -70,18 +70,26 @@ def test_overview_and_events(tmp_path):
     assert row["success rate so far"] == pytest.approx(0.5)
     assert row["next step"] == "Day 1: 13 more interactions on the tablet"
     words = list(app_support.recent_events(store)["what"])
-    assert words[0] == "day 1, interaction 2: robot chitchat, rejected"
+    assert words[0] == "day 1, interaction 2: robot proposed 'chitchat', rejected"
     assert "preferences saved (version 1, 1 preference)" in words
     for robot in ("do nothing", "chitchat"):  # a request on the robot's silence, or instead of its proposal
         store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                                  robot_action=robot, response="accept", type="type_2", user_action="pain check")
     words = list(app_support.recent_events(store)["what"])
-    assert words[:2] == ["day 1, interaction 4: robot chitchat, participant asked for pain check instead",
-                         "day 1, interaction 3: asked for pain check"]
+    assert words[:2] == ["day 1, interaction 4: robot proposed 'chitchat', participant asked for 'pain check' instead",
+                         "day 1, interaction 3: asked for 'pain check'"]
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="do nothing", response="others")
+    assert app_support.recent_events(store)["what"].iloc[0] == "day 1, interaction 5: robot stayed quiet, nothing asked"
+    # one study's events: another study's participant is not in them
+    store.create_study("pilot")
+    store.add_participant("Q01", study="pilot")
+    assert set(app_support.recent_events(store, study="default", limit=50)["participant"]) == {"P01"}
+    assert set(app_support.recent_events(store, study="pilot", limit=50)["participant"]) == {"Q01"}
     # Fig. 3's rate is of the recorded interactions: an unanswered proposal is not one (Section V-B)
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="others")
-    assert app_support.overview_frame(store).iloc[0]["success rate so far"] == pytest.approx(1 / 4)
+    assert app_support.overview_frame(store, "default").iloc[0]["success rate so far"] == pytest.approx(1 / 4)
     store.close()
 
 

@@ -84,13 +84,18 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
 
     # --- event log ------------------------------------------------------------------
     def events(self, participant: str | None = None, what: str | None = None,
-               limit: int | None = None) -> pd.DataFrame:
+               limit: int | None = None, study: str | None = None) -> pd.DataFrame:
         """The event log (newest last): id, at, what, participant, details (JSON); optionally of
-        one participant or kind, the last ``limit`` only."""
+        one participant, of the participants of one ``study`` (events about no participant,
+        such as an import, are left out then), or of one kind; the last ``limit`` only."""
         where, params = [], []
         if participant is not None:
             where.append("participant = ?")
             params.append(str(participant).strip())
+        if study is not None:
+            where.append("participant IN (SELECT p.code FROM participants p JOIN studies s ON s.id = p.study_id "
+                         "WHERE s.name = ?)")
+            params.append(study)
         if what is not None:
             where.append("what = ?")
             params.append(what)
