@@ -157,6 +157,12 @@ if code:
         count = st.number_input("Preferences on the form", min_value=1, max_value=max(10, len(existing)),
                                 value=max(5, len(existing)), key=f"count-{code}-v{version}",
                                 help="The paper asks each participant for 5; an imported file may have more.")
+        if int(count) < len(existing):  # the slots left off the form are not saved with it
+            gone = range(int(count) + 1, len(existing) + 1)
+            st.warning(f"Preference{'s' if len(gone) > 1 else ''} {', '.join(map(str, gone))} of the saved version "
+                       f"{'are' if len(gone) > 1 else 'is'} not on the form: saving removes "
+                       f"{'them' if len(gone) > 1 else 'it'} from the participant's preferences (version {version} "
+                       "stays in the database).", icon=":material/warning:")
         checked, errors, overall = st.session_state.get("pref-check") or (None, {}, None)
         if checked != code:  # messages about another participant's form stay with it
             errors, overall = {}, None

@@ -213,3 +213,17 @@ def test_a_new_study_is_created_and_selected(app, store):
     next(b for b in at.button if b.label == "Create study").click().run()
     assert "study 'pilot-2026' already exists" in texts(at)
 
+
+
+def test_fewer_slots_than_saved_preferences_says_saving_removes_them(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"},
+                                   {"activity": ["use stove"], "action": "remind to turn off"},
+                                   {"activity": ["fall down"], "action": "call someone for help"}])
+    at = app(PAGE, participant="P01")
+    assert not at.warning
+    at.number_input(key="count-P01-v1").set_value(1).run()
+    no_exception(at)
+    assert [w.value for w in at.warning] == [
+        "Preferences 2, 3 of the saved version are not on the form: saving removes them from the participant's "
+        "preferences (version 1 stays in the database)."]
