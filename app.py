@@ -42,6 +42,11 @@ def _navigation() -> dict[str, list]:
     return sections
 
 
+#: The code an address named that no participant has: no participant is chosen for the user
+#: until they choose one (a mistyped link must not open another participant's session).
+_UNKNOWN_KEY = "participant-unknown"
+
+
 def _sync_participant(store) -> None:
     """The address and the session agree on the participant (and study); the database wins."""
     qp = st.query_params
@@ -50,14 +55,17 @@ def _sync_participant(store) -> None:
     if wanted:
         try:
             info = store.get_participant(wanted)
-        except CacasError:
+        except CacasError:  # codes are unique whatever their case: "r01" in a typed address is R01
+            info = next((p for p in store.list_participants(None) if p.code.lower() == str(wanted).strip().lower()),
+                        None)
+        if info is None:
             st.session_state[ui.PARTICIPANT_KEY] = None
+            st.session_state[_UNKNOWN_KEY] = wanted  # no other participant stands in, until one is chosen
             qp.pop("participant", None)
-            if not ui.tablet_mode():
-                st.sidebar.warning(f"Participant {wanted!r} is not in this study database.")
         else:
             st.session_state[ui.PARTICIPANT_KEY] = info.code
             st.session_state[ui.STUDY_KEY] = info.study
+            st.session_state.pop(_UNKNOWN_KEY, None)
     if st.session_state.get(ui.STUDY_KEY) not in studies:
         st.session_state[ui.STUDY_KEY] = qp.get("study") if qp.get("study") in studies else studies[0]
 
@@ -79,12 +87,14 @@ def _write_address(store) -> None:
 
 def _on_study_change() -> None:
     st.session_state[ui.PARTICIPANT_KEY] = None
+    st.session_state.pop(_UNKNOWN_KEY, None)
     st.query_params.pop("participant", None)
 
 
 def _on_participant_change() -> None:
     """The sidebar's choice goes into the address at once (the address wins on every run)."""
     code = st.session_state.get(ui.PARTICIPANT_KEY)
+    st.session_state.pop(_UNKNOWN_KEY, None)
     if code:
         st.query_params["participant"] = code
     else:
@@ -99,8 +109,11 @@ def _sidebar(store) -> None:
         st.selectbox("Study", studies, key=ui.STUDY_KEY, on_change=_on_study_change,
                      help="Studies group participants; every database has the study 'default'.")
         codes = [p.code for p in store.list_participants(st.session_state[ui.STUDY_KEY])]
+        unknown = st.session_state.get(_UNKNOWN_KEY)
         if st.session_state.get(ui.PARTICIPANT_KEY) not in codes:
-            st.session_state[ui.PARTICIPANT_KEY] = codes[0] if codes else None
+            st.session_state[ui.PARTICIPANT_KEY] = codes[0] if codes and not unknown else None
+        if unknown:
+            st.warning(f"Participant {unknown!r} is not in this study database: choose one below.")
         st.selectbox("Participant", codes, key=ui.PARTICIPANT_KEY, placeholder="none yet",
                      on_change=_on_participant_change,
                      help="Pseudonymous codes only. Add participants on the Participants page.")

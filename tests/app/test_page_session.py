@@ -123,6 +123,29 @@ def test_tablet_view_with_unknown_participant(app, store):
     assert "names no known participant" in texts(at)
 
 
+def test_an_address_in_other_letter_case_finds_the_participant(app, store, p01, quick_policy):
+    at = app(participant="p01", view="tablet")  # codes are unique whatever their case
+    no_exception(at)
+    assert "names no known participant" not in texts(at) and "Hello, P01" in texts(at)
+    assert at.query_params["participant"] in ("P01", ["P01"])
+
+
+def test_an_unknown_participant_in_the_address_opens_nobodys_session(app, store, p01, quick_policy):
+    """A mistyped link must not open (and start a day for) another participant."""
+    at = app(PAGE, participant="ZZZ")
+    no_exception(at)
+    assert [w.value for w in at.sidebar.warning] == [
+        "Participant 'ZZZ' is not in this study database: choose one below."]
+    assert "Select a participant" in texts(at)
+    assert not any(b.label.startswith("Start day") for b in at.button)
+    at.run()  # and on the next run too, until someone is chosen
+    assert "Select a participant" in texts(at) and at.selectbox(key="participant").value is None
+    at.selectbox(key="participant").set_value("P01").run()
+    no_exception(at)
+    assert not at.sidebar.warning and any(b.label == "Start day 1" for b in at.button)
+    assert store.resume("P01").day == 0
+
+
 def test_closed_day_waits_for_adaptation(app, store, p01, quick_policy):
     day = store.open_day("P01")
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
