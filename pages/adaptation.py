@@ -159,7 +159,11 @@ else:
             st.dataframe(learnt, hide_index=True, width="stretch",
                          column_config={"label": st.column_config.TextColumn("preference", width=330),
                                         "action": st.column_config.TextColumn("action", width=150),
-                                        "states": st.column_config.NumberColumn("test states", width=85),
+                                        "states": st.column_config.NumberColumn(
+                                            "test states", width=85,
+                                            help="Of Fig. 4's 400 test states, drawn from the described "
+                                                 "preferences, those in this preference (a state can be drawn "
+                                                 "more than once: this is not its covered-state count)"),
                                         "before": st.column_config.ProgressColumn("before", width=130, **bar),
                                         "after": st.column_config.ProgressColumn("after", width=130, **bar)})
 
@@ -168,6 +172,8 @@ st.subheader("Policy versions")
 if versions:
     st.dataframe(app_support.versions_table(versions, runs), hide_index=True, width="stretch",
                  column_config={"preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
+    if not active:
+        st.caption(":material/info: The initial policy is in force (no version above).")
     with st.form("rollback", border=True):
         st.markdown("**Roll back (or forward)**: put an earlier policy in force for the next interactions.")
         options = [0] + [v.version for v in versions]

@@ -27,7 +27,8 @@ c1, c2, c3, c4 = st.columns(4)
 c1.metric("Participants", len(table))
 c2.metric("Started", int(started.sum()))
 c3.metric("Interactions on open days", int(table["interactions today"].sum()),
-          help="Interactions recorded so far on the study days now open (a closed day counts 0 here).")
+          help="Interactions saved so far on the study days now open, answered or not (a closed day counts 0 "
+               "here); the success rate counts the answered ones and requests only.")
 rates = table["success rate so far"].dropna()
 c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
 
@@ -43,8 +44,8 @@ st.dataframe(
         "policy": small("policy", width=75), "last recorded": small("last recorded", width=165, help="When the participant's last interaction was recorded"),
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
-            "recorded interactions so far: proposals answered and requests (Fig. 3; as in the paper, an "
-            "unanswered proposal is not recorded)", min_value=0.0, max_value=100.0, format="%.0f%%"),
+            "interactions so far that count: proposals answered and requests (Fig. 3; as in the paper, an "
+            "unanswered proposal, or the robot quiet with nothing asked, is saved but not counted)", min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
             "today", help=f"Interactions on the open day (0 once it is closed); target: about "
                           f"{TARGET_INTERACTIONS} a day", width=60),

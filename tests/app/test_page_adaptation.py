@@ -87,10 +87,13 @@ def test_rollback_to_the_initial_policy(app, store, quick_policy):
     store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
     at = app(PAGE, participant="P01")
     no_exception(at)
+    assert not any("The initial policy is in force (no version above)" in c.value for c in at.caption)
     at.selectbox(key="rollback-version-P01-1-1").set_value(0)
     _button(at, "Put in force").click().run()
     no_exception(at)
     assert store.active_policy("P01") is None
+    # the versions table has no row in force then: said under it
+    assert any("The initial policy is in force (no version above)" in c.value for c in at.caption)
 
 
 def test_a_comparison_run_is_not_an_adaptation_and_a_baseline_adaptation_is(app, store, quick_policy):
