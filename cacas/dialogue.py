@@ -184,14 +184,29 @@ def request_label(action: str) -> str:
     return REQUESTS[act]
 
 
-def confirmation_line(action: str, activity: str = "do nothing") -> str:
-    """The robot's confirmation question for a matched request (Section IV-C.1)."""
-    return f"You would like me to {_infinitive(action, activity)}. Is that right?"
+def confirmation_line(action: str, activity: str = "do nothing", text: str | None = None) -> str:
+    """The robot's confirmation question for a matched request (Section IV-C.1). A reminder is
+    about what the typed request ``text`` names ("turn off the TV": the TV, whatever activity was
+    heard), else about the activity's object (:data:`OBJECTS`)."""
+    named = typed_object(text, action) if text else None
+    return f"You would like me to {_infinitive(action, activity, named)}. Is that right?"
 
 
-def _infinitive(action: str, activity: str) -> str:
+def typed_object(text: str, action: str) -> str | None:
+    """The object of :data:`OBJECTS` for ``action`` that a typed request names ("the TV" in
+    "please turn off the tv"), the longest one if several; None if it names none."""
     act = spaces.canonical("action", action)
-    obj = _object(act, activity)
+    low = str(text).lower()
+    for obj in sorted(dict.fromkeys(OBJECTS.get(act, {}).values()), key=len, reverse=True):
+        noun = re.sub(r"^(the|your) ", "", obj).lower()
+        if re.search(rf"\b{re.escape(noun)}\b", low):
+            return obj
+    return None
+
+
+def _infinitive(action: str, activity: str, obj: str | None = None) -> str:
+    act = spaces.canonical("action", action)
+    obj = obj or _object(act, activity)
     if obj is None and act in GENERAL_REMINDERS:
         return f"remind you to {GENERAL_REMINDERS[act]}"
     return {

@@ -307,7 +307,7 @@ else:
         matched = st.session_state.get("request-match")
         if matched:
             with st.chat_message("assistant", avatar=":material/smart_toy:"):
-                st.markdown(dialogue.confirmation_line(matched, proposal.heard))
+                st.markdown(dialogue.confirmation_line(matched, proposal.heard, st.session_state.get("request-text")))
             y, n, _ = st.columns([1, 1, 2])
             y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
                      on_click=_record, args=(day, index, proposal), kwargs={"user_action": matched})

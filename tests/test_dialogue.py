@@ -104,6 +104,21 @@ def test_request_label_and_confirmation():
         "You would like me to remind you to turn the stove off. Is that right?"
 
 
+def test_a_typed_request_confirms_the_thing_it_names_not_the_activity_heard():
+    # washing hands, "turn off the TV": the robot asked about the tap
+    assert dialogue.confirmation_line("remind to turn off", "wash hands", "Please turn off the TV") == \
+        "You would like me to remind you to turn the TV off. Is that right?"
+    # no object named: the activity's, as before
+    assert dialogue.confirmation_line("remind to turn off", "wash hands", "remind me to switch it off") == \
+        "You would like me to remind you to turn the tap off. Is that right?"
+    assert dialogue.typed_object("careful with the hot pan", "remind to be careful") == "the hot pan"
+    assert dialogue.typed_object("turn it off", "remind to turn off") is None
+    assert dialogue.typed_object("the TV", "pain check") is None  # an action without objects
+    # a request for no object at all, with an activity that has none: the general reminder
+    assert dialogue.confirmation_line("remind to turn off", "cry", "remind me to turn things off") == \
+        "You would like me to remind you to switch off anything you left on. Is that right?"
+
+
 def test_request_words_are_the_participants_words_inside_a_sentence():
     from cacas.dialogue import request_words
 

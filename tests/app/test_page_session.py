@@ -335,3 +335,13 @@ def test_an_answer_is_told_from_another_screens_answer(store, p01, quick_policy)
     assert not is_same_answer(first, proposal, response="reject")
     assert not is_same_answer(first, proposal, user_action="chitchat")
     assert not is_same_answer({**first, "activity": "cough"}, proposal, response=response)
+
+
+def test_the_confirmation_names_what_the_request_names(app, store, p01, quick_policy):
+    store.open_day("P01")
+    at = app(PAGE, participant="P01")
+    _choose(at, activity="wash hands", scene="bathroom")
+    at.text_input(key="request-text").set_value("please turn off the TV")
+    _button(at, "Say it").click().run()
+    no_exception(at)
+    assert "You would like me to remind you to turn the TV off. Is that right?" in texts(at)
