@@ -336,7 +336,9 @@ def match_request(text: str) -> RequestMatch:
     if not ranked:
         examples = "; ".join(f"'{request_words(a)}'" for a in
                              ("remind to turn off", "pain check", "set a timer", "call someone for help"))
-        raise CacasError(f"the robot did not understand {text.strip()!r}; try e.g. {examples}, "
+        said = text.strip()
+        said = said if len(said) <= 60 else said[:57].rstrip() + "..."  # a long text is not echoed whole
+        raise CacasError(f"the robot did not understand {said!r}; try e.g. {examples}, "
                          f"or pick an action from the list")
     best, score, hits = ranked[0]
     return RequestMatch(text=text.strip(), action=best, score=score, matched=hits,

@@ -94,6 +94,10 @@ def test_empty_request_is_refused(text):
 def test_unknown_request_is_refused_with_examples():
     with pytest.raises(CacasError, match="did not understand 'sing a song'.*'check whether I am in pain'"):
         dialogue.match_request("sing a song")
+    # a long text is not echoed whole (a 2,000-character request filled the tablet)
+    with pytest.raises(CacasError) as err:
+        dialogue.match_request("la " * 700)
+    assert "did not understand 'la la" in str(err.value) and "...'" in str(err.value) and len(str(err.value)) < 300
 
 
 def test_request_label_and_confirmation():
