@@ -119,7 +119,8 @@ def _event_words(what: str, details: str) -> str:
         if d.get("robot_action") == "do nothing":
             return f"day {d.get('day')}, interaction {d.get('index')}: robot stayed quiet, nothing asked"
         answer = records.RESPONSE_WORDS.get(d.get("response"), "")
-        return f"day {d.get('day')}, interaction {d.get('index')}: robot proposed '{d.get('robot_action')}', {answer}"
+        return (f"day {d.get('day')}, interaction {d.get('index')}: robot proposed '{d.get('robot_action')}', "
+                f"{answer}")
     if what == "record_adaptation":
         if not d.get("day"):
             return f"initial policy scored ({d.get('method')})"
@@ -170,7 +171,8 @@ def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
                          "saved": [short_time(c) for c in runs["created_at"]]})
 
 
-def recent_events(store, participant: str | None = None, limit: int = 8, study: str | None = None) -> pd.DataFrame:
+def recent_events(store, participant: str | None = None, limit: int = 8,
+                  study: str | None = None) -> pd.DataFrame:
     """The last events in words, newest first: when, who, what (of one participant, or of the
     participants of one ``study``)."""
     ev = store.events(participant=participant, limit=limit, study=study)

@@ -298,7 +298,8 @@ def is_same_answer(row: dict, proposal: Proposal, response: str | None = None,
     if row["activity"] != proposal.context.activity or row["robot_action"] != proposal.action:
         return False
     if user_action is not None and not request_accepts_proposal(proposal, user_action):
-        return row["type"] == records.USER_INITIATED and row["user_action"] == spaces.canonical("action", user_action)
+        wanted = spaces.canonical("action", user_action)
+        return row["type"] == records.USER_INITIATED and row["user_action"] == wanted
     key = "accept" if user_action is not None else str(response).strip().lower()
     return row["type"] == records.ROBOT_INITIATED and row["response"] == ANSWERS.get(key)
 
@@ -415,7 +416,8 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                     policy = result.policy
                     if (method, day) not in have:
                         store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
-                                                float(result.duration_s), fig4_metrics(policy, person, seed=EVALUATION_SEED))
+                                                float(result.duration_s),
+                                                fig4_metrics(policy, person, seed=EVALUATION_SEED))
                         recorded += 1
                     done += 1
         say(1.0, f"{recorded} comparison runs recorded")

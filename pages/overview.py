@@ -41,11 +41,13 @@ st.dataframe(
     column_order=[c for c in table.columns if c != "age range"],
     column_config={
         "participant": small("participant", width=85), "day": small("day", width=105),
-        "policy": small("policy", width=75), "last recorded": small("last recorded", width=165, help="When the participant's last interaction was recorded"),
+        "policy": small("policy", width=75), "last recorded": small("last recorded", width=165,
+                               help="When the participant's last interaction was recorded"),
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
             "interactions so far that count: proposals answered and requests (Fig. 3; as in the paper, an "
-            "unanswered proposal, or the robot quiet with nothing asked, is saved but not counted)", min_value=0.0, max_value=100.0, format="%.0f%%"),
+            "unanswered proposal, or the robot quiet with nothing asked, is saved but not counted)",
+            min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
             "today", help=f"Interactions on the open day (0 once it is closed); target: about "
                           f"{TARGET_INTERACTIONS} a day", width=60),

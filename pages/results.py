@@ -164,7 +164,8 @@ with quest:
             # a refused answer keeps what was entered; a saved one empties the form (new widget keys)
             entry = st.session_state.setdefault("quest-entry", 0)
             with st.form("questionnaire", border=True):
-                who = st.selectbox("Participant", codes, index=codes.index(ui.participant()) if ui.participant() in codes else 0)
+                who = st.selectbox("Participant", codes,
+                                   index=codes.index(ui.participant()) if ui.participant() in codes else 0)
                 # no preset score: an answer is the participant's choice, never a default saved by accident
                 score = st.segmented_control("Satisfaction (1 = very dissatisfied, 10 = very satisfied)",
                                              list(range(1, 11)), default=None, key=f"quest-score-{entry}")
@@ -210,5 +211,6 @@ with data:
                        icon=":material/warning:")
         else:
             st.download_button("Download everything (zip of every table and policy file)", _bundle,
-                               file_name=app_support.study_file_name("cacas-study", study, ".zip"), mime="application/zip",
+                               file_name=app_support.study_file_name("cacas-study", study, ".zip"),
+                               mime="application/zip",
                                icon=":material/folder_zip:")

@@ -8,10 +8,11 @@ Every answer is written to the study database the moment it is given.
 
 from __future__ import annotations
 
+import pandas as pd
 import streamlit as st
 
 from cacas import app_support, dialogue, spaces
-from cacas.records import RESPONSE_WORDS, USER_INITIATED
+from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
@@ -119,9 +120,10 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         _cancel()
         other = recorded_answer(store, code, day, index)
         if other is not None and not is_same_answer(other, proposal, response, user_action):
+            said = app_support.interactions_view(pd.DataFrame([other]))["answer"].iloc[0]  # as the day's table says it
             s["session-error"] = (f"This answer was not saved: interaction {index} was answered meanwhile on "
-                                  f"another screen ({other['activity']}, {_answer_words(other)}). Set what you "
-                                  "are doing again for the next one.")
+                                  f"another screen ({other['activity']}, {said}). Set what you are doing again "
+                                  "for the next one.")
         return
     except CacasError as exc:
         s["session-error"] = str(exc)
@@ -134,13 +136,6 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         what = (f"you asked: {dialogue.request_words(user_action)}" + ("" if tablet else f"; recorded as {user_action}")
                 if user_action else RESPONSE_WORDS[ANSWERS[response]] if proposal.robot_speaks else "nothing needed")
     s["last-saved"] = f"Interaction {index} saved ({what})."
-
-
-def _answer_words(row: dict) -> str:
-    """A recorded interaction's answer in words: "asked for: ..." for a request, else the response."""
-    if row["type"] == USER_INITIATED:
-        return f"asked for: {dialogue.request_words(row['user_action'])}"
-    return RESPONSE_WORDS[row["response"]]
 
 
 def _match_request() -> None:
@@ -307,7 +302,8 @@ else:
         matched = st.session_state.get("request-match")
         if matched:
             with st.chat_message("assistant", avatar=":material/smart_toy:"):
-                st.markdown(dialogue.confirmation_line(matched, proposal.heard, st.session_state.get("request-text")))
+                said = st.session_state.get("request-text")
+                st.markdown(dialogue.confirmation_line(matched, proposal.heard, said))
             y, n, _ = st.columns([1, 1, 2])
             y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
                      on_click=_record, args=(day, index, proposal), kwargs={"user_action": matched})

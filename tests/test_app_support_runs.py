@@ -152,8 +152,8 @@ def test_the_lab_runs_participants_side_by_side_with_the_same_tables(tmp_path, m
 def test_a_loaded_daily_csv_keeps_its_counts_whole(tmp_path):
     # the Fig. 4 protocol: a baseline's row has no successes of its own (an empty cell)
     path = tmp_path / "daily.csv"
-    path.write_text("participant,method,day,success_rate,preference_accuracy,cumulative_feedback,interactions,successes\n"
-                    "P01,cacas,1,0.25,0.5,4,4,1\nP01,nn,1,,0.4,4,4,\n")
+    path.write_text("participant,method,day,success_rate,preference_accuracy,cumulative_feedback,interactions,"
+                    "successes\nP01,cacas,1,0.25,0.5,4,4,1\nP01,nn,1,,0.4,4,4,\n")
     daily = app_support.load_daily(path)
     assert str(daily["successes"].dtype) == "Int64" and daily["successes"].tolist()[0] == 1
     assert records.csv_bytes(daily).splitlines()[1].endswith(b",4,4,1")

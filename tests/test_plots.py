@@ -1,8 +1,8 @@
 import numpy as np
 import pandas as pd
 
-from cacas.plots import accuracy_by_day, methods_figure, success_methods_figure, preference_days_figure, preference_methods_figure, \
-    preference_rows, success_by_day, success_figure
+from cacas.plots import accuracy_by_day, methods_figure, preference_days_figure, preference_methods_figure, \
+    preference_rows, success_by_day, success_figure, success_methods_figure
 
 
 def daily():

@@ -255,3 +255,20 @@ def test_every_version_is_scored_on_the_same_test_states_whatever_the_adaptation
     assert [p["states"] for p in recorded[-1]] == [p["states"] for p in expected["by_preference"]]
     assert [p["states"] for p in recorded[0]] == [p["states"] for p in recorded[-1]]  # the initial policy's too
     assert runs["preference_accuracy"].iloc[-1] == pytest.approx(expected["preference_accuracy"])
+
+
+def test_an_answer_is_told_from_another_screens_answer(store, policy):
+    """A second click on the same answer is silent on the session page; only another screen's
+    answer to the interaction gets its notice."""
+    from cacas.study_day import answer, is_same_answer, propose, recorded_answer
+
+    start_day(store, "P01")
+    proposal = propose(policy, Context.from_token("3.6.20.2"))
+    response = "accept" if proposal.robot_speaks else "no response"
+    answer(store, "P01", 1, proposal, response=response, index=1)
+    first = recorded_answer(store, "P01", 1, 1)
+    assert recorded_answer(store, "P01", 1, 2) is None
+    assert is_same_answer(first, proposal, response=response)
+    assert not is_same_answer(first, proposal, response="reject")
+    assert not is_same_answer(first, proposal, user_action="chitchat")
+    assert not is_same_answer({**first, "activity": "cough"}, proposal, response=response)

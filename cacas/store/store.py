@@ -75,8 +75,9 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
         """questionnaire.csv: participant, day, satisfaction, comments, created_at (every answer).
         ``day`` is the participant's study day when they answered: the latest day opened by then
         (an answer after day 7 of 7 says 7; one given mid-study says so)."""
-        sql = ("SELECT p.code AS participant, (SELECT MAX(d.day) FROM days d WHERE d.participant_id = q.participant_id "
-               "AND d.opened_at <= q.created_at) AS day, q.satisfaction, q.comments, q.created_at FROM questionnaires q "
+        sql = ("SELECT p.code AS participant, (SELECT MAX(d.day) FROM days d "
+               "WHERE d.participant_id = q.participant_id AND d.opened_at <= q.created_at) AS day, "
+               "q.satisfaction, q.comments, q.created_at FROM questionnaires q "
                "JOIN participants p ON p.id = q.participant_id JOIN studies s ON s.id = p.study_id")
         df = self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY q.id", (study,) if study else ())
         df["day"] = df["day"].astype("Int64")

@@ -320,23 +320,6 @@ def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, 
         "Set what you are doing again for the next one."]
 
 
-def test_an_answer_is_told_from_another_screens_answer(store, p01, quick_policy):
-    """A second click on the same answer is silent; only another screen's answer gets the notice."""
-    from cacas.study_day import Context, answer, is_same_answer, policy_in_force, propose, recorded_answer
-
-    store.open_day("P01")
-    policy, version = policy_in_force(store, "P01")
-    proposal = propose(policy, Context.from_token("3.6.20.2"), policy_version=version)
-    response = "accept" if proposal.robot_speaks else "no response"
-    answer(store, "P01", 1, proposal, response=response, index=1)
-    first = recorded_answer(store, "P01", 1, 1)
-    assert recorded_answer(store, "P01", 1, 2) is None
-    assert is_same_answer(first, proposal, response=response)
-    assert not is_same_answer(first, proposal, response="reject")
-    assert not is_same_answer(first, proposal, user_action="chitchat")
-    assert not is_same_answer({**first, "activity": "cough"}, proposal, response=response)
-
-
 def test_the_confirmation_names_what_the_request_names(app, store, p01, quick_policy):
     store.open_day("P01")
     at = app(PAGE, participant="P01")
