@@ -128,6 +128,10 @@ def _sidebar(store) -> None:
                 st.caption(f"Day {status.day} ({state}) · {n} interaction{'' if n == 1 else 's'} that day · "
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
             st.caption(f"Participant's tablet: [open the tablet view](./?participant={code}&view=tablet)")
+        unsaved = ui.unsaved_preference_forms()
+        if unsaved:
+            st.warning(f"Unsaved preference changes: {', '.join(unsaved)}. Save or discard them on the Participants "
+                       "page.", icon=":material/edit_note:")
         st.caption(f"Database: `{ui.db_path()}`")
 
 
@@ -138,6 +142,7 @@ except CacasError as exc:
     st.stop()
 
 _sync_participant(store)
+ui.keep_preference_forms()
 if ui.tablet_mode():
     if not st.session_state.get(ui.PARTICIPANT_KEY):
         st.error("This tablet address names no known participant. Ask the researcher for your link.")

@@ -55,18 +55,53 @@ def _form_key(who: str, version: int, n: int, field: str) -> str:
     return f"pf-{who}-v{version}-{n}-{field}"
 
 
-def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
-    s = st.session_state
+def _count_key(who: str, version: int) -> str:
+    return f"count-{who}-v{version}"
+
+
+FIELDS = ("words", "activity", "scene", "slots", "interval", "action")
+
+
+def _form_start(existing: list, version: int, who: str) -> dict:
+    """What the form of ``who``'s saved ``version`` shows before any change: key -> value."""
+    start = {_count_key(who, version): max(5, len(existing))}
+    for n in range(1, max(10, len(existing)) + 1):
+        old = existing[n - 1] if n <= len(existing) else None
+        values = ((old.description or "", list(old.activity), list(old.scene or []),
+                   app_support.hours_to_slots(old.hours), app_support.interval_to_bins(old.interval),
+                   old.action) if old is not None else
+                  ("", [], [], [], app_support.interval_to_bins(None), ANY))
+        start.update({_form_key(who, version, n, f): v for f, v in zip(FIELDS, values)})
+    return start
+
+
+def _form_items(values, who: str, version: int, count: int, tasks: dict) -> tuple[list[dict], list[int]]:
+    """The preference dicts the form's first ``count`` slots hold (untouched slots left out), and
+    their slot numbers; ``values`` maps widget keys to values (the session, or the saved start)."""
     items, numbers = [], []
     for n in range(1, count + 1):
         k = lambda f: _form_key(who, version, n, f)  # noqa: E731
-        action = s[k("action")]
+        action = values[k("action")]
         item = app_support.preference_from_form(
-            s[k("words")], s[k("activity")], s[k("scene")], s[k("slots")], s[k("interval")],
+            values[k("words")], values[k("activity")], values[k("scene")], values[k("slots")], values[k("interval")],
             None if action == ANY else action, tasks.get(n))
         if item is not None:
             items.append(item)
             numbers.append(n)
+    return items, numbers
+
+
+def _drop_form(who: str) -> None:
+    """Forget ``who``'s form (every version's): it is re-filled from the saved preferences."""
+    s = st.session_state
+    for key in [k for k in s if str(k).startswith((f"pf-{who}-v", f"count-{who}-v"))]:
+        del s[key]
+    s.setdefault(ui.UNSAVED_FORMS_KEY, {}).pop(who, None)
+
+
+def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
+    s = st.session_state
+    items, numbers = _form_items(s, who, version, count, tasks)
     person, errors, overall = app_support.check_preferences(who, items, numbers)
     s["pref-check"] = (who, errors, overall)  # shown on this participant's form only
     if person is None:
@@ -76,9 +111,16 @@ def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
     except CacasError as exc:
         s["pref-check"] = (who, {}, str(exc))
         return
+    _drop_form(who)  # saved: the form shows the saved version again
     s["pref-saved"] = (who, new_version, len(person.preferences), person.covered_count())
     # the page may be scrolled to the form's end, far from the banner at its top
     st.toast(f"Saved version {new_version} of {who}'s preferences.", icon=":material/check_circle:")
+
+
+def _discard_changes(who: str) -> None:
+    _drop_form(who)
+    st.session_state.pop("pref-check", None)
+    st.toast(f"Changes to {who}'s preferences discarded.", icon=":material/undo:")
 
 
 def _import_personas() -> None:
@@ -154,11 +196,14 @@ if code:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
 
         existing = list(saved.preferences) if saved is not None else []
-        count = st.number_input("Preferences on the form", min_value=1, max_value=max(10, len(existing)),
-                                value=max(5, len(existing)), key=f"count-{code}-v{version}",
-                                help="The paper asks each participant for 5; an imported file may have more.")
-        if int(count) < len(existing):  # the slots left off the form are not saved with it
-            gone = range(int(count) + 1, len(existing) + 1)
+        start = _form_start(existing, version, code)
+        for key, value in start.items():  # widgets take their values from the session, filled once
+            st.session_state.setdefault(key, value)
+        count = int(st.number_input("Preferences on the form", min_value=1, max_value=max(10, len(existing)),
+                                    key=_count_key(code, version),
+                                    help="The paper asks each participant for 5; an imported file may have more."))
+        if count < len(existing):  # the slots left off the form are not saved with it
+            gone = range(count + 1, len(existing) + 1)
             st.warning(f"Preference{'s' if len(gone) > 1 else ''} {', '.join(map(str, gone))} of the saved version "
                        f"{'are' if len(gone) > 1 else 'is'} not on the form: saving removes "
                        f"{'them' if len(gone) > 1 else 'it'} from the participant's preferences (version {version} "
@@ -166,49 +211,56 @@ if code:
         checked, errors, overall = st.session_state.get("pref-check") or (None, {}, None)
         if checked != code:  # messages about another participant's form stay with it
             errors, overall = {}, None
-        tasks = {}
-        # a form sends nothing before its button: the browser holds what is typed, and another page drops it
-        st.caption(":material/info: Save before you open another page or participant: what is typed here is "
-                   "kept only on this page until it is saved.")
-        with st.form(f"prefs-{code}-v{version}", border=False, enter_to_submit=False):
-            for n in range(1, int(count) + 1):
-                old = existing[n - 1] if n <= len(existing) else None
-                if old is not None and old.task:
-                    tasks[n] = list(old.task)
-                k = lambda f: _form_key(code, version, n, f)  # noqa: E731
-                with st.container(border=True):
-                    st.markdown(f"**Preference {n}**")
-                    st.text_input("In the participant's words", value=old.description if old else "",
-                                  key=k("words"), placeholder="e.g. When I use the stove, remind me to turn it off.")
-                    c1, c2 = st.columns(2)
-                    c1.multiselect("Activities (S1)", spaces.ACTIVITIES, default=list(old.activity) if old else [],
-                                   key=k("activity"), placeholder="one or more sound activities")
-                    c2.multiselect("Rooms (S2)", spaces.SCENES, default=list(old.scene or []) if old else [],
-                                   key=k("scene"), placeholder="any room")
-                    c3, c4 = st.columns(2)
-                    c3.multiselect("Time of day (S3)", list(SLOT_LABELS), format_func=SLOT_LABELS.get,
-                                   default=app_support.hours_to_slots(old.hours) if old else [],
-                                   key=k("slots"), placeholder="any time")
-                    c4.select_slider("Minutes since the last activity (S4)", options=list(spaces.INTERVAL_BINS),
-                                     value=app_support.interval_to_bins(old.interval if old else None),
-                                     key=k("interval"), help="The whole range means any interval.")
-                    st.selectbox("The robot should (action)", [ANY, *spaces.ACTIONS],
-                                 index=1 + spaces.action_index(old.action) if old else 0, key=k("action"))
-                    if n in tasks:
-                        st.caption(f"Only while the robot is busy with: {', '.join(tasks[n])} (from the imported file).")
-                    if n in errors:
-                        st.error(f"Preference {n}: {errors[n]}", icon=":material/error:")
-                    elif old is not None:
-                        st.caption(f"Covers {old.covered_count():,} states.")
-            if overall:
-                st.error(overall, icon=":material/error:")
-            elif errors:  # the messages sit with their preferences, maybe far above this button
-                bad = sorted(errors)
-                st.error(f"Not saved: preference{'s' if len(bad) > 1 else ''} {', '.join(map(str, bad))} "
-                         f"need{'' if len(bad) > 1 else 's'} fixing (the message is under "
-                         f"{'each' if len(bad) > 1 else 'it'} above).", icon=":material/error:")
-            st.form_submit_button("Save preferences", type="primary", icon=":material/save:",
-                                  on_click=_save_preferences, args=(code, version, int(count), tasks))
+        tasks = {n: list(old.task) for n, old in enumerate(existing, 1) if old.task}
+        # not an st.form: a form sends nothing before its button, and leaving the page lost what was typed
+        unsaved = (_form_items(st.session_state, code, version, count, tasks)
+                   != _form_items(start, code, version, len(existing), tasks))
+        st.session_state.setdefault(ui.UNSAVED_FORMS_KEY, {})[code] = unsaved
+        # one caption whatever the state: an element appearing above the form would shift the widgets
+        # below it while the researcher clicks them (and Streamlit would redraw them, closing an open list)
+        st.caption(f":material/edit_note: **Unsaved changes to {code}'s preferences**: they are kept while you "
+                   "open other pages or participants in this browser tab, until you save or discard them below; "
+                   "a reload loses them." if unsaved else
+                   ":material/info: Changes on this form are kept while you open other pages or participants in "
+                   "this browser tab, until you save or discard them; a reload loses them.")
+        for n in range(1, count + 1):
+            k = lambda f: _form_key(code, version, n, f)  # noqa: E731
+            old = existing[n - 1] if n <= len(existing) else None
+            with st.container(border=True):
+                st.markdown(f"**Preference {n}**")
+                st.text_input("In the participant's words", key=k("words"),
+                              placeholder="e.g. When I use the stove, remind me to turn it off.")
+                c1, c2 = st.columns(2)
+                c1.multiselect("Activities (S1)", spaces.ACTIVITIES, key=k("activity"),
+                               placeholder="one or more sound activities")
+                c2.multiselect("Rooms (S2)", spaces.SCENES, key=k("scene"), placeholder="any room")
+                c3, c4 = st.columns(2)
+                c3.multiselect("Time of day (S3)", list(SLOT_LABELS), format_func=SLOT_LABELS.get,
+                               key=k("slots"), placeholder="any time")
+                # value= makes it a range slider; the session's value (the same at first) wins
+                c4.select_slider("Minutes since the last activity (S4)", options=list(spaces.INTERVAL_BINS),
+                                 value=start[k("interval")], key=k("interval"),
+                                 help="The whole range means any interval.")
+                st.selectbox("The robot should (action)", [ANY, *spaces.ACTIONS], key=k("action"))
+                if n in tasks:
+                    st.caption(f"Only while the robot is busy with: {', '.join(tasks[n])} (from the imported file).")
+                if n in errors:
+                    st.error(f"Preference {n}: {errors[n]}", icon=":material/error:")
+                elif old is not None:
+                    st.caption(f"Covers {old.covered_count():,} states.")
+        if overall:
+            st.error(overall, icon=":material/error:")
+        elif errors:  # the messages sit with their preferences, maybe far above this button
+            bad = sorted(errors)
+            st.error(f"Not saved: preference{'s' if len(bad) > 1 else ''} {', '.join(map(str, bad))} "
+                     f"need{'' if len(bad) > 1 else 's'} fixing (the message is under "
+                     f"{'each' if len(bad) > 1 else 'it'} above).", icon=":material/error:")
+        c1, c2 = st.columns([1, 1])
+        c1.button("Save preferences", type="primary", icon=":material/save:", on_click=_save_preferences,
+                  args=(code, version, count, tasks), key=f"save-prefs-{code}")
+        if unsaved:
+            c2.button("Discard changes", on_click=_discard_changes, args=(code,), icon=":material/undo:",
+                      key=f"discard-{code}")
 
     with tabs[f"Details of {code}"]:
         info = store.get_participant(code)

@@ -29,6 +29,25 @@ def require_app() -> None:
 
 PARTICIPANT_KEY = "participant"
 STUDY_KEY = "study"
+#: participant code -> whether their preference form (Participants page) holds unsaved changes
+UNSAVED_FORMS_KEY = "participants-unsaved"
+#: the session keys of the Participants page's preference-form widgets
+_FORM_KEY_PREFIXES = ("pf-", "count-")
+
+
+def keep_preference_forms() -> None:
+    """Streamlit drops the state of the widgets a run does not draw, so opening another page lost
+    what was typed on a preference form. Writing each of the forms' values back into the session
+    (before any page runs) makes them plain session values that stay until the form is saved or
+    discarded. Called by ``app.py`` on every run."""
+    s = st.session_state
+    for key in [k for k in s if str(k).startswith(_FORM_KEY_PREFIXES)]:
+        s[key] = s[key]
+
+
+def unsaved_preference_forms() -> list[str]:
+    """The participants whose preference form holds changes not saved yet."""
+    return sorted(code for code, unsaved in st.session_state.get(UNSAVED_FORMS_KEY, {}).items() if unsaved)
 
 
 @st.cache_resource(show_spinner=False)

@@ -122,7 +122,6 @@ def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
                                     "action": "remind to turn off"}])
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert any(c.value.startswith(":material/info: Save before you open another page") for c in at.caption)
     assert at.multiselect(key="pf-P01-v1-1-slots").value == [3, 4, 8, 9]
     assert at.selectbox(key="pf-P01-v1-1-action").value == "remind to turn off"
     at.selectbox(key="pf-P01-v1-1-action").set_value("remind to be careful")
@@ -227,3 +226,46 @@ def test_fewer_slots_than_saved_preferences_says_saving_removes_them(app, store)
     assert [w.value for w in at.warning] == [
         "Preferences 2, 3 of the saved version are not on the form: saving removes them from the participant's "
         "preferences (version 1 stays in the database)."]
+
+
+def _unsaved(at) -> bool:
+    return any(c.value.startswith(":material/edit_note: **Unsaved changes to ") for c in at.caption)
+
+
+def test_unsaved_changes_survive_other_pages_until_saved_or_discarded(app, store):
+    """What is typed on a preference form stays while the researcher opens another page or another
+    participant (it was an st.form, whose typing the browser lost on leaving the page)."""
+    store.add_participant("P01")
+    store.add_participant("P02")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    assert not _unsaved(at) and not at.sidebar.warning
+    _fill(at, "P01", 1, 1, action="show compassion")
+    _fill(at, "P01", 1, 2, words="When I fall, call my daughter.", activity=["fall down"])
+    at.run()
+    assert _unsaved(at)
+    at.switch_page("pages/overview.py").run()
+    no_exception(at)
+    assert [w.value for w in at.sidebar.warning] == [
+        "Unsaved preference changes: P01. Save or discard them on the Participants page."]
+    at.selectbox(key="participant").set_value("P02").run()  # another participant's pages, then back
+    at.switch_page(PAGE).run()
+    assert at.text_input(key="pf-P02-v0-1-words").value == ""
+    at.selectbox(key="participant").set_value("P01").run()
+    no_exception(at)
+    assert at.selectbox(key="pf-P01-v1-1-action").value == "show compassion"
+    assert at.text_input(key="pf-P01-v1-2-words").value == "When I fall, call my daughter."
+    assert at.multiselect(key="pf-P01-v1-2-activity").value == ["fall down"]
+    assert store.get_preferences("P01").preferences[0].action == "pain check"  # nothing saved yet
+    next(b for b in at.button if b.label == "Discard changes").click().run()
+    assert at.selectbox(key="pf-P01-v1-1-action").value == "pain check"
+    assert at.text_input(key="pf-P01-v1-2-words").value == ""
+    assert not _unsaved(at) and not at.sidebar.warning
+    _fill(at, "P01", 1, 1, action="show compassion")
+    at.run()
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert store.get_preferences("P01").preferences[0].action == "show compassion"
+    assert at.selectbox(key="pf-P01-v2-1-action").value == "show compassion"
+    assert not _unsaved(at) and not at.sidebar.warning
+    assert "pf-P01-v1-1-action" not in at.session_state and "count-P01-v1" not in at.session_state  # old form gone

@@ -58,13 +58,14 @@ def choose(page, label: str, option: str, testid: str = "stSelectbox") -> None:
     page.get_by_role("option", name=option, exact=True).first.click()
     if testid == "stMultiSelect":
         page.keyboard.press("Escape")
-    page.wait_for_timeout(150)
+    idle(page)  # outside a form a choice reruns the page, as a person waits for it
 
 
 def fill(page, label: str, text: str, first: bool = False) -> None:
     box = page.get_by_role("textbox", name=label, exact=True)
     (box.first if first else box).fill(text)
-    page.wait_for_timeout(100)
+    (box.first if first else box).press("Tab")  # outside a form leaving the box sends the text: a rerun
+    idle(page)
 
 
 def text_of(page) -> str:
@@ -135,14 +136,19 @@ def test_mini_study(server, page, tmp_path):
     choose(page, "The robot should (action)", "remind to turn off")
     second = page.locator("[data-testid='stVerticalBlock']").filter(
         has=page.get_by_text("Preference 2", exact=True)).last
-    second.get_by_role("textbox", name="In the participant's words").fill("When I cough, check whether I am in pain.")
+    words = second.get_by_role("textbox", name="In the participant's words")
+    words.fill("When I cough, check whether I am in pain.")
+    words.press("Tab")
+    idle(page)
     second.locator("[data-testid='stMultiSelect']").first.locator("input").click()
     page.keyboard.type("cough")
     page.get_by_role("option", name="cough", exact=True).first.click()
     page.keyboard.press("Escape")
+    idle(page)
     second.locator("[data-testid='stSelectbox']").last.locator("input").click()
     page.keyboard.type("pain check")
     page.get_by_role("option", name="pain check", exact=True).first.click()
+    idle(page)
     click(page, "Save preferences")
     body = text_of(page)
     assert "Saved version 1 of P01's preferences: 2 preferences" in body, body[:2000]
