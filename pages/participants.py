@@ -196,6 +196,15 @@ if code:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
 
         existing = list(saved.preferences) if saved is not None else []
+        stale = {str(k).split("-v")[1].split("-")[0] for k in st.session_state
+                 if str(k).startswith(f"pf-{code}-v") and not str(k).startswith(f"pf-{code}-v{version}-")}
+        if stale:  # e.g. a persona file imported meanwhile: the form would edit a version no longer in force
+            was_unsaved = st.session_state.get(ui.UNSAVED_FORMS_KEY, {}).get(code)
+            _drop_form(code)
+            if was_unsaved:
+                st.warning(f"Changes typed on the form of version {', '.join(sorted(stale))} were not saved: "
+                           f"version {version} of {code}'s preferences was saved meanwhile (e.g. by an import), "
+                           "and the form now shows it.", icon=":material/warning:")
         start = _form_start(existing, version, code)
         for key, value in start.items():  # widgets take their values from the session, filled once
             st.session_state.setdefault(key, value)

@@ -269,3 +269,22 @@ def test_unsaved_changes_survive_other_pages_until_saved_or_discarded(app, store
     assert at.selectbox(key="pf-P01-v2-1-action").value == "show compassion"
     assert not _unsaved(at) and not at.sidebar.warning
     assert "pf-P01-v1-1-action" not in at.session_state and "count-P01-v1" not in at.session_state  # old form gone
+
+
+def test_unsaved_changes_on_a_version_replaced_meanwhile_are_said_to_be_lost(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 1, 1, action="show compassion")
+    at.run()
+    assert _unsaved(at)
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "chitchat"}])  # e.g. an import elsewhere
+    at.run()
+    no_exception(at)
+    assert [w.value for w in at.main.warning] == [
+        "Changes typed on the form of version 1 were not saved: version 2 of P01's preferences was saved meanwhile "
+        "(e.g. by an import), and the form now shows it."]
+    assert at.selectbox(key="pf-P01-v2-1-action").value == "chitchat"
+    assert not _unsaved(at)
+    at.run()
+    assert not at.warning  # said once; the sidebar (drawn before the page noticed) says nothing now
