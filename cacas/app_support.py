@@ -17,7 +17,7 @@ import numpy as np
 import pandas as pd
 
 from cacas import preferences as prefs
-from cacas import records, spaces
+from cacas import plots, records, spaces
 from cacas.errors import CacasError
 from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status
 
@@ -551,3 +551,29 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
                 "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate,
                 "ask_after_reject": ask_after_reject, "loop": loop}
     return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)
+
+
+def day_ranges(days) -> str:
+    """Days as short ranges: [1, 2, 3, 5] -> "1-3, 5"."""
+    out: list[list[int]] = []
+    for d in sorted({int(x) for x in days}):
+        if out and d == out[-1][1] + 1:
+            out[-1][1] = d
+        else:
+            out.append([d, d])
+    return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in out)
+
+
+def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
+    """The Fig. 4 caption's sentence on the participant-days left out so that every method is
+    averaged over the same participants (:func:`cacas.plots.incomplete_comparisons`); "" if none.
+    ``again``: a human study, where comparing the methods again adds them."""
+    if not len(left):
+        return ""
+    parts = []
+    for who, g in left.groupby("participant", sort=True):
+        missing = list(dict.fromkeys(m for ms in g["missing"] for m in ms))
+        parts.append(f"{who} day{'s' if len(g) > 1 else ''} {day_ranges(g['day'])} "
+                     f"(no {', '.join(plots.METHOD_LABELS.get(m, m) for m in missing)})")
+    return (" Methods are compared on the same participants, so these are left out: " + "; ".join(parts)
+            + ("; compare methods again to add them." if again else "."))

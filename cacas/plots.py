@@ -45,6 +45,18 @@ def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
     }).reset_index()
 
 
+def success_change(daily: pd.DataFrame, method: str, first: int, last: int) -> tuple[float, int]:
+    """The mean change in success rate from day ``first`` to day ``last``, paired: over the
+    participants who have both days (one who has not reached ``last`` yet does not move it), and
+    their number (NaN, 0 if nobody has both)."""
+    d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
+    rate = d.assign(day=d["day"].astype(int)).set_index(["participant", "day"])["success_rate"]
+    a = rate.xs(int(first), level="day") if int(first) in rate.index.get_level_values("day") else rate.iloc[:0]
+    b = rate.xs(int(last), level="day") if int(last) in rate.index.get_level_values("day") else rate.iloc[:0]
+    both = a.index.intersection(b.index)
+    return (float((b[both] - a[both]).mean()), len(both)) if len(both) else (float("nan"), 0)
+
+
 def _gaps_for_missing_days(s: pd.DataFrame, daily: pd.DataFrame) -> pd.DataFrame:
     """``s`` (one row per day) with empty rows for the study's other days, so that a line breaks
     where its method was not in force (a human study adapted with another method that day)
@@ -118,11 +130,41 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     return fig
 
 
-def accuracy_by_day(daily: pd.DataFrame) -> pd.DataFrame:
-    """Per method and day: mean, min and max preference accuracy across participants."""
+def _scored(daily: pd.DataFrame) -> pd.DataFrame:
     d = daily[daily["preference_accuracy"].notna()]
+    return d.assign(day=d["day"].astype(int))
+
+
+def incomplete_comparisons(daily: pd.DataFrame) -> pd.DataFrame:
+    """participant, day, missing: the participant-days Fig. 4 leaves out because some method
+    scored that day for other participants has no preference accuracy for them (``missing``: those
+    methods, in the table's order). A human study's methods are compared only for the
+    participants the comparison has been run for; a stopped comparison leaves some out."""
+    d = _scored(daily)
+    methods = list(dict.fromkeys(d["method"]))
+    rows = []
+    for (who, day), g in d.groupby(["participant", "day"], sort=True):
+        wanted = [m for m in methods if m in set(d.loc[d["day"] == day, "method"])]
+        missing = [m for m in wanted if m not in set(g["method"])]
+        if missing:
+            rows.append({"participant": who, "day": int(day), "missing": missing})
+    return pd.DataFrame(rows, columns=["participant", "day", "missing"])
+
+
+def accuracy_by_day(daily: pd.DataFrame) -> pd.DataFrame:
+    """Per method and day: mean, min and max preference accuracy across participants, and their
+    number. Methods are compared on the same participants: a participant-day without a score
+    for every method scored that day is left out (:func:`incomplete_comparisons`), so that no
+    method's mean differs from another's by who was averaged."""
+    d = _scored(daily)
+    out = incomplete_comparisons(daily)
+    if len(out):
+        left = set(zip(out["participant"], out["day"]))
+        d = d[[(p, day) not in left for p, day in zip(d["participant"], d["day"])]]
     g = d.groupby(["method", "day"], sort=False)["preference_accuracy"]
-    return pd.DataFrame({"mean": g.mean(), "min": g.min(), "max": g.max()}).reset_index()
+    return pd.DataFrame({"mean": g.mean(), "min": g.min(), "max": g.max(),
+                         "participants": d.groupby(["method", "day"], sort=False)["participant"].nunique()}
+                        ).reset_index()
 
 
 def accuracy_table(daily: pd.DataFrame) -> pd.DataFrame:
@@ -144,8 +186,9 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
         fig.add_trace(go.Scatter(
             x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
-            customdata=d[["min", "max"]],
-            hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%})<extra></extra>"))
+            customdata=d[["min", "max", "participants"]],
+            hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
+                          "%{customdata[2]} participants)<extra></extra>"))
     fig.update_yaxes(title_text="preference accuracy", range=[0, 1.02], tickformat=".0%")
     _day_axis(fig, a["day"])
     fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",

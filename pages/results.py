@@ -85,17 +85,26 @@ with fig3:
         per_day = plots.success_by_day(daily, method).set_index("day")
         last = per_day.index.max()
         c1, c2, c3 = st.columns(3)
-        change = round(100 * (per_day.loc[last, "mean"] - per_day["mean"].iloc[0]))
+        first = per_day.index.min()
+        change, paired = plots.success_change(daily, method, first, last)
+        change = round(100 * change) if paired else 0
+        n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["participants"].max())
         in_progress = sorted(c for c, d in app_support.open_days(store, study).items() if d == last) \
             if source == HUMAN else []
         c1.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
                   ui.percent(per_day.loc[last, "mean"]),
-                  None if len(per_day) < 2 else f"{change:+d} points since day {per_day.index.min()}",
+                  None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}",
                   delta_color="normal" if change else "off",
-                  help=(f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the "
-                        "day is closed." if in_progress else None))
-        c2.metric("Mean cumulative feedback", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
-        c3.metric("Participants", int(per_day["participants"].max()))
+                  help=" ".join(filter(None, [
+                      f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with that "
+                      f"day; the change is over the {paired} with both day {first} and day {last}."
+                      if len(per_day) > 1 else None,
+                      f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the day "
+                      "is closed." if in_progress else None])) or None)
+        c2.metric(f"Mean cumulative feedback, day {last}", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
+        c3.metric(f"Participants on day {last}", n_last if n_last == n_all else f"{n_last} of {n_all}",
+                  help=None if n_last == n_all else f"{n_all} participants have a day in the figure; "
+                  f"{n_last} have reached day {last}.")
         if in_progress:
             st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                        "are so far, and change until the day is closed.")
@@ -133,7 +142,9 @@ with fig4:
         st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
         st.dataframe(summary.style.format("{:.0%}"), width="stretch",
                      column_config={"_index": st.column_config.TextColumn("method", width="medium")})
+        left = plots.incomplete_comparisons(accuracy)
         st.caption("Mean preference accuracy over participants, per method and day (Fig. 4)."
+                   + app_support.left_out_note(left, again=source == HUMAN)
                    + "".join(f" Day {d}: the policies adapted for it; {', '.join(who)} "
                              f"{'has' if len(who) == 1 else 'have'} not started it yet."
                              for d, who in sorted(upcoming.items())))

@@ -186,3 +186,18 @@ def test_short_time_of_a_stamp_or_epoch_seconds():
     assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
     assert app_support.short_time(0.0) == "1970-01-01 00:00 UTC"
     assert app_support.short_time(1_795_000_000) == "2026-11-18 11:06 UTC"
+
+
+def test_day_ranges_and_the_fig4_left_out_note():
+    import pandas as pd
+
+    from cacas.app_support import day_ranges, left_out_note
+    assert day_ranges([5, 1, 2, 3, 2.0]) == "1-3, 5" and day_ranges([4]) == "4"
+    left = pd.DataFrame([{"participant": "W02", "day": 1, "missing": ["cacas-no-pr", "orl", "nn"]},
+                         {"participant": "W02", "day": 2, "missing": ["cacas-no-pr", "orl", "nn"]},
+                         {"participant": "W03", "day": 4, "missing": ["nn"]}])
+    assert left_out_note(left, again=True) == (
+        " Methods are compared on the same participants, so these are left out: W02 days 1-2 (no CACAS w/o PR, "
+        "ORL, NN); W03 day 4 (no NN); compare methods again to add them.")
+    assert left_out_note(left.iloc[2:]).endswith("W03 day 4 (no NN).")
+    assert left_out_note(left.iloc[:0]) == ""

@@ -1,3 +1,4 @@
+import pytest
 import numpy as np
 import pandas as pd
 
@@ -140,3 +141,35 @@ def test_success_by_day_has_whole_days_for_a_table_read_with_float_days():
     s = success_by_day(daily().assign(day=lambda d: d["day"].astype(float)))
     assert s["day"].tolist() == [1, 2, 3] and s["day"].dtype.kind == "i"
     assert s["participants"].tolist() == [2, 2, 2]
+
+
+def test_fig4_compares_methods_on_the_same_participants():
+    """A comparison run for some participants only (or stopped part-way): a participant-day
+    without every method's score is left out, so no method's mean differs by who was averaged."""
+    from cacas.plots import accuracy_table, incomplete_comparisons
+    d = daily()
+    d = d[~((d["participant"] == "P02") & (d["method"] == "nn") & (d["day"] >= 2))]
+    left = incomplete_comparisons(d)
+    assert left.to_dict("records") == [{"participant": "P02", "day": 2, "missing": ["nn"]},
+                                       {"participant": "P02", "day": 3, "missing": ["nn"]}]
+    a = accuracy_by_day(d).set_index(["method", "day"])
+    assert np.allclose(a.loc["cacas", "mean"], [0.5, 0.6, 0.8])  # day 1 both; days 2-3 P01 alone
+    assert list(a.loc["cacas", "participants"]) == [2, 1, 1] and list(a.loc["nn", "participants"]) == [2, 1, 1]
+    assert np.allclose(accuracy_table(d).loc["CACAS"], [0.5, 0.6, 0.8])
+    assert [int(n) for n in methods_figure(d).data[0].customdata[:, 2]] == [2, 1, 1]  # in the hover
+    # a method scored for nobody on a day asks nothing of that day's participants
+    only_cacas = d[~((d["method"] == "nn") & (d["day"] == 3))]
+    assert incomplete_comparisons(only_cacas).to_dict("records") == [
+        {"participant": "P02", "day": 2, "missing": ["nn"]}]
+    assert incomplete_comparisons(daily()).empty
+
+
+def test_the_success_change_is_paired_over_participants_with_both_days():
+    from cacas.plots import success_change
+    d = daily()
+    d = d[~((d["participant"] == "P02") & (d["day"] == 3))]  # P02 has not reached day 3
+    change, n = success_change(d, "cacas", 1, 3)
+    assert n == 1 and np.isclose(change, 0.2)  # P01: 0.3 -> 0.5; not the means 0.4 -> 0.5
+    assert success_change(daily(), "cacas", 1, 3) == (pytest.approx(0.2), 2)
+    change, n = success_change(d, "cacas", 1, 4)
+    assert n == 0 and np.isnan(change)

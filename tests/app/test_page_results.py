@@ -245,3 +245,31 @@ def test_fig4_right_after_an_adaptation_shows_the_policies_for_the_next_day(app,
     assert list(fig4.columns) == ["day 1", "day 2"] and fig4.loc["CACAS"].tolist() == [0.25, 0.75]
     assert any("Day 2: the policies adapted for it; P01 has not started it yet." in c.value for c in at.caption)
     assert at.metric[0].label == "Day 1 mean success rate"  # Fig. 3 stays with the days that happened
+
+
+def test_human_study_compares_on_the_same_participants(app, store):
+    """W02 has only CACAS scores (its comparison not run) and has not reached day 2: Fig. 4's
+    methods are averaged over P01 alone, and Fig. 3's change since day 1 is P01's own."""
+    _study_with_a_day(store)  # P01: day 1 (2 of 3 accepted), CACAS initial scored 0.25
+    store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.25})
+    day = store.open_day("P01")
+    for robot, resp in [("pain check", "accept")] * 3:
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action=robot, response=resp)
+    store.record_adaptation("P01", 1, "cacas", {}, 0.0, {"preference_accuracy": 0.75})
+    store.record_adaptation("P01", 1, "nn", {}, 0.0, {"preference_accuracy": 0.5})
+    store.add_participant("W02")
+    store.save_preferences("W02", [{"activity": ["cough"], "action": "pain check"}])
+    day = store.open_day("W02")
+    store.record_interaction("W02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="chitchat", response="reject")
+    store.record_adaptation("W02", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.95})
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    table = next(d.value for d in at.dataframe if "day 1" in list(d.value.columns))
+    assert table.loc["CACAS", "day 1"] == 0.25 and table.loc["NN", "day 1"] == 0.25  # not (0.25 + 0.95) / 2
+    assert "so these are left out: W02 day 1 (no NN); compare methods again to add them." in texts(at)
+    values = {m.label: m for m in at.metric}
+    rate = values["Day 2 mean success rate so far"]
+    assert rate.value == "100%" and rate.delta == "+33 points since day 1"  # P01: 67% -> 100%
+    assert values["Participants on day 2"].value == "1 of 2"
