@@ -57,12 +57,11 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     if not people:
         return pd.DataFrame(columns=cols)
     inter = store.interactions_frame(method=None, study=study)
-    events = store.events()
     for p in people:
         status = day_status(store, p.code)
         mine = inter[inter["participant"] == p.code]
         success = records.success_rate(mine)
-        last = events.loc[events["participant"] == p.code, "at"]
+        last = mine["time"].dropna().sort_values()  # the interaction's own time, not a questionnaire's
         has_prefs = store.get_preferences(p.code) is not None
         rows.append({
             "participant": p.code, "age range": p.age_range,

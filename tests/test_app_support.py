@@ -90,6 +90,15 @@ def test_overview_and_events(tmp_path):
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="others")
     assert app_support.overview_frame(store, "default").iloc[0]["success rate so far"] == pytest.approx(1 / 4)
+    # "last recorded" is the last interaction's time: a questionnaire answered later does not move it
+    last = app_support.short_time(store.interactions_frame(method=None)["time"].max())
+    assert app_support.overview_frame(store, "default").iloc[0]["last recorded"] == last
+    from cacas.store import validate
+    with pytest.MonkeyPatch.context() as mp:  # answered on a later day
+        mp.setattr(validate, "now", lambda: "2099-01-01T10:00:00.000Z")
+        store.record_questionnaire("P01", 8)
+    assert app_support.overview_frame(store, "default").iloc[0]["last recorded"] == last
+    assert app_support.overview_frame(store, "pilot").iloc[0]["last recorded"] == ""  # Q01: none yet
     store.close()
 
 
