@@ -336,10 +336,11 @@ def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
 
 def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
     """The interactions table with names instead of indices, for reading on a page: what the
-    participant set, what the robot heard and saw (when ``df`` has the store's extra columns and
+    participant set (S1-S4), what the robot heard and saw (when ``df`` has the store's extra columns and
     a recogniser was used; else the activity and room set), the robot's proposal and the answer
     ("asked for X" for a participant's request, where the robot's proposal was not taken)."""
-    columns = ["day", "#", "time of day", "activity", "room", "robot heard", "robot saw", "robot proposed", "answer"]
+    columns = ["day", "#", "time of day", "since last activity", "activity", "room", "robot heard", "robot saw",
+               "robot proposed", "answer"]
     if df.empty:
         return pd.DataFrame(columns=columns)
     slot = df["time_slot"].astype(int)
@@ -351,6 +352,8 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({
         "day": df["day"].astype(int), "#": df["index"].astype(int),
         "time of day": [spaces.time_slot_label(s) for s in slot],
+        # S4: interactions.csv's interval is the bin's minutes
+        "since last activity": [spaces.interval_label(spaces.interval_bin(float(m))) for m in df["interval"]],
         "activity": df["activity"], "room": df["scene"],
         "robot heard": heard.where(heard.notna() & (heard != ""), df["activity"]),
         "robot saw": saw.where(saw.notna() & (saw != ""), df["scene"]),

@@ -77,9 +77,10 @@ def _start_day() -> None:
 
 def _set_context() -> None:
     s = st.session_state
-    missing = [what for what, key in (("an activity", "ctx-activity"), ("a room", "ctx-scene")) if s.get(key) is None]
+    missing = [what for what, key in (("the time since your last activity", "ctx-interval"),
+                                      ("an activity", "ctx-activity"), ("a room", "ctx-scene")) if s.get(key) is None]
     if missing:
-        s["session-error"] = f"Choose {' and '.join(missing)} first."
+        s["session-error"] = f"Choose {', '.join(missing[:-1]) + ' and ' if len(missing) > 1 else ''}{missing[-1]} first."
         return
     try:
         ctx = Context.from_choices(s["ctx-slot"], s["ctx-interval"], s["ctx-activity"], s["ctx-scene"])
@@ -210,7 +211,10 @@ if context is None:
         c1, c2 = st.columns(2)
         c1.selectbox(f"Time of day{part('S3')}", range(spaces.N_SLOTS), index=slot_default, key="ctx-slot",
                      format_func=spaces.time_slot_label)
-        c2.selectbox(f"Time since your last activity{part('S4')}", range(spaces.N_INTERVALS), index=6, key="ctx-interval",
+        # chosen every time, as the activity (Section VI-B: the participant sets S3, S4 and S1); a preset
+        # value was kept unnoticed by participants and recorded as theirs
+        c2.selectbox(f"Time since your last activity{part('S4')}", range(spaces.N_INTERVALS), index=None,
+                     key="ctx-interval", placeholder="choose how long",
                      format_func=lambda i: f"{spaces.INTERVAL_BINS[i]} min" + ("+" if i == spaces.N_INTERVALS - 1 else ""))
         c3, c4 = st.columns(2)
         c3.selectbox(f"Activity{part('S1')}", spaces.ACTIVITIES, index=None, key="ctx-activity",

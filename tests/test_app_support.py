@@ -168,6 +168,7 @@ def test_interactions_view_shows_what_the_robot_heard_and_a_request(tmp_path):
                              robot_action="set a timer", response="accept", type="type_2", user_action="pain check")
     view = app_support.interactions_view(store.interactions_frame("P01", method=None, extra=True))
     assert list(view["robot heard"]) == ["use scissor", "cough"]  # misheard; no recogniser: as set
+    assert list(view["since last activity"]) == ["5-10 min", "5-10 min"]  # S4
     assert list(view["robot saw"]) == ["kitchen", "bedroom"]
     assert list(view["robot proposed"]) == ["remind to put back", "set a timer"]
     assert list(view["answer"]) == ["rejected", "asked for pain check"]

@@ -39,11 +39,13 @@ def test_short_time_and_answers_in_words():
     assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
     assert app_support.short_time("?") == "?"
     assert records.RESPONSE_WORDS == {"accept": "accepted", "reject": "rejected", "others": "no response"}
-    inter = pd.DataFrame({"day": [1, 1], "index": [0, 1], "time_slot": [3, 3], "activity": ["cough"] * 2,
+    inter = pd.DataFrame({"day": [1, 1], "index": [0, 1], "time_slot": [3, 3], "interval": [5, 200],
+                          "activity": ["cough"] * 2,
                           "scene": ["bedroom"] * 2, "type": [records.ROBOT_INITIATED] * 2,
                           "robot_action": ["pain check", "chitchat"], "response": ["others", "reject"],
                           "user_action": ["", ""]})
     assert list(app_support.interactions_view(inter)["answer"]) == ["no response", "rejected"]
+    assert list(app_support.interactions_view(inter)["since last activity"]) == ["5-10 min", "200+ min"]
 
 
 def test_load_run_reads_what_save_run_wrote(tmp_path):

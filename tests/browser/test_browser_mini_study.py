@@ -89,6 +89,7 @@ def shot(page, name: str) -> None:
 def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     """Set a context and press "Do it"; True if the robot proposes an action (not quiet)."""
     choose(page, "Time of day", slot)
+    choose(page, "Time since your last activity", "20 min")
     choose(page, "Activity", activity)
     choose(page, "Room", room)
     click(page, "Do it")
