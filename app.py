@@ -124,8 +124,9 @@ def _sidebar(store) -> None:
                 st.caption("Not started yet.")
             else:
                 state = "open" if status.open else "closed"
-                n = status.interactions_today
-                st.caption(f"Day {status.day} ({state}) · {n} interaction{'' if n == 1 else 's'} that day · "
+                n, more = status.recorded_today, status.unanswered_today
+                st.caption(f"Day {status.day} ({state}) · {n} interaction{'' if n == 1 else 's'} that day"
+                           + (f" (+{more} unanswered)" if more else "") + " · "
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
             st.caption(f"Participant's tablet: [open the tablet view](./?participant={code}&view=tablet)")
         unsaved = ui.unsaved_preference_forms()

@@ -38,7 +38,7 @@ def next_step(has_preferences: bool, status) -> str:
     if status.day == 0:
         return "Start day 1 on the tablet (Study session)"
     if status.open:
-        left = TARGET_INTERACTIONS - status.interactions_today
+        left = TARGET_INTERACTIONS - status.recorded_today  # answered or asked for: as the tablet counts
         if left > 0:
             return f"Day {status.day}: {left} more interactions on the tablet"
         return f"Close day {status.day} and adapt (Adaptation)"
@@ -66,7 +66,7 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
         rows.append({
             "participant": p.code, "age range": p.age_range,
             "day": f"{status.day} of {STUDY_DAYS}" + (" (open)" if status.open else "") if status.day else "not started",
-            "interactions today": status.interactions_today if status.open else 0,
+            "interactions today": status.recorded_today if status.open else 0,
             "success rate so far": success,
             "policy": "initial" if status.policy_version is None else f"version {status.policy_version}",
             "last recorded": short_time(last.iloc[-1]) if len(last) else "",

@@ -148,11 +148,18 @@ class DayStatus:
 
     day: int                 # latest day (0 before the first)
     open: bool
-    interactions_today: int
+    interactions_today: int  # saved on ``day``, answered or not (the next one's number is this + 1)
     total_interactions: int
     policy_version: int | None
     waiting_for_adaptation: bool   # the latest day is closed and not yet adapted
     finished: bool                 # STUDY_DAYS days done (closed)
+    recorded_today: int = 0  # of them, the ones the paper records (answered, or asked for): the ~15 a day
+
+    @property
+    def unanswered_today(self) -> int:
+        """Saved on ``day`` without a data point: a proposal left unanswered, or the robot quiet
+        with nothing asked (saved, but not recorded: Section V-B)."""
+        return self.interactions_today - self.recorded_today
 
     @property
     def day_on_screen(self) -> int:
@@ -167,8 +174,12 @@ class DayStatus:
 def day_status(store, participant: str) -> DayStatus:
     r = store.resume(participant)
     waiting = bool(r.day and not r.day_open and r.day not in adapted_days(store, participant))
+    recorded = 0
+    if r.interactions_today:
+        inter = store.interactions_frame(participant, method=None)
+        recorded = int(records.is_recorded(inter[inter["day"] == r.day]).sum())
     return DayStatus(r.day, r.day_open, r.interactions_today, r.total_interactions, r.policy_version,
-                     waiting, bool(r.day >= STUDY_DAYS and not r.day_open))
+                     waiting, bool(r.day >= STUDY_DAYS and not r.day_open), recorded)
 
 
 def questionnaire_timing(status: DayStatus) -> str:

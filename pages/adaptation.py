@@ -76,7 +76,9 @@ elif running is not None:
 else:
     c1, c2, c3 = st.columns(3)
     c1.metric("Study day", f"{day} ({'open' if status.open else 'closed'})")
-    c2.metric("Interactions that day", status.interactions_today)
+    c2.metric("Interactions that day", status.recorded_today,
+              help="Answered, or asked for: the interactions that give user data (Section V-B)"
+                   + (f"; {status.unanswered_today} more saved without an answer." if status.unanswered_today else "."))
     c3.metric("Policy in force", "initial" if status.policy_version is None else f"version {status.policy_version}")
     with st.expander("Options"):
         st.selectbox("Method", METHODS, key="adapt-method",

@@ -27,8 +27,9 @@ c1, c2, c3, c4 = st.columns(4)
 c1.metric("Participants", len(table))
 c2.metric("Started", int(started.sum()))
 c3.metric("Interactions on open days", int(table["interactions today"].sum()),
-          help="Interactions saved so far on the study days now open, answered or not (a closed day counts 0 "
-               "here); the success rate counts the answered ones and requests only.")
+          help="Interactions so far on the study days now open that count toward the ~15 a day: proposals "
+               "answered and requests, as the success rate counts them (a closed day counts 0 here; unanswered "
+               "ones are saved but not counted).")
 rates = table["success rate so far"].dropna()
 c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
 
@@ -49,8 +50,8 @@ st.dataframe(
             "unanswered proposal, or the robot quiet with nothing asked, is saved but not counted)",
             min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
-            "today", help=f"Interactions on the open day (0 once it is closed); target: about "
-                          f"{TARGET_INTERACTIONS} a day", width=60),
+            "today", help=f"Interactions on the open day that count (answered, or asked for; 0 once the day is "
+                          f"closed); target: about {TARGET_INTERACTIONS} a day", width=60),
         "next step": st.column_config.TextColumn("next step", width=320),
     })
 

@@ -187,10 +187,13 @@ if not status.open:
     st.stop()
 
 day = status.day
-done = status.interactions_today
-st.progress(min(done / TARGET_INTERACTIONS, 1.0),
-            text=f"Day {day} of {STUDY_DAYS} · {done} of about {TARGET_INTERACTIONS} interactions today")
-if done >= TARGET_INTERACTIONS:
+done = status.interactions_today  # saved today: the next interaction's number is done + 1
+# the ~15 a day are interactions the paper records (answered, or asked for): an unanswered one is saved apart
+unanswered = status.unanswered_today
+st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
+            text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
+                 "today" + (f" (and {unanswered} without an answer, which do not count)" if unanswered else ""))
+if status.recorded_today >= TARGET_INTERACTIONS:
     st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
 
 token_ctx = st.query_params.get("ctx")

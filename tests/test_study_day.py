@@ -272,3 +272,18 @@ def test_an_answer_is_told_from_another_screens_answer(store, policy):
     assert not is_same_answer(first, proposal, response="reject")
     assert not is_same_answer(first, proposal, user_action="chitchat")
     assert not is_same_answer({**first, "activity": "cough"}, proposal, response=response)
+
+
+def test_the_days_count_is_of_recorded_interactions(store):
+    """The ~15 a day are interactions the paper records (answered, or asked for); one saved
+    without an answer counts apart, and the next interaction's number counts every one saved."""
+    day = store.open_day("P01")
+    assert (day_status(store, "P01").recorded_today, day_status(store, "P01").unanswered_today) == (0, 0)
+    kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
+    store.record_interaction("P01", day, robot_action="pain check", response="accept", **kw)
+    store.record_interaction("P01", day, robot_action="chitchat", response="others", **kw)  # no response
+    store.record_interaction("P01", day, robot_action="do nothing", response="others", **kw)  # nothing needed
+    store.record_interaction("P01", day, robot_action="do nothing", response="accept", type="type_2",
+                             user_action="pain check", **kw)
+    status = day_status(store, "P01")
+    assert (status.interactions_today, status.recorded_today, status.unanswered_today) == (4, 2, 2)

@@ -337,3 +337,20 @@ def test_the_confirmation_names_what_the_request_names(app, store, p01, quick_po
     _button(at, "Say it").click().run()
     no_exception(at)
     assert "You would like me to remind you to turn the TV off. Is that right?" in texts(at)
+
+
+def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_policy):
+    """The tablet's '~15 a day' counts interactions the paper records; unanswered ones are said apart."""
+    day = store.open_day("P01")
+    kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
+    store.record_interaction("P01", day, robot_action="pain check", response="accept", **kw)
+    store.record_interaction("P01", day, robot_action="chitchat", response="others", **kw)
+    for view in ({}, {"view": "tablet"}):
+        at = app(PAGE, participant="P01", **view)
+        no_exception(at)
+        bar = at.get("progress")[0]
+        assert bar.proto.text == ("Day 1 of 7 · 1 of about 15 interactions today (and 1 without an answer, "
+                                  "which do not count)")
+    at = app(PAGE, participant="P01")  # the researcher's sidebar
+    assert "Day 1 (open) · 1 interaction that day (+1 unanswered) · policy initial" in [
+        c.value for c in at.sidebar.caption]
