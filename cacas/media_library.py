@@ -15,6 +15,7 @@ types and checker), and the same two functions serve both libraries:
 
 from __future__ import annotations
 
+import hashlib
 import os
 import re
 import shutil
@@ -93,6 +94,30 @@ def _entries(folder: Path, kind: MediaKind) -> list[tuple[Path, str]]:
     return out
 
 
+def _digest(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind) -> None:
+    """A file whose bytes are already in the library (under any name), or twice in ``plan``, is
+    refused: a copy could fall into both the training and the test split of a model and flatter
+    its accuracy (or, under another name, teach it two answers for one clip)."""
+    seen: dict[str, Path] = {}
+    if root.is_dir():
+        for sub in (p for p in _visible(root) if p.is_dir()):
+            for f in _visible(sub):
+                if f.is_file() and f.suffix.lower() in kind.extensions:
+                    seen.setdefault(_digest(f), f)
+    for f, _ in plan:
+        digest = _digest(f)
+        if digest in seen:
+            where = seen[digest]
+            place = (f"already in the library as {where.relative_to(root)}" if where.is_relative_to(root)
+                     else f"given twice (also as {where.name})")
+            raise CacasError(f"{f}: the same {kind.item} is {place}; nothing was imported (leave the copy out and import again)")
+        seen[digest] = f
+
+
 def scan(root: Path, kind: MediaKind) -> list[tuple[Path, str]]:
     """Every file of the library at ``root`` as (path, Table I name), by Table I order then file
     name; [] for a library with none. A missing ``root``, a sub-folder that is not a name or a
@@ -108,8 +133,9 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     """Copy ``source/<name or slug>/<file>`` into the library at ``root`` (``root/<slug>/<file>``),
     all or nothing. Refused, with nothing copied: a missing folder, a file beside the name
     folders, a folder that is not a name, a file of another type or one ``kind.check`` refuses,
-    and a folder with no file at all. A name already in the library gets an ``imported_<k>_``
-    prefix. Returns the new paths."""
+    and a folder with no file at all, and a file already in the library (the same bytes, under any
+    name) or given twice. A name already in the library gets an ``imported_<k>_`` prefix.
+    Returns the new paths."""
     source, root = Path(source), Path(root)
     if not source.is_dir():
         raise CacasError(f"{source}: no such folder; expected {kind.layout}")
@@ -123,6 +149,7 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
         kind.check(f)
         if progress:
             progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
+    _refuse_copies(plan, root, kind)
     targets, taken = [], set()
     for f, name in plan:
         folder = root / slug(name)

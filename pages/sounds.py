@@ -54,10 +54,18 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
                      min_value=0.0, max_value=1.0, format="percent")})
 
 
+def _clip_keys() -> tuple[str, str]:
+    """The upload and recording widgets' keys: new ones after clips are added, which empties them
+    (a file left in the uploader invited adding it twice)."""
+    n = st.session_state.get("clip-round", 0)
+    return f"clip-upload-{n}", f"clip-record-{n}"
+
+
 def _add_clips() -> None:
     s = st.session_state
-    files = [(f.name, f.getvalue()) for f in (s.get("clip-upload") or [])]
-    rec = s.get("clip-record")
+    upload_key, record_key = _clip_keys()
+    files = [(f.name, f.getvalue()) for f in (s.get(upload_key) or [])]
+    rec = s.get(record_key)
     if rec is not None:
         files.append(("recording.wav", rec.getvalue()))
     try:
@@ -66,6 +74,7 @@ def _add_clips() -> None:
         s["clip-error"], s["clip-added"] = str(exc), None
         return
     s["clip-error"], s["clip-added"] = None, f"Added {len(added)} clip(s) to '{s['clip-activity']}'."
+    s["clip-round"] = s.get("clip-round", 0) + 1
     st.cache_data.clear()
 
 
@@ -105,8 +114,9 @@ with add:
     st.markdown("Add recordings of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, mixed "
                 "to mono). Every file is checked before anything is added.")
     st.selectbox("Activity", spaces.ACTIVITIES, key="clip-activity")
-    st.file_uploader("Upload clips", type=["wav", "flac", "ogg"], accept_multiple_files=True, key="clip-upload")
-    st.audio_input("Or record one", key="clip-record", sample_rate=32000)
+    upload_key, record_key = _clip_keys()
+    st.file_uploader("Upload clips", type=["wav", "flac", "ogg"], accept_multiple_files=True, key=upload_key)
+    st.audio_input("Or record one", key=record_key, sample_rate=32000)
     st.button("Add to the library", type="primary", on_click=_add_clips, icon=":material/library_add:")
     if st.session_state.get("clip-error"):
         st.error(st.session_state["clip-error"], icon=":material/error:")

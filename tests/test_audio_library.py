@@ -83,13 +83,34 @@ def _researcher_folder(tmp_path):
     return src
 
 
+def _other_clips(src):
+    """Other recordings under the same names."""
+    t = np.arange(16000) / 16000
+    sf.write(src / "cough" / "c1.flac", 0.3 * np.sin(2 * np.pi * 500 * t), 16000)
+    sf.write(src / "Watch TV" / "tv.wav", 0.3 * np.sin(2 * np.pi * 700 * t), 16000)
+
+
 def test_import_folder_copies_checked_recordings(tmp_path):
     src = _researcher_folder(tmp_path)
     lib = tmp_path / "lib"
     copied = library.import_folder(src, root=lib)
     assert sorted(p.relative_to(lib).as_posix() for p in copied) == ["cough/c1.flac", "watch_tv/tv.wav"]
+    with pytest.raises(CacasError, match=r"tv\.wav: the same recording is already in the library as "
+                                          r"watch_tv/tv\.wav; nothing was imported"):
+        library.import_folder(src, root=lib)  # the same clips again: copies would flatter a model's test
+    assert len(library.scan(lib)) == 2
+    _other_clips(src)
     again = library.import_folder(src, root=lib)  # same names: kept apart, not overwritten
     assert sorted(p.name for p in again) == ["imported_1_c1.flac", "imported_1_tv.wav"]
+
+
+def test_import_refuses_a_clip_given_twice_under_two_names(tmp_path):
+    src = _researcher_folder(tmp_path)
+    (src / "sneeze").mkdir()
+    (src / "sneeze" / "s.flac").write_bytes((src / "cough" / "c1.flac").read_bytes())
+    with pytest.raises(CacasError, match=r"s\.flac: the same recording is given twice \(also as c1\.flac\)"):
+        library.import_folder(src, root=tmp_path / "lib")
+    assert not (tmp_path / "lib").exists() or not library.scan(tmp_path / "lib")
 
 
 def test_import_refuses_bad_folder_name_and_copies_nothing(tmp_path):
@@ -146,6 +167,7 @@ def test_import_that_fails_part_way_leaves_the_library_as_it_was(tmp_path, monke
     lib = tmp_path / "lib"
     first = library.import_folder(src, root=lib)
     before = sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*"))
+    _other_clips(src)
     copy = fail_on_call(shutil.copy2, 2)
     monkeypatch.setattr(media_library.shutil, "copy2", copy)
     with pytest.raises(CacasError, match="No space left on device.*nothing was imported"):

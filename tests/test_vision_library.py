@@ -23,6 +23,10 @@ def test_import_copies_checked_photos_by_scene(tmp_path):
     copied = library.import_folder(_photos(tmp_path), root=lib, progress=lambda f, m: told.append(f))
     assert sorted(p.relative_to(lib).as_posix() for p in copied) == ["bedroom/b.jpg", "living_room/a.png"]
     assert told[-1] == 1.0
+    with pytest.raises(CacasError, match=r"a\.png: the same image is already in the library as living_room/a\.png"):
+        library.import_folder(tmp_path / "photos", root=lib)
+    Image.new("RGB", (40, 30), (11, 20, 30)).save(tmp_path / "photos" / "Living Room" / "a.png")  # other photos
+    Image.new("RGB", (40, 30), (91, 20, 30)).save(tmp_path / "photos" / "bedroom" / "b.jpg")
     again = library.import_folder(tmp_path / "photos", root=lib)  # same names: kept apart, not overwritten
     assert sorted(p.name for p in again) == ["imported_1_a.png", "imported_1_b.jpg"]
     assert [p.scene for p in library.scan(lib)] == ["bedroom", "bedroom", "living room", "living room"]
