@@ -147,6 +147,10 @@ with train:
                        f"{data.get('recordings', data.get('images', '?'))} items"
                        f"{' (synthetic)' if data.get('synthetic') else ''} · "
                        f"{meta.get('training_seconds', '?')} s")
+            now = int(_library_counts()["clips"].sum()) if kind == "Sound" else None
+            if now is not None and data.get("recordings") not in (None, now):
+                st.caption(f":material/update: The sound library holds {now} clips now ({data['recordings']} when "
+                           "this model was trained): train it again to use them.")
         key_train, key_eval = f"train-{kind.lower()}", f"eval-{kind.lower()}"
         busy = any(RUNNER.get(k) is not None and RUNNER.get(k).running for k in (key_train, key_eval))
         c1, c2 = st.columns(2)

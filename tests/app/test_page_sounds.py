@@ -121,3 +121,25 @@ def test_a_training_can_be_stopped_and_saves_nothing(app, monkeypatch):
     assert any("Training the sound model was stopped" in i.value and "nothing was saved" in i.value for i in at.info)
     assert any(b.label == "Train the sound model" and not b.disabled for b in at.button)  # it can start again
     RUNNER.forget("train-sound")
+
+
+def test_a_model_trained_on_another_library_says_so(app, monkeypatch):
+    from types import SimpleNamespace
+
+    import cacas.lab
+    from cacas.audio.library import clip_paths
+    from cacas.spaces import ACTIVITIES
+
+    clips = sum(len(clip_paths(a)) for a in ACTIVITIES)
+    trained_on = {"now": clips, "before": clips - 2}
+    for stamp, (when, n) in enumerate(trained_on.items(), 1):  # a model file of its own each (cached by it)
+        monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind, t=stamp: float(t) if kind == "sound" else None)
+        monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind, n=n: SimpleNamespace(metadata={
+            "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": 70,
+            "training_data": {"recordings": n}}))
+        at = app(PAGE)
+        no_exception(at)
+        stale = [c.value for c in at.caption if "train it again" in c.value]
+        assert stale == ([] if when == "now" else [
+            f":material/update: The sound library holds {clips} clips now ({clips - 2} when this model was "
+            "trained): train it again to use them."])
