@@ -521,6 +521,32 @@ def load_run(folder) -> Run:
                by_preference=load_by_preference(folder), settings=settings)
 
 
+def uploaded_personas(name: str, data: bytes) -> list:
+    """The participants of a persona file uploaded to the Simulation lab, checked as an import
+    into the study database is: the persona format (design.md), no contact details in the
+    participants' words, and pseudonymous codes (a run's tables carry them)."""
+    from cacas.preferences import parse_personas, persona_json
+    from cacas.store import validate
+
+    people = parse_personas(persona_json(data, name), name)
+    validate.persona_codes(people, name)
+    return people
+
+
+def persona_source(choice: str, file_name: str | None = None, data: bytes | None = None,
+                   study: str | None = None) -> str:
+    """Where a simulated run's personas came from, for its settings.json: a shipped file, an
+    upload (its name and the first 12 hex digits of its SHA-256, to tell two uploads apart) or a
+    study's participants (their saved preferences at the time of the run)."""
+    import hashlib
+
+    if data is not None:
+        return f"uploaded file {file_name} (sha256 {hashlib.sha256(data).hexdigest()[:12]})"
+    if study is not None:
+        return f"the described preferences of the participants of study {study!r}"
+    return f"study_data/personas/{file_name}" if file_name else choice
+
+
 def check_simulation(participants, methods) -> tuple[str, ...]:
     """The Simulation lab's choice, checked before a run starts: at least one participant and
     known methods (:func:`cacas.experiment.check_methods`); returns the methods."""
@@ -533,9 +559,12 @@ def check_simulation(participants, methods) -> tuple[str, ...]:
 
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
                    seed: int = 0, no_response_rate: float = 0.1, progress=None,
-                   ask_after_reject: float = 0.0, loop: str = "first", jobs: int | None = None) -> Path:
+                   ask_after_reject: float = 0.0, loop: str = "first", jobs: int | None = None,
+                   personas: str | None = None) -> Path:
     """A simulated study (:func:`cacas.experiment.simulate_study`) saved as a run under
     ``out_root`` (see :func:`save_run`); returns the run's folder. For a background job.
+    ``personas`` says where the participants came from (:func:`persona_source`), kept in the
+    run's settings.
     Participants run side by side in ``jobs`` worker processes (default: one per core, as
     ``cacas simulate``); the tables are the same whatever ``jobs``."""
     from datetime import datetime, timezone
@@ -551,7 +580,7 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
     name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,
                 "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate,
-                "ask_after_reject": ask_after_reject, "loop": loop}
+                "ask_after_reject": ask_after_reject, "loop": loop, "personas": personas}
     return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)
 
 

@@ -21,6 +21,7 @@ import numpy as np
 
 from cacas import spaces
 from cacas.errors import CacasError
+from cacas.privacy import contact_details
 
 FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
 
@@ -207,6 +208,10 @@ def parse_preference(obj: Any, source: str | None = None, pid: str | None = None
         desc = ""
     if not isinstance(desc, str):
         raise CacasError(f"{w('description')}: must be text (the participant's own words)")
+    found = contact_details(desc)
+    if found:
+        raise CacasError(f"{w('description')}: holds what looks like contact details ({found!r}); valid: the "
+                         "participant's words without e-mail addresses or phone numbers (study data are pseudonymous)")
     if "action" not in obj:
         raise CacasError(f"{w('action')}: is missing; valid: one of {', '.join(spaces.ACTIONS)}")
     if not isinstance(obj["action"], str):

@@ -10,7 +10,7 @@ from cacas.errors import CacasError
 from cacas.experiment import LOOPS, METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.paths import study_data_dir
-from cacas.preferences import load_personas, parse_personas, persona_json
+from cacas.preferences import load_personas
 from pages import ui
 
 ui.require_app()
@@ -32,16 +32,19 @@ EXAMPLES = {"Example personas (P01-P08)": "example.json",
 choice = st.radio("Personas", [*EXAMPLES, "Upload a persona file", "This study's participants"],
                   horizontal=True, key="sim-source",
                   help="Q01-Q08 are P01-P08 with one more preference: a context where the robot should do nothing.")
-people, problem = [], None
+people, problem, source = [], None, None
 try:
     if choice in EXAMPLES:
         people = load_personas(study_data_dir() / "personas" / EXAMPLES[choice])
+        source = app_support.persona_source(choice, EXAMPLES[choice])
     elif choice.startswith("Upload"):
         up = st.file_uploader("Persona file (.json, design.md's format)", type=["json"], key="sim-upload")
         if up is not None:
-            people = parse_personas(persona_json(up.getvalue(), up.name), up.name)
+            people = app_support.uploaded_personas(up.name, up.getvalue())
+            source = app_support.persona_source(choice, up.name, up.getvalue())
     else:
         people = [p for p in (store.get_preferences(c.code) for c in store.list_participants(study)) if p is not None]
+        source = app_support.persona_source(choice, study=study)
         if not people:
             problem = "No participant of this study has described preferences yet."
 except CacasError as exc:
@@ -86,7 +89,7 @@ if go:
         _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
-                                  ask_after_reject=float(ask_rate), loop=loop,
+                                  ask_after_reject=float(ask_rate), loop=loop, personas=source,
                                   label="Simulating")
         if not started:
             st.warning("A simulation is already running.")
@@ -114,7 +117,8 @@ if runs:
                    f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
                    f" · seed {settings.get('seed')}" + (f" · asks after {ui.percent(settings['ask_after_reject'])} of "
                                                          "rejections" if settings.get("ask_after_reject") else "")
-                   + (" · each method in its own closed loop" if settings.get("loop") == "each" else ""))
+                   + (" · each method in its own closed loop" if settings.get("loop") == "each" else "")
+                   + (f" · personas: {settings['personas']}" if settings.get("personas") else ""))
     c1, c2 = st.columns(2)
     if len(plots.closed_loop_methods(daily)) > 1:
         c1.plotly_chart(plots.success_methods_figure(daily), width="stretch")

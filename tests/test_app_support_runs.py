@@ -159,3 +159,26 @@ def test_a_loaded_daily_csv_keeps_its_counts_whole(tmp_path):
     daily = app_support.load_daily(path)
     assert str(daily["successes"].dtype) == "Int64" and daily["successes"].tolist()[0] == 1
     assert records.csv_bytes(daily).splitlines()[1].endswith(b",4,4,1")
+
+
+def test_an_uploaded_persona_file_is_checked_as_an_import_is_and_its_source_kept():
+    import json
+
+    good = {"participants": [{"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check"}]}]}
+    data = json.dumps(good).encode()
+    assert [p.id for p in app_support.uploaded_personas("mine.json", data)] == ["P01"]
+    named = json.loads(data)
+    named["participants"][0]["id"] = "John Smith"
+    with pytest.raises(CacasError, match=r"mine\.json: participant code 'John Smith' is invalid; valid: a "
+                                         r"pseudonymous code"):
+        app_support.uploaded_personas("mine.json", json.dumps(named).encode())
+    mailed = json.loads(data)
+    mailed["participants"][0]["preferences"][0]["description"] = "if I cough, mail john.smith@example.org"
+    with pytest.raises(CacasError, match=r"mine\.json, participant P01, preference 1 .*field 'description': holds what looks "
+                                         r"like contact details \('john\.smith@example\.org'\)"):
+        app_support.uploaded_personas("mine.json", json.dumps(mailed).encode())
+    source = app_support.persona_source("Upload a persona file", "mine.json", data)
+    assert source.startswith("uploaded file mine.json (sha256 ") and len(source.split("sha256 ")[1]) == 13
+    assert source != app_support.persona_source("Upload a persona file", "mine.json", json.dumps(named).encode())
+    assert app_support.persona_source("x", "example.json") == "study_data/personas/example.json"
+    assert app_support.persona_source("x", study="pilot") == "the described preferences of the participants of study 'pilot'"

@@ -150,6 +150,11 @@ def test_contact_details_in_free_text_are_refused(store, notes, found):
         store.add_participant("P03", notes=notes)
     with pytest.raises(CacasError, match="comments contain what looks like contact details"):
         store.record_questionnaire("P01", 8, notes)
+    described = [{"description": f"when I fall, {notes}", "activity": ["fall down"], "action": "call someone for help"}]
+    with pytest.raises(CacasError, match="field 'description': holds what looks like contact details"):
+        store.save_preferences("P01", described)  # the Participants form
+    with pytest.raises(CacasError, match="field 'description': holds what looks like contact details"):
+        store.import_personas({"participants": [{"id": "P09", "preferences": described}]})
     assert snapshot(store.path) == before
 
 

@@ -195,11 +195,7 @@ class PeopleMixin:
         if isinstance(data, (str, bytes)):
             data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
-        for p in people:
-            try:
-                v.code(p.id)
-            except CacasError as exc:
-                raise CacasError(f"{source or 'persona file'}: {exc}") from None
+        v.persona_codes(people, source)
         study = v.study(study)
 
         def fn(c):

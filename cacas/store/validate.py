@@ -16,6 +16,7 @@ import numpy as np
 
 from cacas import spaces
 from cacas.errors import CacasError
+from cacas.privacy import contact_details
 from cacas.records import ROBOT_INITIATED, USER_INITIATED
 
 #: Pseudonymous participant codes: a letter or digit, then letters, digits, "-" or "_"; at most 16.
@@ -41,6 +42,16 @@ def code(value: Any) -> str:
     return value.strip()
 
 
+def persona_codes(people, source: str | None = None) -> None:
+    """Every participant of a persona file has a pseudonymous code (:func:`code`); the error
+    names the file."""
+    for p in people:
+        try:
+            code(p.id)
+        except CacasError as exc:
+            raise CacasError(f"{source or 'persona file'}: {exc}") from None
+
+
 def study(value: Any) -> str:
     if not isinstance(value, str) or not STUDY_RE.match(value.strip()):
         raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
@@ -58,25 +69,6 @@ def age_range(value: Any) -> str:
     if not m or (m.group(2) is not None and int(m.group(1)) > int(m.group(2))):
         raise CacasError(f"age range {value!r} is invalid; valid: e.g. \"25-34\", \"65+\" or empty")
     return text
-
-
-#: Contact details a note must not hold: an e-mail address, or a phone number (7 or more digits,
-#: with spaces, dots, dashes, brackets or a leading +; a date such as 2026-11-21 or 21.11.2026 is not one).
-_EMAIL_RE = re.compile(r"[\w.+-]+@[\w-]+\.[\w.-]+")
-_PHONE_RE = re.compile(r"(?<![\w-])\+?\(?\d[\d\s().-]{5,}\d(?![\w-])")
-_DATE_TIME_RE = re.compile(r"\b(\d{4}-\d{1,2}-\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{4}|\d{1,2}:\d{2}(:\d{2})?)\b")
-
-
-def contact_details(value: str) -> str | None:
-    """The first e-mail address or phone number in ``value``, or None (study data hold
-    pseudonymous codes, never contact details)."""
-    email = _EMAIL_RE.search(value)
-    if email:
-        return email.group(0)
-    for m in _PHONE_RE.finditer(_DATE_TIME_RE.sub(";", value)):  # dates and times apart
-        if sum(ch.isdigit() for ch in m.group(0)) >= 7:
-            return m.group(0).strip()
-    return None
 
 
 def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:

@@ -32,8 +32,10 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at = app(PAGE)
     job = run_small_study(at, db, ["nn"], lambda at: at.number_input[4].set_value(0.5))  # ask after half
     assert (job.result / "daily.csv").exists()
-    assert "1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections" \
-        in texts(at)
+    assert ("1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections"
+            " · personas: study_data/personas/example.json") in texts(at)
+    import json
+    assert json.loads((job.result / "settings.json").read_text())["personas"] == "study_data/personas/example.json"
     assert len(at.get("plotly_chart")) == 3  # Fig. 3, Fig. 4 and Fig. 4 by described preference
     assert (job.result / "by_preference.csv").exists()
     assert "Which preferences each method learnt" in texts(at)

@@ -1,0 +1,24 @@
+"""Study data are pseudonymous: free text (notes, comments, a preference in the participant's own
+words) must not hold contact details. One check, used by the study database and the persona files."""
+
+from __future__ import annotations
+
+import re
+
+#: Contact details a note must not hold: an e-mail address, or a phone number (7 or more digits,
+#: with spaces, dots, dashes, brackets or a leading +; a date such as 2026-11-21 or 21.11.2026 is not one).
+_EMAIL_RE = re.compile(r"[\w.+-]+@[\w-]+\.[\w.-]+")
+_PHONE_RE = re.compile(r"(?<![\w-])\+?\(?\d[\d\s().-]{5,}\d(?![\w-])")
+_DATE_TIME_RE = re.compile(r"\b(\d{4}-\d{1,2}-\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{4}|\d{1,2}:\d{2}(:\d{2})?)\b")
+
+
+def contact_details(value: str) -> str | None:
+    """The first e-mail address or phone number in ``value``, or None (study data hold
+    pseudonymous codes, never contact details)."""
+    email = _EMAIL_RE.search(value)
+    if email:
+        return email.group(0)
+    for m in _PHONE_RE.finditer(_DATE_TIME_RE.sub(";", value)):  # dates and times apart
+        if sum(ch.isdigit() for ch in m.group(0)) >= 7:
+            return m.group(0).strip()
+    return None
