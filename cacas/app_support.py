@@ -262,6 +262,7 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
             continue
         try:
             parsed.append(prefs.parse_preference(item, None, code, n - 1))
+            prefs.check_private_words(prefs.Participant(code, (parsed[-1],)), None, [n])
         except CacasError as exc:
             errors[n] = _strip_where(str(exc))
     if errors:
@@ -528,8 +529,12 @@ def uploaded_personas(name: str, data: bytes) -> list:
     from cacas.preferences import parse_personas, persona_json
     from cacas.store import validate
 
+    from cacas.preferences import check_private_words
+
     people = parse_personas(persona_json(data, name), name)
     validate.persona_codes(people, name)
+    for person in people:
+        check_private_words(person, name)
     return people
 
 

@@ -129,6 +129,21 @@ class Participant:
 
 # --- validation ----------------------------------------------------------------------------------
 
+def check_private_words(person: "Participant", source: str | None = None, numbers=None) -> None:
+    """Study data are pseudonymous: a preference's own words (its description) must hold no
+    e-mail address or phone number (:func:`cacas.privacy.contact_details`). The error names the
+    source, participant, preference and field. Checked where preferences enter the study
+    database or the Simulation lab's runs (``cacas simulate`` reads the researcher's own file
+    and does not refuse it). ``numbers``: the preferences' numbers (default 1, 2, ...)."""
+    for i, pref in enumerate(person.preferences):
+        found = contact_details(pref.description)
+        if found:
+            n = (numbers[i] if numbers is not None else i + 1) - 1
+            where = _where(source, person.id, n, "description", {"description": pref.description})
+            raise CacasError(f"{where}: holds what looks like contact details ({found!r}); valid: the participant's "
+                             "words without e-mail addresses or phone numbers (study data are pseudonymous)")
+
+
 def _where(source: str | None, pid: str | None = None, pref: int | None = None,
            fld: str | None = None, pref_obj: Any = None) -> str:
     parts = []
@@ -208,10 +223,6 @@ def parse_preference(obj: Any, source: str | None = None, pid: str | None = None
         desc = ""
     if not isinstance(desc, str):
         raise CacasError(f"{w('description')}: must be text (the participant's own words)")
-    found = contact_details(desc)
-    if found:
-        raise CacasError(f"{w('description')}: holds what looks like contact details ({found!r}); valid: the "
-                         "participant's words without e-mail addresses or phone numbers (study data are pseudonymous)")
     if "action" not in obj:
         raise CacasError(f"{w('action')}: is missing; valid: one of {', '.join(spaces.ACTIONS)}")
     if not isinstance(obj["action"], str):

@@ -152,13 +152,15 @@ def test_an_infinite_interval_is_refused():
 
 def test_a_description_with_contact_details_is_refused_naming_the_field():
     from cacas.errors import CacasError
-    from cacas.preferences import parse_personas
+    from cacas.preferences import check_private_words, parse_personas
 
     doc = {"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check"},
         {"description": "When I fall, call my daughter on +44 20 7946 0958", "activity": ["fall down"],
          "action": "call someone for help"}]}]}
-    with pytest.raises(CacasError, match=r"f\.json, participant P01, preference 1 \(\"When I fall.*\"\), field "
+    person = parse_personas(doc, "f.json")[0]  # cacas simulate reads the researcher's own file as it is
+    with pytest.raises(CacasError, match=r"f\.json, participant P01, preference 2 \(\"When I fall.*\"\), field "
                                          r"'description': holds what looks like contact details \('\+44 20 7946 0958'\)"):
-        parse_personas(doc, "f.json")
-    doc["participants"][0]["preferences"][0]["description"] = "When I fall at 07:30 on 2026-11-21, call my daughter"
-    assert parse_personas(doc, "f.json")[0].preferences[0].description.startswith("When I fall")  # dates pass
+        check_private_words(person, "f.json")
+    doc["participants"][0]["preferences"][1]["description"] = "When I fall at 07:30 on 2026-11-21, call my daughter"
+    check_private_words(parse_personas(doc, "f.json")[0], "f.json")  # dates and times pass

@@ -113,7 +113,9 @@ class PeopleMixin:
             items = [p.to_dict() for p in preferences.preferences]
         else:
             items = [p.to_dict() if isinstance(p, prefs.Preference) else p for p in (preferences or [])]
-        return prefs.parse_participant({"id": code, "preferences": items})
+        person = prefs.parse_participant({"id": code, "preferences": items})
+        prefs.check_private_words(person)
+        return person
 
     def save_preferences(self, code: str, preferences: Any) -> int:
         """Store a participant's described preferences as a new version; return the version
@@ -196,6 +198,8 @@ class PeopleMixin:
             data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
         v.persona_codes(people, source)
+        for person in people:
+            prefs.check_private_words(person, source)
         study = v.study(study)
 
         def fn(c):

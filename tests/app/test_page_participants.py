@@ -288,3 +288,19 @@ def test_unsaved_changes_on_a_version_replaced_meanwhile_are_said_to_be_lost(app
     assert not _unsaved(at)
     at.run()
     assert not at.warning  # said once; the sidebar (drawn before the page noticed) says nothing now
+
+
+def test_contact_details_in_a_preferences_words_are_refused_in_place(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 1, activity=["cough"], action="pain check")
+    _fill(at, "P01", 0, 2, words="If I fall, phone 0151 496 0123", activity=["fall down"],
+          action="call someone for help")
+    at.run()
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert [e.value for e in at.error if e.value.startswith("Preference 2")] == [
+        "Preference 2: field 'description': holds what looks like contact details ('0151 496 0123'); valid: the "
+        "participant's words "
+        "without e-mail addresses or phone numbers (study data are pseudonymous)"]
+    assert store.get_preferences("P01") is None
