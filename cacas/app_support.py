@@ -552,14 +552,24 @@ def persona_source(choice: str, file_name: str | None = None, data: bytes | None
     return f"study_data/personas/{file_name}" if file_name else choice
 
 
-def check_simulation(participants, methods) -> tuple[str, ...]:
-    """The Simulation lab's choice, checked before a run starts: at least one participant and
-    known methods (:func:`cacas.experiment.check_methods`); returns the methods."""
-    from cacas.experiment import check_methods
+#: The Simulation lab's labels of a study's sizes, for the messages of its checks.
+SIMULATION_FIELDS = {"days": "Days", "interactions": "Interactions a day", "seed": "Seed",
+                     "no_response_rate": "No-response rate", "ask_after_reject": "Ask after a rejection"}
+
+
+def check_simulation(participants, methods, days: int = 7, interactions: int = 15, seed: int = 0,
+                     no_response_rate: float = 0.1, ask_after_reject: float = 0.0) -> tuple[str, ...]:
+    """The Simulation lab's choice, checked before a run starts: at least one participant, known
+    methods (:func:`cacas.experiment.check_methods`) and the study's sizes
+    (:func:`cacas.experiment.check_study_arguments`, named by the lab's labels); returns the
+    methods."""
+    from cacas.experiment import check_methods, check_study_arguments
 
     if not participants:
         raise CacasError("choose at least one simulated participant")
-    return check_methods(methods)
+    methods = check_methods(methods)
+    check_study_arguments(days, interactions, no_response_rate, ask_after_reject, seed, names=SIMULATION_FIELDS)
+    return methods
 
 
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
@@ -576,7 +586,7 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
 
     from cacas.experiment import default_jobs, simulate_study
 
-    methods = check_simulation(participants, methods)
+    methods = check_simulation(participants, methods, days, interactions, seed, no_response_rate, ask_after_reject)
     result = simulate_study(list(participants), days=days, interactions=interactions, methods=tuple(methods),
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
                             ask_after_reject=ask_after_reject, loop=loop,

@@ -65,20 +65,27 @@ class StudyResult:
 MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
 
 
+#: How :func:`check_study_arguments` names each size: the command line's options.
+OPTION_NAMES = {"days": "--days", "interactions": "--interactions", "seed": "--seed",
+                "no_response_rate": "--no-response-rate", "ask_after_reject": "--ask-after-reject"}
+
+
 def check_study_arguments(days: int, interactions: int, no_response_rate: float,
-                          ask_after_reject: float = 0.0, seed: int = 0) -> None:
-    """A study's sizes, checked before any work (the messages name the command-line options)."""
+                          ask_after_reject: float = 0.0, seed: int = 0, names: dict | None = None) -> None:
+    """A study's sizes, checked before any work. The messages name each size as ``names`` does
+    (default :data:`OPTION_NAMES`, the command-line options; the Simulation lab passes its labels)."""
+    n = {**OPTION_NAMES, **(names or {})}
     if not 1 <= days <= MAX_DAYS:
-        raise CacasError(f"--days {days} is invalid; valid: a whole number of days from 1 to {MAX_DAYS}")
+        raise CacasError(f"{n['days']} {days} is invalid; valid: a whole number of days from 1 to {MAX_DAYS}")
     if not 1 <= interactions <= MAX_INTERACTIONS:
-        raise CacasError(f"--interactions {interactions} is invalid; valid: a whole number from 1 to "
+        raise CacasError(f"{n['interactions']} {interactions} is invalid; valid: a whole number from 1 to "
                          f"{MAX_INTERACTIONS} (one a minute)")
     if not 0 <= seed <= MAX_SEED:
-        raise CacasError(f"--seed {seed} is invalid; valid: a whole number from 0 to {MAX_SEED}")
+        raise CacasError(f"{n['seed']} {seed} is invalid; valid: a whole number from 0 to {MAX_SEED}")
     if not 0 <= no_response_rate < 1:
-        raise CacasError(f"--no-response-rate {no_response_rate} is invalid; valid: 0 <= rate < 1")
+        raise CacasError(f"{n['no_response_rate']} {no_response_rate} is invalid; valid: 0 <= rate < 1")
     if not 0 <= ask_after_reject <= 1:
-        raise CacasError(f"--ask-after-reject {ask_after_reject} is invalid; valid: 0 <= rate <= 1")
+        raise CacasError(f"{n['ask_after_reject']} {ask_after_reject} is invalid; valid: 0 <= rate <= 1")
 
 
 def check_loop(loop: str) -> str:

@@ -61,11 +61,13 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
     chosen = st.multiselect("Simulated participants", list(by_id), default=list(by_id),
                             help="Each follows their described preferences.")
     c1, c2, c3, c4, c5 = st.columns(5)
-    days = c1.number_input("Days", 1, 14, 7)
-    per_day = c2.number_input("Interactions a day", 1, 60, 15)
-    seed = c3.number_input("Seed", 0, 10**6, 0, help="The same seed gives the same tables.")
-    silent = c4.number_input("No-response rate", 0.0, 0.9, 0.1, step=0.05)
-    ask_rate = c5.number_input("Ask after a rejection", 0.0, 1.0, 0.0, step=0.1,
+    # no bounds on the inputs: a value out of range is named by the check under the button (an input's
+    # own bound showed only a red mark, and the button did nothing)
+    days = c1.number_input("Days", value=7, step=1)
+    per_day = c2.number_input("Interactions a day", value=15, step=1)
+    seed = c3.number_input("Seed", value=0, step=1, help="The same seed gives the same tables.")
+    silent = c4.number_input("No-response rate", value=0.1, step=0.05)
+    ask_rate = c5.number_input("Ask after a rejection", value=0.0, step=0.1,
                               help="Share of wrong proposals the simulated participant answers by asking for what "
                                    "they want instead, as the tablet allows. 0: they ask only when the robot does "
                                    "nothing (design.md).")
@@ -82,7 +84,8 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
 if go:
     try:
-        app_support.check_simulation(chosen, methods)
+        app_support.check_simulation(chosen, methods, int(days), int(per_day), int(seed), float(silent),
+                                     float(ask_rate))
     except CacasError as exc:
         st.error(str(exc), icon=":material/error:")
     else:

@@ -86,6 +86,24 @@ def test_simulation_refuses_an_empty_choice_with_the_library_message(app, db):
     assert RUNNER.get(f"simulate:{db}") is None  # nothing started
 
 
+def test_a_size_out_of_range_is_named_under_the_button(app, db):
+    """The inputs have no bounds of their own (a bound showed a red mark and the button did nothing):
+    the check names the field by its label and what is valid."""
+    at = app(PAGE)
+    fields = {n.label: n for n in at.number_input}
+    for label, value, message in [
+            ("Days", 0, "Days 0 is invalid; valid: a whole number of days from 1 to 365"),
+            ("Interactions a day", 5000, "Interactions a day 5000 is invalid; valid: a whole number from 1 to 1440 (one a minute)"),
+            ("No-response rate", 1.0, "No-response rate 1.0 is invalid; valid: 0 <= rate < 1")]:
+        at = app(PAGE)
+        next(n for n in at.number_input if n.label == label).set_value(value)
+        next(b for b in at.button if b.label == "Run simulation").click().run()
+        no_exception(at)
+        assert [e.value for e in at.error] == [message]
+    assert set(fields) >= {"Days", "Interactions a day", "Seed", "No-response rate", "Ask after a rejection"}
+    assert RUNNER.get(f"simulate:{db}") is None  # nothing started
+
+
 def test_a_run_folder_without_its_interactions_is_named_not_a_crash(app, db):
     import pandas as pd
 
