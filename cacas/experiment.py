@@ -193,7 +193,8 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
             progress(min(sum(where) / total, 1.0), message)
 
     if progress:  # then a report per method adapted and per participant-day
-        progress(0.0, f"simulating day 1 of {len(participants)} participant{'s' if len(participants) != 1 else ''} "
+        who = f"{len(participants)} participant{'s' if len(participants) != 1 else ''}"
+        progress(0.0, f"simulating {who} from day 1 "
                       f"({len(methods)} method{'s' if len(methods) != 1 else ''}"
                       f"{', each in its own closed loop' if loop == 'each' and len(methods) > 1 else ''}, "
                       f"{jobs} worker process{'es' if jobs != 1 else ''})")
@@ -219,8 +220,8 @@ def participant_test_states(person: Participant, p_i: int, seed: int, n: int) ->
 
 
 #: adaptation_seed's arithmetic form is collision-free below these (and kept there, so results
-#: published with it stay reproducible): days 1..13 adapted after (a study of up to 14 days,
-#: the Simulation lab's maximum) and 990 participants.
+#: published with it stay reproducible): days 1..13 adapted after (a study of up to 14 days)
+#: and 990 participants.
 _ARITHMETIC_DAYS, _ARITHMETIC_PARTICIPANTS = 13, 990
 
 

@@ -208,7 +208,7 @@ def test_parallel_workers_give_the_same_tables(methods, small_config, small_init
     pd.testing.assert_frame_equal(one.interactions, two.interactions)
     pd.testing.assert_frame_equal(one.by_preference, two.by_preference)
     # at once, what is starting; then the participant-days, reported from the workers
-    assert ticks[0] == 0.0 and words[0] == f"simulating day 1 of {len(PEOPLE)} participants (2 methods, 2 worker processes)"
+    assert ticks[0] == 0.0 and words[0] == f"simulating {len(PEOPLE)} participants from day 1 (2 methods, 2 worker processes)"
     assert ticks[-1] == 1.0 and words[-1].endswith("day 2 of 2 done")
     # reports as each method adapts, not only once a participant-day is over: 2 people x 1 day
     # adapted from x 2 methods, each reported at least once, besides the 4 participant-days

@@ -93,7 +93,8 @@ def test_a_size_out_of_range_is_named_under_the_button(app, db):
     fields = {n.label: n for n in at.number_input}
     for label, value, message in [
             ("Days", 0, "Days 0 is invalid; valid: a whole number of days from 1 to 365"),
-            ("Interactions a day", 5000, "Interactions a day 5000 is invalid; valid: a whole number from 1 to 1440 (one a minute)"),
+            ("Interactions a day", 5000,
+             "Interactions a day 5000 is invalid; valid: a whole number from 1 to 1440 (one a minute)"),
             ("No-response rate", 1.0, "No-response rate 1.0 is invalid; valid: 0 <= rate < 1")]:
         at = app(PAGE)
         next(n for n in at.number_input if n.label == label).set_value(value)
