@@ -323,6 +323,10 @@ def score_request(text: str) -> list[tuple[str, int, tuple[str, ...]]]:
     return [(a, s, h) for a, s, h, _ in out]
 
 
+#: Typed words that ask for nothing ("nothing needed", "leave me alone", "no thanks").
+_NOTHING_WANTED = re.compile(r"\b(nothing|leave me( alone)?|no,? thanks?|no thank you|go away|not now)\b", re.I)
+
+
 def match_request(text: str) -> RequestMatch:
     """Match a typed request to one of the 13 actions other than "do nothing".
 
@@ -330,16 +334,18 @@ def match_request(text: str) -> RequestMatch:
     robot understands; the page shows it in place and the participant can pick from the list.
     """
     if not isinstance(text, str) or not text.strip():
-        raise CacasError("the request is empty; type what you would like the robot to do, "
-                         "e.g. 'remind me to turn off the stove'")
+        raise CacasError("The request is empty. Type what you would like the robot to do, "
+                         "for example 'remind me to turn off the stove'.")
     ranked = score_request(text)
     if not ranked:
-        examples = "; ".join(f"'{request_words(a)}'" for a in
-                             ("remind to turn off", "pain check", "set a timer", "call someone for help"))
+        if _NOTHING_WANTED.search(text):  # not a request: there is an answer for it
+            raise CacasError("All right, nothing then. Press 'Reject' if the robot offered something you do not "
+                             "want, or 'Nothing needed' if it stayed quiet.")
+        examples = " or ".join(f"'{request_words(a)}'" for a in ("pain check", "set a timer"))
         said = text.strip()
         said = said if len(said) <= 60 else said[:57].rstrip() + "..."  # a long text is not echoed whole
-        raise CacasError(f"the robot did not understand {said!r}; try e.g. {examples}, "
-                         f"or pick an action from the list")
+        raise CacasError(f"Sorry, the robot did not understand {said!r}. Try other words, for example "
+                         f"{examples}, or pick what you would like from the list above.")
     best, score, hits = ranked[0]
     return RequestMatch(text=text.strip(), action=best, score=score, matched=hits,
                         alternatives=tuple((a, s) for a, s, _ in ranked[1:]))

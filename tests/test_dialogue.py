@@ -130,3 +130,16 @@ def test_request_words_are_the_participants_words_inside_a_sentence():
     assert request_words("Set a timer") == "set a timer"
     with pytest.raises(CacasError, match="unknown action 'dance'"):
         request_words("dance")
+
+
+@pytest.mark.parametrize("text", ["nothing needed, leave me alone", "No thanks", "please do nothing"])
+def test_asking_for_nothing_is_told_which_answer_says_so(text):
+    """Typing that nothing is wanted is not a request the robot misunderstood: the message names the
+    answers that say so (a walkthrough participant typed 'nothing needed, leave me alone')."""
+    with pytest.raises(CacasError, match=r"^All right, nothing then\. Press 'Reject' .* or 'Nothing needed'"):
+        dialogue.match_request(text)
+
+
+def test_the_misunderstood_message_reads_as_a_sentence():
+    with pytest.raises(CacasError, match=r"^Sorry, the robot did not understand 'asdf qwerty'\. Try other words"):
+        dialogue.match_request("asdf qwerty")
