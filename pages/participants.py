@@ -279,8 +279,8 @@ if code:
             if st.session_state.get("details-error"):
                 st.error(st.session_state["details-error"], icon=":material/error:")
             st.form_submit_button("Save details", on_click=_update_details, args=(code,))
-        st.caption(f"Added {app_support.short_time(info.created_at)} · study {info.study} · "
-                   f"tablet address: `?participant={code}&view=tablet`")
+        st.caption(f"Added {app_support.short_time(info.created_at)} · study {info.study} · tablet address:")
+        ui.tablet_address_note(code)
 
 with tabs["Add a participant"]:
     with st.form("add-participant", border=True):

@@ -163,7 +163,8 @@ if tablet:
     st.markdown(f"## :material/smart_toy: Hello, {code}")
 else:
     st.title(f"Study session · {code}")
-    st.caption(f"Participant's own tablet view (no researcher pages): `?participant={code}&view=tablet`")
+    with st.expander(f"{code}'s own tablet view (no researcher pages): its address"):
+        ui.tablet_address_note(code)
 
 if st.session_state.get("session-error"):
     st.error(st.session_state["session-error"], icon=":material/error:")

@@ -35,6 +35,30 @@ UNSAVED_FORMS_KEY = "participants-unsaved"
 _FORM_KEY_PREFIXES = ("pf-", "count-")
 
 
+def tablet_address(code: str, url: str | None = None) -> str:
+    """The full address of ``code``'s tablet view, from ``url``, the address this browser opened
+    the app at (default ``st.context.url``); ``?participant=...&view=tablet`` alone when unknown."""
+    query = f"?participant={code}&view=tablet"
+    url = (st.context.url if url is None else url) or ""
+    base = url.split("?")[0].split("#")[0]
+    if "://" in base:  # scheme://host[:port]/ ; the app serves every page from its root
+        scheme, rest = base.split("://", 1)
+        base = f"{scheme}://{rest.split('/')[0]}/"
+        return base + query
+    return query
+
+
+def tablet_address_note(code: str) -> None:
+    """The tablet address to copy (st.code has a copy button) and, when the app was opened at
+    this machine's own name, that another device needs the network address."""
+    address = tablet_address(code)
+    st.code(address, language=None)
+    if any(h in address for h in ("://localhost", "://127.0.0.1", "://[::1]")):
+        st.caption("That address works on this computer only: on the participant's tablet, put this computer's "
+                   "network address (the *Network URL* that `streamlit run` prints) in place of "
+                   f"`{address.split('://')[1].split('/')[0]}`.")
+
+
 def keep_preference_forms() -> None:
     """Streamlit drops the state of the widgets a run does not draw, so opening another page lost
     what was typed on a preference form. Writing each of the forms' values back into the session

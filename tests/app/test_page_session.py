@@ -354,3 +354,16 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
     at = app(PAGE, participant="P01")  # the researcher's sidebar
     assert "Day 1 (open) · 1 interaction that day (+1 unanswered) · policy initial" in [
         c.value for c in at.sidebar.caption]
+
+
+def test_the_tablet_address_is_a_whole_address_to_copy(app, store, p01):
+    from pages.ui import tablet_address
+
+    assert tablet_address("P01", "http://192.168.1.20:8501/session?participant=P01&day=1") == \
+        "http://192.168.1.20:8501/?participant=P01&view=tablet"
+    assert tablet_address("P01", "https://lab.example.org/") == "https://lab.example.org/?participant=P01&view=tablet"
+    assert tablet_address("P01", "") == "?participant=P01&view=tablet"  # not known: the part to add
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    shown = [c.value for c in at.code]
+    assert len(shown) == 1 and shown[0].endswith("?participant=P01&view=tablet")
