@@ -13,6 +13,7 @@ from pathlib import Path
 
 import streamlit as st
 
+from cacas import app_support
 from cacas.errors import CacasError
 from cacas.study_day import day_status
 from pages import ui
@@ -66,8 +67,10 @@ def _sync_participant(store) -> None:
             st.session_state[ui.PARTICIPANT_KEY] = info.code
             st.session_state[ui.STUDY_KEY] = info.study
             st.session_state.pop(_UNKNOWN_KEY, None)
-    if st.session_state.get(ui.STUDY_KEY) not in studies:
-        st.session_state[ui.STUDY_KEY] = qp.get("study") if qp.get("study") in studies else studies[0]
+    if st.session_state.get(ui.STUDY_KEY) not in studies:  # a new visit: the address's study, or the one being run
+        latest = app_support.latest_study(store)
+        st.session_state[ui.STUDY_KEY] = (qp.get("study") if qp.get("study") in studies
+                                          else latest if latest in studies else studies[0])
 
 
 def _write_address(store) -> None:

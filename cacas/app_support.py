@@ -47,6 +47,20 @@ def next_step(has_preferences: bool, status) -> str:
     return f"Start day {status.day_on_screen} on the tablet (Study session)"
 
 
+def latest_study(store) -> str | None:
+    """The study a visit without one in its address opens: the one whose participant was the
+    subject of the latest event (the study being run), None if no event is about a participant.
+    It was always "default", so a researcher whose study has another name was greeted with "No
+    participants yet"."""
+    recent = store.events(limit=200)
+    for who in reversed([w for w in recent["participant"].tolist() if isinstance(w, str) and w]):
+        try:
+            return store.get_participant(who).study
+        except CacasError:  # a participant since removed
+            continue
+    return None
+
+
 def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     """One row per participant: day (of 7), interactions today, success rate so far (Fig. 3's
     definition, all days), policy in force, when the last interaction was recorded and what to do next."""

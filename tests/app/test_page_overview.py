@@ -95,3 +95,18 @@ def test_the_address_day_is_the_day_the_tablet_shows(app, store):
     assert address_day() == "2"
     at = app("pages/session.py", participant="P01")
     assert "Start day 2" in [b.label for b in at.button]
+
+
+def test_a_new_visit_opens_the_study_being_run(app, store):
+    """Without a study in the address, the study whose participants were last active opens (it was
+    always "default": "No participants yet" while the study ran under another name)."""
+    store.create_study("pilot-walk")
+    store.add_participant("W01", study="pilot-walk")
+    store.open_day("W01")
+    at = app()
+    no_exception(at)
+    assert at.selectbox(key="study").value == "pilot-walk"
+    assert at.selectbox(key="participant").value == "W01"
+    store.add_participant("P01")  # then a default-study participant is added: that study is the latest
+    assert app().selectbox(key="study").value == "default"
+    assert app(study="pilot-walk").selectbox(key="study").value == "pilot-walk"  # the address wins
