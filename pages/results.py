@@ -207,7 +207,7 @@ with data:
         if name in ("events", "policies", "studies", "preferences", "days") and source == HUMAN:
             continue
         with st.expander(f"{name}.csv · {len(df)} row{'s' if len(df) != 1 else ''}", expanded=name == "daily"):
-            st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)))
+            st.dataframe(ui.as_in_csv(df), hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)))
             ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
         def _bundle() -> bytes:

@@ -273,3 +273,22 @@ def test_human_study_compares_on_the_same_participants(app, store):
     rate = values["Day 2 mean success rate so far"]
     assert rate.value == "100%" and rate.delta == "+33 points since day 1"  # P01: 67% -> 100%
     assert values["Participants on day 2"].value == "1 of 2"
+
+
+def test_tables_show_empty_cells_empty(app, db):
+    """daily.csv's baseline rows have no success rate: the Tables tab shows the cell empty, as the
+    CSV holds it (Streamlit's table wrote "None")."""
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01", "P01"], "method": ["cacas", "nn"], "day": [1, 1],
+                          "success_rate": [0.3, float("nan")], "preference_accuracy": [0.2, 0.1],
+                          "cumulative_feedback": [8, 8], "interactions": [15, 15]})
+    app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    shown = next(d.value for d in at.dataframe if "success_rate" in d.value.columns and len(d.value) == 2)
+    assert list(shown["success_rate"]) == ["0.300000", ""]
+    assert list(shown["day"]) == [1, 1]  # complete columns keep their type
