@@ -482,7 +482,31 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
             if strangers:
                 raise CacasError(f"{names[kind]}: participant(s) {', '.join(strangers[:5])} are not in "
                                  f"{names['daily']}; upload the tables of one study or run")
+    if "interactions" in tables:
+        _check_same_run(tables["daily"], tables["interactions"], names["daily"], names["interactions"])
     return {k: tables[k] for k in UPLOADABLE_TABLES if k in tables}
+
+
+def _check_same_run(daily: pd.DataFrame, interactions: pd.DataFrame, daily_name: str, inter_name: str) -> None:
+    """An interactions.csv belongs to the daily.csv beside it: each of its participant-method-days
+    is a row of daily.csv with as many recorded interactions (:func:`cacas.records.is_recorded`,
+    as daily.csv counts them). Another run's file with the same participant codes was shown
+    beside it unchecked."""
+    key = ["participant", "method", "day"]
+    rows = interactions.assign(day=interactions["day"].astype(int),
+                               participant=interactions["participant"].astype(str),
+                               _recorded=records.is_recorded(interactions).astype(int))
+    counts = rows.groupby(key)["_recorded"].sum()
+    listed = daily.assign(day=daily["day"].astype(int), participant=daily["participant"].astype(str)).set_index(key)
+    for (who, method, day), n in counts.items():
+        if (who, method, day) not in listed.index:
+            raise CacasError(f"{inter_name}: {who} day {day} ({method}) is not in {daily_name}; upload the tables "
+                             "of one study or run")
+        said = listed.loc[(who, method, day), "interactions"]
+        said = said.iloc[0] if isinstance(said, pd.Series) else said
+        if int(said) != int(n):
+            raise CacasError(f"{inter_name}: {who} day {day} ({method}) has {int(n)} recorded interactions, "
+                             f"{daily_name} says {int(said)}; upload the tables of one study or run")
 
 
 def load_by_preference(folder) -> pd.DataFrame | None:

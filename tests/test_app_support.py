@@ -126,13 +126,25 @@ def _csv(df: pd.DataFrame) -> bytes:
 def test_uploaded_tables_are_recognised_by_their_columns():
     daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas")
     by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
-    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(participant="P01")
+    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(
+        participant="P01", method="cacas", day=1, type=records.ROBOT_INITIATED, robot_action="chitchat",
+        response="accept")
     tables = app_support.load_uploaded_tables([("b.csv", _csv(by_pref)), ("i.csv", _csv(inter)),
                                                ("d.csv", _csv(daily))])
     assert list(tables) == ["daily", "by_preference", "interactions"]
     assert list(tables["daily"].columns) == records.DAILY_COLUMNS
     assert tables["by_preference"]["participant"].tolist() == ["P01"]
     assert list(app_support.load_uploaded_tables([("d.csv", _csv(daily))])) == ["daily"]
+    # an interactions.csv of another run with the same codes: named, not shown beside it
+    more = pd.concat([inter, inter.assign(response="reject")])
+    with pytest.raises(CacasError, match=r"i\.csv: P01 day 1 \(cacas\) has 2 recorded interactions, d\.csv says 1; "
+                                         r"upload the tables of one study or run"):
+        app_support.load_uploaded_tables([("i.csv", _csv(more)), ("d.csv", _csv(daily))])
+    with pytest.raises(CacasError, match=r"i\.csv: P01 day 3 \(cacas\) is not in d\.csv"):
+        app_support.load_uploaded_tables([("i.csv", _csv(inter.assign(day=3))), ("d.csv", _csv(daily))])
+    unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
+    loaded = app_support.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily))])
+    assert len(loaded["interactions"]) == 2
 
 
 @pytest.mark.parametrize("files, message", [
