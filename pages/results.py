@@ -140,14 +140,18 @@ with fig4:
                 "described preferences.")
     else:
         st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
-        st.dataframe(summary.style.format("{:.0%}"), width="stretch",
-                     column_config={"_index": st.column_config.TextColumn("method", width="medium")})
+        # as text: "–" where a method has no score that day (Streamlit's table shows "None" for an empty
+        # number whatever the Styler's na_rep)
+        st.dataframe(summary.apply(lambda col: col.map(lambda x: "–" if pd.isna(x) else ui.percent(x))),
+                     width="stretch", column_config={"_index": st.column_config.TextColumn("method", width="medium")})
         left = plots.incomplete_comparisons(accuracy)
+        gone = set(zip(left["participant"], left["day"]))
+        ahead = {d: [w for w in who if (w, d) not in gone] for d, who in sorted(upcoming.items())}
         st.caption("Mean preference accuracy over participants, per method and day (Fig. 4)."
                    + app_support.left_out_note(left, again=source == HUMAN)
                    + "".join(f" Day {d}: the policies adapted for it; {', '.join(who)} "
                              f"{'has' if len(who) == 1 else 'have'} not started it yet."
-                             for d, who in sorted(upcoming.items())))
+                             for d, who in ahead.items() if who))
         if by_pref is not None and len(by_pref):
             st.subheader("Which preferences each method learnt")
             ui.preference_heatmaps(by_pref, key="results-prefs")

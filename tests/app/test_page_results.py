@@ -108,7 +108,7 @@ def test_results_of_a_simulated_run(app, db):
     assert at.metric[1].value == "15 data points" and at.metric[2].value == "1"
     fig4 = at.dataframe[0].value  # the per-method, per-day means under Fig. 4
     assert list(fig4.index) == ["CACAS"] and list(fig4.columns) == ["day 1", "day 2"]
-    assert fig4.loc["CACAS"].tolist() == [0.2, 0.5]
+    assert fig4.loc["CACAS"].tolist() == ["20%", "50%"]
     assert at.select_slider(key="results-prefs-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
@@ -242,7 +242,7 @@ def test_fig4_right_after_an_adaptation_shows_the_policies_for_the_next_day(app,
     at = app(PAGE)
     no_exception(at)
     fig4 = at.dataframe[0].value
-    assert list(fig4.columns) == ["day 1", "day 2"] and fig4.loc["CACAS"].tolist() == [0.25, 0.75]
+    assert list(fig4.columns) == ["day 1", "day 2"] and fig4.loc["CACAS"].tolist() == ["25%", "75%"]
     assert any("Day 2: the policies adapted for it; P01 has not started it yet." in c.value for c in at.caption)
     assert at.metric[0].label == "Day 1 mean success rate"  # Fig. 3 stays with the days that happened
 
@@ -267,7 +267,8 @@ def test_human_study_compares_on_the_same_participants(app, store):
     at = app(PAGE, participant="P01")
     no_exception(at)
     table = next(d.value for d in at.dataframe if "day 1" in list(d.value.columns))
-    assert table.loc["CACAS", "day 1"] == 0.25 and table.loc["NN", "day 1"] == 0.25  # not (0.25 + 0.95) / 2
+    assert table.loc["CACAS", "day 1"] == "25%" and table.loc["NN", "day 1"] == "25%"  # not (25% + 95%) / 2
+    assert table.loc["NN", "day 2"] == "50%"
     assert "so these are left out: W02 day 1 (no NN); compare methods again to add them." in texts(at)
     values = {m.label: m for m in at.metric}
     rate = values["Day 2 mean success rate so far"]
@@ -292,3 +293,10 @@ def test_tables_show_empty_cells_empty(app, db):
     shown = next(d.value for d in at.dataframe if "success_rate" in d.value.columns and len(d.value) == 2)
     assert list(shown["success_rate"]) == ["0.300000", ""]
     assert list(shown["day"]) == [1, 1]  # complete columns keep their type
+    # Fig. 4's table: a method without a score that day shows a dash
+    two = pd.concat([daily, daily.assign(day=2, preference_accuracy=[0.4, float("nan")])])
+    app_support.save_run(app_support.runs_dir(db), "run-b", two, pd.DataFrame({"participant": ["P01"]}), {})
+    at.run()
+    at.selectbox(key="results-run").set_value("run-b").run()
+    fig4 = next(d.value for d in at.dataframe if "day 2" in d.value.columns)
+    assert fig4.loc["NN"].tolist() == ["10%", "–"] and fig4.loc["CACAS"].tolist() == ["20%", "40%"]
