@@ -193,7 +193,8 @@ done = status.interactions_today  # saved today: the next interaction's number i
 unanswered = status.unanswered_today
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
             text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
-                 "today" + (f" (and {unanswered} without an answer, which do not count)" if unanswered else ""))
+                 "today" + (f" (and {unanswered} without an answer, which do{'es' if unanswered == 1 else ''} not count)"
+                            if unanswered else ""))
 if status.recorded_today >= TARGET_INTERACTIONS:
     st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
 

@@ -350,7 +350,7 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
         no_exception(at)
         bar = at.get("progress")[0]
         assert bar.proto.text == ("Day 1 of 7 · 1 of about 15 interactions today (and 1 without an answer, "
-                                  "which do not count)")
+                                  "which does not count)")
     at = app(PAGE, participant="P01")  # the researcher's sidebar
     assert "Day 1 (open) · 1 interaction that day (+1 unanswered) · policy initial" in [
         c.value for c in at.sidebar.caption]

@@ -196,7 +196,7 @@ def test_mini_study(server, page, tmp_path):
     body = text_of(page)
     assert "Interaction 5 saved (you asked: set a timer)" in body
     # the day's count is of recorded interactions: the unanswered one is said apart (Section V-B)
-    assert "4 of about 15 interactions today (and 1 without an answer, which do not count)" in body
+    assert "4 of about 15 interactions today (and 1 without an answer, which does not count)" in body
 
     # --- researcher: close the day and adapt ---------------------------------------------------------
     goto(page, f"{server}/?participant=P01")
