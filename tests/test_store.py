@@ -158,6 +158,19 @@ def test_contact_details_in_free_text_are_refused(store, notes, found):
     assert snapshot(store.path) == before
 
 
+def test_preferences_saved_before_the_contact_details_check_still_read(store):
+    """The check is on the way in: a version an older CACAS Studio saved with a phone number in
+    its words is read (evaluated, exported) as it is."""
+    import json as _json
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    old = [{"description": "call 555-1234", "activity": ["cough"], "action": "pain check"}]
+    with store._lock:
+        store._conn.execute("UPDATE preferences SET preferences = ? WHERE version = 1", (_json.dumps(old),))
+        store._conn.commit()
+    assert store.get_preferences("P01").preferences[0].description == "call 555-1234"
+    assert "555-1234" in store.export_personas()
+
+
 def test_dates_times_and_counts_in_free_text_are_not_contact_details(store):
     notes = "first session 2026-11-21 10:00-12:00, again on 21.11.2026; 3 kids, rated 8 9 10; age 65+"
     assert store.add_participant("P03", notes=notes).notes == notes

@@ -113,9 +113,7 @@ class PeopleMixin:
             items = [p.to_dict() for p in preferences.preferences]
         else:
             items = [p.to_dict() if isinstance(p, prefs.Preference) else p for p in (preferences or [])]
-        person = prefs.parse_participant({"id": code, "preferences": items})
-        prefs.check_private_words(person)
-        return person
+        return prefs.parse_participant({"id": code, "preferences": items})
 
     def save_preferences(self, code: str, preferences: Any) -> int:
         """Store a participant's described preferences as a new version; return the version
@@ -128,6 +126,7 @@ class PeopleMixin:
         """
         code = str(code).strip()
         person = self._parse_preferences(code, preferences)
+        prefs.check_private_words(person)  # on the way in only: versions saved before the check still read
 
         def fn(c):
             return self._save_version(c, self._pid(c, code), code, person)
