@@ -117,6 +117,17 @@ def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
     st.toast(f"Saved version {new_version} of {who}'s preferences.", icon=":material/check_circle:")
 
 
+def _restore_version(who: str, version: int, old: int) -> None:
+    """Put saved version ``old`` of ``who``'s preferences on the form of the version in force, as
+    unsaved changes: saving it makes it the newest version (nothing is overwritten)."""
+    s = st.session_state
+    earlier = store.get_preferences(who, version=old)
+    _drop_form(who)
+    s.update(_form_start(list(earlier.preferences), version, who))
+    s.pop("pref-check", None)
+    st.toast(f"Version {old} is on the form: save it to make it {who}'s preferences again.", icon=":material/history:")
+
+
 def _discard_changes(who: str) -> None:
     _drop_form(who)
     st.session_state.pop("pref-check", None)
@@ -192,6 +203,22 @@ if code:
                          column_config={"covered states": st.column_config.NumberColumn(format="%d")})
             for note in app_support.redundancy_notes(saved):
                 st.warning(note, icon=":material/content_copy:")
+            earlier = [v for v in versions if v["version"] != version]
+            if earlier:
+                with st.expander(f"Earlier versions ({len(earlier)}): every saved version is kept"):
+                    labels = {v["version"]: f"version {v['version']} · saved {app_support.short_time(v['created_at'])}"
+                                            f" · {v['count']} preference{'s' if v['count'] != 1 else ''}"
+                              for v in reversed(earlier)}
+                    old = st.selectbox("Version", list(labels), format_func=labels.get, key=f"old-version-{code}")
+                    before = store.get_preferences(code, version=old)
+                    st.dataframe(app_support.preferences_table(before), hide_index=True, width="stretch")
+                    if any(p.task for p in before.preferences):
+                        st.caption("This version has preferences limited to robot tasks (from an imported file), "
+                                   "which the form cannot hold: import that file again to restore it.")
+                    else:
+                        st.button(f"Put version {old} on the form", icon=":material/history:",
+                                  on_click=_restore_version, args=(code, version, old),
+                                  help="It becomes unsaved changes below: save them to make it the newest version.")
         else:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
 
@@ -208,7 +235,8 @@ if code:
         start = _form_start(existing, version, code)
         for key, value in start.items():  # widgets take their values from the session, filled once
             st.session_state.setdefault(key, value)
-        count = int(st.number_input("Preferences on the form", min_value=1, max_value=max(10, len(existing)),
+        most = max(10, len(existing), int(st.session_state[_count_key(code, version)]))  # a restored version's
+        count = int(st.number_input("Preferences on the form", min_value=1, max_value=most,
                                     key=_count_key(code, version),
                                     help="The paper asks each participant for 5; an imported file may have more."))
         if count < len(existing):  # the slots left off the form are not saved with it

@@ -304,3 +304,27 @@ def test_contact_details_in_a_preferences_words_are_refused_in_place(app, store)
         "participant's words "
         "without e-mail addresses or phone numbers (study data are pseudonymous)"]
     assert store.get_preferences("P01") is None
+
+
+def test_an_earlier_version_can_be_put_back_on_the_form_and_saved(app, store):
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"description": "cough", "activity": ["cough"], "action": "pain check"},
+                                   {"activity": ["fall down"], "action": "call someone for help"}])
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "chitchat"}])  # version 2 in force
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert [e.label for e in at.expander if e.label.startswith("Earlier")] == [
+        "Earlier versions (1): every saved version is kept"]
+    assert at.selectbox(key="old-version-P01").value == 1
+    next(b for b in at.button if b.label == "Put version 1 on the form").click().run()
+    no_exception(at)
+    assert at.selectbox(key="pf-P01-v2-1-action").value == "pain check"
+    assert at.text_input(key="pf-P01-v2-1-words").value == "cough"
+    assert at.multiselect(key="pf-P01-v2-2-activity").value == ["fall down"]
+    assert _unsaved(at) and store.get_preferences("P01").preferences[0].action == "chitchat"  # nothing saved yet
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert [v["version"] for v in store.preference_versions("P01")] == [1, 2, 3]
+    restored = store.get_preferences("P01")
+    assert [p.action for p in restored.preferences] == ["pain check", "call someone for help"]
+    assert restored == store.get_preferences("P01", version=1)
