@@ -153,8 +153,10 @@ else:
                 hide_index=True, width="stretch")
         described = store.get_preferences(code)
         if described is not None and described.preferences:
-            st.markdown(f"**{code}'s described preferences**: how often each policy chooses the preferred action "
-                        "on states the preference covers (Fig. 4's test states; evaluation only).")
+            described_version = store.preference_versions(code)[-1]["version"]
+            st.markdown(f"**{code}'s described preferences** (version {described_version}, saved now): how often "
+                        "each policy chooses the preferred action on states the preference covers (Fig. 4's test "
+                        "states; evaluation only).")
             learnt = preferences_learnt(p_before, p_after, described).drop(columns="preference")
             learnt[["before", "after"]] *= 100
             bar = {"format": "%.0f%%", "min_value": 0, "max_value": 100}
@@ -173,7 +175,9 @@ else:
 st.subheader("Policy versions")
 if versions:
     st.dataframe(app_support.versions_table(versions, runs), hide_index=True, width="stretch",
-                 column_config={"preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
+                 column_config={"preference accuracy": st.column_config.NumberColumn(
+                     format="%.0f%%", help="Fig. 4's accuracy, computed when the version was adapted, on the "
+                                           "described preferences saved at that time")})
     if not active:
         st.caption(":material/info: The initial policy is in force (no version above).")
     with st.form("rollback", border=True):

@@ -69,7 +69,7 @@ def test_close_day_and_adapt(app, store, quick_policy):
     expected = preferences_learnt(quick_policy, adapted, described)
     np.testing.assert_allclose(learnt[["before", "after"]].to_numpy(dtype=float),
                                100 * expected[["before", "after"]].to_numpy(dtype=float))
-    assert "P01's described preferences" in texts(at)
+    assert "P01's described preferences** (version 1, saved now)" in texts(at)  # which version is scored
     # roll back: the banner no longer claims the new version is in force; What changed shows the step back
     at.selectbox(key=f"rollback-version-P01-{active.version}-{active.version}").set_value(0)
     _button(at, "Put in force").click().run()
