@@ -564,10 +564,8 @@ def uploaded_personas(name: str, data: bytes) -> list:
     """The participants of a persona file uploaded to the Simulation lab, checked as an import
     into the study database is: the persona format (design.md), no contact details in the
     participants' words, and pseudonymous codes (a run's tables carry them)."""
-    from cacas.preferences import parse_personas, persona_json
+    from cacas.preferences import check_private_words, parse_personas, persona_json
     from cacas.store import validate
-
-    from cacas.preferences import check_private_words
 
     people = parse_personas(persona_json(data, name), name)
     validate.persona_codes(people, name)

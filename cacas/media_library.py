@@ -114,7 +114,8 @@ def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind) ->
             where = seen[digest]
             place = (f"already in the library as {where.relative_to(root)}" if where.is_relative_to(root)
                      else f"given twice (also as {where.name})")
-            raise CacasError(f"{f}: the same {kind.item} is {place}; nothing was imported (leave the copy out and import again)")
+            raise CacasError(f"{f}: the same {kind.item} is {place}; nothing was imported (leave the copy out "
+                             "and import again)")
         seen[digest] = f
 
 
