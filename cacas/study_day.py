@@ -176,8 +176,7 @@ def day_status(store, participant: str) -> DayStatus:
     waiting = bool(r.day and not r.day_open and r.day not in adapted_days(store, participant))
     recorded = 0
     if r.interactions_today:
-        inter = store.interactions_frame(participant, method=None)
-        recorded = int(records.is_recorded(inter[inter["day"] == r.day]).sum())
+        recorded = int(records.is_recorded(store.interactions_frame(participant, method=None, day=r.day)).sum())
     return DayStatus(r.day, r.day_open, r.interactions_today, r.total_interactions, r.policy_version,
                      waiting, bool(r.day >= STUDY_DAYS and not r.day_open), recorded)
 

@@ -575,3 +575,13 @@ def test_import_of_a_file_that_is_not_personas_names_it_and_writes_nothing(store
     with pytest.raises(CacasError, match=message):
         store.import_personas(data, source="photo.json")
     assert snapshot(store.path) == before
+
+
+def test_interactions_of_one_day(store):
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    assert len(store.interactions_frame("P01", method=None, day=day)) == 1
+    assert len(store.interactions_frame("P01", method=None, day=day + 1)) == 0
+    with pytest.raises(CacasError, match="day"):
+        store.interactions_frame("P01", method=None, day=0)

@@ -177,7 +177,7 @@ class SessionsMixin:
         return self._write(fn)
 
     def interactions_frame(self, participant: str | None = None, method: str | None = "cacas",
-                           study: str | None = None, extra: bool = False) -> pd.DataFrame:
+                           study: str | None = None, extra: bool = False, day: int | None = None) -> pd.DataFrame:
         """The user data: one row per interaction with exactly
         :data:`cacas.records.INTERACTION_COLUMNS` (``extra=True`` appends
         :data:`INTERACTION_EXTRA_COLUMNS`: hour, interval_minutes, recognised activity and scene,
@@ -187,7 +187,7 @@ class SessionsMixin:
         the S4 bin's value in minutes (one of :data:`cacas.spaces.INTERVAL_BINS`, e.g. 10 for 12
         minutes), ``user_action`` "" for type_1; ``time`` is the wall-clock timestamp (UTC,
         ISO 8601) at which it was recorded. Filters: one participant (unknown -> CacasError), one
-        ``method`` (None: all), one ``study``. Sorted by participant, day, index.
+        ``method`` (None: all), one ``study``, one ``day``. Sorted by participant, day, index.
         """
         where, params = [], []
         if participant is not None:
@@ -200,6 +200,9 @@ class SessionsMixin:
         if study is not None:
             where.append("s.name = ?")
             params.append(study)
+        if day is not None:
+            where.append("i.day = ?")
+            params.append(v.integer(day, "day", 1))
         sql = _INTERACTION_SELECT + (" WHERE " + " AND ".join(where) if where else "")
         df = self._frame(sql + " ORDER BY p.code, i.day, i.idx", params)
         df["interval"] = [spaces.INTERVAL_BINS[int(b)] for b in df["interval"]]  # S4 bin -> its minutes
