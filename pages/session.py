@@ -49,6 +49,17 @@ def _library(kind: str, name: str) -> list[str]:
         return []
 
 
+def _warm_up() -> None:
+    """Load the sound and scene models and recognise one library item of each (librosa's first
+    call is slow), once per server process, while the participant chooses a context: the first
+    proposal after a server start spent about 8 s on it (20 s on a busy machine; walkthrough).
+    Both land in the caches the proposal uses."""
+    for kind, name in (("sound", spaces.ACTIVITIES[0]), ("scene", spaces.SCENES[0])):
+        items = _library(kind, name)
+        if items:
+            _recognise(kind, items[0], ui.model_stamp(kind))
+
+
 @st.cache_data(show_spinner=False, max_entries=256)
 def _recognise(kind: str, path: str, stamp: float | None) -> Recognition | None:
     """The recognition of a clip or photo, or None without a model or for a bad file."""
@@ -227,6 +238,7 @@ if context is None:
         c4.selectbox(f"Room{part('S2')}", spaces.SCENES, index=None, key="ctx-scene", placeholder="choose a room")
         st.form_submit_button("Do it", type="primary", icon=":material/play_arrow:", on_click=_set_context,
                               width="stretch")
+    _warm_up()  # after the form: it is on the screen meanwhile
 else:
     index = done + 1
     clip = clip_for(context, code, day, index, _library("sound", context.activity))

@@ -367,3 +367,27 @@ def test_the_tablet_address_is_a_whole_address_to_copy(app, store, p01):
     no_exception(at)
     shown = [c.value for c in at.code]
     assert len(shown) == 1 and shown[0].endswith("?participant=P01&view=tablet")
+
+
+def test_the_models_are_loaded_while_the_context_form_is_shown(app, store, p01, monkeypatch, quick_policy):
+    """The first proposal after a server start loaded both models and ran librosa's slow first call;
+    the form's page does it, after the form is drawn."""
+    import cacas.lab
+
+    seen = []
+
+    class CountingRecognizer:
+        def __init__(self, kind):
+            self.kind = kind
+
+        def recognize(self, path):
+            seen.append((self.kind, path))
+            return None
+
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0)
+    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: CountingRecognizer(kind))
+    store.open_day("P01")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "What are you doing?" in texts(at)
+    assert sorted(kind for kind, _ in seen) == ["scene", "sound"]
