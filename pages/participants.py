@@ -52,11 +52,23 @@ def _update_details(who: str) -> None:
 
 
 def _form_key(who: str, version: int, n: int, field: str) -> str:
-    return f"pf-{who}-v{version}-{n}-{field}"
+    """The session key of a preference-form widget: slot ``n``'s ``field`` (slot 0: the count)."""
+    return f"{ui.FORM_KEY_PREFIX}{who}-v{version}-{n}-{field}"
 
 
 def _count_key(who: str, version: int) -> str:
-    return f"count-{who}-v{version}"
+    return _form_key(who, version, 0, "count")
+
+
+def _form_owner(key) -> tuple[str, str] | None:
+    """(participant, version) of a preference-form key, None for another key. Read from the right:
+    a code may itself hold "-" or "-v"."""
+    key = str(key)
+    if not key.startswith(ui.FORM_KEY_PREFIX):
+        return None
+    who_version = key[len(ui.FORM_KEY_PREFIX):].rsplit("-", 2)[0]
+    who, _, version = who_version.rpartition("-v")
+    return (who, version) if who else None
 
 
 FIELDS = ("words", "activity", "scene", "slots", "interval", "action")
@@ -94,7 +106,7 @@ def _form_items(values, who: str, version: int, count: int, tasks: dict) -> tupl
 def _drop_form(who: str) -> None:
     """Forget ``who``'s form (every version's): it is re-filled from the saved preferences."""
     s = st.session_state
-    for key in [k for k in s if str(k).startswith((f"pf-{who}-v", f"count-{who}-v"))]:
+    for key in [k for k in s if (_form_owner(k) or ("",))[0] == who]:
         del s[key]
     s.setdefault(ui.UNSAVED_FORMS_KEY, {}).pop(who, None)
 
@@ -223,8 +235,8 @@ if code:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
 
         existing = list(saved.preferences) if saved is not None else []
-        stale = {str(k).split("-v")[1].split("-")[0] for k in st.session_state
-                 if str(k).startswith(f"pf-{code}-v") and not str(k).startswith(f"pf-{code}-v{version}-")}
+        owners = {_form_owner(k) for k in st.session_state}
+        stale = {v for who, v in filter(None, owners) if who == code and v != str(version)}
         if stale:  # e.g. a persona file imported meanwhile: the form would edit a version no longer in force
             was_unsaved = st.session_state.get(ui.UNSAVED_FORMS_KEY, {}).get(code)
             _drop_form(code)

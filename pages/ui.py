@@ -31,8 +31,8 @@ PARTICIPANT_KEY = "participant"
 STUDY_KEY = "study"
 #: participant code -> whether their preference form (Participants page) holds unsaved changes
 UNSAVED_FORMS_KEY = "participants-unsaved"
-#: the session keys of the Participants page's preference-form widgets
-_FORM_KEY_PREFIXES = ("pf-", "count-")
+#: the start of the session keys of the Participants page's preference-form widgets
+FORM_KEY_PREFIX = "pf-"
 
 
 def tablet_address(code: str, url: str | None = None) -> str:
@@ -65,7 +65,7 @@ def keep_preference_forms() -> None:
     (before any page runs) makes them plain session values that stay until the form is saved or
     discarded. Called by ``app.py`` on every run."""
     s = st.session_state
-    for key in [k for k in s if str(k).startswith(_FORM_KEY_PREFIXES)]:
+    for key in [k for k in s if str(k).startswith(FORM_KEY_PREFIX)]:
         s[key] = s[key]
 
 

@@ -153,7 +153,7 @@ def test_a_participant_with_more_than_ten_preferences_opens(app, store):
     store.import_personas({"participants": [{"id": "P01", "preferences": prefs}]})
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert at.number_input(key="count-P01-v1").value == 12
+    assert at.number_input(key="pf-P01-v1-0-count").value == 12
     assert "12 preferences" in texts(at)
 
 
@@ -221,7 +221,7 @@ def test_fewer_slots_than_saved_preferences_says_saving_removes_them(app, store)
                                    {"activity": ["fall down"], "action": "call someone for help"}])
     at = app(PAGE, participant="P01")
     assert not at.warning
-    at.number_input(key="count-P01-v1").set_value(1).run()
+    at.number_input(key="pf-P01-v1-0-count").set_value(1).run()
     no_exception(at)
     assert [w.value for w in at.warning] == [
         "Preferences 2, 3 of the saved version are not on the form: saving removes them from the participant's "
@@ -268,7 +268,7 @@ def test_unsaved_changes_survive_other_pages_until_saved_or_discarded(app, store
     assert store.get_preferences("P01").preferences[0].action == "show compassion"
     assert at.selectbox(key="pf-P01-v2-1-action").value == "show compassion"
     assert not _unsaved(at) and not at.sidebar.warning
-    assert "pf-P01-v1-1-action" not in at.session_state and "count-P01-v1" not in at.session_state  # old form gone
+    assert "pf-P01-v1-1-action" not in at.session_state and "pf-P01-v1-0-count" not in at.session_state  # old form gone
 
 
 def test_unsaved_changes_on_a_version_replaced_meanwhile_are_said_to_be_lost(app, store):
@@ -328,3 +328,23 @@ def test_an_earlier_version_can_be_put_back_on_the_form_and_saved(app, store):
     restored = store.get_preferences("P01")
     assert [p.action for p in restored.preferences] == ["pain check", "call someone for help"]
     assert restored == store.get_preferences("P01", version=1)
+
+
+def test_a_code_holding_dashes_keeps_and_discards_its_own_form(app, store):
+    """Form keys are read from the right: a code such as 'A-v2' (valid: letters, digits, '-', '_')
+    is not taken for participant 'A' at version 2, nor its form for a stale version."""
+    for code in ("A", "A-v2"):
+        store.add_participant(code)
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="A-v2")
+    _fill(at, "A-v2", 1, 1, action="chitchat")
+    at.run()
+    assert _unsaved(at) and not at.main.warning
+    at.selectbox(key="participant").set_value("A").run()
+    _fill(at, "A", 1, 1, action="set a timer")
+    at.run()
+    next(b for b in at.button if b.label == "Discard changes").click().run()  # A's form only
+    no_exception(at)
+    assert at.selectbox(key="pf-A-v1-1-action").value == "pain check"
+    at.selectbox(key="participant").set_value("A-v2").run()
+    assert at.selectbox(key="pf-A-v2-v1-1-action").value == "chitchat" and _unsaved(at) and not at.main.warning
