@@ -1,4 +1,5 @@
-"""The sound and scene library in the app (Sections IV-A, V-A): add clips, train, evaluate, try.
+"""The sound and scene library in the app (Sections IV-A, V-A): add clips and photos, train,
+evaluate, try.
 
 Thin wrappers over :mod:`cacas.audio` and :mod:`cacas.vision` so that a page (or a background
 job) does one call: add validated clips to the library (all or nothing, through the libraries'
@@ -29,20 +30,42 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
     """Add recordings of ``activity`` to the sound library: ``files`` are (file name, bytes) from an
     upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
     not silent, no NaN: :func:`cacas.audio.load_clip`); one bad file and nothing is added."""
-    from cacas.audio.library import import_folder, slug
+    from cacas.audio.library import import_folder
 
-    name = spaces.canonical("activity", activity)
+    return _add_files("activity", activity, files, import_folder, root, what="recording",
+                      how="upload a WAV, FLAC or OGG file or record one", default_name="recording_{}.wav")
+
+
+def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
+    """Add photos of the room ``scene`` to the scene library (what the robot's camera sees in a
+    study, Section IV-A): ``files`` are (file name, bytes) from an upload or the camera. Every file
+    is checked first (a readable JPEG / PNG / BMP / WebP image: :func:`cacas.vision.library.load_image`);
+    one bad file and nothing is added."""
+    from cacas.vision.library import import_folder
+
+    return _add_files("scene", scene, files, import_folder, root, what="photo",
+                      how="upload a JPEG or PNG photo or take one", default_name="photo_{}.jpg")
+
+
+def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_folder, root, what: str,
+               how: str, default_name: str) -> list[Path]:
+    """Write ``files`` into a temporary ``<slug>/`` folder and import it into the library, all or
+    nothing (the library's ``import_folder`` checks every file and refuses copies of files already
+    there); an error names each file as the researcher gave it, never our temporary copy."""
+    from cacas.media_library import slug
+
+    name = spaces.canonical(kind, name)
     if not files:
-        raise CacasError("no recording given; upload a WAV, FLAC or OGG file or record one")
+        raise CacasError(f"no {what} given; {how}")
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / slug(name)
         folder.mkdir()
         for i, (fname, data) in enumerate(files):
             if not data:
-                raise CacasError(f"{fname or 'recording'}: is empty (0 bytes)")
-            target = folder / _safe_name(fname, f"recording_{i + 1}.wav")
+                raise CacasError(f"{fname or what}: is empty (0 bytes)")
+            target = folder / _safe_name(fname, default_name.format(i + 1))
             if target.suffix == "":
-                target = target.with_suffix(".wav")
+                target = target.with_suffix(Path(default_name).suffix)
             target.write_bytes(data)
         try:
             return import_folder(tmp, root)

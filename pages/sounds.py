@@ -1,6 +1,6 @@
-"""Sounds and scenes: the sound library (33 activities, playable), new clips by upload or recording,
-training and evaluating the sound CNN and the scene ResNet-18, and trying a clip or a photo
-(Sections IV-A and V-A)."""
+"""Sounds and scenes: the sound library (33 activities, playable) and the scene library (6 rooms),
+new clips by upload or recording and new photos by upload or camera, training and evaluating the
+sound CNN and the scene ResNet-18, and trying a clip or a photo (Sections IV-A and V-A)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import streamlit as st
 
 from cacas import app_support, lab, spaces
 from cacas.audio.library import clip_paths
+from cacas.vision.library import image_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.plots_recognition import confusion_figure
@@ -19,8 +20,9 @@ ui.require_app()
 st.title("Sounds and scenes")
 st.caption("The robot knows the context from what it hears (33 sound activities; MFCC 64 x 32 and a 3-layer CNN) "
            "and what it sees (6 home scenes; ResNet-18). The shipped library is synthetic (generated "
-           "procedurally; no real household recordings can be downloaded here): add your own recordings for a "
-           "real study. The paper's 94.7% sound accuracy is on real recordings.")
+           "procedurally; no real household recordings can be downloaded here): add your own recordings and "
+           "photos of the participant's rooms for a real study. The paper's 94.7% sound accuracy is on real "
+           "recordings.")
 
 
 def _recognise(kind: str, name: str, data: bytes) -> None:
@@ -54,46 +56,80 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
                      min_value=0.0, max_value=1.0, format="percent")})
 
 
-def _clip_keys() -> tuple[str, str]:
-    """The upload and recording widgets' keys: new ones after clips are added, which empties them
-    (a file left in the uploader invited adding it twice)."""
-    n = st.session_state.get("clip-round", 0)
-    return f"clip-upload-{n}", f"clip-record-{n}"
+#: What each library's pages say and use: the Table I names, the page's words, the file types.
+_KINDS = {
+    "sound": dict(names=spaces.ACTIVITIES, label="activity", item="clip", items="clips",
+                  add=lab.add_clips, paths=clip_paths, types=["wav", "flac", "ogg"]),
+    "scene": dict(names=spaces.SCENES, label="room", item="photo", items="photos",
+                  add=lab.add_photos, paths=image_paths, types=["jpg", "jpeg", "png", "bmp", "webp"]),
+}
 
 
-def _add_clips() -> None:
-    s = st.session_state
-    upload_key, record_key = _clip_keys()
+def _upload_keys(kind: str) -> tuple[str, str]:
+    """The upload and recording (or camera) widgets' keys: new ones after files are added, which
+    empties them (a file left in the uploader invited adding it twice)."""
+    n = st.session_state.get(f"{kind}-round", 0)
+    return f"{kind}-upload-{n}", f"{kind}-capture-{n}"
+
+
+def _add(kind: str) -> None:
+    """Add the uploaded (and recorded or photographed) files to the library, all or nothing."""
+    s, k = st.session_state, _KINDS[kind]
+    upload_key, capture_key = _upload_keys(kind)
     files = [(f.name, f.getvalue()) for f in (s.get(upload_key) or [])]
-    rec = s.get(record_key)
-    if rec is not None:
-        files.append(("recording.wav", rec.getvalue()))
+    captured = s.get(capture_key)
+    if captured is not None:
+        files.append(("recording.wav" if kind == "sound" else "camera.jpg", captured.getvalue()))
+    name = s[f"{kind}-add-name"]
     try:
-        added = lab.add_clips(s["clip-activity"], files)
+        added = k["add"](name, files)
     except CacasError as exc:
-        s["clip-error"], s["clip-added"] = str(exc), None
+        s[f"{kind}-error"], s[f"{kind}-added"] = str(exc), None
         return
-    s["clip-error"], s["clip-added"] = None, f"Added {len(added)} clip(s) to '{s['clip-activity']}'."
-    s["clip-round"] = s.get("clip-round", 0) + 1
+    s[f"{kind}-error"], s[f"{kind}-added"] = None, f"Added {len(added)} {k['item']}(s) to '{name}'."
+    s[f"{kind}-round"] = s.get(f"{kind}-round", 0) + 1
     st.cache_data.clear()
 
 
 @st.cache_data(show_spinner=False)
-def _library_counts() -> pd.DataFrame:
+def _library_counts(kind: str) -> pd.DataFrame:
+    """Files in the library for each activity ("sound") or room ("scene")."""
+    k = _KINDS[kind]
     rows = []
-    for a in spaces.ACTIVITIES:
+    for name in k["names"]:
         try:
-            n = len(clip_paths(a))
+            n = len(k["paths"](name))
         except CacasError:
             n = 0
-        rows.append({"activity": a, "clips": n})
+        rows.append({k["label"]: name, k["items"]: n})
     return pd.DataFrame(rows)
 
 
-library, add, train, tryit = st.tabs(["Sound library", "Add clips", "Train and evaluate", "Try a clip or a photo"])
+def _add_tab(kind: str, intro: str) -> None:
+    """Upload files (or record a clip / take a photo) of one activity or room and add them."""
+    k = _KINDS[kind]
+    st.markdown(intro)
+    st.selectbox(k["label"].capitalize(), k["names"], key=f"{kind}-add-name")
+    upload_key, capture_key = _upload_keys(kind)
+    st.file_uploader(f"Upload {k['items']}", type=k["types"], accept_multiple_files=True, key=upload_key)
+    if kind == "sound":
+        st.audio_input("Or record one", key=capture_key, sample_rate=32000)
+    else:
+        with st.expander("Or take one with this device's camera"):
+            st.camera_input("Take a photo", key=capture_key)
+    st.button("Add to the library", type="primary", on_click=_add, args=(kind,), icon=":material/library_add:",
+              key=f"{kind}-add")
+    if st.session_state.get(f"{kind}-error"):
+        st.error(st.session_state[f"{kind}-error"], icon=":material/error:")
+    if st.session_state.get(f"{kind}-added"):
+        st.success(st.session_state[f"{kind}-added"], icon=":material/check_circle:")
 
-with library:
-    counts = _library_counts()
+
+sound_library, add_clip, scene_library, add_photo, train, tryit = st.tabs(
+    ["Sound library", "Add clips", "Scene library", "Add photos", "Train and evaluate", "Try a clip or a photo"])
+
+with sound_library:
+    counts = _library_counts("sound")
     st.markdown(f"**{int(counts['clips'].sum())} clips** for **{int((counts['clips'] > 0).sum())} of 33** activities.")
     cols = st.columns(3)
     for i, row in counts.iterrows():
@@ -110,18 +146,37 @@ with library:
             st.caption(p.name)
             st.audio(str(p), format=lab.audio_mime(p))
 
-with add:
-    st.markdown("Add recordings of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, mixed "
-                "to mono). Every file is checked before anything is added.")
-    st.selectbox("Activity", spaces.ACTIVITIES, key="clip-activity")
-    upload_key, record_key = _clip_keys()
-    st.file_uploader("Upload clips", type=["wav", "flac", "ogg"], accept_multiple_files=True, key=upload_key)
-    st.audio_input("Or record one", key=record_key, sample_rate=32000)
-    st.button("Add to the library", type="primary", on_click=_add_clips, icon=":material/library_add:")
-    if st.session_state.get("clip-error"):
-        st.error(st.session_state["clip-error"], icon=":material/error:")
-    if st.session_state.get("clip-added"):
-        st.success(st.session_state["clip-added"], icon=":material/check_circle:")
+with add_clip:
+    _add_tab("sound", "Add recordings of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, "
+                      "mixed to mono). Every file is checked before anything is added.")
+
+with scene_library:
+    counts = _library_counts("scene")
+    st.markdown(f"**{int(counts['photos'].sum())} photos** for **{int((counts['photos'] > 0).sum())} of "
+                f"{len(spaces.SCENES)}** rooms. In a study, the robot's camera \"sees\" one of the room's photos "
+                "(the same one for the same interaction): photos of the participant's own rooms make it real.")
+    cols = st.columns(3)
+    for i, row in counts.iterrows():
+        with cols[i % 3].container(border=True):
+            st.markdown(f"**{i + 1}. {row['room']}** · {row['photos']} photo(s)")
+            paths = image_paths(row["room"]) if row["photos"] else []
+            if paths:
+                st.image(str(paths[0]), width=160)
+            else:
+                st.caption("No photo yet.")
+    with st.expander("Every photo of one room"):
+        room = st.selectbox("Room", spaces.SCENES, key="lib-room")
+        photos = image_paths(room)[:48]
+        grid = st.columns(6)
+        for j, p in enumerate(photos):
+            grid[j % 6].image(str(p), caption=p.name, width="stretch")
+        if len(image_paths(room)) > len(photos):
+            st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
+
+with add_photo:
+    _add_tab("scene", "Add photos of one room: JPEG, PNG, BMP or WebP, any size (each is resized for the "
+                      "model). Every file is checked before anything is added; a photo already in the library is "
+                      "refused.")
 
 
 def _metrics_view(metrics, kind: str) -> None:
@@ -147,10 +202,12 @@ with train:
                        f"{data.get('recordings', data.get('images', '?'))} items"
                        f"{' (synthetic)' if data.get('synthetic') else ''} · "
                        f"{meta.get('training_seconds', '?')} s")
-            now = int(_library_counts()["clips"].sum()) if kind == "Sound" else None
-            if now is not None and data.get("recordings") not in (None, now):
-                st.caption(f":material/update: The sound library holds {now} clips now ({data['recordings']} when "
-                           "this model was trained): train it again to use them.")
+            k = _KINDS[kind.lower()]
+            now = int(_library_counts(kind.lower())[k["items"]].sum())
+            then = data.get("recordings" if kind == "Sound" else "images")
+            if then is not None and then != now:
+                st.caption(f":material/update: The {kind.lower()} library holds {now} {k['items']} now ({then} "
+                           "when this model was trained): train it again to use them.")
         key_train, key_eval = f"train-{kind.lower()}", f"eval-{kind.lower()}"
         busy = any(RUNNER.get(k) is not None and RUNNER.get(k).running for k in (key_train, key_eval))
         c1, c2 = st.columns(2)

@@ -138,3 +138,35 @@ def test_train_scene_saves_the_model_evaluate_scene_tests_it(study_data, monkeyp
     assert result.recognizer.metadata["kind"] == "scene"
     metrics = lab.evaluate_scene()
     assert metrics.n == 6 and metrics.classes == list(loaded.classes) and metrics.extra["set"] == "all"
+
+
+# --- adding photos of a room to the scene library -----------------------------------------------------
+
+def _png(colour=(200, 120, 40)) -> bytes:
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.new("RGB", (40, 30), colour).save(buf, format="PNG")
+    return buf.getvalue()
+
+
+def test_add_photos_adds_checked_photos_all_or_nothing(tmp_path):
+    from cacas.vision.library import image_paths
+
+    root = tmp_path / "scenes"
+    added = lab.add_photos("Living Room", [("our sofa.png", _png()), ("", _png((10, 20, 30)))], root)
+    assert [(p.parent.name, p.name) for p in added] == [("living_room", "our_sofa.png"), ("living_room", "photo_2.jpg")]
+    assert image_paths("living room", root) == sorted(added)
+    for files, message in (([("notes.png", b"this is text")], r"^notes\.png: not a readable image"),
+                           ([("empty.png", b"")], r"^empty\.png: is empty \(0 bytes\)$"),
+                           ([("again.png", _png())], r"^again\.png: the same image is already in the library as "
+                                                     r"living_room/our_sofa\.png"),
+                           ([], r"^no photo given; upload a JPEG or PNG photo or take one$")):
+        new = [("good.png", _png((1, 2, 3)))] + files if files else files
+        with pytest.raises(CacasError, match=message):
+            lab.add_photos("living room", new, root)
+    assert image_paths("living room", root) == sorted(added)  # nothing half-added
+    with pytest.raises(CacasError, match=r"attic.*valid.*kitchen"):
+        lab.add_photos("attic", [("a.png", _png())], root)

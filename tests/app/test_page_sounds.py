@@ -143,3 +143,27 @@ def test_a_model_trained_on_another_library_says_so(app, monkeypatch):
         assert stale == ([] if when == "now" else [
             f":material/update: The sound library holds {clips} clips now ({clips - 2} when this model was "
             "trained): train it again to use them."])
+
+
+def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app, monkeypatch):
+    from types import SimpleNamespace
+
+    import cacas.lab
+    from cacas.spaces import SCENES
+    from cacas.vision.library import image_paths
+
+    photos = {s: len(image_paths(s)) for s in SCENES}
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 7.0 if kind == "scene" else None)
+    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: SimpleNamespace(metadata={
+        "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": 400,
+        "training_data": {"images": sum(photos.values()) - 5}}))
+    at = app(PAGE)
+    no_exception(at)
+    assert f"**{sum(photos.values())} photos** for **6 of 6** rooms." in [m.value.split(" In a study")[0]
+                                                                          for m in at.markdown]
+    for i, scene in enumerate(SCENES, 1):
+        assert f"**{i}. {scene}** · {photos[scene]} photo(s)" in [m.value for m in at.markdown]
+    assert [c.value for c in at.caption if "train it again" in c.value] == [
+        f":material/update: The scene library holds {sum(photos.values())} photos now ({sum(photos.values()) - 5} "
+        "when this model was trained): train it again to use them."]
+    assert [s.label for s in at.selectbox if s.key in ("sound-add-name", "scene-add-name")] == ["Activity", "Room"]

@@ -4,12 +4,14 @@ headless Chromium with Playwright (design.md: ``playwright install`` cannot down
 from __future__ import annotations
 
 import os
+import shutil
 import socket
 import subprocess
 import sys
 import time
 import urllib.request
 from pathlib import Path
+from types import SimpleNamespace
 
 import pytest
 
@@ -34,12 +36,10 @@ def initial_policy():
     return load_initial_policy()
 
 
-@pytest.fixture(scope="module")
-def server(tmp_path_factory, initial_policy):
-    """The app on a free port with a fresh study database; yields its base URL."""
-    tmp = tmp_path_factory.mktemp("browser")
+def _run_app(tmp: Path, **env):
+    """``streamlit run app.py`` on a free port with ``env`` added; yields its base URL, then stops it."""
     port = _free_port()
-    env = dict(os.environ, CACAS_DB=str(tmp / "study.sqlite"), PYTHONUNBUFFERED="1")
+    env = dict(os.environ, PYTHONUNBUFFERED="1", **env)
     log = open(tmp / "streamlit.log", "w")
     proc = subprocess.Popen(
         [sys.executable, "-m", "streamlit", "run", "app.py", "--server.port", str(port),
@@ -66,6 +66,25 @@ def server(tmp_path_factory, initial_policy):
     except subprocess.TimeoutExpired:
         proc.kill()
     log.close()
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory, initial_policy):
+    """The app on a free port with a fresh study database; yields its base URL."""
+    tmp = tmp_path_factory.mktemp("browser")
+    yield from _run_app(tmp, CACAS_DB=str(tmp / "study.sqlite"))
+
+
+@pytest.fixture(scope="module")
+def library_server(tmp_path_factory):
+    """The app (``.url``) over a study data folder of its own (``.data``: a copy of the shipped scene library, no sound
+    clip, no model), for tests that add to the libraries: the checkout's study_data stays as it is."""
+    tmp = tmp_path_factory.mktemp("libraries")
+    data = tmp / "study_data"
+    shutil.copytree(ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds").mkdir()
+    for url in _run_app(tmp, CACAS_STUDY_DATA=str(data), CACAS_DB=str(tmp / "study.sqlite")):
+        yield SimpleNamespace(url=url, data=data)
 
 
 @pytest.fixture(scope="module")

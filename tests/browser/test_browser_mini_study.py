@@ -332,3 +332,49 @@ def test_a_clip_shorter_than_half_a_second_is_flagged(server, page, tmp_path):
     assert "heard mostly the silence that pads it" in text_of(page)
     assert page.locator("[role='tabpanel']:visible [data-testid='stAudio']").count() == 1  # the clip, to hear
     shot(page, "sounds-short-clip")
+
+
+def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, page, tmp_path):
+    """The researcher adds photos of the participant's own kitchen (what the robot's camera sees in
+    the study); the uploader empties, the library counts them, and the same photo again is refused
+    with nothing added."""
+    from PIL import Image
+
+    from cacas.vision.library import image_paths
+
+    photo = tmp_path / "our kitchen.png"
+    Image.new("RGB", (64, 48), (200, 120, 40)).save(photo)
+    goto(page, f"{library_server.url}/sounds")
+    page.get_by_role("tab", name="Scene library").click()
+    idle(page)
+    assert "240 photos for 6 of 6 rooms" in text_of(page)
+    page.get_by_role("tab", name="Add photos").click()
+    idle(page)
+    panel = page.locator("[role='tabpanel']:visible")
+    panel.locator("[data-testid='stSelectbox'] input").first.click()
+    page.keyboard.type("kitchen")
+    page.get_by_role("option", name="kitchen", exact=True).first.click()
+    idle(page)
+    uploader = panel.locator("[data-testid='stFileUploaderDropzoneInput']").first
+    uploader.set_input_files(str(photo))
+    idle(page)
+    add = page.locator("[role='tabpanel']:visible button").filter(has_text="Add to the library")
+    add.click()
+    idle(page)
+    page.get_by_text("Added 1 photo(s) to 'kitchen'.").wait_for(timeout=30_000)
+    shot(page, "scenes-photo-added")
+    assert page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderFile']").count() == 0  # emptied
+    added = [p for p in image_paths("kitchen", library_server.data / "scenes") if p.name == "our_kitchen.png"]
+    assert len(added) == 1
+    # the same bytes again, under another name: refused, nothing added
+    again = tmp_path / "kitchen again.png"
+    again.write_bytes(photo.read_bytes())
+    page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first.set_input_files(
+        str(again))
+    idle(page)
+    add.click()
+    idle(page)
+    page.get_by_text("the same image is already in the library as kitchen/our_kitchen.png").wait_for(timeout=30_000)
+    page.get_by_role("tab", name="Scene library").click()
+    idle(page)
+    assert "241 photos for 6 of 6 rooms" in text_of(page)
