@@ -102,7 +102,8 @@ def _on_participant_change() -> None:
         st.query_params["participant"] = code
     else:
         st.query_params.pop("participant", None)
-    st.query_params.pop("ctx", None)
+    for key in ("ctx", "at"):  # a proposal belongs to its participant's interaction
+        st.query_params.pop(key, None)
 
 
 def _sidebar(store) -> None:

@@ -99,8 +99,17 @@ def _set_context() -> None:
         s["session-error"] = str(exc)
         return
     s["session-error"] = None
-    st.query_params["ctx"] = ctx.to_token()
+    status = day_status(store, code)
+    # the proposal belongs to one interaction: the browser's Back button brings its address back after
+    # it was answered, and the page must not take it for the next interaction (a second answer)
+    st.query_params["ctx"], st.query_params["at"] = ctx.to_token(), _interaction_mark(status.day,
+                                                                                      status.interactions_today + 1)
     _clear_request()
+
+
+def _interaction_mark(day: int, index: int) -> str:
+    """The address's mark of the interaction a proposal is for: "<day>.<index>"."""
+    return f"{day}.{index}"
 
 
 def _clear_request() -> None:
@@ -112,7 +121,8 @@ def _clear_request() -> None:
 
 
 def _cancel() -> None:
-    st.query_params.pop("ctx", None)
+    for key in ("ctx", "at"):
+        st.query_params.pop(key, None)
     _clear_request()
 
 
@@ -215,7 +225,13 @@ if token_ctx:
     try:
         context = Context.from_token(token_ctx)
     except CacasError:
-        st.query_params.pop("ctx", None)
+        _cancel()
+    else:
+        if st.query_params.get("at") != _interaction_mark(day, done + 1):  # answered already (Back), or stale
+            context = None
+            _cancel()
+            st.info(f"That proposal was answered already. Set what you are doing now for interaction {done + 1}.",
+                    icon=":material/info:")
 
 if context is None:
     previous = previous_interaction(store, code, day)

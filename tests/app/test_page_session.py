@@ -100,7 +100,7 @@ def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
 
 def test_reload_returns_to_the_same_proposal(app, store, p01, quick_policy):
     store.open_day("P01")
-    at = app(PAGE, participant="P01", ctx="3.6.20.2")  # what a refresh sends back
+    at = app(PAGE, participant="P01", ctx="3.6.20.2", at="1.1")  # what a refresh sends back
     no_exception(at)
     assert "use stove" in texts(at) and "kitchen" in texts(at)
     assert any(b.label in ("Accept", "Nothing needed") for b in at.button)
@@ -174,7 +174,7 @@ def test_first_use_prepares_the_initial_policy_in_the_background(app, store, p01
     monkeypatch.setattr(cacas.study_day, "initial_policy_ready", ready.is_set)
     monkeypatch.setattr(cacas.study_day, "prepare_initial_policy", prepare)
     store.open_day("P01")
-    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2", at="1.1")
     no_exception(at)
     job = RUNNER.get("initial-policy")
     assert job is not None and job.running
@@ -205,12 +205,12 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0)
     monkeypatch.setattr(cacas.audio.SoundRecognizer, "load", classmethod(lambda cls, path=None: recognizer))
     store.open_day("P01")
-    at = app(PAGE, participant="P01", ctx="4.6.0.0")  # cough in the bedroom
+    at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1")  # cough in the bedroom
     no_exception(at)
     heard = recognizer.recognize(clip).label
     assert "The robot heard" in texts(at) and f"### {heard}" in texts(at)
     assert "confidence" in texts(at)  # the researcher's view shows the numbers
-    tablet = app(PAGE, participant="P01", ctx="4.6.0.0", view="tablet")  # the participant's: plain labels
+    tablet = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", view="tablet")  # the participant's: plain labels
     no_exception(tablet)
     assert f"### {heard}" in texts(tablet)
     assert "confidence" not in texts(tablet) and "Also possible" not in texts(tablet)
@@ -248,7 +248,7 @@ def test_the_robot_says_when_it_is_not_sure_what_it_heard(app, store, p01, quick
     monkeypatch.setattr(cacas.audio.SoundRecognizer, "load", classmethod(lambda cls, path=None: FixedRecognizer()))
     store.open_day("P01")
     for view in ({}, {"view": "tablet"}):
-        at = app(PAGE, participant="P01", ctx="4.6.0.0", **view)
+        at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", **view)
         no_exception(at)
         assert "### cough" in texts(at)
         assert ("The robot is not sure it heard that right." in texts(at)) == unsure
@@ -275,7 +275,7 @@ def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
 
 def test_an_answer_after_the_day_was_closed_meanwhile_says_it_was_not_saved(app, store, p01, quick_policy):
     day = store.open_day("P01")
-    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2", at="1.1")
     no_exception(at)
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="accept")
@@ -295,7 +295,7 @@ def test_a_missing_policy_file_is_a_message_not_a_crash(app, store, p01, quick_p
     store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
     store.open_day("P01")
     store.active_policy("P01").path.unlink()
-    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2", at="2.1")
     no_exception(at)
     assert "The robot's policy cannot be loaded" in texts(at) and "Adaptation page" in texts(at)
 
@@ -313,7 +313,7 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
 
 def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, quick_policy):
     day = store.open_day("P01")
-    at = app(PAGE, participant="P01", ctx="3.6.20.2")
+    at = app(PAGE, participant="P01", ctx="3.6.20.2", at="1.1")
     no_exception(at)
     label = next(b.label for b in at.button if b.label in ("Accept", "Nothing needed"))
     store.record_interaction("P01", day, activity="use stove", scene="kitchen", hour=7, interval_minutes=20,
@@ -391,3 +391,25 @@ def test_the_models_are_loaded_while_the_context_form_is_shown(app, store, p01, 
     no_exception(at)
     assert "What are you doing?" in texts(at)
     assert sorted(kind for kind, _ in seen) == ["scene", "sound"]
+
+
+def test_the_browsers_back_button_does_not_answer_an_answered_proposal_again(app, store, p01, quick_policy):
+    """Walkthrough: Back brought an accepted proposal's address back, and a Reject on it was saved
+    as the next interaction (an accept and a reject for one event, day 3's success rate 60% not 75%)."""
+    store.open_day("P01")
+    at = app(PAGE, participant="P01")
+    _choose(at)
+    assert at.query_params["at"] in ("1.1", ["1.1"])  # the proposal is for day 1's interaction 1
+    answered = dict(ctx=at.query_params["ctx"], at=at.query_params["at"])
+    _button(at, next(b.label for b in at.button if b.label in ("Accept", "Nothing needed"))).click().run()
+    assert len(store.interactions_frame("P01", method=None)) == 1
+    back = app(PAGE, participant="P01", **{k: v if isinstance(v, str) else v[0] for k, v in answered.items()})
+    no_exception(back)
+    assert "That proposal was answered already. Set what you are doing now for interaction 2." in texts(back)
+    assert not any(b.label in ("Accept", "Reject", "No response", "Nothing needed") for b in back.button)
+    assert "ctx" not in back.query_params and "at" not in back.query_params
+    assert back.selectbox(key="ctx-activity").value is None  # the context form, for the next interaction
+    # an address without its interaction mark (an old link) opens the form too, never a proposal
+    old = app(PAGE, participant="P01", ctx="3.6.20.2")
+    assert not any(b.label in ("Accept", "Nothing needed") for b in old.button)
+    assert len(store.interactions_frame("P01", method=None)) == 1
