@@ -88,7 +88,8 @@ def _start_day() -> None:
 
 def _set_context() -> None:
     s = st.session_state
-    missing = [what for what, key in (("the time since your last activity", "ctx-interval"),
+    missing = [what for what, key in (("the time of day", "ctx-slot"),
+                                      ("the time since your last activity", "ctx-interval"),
                                       ("an activity", "ctx-activity"), ("a room", "ctx-scene")) if s.get(key) is None]
     if missing:
         s["session-error"] = f"Choose {', '.join(missing[:-1]) + ' and ' if len(missing) > 1 else ''}{missing[-1]} first."
@@ -234,17 +235,16 @@ if token_ctx:
                     icon=":material/info:")
 
 if context is None:
-    previous = previous_interaction(store, code, day)
-    slot_default = int(previous["time_slot"]) if previous else 4
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     with st.form("context", border=True):
         st.markdown("#### What are you doing?")
         c1, c2 = st.columns(2)
-        c1.selectbox(f"Time of day{part('S3')}", range(spaces.N_SLOTS), index=slot_default, key="ctx-slot",
-                     format_func=spaces.time_slot_label)
-        # chosen every time, as the activity (Section VI-B: the participant sets S3, S4 and S1); a preset
-        # value was kept unnoticed by participants and recorded as theirs
+        # all four chosen every time (Section VI-B: the participant sets S3, S4 and S1): a preset value
+        # (the time since the last activity at 20 min; the time of day at the previous interaction's) was kept
+        # unnoticed by participants and recorded as theirs
+        c1.selectbox(f"Time of day{part('S3')}", range(spaces.N_SLOTS), index=None, key="ctx-slot",
+                     placeholder="choose the time", format_func=spaces.time_slot_label)
         c2.selectbox(f"Time since your last activity{part('S4')}", range(spaces.N_INTERVALS), index=None,
                      key="ctx-interval", placeholder="choose how long",
                      format_func=lambda i: f"{spaces.INTERVAL_BINS[i]} min" + ("+" if i == spaces.N_INTERVALS - 1 else ""))

@@ -260,10 +260,13 @@ def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
     at.selectbox(key="ctx-activity").set_value("cough")
     _button(at, "Do it").click().run()
     no_exception(at)
-    assert "Choose the time since your last activity and a room first." in texts(at)
+    assert "Choose the time of day, the time since your last activity and a room first." in texts(at)
     assert "ctx" not in at.query_params
     # nothing preset: a value the participant did not choose would be recorded as theirs
-    assert at.selectbox(key="ctx-interval").value is None
+    assert at.selectbox(key="ctx-interval").value is None and at.selectbox(key="ctx-slot").value is None
+    at.selectbox(key="ctx-slot").set_value(5)
+    _button(at, "Do it").click().run()
+    assert "Choose the time since your last activity and a room first." in texts(at)
     at.selectbox(key="ctx-interval").set_value(2)
     at.selectbox(key="ctx-activity").set_value(None)
     _button(at, "Do it").click().run()
