@@ -659,3 +659,24 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
                      f"(no {', '.join(plots.METHOD_LABELS.get(m, m) for m in missing)})")
     return (" Methods are compared on the same participants, so these are left out: " + "; ".join(parts)
             + ("; compare methods again to add them." if again else "."))
+
+
+def next_day_view(ahead: pd.DataFrame) -> pd.DataFrame:
+    """The Results page's table of the policies adapted for a day not started yet
+    (:func:`cacas.export.next_day_accuracy`): one row per participant and day, one column per
+    method (in the figures' order) with its accuracy in percent, the policy in force marked."""
+    order = {m: i for i, m in enumerate(plots.METHOD_LABELS)}
+    rows = []
+    for (who, day), g in ahead.groupby(["participant", "day"], sort=True):
+        row = {"participant": who, "day": int(day)}
+        for m in sorted(g["method"], key=lambda m: (order.get(m, len(order)), m)):
+            r = g[g["method"] == m].iloc[0]
+            row[plots.METHOD_LABELS.get(m, m)] = percent(r["preference_accuracy"]) + (" in force" if r["in_force"] else "")
+        rows.append(row)
+    return pd.DataFrame(rows).fillna("–")
+
+
+def percent(x: float | None) -> str:
+    """A share as a whole percentage, halves rounded up as the tables' "%.0f%%" columns show them
+    (72.5 -> "73%" in both; Python's format rounds halves to even); "–" for none."""
+    return "–" if x is None or pd.isna(x) else f"{math.floor(100 * x + 0.5):.0f}%"

@@ -55,16 +55,14 @@ class ExportResult:
     bundle: Path | None  # None: tables only
 
 
-def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
-                  ahead: bool = False) -> pd.DataFrame:
+def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
     """participant, method, day, run: for every day a participant has, the adaptation run (its
     position in ``adaptations``) whose policy each method had in force that day.
 
     A run recorded for day d (adapted from days 1..d; day 0: the initial policy) is in force on
     day d + 1 (the latest such run of its method). Where a day's interactions name the policy
     version in force and a run produced that version, that run is used instead (this follows a
-    roll-back). With ``ahead``, also the day after a participant's latest day once that day is
-    closed: the runs adapted for a day not started yet (Fig. 4 right after an adaptation).
+    roll-back). Days not started yet are not listed (:func:`next_day_accuracy` scores them).
     """
     cols = ["participant", "method", "day", "run"]
     if not len(adaptations):
@@ -87,37 +85,30 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
                 run.loc[(who, method, int(day))] = hit.index[-1]
     run = run.reset_index()
     have = set(zip(days["participant"], days["day"].astype(int)))
-    if ahead and len(days):
-        latest = days.assign(day=days["day"].astype(int)).sort_values("day").drop_duplicates("participant", keep="last")
-        have |= {(p, d + 1) for p, d, closed in zip(latest["participant"], latest["day"], latest["closed_at"])
-                 if isinstance(closed, str) and closed}
     keep = [(p, int(d)) in have for p, d in zip(run["participant"], run["day"])]
     run = run[keep].astype({"day": "int64", "run": "int64"})
     return run.sort_values(["participant", "method", "day"]).reset_index(drop=True)[cols]
 
 
-def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
-                   ahead: bool = False) -> pd.DataFrame:
+def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
     """participant, method, day, preference_accuracy: Fig. 4's metric of the policy in force
     (the run of :func:`runs_in_force`): its ``metrics["preference_accuracy"]``, NaN if absent.
-    Only days the participant has are listed (with ``ahead``, also the day after a closed
-    latest day, see :func:`runs_in_force`)."""
+    Only days the participant has are listed."""
     cols = ["participant", "method", "day", "preference_accuracy"]
-    found = runs_in_force(interactions, adaptations, days, ahead)
+    found = runs_in_force(interactions, adaptations, days)
     if not len(found):
         return pd.DataFrame(columns=cols)
     value = adaptations["preference_accuracy"].astype(float).to_numpy()[found["run"].to_numpy()]
     return found.assign(preference_accuracy=value)[cols]
 
 
-def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
-                        ahead: bool = False) -> pd.DataFrame:
+def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
     """by_preference.csv of a human study (:data:`cacas.records.BY_PREFERENCE_COLUMNS`, as
     ``cacas simulate`` writes it): Fig. 4 by described preference for the policy in force each
-    day (the run of :func:`runs_in_force`, with ``ahead`` as there), from its
+    day (the run of :func:`runs_in_force`), from its
     ``metrics["by_preference"]``; runs recorded without it (or for participants without
     described preferences) give no rows."""
-    found = runs_in_force(interactions, adaptations, days, ahead)
+    found = runs_in_force(interactions, adaptations, days)
     metrics = adaptations["metrics"].to_numpy()
     rows = []
     for who, method, day, run in found.itertuples(index=False):
@@ -131,20 +122,44 @@ def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, d
                       "accuracy": "float64"})
 
 
-def fig4_ahead(tables: dict[str, pd.DataFrame]) -> tuple[pd.DataFrame, pd.DataFrame, dict[int, list[str]]]:
-    """Fig. 4 of a human study's tables (:func:`export_tables`) up to the day ahead: (accuracy
-    rows as :func:`accuracy_frame`, by-preference rows as :func:`by_preference_frame`, both with
-    ``ahead``; {day: participants} of the days in them not started yet). Right after a day is
-    closed and adapted (and the methods compared), its adapted policies are for the next day,
-    which daily.csv lists only once it has begun."""
-    inter, runs, days = tables["interactions"], tables["adaptations"], tables["days"]
-    accuracy = accuracy_frame(inter, runs, days, ahead=True)
-    started = set(zip(days["participant"], days["day"].astype(int)))
-    upcoming: dict[int, list[str]] = {}
-    for who, day in accuracy[["participant", "day"]].drop_duplicates().itertuples(index=False):
-        if (who, int(day)) not in started:
-            upcoming.setdefault(int(day), []).append(who)
-    return accuracy, by_preference_frame(inter, runs, days, ahead=True), upcoming
+def next_day_accuracy(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
+    """participant, day, method, preference_accuracy, in_force: Fig. 4's metric of the policies
+    adapted for a participant's next day, which has not started (their latest day is closed), from
+    a human study's tables (:func:`export_tables`). Each method's latest run adapted after that
+    day; for the policy the participant has in force (after a roll-back an earlier version, or
+    the initial policy: the day-0 run), the run that produced it, marked ``in_force``.
+
+    Fig. 4 and daily.csv list a day once it has begun (:func:`accuracy_frame`); this is what the
+    robot will do on the day ahead, right after an adaptation (and a comparison of methods)."""
+    cols = ["participant", "day", "method", "preference_accuracy", "in_force"]
+    runs, days, policies = tables["adaptations"].reset_index(drop=True), tables["days"], tables["policies"]
+    if not len(runs) or not len(days):
+        return pd.DataFrame(columns=cols)
+    latest = days.assign(day=days["day"].astype(int)).sort_values("day").drop_duplicates("participant", keep="last")
+    rows = []
+    for who, day, closed in zip(latest["participant"], latest["day"], latest["closed_at"]):
+        if not (isinstance(closed, str) and closed):
+            continue  # the day is open: nothing is ahead of it yet
+        mine = runs[runs["participant"] == who]
+        chosen = {m: group.index[-1] for m, group in mine[mine["day"].astype(int) == day].groupby("method", sort=False)}
+        in_force = None
+        saved = policies[policies["participant"] == who]
+        if len(saved):  # the participant's policy in force: the active version, or the initial policy
+            active = saved[saved["active"].eq(1)]  # NULL when the initial policy is in force
+            if len(active):
+                hit = mine[mine["policy_version"] == active["version"].iloc[-1]]
+            else:
+                method = saved["method"].iloc[-1]
+                hit = mine[(mine["day"].astype(int) == 0) & (mine["method"] == method)]
+            if len(hit):
+                in_force = hit["method"].iloc[-1]
+                chosen[in_force] = hit.index[-1]
+        for method, run in chosen.items():
+            rows.append({"participant": who, "day": day + 1, "method": method,
+                         "preference_accuracy": float(runs.at[run, "preference_accuracy"]),
+                         "in_force": method == in_force})
+    return pd.DataFrame(rows, columns=cols).astype({"day": "int64", "preference_accuracy": "float64",
+                                                     "in_force": "bool"})
 
 
 def described_preferences(store: StudyStore, interactions: pd.DataFrame) -> dict:
@@ -313,5 +328,5 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame",
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "next_day_accuracy",
            "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]

@@ -11,7 +11,7 @@ import streamlit as st
 
 from cacas import app_support, plots, records
 from cacas.errors import CacasError
-from cacas.export import export_study, export_tables, fig4_ahead
+from cacas.export import export_study, export_tables, next_day_accuracy
 from cacas.jobs import FAILED, RUNNER
 from cacas.study_day import compare_methods, day_status, questionnaire_timing
 from pages import ui
@@ -132,8 +132,9 @@ with fig4:
                 st.rerun()
             if job is not None and job.status == FAILED:
                 st.error(f"The comparison failed: {job.error}")
-    accuracy, by_pref, upcoming = (fig4_ahead(tables) if source == HUMAN
-                                   else (daily, tables.get("by_preference"), {}))
+    # Fig. 4 is daily.csv's, whatever the source: the day a policy was in force (re-plotting the export
+    # draws the same figure); policies adapted for a day not started yet are listed below it
+    accuracy, by_pref = daily, tables.get("by_preference")
     summary = plots.accuracy_table(accuracy)
     if summary.empty:
         st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
@@ -145,16 +146,18 @@ with fig4:
         st.dataframe(summary.apply(lambda col: col.map(lambda x: "–" if pd.isna(x) else ui.percent(x))),
                      width="stretch", column_config={"_index": st.column_config.TextColumn("method", width="medium")})
         left = plots.incomplete_comparisons(accuracy)
-        gone = set(zip(left["participant"], left["day"]))
-        ahead = {d: [w for w in who if (w, d) not in gone] for d, who in sorted(upcoming.items())}
-        st.caption("Mean preference accuracy over participants, per method and day (Fig. 4)."
-                   + app_support.left_out_note(left, again=source == HUMAN)
-                   + "".join(f" Day {d}: the policies adapted for it; {', '.join(who)} "
-                             f"{'has' if len(who) == 1 else 'have'} not started it yet."
-                             for d, who in ahead.items() if who))
-        if by_pref is not None and len(by_pref):
-            st.subheader("Which preferences each method learnt")
-            ui.preference_heatmaps(by_pref, key="results-prefs")
+        st.caption("Mean preference accuracy over participants, per method and day (Fig. 4): each day's "
+                   "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN))
+    ahead = next_day_accuracy(tables) if source == HUMAN else []
+    if len(ahead):
+        st.markdown("**Adapted for the next day, not started yet**")
+        st.dataframe(app_support.next_day_view(ahead), hide_index=True, width="stretch")
+        st.caption("Each method's policy adapted after the participant's last day, scored as in Fig. 4; \"in "
+                   "force\" marks the policy the robot will use (after a roll-back, an earlier one). Fig. 4 and "
+                   "daily.csv take these in once the day has begun.")
+    if not summary.empty and by_pref is not None and len(by_pref):
+        st.subheader("Which preferences each method learnt")
+        ui.preference_heatmaps(by_pref, key="results-prefs")
 
 with quest:
     if source != HUMAN:

@@ -3,7 +3,6 @@ background-job progress. Layout only; everything that computes or stores is in `
 
 from __future__ import annotations
 
-import math
 import time
 
 import pandas as pd
@@ -171,10 +170,8 @@ def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key
                        mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:")
 
 
-def percent(x: float) -> str:
-    """A share as a whole percentage, halves rounded up as the tables' "%.0f%%" columns show them
-    (72.5 -> "73%" in both; Python's format rounds halves to even)."""
-    return "–" if x is None or pd.isna(x) else f"{math.floor(100 * x + 0.5):.0f}%"
+#: A share as a whole percentage (halves rounded up), "–" for none.
+percent = app_support.percent
 
 
 #: What a stopped job leaves, for work that saves only at its end (trainers, simulations).

@@ -143,20 +143,26 @@ def test_by_preference_table_follows_the_runs_in_force(store):
         assert math.isclose(daily.loc[(row.participant, row.method, row.day)], row.accuracy)
 
 
-def test_fig4_reaches_the_day_after_a_closed_and_adapted_day(store):
-    tables = export.export_tables(store)
-    accuracy, by_pref, upcoming = export.fig4_ahead(tables)
+def test_next_day_accuracy_scores_the_policies_adapted_for_a_day_not_started(store):
+    def ahead():
+        table = export.next_day_accuracy(export.export_tables(store))
+        return {(r.participant, r.day, r.method): (round(r.preference_accuracy, 6), r.in_force)
+                for r in table.itertuples()}
+
     # both participants closed day 2 and adapted: those policies are for day 3, not started yet
-    assert upcoming == {3: ["P01", "P02"]}
-    day3 = accuracy[accuracy["day"] == 3].set_index(["participant", "method"])["preference_accuracy"]
-    assert day3.to_dict() == pytest.approx({("P01", "cacas"): 0.7, ("P01", "nn"): 0.2, ("P02", "cacas"): 0.7,
-                                            ("P02", "nn"): 0.2})
-    assert list(by_pref.loc[(by_pref["participant"] == "P01") & (by_pref["day"] == 3), "correct"]) == [280]
-    assert tables["daily"]["day"].max() == 2  # daily.csv lists days that have begun, as before
-    # once P01 opens day 3 it is a day like the others, and an open day has nothing ahead of it
+    assert ahead() == {("P01", 3, "cacas"): (0.7, True), ("P01", 3, "nn"): (0.2, False),
+                       ("P02", 3, "cacas"): (0.7, True), ("P02", 3, "nn"): (0.2, False)}
+    assert export.export_tables(store)["daily"]["day"].max() == 2  # Fig. 4 and daily.csv: days begun
+    # a roll-back changes what the robot will do: P01's version 1 (adapted after day 1), then the
+    # initial policy (its day-0 run); P02 has no day-0 run, so nothing is marked in force
+    store.set_active_policy("P01", 1)
+    assert ahead()[("P01", 3, "cacas")] == (0.6, True)
+    store.set_active_policy("P01", None)
+    store.set_active_policy("P02", None)
+    assert ahead()[("P01", 3, "cacas")] == (0.3, True) and ahead()[("P02", 3, "cacas")] == (0.7, False)
+    # once a day is open nothing is ahead of it
     store.open_day("P01")
-    accuracy, _, upcoming = export.fig4_ahead(export.export_tables(store))
-    assert upcoming == {3: ["P02"]} and accuracy["day"].max() == 3
+    assert {k[0] for k in ahead()} == {"P02"}
 
 
 def test_by_preference_of_a_preference_without_test_states_is_empty_not_zero():
