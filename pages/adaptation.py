@@ -10,7 +10,7 @@ from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
-from cacas.study_day import adapt_day, day_status
+from cacas.study_day import TARGET_INTERACTIONS, adapt_day, day_status
 from pages import ui
 
 ui.require_app()
@@ -86,8 +86,15 @@ else:
                           "on the user data alone.")
         st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
     if status.open:
+        # closing cannot be undone: a day short of the ~15 interactions is closed only when the researcher says so
+        short = 0 < status.interactions_today and status.recorded_today < TARGET_INTERACTIONS
+        sure = not short or st.checkbox(
+            f"Close day {day} with {status.recorded_today} of about {TARGET_INTERACTIONS} interactions",
+            key=f"close-short-{code}-{day}",
+            help="A closed day takes no more interactions and cannot be reopened. If the tablet shows a proposal, "
+                 "let the participant answer it first: an answer given after closing is not saved.")
         st.button(f"Close day {day} and adapt", type="primary", icon=":material/model_training:",
-                  on_click=_start, args=(code, day), disabled=status.interactions_today == 0,
+                  on_click=_start, args=(code, day), disabled=status.interactions_today == 0 or not sure,
                   help="Closes the day (no more interactions on it) and adapts the policy.")
         if status.interactions_today == 0:
             st.caption("No interactions on this day yet.")
@@ -153,8 +160,9 @@ else:
                 hide_index=True, width="stretch")
         described = store.get_preferences(code)
         if described is not None and described.preferences:
-            described_version = store.preference_versions(code)[-1]["version"]
-            st.markdown(f"**{code}'s described preferences** (version {described_version}, saved now): how often "
+            latest = store.preference_versions(code)[-1]
+            st.markdown(f"**{code}'s described preferences** (version {latest['version']}, the latest, saved "
+                        f"{app_support.short_time(latest['created_at'])}): how often "
                         "each policy chooses the preferred action on states the preference covers (Fig. 4's test "
                         "states; evaluation only).")
             learnt = preferences_learnt(p_before, p_after, described).drop(columns="preference")

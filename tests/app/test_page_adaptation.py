@@ -41,6 +41,11 @@ def test_close_day_and_adapt(app, store, quick_policy):
     day = _day_with_interactions(store)
     at = app(PAGE, participant="P01")
     no_exception(at)
+    # 4 of about 15: closing, which cannot be undone, waits for the researcher to say so (walkthrough: one
+    # click closed a day of 2 interactions)
+    assert _button(at, f"Close day {day} and adapt").disabled
+    at.checkbox(key=f"close-short-P01-{day}").check().run()
+    assert at.checkbox(key=f"close-short-P01-{day}").label == f"Close day {day} with 4 of about 15 interactions"
     _button(at, f"Close day {day} and adapt").click().run()
     job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
     assert job is not None
@@ -69,7 +74,8 @@ def test_close_day_and_adapt(app, store, quick_policy):
     expected = preferences_learnt(quick_policy, adapted, described)
     np.testing.assert_allclose(learnt[["before", "after"]].to_numpy(dtype=float),
                                100 * expected[["before", "after"]].to_numpy(dtype=float))
-    assert "P01's described preferences** (version 1, saved now)" in texts(at)  # which version is scored
+    saved = store.preference_versions("P01")[0]["created_at"]  # which version is scored, and when it was saved
+    assert f"P01's described preferences** (version 1, the latest, saved {saved[:10]} {saved[11:16]} UTC)" in texts(at)
     # roll back: the banner no longer claims the new version is in force; What changed shows the step back
     at.selectbox(key=f"rollback-version-P01-{active.version}-{active.version}").set_value(0)
     _button(at, "Put in force").click().run()
@@ -147,3 +153,14 @@ def test_a_percentage_in_text_is_rounded_as_the_tables_round_it():
     # the banner said 72% and the versions table ("%.0f%%") 73% for the same 0.725
     assert percent(0.725) == "73%" and percent(0.724) == "72%" and percent(0.0) == "0%" and percent(1.0) == "100%"
     assert percent(None) == "–" and percent(float("nan")) == "–"
+
+
+def test_a_day_of_about_15_interactions_closes_without_asking(app, store, quick_policy):
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    for _ in range(15):
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=30,
+                                 robot_action="pain check", response="accept")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert not _button(at, f"Close day {day} and adapt").disabled and not at.checkbox

@@ -25,6 +25,7 @@ def test_adaptation_in_the_background(app, store, monkeypatch, quick_policy):
 
     monkeypatch.setattr(cacas.study_day, "adapt_day", slow_adapt)
     tab1 = app("pages/adaptation.py", participant="P01")
+    tab1.checkbox(key=f"close-short-P01-{day}").check().run()  # 1 of about 15: the researcher says so
     next(b for b in tab1.button if b.label == f"Close day {day} and adapt").click().run()
     no_exception(tab1)
     job = RUNNER.get(f"adapt:{store.path}:P01:{day}")

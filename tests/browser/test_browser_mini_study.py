@@ -202,6 +202,9 @@ def test_mini_study(server, page, tmp_path):
     goto(page, f"{server}/?participant=P01")
     shot(page, "overview")
     goto(page, f"{server}/adaptation?participant=P01")
+    assert button(page, "Close day 1 and adapt").is_disabled()  # 4 of about 15: closing waits for a tick
+    page.get_by_text("Close day 1 with 4 of about 15 interactions").click()
+    idle(page)
     click(page, "Close day 1 and adapt")
     page.wait_for_selector("text=is in force from day 2", timeout=600_000)  # a loaded machine only slows it
     idle(page)
