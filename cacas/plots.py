@@ -86,9 +86,12 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.add_trace(go.Scatter(x=s["day"], y=s["min"], mode="lines", line=dict(width=0), fill="tonexty",
                              fillcolor="rgba(47,111,143,0.18)", name="min-max across participants",
                              hoverinfo="skip"), secondary_y=False)
+    # each day's mean is over the participants who had that day: the hover says how many (a study in
+    # progress has fewer on its later days)
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
-                             line=dict(color=colour, width=3),
-                             hovertemplate="day %{x}: %{y:.0%}<extra></extra>"), secondary_y=False)
+                             line=dict(color=colour, width=3), customdata=s[["participants"]],
+                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]} participants)"
+                                           "<extra></extra>"), secondary_y=False)
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
         fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name="ceiling: always the "
                                  "described preference (mean)", line=dict(color=colour, width=1.5, dash="dash"),

@@ -91,9 +91,12 @@ with fig3:
         n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["participants"].max())
         in_progress = sorted(c for c, d in app_support.open_days(store, study).items() if d == last) \
             if source == HUMAN else []
+        n_first = int(per_day.loc[first, "participants"])
         c1.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
                   ui.percent(per_day.loc[last, "mean"]),
-                  None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}",
+                  None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}"
+                  # paired: over the participants with both days, not the difference of the two plotted means
+                  + ("" if paired == n_first == n_last else f" ({paired} with both days)"),
                   delta_color="normal" if change else "off",
                   help=" ".join(filter(None, [
                       f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with that "
@@ -104,7 +107,7 @@ with fig3:
         c2.metric(f"Mean cumulative feedback, day {last}", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
         c3.metric(f"Participants on day {last}", n_last if n_last == n_all else f"{n_last} of {n_all}",
                   help=None if n_last == n_all else f"{n_all} participants have a day in the figure; "
-                  f"{n_last} have reached day {last}.")
+                  f"{n_last} {'has' if n_last == 1 else 'have'} reached day {last}.")
         if in_progress:
             st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                        "are so far, and change until the day is closed.")

@@ -173,3 +173,10 @@ def test_the_success_change_is_paired_over_participants_with_both_days():
     assert success_change(daily(), "cacas", 1, 3) == (pytest.approx(0.2), 2)
     change, n = success_change(d, "cacas", 1, 4)
     assert n == 0 and np.isnan(change)
+
+
+def test_fig3_hover_says_how_many_participants_each_days_mean_has():
+    d = daily()
+    d = d[~((d["participant"] == d["participant"].iloc[0]) & (d["day"] == 3))]  # one has not reached day 3
+    mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
+    assert [int(n) for n in mean.customdata[:, 0]] == [2, 2, 1] and "participants" in mean.hovertemplate
