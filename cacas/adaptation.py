@@ -29,6 +29,7 @@ exploration) and use the argmax (Eq. 4) when the robot acts with people and for 
 
 from __future__ import annotations
 
+import hashlib
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -144,17 +145,28 @@ def train_initial_policy(d4a: D4A | None = None, config: CACAAConfig | None = No
     return ReshapedPolicy(sac, None, beta=1.0, method="initial")
 
 
-def initial_policy_path() -> Path:
-    return study_data_dir() / "models" / INITIAL_POLICY_FILE
+def initial_policy_path(d4a: D4A | None = None) -> Path:
+    """Where the initial policy trained against ``d4a`` is kept: the shipped D4A pairs' (or
+    ``None``) at ``study_data/models/initial_policy.pt``; another table's beside it, named by a
+    digest of its pairs (``initial_policy-d4a-<digest>.pt``), so that each table trains its own
+    once and a changed table never reuses another's."""
+    folder = study_data_dir() / "models"
+    if d4a is None:
+        return folder / INITIAL_POLICY_FILE
+    digest = hashlib.sha256(np.ascontiguousarray(d4a.table, dtype=np.int8).tobytes()).hexdigest()[:12]
+    shipped = hashlib.sha256(np.ascontiguousarray(load_d4a().table, dtype=np.int8).tobytes()).hexdigest()[:12]
+    return folder / (INITIAL_POLICY_FILE if digest == shipped else f"initial_policy-d4a-{digest}.pt")
 
 
-def load_initial_policy(progress: Progress | None = None, path: str | Path | None = None) -> ReshapedPolicy:
-    """The initial policy, from ``study_data/models/initial_policy.pt``; trained (about half a
-    minute) and saved atomically on first use if the file is missing."""
-    path = Path(path) if path else initial_policy_path()
+def load_initial_policy(progress: Progress | None = None, path: str | Path | None = None,
+                        d4a: D4A | None = None) -> ReshapedPolicy:
+    """The initial policy (CACAA step 1) trained against ``d4a`` (default: the shipped D4A pairs),
+    from :func:`initial_policy_path`; trained (about half a minute) and saved atomically on first
+    use if the file is missing. A researcher's own D4A table gets an initial policy of its own."""
+    path = Path(path) if path else initial_policy_path(d4a)
     if path.exists():
         return policy_from_bytes(path.read_bytes())
-    policy = train_initial_policy(progress=progress)
+    policy = train_initial_policy(d4a=d4a, progress=progress)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + f".{time.time_ns()}.tmp")
     tmp.write_bytes(policy.to_bytes())
@@ -226,7 +238,7 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
 
     base_sac = previous.sac if isinstance(previous, ReshapedPolicy) and previous.sac is not None else None
     if base_sac is None:
-        base_sac = load_initial_policy().sac
+        base_sac = load_initial_policy(d4a=d4a).sac
     sac = base_sac.copy(seed=seed, keep_memory=method == "orl")
 
     if method in ("orl", "sac-user-data"):
@@ -234,11 +246,11 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
         n_new = int((day == day.max()).sum()) if len(day) else 0
         if method == "orl":
             if sac.memory is None:
-                sac.memory = load_initial_policy().sac.memory
+                sac.memory = load_initial_policy(d4a=d4a).sac.memory
             if sac.memory is None:
                 from cacas.errors import CacasError
                 raise CacasError("ORL needs the initial policy's replay memory, and the initial policy file "
-                                 f"has none; valid: a file written by this version ({initial_policy_path()})")
+                                 f"has none; valid: a file written by this version ({initial_policy_path(d4a)})")
             sac.restore_memory(sac.memory)
             updates = cfg.adapt_updates
             params["remembered"] = int(len(sac.memory["a"]))

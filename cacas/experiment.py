@@ -180,7 +180,11 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     methods = check_methods(methods)
     loop = check_loop(loop)
     d4a = d4a or load_d4a()
-    initial = initial_policy or load_initial_policy()
+    # CACAA step 1 is trained against the D4A pairs: a table of the researcher's own gets its own
+    # initial policy (trained once, then kept beside the shipped one)
+    initial = initial_policy or load_initial_policy(
+        d4a=d4a, progress=(lambda f, m: progress(0.0, f"initial policy for {d4a.source or 'this D4A table'}: {m}"))
+        if progress else None)
     jobs = max(1, min(jobs or 1, len(participants)))
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,
              ask_after_reject, loop) for p_i, person in enumerate(participants)]

@@ -249,3 +249,30 @@ def test_policy_changes_judge_each_context_in_its_latest_recorded_state(small_in
     assert list(changes["times"]) == [3]
     timer, accept = spaces.action_index("set a timer"), spaces.ACCEPT
     assert tuple(seen.states[0, 4:]) == (timer, timer, accept)  # S5-S7 of interaction index 2, the latest
+
+
+def test_a_d4a_table_of_ones_own_trains_an_initial_policy_of_its_own(monkeypatch, tmp_path, small_initial):
+    """CACAA step 1 is trained against the D4A pairs: `--d4a FILE` used the shipped table's cached
+    initial policy (walkthrough: day 1 identical to the default run with a table accepting only
+    "pain check")."""
+    import shutil
+
+    from cacas.d4a import D4A, default_d4a_path, load_d4a
+
+    shutil.copy(default_d4a_path(), tmp_path / "d4a.csv")
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path))
+    shipped = load_d4a()
+    own = D4A(np.where(np.arange(spaces.N_ACTIONS) == spaces.action_index("pain check"), spaces.ACCEPT,
+                       spaces.REJECT)[None, :].repeat(spaces.N_ACTIVITIES, axis=0), source="pain.csv")
+    assert adaptation.initial_policy_path(shipped) == adaptation.initial_policy_path() == \
+        tmp_path / "models" / "initial_policy.pt"
+    mine = adaptation.initial_policy_path(own)
+    assert mine.parent == tmp_path / "models" and mine.name.startswith("initial_policy-d4a-")
+    trained = []
+    monkeypatch.setattr(adaptation, "train_initial_policy",
+                        lambda d4a=None, progress=None: trained.append(d4a) or small_initial)
+    adaptation.load_initial_policy(d4a=own)
+    assert trained == [own] and mine.exists()
+    adaptation.load_initial_policy(d4a=own)  # kept: trained once
+    adaptation.load_initial_policy()  # the shipped table's is trained for the shipped table
+    assert trained == [own, None] and (tmp_path / "models" / "initial_policy.pt").exists()

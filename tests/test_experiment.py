@@ -310,3 +310,25 @@ def test_the_robots_task_s5_is_in_progress_by_the_days_clock():
         assert list(day["task"]) == list(expected)
         busy_rows += int(running.sum())
     assert busy_rows > 0  # the check saw tasks in progress, not only idle rows
+
+
+def test_a_study_with_its_own_d4a_table_starts_from_that_tables_initial_policy(monkeypatch):
+    import cacas.experiment
+    from cacas.d4a import D4A, load_d4a
+
+    own = D4A(load_d4a().table[:, ::-1].copy(), source="mine.csv")
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def loader(**kwargs):
+        seen.append(kwargs["d4a"])
+        raise Stop
+
+    monkeypatch.setattr(cacas.experiment, "load_initial_policy", loader)
+    people = parse_personas({"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check"}]}]})
+    with pytest.raises(Stop):
+        cacas.experiment.simulate_study(people, days=1, d4a=own)
+    assert seen == [own]
