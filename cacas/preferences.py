@@ -336,11 +336,13 @@ def load_personas(path: str | Path) -> list[Participant]:
 
 def persona_json(data: str | bytes, source: str) -> Any:
     """The JSON document of a persona file's text or bytes; CacasError naming ``source`` if it is
-    not UTF-8 text, not JSON, or nested too deeply to be a persona file."""
+    not UTF-8 text, not JSON, or nested too deeply to be a persona file. A UTF-8 byte-order mark
+    (as some editors save) is accepted and dropped."""
     try:
-        text = data.decode("utf-8") if isinstance(data, bytes) else data
+        text = data.decode("utf-8-sig") if isinstance(data, bytes) else data
     except UnicodeDecodeError:
         raise CacasError(f"{source}: cannot be read as UTF-8 text; valid: a JSON persona file") from None
+    text = text.removeprefix("\ufeff")  # text decoded by the caller as plain utf-8
     try:
         return json.loads(text)
     except json.JSONDecodeError as exc:

@@ -164,3 +164,14 @@ def test_a_description_with_contact_details_is_refused_naming_the_field():
         check_private_words(person, "f.json")
     doc["participants"][0]["preferences"][1]["description"] = "When I fall at 07:30 on 2026-11-21, call my daughter"
     check_private_words(parse_personas(doc, "f.json")[0], "f.json")  # dates and times pass
+
+
+def test_a_persona_file_saved_with_a_utf8_bom_is_read(tmp_path):
+    """Editors such as Notepad save UTF-8 with a byte-order mark; the file is still UTF-8 JSON."""
+    text = json.dumps(doc(STOVE))
+    path = tmp_path / "bom.json"
+    path.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    (p,) = prefs.load_personas(path)
+    assert p.preferences[0].action == "remind to turn off"
+    assert prefs.persona_json(b"\xef\xbb\xbf" + text.encode("utf-8"), "upload.json") == json.loads(text)
+    assert prefs.persona_json("\ufeff" + text, "upload.json") == json.loads(text)  # bytes decoded as utf-8
