@@ -252,18 +252,21 @@ def check_conflicts(preferences: Iterable[Preference], source: str | None = None
             a, b = prefs[i], prefs[j]
             if a.action == b.action:
                 continue
-            if not set(a.task_indices()) & set(b.task_indices()):
+            tasks = sorted(set(a.task_indices()) & set(b.task_indices()))
+            if not tasks:
                 continue
             overlap = a.coverage_mask() & b.coverage_mask()
             if overlap.any():
                 act, sc, sl, iv = (int(x[0]) for x in np.nonzero(overlap))
                 example = (f"{spaces.ACTIVITIES[act]} in the {spaces.SCENES[sc]} at "
                            f"{spaces.time_slot_label(sl)}, interval {spaces.interval_label(iv)}")
+                if a.task is not None or b.task is not None:  # S5 matters: say during which task
+                    example += f", while the robot's task is {spaces.ACTIONS[tasks[0]]!r}"
                 where = _where(source, pid)
                 raise CacasError(
                     f"{where}: preferences {i + 1} and {j + 1} both cover {int(overlap.sum())} states "
                     f"(e.g. {example}) with different actions ({a.action!r} vs {b.action!r}); "
-                    f"narrow their activity, scene, hours or interval so they do not overlap")
+                    f"narrow their activity, scene, hours, interval or task so they do not overlap")
 
 
 def redundant_preferences(preferences: Iterable[Preference]) -> list[tuple[int, int]]:

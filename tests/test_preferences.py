@@ -175,3 +175,24 @@ def test_a_persona_file_saved_with_a_utf8_bom_is_read(tmp_path):
     assert p.preferences[0].action == "remind to turn off"
     assert prefs.persona_json(b"\xef\xbb\xbf" + text.encode("utf-8"), "upload.json") == json.loads(text)
     assert prefs.persona_json("\ufeff" + text, "upload.json") == json.loads(text)  # bytes decoded as utf-8
+
+
+def test_overlap_that_only_a_task_separates_names_the_task():
+    """Preference 1 applies during one task (S5), preference 2 to every task: the example state
+    includes the task and the advice lists task as a way to separate them."""
+    a = {"activity": ["use stove"], "task": ["set a timer"], "action": "remind to turn off"}
+    b = {"activity": ["use stove"], "action": "chitchat"}
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(doc(a, b), "f.json")
+    msg = str(err.value)
+    assert "preferences 1 and 2" in msg
+    assert "while the robot's task is 'set a timer'" in msg
+    assert "activity, scene, hours, interval or task" in msg
+
+
+def test_overlap_without_tasks_gives_no_task_in_the_example():
+    a = {"activity": ["cough"], "action": "pain check"}
+    b = {"activity": ["cough"], "scene": ["bedroom"], "action": "show compassion"}
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(doc(a, b), "f.json")
+    assert "task is" not in str(err.value)
