@@ -45,3 +45,32 @@ def test_a_file_that_cannot_be_written_is_one_line_and_exit_2(tmp_path, capsys, 
     assert cli.main([]) == 2
     err = capsys.readouterr().err
     assert err == f"cacas: error: {tmp_path / 'a_file' / 'x.csv'}: Not a directory\n"
+
+
+def test_version_prints_the_package_version_and_exits_0():
+    import importlib.metadata
+    import tomllib
+    from pathlib import Path
+
+    proc = subprocess.run([sys.executable, "-m", "cacas", "--version"], capture_output=True, text=True)
+    assert proc.returncode == 0 and proc.stderr == ""
+    try:
+        expected = importlib.metadata.version("cacas")
+    except importlib.metadata.PackageNotFoundError:
+        expected = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"]["version"]
+    assert proc.stdout == f"cacas {expected}\n"
+
+
+def test_version_falls_back_to_pyproject_when_not_installed(monkeypatch):
+    import importlib.metadata
+    import tomllib
+    from pathlib import Path
+
+    import cacas.cli as cli
+
+    def not_installed(name):
+        raise importlib.metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(importlib.metadata, "version", not_installed)
+    expected = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"]["version"]
+    assert cli.package_version() == expected

@@ -25,8 +25,33 @@ class _Parser(argparse.ArgumentParser):
         self.exit(2, f"cacas: error: {message}\n")
 
 
+def package_version() -> str:
+    """The installed package's version (importlib.metadata), else the checkout's pyproject.toml's."""
+    import importlib.metadata
+    from pathlib import Path
+
+    try:
+        return importlib.metadata.version("cacas")
+    except importlib.metadata.PackageNotFoundError:
+        pass
+    pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
+    try:
+        import tomllib
+
+        return str(tomllib.loads(pyproject.read_text())["project"]["version"])
+    except (ImportError, OSError, ValueError, KeyError):  # Python 3.10 has no tomllib; read the line
+        import re
+
+        try:
+            found = re.search(r'^version\s*=\s*"([^"]+)"', pyproject.read_text(), re.M)
+        except OSError:
+            found = None
+        return found.group(1) if found else "unknown"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="cacas", description="CACAS Studio command line")
+    parser.add_argument("--version", action="version", version=f"cacas {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in COMMANDS:
