@@ -113,3 +113,28 @@ def test_sound_import_good_and_bad_folder(tmp_path, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "bad.ogg" in err[0]
     assert not (tmp_path / "lib2").exists()
+
+
+def _actions(command):
+    import argparse
+
+    from cacas.cli import build_parser
+
+    top = build_parser()
+    sub = next(a for a in top._actions if isinstance(a, argparse._SubParsersAction)).choices[command]
+    return next(a for a in sub._actions if isinstance(a, argparse._SubParsersAction)).choices
+
+
+def test_sound_and_scene_help_has_a_description_and_every_default():
+    """`cacas sound|scene ACTION --help`: a description line, and every option that takes a value
+    and has a default (a number, a choice, a library folder or model file in study_data) says it
+    as '(default ...)' in its help, as the other sub-commands do."""
+    for command in ("sound", "scene"):
+        for name, parser in _actions(command).items():
+            assert parser.description, f"{command} {name}: no description"
+            for action in parser._actions:
+                if not action.option_strings or action.nargs == 0:  # positional, --help, flags
+                    continue
+                if action.default is None and action.dest not in ("model", "data", "out"):
+                    continue  # e.g. --confusion-png FILE: nothing unless given
+                assert action.help and "(default " in action.help, f"{command} {name} {action.option_strings[0]}"
