@@ -4,6 +4,7 @@ import subprocess
 import sys
 
 import numpy as np
+import pytest
 import soundfile as sf
 from PIL import Image
 
@@ -138,3 +139,36 @@ def test_sound_and_scene_help_has_a_description_and_every_default():
                 if action.default is None and action.dest not in ("model", "data", "out"):
                     continue  # e.g. --confusion-png FILE: nothing unless given
                 assert action.help and "(default " in action.help, f"{command} {name} {action.option_strings[0]}"
+
+
+@pytest.fixture
+def unwritable_folder(tmp_path):
+    """A folder in which no file can be created, also for root (chattr +i), else chmod 555."""
+    import os
+
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    if os.geteuid() == 0:
+        if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
+            pytest.skip("cannot make a folder unwritable for root here (no chattr +i)")
+        yield folder
+        subprocess.run(["chattr", "-i", str(folder)], check=True)
+    else:
+        folder.chmod(0o555)
+        yield folder
+        folder.chmod(0o755)
+
+
+@pytest.mark.parametrize("command", ["sound", "scene"])
+def test_train_checks_the_model_path_before_training(command, tmp_path, unwritable_folder, capsys):
+    """A --model that cannot be written is refused first (the library is not even looked at:
+    --data names a folder that does not exist), exit 2, one line naming option, path and problem."""
+    (tmp_path / "afile.txt").write_text("x")
+    cases = [(unwritable_folder / "s.pt", "cannot create files in"),
+             (tmp_path / "afile.txt" / "s.pt", "afile.txt is a file, not a folder"),
+             (tmp_path, "it is a folder")]
+    for model, problem in cases:
+        code = main([command, "train", "--data", str(tmp_path / "absent"), "--model", str(model), "--quiet"])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1, err
+        assert err.startswith(f"cacas: error: --model {model}: cannot be written there") and problem in err, err

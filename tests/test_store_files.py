@@ -34,3 +34,53 @@ def test_a_file_that_was_not_there_is_removed_again(tmp_path, monkeypatch, fail_
     with pytest.raises(CacasError, match="b.csv: cannot be written"):
         files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b"})
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.fixture
+def unwritable_folder(tmp_path):
+    """A folder in which no file can be created, also for root (chattr +i), else chmod 555."""
+    import subprocess
+
+    folder = tmp_path / "locked"
+    folder.mkdir()
+    if os.geteuid() == 0:
+        if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
+            pytest.skip("cannot make a folder unwritable for root here (no chattr +i)")
+        yield folder
+        subprocess.run(["chattr", "-i", str(folder)], check=True)
+    else:
+        folder.chmod(0o555)
+        yield folder
+        folder.chmod(0o755)
+
+
+def test_writable_file_accepts_a_new_file_and_creates_nothing(tmp_path):
+    target = tmp_path / "new" / "deeper" / "model.pt"
+    assert files.writable_file(target, "--model") == target
+    assert list(tmp_path.iterdir()) == []  # checked without creating the folders
+
+
+@pytest.mark.parametrize("make, where, problem", [
+    (lambda t: (t / "afile.txt").write_text("x"), "afile.txt/s.pt", "afile.txt is a file, not a folder"),
+    (lambda t: (t / "afile.txt").write_text("x"), "afile.txt/sub/s.pt", "afile.txt is a file, not a folder"),
+    (lambda t: (t / "d.pt").mkdir(), "d.pt", "it is a folder; give a file path"),
+])
+def test_writable_file_refuses_naming_option_path_and_problem(tmp_path, make, where, problem):
+    make(tmp_path)
+    with pytest.raises(CacasError) as err:
+        files.writable_file(tmp_path / where, "--model")
+    msg = str(err.value)
+    assert msg.startswith(f"--model {tmp_path / where}: cannot be written there: ") and problem in msg
+    assert "\n" not in msg
+
+
+def test_writable_file_refuses_a_folder_it_cannot_write_in(unwritable_folder):
+    with pytest.raises(CacasError, match=r"--json .*locked/b\.json: cannot be written there: cannot create "
+                                         r"files in .*locked \("):
+        files.writable_file(unwritable_folder / "b.json", "--json")
+
+
+def test_writable_file_without_creating_folders_wants_the_folder(tmp_path):
+    with pytest.raises(CacasError, match="the folder .*absent does not exist"):
+        files.writable_file(tmp_path / "absent" / "b.json", "--json", create_folders=False)
+    assert files.writable_file(tmp_path / "b.json", "--json", create_folders=False) == tmp_path / "b.json"

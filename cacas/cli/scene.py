@@ -80,13 +80,15 @@ def run_import(args) -> int:
 def run_train(args) -> int:
     from cacas.vision.model import default_model_path
     from cacas.vision.training import train_scene_model
+    from cacas.store.files import writable_file
 
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
+    model_path = writable_file(args.model or default_model_path(), "--model")  # before minutes of training
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
-    path = result.recognizer.save(args.model or default_model_path())
+    path = result.recognizer.save(model_path)
     print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs, initial weights: "
           f"{result.recognizer.metadata['initial_weights']}); saved {path}")
     print_metrics(result.metrics, "images")

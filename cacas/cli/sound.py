@@ -103,13 +103,15 @@ def run_import(args) -> int:
 def run_train(args) -> int:
     from cacas.audio.model import default_model_path
     from cacas.audio.training import train_sound_model
+    from cacas.store.files import writable_file
 
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
+    model_path = writable_file(args.model or default_model_path(), "--model")  # before minutes of training
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
-    path = result.recognizer.save(args.model or default_model_path())
+    path = result.recognizer.save(model_path)
     print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs); saved {path}")
     print_metrics(result.metrics)
     return 0

@@ -62,6 +62,37 @@ def writable_folder(folder, what: str) -> Path:
     return folder
 
 
+def writable_file(path, what: str, create_folders: bool = True) -> Path:
+    """``path``, after checking (before any long work, creating nothing) that a file can be
+    written there: it is not a folder, and its folder exists (or, with ``create_folders``, can be
+    created: no file stands in the way) and files can be created in it. Else a CacasError naming
+    the option and the path the user gave (``what``: the option, e.g. "--model")."""
+    path = Path(path)
+
+    def refuse(problem: str) -> CacasError:
+        return CacasError(f"{what} {path}: cannot be written there: {problem}; valid: a file path in a "
+                          f"folder you can write to")
+
+    if path.is_dir():
+        raise refuse("it is a folder; give a file path")
+    folder = path.parent
+    if not create_folders and not folder.is_dir():
+        if folder.exists():
+            raise refuse(f"{folder} is a file, not a folder")
+        raise refuse(f"the folder {folder} does not exist")
+    existing = folder
+    while not existing.exists() and existing != existing.parent:  # the nearest folder there is
+        existing = existing.parent
+    if not existing.is_dir():
+        raise refuse(f"{existing} is a file, not a folder")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise refuse(f"cannot create files in {existing} ({exc.strerror or exc})") from None
+    return path
+
+
 def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
     """Write several files into ``folder`` as one change: each to a temporary file first
     (flushed and fsynced), and only when all are written are they renamed into place, each file
