@@ -77,6 +77,7 @@ def test_sound_generate_train_eval_on_a_tiny_library(tmp_path, capsys):
     assert main(["sound", "train", "--data", str(lib), "--model", str(model), "--epochs", "1", "--quiet"]) == 0
     out = capsys.readouterr().out
     assert "accuracy:" in out and model.exists() and model.with_suffix(".json").exists()
+    assert "(1 epoch)" in out  # not "1 epochs"
     assert main(["sound", "eval", "--model", str(model), "--data", str(lib), "--quiet"]) == 0
     assert "on 33 held-out recordings" in capsys.readouterr().out
     clip = next(lib.rglob("*.ogg"))
@@ -172,3 +173,9 @@ def test_train_checks_the_model_path_before_training(command, tmp_path, unwritab
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1, err
         assert err.startswith(f"cacas: error: --model {model}: cannot be written there") and problem in err, err
+
+
+def test_count_says_one_epoch_and_two_epochs():
+    from cacas.cli.sound import count
+
+    assert [count(n, "epoch") for n in (0, 1, 2)] == ["0 epochs", "1 epoch", "2 epochs"]

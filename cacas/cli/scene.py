@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import print_metrics, print_recognition, save_confusion
+from cacas.cli.sound import count, print_metrics, print_recognition, save_confusion
 from cacas.errors import CacasError
 
 
@@ -89,7 +89,7 @@ def run_train(args) -> int:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
     path = result.recognizer.save(model_path)
-    print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs, initial weights: "
+    print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
           f"{result.recognizer.metadata['initial_weights']}); saved {path}")
     print_metrics(result.metrics, "images")
     return 0

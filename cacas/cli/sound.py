@@ -8,6 +8,11 @@ from cacas.cli.progress import ProgressBar
 from cacas.errors import CacasError
 
 
+def count(n: int, noun: str) -> str:
+    """'1 epoch', '2 epochs'."""
+    return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+
 def print_metrics(metrics, what: str = "recordings") -> None:
     """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
     if metrics.extra.get("set", "held-out") == "held-out":
@@ -112,7 +117,7 @@ def run_train(args) -> int:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
     path = result.recognizer.save(model_path)
-    print(f"trained in {result.seconds:.0f} s ({len(result.history)} epochs); saved {path}")
+    print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
     print_metrics(result.metrics)
     return 0
 
