@@ -13,6 +13,7 @@ from cacas import spaces
 from cacas.bench import METRICS, ReferenceSAC
 from cacas.cli import main
 from cacas.sac import DiscreteSAC
+from unwritable import unwritable_folder  # noqa: F401
 
 
 def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys):
@@ -31,11 +32,27 @@ def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys):
 @pytest.mark.parametrize("argv, message", [
     (["--repeats", "0"], "--repeats 0 is invalid"),
     (["--threads", "0"], "--threads 0 is invalid"),
-    (["--json", "/no/such/folder/bench.json"], "is not a writable file path"),
+    (["--json", "/no/such/folder/bench.json"],
+     "--json /no/such/folder/bench.json: cannot be written there: the folder /no/such/folder does not exist"),
 ])
 def test_bad_options_are_refused(argv, message, capsys):
     assert main(["bench", "--quiet", *argv]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_an_unwritable_json_path_is_refused_before_measuring(unwritable_folder, monkeypatch, capsys):
+    """The message names the file given (not a temporary one) and comes before the benchmark runs."""
+    import cacas.bench
+
+    def run_bench(*args, **kwargs):
+        raise AssertionError("the benchmark ran before --json was checked")
+
+    monkeypatch.setattr(cacas.bench, "run_bench", run_bench)
+    target = unwritable_folder / "b.json"
+    assert main(["bench", "--quick", "--quiet", "--json", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"cacas: error: --json {target}: cannot be written there: ")
+    assert ".tmp" not in err
 
 
 def _same_weights(ours: DiscreteSAC) -> ReferenceSAC:

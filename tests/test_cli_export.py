@@ -7,6 +7,7 @@ import pytest
 
 import cacas.cli as cli
 from cacas.store import StudyStore
+from unwritable import unwritable_folder  # noqa: F401
 
 
 @pytest.fixture
@@ -155,3 +156,14 @@ def test_a_missing_policy_file_stops_the_zip_not_the_tables(run, study, tmp_path
     assert run("export", "--db", study, "--out", tmp_path / "out", "--tables-only") == 0
     out = tmp_path / "out"
     assert (out / "interactions.csv").read_text().count("\n") == 2 and not (out / "cacas-study.zip").exists()
+
+
+def test_import_into_a_folder_that_cannot_be_written_names_the_given_path(run, study, tmp_path, unwritable_folder,
+                                                                         capsys):
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    target = unwritable_folder / "x.sqlite"
+    assert run("import", "--bundle", tmp_path / "out" / "cacas-study.zip", "--db", target) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"cacas: error: --db {target}: cannot be written there: ")
+    assert "importing" not in err

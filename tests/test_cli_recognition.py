@@ -11,6 +11,7 @@ from PIL import Image
 from cacas.audio import library
 from cacas.cli import COMMANDS, main
 from cacas.vision import library as scene_library
+from unwritable import unwritable_folder  # noqa: F401
 
 
 def test_registered():
@@ -140,24 +141,6 @@ def test_sound_and_scene_help_has_a_description_and_every_default():
                 if action.default is None and action.dest not in ("model", "data", "out"):
                     continue  # e.g. --confusion-png FILE: nothing unless given
                 assert action.help and "(default " in action.help, f"{command} {name} {action.option_strings[0]}"
-
-
-@pytest.fixture
-def unwritable_folder(tmp_path):
-    """A folder in which no file can be created, also for root (chattr +i), else chmod 555."""
-    import os
-
-    folder = tmp_path / "locked"
-    folder.mkdir()
-    if os.geteuid() == 0:
-        if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
-            pytest.skip("cannot make a folder unwritable for root here (no chattr +i)")
-        yield folder
-        subprocess.run(["chattr", "-i", str(folder)], check=True)
-    else:
-        folder.chmod(0o555)
-        yield folder
-        folder.chmod(0o755)
 
 
 @pytest.mark.parametrize("command", ["sound", "scene"])

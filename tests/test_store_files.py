@@ -6,6 +6,7 @@ import pytest
 
 from cacas.errors import CacasError
 from cacas.store import files
+from unwritable import unwritable_folder  # noqa: F401
 
 
 def test_write_all_replaces_every_file(tmp_path):
@@ -34,24 +35,6 @@ def test_a_file_that_was_not_there_is_removed_again(tmp_path, monkeypatch, fail_
     with pytest.raises(CacasError, match="b.csv: cannot be written"):
         files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b"})
     assert list(tmp_path.iterdir()) == []
-
-
-@pytest.fixture
-def unwritable_folder(tmp_path):
-    """A folder in which no file can be created, also for root (chattr +i), else chmod 555."""
-    import subprocess
-
-    folder = tmp_path / "locked"
-    folder.mkdir()
-    if os.geteuid() == 0:
-        if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
-            pytest.skip("cannot make a folder unwritable for root here (no chattr +i)")
-        yield folder
-        subprocess.run(["chattr", "-i", str(folder)], check=True)
-    else:
-        folder.chmod(0o555)
-        yield folder
-        folder.chmod(0o755)
 
 
 def test_writable_file_accepts_a_new_file_and_creates_nothing(tmp_path):

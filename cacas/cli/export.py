@@ -14,6 +14,7 @@ import argparse
 
 from cacas.export import BUNDLE_NAME, export_study, import_bundle
 from cacas.store import StudyStore
+from cacas.store.files import writable_file
 
 
 def register(subparsers) -> None:
@@ -46,6 +47,7 @@ def run_export(args: argparse.Namespace) -> int:
 
 
 def run_import(args: argparse.Namespace) -> int:
+    writable_file(args.db, "--db")  # named as the user gave it, not the temporary file built beside it
     count = import_bundle(args.bundle, args.db)
     with StudyStore(args.db, readonly=True) as store:
         people = len(store.list_participants())
