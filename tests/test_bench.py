@@ -27,6 +27,11 @@ def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys):
     assert data["machine"]["cores"] >= 1 and data["machine"]["torch"] == torch.__version__
     assert data["sac_speedup"] == pytest.approx(data["sac_updates_per_s"] / data["reference_updates_per_s"])
     assert "machine:" in printed and "QUICK run" in printed
+    # a 1 x 2-day study with shortened adaptations is not the target's size: never "met"
+    for key in ("simulate_study_s", "adapt_day_s"):
+        (row,) = [line for line in printed.splitlines() if line.startswith(f"| {key} ")]
+        assert "quick run, not the target's size" in row and "met" not in row, row
+    assert data["not_target_size"] == ["adapt_day_s", "simulate_study_s"]
 
 
 @pytest.mark.parametrize("argv, message", [
