@@ -29,8 +29,10 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import signal
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
+from multiprocessing.managers import SyncManager
 from typing import Callable, Sequence
 
 import numpy as np
@@ -321,7 +323,15 @@ def _worker(initial_bytes: bytes, args: tuple, queue, stop) -> tuple[list[dict],
         if stop.is_set():  # the study was stopped (or failed) in the main process: end here
             raise Stopped("stopped on request")
         queue.put((p_i, days_done, message))
+    if stop.is_set():  # a participant queued before a stop never starts
+        raise Stopped("stopped on request")
     return simulate_participant(policy_from_bytes(initial_bytes), *args, report=report)
+
+
+def _ignore_interrupt() -> None:
+    """Worker and manager processes leave Ctrl-C to the main process, which stops them through
+    the stop event: interrupted themselves, the pool's workers went on to the next participant."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, float, str], None]):
@@ -329,10 +339,12 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, fl
     progress comes back through a queue, as each method adapts. If ``tick`` raises (a stop
     request, jobs.Stopped) every worker ends at its next report, within an adaptation, and the
     participants not started never start; the exception then goes on, with a note of how many
-    studies were ended early."""
+    studies were ended early. Ctrl-C (KeyboardInterrupt) stops them the same way."""
     ctx = mp.get_context("spawn")
     blob = initial.to_bytes()
-    with ctx.Manager() as manager, ProcessPoolExecutor(jobs, mp_context=ctx) as pool:
+    manager = SyncManager(ctx=ctx)
+    manager.start(_ignore_interrupt)
+    with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_ignore_interrupt) as pool:
         queue, stop = manager.Queue(), manager.Event()
         futures = [pool.submit(_worker, blob, a, queue, stop) for a in args]
         try:
@@ -343,7 +355,7 @@ def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, fl
                     tick(*queue.get())
             while not queue.empty():
                 tick(*queue.get())
-        except Exception as exc:  # a stop request; Ctrl-C reaches the workers itself
+        except BaseException as exc:  # a stop request, or Ctrl-C
             stop.set()
             never = sum(f.cancel() for f in futures)
             wait(futures)

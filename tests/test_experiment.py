@@ -254,6 +254,26 @@ def test_a_stop_ends_every_worker_process_at_its_next_report(small_config, small
                                        "0 never started"]
 
 
+def test_ctrl_c_ends_every_worker_process_at_its_next_report_and_queued_participants_never_start(
+        small_config, small_initial):
+    """Ctrl-C in the main process (KeyboardInterrupt) stops the workers as a stop request does
+    (walkthrough: `cacas simulate` with workers exited 103 s after Ctrl-C, having run every
+    participant: the interrupted workers went on to the next ones, and the pool waited)."""
+    def interrupt_at_first_worker_report(f, m):
+        if m.startswith("participant "):
+            raise KeyboardInterrupt
+    three = parse_personas({"participants": [{"id": f"P0{i}", "preferences": [
+        {"activity": ["cough"], "action": "pain check"}]} for i in (1, 2, 3)]})
+    with pytest.raises(KeyboardInterrupt) as interrupted:
+        simulate_study(three, days=5, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
+                       initial_policy=small_initial, jobs=2, progress=interrupt_at_first_worker_report)
+    # the third is queued behind the two running: cancelled, or ended at its start (the pool hands one
+    # call ahead to its workers), never run
+    assert interrupted.value.__notes__[0] in (
+        "2 of 3 participants' studies ended early in their worker process, 1 never started",
+        "3 of 3 participants' studies ended early in their worker process, 0 never started")
+
+
 def test_a_method_gives_the_same_results_whichever_methods_run_beside_it(small_config, small_initial):
     kw = dict(days=3, interactions=5, seed=4, config=small_config, initial_policy=small_initial)
     two = simulate_study(PEOPLE, methods=["cacas", "nn"], **kw).daily
