@@ -162,3 +162,48 @@ def test_count_says_one_epoch_and_two_epochs():
     from cacas.cli.sound import count
 
     assert [count(n, "epoch") for n in (0, 1, 2)] == ["0 epochs", "1 epoch", "2 epochs"]
+
+
+def test_files_that_are_not_models_say_what_they_are_not_and_what_is_expected(tmp_path, capsys):
+    """--model junk.pt (with good metadata beside it), --model the metadata .json, a model whose
+    metadata names no kind or the other kind, --weights a JSON file: one line each, exit 2."""
+    import shutil
+
+    from cacas.audio.model import default_model_path as sound_default
+    from cacas.vision.model import default_model_path as scene_default
+
+    good = tmp_path / "good.pt"
+    shutil.copy(sound_default(), good)
+    shutil.copy(sound_default().with_suffix(".json"), tmp_path / "good.json")
+    junk = tmp_path / "junk.pt"
+    junk.write_bytes(bytes(range(256)) * 4)
+    shutil.copy(sound_default().with_suffix(".json"), tmp_path / "junk.json")
+    lost = tmp_path / "lost.pt"
+    shutil.copy(sound_default(), lost)
+    (tmp_path / "lost.json").write_text('{"participants": []}')
+    clip = library.clip_paths("use blender")[0]
+    expected_sound = "expected a model saved by `cacas sound train` (.pt, with its .json beside it)"
+    cases = [
+        (["sound", "recognize", "--model", str(junk), str(clip)],
+         f"--model {junk}: not a sound model (not a PyTorch file); {expected_sound}"),
+        (["sound", "eval", "--model", str(tmp_path / "good.json")],
+         f"--model {tmp_path / 'good.json'}: a model's JSON metadata, not the sound model; give {good}"),
+        (["sound", "recognize", "--model", str(lost), str(clip)],
+         f"--model {lost}: not a sound model (its metadata {tmp_path / 'lost.json'} names no model kind); "
+         f"{expected_sound}"),
+        (["scene", "recognize", "--model", str(good), str(clip)],
+         f"--model {good}: not a scene model (its metadata {tmp_path / 'good.json'} says it is a sound model); "
+         "expected a model saved by `cacas scene train`"),
+        (["scene", "train", "--weights", str(tmp_path / "good.json"), "--model", str(tmp_path / "s.pt"),
+          "--data", str(tmp_path / "absent")],
+         f"--weights {tmp_path / 'good.json'}: not a PyTorch weights file; expected 'auto', 'none' or a "
+         "ResNet-18 state dict saved with torch.save (.pth)"),
+    ]
+    for argv, message in cases:
+        assert main(argv) == 2, argv
+        cap = capsys.readouterr()
+        assert cap.err.count("\n") == 1 and cap.err.startswith(f"cacas: error: {message}"), cap.err
+        assert "weights_only" not in cap.err and cap.out == ""
+    assert main(["sound", "recognize", "--model", str(good), str(clip)]) == 0  # the good one loads
+    assert main(["scene", "eval", "--model", str(scene_default()), "--data", str(tmp_path / "absent")]) == 2
+    assert "not a scene model" not in capsys.readouterr().err  # the shipped scene model passes the check

@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import count, print_metrics, print_recognition, save_confusion
+from cacas.cli.sound import check_model_file, count, print_metrics, print_recognition, save_confusion
 from cacas.errors import CacasError
 
 
@@ -85,6 +85,7 @@ def run_train(args) -> int:
     if args.epochs < 1:
         raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
     model_path = writable_file(args.model or default_model_path(), "--model")  # before minutes of training
+    check_weights_file(args.weights)
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
@@ -95,10 +96,24 @@ def run_train(args) -> int:
     return 0
 
 
+def check_weights_file(weights: str) -> None:
+    """--weights: 'auto', 'none', or a file torch.save wrote (a zip archive); anything else is
+    refused before training with one line saying what is expected. A missing file, or weights
+    that are not ResNet-18's, are left to the model builder, which says so."""
+    import zipfile
+
+    path = Path(weights)
+    if weights in ("auto", "none") or not path.is_file() or zipfile.is_zipfile(path):
+        return
+    raise CacasError(f"--weights {path}: not a PyTorch weights file; expected 'auto', 'none' or a ResNet-18 "
+                     f"state dict saved with torch.save (.pth), such as torchvision's resnet18-*.pth")
+
+
 def run_eval(args) -> int:
-    from cacas.vision.model import SceneRecognizer
+    from cacas.vision.model import SceneRecognizer, default_model_path
     from cacas.vision.training import evaluate_scene_model
 
+    check_model_file(args.model or default_model_path(), "scene")
     rec = SceneRecognizer.load(args.model)
     with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
@@ -108,8 +123,9 @@ def run_eval(args) -> int:
 
 
 def run_recognize(args) -> int:
-    from cacas.vision.model import SceneRecognizer
+    from cacas.vision.model import SceneRecognizer, default_model_path
 
+    check_model_file(args.model or default_model_path(), "scene")
     rec = SceneRecognizer.load(args.model)
     for f in args.files:
         print_recognition(f, rec.recognize(f))
