@@ -31,11 +31,12 @@ def bad_pref(**change):
         {"activity": ["cough"], "scene": ["bedroom"], "action": "show compassion"}]}]}, [],
      ["personas.json", "participant P01", "preferences 1 and 2", "different actions"]),
     (GOOD, ["--days", "0"], ["--days 0"]),
-    (GOOD, ["--methods", "cacas,dqn"], ["unknown method 'dqn'"]),
+    (GOOD, ["--methods", "cacas,dqn"], ["--methods cacas,dqn: unknown method 'dqn'", "valid: cacas, cacas-no-pr"]),
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
     (GOOD, ["--ask-after-reject", "2"], ["--ask-after-reject 2.0", "0 <= rate <= 1"]),
     (GOOD, ["--loop", "both"], ["--loop 'both' is invalid", "valid: first", "or each"]),
-    (GOOD, ["--days", "two"], ["--days", "invalid int"]),
+    (GOOD, ["--days", "two"], ["--days", "'two' is not a whole number; valid"]),
+    (GOOD, ["--no-response-rate", "some"], ["--no-response-rate", "'some' is not a number; valid: a share"]),
     (GOOD, ["--days", "366"], ["--days 366", "from 1 to 365"]),
     (GOOD, ["--interactions", "10000000000"], ["--interactions 10000000000", "from 1 to 1440"]),
     (GOOD, ["--seed", "-1"], ["--seed -1", "from 0 to 4294967295"]),
@@ -43,7 +44,7 @@ def bad_pref(**change):
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):
     path = tmp_path / "missing.json" if content is None else write(tmp_path, content)
     code = main(["simulate", "--personas", str(path), "--out", str(tmp_path / "out"), "--quiet", *args]) \
-        if "--days" not in args or args[1] != "two" else None
+        if args[1:2] not in (["two"], ["some"]) else None
     if code is None:  # argparse's own type errors exit through SystemExit
         with pytest.raises(SystemExit) as exc:
             main(["simulate", "--personas", str(path), "--out", str(tmp_path / "out"), *args])
@@ -120,6 +121,26 @@ def test_an_output_folder_that_cannot_be_written_is_refused_before_the_simulatio
     err = capsys.readouterr().err
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert f"{flag} {folders[flag]}: cannot write in this folder" in err
+    assert not (tmp_path / "out").exists()  # a refused --plot leaves no empty --out behind
+
+
+def test_an_earlier_runs_figures_do_not_stay_beside_new_tables(tmp_path, capsys):
+    """Walkthrough: a --loop each run's fig3_methods.html stayed beside a later run's tables (and
+    without --plot, every earlier figure did)."""
+    personas = write(tmp_path, GOOD)
+    run = ["simulate", "--personas", str(personas), "--days", "1", "--interactions", "3", "--methods", "cacas,nn",
+           "--quiet", "--out", str(tmp_path / "o")]
+    assert main(run + ["--loop", "each", "--plot", str(tmp_path / "o")]) == 0
+    figures = {"fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html"}
+    assert figures <= {p.name for p in (tmp_path / "o").iterdir()}
+    capsys.readouterr()
+    assert main(run + ["--plot", str(tmp_path / "o")]) == 0  # one closed loop: no fig3_methods.html
+    assert not (tmp_path / "o" / "fig3_methods.html").exists() and (tmp_path / "o" / "fig3_success.html").exists()
+    assert f"removed an earlier run's {tmp_path / 'o' / 'fig3_methods.html'}" in capsys.readouterr().out
+    (tmp_path / "o" / "notes.html").write_text("mine")
+    assert main(run) == 0  # no figures asked for: none of an earlier run's stays
+    assert not figures & {p.name for p in (tmp_path / "o").iterdir()}
+    assert (tmp_path / "o" / "notes.html").read_text() == "mine"  # only the command's own figures go
 
 
 def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypatch, fail_on_call):

@@ -17,22 +17,43 @@ method).
 from __future__ import annotations
 
 import argparse
+import shutil
+from pathlib import Path
+
 from cacas.errors import CacasError
+
+
+#: The figures --plot writes (fig3_methods.html only with --loop each and several methods).
+FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html")
+
+
+def _whole(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number; valid: e.g. 7") from None
+
+
+def _rate(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: a share such as 0.1") from None
 
 
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--personas", required=True, metavar="FILE", help="persona JSON file (design.md format)")
-    p.add_argument("--days", type=int, default=7, help="study days (default 7)")
-    p.add_argument("--interactions", type=int, default=15, help="interactions a day, about (default 15)")
+    p.add_argument("--days", type=_whole, default=7, help="study days (default 7)")
+    p.add_argument("--interactions", type=_whole, default=15, help="interactions a day, about (default 15)")
     p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
                    help="comma-separated methods; the first runs in closed loop, or every one with --loop each "
                         "(cacas, cacas-no-pr, orl, nn, bandit, sac-user-data; default the paper's four)")
-    p.add_argument("--seed", type=int, default=0, help="random seed (same seed, same daily.csv)")
-    p.add_argument("--no-response-rate", type=float, default=0.1,
+    p.add_argument("--seed", type=_whole, default=0, help="random seed (same seed, same daily.csv)")
+    p.add_argument("--no-response-rate", type=_rate, default=0.1,
                    help="share of robot actions the simulated participant does not answer (default 0.1)")
-    p.add_argument("--ask-after-reject", type=float, default=0.0, metavar="RATE",
+    p.add_argument("--ask-after-reject", type=_rate, default=0.0, metavar="RATE",
                    help="share of wrong robot actions the simulated participant answers by asking for the "
                         "preferred action instead (as the tablet allows; default 0: only when the robot does "
                         "nothing)")
@@ -44,7 +65,7 @@ def register(sub) -> None:
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
     p.add_argument("--plot", metavar="DIR",
                    help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here")
-    p.add_argument("--jobs", type=int, default=None,
+    p.add_argument("--jobs", type=_whole, default=None,
                    help="worker processes (default: one per core; results do not depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -57,7 +78,10 @@ def run(args) -> int:
     args.loop = check_loop(args.loop)
     if args.jobs is not None and args.jobs < 1:
         raise CacasError(f"--jobs {args.jobs} is invalid; valid: a whole number >= 1")
-    methods = check_methods(args.methods.split(","))
+    try:
+        methods = check_methods(args.methods.split(","))
+    except CacasError as exc:
+        raise CacasError(f"--methods {args.methods}: {exc}") from None
 
     import pandas as pd
 
@@ -70,9 +94,16 @@ def run(args) -> int:
 
     people = load_personas(args.personas)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
-    # the output folders are checked before the (long) simulation, not after it
+    # the output folders are checked before the (long) simulation, not after it; a refused --plot
+    # leaves no --out folder behind
+    made = not Path(args.out).exists()
     out = files.writable_folder(args.out, f"--out {args.out}")
-    plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
+    try:
+        plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
+    except CacasError:
+        if made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
     progress = None if args.quiet else ProgressBar("simulate")
     result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                             seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
@@ -97,4 +128,11 @@ def run(args) -> int:
         for name, fig in figures.items():
             fig.write_html(plot_dir / name, include_plotlyjs="directory")
         print("wrote " + ", ".join(str(plot_dir / name) for name in figures))
+    # an earlier run's figures beside these tables would show other results: removed, and said
+    stale = [d / name for d in dict.fromkeys(filter(None, (plot_dir, out))) for name in FIGURES
+             if (d / name).is_file() and not (d == plot_dir and name in figures)]
+    for path in stale:
+        path.unlink()
+    if stale:
+        print("removed an earlier run's " + ", ".join(str(p) for p in stale) + " (they no longer match these tables)")
     return 0
