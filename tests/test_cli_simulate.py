@@ -124,6 +124,23 @@ def test_an_output_folder_that_cannot_be_written_is_refused_before_the_simulatio
     assert not (tmp_path / "out").exists()  # a refused --plot leaves no empty --out behind
 
 
+def test_an_interrupted_run_leaves_no_empty_folder_behind(tmp_path, capsys, monkeypatch):
+    import cacas.experiment
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", interrupted)
+    (tmp_path / "old").mkdir()
+    (tmp_path / "old" / "daily.csv").write_text("an earlier run's")
+    for out in ("new", "old"):
+        assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out", str(tmp_path / out),
+                     "--plot", str(tmp_path / f"{out}-plots")]) == 130
+    assert "cacas: interrupted" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["old", "personas.json"]
+    assert (tmp_path / "old" / "daily.csv").read_text() == "an earlier run's"
+
+
 def test_an_earlier_runs_figures_do_not_stay_beside_new_tables(tmp_path, capsys):
     """Walkthrough: a --loop each run's fig3_methods.html stayed beside a later run's tables (and
     without --plot, every earlier figure did)."""

@@ -17,7 +17,6 @@ method).
 from __future__ import annotations
 
 import argparse
-import shutil
 from pathlib import Path
 
 from cacas.errors import CacasError
@@ -96,19 +95,20 @@ def run(args) -> int:
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind
-    made = not Path(args.out).exists()
-    out = files.writable_folder(args.out, f"--out {args.out}")
+    made = [Path(f) for f in (args.out, args.plot) if f and not Path(f).exists()]
     try:
+        out = files.writable_folder(args.out, f"--out {args.out}")
         plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
-    except CacasError:
-        if made:
-            shutil.rmtree(out, ignore_errors=True)
+        progress = None if args.quiet else ProgressBar("simulate")
+        result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
+                                seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
+                                jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
+                                loop=args.loop)
+    except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
+        for folder in made:
+            if folder.is_dir() and not any(folder.iterdir()):
+                folder.rmdir()
         raise
-    progress = None if args.quiet else ProgressBar("simulate")
-    result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
-                            seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
-                            jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
-                            loop=args.loop)
     # the three tables replace an earlier run's together, or not at all
     written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),
                                     "interactions.csv": records.csv_bytes(result.interactions),
