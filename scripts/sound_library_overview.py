@@ -7,15 +7,18 @@ Default output: study_data/sounds/spectrograms.png (clip index 3 of each activit
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import librosa
 import numpy as np
 from PIL import Image, ImageDraw
 
-from cacas import spaces
-from cacas.audio import SAMPLE_RATE, load_clip
-from cacas.audio.library import clip_paths, sounds_dir
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's cacas, not an installed one
+
+from cacas import spaces  # noqa: E402
+from cacas.audio import SAMPLE_RATE, load_clip  # noqa: E402
+from cacas.audio.library import clip_paths, sounds_dir  # noqa: E402
 
 
 def main() -> None:
