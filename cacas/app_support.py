@@ -82,11 +82,20 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
             "day": f"{status.day} of {STUDY_DAYS}" + (" (open)" if status.open else "") if status.day else "not started",
             "interactions today": status.recorded_today if status.open else 0,
             "success rate so far": success,
-            "policy": "initial" if status.policy_version is None else f"version {status.policy_version}",
+            "policy": policy_label(status.policy_version, store.policy_versions(p.code)),
             "last recorded": short_time(last.iloc[-1]) if len(last) else "",
             "next step": next_step(has_prefs, status),
         })
     return pd.DataFrame(rows, columns=cols)
+
+
+def policy_label(in_force: int | None, versions) -> str:
+    """The policy in force in words ("initial", "version 2"), saying when a newer version was rolled
+    back from ("version 1 (newest: 2)"): a roll-back shown as a plain "version 1" read as if no
+    later adaptation existed."""
+    label = "initial" if in_force is None else f"version {in_force}"
+    newest = max((v.version for v in versions), default=None)
+    return label if newest is None or newest == in_force else f"{label} (newest: {newest})"
 
 
 def open_days(store, study: str | None = None) -> dict[str, int]:

@@ -5,6 +5,7 @@ import streamlit as st
 from cacas import app_support, spaces
 from cacas.preferences import persona_json
 from cacas.errors import CacasError
+from cacas.study_day import day_status
 from pages import ui
 
 ui.require_app()
@@ -310,6 +311,11 @@ if code:
         if unsaved:
             c2.button("Discard changes", on_click=_discard_changes, args=(code,), icon=":material/undo:",
                       key=f"discard-{code}")
+            started = day_status(store, code).day
+            if started and existing:  # mid-study: Fig. 4's scores change version from here on
+                st.caption(f":material/warning: {code} is on day {started} of the study. Saved, these preferences "
+                           f"score the policies adapted from now on (Fig. 4, the Adaptation page); the days before "
+                           f"keep their scores against version {version}.")
 
     with tabs[f"Details of {code}"]:
         info = store.get_participant(code)

@@ -69,6 +69,7 @@ def test_overview_and_events(tmp_path):
     assert row["day"] == "1 of 7 (open)" and row["interactions today"] == 2
     assert row["success rate so far"] == pytest.approx(0.5)
     assert row["next step"] == "Day 1: 13 more interactions on the tablet"
+    assert row["policy"] == "initial"
     words = list(app_support.recent_events(store)["what"])
     assert words[0] == "day 1, interaction 2: robot proposed 'chitchat', rejected"
     assert "preferences saved (version 1, 1 preference)" in words
@@ -223,3 +224,18 @@ def test_day_ranges_and_the_fig4_left_out_note():
         "ORL, NN); W03 day 4 (no NN); compare methods again to add them.")
     assert left_out_note(left.iloc[2:]).endswith("W03 day 4 (no NN).")
     assert left_out_note(left.iloc[:0]) == ""
+
+
+def test_overview_names_the_newest_policy_after_a_roll_back(tmp_path):
+    """Walkthrough: after a roll-back the Overview read "version 1", as if no later version existed."""
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    store.close_day("P01", day)
+    for run in (1, 2):  # adapted twice after day 1
+        store.save_policy("P01", day, "cacas", f"policy {run}".encode())
+    assert app_support.overview_frame(store).iloc[0]["policy"] == "version 2"
+    store.set_active_policy("P01", 1)
+    assert app_support.overview_frame(store).iloc[0]["policy"] == "version 1 (newest: 2)"
+    store.set_active_policy("P01", None)
+    assert app_support.overview_frame(store).iloc[0]["policy"] == "initial (newest: 2)"

@@ -348,3 +348,19 @@ def test_a_code_holding_dashes_keeps_and_discards_its_own_form(app, store):
     assert at.selectbox(key="pf-A-v1-1-action").value == "pain check"
     at.selectbox(key="participant").set_value("A-v2").run()
     assert at.selectbox(key="pf-A-v2-v1-1-action").value == "chitchat" and _unsaved(at) and not at.main.warning
+
+
+def test_changing_preferences_mid_study_says_which_days_keep_their_scores(app, store):
+    """Walkthrough: version 2 saved on day 3 without a word; Adaptation then scored against it while
+    Results kept version 1's scores."""
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    at.text_input(key="pf-P01-v1-1-words").set_value("When I cough, check on me.").run()
+    assert _unsaved(at) and not any("of the study" in c.value for c in at.caption)  # not started: nothing to say
+    store.open_day("P01")
+    at.run()
+    no_exception(at)
+    assert [c.value for c in at.caption if "of the study" in c.value] == [
+        ":material/warning: P01 is on day 1 of the study. Saved, these preferences score the policies adapted "
+        "from now on (Fig. 4, the Adaptation page); the days before keep their scores against version 1."]
