@@ -157,3 +157,36 @@ def test_a_clips_features_do_not_depend_on_the_clips_beside_it():
     # and it is librosa's MFCC of that 1-s window with the paper's parameters
     expected = librosa.feature.mfcc(y=quiet, sr=features.SAMPLE_RATE, n_mfcc=64, n_fft=2048, hop_length=1024, n_mels=64)
     np.testing.assert_allclose(alone, expected, rtol=1e-5, atol=1e-4)
+
+
+@pytest.mark.parametrize("subtype, width", [("PCM_16", 2), ("FLOAT", 4)])
+def test_a_wav_cut_inside_its_audio_data_is_refused(tmp_path, subtype, width):
+    """0.31 s left of a 1-s clip: libsndfile reads what is there (and reports that length as the
+    clip's), but the header's data size says 1 s: refused as truncated, naming both lengths."""
+    good = tmp_path / "good.wav"
+    sf.write(good, _tone(1.0, SAMPLE_RATE), SAMPLE_RATE, subtype=subtype)
+    data = good.read_bytes()
+    start = data.index(b"data") + 8
+    bad = tmp_path / "cut.wav"
+    bad.write_bytes(data[:start + int(0.31 * SAMPLE_RATE) * width])
+    with pytest.raises(CacasError) as err:
+        load_clip(bad)
+    msg = str(err.value)
+    assert msg.startswith(f"{bad}: is truncated") and "1.00 s" in msg and "0.31 s" in msg, msg
+    assert len(load_clip(good)) == SAMPLE_RATE  # the whole file is read as before
+
+
+def test_a_wav_with_a_chunk_after_its_audio_and_one_of_unknown_length_are_read(tmp_path):
+    import struct
+
+    good = tmp_path / "good.wav"
+    sf.write(good, _tone(1.0, SAMPLE_RATE), SAMPLE_RATE, subtype="PCM_16")
+    data = good.read_bytes()
+    tail = b"LIST" + struct.pack("<I", 4) + b"INFO"
+    extra = tmp_path / "extra.wav"
+    extra.write_bytes(data[:4] + struct.pack("<I", len(data) - 8 + len(tail)) + data[8:] + tail)
+    assert len(load_clip(extra)) == SAMPLE_RATE
+    at = data.index(b"data") + 4
+    streamed = tmp_path / "streamed.wav"  # a recorder that never wrote the sizes: 0xFFFFFFFF
+    streamed.write_bytes(data[:at] + b"\xff\xff\xff\xff" + data[at + 4:])
+    assert len(load_clip(streamed)) == SAMPLE_RATE

@@ -6,7 +6,8 @@ number of the Mel band is set to 64. For each sound sample, the generated featur
 
 * :func:`load_clip` reads WAV, FLAC or OGG (any sample rate, mono or multi-channel, 8/16/24-bit
   integer or float) and returns mono float32 at 32 kHz. A file that is missing, empty, not audio,
-  corrupt, all silence or contains NaN/inf is refused with one :class:`CacasError` naming it.
+  corrupt, truncated (a WAV or FLAC; an OGG records no total length and reads as the shorter clip
+  it holds), all silence or contains NaN/inf is refused with one :class:`CacasError` naming it.
 * :func:`windows` cuts a signal into 1-s windows (a short one is zero-padded to 1 s; a long one
   is cut into consecutive 1-s windows, the last partial window kept when at least half a second).
 * :func:`mfcc_windows` gives the (n_windows, 64, 32) MFCC of one signal; :func:`mfcc_batch` the
@@ -72,6 +73,44 @@ def check_signal(signal: np.ndarray, name: str = "signal") -> np.ndarray:
     return y
 
 
+def wav_truncation(path) -> tuple[float, float] | None:
+    """(seconds the header announces, seconds the file holds) of a RIFF WAV file cut inside its
+    audio data, else None. libsndfile reads such a file without complaint and reports the shorter
+    length as the clip's, so the data chunk's size in the header is compared with the bytes that
+    follow it. Sizes a recorder left unwritten (0, 0xFFFFFFFF) and files that are not plain RIFF
+    (RF64, ...) are not judged."""
+    import struct
+
+    path = Path(path)
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(12)
+            if len(head) < 12 or head[:4] != b"RIFF" or head[8:12] != b"WAVE":
+                return None
+            size = path.stat().st_size
+            block_align = rate = 0
+            offset = 12
+            while offset + 8 <= size:
+                fh.seek(offset)
+                chunk, length = struct.unpack("<4sI", fh.read(8))
+                if chunk == b"fmt ":
+                    fmt = fh.read(16)
+                    if len(fmt) < 16:
+                        return None
+                    _, _, rate, _, block_align = struct.unpack("<HHIIH", fmt[:14])
+                elif chunk == b"data":
+                    held = size - (offset + 8)
+                    if length in (0, 0xFFFFFFFF) or not block_align or not rate or held >= length:
+                        return None
+                    if (length - held) < block_align:  # less than one sample frame missing
+                        return None
+                    return length / block_align / rate, held // block_align / rate
+                offset += 8 + length + (length & 1)  # chunks are padded to an even size
+    except (OSError, struct.error):
+        return None
+    return None
+
+
 def load_clip(path) -> np.ndarray:
     """Read an audio file as mono float32 at 32 kHz (Section IV-A).
 
@@ -99,6 +138,10 @@ def load_clip(path) -> np.ndarray:
         raise _refuse(path, f"not a readable WAV/FLAC/OGG audio file ({detail})") from None
     if data.shape[0] == 0:
         raise _refuse(path, "contains no audio samples")
+    cut = wav_truncation(path)
+    if cut is not None:
+        raise _refuse(path, f"is truncated: its header announces {cut[0]:.2f} s of audio but the file holds "
+                            f"{cut[1]:.2f} s; valid: a complete WAV/FLAC/OGG file")
     y = check_signal(data.mean(axis=1), str(path))
     if rate != SAMPLE_RATE:
         import librosa
