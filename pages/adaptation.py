@@ -79,7 +79,7 @@ else:
     c2.metric("Interactions that day", status.recorded_today,
               help="Answered, or asked for: the interactions that give user data (Section V-B)"
                    + (f"; {status.unanswered_today} more saved without an answer." if status.unanswered_today else "."))
-    c3.metric("Policy in force", "initial" if status.policy_version is None else f"version {status.policy_version}")
+    c3.metric("Policy in force", app_support.policy_label(status.policy_version, versions))
     with st.expander("Options"):
         st.selectbox("Method", METHODS, key="adapt-method",
                      help="CACAS for the study; the others are the paper's baselines (Fig. 4), a bandit and SAC "
