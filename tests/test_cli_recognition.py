@@ -207,3 +207,20 @@ def test_files_that_are_not_models_say_what_they_are_not_and_what_is_expected(tm
     assert main(["sound", "recognize", "--model", str(good), str(clip)]) == 0  # the good one loads
     assert main(["scene", "eval", "--model", str(scene_default()), "--data", str(tmp_path / "absent")]) == 2
     assert "not a scene model" not in capsys.readouterr().err  # the shipped scene model passes the check
+
+
+def test_sound_generate_reports_the_size_of_the_clips_only(tmp_path, capsys):
+    """The figure is the recordings' (as the README gives it), not a picture kept beside them."""
+    import re
+
+    lib = tmp_path / "sounds"
+    lib.mkdir()
+    (lib / "spectrograms.png").write_bytes(b"\x89PNG" + bytes(3_000_000))  # 3 MB beside the clips
+    (lib / "README.md").write_text("notes\n")
+    assert main(["sound", "generate", "--clips", "1", "--seconds", "1", "--out", str(lib)]) == 0
+    out = capsys.readouterr().out
+    clips = list(lib.rglob("*.ogg"))
+    size = sum(p.stat().st_size for p in clips) / 1e6
+    found = re.search(r"library now (\d+) clips, ([\d.]+) MB", out)
+    assert found, out
+    assert int(found.group(1)) == len(clips) == 33 and float(found.group(2)) == round(size, 1)
