@@ -42,7 +42,7 @@ st.dataframe(
     column_order=[c for c in table.columns if c != "age range"],
     column_config={
         "participant": small("participant", width=85), "day": small("day", width=105),
-        "policy": small("policy", width=75), "last recorded": small("last recorded", width=165,
+        "policy": small("policy", width=135), "last recorded": small("last recorded", width=150,
                                help="When the participant's last interaction was recorded"),
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
