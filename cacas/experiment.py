@@ -154,8 +154,8 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
             if response == "reject" and ask_after_reject > 0 and preferred not in (-1, spaces.DO_NOTHING_ACTION) \
                     and rng.random() < ask_after_reject:
                 tp, response, user_action = records.USER_INITIATED, "accept", spaces.ACTIONS[preferred]
-        rows.append({
-            "participant": participant.id, "method": method, "day": day, "index": i,
+        rows.append({  # index: numbered from 1 in its day, as on the tablet and in `cacas export`
+            "participant": participant.id, "method": method, "day": day, "index": i + 1,
             "time": f"{minute[i] // 60:02d}:{minute[i] % 60:02d}", "activity": spaces.ACTIVITIES[act],
             "scene": spaces.SCENES[scene], "time_slot": slot, "interval": spaces.INTERVAL_BINS[interval],
             "task": spaces.ACTIONS[task], "previous_action": spaces.ACTIONS[prev_action],

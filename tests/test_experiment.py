@@ -352,3 +352,12 @@ def test_a_study_with_its_own_d4a_table_starts_from_that_tables_initial_policy(m
     with pytest.raises(Stop):
         cacas.experiment.simulate_study(people, days=1, d4a=own)
     assert seen == [own]
+
+
+def test_interactions_are_numbered_from_1_in_their_day_as_in_a_human_study(small_config, small_initial):
+    """interactions.csv's index counts as the tablet and `cacas export` do (walkthrough: 0-based here,
+    1-based in the export)."""
+    inter = simulate_study(PEOPLE[:1], days=2, interactions=3, methods=["cacas"], config=small_config,
+                           initial_policy=small_initial).interactions
+    for _, day in inter.groupby("day"):
+        assert list(day["index"]) == list(range(1, len(day) + 1))
