@@ -125,21 +125,30 @@ def _add_tab(kind: str, intro: str) -> None:
         st.success(st.session_state[f"{kind}-added"], icon=":material/check_circle:")
 
 
+def _library_grid(kind: str, names: str, show, note: str = "") -> None:
+    """How many files the library holds, then a card per activity or room with its count and its
+    first file (``show(path)`` plays or shows it)."""
+    k = _KINDS[kind]
+    counts = _library_counts(kind)
+    n = counts[k["items"]]
+    st.markdown(f"**{int(n.sum())} {k['items']}** for **{int((n > 0).sum())} of {len(k['names'])}** {names}.{note}")
+    cols = st.columns(3)
+    for i, row in counts.iterrows():
+        with cols[i % 3].container(border=True):
+            name, count = row[k["label"]], row[k["items"]]
+            st.markdown(f"**{i + 1}. {name}** · {count} {k['item']}(s)")
+            paths = k["paths"](name) if count else []
+            if paths:
+                show(paths[0])
+            else:
+                st.caption(f"No {k['item']} yet.")
+
+
 sound_library, add_clip, scene_library, add_photo, train, tryit = st.tabs(
     ["Sound library", "Add clips", "Scene library", "Add photos", "Train and evaluate", "Try a clip or a photo"])
 
 with sound_library:
-    counts = _library_counts("sound")
-    st.markdown(f"**{int(counts['clips'].sum())} clips** for **{int((counts['clips'] > 0).sum())} of 33** activities.")
-    cols = st.columns(3)
-    for i, row in counts.iterrows():
-        with cols[i % 3].container(border=True):
-            st.markdown(f"**{i + 1}. {row['activity']}** · {row['clips']} clip(s)")
-            paths = clip_paths(row["activity"]) if row["clips"] else []
-            if paths:
-                st.audio(str(paths[0]), format=lab.audio_mime(paths[0]))
-            else:
-                st.caption("No clip yet.")
+    _library_grid("sound", "activities", lambda path: st.audio(str(path), format=lab.audio_mime(path)))
     with st.expander("Every clip of one activity"):
         act = st.selectbox("Activity", spaces.ACTIVITIES, key="lib-activity")
         for p in clip_paths(act)[:40]:
@@ -151,19 +160,9 @@ with add_clip:
                       "mixed to mono). Every file is checked before anything is added.")
 
 with scene_library:
-    counts = _library_counts("scene")
-    st.markdown(f"**{int(counts['photos'].sum())} photos** for **{int((counts['photos'] > 0).sum())} of "
-                f"{len(spaces.SCENES)}** rooms. In a study, the robot's camera \"sees\" one of the room's photos "
-                "(the same one for the same interaction): photos of the participant's own rooms make it real.")
-    cols = st.columns(3)
-    for i, row in counts.iterrows():
-        with cols[i % 3].container(border=True):
-            st.markdown(f"**{i + 1}. {row['room']}** · {row['photos']} photo(s)")
-            paths = image_paths(row["room"]) if row["photos"] else []
-            if paths:
-                st.image(str(paths[0]), width=160)
-            else:
-                st.caption("No photo yet.")
+    _library_grid("scene", "rooms", lambda path: st.image(str(path), width=160),
+                  " In a study, the robot's camera \"sees\" one of the room's photos (the same one for the same "
+                  "interaction): photos of the participant's own rooms make it real.")
     with st.expander("Every photo of one room"):
         room = st.selectbox("Room", spaces.SCENES, key="lib-room")
         photos = image_paths(room)[:48]
