@@ -37,6 +37,7 @@ from cacas.errors import CacasError
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files
 from cacas.store.restore import RESTORE_COLUMNS, restore
+from cacas.study_day import STUDY_DAYS
 
 #: Name of the zip of all tables inside the output folder.
 BUNDLE_NAME = "cacas-study.zip"
@@ -124,7 +125,8 @@ def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, d
 
 def next_day_accuracy(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     """participant, day, method, preference_accuracy, in_force: Fig. 4's metric of the policies
-    adapted for a participant's next day, which has not started (their latest day is closed), from
+    adapted for a participant's next study day, which has not started (their latest day is closed
+    and not the study's last, :data:`cacas.study_day.STUDY_DAYS`), from
     a human study's tables (:func:`export_tables`). Each method's latest run adapted after that
     day; for the policy the participant has in force (after a roll-back an earlier version, or
     the initial policy: the day-0 run), the run that produced it, marked ``in_force``.
@@ -138,8 +140,8 @@ def next_day_accuracy(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
     latest = days.assign(day=days["day"].astype(int)).sort_values("day").drop_duplicates("participant", keep="last")
     rows = []
     for who, day, closed in zip(latest["participant"], latest["day"], latest["closed_at"]):
-        if not (isinstance(closed, str) and closed):
-            continue  # the day is open: nothing is ahead of it yet
+        if not (isinstance(closed, str) and closed) or day >= STUDY_DAYS:
+            continue  # the day is open (nothing is ahead of it yet), or the study's last
         mine = runs[runs["participant"] == who]
         chosen = {m: group.index[-1] for m, group in mine[mine["day"].astype(int) == day].groupby("method", sort=False)}
         in_force = None

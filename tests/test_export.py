@@ -163,6 +163,13 @@ def test_next_day_accuracy_scores_the_policies_adapted_for_a_day_not_started(sto
     # once a day is open nothing is ahead of it
     store.open_day("P01")
     assert {k[0] for k in ahead()} == {"P02"}
+    # nor after the study's last day: there is no day 8
+    for _ in range(3, 8):
+        store.close_day("P01", store.days("P01")[-1].day)
+        store.record_adaptation("P01", store.days("P01")[-1].day, "cacas", {}, 1.0, {"preference_accuracy": 0.9})
+        if store.days("P01")[-1].day < 7:
+            store.open_day("P01")
+    assert store.days("P01")[-1].day == 7 and {k[0] for k in ahead()} == {"P02"}
 
 
 def test_by_preference_of_a_preference_without_test_states_is_empty_not_zero():
