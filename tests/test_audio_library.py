@@ -70,7 +70,8 @@ def test_generate_refuses_bad_arguments(tmp_path):
 def test_shipped_library_covers_every_activity_and_stays_small():
     for name in spaces.ACTIVITIES:
         assert len(library.clip_paths(name)) >= 10, name
-    assert library.library_size_bytes() < 20_000_000
+    n, size = library.library_clips()
+    assert n == sum(len(library.clip_paths(a)) for a in spaces.ACTIVITIES) and size < 20_000_000
 
 
 def _researcher_folder(tmp_path):

@@ -143,6 +143,8 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     return media_library.import_folder(source, root, SOUNDS, progress)
 
 
-def library_size_bytes(root: Path | str | None = None) -> int:
-    root = Path(root) if root is not None else sounds_dir()
-    return sum(p.stat().st_size for p in root.rglob("*") if p.is_file())
+def library_clips(root: Path | str | None = None) -> tuple[int, int]:
+    """(number, total bytes) of the clips in the library's activity folders: the recordings only,
+    not a picture or notes kept beside them (study_data/sounds/spectrograms.png)."""
+    clips = [p for activity in spaces.ACTIVITIES for p in clip_paths(activity, root)]
+    return len(clips), sum(p.stat().st_size for p in clips)

@@ -117,7 +117,7 @@ def register(subparsers) -> None:
 
 
 def run_generate(args) -> int:
-    from cacas.audio.library import generate_library, sounds_dir
+    from cacas.audio.library import generate_library, library_clips, sounds_dir
 
     with ProgressBar() as bar:
         paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
@@ -126,16 +126,6 @@ def run_generate(args) -> int:
     print(f"{len(paths)} synthetic clips of seed {args.seed} in {root} (a clip already holding the same audio "
           f"is left as it is; library now {n} clips, {size / 1e6:.1f} MB)")
     return 0
-
-
-def library_clips(root) -> tuple[int, int]:
-    """(number, total bytes) of the clips in the library's activity folders: the recordings
-    only, not a picture or notes kept beside them (study_data/sounds/spectrograms.png)."""
-    from cacas import spaces
-    from cacas.audio.library import clip_paths
-
-    clips = [p for activity in spaces.ACTIVITIES for p in clip_paths(activity, root)]
-    return len(clips), sum(p.stat().st_size for p in clips)
 
 
 def run_import(args) -> int:
