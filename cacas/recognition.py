@@ -166,15 +166,29 @@ def _json_default(obj):
 
 
 def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
-    """Read a model written by :func:`save_model`: (tensors, metadata). Bad files: CacasError."""
+    """Read a model written by :func:`save_model`: (tensors, metadata). A file that is not one is a
+    CacasError saying what it is not and what is expected (the app and the command line alike):
+    the metadata .json given for the model, a file that is not a PyTorch archive, metadata of
+    another kind or none, tensors torch cannot read."""
+    import zipfile
+
     import torch
 
     path = Path(path)
+    expected = f"expected a model saved by `cacas {kind} train` (.pt, with its .json beside it)"
     if path.is_dir():
         raise CacasError(f"{path}: is a folder; give the model's .pt file")
-    meta_path = path.with_suffix(".json")
     if not path.exists():
         raise CacasError(f"{path}: no such {kind} model; train one with `cacas {kind} train`")
+    if path.suffix.lower() == ".json":
+        pt = path.with_suffix(".pt")
+        if pt.is_file():
+            raise CacasError(f"{path}: a model's JSON metadata, not the {kind} model; give {pt}, "
+                             "the model saved beside it")
+        raise CacasError(f"{path}: a JSON file, not a {kind} model; {expected}")
+    if not zipfile.is_zipfile(path):  # torch.save writes a zip archive
+        raise CacasError(f"{path}: not a {kind} model (not a PyTorch file); {expected}")
+    meta_path = path.with_suffix(".json")
     if not meta_path.exists():
         raise CacasError(f"{meta_path}: the {kind} model's metadata file is missing")
     try:
@@ -183,12 +197,15 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
         raise CacasError(f"{meta_path}: not valid JSON metadata ({exc})") from None
     if not isinstance(meta, dict):
         raise CacasError(f"{meta_path}: not a model's metadata; expected a JSON object with its kind and classes")
-    if meta.get("kind") != kind:
-        raise CacasError(f"{path}: not a {kind} model (metadata kind {meta.get('kind')!r})")
+    found = meta.get("kind")
+    if found != kind:
+        what = f"says it is a {found} model" if found in ("sound", "scene") else "names no model kind"
+        raise CacasError(f"{path}: not a {kind} model (its metadata {meta_path} {what}); {expected}")
     try:
         tensors = torch.load(path, map_location="cpu", weights_only=True)
     except Exception as exc:
-        raise CacasError(f"{path}: not a readable model file ({' '.join(str(exc).split())[:200]})") from None
+        raise CacasError(f"{path}: not a readable {kind} model ({' '.join(str(exc).split())[:120]}); "
+                         f"{expected}") from None
     return tensors, meta
 
 

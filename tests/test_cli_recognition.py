@@ -166,7 +166,8 @@ def test_count_says_one_epoch_and_two_epochs():
 
 def test_files_that_are_not_models_say_what_they_are_not_and_what_is_expected(tmp_path, capsys):
     """--model junk.pt (with good metadata beside it), --model the metadata .json, a model whose
-    metadata names no kind or the other kind, --weights a JSON file: one line each, exit 2."""
+    metadata names no kind or the other kind, --weights a JSON file: one line each, exit 2 (the
+    model loader's messages, which the app shows too)."""
     import shutil
 
     from cacas.audio.model import default_model_path as sound_default
@@ -185,14 +186,14 @@ def test_files_that_are_not_models_say_what_they_are_not_and_what_is_expected(tm
     expected_sound = "expected a model saved by `cacas sound train` (.pt, with its .json beside it)"
     cases = [
         (["sound", "recognize", "--model", str(junk), str(clip)],
-         f"--model {junk}: not a sound model (not a PyTorch file); {expected_sound}"),
+         f"{junk}: not a sound model (not a PyTorch file); {expected_sound}"),
         (["sound", "eval", "--model", str(tmp_path / "good.json")],
-         f"--model {tmp_path / 'good.json'}: a model's JSON metadata, not the sound model; give {good}"),
+         f"{tmp_path / 'good.json'}: a model's JSON metadata, not the sound model; give {good}"),
         (["sound", "recognize", "--model", str(lost), str(clip)],
-         f"--model {lost}: not a sound model (its metadata {tmp_path / 'lost.json'} names no model kind); "
+         f"{lost}: not a sound model (its metadata {tmp_path / 'lost.json'} names no model kind); "
          f"{expected_sound}"),
         (["scene", "recognize", "--model", str(good), str(clip)],
-         f"--model {good}: not a scene model (its metadata {tmp_path / 'good.json'} says it is a sound model); "
+         f"{good}: not a scene model (its metadata {tmp_path / 'good.json'} says it is a sound model); "
          "expected a model saved by `cacas scene train`"),
         (["scene", "train", "--weights", str(tmp_path / "good.json"), "--model", str(tmp_path / "s.pt"),
           "--data", str(tmp_path / "absent")],

@@ -25,13 +25,14 @@ def test_save_then_load_gives_the_tensors_and_metadata(sound_file):
 
 
 def test_a_model_of_the_other_kind_is_refused(sound_file):
-    with pytest.raises(CacasError, match=r"m\.pt: not a scene model \(metadata kind 'sound'\)"):
+    with pytest.raises(CacasError, match=r"m\.pt: not a scene model \(its metadata .*m\.json says it is a sound "
+                                         r"model\); expected a model saved by `cacas scene train`"):
         load_model_file(sound_file, "scene")
     # the recognisers load through it: a sound model given as the scene model names the mix-up
     with pytest.raises(CacasError, match="not a scene model"):
         SceneRecognizer.load(sound_file)
     sound_file.with_suffix(".json").write_text(json.dumps({"classes": ["cough"]}))
-    with pytest.raises(CacasError, match=r"not a sound model \(metadata kind None\)"):
+    with pytest.raises(CacasError, match=r"not a sound model \(its metadata .*m\.json names no model kind\)"):
         SoundRecognizer.load(sound_file)
 
 
@@ -52,9 +53,21 @@ def test_missing_or_unreadable_files_are_refused(sound_file, tmp_path):
     with pytest.raises(CacasError, match=r"m\.json: not a model's metadata; expected a JSON object"):
         load_model_file(sound_file, "sound")
     meta.write_text(text)
+    with pytest.raises(CacasError, match=r"m\.json: a model's JSON metadata, not the sound model; give .*m\.pt"):
+        load_model_file(meta, "sound")
+    tensors = sound_file.read_bytes()
     sound_file.write_bytes(b"not tensors")
-    with pytest.raises(CacasError, match=r"m\.pt: not a readable model file"):
+    with pytest.raises(CacasError, match=r"m\.pt: not a sound model \(not a PyTorch file\); expected a model saved "
+                                         r"by `cacas sound train`"):
         load_model_file(sound_file, "sound")
+    import zipfile
+
+    with zipfile.ZipFile(sound_file, "w") as z:  # an archive, but not of tensors torch can read
+        z.writestr("notes.txt", "hello")
+    with pytest.raises(CacasError, match=r"m\.pt: not a readable sound model \(.*\); expected a model saved"):
+        load_model_file(sound_file, "sound")
+    sound_file.write_bytes(tensors)
+    assert load_model_file(sound_file, "sound")[1]["kind"] == "sound"
 
 
 def test_trainings_take_turns_so_each_draws_only_its_own_seeds_numbers():

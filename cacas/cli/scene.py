@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import check_model_file, count, print_metrics, print_recognition, save_confusion
+from cacas.cli.sound import count, print_metrics, print_recognition, save_confusion
 from cacas.errors import CacasError
 
 
@@ -110,10 +110,9 @@ def check_weights_file(weights: str) -> None:
 
 
 def run_eval(args) -> int:
-    from cacas.vision.model import SceneRecognizer, default_model_path
+    from cacas.vision.model import SceneRecognizer
     from cacas.vision.training import evaluate_scene_model
 
-    check_model_file(args.model or default_model_path(), "scene")
     rec = SceneRecognizer.load(args.model)
     with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
@@ -123,9 +122,8 @@ def run_eval(args) -> int:
 
 
 def run_recognize(args) -> int:
-    from cacas.vision.model import SceneRecognizer, default_model_path
+    from cacas.vision.model import SceneRecognizer
 
-    check_model_file(args.model or default_model_path(), "scene")
     rec = SceneRecognizer.load(args.model)
     for f in args.files:
         print_recognition(f, rec.recognize(f))

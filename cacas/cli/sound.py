@@ -13,37 +13,6 @@ def count(n: int, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
-def check_model_file(path, kind: str, option: str = "--model") -> None:
-    """Before loading a ``kind`` ("sound" or "scene") model given as ``option``: a file that is
-    not one (a PyTorch archive with the model's metadata, of this kind, beside it) is refused
-    with one line saying what it is not and what is expected. A missing file or a folder is left
-    to the loader, which says so (and how to train one)."""
-    import json
-    import zipfile
-
-    path = Path(path)
-    if not path.is_file():
-        return
-    expected = f"expected a model saved by `cacas {kind} train` (.pt, with its .json beside it)"
-    if path.suffix == ".json":
-        pt = path.with_suffix(".pt")
-        if pt.is_file():
-            raise CacasError(f"{option} {path}: a model's JSON metadata, not the {kind} model; give {pt}, "
-                             f"the model saved beside it")
-        raise CacasError(f"{option} {path}: a JSON file, not a {kind} model; {expected}")
-    if not zipfile.is_zipfile(path):  # torch.save writes a zip archive
-        raise CacasError(f"{option} {path}: not a {kind} model (not a PyTorch file); {expected}")
-    meta_path = path.with_suffix(".json")
-    try:
-        meta = json.loads(meta_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return  # missing or unreadable metadata: the loader names the metadata file
-    found = meta.get("kind") if isinstance(meta, dict) else None
-    if found != kind:
-        what = f"says it is a {found} model" if found in ("sound", "scene") else "names no model kind"
-        raise CacasError(f"{option} {path}: not a {kind} model (its metadata {meta_path} {what}); {expected}")
-
-
 def print_metrics(metrics, what: str = "recordings") -> None:
     """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
     if metrics.extra.get("set", "held-out") == "held-out":
@@ -155,10 +124,9 @@ def run_train(args) -> int:
 
 
 def run_eval(args) -> int:
-    from cacas.audio.model import SoundRecognizer, default_model_path
+    from cacas.audio.model import SoundRecognizer
     from cacas.audio.training import evaluate_sound_model
 
-    check_model_file(args.model or default_model_path(), "sound")
     rec = SoundRecognizer.load(args.model)
     with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
@@ -176,9 +144,8 @@ def save_confusion(metrics, path) -> None:
 
 
 def run_recognize(args) -> int:
-    from cacas.audio.model import SoundRecognizer, default_model_path
+    from cacas.audio.model import SoundRecognizer
 
-    check_model_file(args.model or default_model_path(), "sound")
     rec = SoundRecognizer.load(args.model)
     for f in args.files:
         print_recognition(f, rec.recognize(f))
