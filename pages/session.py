@@ -116,7 +116,7 @@ def _interaction_mark(day: int, index: int) -> str:
 def _clear_request() -> None:
     """A new proposal starts clean: no typed or picked request, no message about the last one."""
     s = st.session_state
-    for key in ("request-match", "request-error"):
+    for key in ("request-match", "request-said", "request-error"):
         s.pop(key, None)
     s["request-text"], s["request-pick"] = "", None
 
@@ -171,11 +171,15 @@ def _match_request() -> None:
         return
     s["request-error"] = None
     s["request-match"] = m.action
+    # kept apart from the text field's own state, which Streamlit drops while the field is not shown
+    s["request-said"] = s.get("request-text", "")
 
 
 def _reject_match() -> None:
-    st.session_state.pop("request-match", None)
-    st.session_state["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
+    s = st.session_state
+    s.pop("request-match", None)
+    s["request-text"] = s.pop("request-said", "")  # back in the field, to be said differently
+    s["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
 
 
 # --- page -------------------------------------------------------------------------------------------
@@ -313,38 +317,45 @@ else:
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")
 
-    if proposal.robot_speaks:
-        b1, b2, b3 = st.columns(3)
-        b1.button("Accept", type="primary", icon=":material/thumb_up:", width="stretch",
-                  on_click=_record, args=(day, index, proposal, "accept"))
-        b2.button("Reject", icon=":material/thumb_down:", width="stretch",
-                  on_click=_record, args=(day, index, proposal, "reject"))
-        b3.button("No response", icon=":material/do_not_disturb_on:", width="stretch",
-                  on_click=_record, args=(day, index, proposal, "no response"))
+    matched = st.session_state.get("request-match")
+    if matched:
+        # the robot's question about a typed request comes where its proposal's buttons were, in view on a
+        # tablet (below the request form it was under the fold at 1024 x 768): said, then asked, then answered
+        said = st.session_state.get("request-said", "")
+        with st.chat_message("user", avatar=":material/person:"):
+            st.markdown(said)
+        with st.chat_message("assistant", avatar=":material/smart_toy:"):
+            st.markdown(dialogue.confirmation_line(matched, proposal.heard, said))
+        y, n, _ = st.columns([1, 1, 2])
+        y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
+                 on_click=_record, args=(day, index, proposal), kwargs={"user_action": matched})
+        n.button("No", icon=":material/close:", width="stretch", on_click=_reject_match)
     else:
-        st.button("Nothing needed", icon=":material/check:", on_click=_record, args=(day, index, proposal, "no response"))
+        if proposal.robot_speaks:
+            b1, b2, b3 = st.columns(3)
+            b1.button("Accept", type="primary", icon=":material/thumb_up:", width="stretch",
+                      on_click=_record, args=(day, index, proposal, "accept"))
+            b2.button("Reject", icon=":material/thumb_down:", width="stretch",
+                      on_click=_record, args=(day, index, proposal, "reject"))
+            b3.button("No response", icon=":material/do_not_disturb_on:", width="stretch",
+                      on_click=_record, args=(day, index, proposal, "no response"))
+        else:
+            st.button("Nothing needed", icon=":material/check:", on_click=_record,
+                      args=(day, index, proposal, "no response"))
 
-    with st.container(border=True):
-        st.markdown("**Or ask the robot yourself**")
-        c1, c2 = st.columns([3, 1], vertical_alignment="bottom")
-        pick = c1.selectbox("Pick an action", list(dialogue.REQUESTS), index=None, key="request-pick",
-                            format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
-        c2.button("Ask", icon=":material/record_voice_over:", disabled=pick is None, width="stretch",
-                  on_click=_record, args=(day, index, proposal), kwargs={"user_action": pick})
-        c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
-        c3.text_input("Or type your request", key="request-text", placeholder="e.g. remind me to turn off the stove")
-        c4.button("Say it", icon=":material/chat:", on_click=_match_request, width="stretch")
-        if st.session_state.get("request-error"):
-            st.warning(st.session_state["request-error"], icon=":material/help:")
-        matched = st.session_state.get("request-match")
-        if matched:
-            with st.chat_message("assistant", avatar=":material/smart_toy:"):
-                said = st.session_state.get("request-text")
-                st.markdown(dialogue.confirmation_line(matched, proposal.heard, said))
-            y, n, _ = st.columns([1, 1, 2])
-            y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
-                     on_click=_record, args=(day, index, proposal), kwargs={"user_action": matched})
-            n.button("No", icon=":material/close:", width="stretch", on_click=_reject_match)
+        with st.container(border=True):
+            st.markdown("**Or ask the robot yourself**")
+            c1, c2 = st.columns([3, 1], vertical_alignment="bottom")
+            pick = c1.selectbox("Pick an action", list(dialogue.REQUESTS), index=None, key="request-pick",
+                                format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
+            c2.button("Ask", icon=":material/record_voice_over:", disabled=pick is None, width="stretch",
+                      on_click=_record, args=(day, index, proposal), kwargs={"user_action": pick})
+            c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
+            c3.text_input("Or type your request", key="request-text",
+                          placeholder="e.g. remind me to turn off the stove")
+            c4.button("Say it", icon=":material/chat:", on_click=_match_request, width="stretch")
+            if st.session_state.get("request-error"):
+                st.warning(st.session_state["request-error"], icon=":material/help:")
     st.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:")
 
 if done and not tablet:

@@ -342,6 +342,36 @@ def test_the_confirmation_names_what_the_request_names(app, store, p01, quick_po
     assert "You would like me to remind you to turn the TV off. Is that right?" in texts(at)
 
 
+def test_a_typed_request_is_confirmed_in_place_of_the_proposal(app, store, p01, quick_policy):
+    """The robot's question about a typed request comes right under its proposal (in view on a tablet),
+    in place of the proposal's buttons and the request form; "No" brings them back with the words kept."""
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", view="tablet")
+    _choose(at)
+    proposal_line = at.chat_message[0].children[0].value
+    at.text_input(key="request-text").set_value("please remind me to switch the stove off")
+    _button(at, "Say it").click().run()
+    at.run()  # a rerun in between (the tablet's browser) keeps what was said
+    no_exception(at)
+    lines = [m.children[0].value for m in at.chat_message]
+    assert lines[0] == proposal_line
+    assert lines[1] == "please remind me to switch the stove off"
+    assert "remind you to turn the stove off. Is that right?" in lines[2]
+    labels = {b.label for b in at.button}
+    assert {"Yes, please", "No"} <= labels and not labels & {"Accept", "Reject", "No response", "Ask", "Say it"}
+    _button(at, "No").click().run()
+    no_exception(at)
+    assert at.text_input(key="request-text").value == "please remind me to switch the stove off"
+    assert "Pick what you would like from the list, or say it differently." in texts(at)
+    assert len(at.chat_message) == 1 and "Say it" in {b.label for b in at.button}
+    at.text_input(key="request-text").set_value("turn off the stove please")
+    _button(at, "Say it").click().run()
+    _button(at, "Yes, please").click().run()
+    no_exception(at)
+    df = store.interactions_frame("P01", method=None)
+    assert list(df["user_action"]) == ["remind to turn off"] and list(df["type"]) == ["type_2"]
+
+
 def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_policy):
     """The tablet's '~15 a day' counts interactions the paper records; unanswered ones are said apart."""
     day = store.open_day("P01")
