@@ -29,12 +29,14 @@ def adapted_from(day: int) -> str:
 
 # --- overview ------------------------------------------------------------------------------------
 
-def next_step(has_preferences: bool, status) -> str:
-    """What the researcher should do next for one participant."""
+def next_step(has_preferences: bool, status, questionnaire_recorded: bool = False) -> str:
+    """What the researcher should do next for one participant; after the last day, the post-test
+    questionnaire (Section V-B.1) until an answer given after the study is recorded."""
     if not has_preferences:
         return "Describe 5 preferences (Participants)"
     if status.finished:
-        return "Study done: record the questionnaire (Results)"
+        return ("Study done; questionnaire recorded" if questionnaire_recorded
+                else "Study done: record the questionnaire (Results)")
     if status.day == 0:
         return "Start day 1 on the tablet (Study session)"
     if status.open:
@@ -71,6 +73,8 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     if not people:
         return pd.DataFrame(columns=cols)
     inter = store.interactions_frame(method=None, study=study)
+    answers = store.questionnaire_frame(study)
+    after_the_study = set(answers.loc[answers["day"].fillna(0) >= STUDY_DAYS, "participant"])
     for p in people:
         status = day_status(store, p.code)
         mine = inter[inter["participant"] == p.code]
@@ -84,7 +88,7 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
             "success rate so far": success,
             "policy": policy_label(status.policy_version, store.policy_versions(p.code)),
             "last recorded": short_time(last.iloc[-1]) if len(last) else "",
-            "next step": next_step(has_prefs, status),
+            "next step": next_step(has_prefs, status, p.code in after_the_study),
         })
     return pd.DataFrame(rows, columns=cols)
 

@@ -6,6 +6,7 @@ import pytest
 from cacas import app_support, records
 from cacas.errors import CacasError
 from cacas.store import StudyStore
+from cacas.study_day import STUDY_DAYS
 
 
 def test_questionnaire_summary_matches_the_papers_definition():
@@ -53,6 +54,27 @@ def test_preference_form_and_checks():
         1: "choose at least one activity and an action: a preference says which activities lead to which action"}
     typo = {"activity": ["coughing"], "action": "pain check"}
     assert app_support.check_preferences("P01", [typo])[1][1].startswith("field 'activity': unknown activity 'coughing'")
+
+
+def test_overview_says_who_still_owes_the_questionnaire(tmp_path):
+    """After day 7 the next step is the post-test questionnaire until an answer given after the study
+    is recorded (one given mid-study is not the post-test)."""
+    store = StudyStore(tmp_path / "s.sqlite")
+    for code in ("P01", "P02"):
+        store.add_participant(code)
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+        for _ in range(STUDY_DAYS):
+            day = store.open_day(code)
+            if day == 3:
+                store.record_questionnaire(code, 5)  # mid-study: not the post-test
+            store.close_day(code, day)
+    steps = lambda: dict(zip(*app_support.overview_frame(store)[["participant", "next step"]].T.values))
+    assert steps() == {"P01": "Study done: record the questionnaire (Results)",
+                       "P02": "Study done: record the questionnaire (Results)"}
+    store.record_questionnaire("P02", 9)
+    assert steps() == {"P01": "Study done: record the questionnaire (Results)",
+                       "P02": "Study done; questionnaire recorded"}
+    store.close()
 
 
 def test_overview_and_events(tmp_path):
