@@ -317,11 +317,15 @@ def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
     if not data["participants"]:
         raise CacasError(f"{_where(source)}: 'participants' is empty; add at least one participant")
     people = [parse_participant(p, source, i) for i, p in enumerate(data["participants"])]
-    seen: set[str] = set()
+    seen: dict[str, str] = {}  # by letter-case-folded code: P01 and p01 are two participants a reader takes for one
     for p in people:
-        if p.id in seen:
+        other = seen.get(p.id.casefold())
+        if other == p.id:
             raise CacasError(f"{_where(source, p.id, fld='id')}: appears twice; codes must be unique")
-        seen.add(p.id)
+        if other is not None:
+            raise CacasError(f"{_where(source, p.id, fld='id')}: differs from participant {other} only in letter "
+                             "case; codes must be unique")
+        seen[p.id.casefold()] = p.id
     return people
 
 

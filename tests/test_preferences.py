@@ -110,6 +110,13 @@ def test_duplicate_ids_and_bad_documents():
     d = {"participants": [doc(STOVE)["participants"][0], doc(STOVE)["participants"][0]]}
     with pytest.raises(CacasError, match="appears twice"):
         prefs.parse_personas(d)
+    # codes differing only in letter case are refused as the study database refuses them
+    upper, lower = doc(STOVE)["participants"][0], dict(doc(STOVE)["participants"][0])
+    lower["id"] = upper["id"].lower()
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas({"participants": [upper, lower]}, "people.json")
+    assert str(err.value) == (f"people.json, participant {lower['id']}, field 'id': differs from participant "
+                              f"{upper['id']} only in letter case; codes must be unique")
     with pytest.raises(CacasError, match="list 'participants'"):
         prefs.parse_personas([1, 2])
     with pytest.raises(CacasError, match="field 'id'"):
