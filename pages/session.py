@@ -182,9 +182,23 @@ def _reject_match() -> None:
     s["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
 
 
+FOLLOW_EVERY_SECONDS = 3
+
+
+@st.fragment(run_every=FOLLOW_EVERY_SECONDS)
+def _follow_the_tablet(drawn) -> None:
+    """The researcher's view follows the participant's tablet: once an interaction is saved there (or the
+    day is opened, closed or adapted elsewhere) the whole page is drawn again, without a reload. The
+    tablet itself is never redrawn under the participant's hands."""
+    if day_status(store, code) != drawn:
+        st.rerun()
+
+
 # --- page -------------------------------------------------------------------------------------------
 
 status = day_status(store, code)
+if not tablet:
+    _follow_the_tablet(status)
 if tablet:
     st.markdown(f"## :material/smart_toy: Hello, {code}")
 else:
@@ -251,7 +265,7 @@ if context is None:
                      placeholder="choose the time", format_func=spaces.time_slot_label)
         c2.selectbox(f"Time since your last activity{part('S4')}", range(spaces.N_INTERVALS), index=None,
                      key="ctx-interval", placeholder="choose how long",
-                     format_func=lambda i: f"{spaces.INTERVAL_BINS[i]} min" + ("+" if i == spaces.N_INTERVALS - 1 else ""))
+                     format_func=spaces.interval_label)  # the bin, as the day's table and the export say it
         c3, c4 = st.columns(2)
         c3.selectbox(f"Activity{part('S1')}", spaces.ACTIVITIES, index=None, key="ctx-activity",
                      placeholder="choose an activity")
@@ -289,8 +303,7 @@ else:
         st.markdown("**Your activity**")
         st.markdown(f"### {context.activity}")
         st.caption(f"in the {context.scene} · {spaces.time_slot_label(context.time_slot)} · "
-                   f"{context.interval_minutes} min{'+' if context.interval_bin == spaces.N_INTERVALS - 1 else ''} "
-                   "since your last activity")
+                   f"{spaces.interval_label(context.interval_bin)} since your last activity")
         if clip:
             st.audio(str(clip), format=audio_mime(clip), autoplay=True)
         else:
@@ -359,6 +372,8 @@ else:
     st.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:")
 
 if done and not tablet:
-    with st.expander(f"Today's interactions ({done})"):
+    # a key keeps it open while the count in its label follows the tablet
+    with st.expander(f"Today's interactions ({done})", key="today-interactions"):
         today = store.interactions_frame(code, method=None, extra=True)
-        st.dataframe(app_support.interactions_view(today[today["day"] == day]), hide_index=True, width="stretch")
+        view = app_support.interactions_view(today[today["day"] == day]).drop(columns="day")  # one day: room for
+        st.dataframe(view, hide_index=True, width="stretch")                                  # the answer

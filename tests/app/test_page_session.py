@@ -342,6 +342,21 @@ def test_the_confirmation_names_what_the_request_names(app, store, p01, quick_po
     assert "You would like me to remind you to turn the TV off. Is that right?" in texts(at)
 
 
+def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy):
+    """S4 is a bin (Table I): the tablet offers "20-30 min", the proposal and the researcher's day table say
+    the same (the tablet offered "20 min", the table "20-30 min")."""
+    store.open_day("P01")
+    at = app(PAGE, participant="P01")
+    assert at.selectbox(key="ctx-interval").options[:4] == ["0-1 min", "1-2 min", "2-5 min", "5-10 min"]
+    _choose(at, interval=6)
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in [c.value for c in at.caption]
+    label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
+    _button(at, label).click().run()
+    table = at.dataframe[0].value
+    assert list(table["since last activity"]) == ["20-30 min"]
+    assert "day" not in table.columns and "answer" in table.columns  # one day's table: no day column
+
+
 def test_a_typed_request_is_confirmed_in_place_of_the_proposal(app, store, p01, quick_policy):
     """The robot's question about a typed request comes right under its proposal (in view on a tablet),
     in place of the proposal's buttons and the request form; "No" brings them back with the words kept."""

@@ -89,7 +89,7 @@ def shot(page, name: str) -> None:
 def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     """Set a context and press "Do it"; True if the robot proposes an action (not quiet)."""
     choose(page, "Time of day", slot)
-    choose(page, "Time since your last activity", "20 min")
+    choose(page, "Time since your last activity", "20-30 min")
     choose(page, "Activity", activity)
     choose(page, "Room", room)
     click(page, "Do it")
@@ -163,10 +163,17 @@ def test_mini_study(server, page, tmp_path):
     assert "0 of about 15 interactions today" in text_of(page)
     shot(page, "session-context")
 
+    # the researcher's own view of the session, in another tab, follows the tablet without a reload
+    watch = page.context.new_page()
+    goto(watch, f"{server}/session?participant=P01")
+    assert "0 of about 15 interactions today" in text_of(watch)
+
     speaking_context(page, CANDIDATES)
     shot(page, "session-tablet")
     click(page, "Accept")
     assert "Interaction 1 saved (accepted)" in text_of(page)
+    watch.get_by_text("Day 1 of 7 · 1 of about 15 interactions today").wait_for(timeout=30_000)
+    watch.close()
 
     speaking_context(page, CANDIDATES[1:] + CANDIDATES[:1])
     click(page, "Reject")
