@@ -197,8 +197,8 @@ def test_files_that_are_not_models_say_what_they_are_not_and_what_is_expected(tm
          "expected a model saved by `cacas scene train`"),
         (["scene", "train", "--weights", str(tmp_path / "good.json"), "--model", str(tmp_path / "s.pt"),
           "--data", str(tmp_path / "absent")],
-         f"--weights {tmp_path / 'good.json'}: not a PyTorch weights file; expected 'auto', 'none' or a "
-         "ResNet-18 state dict saved with torch.save (.pth)"),
+         f"--weights {tmp_path / 'good.json'}: not a PyTorch weights file; expected a ResNet-18 state dict "
+         "saved with torch.save (.pth), such as torchvision's resnet18-*.pth, or 'none'"),
     ]
     for argv, message in cases:
         assert main(argv) == 2, argv

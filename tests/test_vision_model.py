@@ -74,6 +74,48 @@ def test_weights_file_is_used(tmp_path):
         build_resnet18(6, weights=tmp_path / "junk.pth")
 
 
+def test_weights_files_that_are_not_resnet18_say_what_they_are(tmp_path):
+    """Each way a --weights file can be something else: one message naming the file, what it is not
+    and what is expected (torch's own text, e.g. about weights_only, never reaches the researcher)."""
+    from cacas.vision.model import WEIGHTS_EXPECTED, read_resnet18_weights
+
+    donor, _ = build_resnet18(1000, weights="none")
+    state = donor.state_dict()
+    files = {
+        "text.pth": lambda p: p.write_text("junk"),
+        "whole_model.pth": lambda p: torch.save(donor, p),
+        "tensor.pth": lambda p: torch.save(torch.zeros(3), p),
+        "other_net.pth": lambda p: torch.save(torch.nn.Linear(2, 2).state_dict(), p),
+        "resnet34_like.pth": lambda p: torch.save({**state, "layer1.0.conv1.weight": torch.zeros(64, 64, 5, 5)}, p),
+    }
+    for name, write in files.items():
+        write(tmp_path / name)
+    said = {}
+    for name in files:
+        with pytest.raises(CacasError) as err:
+            build_resnet18(6, weights=tmp_path / name)
+        message = str(err.value)
+        assert message.startswith(f"{tmp_path / name}: ") and message.endswith(f"; {WEIGHTS_EXPECTED}"), message
+        assert "weights_only" not in message and "\n" not in message
+        said[name] = message[len(str(tmp_path / name)) + 2:-len(WEIGHTS_EXPECTED) - 2]
+    assert said == {
+        "text.pth": "not a PyTorch weights file",
+        "whole_model.pth": "a PyTorch file that holds more than tensors (a whole model? save its state_dict() instead)",
+        "tensor.pth": "holds Tensor, not a state dict",
+        "other_net.pth": "the state dict of another network (100 of ResNet-18's 100 tensors missing, e.g. "
+                         "'conv1.weight', 2 not ResNet-18's)",
+        "resnet34_like.pth": "ResNet-18's tensors in other shapes (1, e.g. 'layer1.0.conv1.weight' is (64, 64, 5, 5), "
+                             "not (64, 64, 3, 3))",
+    }
+    # a file without the batch-norm counters (torchvision's own resnet18-f37072fd.pth is one) is read
+    torch.save({k: v for k, v in state.items() if not k.endswith("num_batches_tracked")}, tmp_path / "old.pth")
+    model, source = build_resnet18(6, weights=tmp_path / "old.pth")
+    assert source == "pretrained: old.pth" and torch.equal(model.conv1.weight, donor.conv1.weight)
+    # a training checkpoint holding the state dict under "state_dict" is read
+    torch.save({"state_dict": state, "epoch": 3}, tmp_path / "checkpoint.pth")
+    assert torch.equal(read_resnet18_weights(tmp_path / "checkpoint.pth")["conv1.weight"], state["conv1.weight"])
+
+
 def test_int8_storage_round_trip_is_close():
     model, _ = build_resnet18(6, weights="none")
     state = model.state_dict()

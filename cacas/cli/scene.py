@@ -97,16 +97,15 @@ def run_train(args) -> int:
 
 
 def check_weights_file(weights: str) -> None:
-    """--weights: 'auto', 'none', or a file torch.save wrote (a zip archive); anything else is
-    refused before training with one line saying what is expected. A missing file, or weights
-    that are not ResNet-18's, are left to the model builder, which says so."""
-    import zipfile
+    """--weights: 'auto', 'none', or a ResNet-18 weights file, checked before the images are read and
+    minutes of training begin (the model builder's own rules: :func:`read_resnet18_weights`)."""
+    from cacas.vision.model import read_resnet18_weights
 
-    path = Path(weights)
-    if weights in ("auto", "none") or not path.is_file() or zipfile.is_zipfile(path):
-        return
-    raise CacasError(f"--weights {path}: not a PyTorch weights file; expected 'auto', 'none' or a ResNet-18 "
-                     f"state dict saved with torch.save (.pth), such as torchvision's resnet18-*.pth")
+    if weights not in ("auto", "none"):
+        try:
+            read_resnet18_weights(weights)
+        except CacasError as exc:
+            raise CacasError(f"--weights {exc}") from None
 
 
 def run_eval(args) -> int:

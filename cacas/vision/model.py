@@ -46,11 +46,64 @@ def cached_imagenet_weights() -> Path | None:
     return path if path.is_file() else None
 
 
+#: what a weights file must be, said after each reason a file is refused
+WEIGHTS_EXPECTED = ("expected a ResNet-18 state dict saved with torch.save (.pth), such as torchvision's "
+                    "resnet18-*.pth, or 'none'")
+
+
+def read_resnet18_weights(path: str | Path) -> dict[str, torch.Tensor]:
+    """The tensors of a ResNet-18 weights file, without its ``fc`` head (the 6-way head is new).
+
+    Every way a file can be something else is one CacasError naming the file, what it is not and
+    :data:`WEIGHTS_EXPECTED`: no such file, not a PyTorch file, a PyTorch file holding more than
+    tensors (a whole pickled model), something other than a state dict, the state dict of another
+    network, or ResNet-18's tensors in other shapes. Never runs code from the file
+    (``weights_only=True``).
+    """
+    import zipfile
+
+    from torchvision.models import resnet18
+
+    path = Path(path)
+    if not path.is_file():
+        raise CacasError(f"{path}: no such weights file; {WEIGHTS_EXPECTED}")
+    torch_archive = zipfile.is_zipfile(path) and any(
+        n.endswith("/data.pkl") or n == "data.pkl" for n in zipfile.ZipFile(path).namelist())  # torch.save's format
+    try:
+        state = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception:
+        if not torch_archive:
+            raise CacasError(f"{path}: not a PyTorch weights file; {WEIGHTS_EXPECTED}") from None
+        raise CacasError(f"{path}: a PyTorch file that holds more than tensors (a whole model? save its "
+                         f"state_dict() instead); {WEIGHTS_EXPECTED}") from None
+    if isinstance(state, dict) and isinstance(state.get("state_dict"), dict):  # a training checkpoint
+        state = state["state_dict"]
+    if not isinstance(state, dict) or not all(isinstance(v, torch.Tensor) for v in state.values()):
+        held = "a dict of other things than tensors" if isinstance(state, dict) else type(state).__name__
+        raise CacasError(f"{path}: holds {held}, not a state dict; {WEIGHTS_EXPECTED}")
+    reference = {k: v.shape for k, v in resnet18(weights=None).state_dict().items() if not k.startswith("fc.")}
+    state = {k: v for k, v in state.items() if not k.startswith("fc.")}
+    # files older than PyTorch 0.4.1 (torchvision's own resnet18-f37072fd.pth) lack the batch-norm counters;
+    # the batch-norm layers fill them in as they load
+    needed = [k for k in reference if not k.endswith("num_batches_tracked")]
+    missing = [k for k in needed if k not in state]
+    if missing or set(state) - set(reference):
+        raise CacasError(f"{path}: the state dict of another network ({len(missing)} of ResNet-18's "
+                         f"{len(needed)} tensors missing" + (f", e.g. '{missing[0]}'" if missing else "") +
+                         f", {len(set(state) - set(reference))} not ResNet-18's); {WEIGHTS_EXPECTED}")
+    wrong = [k for k in reference if k in state and tuple(state[k].shape) != tuple(reference[k])]
+    if wrong:
+        raise CacasError(f"{path}: ResNet-18's tensors in other shapes ({len(wrong)}, e.g. '{wrong[0]}' is "
+                         f"{tuple(state[wrong[0]].shape)}, not {tuple(reference[wrong[0]])}); {WEIGHTS_EXPECTED}")
+    return state
+
+
 def build_resnet18(n_classes: int = spaces.N_SCENES, weights: str | Path | None = "auto") -> tuple[nn.Module, str]:
     """A ResNet-18 with an ``n_classes`` head, and where its starting weights came from.
 
     ``weights``: "auto" (the local torchvision cache if present, else none), "none", or a path
-    to a ResNet-18 state dict (its ``fc`` layer is replaced). Never downloads.
+    to a ResNet-18 state dict (:func:`read_resnet18_weights`; its ``fc`` layer is replaced). Never
+    downloads.
     """
     from torchvision.models import resnet18
 
@@ -61,19 +114,8 @@ def build_resnet18(n_classes: int = spaces.N_SCENES, weights: str | Path | None 
         path = cached_imagenet_weights()
     elif weights not in (None, "none"):
         path = Path(weights)
-        if not path.is_file():
-            raise CacasError(f"{path}: no such weights file; give a ResNet-18 state dict (.pth) or 'none'")
     if path is not None:
-        try:
-            state = torch.load(path, map_location="cpu", weights_only=True)
-            if isinstance(state, dict) and "state_dict" in state:
-                state = state["state_dict"]
-            state = {k: v for k, v in state.items() if not k.startswith("fc.")}
-            missing, unexpected = model.load_state_dict(state, strict=False)
-        except Exception as exc:
-            raise CacasError(f"{path}: not ResNet-18 weights ({' '.join(str(exc).split())[:160]})") from None
-        if unexpected or [m for m in missing if not m.startswith("fc.")]:
-            raise CacasError(f"{path}: not ResNet-18 weights (missing {len(missing)}, unexpected {len(unexpected)} keys)")
+        model.load_state_dict(read_resnet18_weights(path), strict=False)
         source = f"pretrained: {path.name}"
     model.fc = nn.Linear(model.fc.in_features, n_classes)
     return model, source
