@@ -203,12 +203,7 @@ class PeopleMixin:
 
         def fn(c):
             sid = self._study_id(c, study)
-            twins = {}
-            for p in people:  # check every code first: all or nothing
-                first = twins.setdefault(p.id.casefold(), p.id)
-                if first != p.id:
-                    raise CacasError(f"{source or 'persona file'}: participants {first} and {p.id} differ only in "
-                                     "letter case; codes must be unique. Nothing was imported")
+            for p in people:  # check every code first: all or nothing (case twins within the file: parse_personas)
                 row = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                                 "WHERE p.code = ?", (p.id,)).fetchone()
                 if row is None:
