@@ -19,6 +19,17 @@ def contact_details(value: str) -> str | None:
     if email:
         return email.group(0)
     for m in _PHONE_RE.finditer(_DATE_TIME_RE.sub(";", value)):  # dates and times apart
-        if sum(ch.isdigit() for ch in m.group(0)) >= 7:
+        if _looks_like_a_phone_number(m.group(0)):
             return m.group(0).strip()
     return None
+
+
+def _looks_like_a_phone_number(text: str) -> bool:
+    """7 or more digits in groups of which one has 3 or more ("555-1234", "+44 20 7946 0958"), or in pairs
+    after a leading 0 or + ("06 12 34 56 78"). Runs of small numbers are not ("6-10 16-20" hours, "rated
+    8 9 10 8 7 9 10")."""
+    groups = re.findall(r"\d+", text)
+    if sum(map(len, groups)) < 7:
+        return False
+    lead = text.lstrip(" (")
+    return max(map(len, groups)) >= 3 or (lead[:1] in ("0", "+") and all(len(g) == 2 for g in groups))
