@@ -327,6 +327,29 @@ def score_request(text: str) -> list[tuple[str, int, tuple[str, ...]]]:
 _NOTHING_WANTED = re.compile(r"\b(nothing|leave me( alone)?|no,? thanks?|no thank you|go away|not now)\b", re.I)
 
 
+#: Words that turn a request into its opposite when they come before the action's words ("don't call")
+_NEGATIONS = {"don't", "dont", "not", "never", "no", "stop", "without", "won't", "shouldn't", "mustn't"}
+#: Words that may stand between such a word and the action's ("no need to call", "do not want a timer");
+#: any other word ends its reach ("I'm not well, call for help" asks for help)
+_NEGATION_REACH = {"to", "me", "you", "it", "want", "need", "please", "a", "an", "the", "any", "anyone", "do",
+                   "dare", "ever", "bother", "more", "again", "with",
+                   # request verbs not among an action's own words ("do not remind me to turn off the stove")
+                   "remind", "reminding", "tell", "ask", "keep", "show", "offer", "talk", "chat", "play", "set"}
+
+
+def _negated(text: str, action: str) -> bool:
+    """Whether a negation governs the words that matched ``action``: "don't call anyone", "no need to
+    call", "I do not want a timer", "stop the chitchat". "Don't forget to remind me" is a request."""
+    words = _words(text)
+    first = min(i for p in _PHRASES[action] for i in _positions(words, p))
+    for i in range(first - 1, -1, -1):
+        if words[i] in _NEGATIONS:
+            return not (i + 1 < len(words) and words[i + 1] == "forget")
+        if words[i] not in _NEGATION_REACH:
+            return False
+    return False
+
+
 def match_request(text: str) -> RequestMatch:
     """Match a typed request to one of the 13 actions other than "do nothing".
 
@@ -347,5 +370,8 @@ def match_request(text: str) -> RequestMatch:
         raise CacasError(f"Sorry, the robot did not understand {said!r}. Try other words, for example "
                          f"{examples}, or pick what you would like from the list above.")
     best, score, hits = ranked[0]
+    if _negated(text, best):  # "please don't call anyone" asks for the opposite of "call someone for help"
+        raise CacasError(f"All right, not that ('{request_words(best)}'). Press 'Reject' if the robot offered "
+                         "something you do not want, or pick what you would like from the list above.")
     return RequestMatch(text=text.strip(), action=best, score=score, matched=hits,
                         alternatives=tuple((a, s) for a, s, _ in ranked[1:]))

@@ -143,3 +143,23 @@ def test_asking_for_nothing_is_told_which_answer_says_so(text):
 def test_the_misunderstood_message_reads_as_a_sentence():
     with pytest.raises(CacasError, match=r"^Sorry, the robot did not understand 'asdf qwerty'\. Try other words"):
         dialogue.match_request("asdf qwerty")
+
+
+@pytest.mark.parametrize("text", ["please don't call anyone", "no need to call anyone", "never call my son",
+                                  "I do not want a timer", "stop the chitchat", "do not remind me to turn off the stove",
+                                  "Don’t remind me to unplug the hair dryer", "don't you dare call my son"])
+def test_a_request_not_to_do_something_is_not_taken_for_the_request(text):
+    """'Please don't call anyone' was confirmed as 'call someone for help': one tap from recording the
+    opposite of what was said. It is answered in place, nothing matched."""
+    with pytest.raises(CacasError, match=r"^All right, not that \('.+'\)\. Press 'Reject' if the robot offered"):
+        dialogue.match_request(text)
+
+
+@pytest.mark.parametrize("text, action", [("don't forget to remind me to turn off the stove", "remind to turn off"),
+                                          ("I am not well, call for help", "call someone for help"),
+                                          ("I can't breathe, call for help", "call someone for help"),
+                                          ("call someone, I am not ok", "call someone for help"),
+                                          ("remind me to turn off the stove, not the TV", "remind to turn off"),
+                                          ("I am not sure, check if I am in pain", "pain check")])
+def test_a_not_elsewhere_in_a_request_does_not_undo_it(text, action):
+    assert dialogue.match_request(text).action == action
