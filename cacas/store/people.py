@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
+import shutil
+import time
+from dataclasses import dataclass
 from typing import Any, Iterable
 
 import pandas as pd
@@ -11,6 +15,31 @@ from cacas import preferences as prefs
 from cacas.errors import CacasError
 from cacas.store import validate as v
 from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
+
+
+#: Tables holding rows about one participant (a ``participant_id`` column referencing
+#: ``participants``), children first: the order :meth:`PeopleMixin.remove_participant` deletes in
+#: (interactions and adaptation runs name policy versions and days).
+PARTICIPANT_TABLES = ("interactions", "adaptations", "questionnaires", "preferences", "days", "policies")
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """What the study keeps about one participant (what removing them deletes): rows of each
+    table, their events in the log, their policy files, and the study day open now (None: no
+    day is open) with the interactions recorded on it."""
+
+    code: str
+    days: int
+    interactions: int
+    preference_versions: int
+    policy_versions: int
+    adaptation_runs: int
+    questionnaire_answers: int
+    events: int
+    policy_files: int
+    open_day: int | None
+    open_day_interactions: int
 
 
 class PeopleMixin:
@@ -75,6 +104,96 @@ class PeopleMixin:
                         notes_changed=notes is not None)
         self._write(fn)
         return self.get_participant(code)
+
+    # --- withdrawal: removing a participant and everything recorded about them ----------------
+    def _participant_folder(self, code: str):
+        """The participant's own folder of policy checkpoints (``policies/<code>/``)."""
+        return self.policy_dir / code
+
+    def _footprint(self, c, pid: int, code: str) -> Footprint:
+        def count(table: str) -> int:
+            return c.execute(f"SELECT COUNT(*) FROM {table} WHERE participant_id = ?", (pid,)).fetchone()[0]
+
+        row = c.execute("SELECT day FROM days WHERE participant_id = ? AND closed_at IS NULL ORDER BY day DESC "
+                        "LIMIT 1", (pid,)).fetchone()
+        open_day = None if row is None else row[0]
+        today = 0 if open_day is None else c.execute(
+            "SELECT COUNT(*) FROM interactions WHERE participant_id = ? AND day = ?", (pid, open_day)).fetchone()[0]
+        folder = self._participant_folder(code)
+        files = sum(1 for f in folder.rglob("*") if f.is_file()) if folder.is_dir() else 0
+        events = c.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
+        return Footprint(code, count("days"), count("interactions"), count("preferences"), count("policies"),
+                         count("adaptations"), count("questionnaires"), events, files, open_day, today)
+
+    def participant_footprint(self, code: str) -> Footprint:
+        """What :meth:`remove_participant` would delete for ``code`` (counts; see
+        :class:`Footprint`). An unknown code raises CacasError naming it."""
+        def fn(c):
+            pid = self._pid(c, code)
+            return self._footprint(c, pid, c.execute("SELECT code FROM participants WHERE id = ?",
+                                                     (pid,)).fetchone()[0])
+        return self._read(fn)
+
+    def remove_participant(self, code: str, confirm: str) -> Footprint:
+        """Remove a participant and everything recorded about them (a withdrawal from the study,
+        or a code added by mistake): their study days, interactions, preference versions, policy
+        versions and adaptation runs, questionnaire answers and their events in the log, in one
+        transaction (all or nothing), and their folder of policy checkpoints
+        (``policies/<code>/``). One event "remove_participant" is kept, holding the code and the
+        study only (no participant column, so a new participant given the same code later does
+        not inherit it). Deleted rows are overwritten in the file (``secure_delete``) and the
+        write-ahead log is emptied when no reader holds it.
+
+        ``confirm`` must equal ``code`` exactly (the researcher types it); else CacasError saying
+        what to type. An unknown code raises CacasError naming it. Nothing is removed in either
+        case. A day still open is removed with the rest. Returns what was removed."""
+        code = str(code).strip()
+        if not isinstance(confirm, str) or confirm != code:
+            typed = "nothing" if not confirm else repr(confirm)
+            raise CacasError(f"to remove participant {code}, type its code {code} exactly to confirm "
+                             f"(typed: {typed}); nothing was removed")
+        folder = self._participant_folder(code)
+        trash = self.policy_dir / f".removed-{code}-{os.getpid()}-{time.time_ns()}"
+
+        def fn(c):
+            pid = self._pid(c, code)
+            study = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
+                              "WHERE p.id = ?", (pid,)).fetchone()[0]
+            removed = self._footprint(c, pid, code)
+            c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
+            try:
+                for table in PARTICIPANT_TABLES:
+                    c.execute(f"DELETE FROM {table} WHERE participant_id = ?", (pid,))
+                c.execute("DELETE FROM events WHERE participant = ?", (code,))
+                c.execute("DELETE FROM participants WHERE id = ?", (pid,))
+            finally:
+                c.execute("PRAGMA secure_delete = OFF")
+            self._event(c, "remove_participant", None, code=code, study=study)
+            if folder.exists() and not trash.exists():  # last: a failure before it leaves the folder in place
+                try:
+                    os.replace(folder, trash)
+                except OSError as exc:
+                    raise CacasError(f"{folder}: the participant's policy folder cannot be removed "
+                                     f"({exc.strerror or exc}); nothing was removed") from None
+            return removed
+
+        try:
+            removed = self._write(fn)
+        except BaseException:
+            if trash.exists() and not folder.exists():  # the transaction was rolled back: put the folder back
+                os.replace(trash, folder)
+            raise
+        try:
+            with self._lock:
+                self._conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # old pages leave the log (if no reader)
+        except Exception:  # noqa: BLE001 - best effort: the next checkpoint does it
+            pass
+        if trash.exists():
+            shutil.rmtree(trash, ignore_errors=True)
+            if trash.exists():
+                raise CacasError(f"participant {code} was removed from the study database, but their policy files "
+                                 f"in {trash} could not be deleted: delete that folder by hand")
+        return removed
 
     def get_participant(self, code: str) -> ParticipantInfo:
         """One participant; an unknown code raises CacasError listing the known ones."""

@@ -98,7 +98,23 @@ class PoliciesMixin:
             self._event(c, "save_policy", code, version=version, day=day, method=method, sha256=digest,
                         active=activate)
             return version
-        return self._write(fn)
+        try:
+            return self._write(fn)
+        except BaseException:  # e.g. the participant was removed meanwhile: no file without its row
+            self._drop_unreferenced(rel)
+            raise
+
+    def _drop_unreferenced(self, rel: str) -> None:
+        """Delete the checkpoint file ``rel`` (and its folder, if left empty) unless a policy
+        version names it."""
+        named = self._read(lambda c: c.execute("SELECT 1 FROM policies WHERE path = ?", (rel,)).fetchone())
+        if named is None:
+            path = self.policy_dir / rel
+            try:
+                path.unlink(missing_ok=True)
+                path.parent.rmdir()
+            except OSError:  # the folder holds other files: keep it
+                pass
 
     def _policy_rows(self, c, pid: int, where: str = "", params: Sequence = ()) -> list[PolicyVersion]:
         active = c.execute("SELECT active_policy FROM participants WHERE id = ?", (pid,)).fetchone()[0]

@@ -27,11 +27,11 @@ from cacas.errors import CacasError
 from cacas.store import validate as v
 from cacas.store.base import (DB_ENV, DEFAULT_STUDY, DayInfo, ParticipantInfo, PolicyVersion, ResumeInfo,
                               StoreBase, Study, default_db_path)
-from cacas.store.people import PeopleMixin
+from cacas.store.people import Footprint, PeopleMixin
 from cacas.store.policies import PoliciesMixin
 from cacas.store.sessions import INTERACTION_EXTRA_COLUMNS, SessionsMixin
 
-__all__ = ["StudyStore", "Study", "ParticipantInfo", "DayInfo", "PolicyVersion", "ResumeInfo", "DB_ENV",
+__all__ = ["StudyStore", "Study", "Footprint", "ParticipantInfo", "DayInfo", "PolicyVersion", "ResumeInfo", "DB_ENV",
            "DEFAULT_STUDY", "INTERACTION_EXTRA_COLUMNS", "default_db_path"]
 
 

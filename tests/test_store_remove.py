@@ -1,0 +1,199 @@
+"""Removing a participant (withdrawal from the study, or a code added by mistake): everything
+recorded about them goes, in one transaction; nothing of another participant is touched."""
+
+import json
+import os
+import sqlite3
+
+import pandas as pd
+import pytest
+
+from cacas.errors import CacasError
+from cacas.store import StudyStore
+from cacas.store.people import PARTICIPANT_TABLES
+from cacas.store.schema import TABLES
+
+GOOD = dict(activity="cough", scene="bedroom", hour=7.5, interval_minutes=12, robot_action="pain check",
+            response="accept")
+NOTE = "prefers-mornings-7c1f"  # text only P01's rows hold, to look for in the file afterwards
+
+
+def rows(path, code=None):
+    """Row counts of every table through a separate connection; with ``code``: that participant's
+    rows only (events by their participant column)."""
+    con = sqlite3.connect(path)
+    try:
+        if code is None:
+            return {t: con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0] for t in TABLES}
+        pid = con.execute("SELECT id FROM participants WHERE code = ?", (code,)).fetchone()
+        pid = None if pid is None else pid[0]
+        out = {t: con.execute(f"SELECT COUNT(*) FROM {t} WHERE participant_id = ?", (pid,)).fetchone()[0]
+               for t in PARTICIPANT_TABLES}
+        out["participants"] = con.execute("SELECT COUNT(*) FROM participants WHERE code = ?", (code,)).fetchone()[0]
+        out["events"] = con.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
+        return out
+    finally:
+        con.close()
+
+
+def fill(store, code, days=2, notes=""):
+    """A participant with preferences (2 versions), days (the last one open), interactions, policy
+    versions with files, adaptation runs and questionnaire answers."""
+    store.add_participant(code, "25-34", notes)
+    store.save_preferences(code, [{"activity": ["cough"], "action": "pain check", "description": notes}])
+    store.save_preferences(code, [{"activity": ["cough", "sneeze"], "action": "pain check"}])
+    store.save_policy(code, 0, "cacas", f"initial {code}".encode())
+    for _ in range(days):
+        d = store.open_day(code)
+        store.record_interaction(code, d, **GOOD)
+        store.record_interaction(code, d, **{**GOOD, "response": "reject"})
+        if d < days:
+            store.close_day(code, d)
+            v = store.save_policy(code, d, "cacas", f"{code} day {d}".encode())
+            store.record_adaptation(code, d, "cacas", {"beta": 0.5}, 1.0, {"preference_accuracy": 0.5},
+                                    policy_version=v)
+    store.record_questionnaire(code, 8, "fine")
+
+
+@pytest.fixture
+def store(tmp_path):
+    s = StudyStore(tmp_path / "study.sqlite")
+    fill(s, "P01", days=2, notes=NOTE)
+    fill(s, "P02", days=3)
+    yield s
+    s.close()
+
+
+def test_every_table_that_references_participants_is_emptied_of_them(store):
+    """A new table about participants must be added to PARTICIPANT_TABLES (else its rows would
+    outlive a withdrawal, or the delete would fail on its foreign key)."""
+    con = sqlite3.connect(store.path)
+    try:
+        referencing = {t for t in TABLES
+                       if any(fk[2] == "participants" for fk in con.execute(f"PRAGMA foreign_key_list({t})"))}
+    finally:
+        con.close()
+    assert referencing == set(PARTICIPANT_TABLES)
+
+
+def test_remove_deletes_every_row_of_that_participant_and_nothing_of_another(store):
+    before, theirs, other = rows(store.path), rows(store.path, "P01"), rows(store.path, "P02")
+    assert all(theirs[t] > 0 for t in theirs), theirs  # the test has something to remove in every table
+    other_frames = (store.interactions_frame("P02", method=None, extra=True), store.policies_frame(),
+                    store.preferences_frame(), store.days_frame(), store.questionnaire_frame(),
+                    store.adaptations_frame("P02"), store.events("P02"))
+    folder = store.policy_dir / "P01"
+    assert folder.is_dir()
+    footprint = store.participant_footprint("P01")
+    assert (footprint.days, footprint.interactions, footprint.preference_versions, footprint.policy_versions,
+            footprint.adaptation_runs, footprint.questionnaire_answers, footprint.policy_files) == (2, 4, 2, 2, 1, 1, 2)
+    assert (footprint.open_day, footprint.open_day_interactions) == (2, 2)  # removed mid-day: allowed
+    assert footprint.events == theirs["events"]
+
+    removed = store.remove_participant("P01", confirm="P01")
+
+    assert removed == footprint
+    after = rows(store.path)
+    for table in TABLES:  # exactly P01's rows went (and one event came)
+        expected = before[table] - theirs.get(table, 0) + (1 if table == "events" else 0)
+        assert after[table] == expected, table
+    assert all(n == 0 for n in rows(store.path, "P01").values())
+    assert rows(store.path, "P02") == other
+    assert [p.code for p in store.list_participants()] == ["P02"]
+    assert not folder.exists() and not list(store.policy_dir.glob(".removed-*"))
+    assert (store.policy_dir / "P02").is_dir() and store.load_policy("P02") == b"P02 day 2"
+    p02 = store.policies_frame()
+    assert p02["participant"].unique().tolist() == ["P02"]
+    for old, new in zip(other_frames[:1], (store.interactions_frame("P02", method=None, extra=True),)):
+        assert old.equals(new)
+    assert other_frames[6].equals(store.events("P02"))
+    with pytest.raises(CacasError, match="unknown participant 'P01'"):
+        store.get_participant("P01")
+    with pytest.raises(CacasError, match="unknown participant 'P01'"):
+        store.participant_footprint("P01")
+
+
+def test_removed_data_are_not_left_in_the_database_file(store):
+    store.remove_participant("P01", "P01")
+    raw = store.path.read_bytes()
+    wal = store.path.with_name(store.path.name + "-wal")
+    if wal.exists():
+        raw += wal.read_bytes()
+    assert NOTE.encode() not in raw
+
+
+def test_the_log_keeps_one_event_with_the_code_only(store):
+    assert (store.events()["participant"] == "P01").any()
+    store.remove_participant("P01", "P01")
+    ev = store.events()
+    assert not (ev["participant"] == "P01").any()
+    assert not ev["details"].str.contains(NOTE).any()
+    last = ev.iloc[-1]
+    assert last["what"] == "remove_participant" and pd.isna(last["participant"])
+    assert json.loads(last["details"]) == {"code": "P01", "study": "default"}
+    # a new participant given the same code starts with an empty record, and no inherited event
+    store.add_participant("P01")
+    assert store.events("P01")["what"].tolist() == ["add_participant"]
+    assert store.policy_versions("P01") == [] and store.days("P01") == []
+
+
+@pytest.mark.parametrize("confirm", ["", "p01", "P01 ", "P02", None])
+def test_a_wrong_confirmation_is_refused_and_writes_nothing(store, confirm):
+    before = rows(store.path)
+    with pytest.raises(CacasError, match="type its code P01 exactly to confirm.*nothing was removed"):
+        store.remove_participant("P01", confirm)
+    assert rows(store.path) == before
+    assert (store.policy_dir / "P01").is_dir()
+
+
+def test_an_unknown_participant_is_named_and_nothing_is_written(store):
+    before = rows(store.path)
+    with pytest.raises(CacasError, match="unknown participant 'P09'; known participants: P01, P02"):
+        store.remove_participant("P09", "P09")
+    assert rows(store.path) == before
+
+
+def test_a_failure_part_way_removes_nothing_and_keeps_the_policy_files(store, monkeypatch):
+    """The policy folder is moved aside inside the transaction; a refused move (or a failed
+    commit) leaves the database and the folder as they were."""
+    before = rows(store.path)
+    files = sorted(p.name for p in (store.policy_dir / "P01").iterdir())
+
+    def refuse(*args):
+        raise OSError(13, "Permission denied")
+    monkeypatch.setattr(os, "replace", refuse)
+    with pytest.raises(CacasError, match="policy folder cannot be removed.*nothing was removed"):
+        store.remove_participant("P01", "P01")
+    monkeypatch.undo()
+    assert rows(store.path) == before
+    assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files
+    assert store.load_policy("P01") == b"P01 day 1"
+
+
+def test_a_policy_saved_after_the_removal_leaves_no_file(store, monkeypatch):
+    """An adaptation that finishes after its participant was removed: save_policy refuses, and
+    its checkpoint file does not stay behind."""
+    real_read = StudyStore._read
+    calls = []
+
+    def remove_after_check(self, fn):  # the participant goes between save_policy's check and its write
+        out = real_read(self, fn)
+        if not calls:
+            calls.append(1)
+            store.remove_participant("P01", "P01")
+        return out
+    monkeypatch.setattr(StudyStore, "_read", remove_after_check)
+    with pytest.raises(CacasError, match="unknown participant"):
+        store.save_policy("P01", 0, "cacas", b"late policy")
+    monkeypatch.undo()
+    assert not (store.policy_dir / "P01").exists()
+
+
+def test_a_readonly_store_refuses(store):
+    ro = StudyStore(store.path, readonly=True)
+    try:
+        with pytest.raises(CacasError, match="read-only"):
+            ro.remove_participant("P01", "P01")
+    finally:
+        ro.close()
+    assert rows(store.path, "P01")["participants"] == 1
