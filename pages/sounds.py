@@ -80,7 +80,11 @@ def _add(kind: str) -> None:
     captured = s.get(capture_key)
     if captured is not None:
         files.append(("recording.wav" if kind == "sound" else "camera.jpg", captured.getvalue()))
-    name = s[f"{kind}-add-name"]
+    name = s.get(f"{kind}-add-name")
+    if name is None:  # nothing preset: a clip added to the first activity in the list would train the model wrong
+        s[f"{kind}-error"], s[f"{kind}-added"] = (f"Choose the {k['label']} the {k['items']} are of; nothing was "
+                                                  "added."), None
+        return
     try:
         added = k["add"](name, files)
     except CacasError as exc:
@@ -109,7 +113,8 @@ def _add_tab(kind: str, intro: str) -> None:
     """Upload files (or record a clip / take a photo) of one activity or room and add them."""
     k = _KINDS[kind]
     st.markdown(intro)
-    st.selectbox(k["label"].capitalize(), k["names"], key=f"{kind}-add-name")
+    st.selectbox(k["label"].capitalize(), k["names"], key=f"{kind}-add-name", index=None,
+                 placeholder=f"choose the {k['label']} of the {k['items']}")
     upload_key, capture_key = _upload_keys(kind)
     st.file_uploader(f"Upload {k['items']}", type=k["types"], accept_multiple_files=True, key=upload_key)
     if kind == "sound":

@@ -167,3 +167,7 @@ def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app,
         f":material/update: The scene library holds {sum(photos.values())} photos now ({sum(photos.values()) - 5} "
         "when this model was trained): train it again to use them."]
     assert [s.label for s in at.selectbox if s.key in ("sound-add-name", "scene-add-name")] == ["Activity", "Room"]
+    # nothing preset: a clip added without a choice went to "cough", the first activity in the list
+    assert [s.value for s in at.selectbox if s.key in ("sound-add-name", "scene-add-name")] == [None, None]
+    next(b for b in at.button if b.key == "sound-add").click().run()
+    assert [e.value for e in at.error] == ["Choose the activity the clips are of; nothing was added."]
