@@ -194,10 +194,14 @@ def start_day(store, participant: str) -> int:
     """Open the participant's next study day (or return the open one).
 
     Refused while the previous day has not been adapted (Section V-B.1: "After adaptation, the
-    participant can interact with the robot in the next day")."""
+    participant can interact with the robot in the next day"), and before day 1 while the participant
+    has no described preferences (the study's scores, Fig. 4 and the success ceiling, need them)."""
     status = day_status(store, participant)
     if status.open:
         return status.day
+    if status.day == 0 and store.get_preferences(participant) is None:
+        raise CacasError(f"participant {participant} has no described preferences; describe them before day 1 "
+                         "(Participants page)")
     if status.waiting_for_adaptation:
         raise CacasError(f"day {status.day} of participant {participant} is closed but the robot has not "
                          f"been adapted yet; run the adaptation first (Adaptation page)")

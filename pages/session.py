@@ -220,6 +220,14 @@ if not status.open:
                 f"{status.day + 1} once the researcher has adapted the robot.", icon=":material/hourglass_top:")
         if not tablet:
             ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
+    elif status.day == 0 and store.get_preferences(code) is None:
+        # the study's scores (Fig. 4, the success ceiling) need the preferences described before day 1
+        if tablet:
+            st.info("The study has not started yet: the researcher will tell you when.", icon=":material/schedule:")
+        else:
+            st.warning(f"{code} has no described preferences yet: describe them before day 1 (Section V-B).",
+                       icon=":material/warning:")
+            ui.link("pages/participants.py", "Describe the preferences", ":material/group:")
     else:
         st.markdown(f"Day **{status.day_on_screen}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
                     "with the robot, following your daily routine.")
@@ -346,7 +354,8 @@ else:
     else:
         if proposal.robot_speaks:
             b1, b2, b3 = st.columns(3)
-            b1.button("Accept", type="primary", icon=":material/thumb_up:", width="stretch",
+            # the three answers look alike: a highlighted "Accept" would nudge the participant's feedback
+            b1.button("Accept", icon=":material/thumb_up:", width="stretch",
                       on_click=_record, args=(day, index, proposal, "accept"))
             b2.button("Reject", icon=":material/thumb_down:", width="stretch",
                       on_click=_record, args=(day, index, proposal, "reject"))

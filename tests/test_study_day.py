@@ -17,8 +17,21 @@ from cacas.study_day import (STUDY_DAYS, Context, answer, clip_for, day_status, 
 def store(tmp_path):
     s = StudyStore(tmp_path / "s.sqlite")
     s.add_participant("P01")
+    s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
     yield s
     s.close()
+
+
+def test_day_1_waits_for_the_described_preferences(tmp_path):
+    """A participant with no described preferences could start the study, whose scores need them."""
+    with StudyStore(tmp_path / "s.sqlite") as s:
+        s.add_participant("P02")
+        with pytest.raises(CacasError, match=r"^participant P02 has no described preferences; describe them "
+                                              r"before day 1 \(Participants page\)$"):
+            start_day(s, "P02")
+        assert day_status(s, "P02").day == 0  # nothing opened
+        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+        assert start_day(s, "P02") == 1
 
 
 @pytest.fixture

@@ -461,3 +461,28 @@ def test_the_browsers_back_button_does_not_answer_an_answered_proposal_again(app
     old = app(PAGE, participant="P01", ctx="3.6.20.2")
     assert not any(b.label in ("Accept", "Nothing needed") for b in old.button)
     assert len(store.interactions_frame("P01", method=None)) == 1
+
+
+def test_no_day_1_before_the_preferences_are_described(app, store):
+    store.add_participant("P02")
+    at = app(PAGE, participant="P02")
+    no_exception(at)
+    assert [w.value for w in at.warning] == [
+        "P02 has no described preferences yet: describe them before day 1 (Section V-B)."]
+    assert not [b for b in at.button if b.label.startswith("Start day")]
+    at = app(PAGE, participant="P02", view="tablet")
+    assert "The study has not started yet: the researcher will tell you when." in [i.value for i in at.info]
+    assert not [b for b in at.button if b.label.startswith("Start day")]
+
+
+def test_the_three_answers_look_alike(app, store, p01, quick_policy):
+    """A highlighted Accept beside plain Reject and No response would nudge the participant's answer."""
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", view="tablet")
+    for activity, scene in (("use stove", "kitchen"), ("cough", "bedroom"), ("fall down", "living room")):
+        _choose(at, activity=activity, scene=scene)
+        answers = [b for b in at.button if b.label in ("Accept", "Reject", "No response")]
+        if answers:
+            break
+        _button(at, "Choose a different activity").click().run()
+    assert len(answers) == 3 and {b.proto.type for b in answers} == {"secondary"}
