@@ -165,13 +165,20 @@ def next_day_accuracy(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
 
 
 def described_preferences(store: StudyStore, interactions: pd.DataFrame) -> dict:
-    """Participant code -> preferred-action table of their latest described preferences, for
-    daily.csv's success ceiling (evaluation only); participants without any are left out."""
+    """Participant code -> the versions of their described preferences' preferred-action table,
+    ``[(saved_at, table), ...]`` oldest first, for daily.csv's success ceiling (evaluation only):
+    each interaction is scored against the version of its time, so preferences edited mid-study
+    leave the closed days' ceilings as they were (they moved with every edit). Participants
+    without any are left out."""
     out = {}
     for code in dict.fromkeys(interactions["participant"].astype(str)):
-        described = store.get_preferences(code)
-        if described is not None and described.preferences:
-            out[code] = described.preferred_action_table()
+        tables = []
+        for v in store.preference_versions(code):
+            described = store.get_preferences(code, v["version"])
+            if described.preferences:
+                tables.append((v["created_at"], described.preferred_action_table()))
+        if tables:
+            out[code] = tables
     return out
 
 

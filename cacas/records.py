@@ -11,7 +11,7 @@ action, two interaction data points are recorded".
 
 from __future__ import annotations
 
-from typing import Mapping
+from typing import Any, Mapping
 
 import numpy as np
 import pandas as pd
@@ -103,11 +103,14 @@ def is_success(interactions: pd.DataFrame) -> pd.Series:
             & (interactions["response"] == "accept"))
 
 
-def preferred_action_contexts(interactions: pd.DataFrame, preferred: Mapping[str, np.ndarray]) -> np.ndarray:
+def preferred_action_contexts(interactions: pd.DataFrame, preferred: Mapping[str, Any]) -> np.ndarray:
     """Per interaction row: 1.0 where the participant's described preferences name an action
     other than "do nothing" for its context (S1-S5), 0.0 where they name "do nothing" or cover
     nothing, NaN for a participant without described preferences. ``preferred`` maps a
-    participant code to its preferred-action table (``Participant.preferred_action_table``).
+    participant code to its preferred-action table (``Participant.preferred_action_table``), or to
+    the versions of it over time, ``[(saved_at, table), ...]`` oldest first: each row is then scored
+    against the version saved last at or before its ``time`` (a row before the first version, against
+    the first), so a version saved mid-study leaves the days before it as they were.
     Evaluation only: the adaptation never sees it."""
     from cacas import spaces
 
@@ -116,12 +119,21 @@ def preferred_action_contexts(interactions: pd.DataFrame, preferred: Mapping[str
         return out
     states = policy_states(interactions)
     who = interactions["participant"].astype(str).to_numpy()
-    for code, table in preferred.items():
+    when = interactions["time"].astype(str).to_numpy() if "time" in interactions else None
+    for code, tables in preferred.items():
         rows = np.flatnonzero(who == code)
-        if len(rows):
-            s = states[rows]
+        if not len(rows):
+            continue
+        if isinstance(tables, np.ndarray):
+            tables = [("", tables)]
+        saved = [t for t, _ in tables]
+        version = (np.zeros(len(rows), dtype=int) if when is None else
+                   np.maximum(np.searchsorted(saved, when[rows], side="right") - 1, 0))
+        for v, (_, table) in enumerate(tables):
+            mine = rows[version == v]
+            s = states[mine]
             action = table[s[:, 0], s[:, 1], s[:, 2], s[:, 3], s[:, 4]]
-            out[rows] = ((action >= 0) & (action != spaces.DO_NOTHING_ACTION)).astype(float)
+            out[mine] = ((action >= 0) & (action != spaces.DO_NOTHING_ACTION)).astype(float)
     return out
 
 

@@ -413,3 +413,22 @@ def test_a_checkpoint_policies_csv_does_not_list_is_refused(store, tmp_path):
         export.import_bundle(bad, target)
     assert not target.exists()
     assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
+
+
+def test_preferences_edited_mid_study_leave_the_closed_days_ceiling_as_it_was(tmp_path):
+    """daily.csv's success ceiling scores each interaction against the described preferences saved
+    by then: a version saved after day 1 changed day 1's ceiling (0.67 -> 0.73 in a walkthrough)."""
+    with StudyStore(tmp_path / "s.sqlite") as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [COUGH])
+        for d in (1, 2):
+            day = s.open_day("P01")
+            for activity in ("cough", "use stove"):
+                s.record_interaction("P01", day, activity=activity, scene="kitchen", hour=8, interval_minutes=5,
+                                     robot_action="pain check", response="accept")
+            s.close_day("P01", day)
+            if d == 1:  # the stove, described after day 1
+                s.save_preferences("P01", [COUGH, {"activity": ["use stove"], "action": "remind to turn off"}])
+        daily = export.export_tables(s)["daily"].set_index(["participant", "method", "day"])
+    assert daily.loc[("P01", "cacas", 1), "success_ceiling"] == 0.5   # cough only, as on day 1
+    assert daily.loc[("P01", "cacas", 2), "success_ceiling"] == 1.0   # cough and the stove
