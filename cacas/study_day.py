@@ -343,7 +343,7 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
     the participant described preferences, the new policy's preference accuracy (Fig. 4; the
     adaptation itself never reads them). Refuses a day with no interactions.
     """
-    from cacas.adaptation import EVALUATION_SEED, adapt_policy, fig4_metrics, policy_changes
+    from cacas.adaptation import adapt_policy, policy_changes
     from cacas.store import StudyStore
 
     say = progress or (lambda f, m: None)
@@ -367,13 +367,13 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         accuracy = None
         if prefs is not None and prefs.preferences:
             say(0.94, "scoring the new policy on the described preferences (evaluation only)")
-            metrics.update(fig4_metrics(result.policy, prefs, seed=EVALUATION_SEED))
+            metrics.update(scored_on_preferences(store, participant, result.policy, prefs))
             accuracy = metrics["preference_accuracy"]
             runs = store.adaptations_frame(participant)
             if before_version is None and not ((runs["day"] == 0) & (runs["method"] == method)).any():
                 # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
                 store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
-                                        fig4_metrics(before, prefs, seed=EVALUATION_SEED))
+                                        scored_on_preferences(store, participant, before, prefs))
         version = store.save_policy(participant, day, method, result.policy.to_bytes(), activate=True)
         params = dict(result.parameters, log=result.log)
         store.record_adaptation(participant, day, method, params, float(result.duration_s), metrics, version)
@@ -383,6 +383,17 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
                              accuracy, changes)
     finally:
         store.close()
+
+
+def scored_on_preferences(store, participant: str, policy, described) -> dict:
+    """An adaptation run's Fig. 4 metrics (:func:`cacas.adaptation.fig4_metrics`, evaluation only)
+    with the version of the described preferences they were scored against
+    (``preferences_version``): preferences edited mid-study leave earlier runs scored on theirs."""
+    from cacas.adaptation import EVALUATION_SEED, fig4_metrics
+
+    metrics = fig4_metrics(policy, described, seed=EVALUATION_SEED)
+    metrics["preferences_version"] = store.preference_versions(participant)[-1]["version"]
+    return metrics
 
 
 def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-pr", "orl", "nn"),
@@ -396,7 +407,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
     policy), so the exported daily.csv and by_preference.csv have each method's. Runs already recorded
     are skipped. Returns the number of runs recorded.
     """
-    from cacas.adaptation import EVALUATION_SEED, adapt_policy, fig4_metrics, load_initial_policy
+    from cacas.adaptation import adapt_policy, load_initial_policy
     from cacas.store import StudyStore
 
     say = progress or (lambda f, m: None)
@@ -419,7 +430,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                 policy = initial
                 if (method, 0) not in have:
                     store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
-                                            fig4_metrics(initial, person, seed=EVALUATION_SEED))
+                                            scored_on_preferences(store, code, initial, person))
                     recorded += 1
                 done += 1
                 for day in closed:
@@ -431,7 +442,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                     if (method, day) not in have:
                         store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
                                                 float(result.duration_s),
-                                                fig4_metrics(policy, person, seed=EVALUATION_SEED))
+                                                scored_on_preferences(store, code, policy, person))
                         recorded += 1
                     done += 1
         say(1.0, f"{recorded} comparison runs recorded")

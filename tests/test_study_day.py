@@ -1,3 +1,4 @@
+import json
 import dataclasses
 from pathlib import Path
 
@@ -173,6 +174,7 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
         assert list(nn["day"]) == [0, 1, 2] and nn["preference_accuracy"].between(0, 1).all()
         # NN learnt the request: on day 2 (adapted from day 1) it prefers pain check for coughs
         assert nn["preference_accuracy"].iloc[1] == 1.0
+        assert [json.loads(m)["preferences_version"] for m in nn["metrics"]] == [1, 1, 1]
         daily = export_tables(s)["daily"]
         by_pref = export_tables(s)["by_preference"]
     assert set(daily.loc[daily["method"] == "nn", "day"]) == {1, 2}
@@ -268,6 +270,8 @@ def test_every_version_is_scored_on_the_same_test_states_whatever_the_adaptation
     assert [p["states"] for p in recorded[-1]] == [p["states"] for p in expected["by_preference"]]
     assert [p["states"] for p in recorded[0]] == [p["states"] for p in recorded[-1]]  # the initial policy's too
     assert runs["preference_accuracy"].iloc[-1] == pytest.approx(expected["preference_accuracy"])
+    # each run names the version of the described preferences it was scored against
+    assert [json.loads(m)["preferences_version"] for m in runs["metrics"]] == [1, 1]
 
 
 def test_an_answer_is_told_from_another_screens_answer(store, policy):
