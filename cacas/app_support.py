@@ -169,16 +169,26 @@ def _event_words(what: str, details: str) -> str:
             "create_study": f"study {d.get('study', '')} created"}.get(what, what.replace("_", " "))
 
 
+def _scored_on(metrics: str | None) -> str:
+    """The described preferences' version a run's Fig. 4 metrics were scored against, in words
+    ("version 2"); "" for a run not scored, or recorded before runs named it."""
+    version = json.loads(metrics or "{}").get("preferences_version")
+    return "" if version is None else f"version {version}"
+
+
 def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
     """The Adaptation page's policy versions: version, adapted from, method, saved, in force,
-    preference accuracy (percent, from the run that saved it; NaN if none), sha256 (12 digits).
-    ``versions``: the store's policy versions; ``runs``: its adaptations_frame."""
-    cols = ["version", "adapted from", "method", "saved", "in force", "preference accuracy", "sha256"]
-    acc = runs.dropna(subset=["policy_version"]).set_index("policy_version")["preference_accuracy"]
+    preference accuracy (percent, from the run that saved it; NaN if none), scored on (the described
+    preferences' version it was scored against), sha256 (12 digits). ``versions``: the store's policy
+    versions; ``runs``: its adaptations_frame."""
+    cols = ["version", "adapted from", "method", "saved", "in force", "preference accuracy", "scored on",
+            "sha256"]
+    saved = runs.dropna(subset=["policy_version"]).set_index("policy_version")
     return pd.DataFrame([{
         "version": v.version, "adapted from": adapted_from(v.day) if v.day else "-", "method": v.method,
         "saved": short_time(v.created_at), "in force": "yes" if v.active else "",
-        "preference accuracy": 100 * float(acc.get(v.version, float("nan"))), "sha256": v.sha256[:12],
+        "preference accuracy": 100 * float(saved["preference_accuracy"].get(v.version, float("nan"))),
+        "scored on": _scored_on(saved["metrics"].get(v.version)), "sha256": v.sha256[:12],
     } for v in versions], columns=cols)
 
 
@@ -186,14 +196,16 @@ def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
     """The Adaptation page's adaptation runs (the store's adaptations_frame), in words: day,
     what (the method; the initial policy's Fig. 4 score, recorded as day 0, says so; a run that
     saved no policy is a comparison), duration (s), preference accuracy (percent; NaN if not
-    scored), policy version (empty where none was saved), saved (short time)."""
+    scored), scored on (the described preferences' version), policy version (empty where none was
+    saved; it read "None"), saved (short time)."""
     initial = [json.loads(p or "{}").get("initial", False) for p in runs["parameters"]]
     what = [("initial policy, scored for Fig. 4" if first else
              f"{m} (comparison)" if pd.isna(v) else m)
             for m, v, first in zip(runs["method"], runs["policy_version"], initial)]
     return pd.DataFrame({"day": runs["day"], "what": what, "duration (s)": runs["duration_s"],
                          "preference accuracy": 100 * runs["preference_accuracy"].astype(float),
-                         "policy version": runs["policy_version"],
+                         "scored on": [_scored_on(m) for m in runs["metrics"]],
+                         "policy version": ["" if pd.isna(v) else str(int(v)) for v in runs["policy_version"]],
                          "saved": [short_time(c) for c in runs["created_at"]]})
 
 
@@ -269,6 +281,11 @@ def preference_from_form(description: str, activities: Sequence[str], scenes: Se
     return out
 
 
+#: The Participants form's fields that narrow a preference (it has no task field: S5 comes only
+#: from an imported persona file), named when two preferences overlap.
+FORM_FIELDS = "activities (S1), rooms (S2), time of day (S3) or minutes since the last activity (S4)"
+
+
 def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] | None = None
                       ) -> tuple[prefs.Participant | None, dict[int, str], str | None]:
     """Validate a participant's preference dicts one by one, then together.
@@ -299,7 +316,7 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
     for i in range(len(parsed)):
         for j in range(i + 1, len(parsed)):
             try:
-                prefs.check_conflicts([parsed[i], parsed[j]], None, code)
+                prefs.check_conflicts([parsed[i], parsed[j]], None, code, fields=FORM_FIELDS)
             except CacasError as exc:
                 msg = _strip_where(str(exc)).replace("preferences 1 and 2", f"preferences {numbers[i]} and {numbers[j]}", 1)
                 return None, {}, msg

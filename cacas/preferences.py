@@ -243,9 +243,15 @@ def parse_preference(obj: Any, source: str | None = None, pid: str | None = None
     return pref
 
 
+#: The persona file's fields (design.md) that narrow a preference, named in the advice of
+#: :func:`check_conflicts`.
+FILE_FIELDS = "activity, scene, hours, interval or task"
+
+
 def check_conflicts(preferences: Iterable[Preference], source: str | None = None,
-                    pid: str | None = None) -> None:
-    """Two preferences covering the same state with different actions: an error naming both."""
+                    pid: str | None = None, fields: str = FILE_FIELDS) -> None:
+    """Two preferences covering the same state with different actions: an error naming both,
+    advising to narrow ``fields`` (default the persona file's; a form names its own)."""
     prefs = list(preferences)
     for i in range(len(prefs)):
         for j in range(i + 1, len(prefs)):
@@ -266,7 +272,7 @@ def check_conflicts(preferences: Iterable[Preference], source: str | None = None
                 raise CacasError(
                     f"{where}: preferences {i + 1} and {j + 1} both cover {int(overlap.sum())} states "
                     f"(e.g. {example}) with different actions ({a.action!r} vs {b.action!r}); "
-                    f"narrow their activity, scene, hours, interval or task so they do not overlap")
+                    f"narrow their {fields} so they do not overlap")
 
 
 def redundant_preferences(preferences: Iterable[Preference]) -> list[tuple[int, int]]:

@@ -5,6 +5,7 @@ import streamlit as st
 from cacas import app_support, spaces
 from cacas.preferences import persona_json
 from cacas.errors import CacasError
+from cacas.jobs import RUNNER
 from cacas.study_day import day_status
 from pages import ui
 
@@ -112,18 +113,28 @@ def _drop_form(who: str) -> None:
     s.setdefault(ui.UNSAVED_FORMS_KEY, {}).pop(who, None)
 
 
+def _form_values(who: str, version) -> dict:
+    """What ``who``'s form of ``version`` holds now (lists as tuples, so values compare equal
+    whichever a widget returned)."""
+    s = st.session_state
+    return {k: tuple(s[k]) if isinstance(s[k], list) else s[k]
+            for k in s if _form_owner(k) == (who, str(version))}
+
+
 def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
     s = st.session_state
     items, numbers = _form_items(s, who, version, count, tasks)
     person, errors, overall = app_support.check_preferences(who, items, numbers)
-    s["pref-check"] = (who, errors, overall)  # shown on this participant's form only
+    # shown on this participant's form only, and only while the form holds what was checked
+    s["pref-check"] = (who, errors, overall, _form_values(who, version))
     if person is None:
         return
     try:
         new_version = store.save_preferences(who, person)
     except CacasError as exc:
-        s["pref-check"] = (who, {}, str(exc))
+        s["pref-check"] = (who, {}, str(exc), _form_values(who, version))
         return
+    s.pop("pref-check", None)
     _drop_form(who)  # saved: the form shows the saved version again
     s["pref-saved"] = (who, new_version, len(person.preferences), person.covered_count())
     # the page may be scrolled to the form's end, far from the banner at its top
@@ -186,9 +197,69 @@ def _create_study() -> None:
     st.toast(f"Study {new.name!r} created and selected: add its participants.", icon=":material/check_circle:")
 
 
+def _remove_participant(who: str) -> None:
+    """Remove ``who`` and everything recorded about them (the store checks the typed code); the
+    sidebar moves to the next participant of the study (callbacks run before it is drawn)."""
+    s = st.session_state
+    codes = [p.code for p in store.list_participants(study)]
+    try:
+        store.remove_participant(who, s.get(f"remove-confirm-{who}", ""))
+    except CacasError as exc:
+        s["remove-error"] = (who, str(exc))
+        return
+    s.pop("remove-error", None)
+    _drop_form(who)
+    for key in (f"age-{who}", f"notes-{who}", f"old-version-{who}", f"remove-confirm-{who}"):
+        s.pop(key, None)  # nothing typed about them stays in this tab either
+    for key in ("pref-check", "pref-saved"):
+        if (s.get(key) or ("",))[0] == who:
+            del s[key]
+    rest = [c for c in codes if c != who]
+    after = [c for c in rest if c > who]
+    ui.select_participant(after[0] if after else (rest[-1] if rest else None))
+    s.pop(OPEN_TAB, None)
+    s["removed"] = who
+    st.toast(f"Participant {who} removed, with everything recorded about them.", icon=":material/delete:")
+
+
+def _removal_section(who: str) -> None:
+    """What removing ``who`` deletes, the code to type, and the button (enabled once it matches)."""
+    left = store.participant_footprint(who)
+
+    def n(count: int, what: str) -> str:
+        return f"{count} {what}{'' if count == 1 else 's'}"
+
+    st.markdown(f"For a participant who withdraws from the study, or a code added by mistake. This deletes {who} "
+                f"and everything recorded about them, for good: {n(left.days, 'study day')}, "
+                f"{n(left.interactions, 'interaction')}, {n(left.preference_versions, 'preference version')}, "
+                f"{n(left.policy_versions, 'policy version')} ({n(left.policy_files, 'file')}), "
+                f"{n(left.adaptation_runs, 'adaptation run')}, {n(left.questionnaire_answers, 'questionnaire answer')} "
+                f"and their {n(left.events, 'event')} in the log, which keeps one entry: '{who} removed'.")
+    st.caption("Exports and persona files downloaded before keep their copy: delete those by hand. "
+               "Simulation lab runs are not participant data and stay.")
+    if left.open_day is not None:
+        st.warning(f"Day {left.open_day} is open ({n(left.open_day_interactions, 'interaction')} so far): removing "
+                   f"{who} ends it and deletes it with the rest; their tablet then says its address names no "
+                   "participant.", icon=":material/warning:")
+    busy = any(j.key.startswith(f"adapt:{ui.db_path()}:{who}:") for j in RUNNER.running())
+    if busy:
+        st.info(f"A policy is being adapted for {who}: remove them once it has finished (Adaptation page).",
+                icon=":material/hourglass_top:")
+    typed = st.text_input(f"Type {who} to confirm", key=f"remove-confirm-{who}", disabled=busy)
+    st.button(f"Remove {who}", type="secondary", icon=":material/delete:", key=f"remove-{who}",
+              disabled=busy or typed != who, on_click=_remove_participant, args=(who,))
+    error = st.session_state.get("remove-error")
+    if error and error[0] == who:
+        st.error(error[1], icon=":material/error:")
+
+
 # --- page -------------------------------------------------------------------------------------------
 
 people = store.list_participants(study)
+removed = st.session_state.pop("removed", None)
+if removed:
+    st.success(f"Participant {removed} was removed, with everything recorded about them"
+               + (f"; {code} is selected now." if code else "."), icon=":material/check_circle:")
 tab_names = ([f"Preferences of {code}", f"Details of {code}"] if code else []) + ["Add a participant",
                                                                                   "Import / export"]
 if st.session_state.get(OPEN_TAB) not in tab_names:  # e.g. another participant chosen in the sidebar
@@ -258,8 +329,9 @@ if code:
                        f"{'are' if len(gone) > 1 else 'is'} not on the form: saving removes "
                        f"{'them' if len(gone) > 1 else 'it'} from the participant's preferences (version {version} "
                        "stays in the database).", icon=":material/warning:")
-        checked, errors, overall = st.session_state.get("pref-check") or (None, {}, None)
-        if checked != code:  # messages about another participant's form stay with it
+        checked, errors, overall, seen = st.session_state.get("pref-check") or (None, {}, None, None)
+        # messages about another participant's form stay with it; a changed form is not what was checked
+        if checked != code or seen != _form_values(code, version):
             errors, overall = {}, None
         tasks = {n: list(old.task) for n, old in enumerate(existing, 1) if old.task}
         # not an st.form: a form sends nothing before its button, and leaving the page lost what was typed
@@ -327,6 +399,8 @@ if code:
             st.form_submit_button("Save details", on_click=_update_details, args=(code,))
         st.caption(f"Added {app_support.short_time(info.created_at)} · study {info.study} · tablet address:")
         ui.tablet_address_note(code)
+        with st.expander(f"Remove {code}", icon=":material/person_remove:"):
+            _removal_section(code)
 
 with tabs["Add a participant"]:
     with st.form("add-participant", border=True):

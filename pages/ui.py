@@ -93,6 +93,19 @@ def participant() -> str | None:
     return st.session_state.get(PARTICIPANT_KEY)
 
 
+def select_participant(code: str | None) -> None:
+    """Select ``code`` (None: none) in the sidebar and the address, from a callback (before the
+    sidebar is drawn); the day and proposal in the address belonged to the previous participant."""
+    st.session_state[PARTICIPANT_KEY] = code
+    qp = st.query_params
+    if code:
+        qp["participant"] = code
+    else:
+        qp.pop("participant", None)
+    for key in ("day", "ctx", "at"):
+        qp.pop(key, None)
+
+
 def study() -> str | None:
     return st.session_state.get(STUDY_KEY)
 

@@ -364,3 +364,104 @@ def test_changing_preferences_mid_study_says_which_days_keep_their_scores(app, s
     assert [c.value for c in at.caption if "of the study" in c.value] == [
         ":material/warning: P01 is on day 1 of the study. Saved, these preferences score the policies adapted "
         "from now on (Fig. 4, the Adaptation page); the days before keep their scores against version 1."]
+
+
+# --- removing a participant (withdrawal, or a code added by mistake) --------------------------------
+
+GOOD = dict(activity="cough", scene="bedroom", hour=7.5, interval_minutes=12, robot_action="pain check",
+            response="accept")
+
+
+def _remove_button(at, code):
+    return next(b for b in at.button if b.label == f"Remove {code}")
+
+
+def test_a_participant_is_removed_once_their_code_is_typed(app, store):
+    store.add_participant("Anna", notes="added by mistake")
+    store.save_preferences("Anna", [{"activity": ["cough"], "action": "pain check"}])
+    store.open_day("Anna")
+    store.record_interaction("Anna", 1, **GOOD)
+    store.save_policy("Anna", 0, "cacas", b"policy")
+    store.add_participant("P02")
+    store.save_preferences("P02", [{"activity": ["sneeze"], "action": "chitchat"}])
+    store.open_day("P02")
+    store.record_interaction("P02", 1, **GOOD)
+    at = app(PAGE, participant="Anna")
+    no_exception(at)
+    details = next(t for t in at.tabs if t.label == "Details of Anna")
+    section = next(e for e in details.expander if e.label == "Remove Anna")
+    said = " ".join(m.value for m in section.markdown)
+    assert "1 study day, 1 interaction, 1 preference version, 1 policy version (1 file)" in said
+    assert "0 questionnaire answers" in said
+    assert any("Day 1 is open (1 interaction so far)" in w.value for w in section.warning)
+    # disabled until the code is typed exactly
+    assert _remove_button(at, "Anna").disabled
+    at.text_input(key="remove-confirm-Anna").set_value("anna").run()
+    assert _remove_button(at, "Anna").disabled
+    at.text_input(key="remove-confirm-Anna").set_value("Anna").run()
+    assert not _remove_button(at, "Anna").disabled
+    _remove_button(at, "Anna").click().run()
+    no_exception(at)
+    assert [p.code for p in store.list_participants()] == ["P02"]
+    assert "Participant Anna removed, with everything recorded about them." in [t.value for t in at.toast]
+    assert "Participant Anna was removed, with everything recorded about them; P02 is selected now." in texts(at)
+    # the sidebar moved to the remaining participant, and so did the address
+    sidebar = at.selectbox(key="participant")
+    assert sidebar.value == "P02" and sidebar.options == ["P02"]
+    assert at.query_params["participant"] == ["P02"] or at.query_params["participant"] == "P02"
+    assert [t.label for t in at.tabs][:2] == ["Preferences of P02", "Details of P02"]
+    assert not any(k.startswith("pf-Anna-") or k.endswith("-Anna") for k in at.session_state)
+    # the other pages open with the remaining participant
+    for page in ("pages/overview.py", "pages/session.py", "pages/adaptation.py", "pages/results.py"):
+        at.switch_page(page).run()
+        no_exception(at)
+        assert "Anna" not in texts(at), page
+    assert "P02" in texts(at.switch_page("pages/overview.py").run())
+
+
+def test_removing_the_last_participant_leaves_none_selected(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    at.text_input(key="remove-confirm-P01").set_value("P01").run()
+    _remove_button(at, "P01").click().run()
+    no_exception(at)
+    assert store.list_participants() == []
+    assert at.session_state["participant"] is None
+    assert "Participant P01 was removed, with everything recorded about them." in texts(at)
+    at.switch_page("pages/session.py").run()
+    no_exception(at)
+
+
+def test_a_save_error_goes_once_the_form_changes(app, store):
+    """An empty save says what to do; once the preferences are filled (or after leaving and
+    coming back to the page) that message is gone: it was about a form that is no longer there."""
+    empty = "describe at least one preference (activities and an action)"
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    assert empty in [e.value for e in at.error]
+    _fill(at, "P01", 0, 1, activity=["cough"])
+    at.run()
+    no_exception(at)
+    assert empty not in [e.value for e in at.error]
+    _fill(at, "P01", 0, 1, action="pain check")
+    at.run()
+    at.switch_page("pages/overview.py").run()
+    at.switch_page(PAGE).run()
+    no_exception(at)
+    assert empty not in [e.value for e in at.error]
+    assert at.selectbox(key="pf-P01-v0-1-action").value == "pain check"  # what was typed is still there
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    assert not at.error and len(store.get_preferences("P01").preferences) == 1
+
+
+def test_overlap_on_the_form_names_the_forms_fields_not_task(app, store):
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 1, activity=["use stove"], action="remind to turn off")
+    _fill(at, "P01", 0, 2, activity=["use stove"], scene=["kitchen"], action="chitchat")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    msg = next(e.value for e in at.error if "preferences 1 and 2 both cover" in e.value)
+    assert "task" not in msg
+    assert msg.endswith("narrow their activities (S1), rooms (S2), time of day (S3) or minutes since the last "
+                        "activity (S4) so they do not overlap")
