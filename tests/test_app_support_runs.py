@@ -115,19 +115,23 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     for day in (1, 2):
         store.close_day("P01", store.open_day("P01"))
         version = store.save_policy("P01", day, "cacas", f"policy {day}".encode())
-        store.record_adaptation("P01", day, "cacas", {}, 1.0, {"preference_accuracy": 0.5 + 0.25 * day}, version)
+        store.record_adaptation("P01", day, "cacas", {}, 1.0, {"preference_accuracy": 0.5 + 0.25 * day,
+                                                               "preferences_version": day}, version)
     store.record_adaptation("P01", 2, "nn", {"comparison": True}, 1.0, {"preference_accuracy": 0.1})  # no version
     table = app_support.versions_table(store.policy_versions("P01"), store.adaptations_frame("P01"))
     assert list(table["version"]) == [1, 2] and list(table["adapted from"]) == ["day 1", "days 1-2"]
     assert list(table["preference accuracy"]) == [75.0, 100.0]  # the comparison run is no version's
     assert list(table["in force"]) == ["", "yes"] and all(len(h) == 12 for h in table["sha256"])
+    assert list(table["scored on"]) == ["version 1", "version 2"]  # the described preferences' versions
     assert list(app_support.versions_table([], store.adaptations_frame("P01")).columns)[0] == "version"
     store.record_adaptation("P01", 0, "cacas", {"initial": True}, 0.0, {"preference_accuracy": 0.25})
     runs = app_support.runs_table(store.adaptations_frame("P01"))
-    assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "policy version", "saved"]
+    assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "scored on",
+                                  "policy version", "saved"]
+    assert list(runs["scored on"]) == ["version 1", "version 2", "", ""]  # older runs name none
     assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4"]
     assert list(runs["preference accuracy"]) == [75.0, 100.0, 10.0, 25.0]
-    assert list(runs["policy version"].isna()) == [False, False, True, True]  # a comparison run saves no policy
+    assert list(runs["policy version"]) == ["1", "2", "", ""]  # a comparison run saves no policy (read "None")
     assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
     store.close()
 
