@@ -171,3 +171,20 @@ def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app,
     assert [s.value for s in at.selectbox if s.key in ("sound-add-name", "scene-add-name")] == [None, None]
     next(b for b in at.button if b.key == "sound-add").click().run()
     assert [e.value for e in at.error] == ["Choose the activity the clips are of; nothing was added."]
+
+
+def test_training_while_a_study_day_is_open_is_warned(app, store):
+    """A model trained mid-day changes what the tablet's robot hears from the next interaction on, and
+    training slows the tablet: the Train tab names the open days."""
+    at = app(PAGE)
+    assert not [w for w in at.warning if "Study days are open" in w.value]
+    store.add_participant("P01")
+    store.create_study("pilot")
+    store.add_participant("Q01", study="pilot")
+    store.open_day("P01")
+    store.close_day("Q01", store.open_day("Q01"))
+    store.open_day("Q01")
+    at = app(PAGE)
+    no_exception(at)
+    assert [w.value.split(".")[0] for w in at.warning if "Study days are open" in w.value] == [
+        "Study days are open: P01 (day 1), Q01 (day 2)"]
