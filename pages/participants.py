@@ -23,6 +23,9 @@ st.caption("Participants are known by pseudonymous codes only (e.g. P01), never 
 SLOT_LABELS = {i: app_support.hours_label([(2 * i, 2 * i + 2)]) for i in range(spaces.N_SLOTS)}  # "06-08 h"
 ANY = "(choose an action)"
 OPEN_TAB = "participants-open-tab"
+#: participant -> {interval slider key: range} put back by "Put version n on the form": a range
+#: slider takes its starting range from value=, never from the session (see the slider below)
+RESTORED = "participants-restored-intervals"
 
 
 # --- callbacks: validate everything first, write once --------------------------------------------
@@ -111,6 +114,11 @@ def _drop_form(who: str) -> None:
     for key in [k for k in s if (_form_owner(k) or ("",))[0] == who]:
         del s[key]
     s.setdefault(ui.UNSAVED_FORMS_KEY, {}).pop(who, None)
+    s.setdefault(RESTORED, {}).pop(who, None)
+
+
+def _is_interval(key) -> bool:
+    return str(key).endswith("-interval")
 
 
 def _form_values(who: str, version) -> dict:
@@ -147,7 +155,9 @@ def _restore_version(who: str, version: int, old: int) -> None:
     s = st.session_state
     earlier = store.get_preferences(who, version=old)
     _drop_form(who)
-    s.update(_form_start(list(earlier.preferences), version, who))
+    start = _form_start(list(earlier.preferences), version, who)
+    s.update({k: v for k, v in start.items() if not _is_interval(k)})
+    s[RESTORED][who] = {k: v for k, v in start.items() if _is_interval(k)}
     s.pop("pref-check", None)
     st.toast(f"Version {old} is on the form: save it to make it {who}'s preferences again.", icon=":material/history:")
 
@@ -316,9 +326,13 @@ if code:
                 st.warning(f"Changes typed on the form of version {', '.join(sorted(stale))} were not saved: "
                            f"version {version} of {code}'s preferences was saved meanwhile (e.g. by an import), "
                            "and the form now shows it.", icon=":material/warning:")
-        start = _form_start(existing, version, code)
+        # what each widget starts from: the saved version, or an earlier one put back on the form
+        start = {**_form_start(existing, version, code), **st.session_state.get(RESTORED, {}).get(code, {})}
         for key, value in start.items():  # widgets take their values from the session, filled once
-            st.session_state.setdefault(key, value)
+            if not _is_interval(key):  # a range slider's starting range is its value= (below)
+                st.session_state.setdefault(key, value)
+        form_now = {**start, **{k: st.session_state[k] for k in st.session_state
+                                if _form_owner(k) == (code, str(version))}}
         most = max(10, len(existing), int(st.session_state[_count_key(code, version)]))  # a restored version's
         count = int(st.number_input("Preferences on the form", min_value=1, max_value=most,
                                     key=_count_key(code, version),
@@ -335,8 +349,8 @@ if code:
             errors, overall = {}, None
         tasks = {n: list(old.task) for n, old in enumerate(existing, 1) if old.task}
         # not an st.form: a form sends nothing before its button, and leaving the page lost what was typed
-        unsaved = (_form_items(st.session_state, code, version, count, tasks)
-                   != _form_items(start, code, version, len(existing), tasks))
+        unsaved = (_form_items(form_now, code, version, count, tasks)
+                   != _form_items(_form_start(existing, version, code), code, version, len(existing), tasks))
         st.session_state.setdefault(ui.UNSAVED_FORMS_KEY, {})[code] = unsaved
         # one caption whatever the state: an element appearing above the form would shift the widgets
         # below it while the researcher clicks them (and Streamlit would redraw them, closing an open list)
@@ -359,9 +373,10 @@ if code:
                 c3, c4 = st.columns(2)
                 c3.multiselect("Time of day (S3)", list(SLOT_LABELS), format_func=SLOT_LABELS.get,
                                key=k("slots"), placeholder="any time")
-                # value= makes it a range slider; the session's value (the same at first) wins
+                # value= (a pair) makes it a range slider, so its value is never set through the session
+                # (Streamlit warns when both are); persist_state keeps it while other pages are open
                 c4.select_slider("Minutes since the last activity (S4)", options=list(spaces.INTERVAL_BINS),
-                                 value=start[k("interval")], key=k("interval"),
+                                 value=start[k("interval")], key=k("interval"), persist_state="session",
                                  help="The whole range means any interval.")
                 st.selectbox("The robot should (action)", [ANY, *spaces.ACTIONS], key=k("action"))
                 if n in tasks:

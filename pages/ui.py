@@ -64,8 +64,8 @@ def keep_preference_forms() -> None:
     (before any page runs) makes them plain session values that stay until the form is saved or
     discarded. Called by ``app.py`` on every run."""
     s = st.session_state
-    for key in [k for k in s if str(k).startswith(FORM_KEY_PREFIX)]:
-        s[key] = s[key]
+    for key in [k for k in s if str(k).startswith(FORM_KEY_PREFIX) and not str(k).endswith("-interval")]:
+        s[key] = s[key]  # the interval range sliders keep theirs themselves (persist_state="session")
 
 
 def unsaved_preference_forms() -> list[str]:

@@ -465,3 +465,56 @@ def test_overlap_on_the_form_names_the_forms_fields_not_task(app, store):
     assert "task" not in msg
     assert msg.endswith("narrow their activities (S1), rooms (S2), time of day (S3) or minutes since the last "
                         "activity (S4) so they do not overlap")
+
+
+def test_the_interval_range_is_kept_across_pages_and_put_back_with_an_earlier_version(app, store):
+    """The S4 range slider is never set through the session (Streamlit warned when a widget had
+    both a value= and a session value); it keeps its range across pages by itself."""
+    store.add_participant("P01")
+    store.add_participant("P02")
+    store.save_preferences("P01", [{"activity": ["cough"], "interval": [0, 30], "action": "pain check"}])
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])  # version 2: any interval
+    at = app(PAGE, participant="P01")
+    key = "pf-P01-v2-1-interval"
+    assert at.select_slider(key=key).value == (0, 200)  # a range slider: a pair
+    at.select_slider(key=key).set_range(10, 60).run()
+    assert _unsaved(at)
+    at.switch_page("pages/overview.py").run()
+    at.selectbox(key="participant").set_value("P02").run()
+    at.switch_page(PAGE).run()
+    at.selectbox(key="participant").set_value("P01").run()
+    no_exception(at)
+    assert at.select_slider(key=key).value == (10, 60) and _unsaved(at)
+    next(b for b in at.button if b.label == "Discard changes").click().run()
+    assert at.select_slider(key=key).value == (0, 200) and not _unsaved(at)
+    next(b for b in at.button if b.label == "Put version 1 on the form").click().run()
+    no_exception(at)
+    assert at.select_slider(key=key).value == (0, 30) and _unsaved(at)
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert store.get_preferences("P01").preferences[0].interval == (0, 30)
+
+
+def test_no_widget_has_both_a_default_and_a_session_value(app, store, monkeypatch):
+    """Streamlit's server logged 'The widget with key "pf-...-interval" was created with a default
+    value but also had its value set via the Session State API' (AppTest has no runtime, so the
+    check is switched on here as the server has it)."""
+    from streamlit.elements.lib import policies
+
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "interval": [0, 30], "action": "pain check"}])
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    warned = []
+    with monkeypatch.context() as m:
+        m.setattr(policies.runtime, "exists", lambda: True)
+        m.setattr(policies, "_shown_default_value_warning", False)
+        m.setattr(policies._LOGGER, "warning", lambda msg, *args, **kw: warned.append(msg % args))
+        at = app(PAGE, participant="P01")
+        _fill(at, "P01", 2, 1, interval=(5, 60), words="cough")
+        at.run()
+        at.switch_page("pages/overview.py").run()
+        at.switch_page(PAGE).run()
+        next(b for b in at.button if b.label == "Put version 1 on the form").click().run()
+        no_exception(at)
+    assert warned == []
+    assert at.select_slider(key="pf-P01-v2-1-interval").value == (0, 30)
