@@ -10,6 +10,9 @@ import pandas as pd
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
+#: Fig. 3's dashed line, daily.csv's success_ceiling: the share of the day's interactions in a context where a
+#: described preference names an action (the success rate proposing the described preferences would reach there)
+CEILING_NAME = "where a described preference names an action (mean)"
 METHOD_LABELS = {"cacas": "CACAS", "cacas-no-pr": "CACAS w/o PR", "orl": "ORL", "nn": "NN",
                  "bandit": "Bandit (TS)", "sac-user-data": "SAC on user data"}
 METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
@@ -93,10 +96,13 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]} participants)"
                                            "<extra></extra>"), secondary_y=False)
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
-        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name="ceiling: always the "
-                                 "described preference (mean)", line=dict(color=colour, width=1.5, dash="dash"),
+        # not a bound: where no preference names an action a participant may still accept what the robot offers
+        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME,
+                                 line=dict(color=colour, width=1.5, dash="dash"),
                                  marker=dict(symbol="line-ew-open", size=14, color=colour),  # seen on day 1 alone
-                                 hovertemplate="day %{x}: at most %{y:.0%}<extra></extra>"), secondary_y=False)
+                                 hovertemplate="day %{x}: %{y:.0%} of the interactions were where a described "
+                                               "preference names an action (elsewhere a participant may still "
+                                               "accept)<extra></extra>"), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
                              mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
                              marker=dict(symbol="square", size=7),

@@ -116,9 +116,11 @@ with fig3:
                    "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
                    "and requests, which are not successes); as in the paper, a proposal left unanswered, or the robot "
                    "quiet with nothing asked, is not recorded."
-                   + (" The dashed line is the ceiling: the success rate the described preferences allow on the same "
-                      "interactions (below 100% where the robot spoke though the participant wants it to do nothing, "
-                      "or outside every described preference)." if per_day["ceiling"].notna().any() else ""))
+                   + (" The dashed line (daily.csv's success_ceiling) is the share of the interactions where a "
+                      "described preference names an action: the success rate proposing the described preferences "
+                      "reaches there. It is not a bound: where no preference names an action (or the participant "
+                      "wants the robot to do nothing) a participant may still accept what the robot offers."
+                      if per_day["ceiling"].notna().any() else ""))
 
 with fig4:
     if source == HUMAN:

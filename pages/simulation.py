@@ -139,9 +139,9 @@ if runs:
                  column_config={"success_rate": st.column_config.TextColumn("success rate"),
                                 "success_ceiling": st.column_config.TextColumn(
                                     "success ceiling",
-                                    help="The success rate the described preferences allow on the same recorded "
-                                         "interactions: below 100% where the robot spoke though the participant "
-                                         "wants it to do nothing, or outside every described preference."),
+                                    help="The share of the recorded interactions where a described preference "
+                                         "names an action (Fig. 3's dashed line). Not a bound: elsewhere the "
+                                         "simulated participant answers by the D4A pairs and may still accept."),
                                 "preference_accuracy": st.column_config.TextColumn("preference accuracy"),
                                 "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
                                                                                      format="%.1f")})

@@ -2,7 +2,7 @@ import pytest
 import numpy as np
 import pandas as pd
 
-from cacas.plots import accuracy_by_day, methods_figure, preference_days_figure, preference_methods_figure, \
+from cacas.plots import CEILING_NAME, accuracy_by_day, methods_figure, preference_days_figure, preference_methods_figure, \
     preference_rows, success_by_day, success_figure, success_methods_figure
 
 
@@ -30,12 +30,12 @@ def test_fig3_mean_and_min_max_band_and_feedback_axis():
 
 
 def test_fig3_draws_the_success_ceiling_where_daily_has_one():
-    assert "ceiling: always the described preference (mean)" not in [t.name for t in success_figure(daily()).data]
+    assert CEILING_NAME not in [t.name for t in success_figure(daily()).data]
     d = daily()
     d["success_ceiling"] = np.where(d["method"] == "cacas", np.where(d["participant"] == "P01", 1.0, 0.6), np.nan)
     d.loc[(d["participant"] == "P02") & (d["day"] == 3), "success_ceiling"] = 0.8
     assert np.allclose(success_by_day(d)["ceiling"], [0.8, 0.8, 0.9])
-    line = [t for t in success_figure(d).data if t.name == "ceiling: always the described preference (mean)"]
+    line = [t for t in success_figure(d).data if t.name == CEILING_NAME]
     assert len(line) == 1 and np.allclose(line[0].y, [0.8, 0.8, 0.9]) and line[0].line.dash == "dash"
 
 
