@@ -93,6 +93,16 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=cols)
 
 
+def rolled_back_note(events: pd.DataFrame) -> str:
+    """For the Results page: what a roll-back on the Adaptation page changes in Fig. 3 and Fig. 4,
+    naming the participants who had one ("" if none did)."""
+    who = sorted(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
+    if not who:
+        return ""
+    return (f" After a roll-back ({', '.join(who)}), a day uses the version put in force instead: Fig. 4 scores "
+            "that version for CACAS, while the baselines keep their runs adapted from days 1..d-1.")
+
+
 def policy_label(in_force: int | None, versions) -> str:
     """The policy in force in words ("initial", "version 2"), saying when a newer version was rolled
     back from ("version 1 (newest: 2)"): a roll-back shown as a plain "version 1" read as if no

@@ -44,7 +44,7 @@ if source == HUMAN:
                f"({n_started} with a study day), {len(tables['interactions'])} interactions logged, "
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
-               "days 1..d-1 (Section V-B.2).")
+               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"]))
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
     run = ui.load_run(db, name)

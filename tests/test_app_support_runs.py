@@ -186,3 +186,18 @@ def test_an_uploaded_persona_file_is_checked_as_an_import_is_and_its_source_kept
     assert source != app_support.persona_source("Upload a persona file", "mine.json", json.dumps(named).encode())
     assert app_support.persona_source("x", "example.json") == "study_data/personas/example.json"
     assert app_support.persona_source("x", study="pilot") == "the described preferences of the participants of study 'pilot'"
+
+
+def test_the_results_page_says_what_a_roll_back_changes(tmp_path):
+    from cacas.store import StudyStore
+
+    with StudyStore(tmp_path / "s.sqlite") as store:
+        for code in ("P01", "P02"):
+            store.add_participant(code)
+            store.close_day(code, store.open_day(code))
+            store.save_policy(code, 1, "cacas", b"policy after day 1")
+        assert app_support.rolled_back_note(store.events()) == ""
+        store.set_active_policy("P02", None)  # back to the initial policy
+        assert app_support.rolled_back_note(store.events()) == (
+            " After a roll-back (P02), a day uses the version put in force instead: Fig. 4 scores that version for "
+            "CACAS, while the baselines keep their runs adapted from days 1..d-1.")
