@@ -93,7 +93,10 @@ if go:
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source,
-                                  label="Simulating")
+                                  # the form forgets its values when the researcher opens another page: the
+                                  # progress bar keeps the running settings
+                                  label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
+                                        f"{', '.join(methods)} · seed {int(seed)}")
         if not started:
             st.warning("A simulation is already running.")
         st.rerun()

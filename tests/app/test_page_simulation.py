@@ -32,6 +32,8 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at = app(PAGE)
     job = run_small_study(at, db, ["nn"], lambda at: at.number_input[4].set_value(0.5))  # ask after half
     assert (job.result / "daily.csv").exists()
+    # the progress bar names the running settings (the form shows its defaults again on a return to the page)
+    assert job.label == "Simulating P01 · 2 days · nn · seed 0"
     assert ("1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections"
             " · personas: study_data/personas/example.json") in texts(at)
     import json
