@@ -36,13 +36,13 @@ c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) els
 st.subheader("Participants")
 small = st.column_config.TextColumn
 # widths in pixels so that the table fits beside the sidebar at 1360 px (the age range is on
-# Participants; "next step" is repeated in full under the table)
+# Participants; today's count is in the next step and the metric above, so "next step" is not cut)
 st.dataframe(
     table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
-    column_order=[c for c in table.columns if c != "age range"],
+    column_order=[c for c in table.columns if c not in ("age range", "interactions today")],
     column_config={
-        "participant": small("participant", width=85), "day": small("day", width=105),
-        "policy": small("policy", width=135), "last recorded": small("last recorded", width=150,
+        "participant": small("participant", width=85), "day": small("day", width=95),
+        "policy": small("policy", width=135), "last recorded": small("last recorded", width=145,
                                help="When the participant's last interaction was recorded"),
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
