@@ -179,10 +179,17 @@ else:
                                         "before": st.column_config.ProgressColumn("before", width=130, **bar),
                                         "after": st.column_config.ProgressColumn("after", width=130, **bar)})
 
+def _named(table):
+    """The table's columns, without "scored on" where no run names its preferences' version (runs
+    recorded before runs named it)."""
+    return [c for c in table.columns if c != "scored on" or table[c].astype(bool).any()]
+
+
 # --- 3. versions and roll back ----------------------------------------------------------------------
 st.subheader("Policy versions")
 if versions:
-    st.dataframe(app_support.versions_table(versions, runs), hide_index=True, width="stretch",
+    table = app_support.versions_table(versions, runs)
+    st.dataframe(table, hide_index=True, width="stretch", column_order=_named(table),
                  column_config={"preference accuracy": st.column_config.NumberColumn(
                      format="%.0f%%", help="Fig. 4's accuracy, computed when the version was adapted, on the "
                                            "described preferences saved at that time")})
@@ -202,7 +209,8 @@ else:
 
 if len(runs):
     with st.expander(f"Adaptation runs ({len(runs)})"):
-        st.dataframe(app_support.runs_table(runs), hide_index=True, width="stretch",
+        table = app_support.runs_table(runs)
+        st.dataframe(table, hide_index=True, width="stretch", column_order=_named(table),
                      column_config={"duration (s)": st.column_config.NumberColumn(format="%.1f"),
                                     "preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
         ui.download_csv(store.adaptations_frame(code), f"adaptations-{code}.csv")
