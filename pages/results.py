@@ -204,6 +204,10 @@ with quest:
                         refused.error(str(exc), icon=":material/error:")
                     else:
                         note = questionnaire_timing(day_status(store, who))
+                        earlier = answers.loc[answers["participant"] == who, "satisfaction"]
+                        if len(earlier):  # each save adds a row; the summary counts the latest
+                            note += (f"{' ' if note else ''}It replaces {who}'s earlier answer ({earlier.iloc[-1]}) "
+                                     "in the summary; questionnaire.csv keeps both.")
                         st.toast(f"Saved {who}'s answer ({score}).{' ' + note if note else ''}",
                                  icon=":material/check_circle:")
                         st.session_state["quest-entry"] = entry + 1

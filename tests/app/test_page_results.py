@@ -71,6 +71,12 @@ def test_questionnaire_entry_and_summary(app, store):
     assert list(shown.columns) == ["participant", "day", "satisfaction", "comments", "saved"]
     assert shown["saved"].iloc[0].endswith(" UTC")
     assert not any("Simulated participants answer no questionnaire" in i.value for i in at.info)
+    # a second answer says it replaces the first in the summary (it did so silently)
+    at.button_group(key="quest-score-1").set_value(7)
+    next(b for b in at.button if b.label == "Save answer").click().run()
+    assert ("Saved P01's answer (7). It was given after day 1 of 7. It replaces P01's earlier answer (9) in the "
+            "summary; questionnaire.csv keeps both.") in [t.value for t in at.toast]
+    assert {m.label: m.value for m in at.metric}["Mean"] == "7.00" and len(store.questionnaire_frame()) == 2
 
 
 def test_questionnaire_of_a_participant_without_a_day_is_refused(app, store):
