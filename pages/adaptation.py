@@ -27,8 +27,9 @@ st.caption("After each study day the robot's policy is adapted from all of the p
 
 
 @st.cache_resource(show_spinner=False, max_entries=32)
-def _load(db_path: str, who: str, version: int):
-    """A saved policy version (checked against its sha256 by the store)."""
+def _load(db_path: str, who: str, version: int, sha256: str):
+    """A saved policy version (checked against its sha256 by the store); the sha256 is part of the key:
+    a code given to a new participant after a removal starts again at version 1."""
     return policy_from_bytes(ui.store().load_policy(who, version=version))
 
 
@@ -140,8 +141,9 @@ else:
     before = c1.selectbox("Before", keys, index=before_default, format_func=labels.get, key=f"cmp-before-{stamp}")
     data = store.interactions_frame(code, method=None)
     try:
-        p_before = _initial() if before == 0 else _load(db, code, before)
-        p_after = _initial() if after == 0 else _load(db, code, after)
+        sha = {v.version: v.sha256 for v in versions}
+        p_before = _initial() if before == 0 else _load(db, code, before, sha[before])
+        p_after = _initial() if after == 0 else _load(db, code, after, sha[after])
         changes = policy_changes(p_before, p_after, data, top=10)
     except CacasError as exc:
         st.error(str(exc))

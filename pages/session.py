@@ -32,8 +32,9 @@ tablet = ui.tablet_mode()
 # --- cached resources (one per server process) -----------------------------------------------------
 
 @st.cache_resource(show_spinner=False)
-def _policy(db: str, who: str, version: int | None):
-    """The policy in force for (participant, version); the version is part of the key."""
+def _policy(db: str, who: str, version: int | None, sha256: str | None):
+    """The policy in force for (participant, version); the version and its sha256 are part of the key
+    (a code given to a new participant after a removal starts again at version 1)."""
     return policy_in_force(ui.store(), who)
 
 
@@ -190,7 +191,11 @@ def _follow_the_tablet(drawn) -> None:
     """The researcher's view follows the participant's tablet: once an interaction is saved there (or the
     day is opened, closed or adapted elsewhere) the whole page is drawn again, without a reload. The
     tablet itself is never redrawn under the participant's hands."""
-    if day_status(store, code) != drawn:
+    try:
+        now = day_status(store, code)
+    except CacasError:  # the participant was removed meanwhile: the whole page says so
+        st.rerun()
+    if now != drawn:
         st.rerun()
 
 
@@ -297,7 +302,8 @@ else:
         st.stop()
     try:
         with st.spinner("The robot is getting ready..."):
-            policy, version = _policy(ui.db_path(), code, status.policy_version)
+            in_force = store.active_policy(code)
+            policy, version = _policy(ui.db_path(), code, status.policy_version, in_force and in_force.sha256)
     except CacasError as exc:
         st.error(f"The robot's policy cannot be loaded ({exc}). The researcher can put another version in force "
                  "on the Adaptation page.", icon=":material/error:")

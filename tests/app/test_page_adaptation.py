@@ -165,3 +165,27 @@ def test_a_day_of_about_15_interactions_closes_without_asking(app, store, quick_
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert not _button(at, f"Close day {day} and adapt").disabled and not at.checkbox
+
+
+def test_what_changed_uses_the_policy_of_the_participant_who_has_the_code_now(app, store, quick_policy):
+    """Policies are cached by participant and version: after a removal, a new participant given the
+    same code starts again at version 1 and "What changed" showed the removed participant's policy."""
+    from cacas.adaptation import policy_changes
+    from cacas.policy import ReshapedPolicy
+    from cacas.sac import DiscreteSAC, SACConfig
+
+    shown = []
+    for seed in (1, 2):
+        day = _day_with_interactions(store)
+        store.close_day("P01", day)
+        policy = ReshapedPolicy(DiscreteSAC(SACConfig(), seed=seed), None, beta=1.0, method="cacas")
+        store.save_policy("P01", day, "cacas", policy.to_bytes())
+        at = app(PAGE, participant="P01")
+        no_exception(at)
+        table = next(d.value for d in at.dataframe if {"activity", "after"} <= set(d.value.columns))  # What changed
+        expected = policy_changes(quick_policy, policy_from_bytes(store.load_policy("P01", version=1)),
+                                  store.interactions_frame("P01", method=None), top=10)
+        shown.append((table["after"].tolist(), expected["action_after"].tolist()))
+        if seed == 1:
+            store.remove_participant("P01", confirm="P01")
+    assert shown[1][0] == shown[1][1]  # the new participant's own version 1

@@ -486,3 +486,28 @@ def test_the_three_answers_look_alike(app, store, p01, quick_policy):
             break
         _button(at, "Choose a different activity").click().run()
     assert len(answers) == 3 and {b.proto.type for b in answers} == {"secondary"}
+
+
+def test_a_code_given_again_after_a_removal_gets_its_own_policy(app, store, quick_policy):
+    """Policies are cached by participant and version: a new participant given a removed one's code
+    starts again at version 1 and was served the removed participant's cached policy."""
+    from cacas.policy import ReshapedPolicy
+    from cacas.sac import DiscreteSAC, SACConfig
+
+    recorded = []
+    for seed in (1, 2):  # two participants in turn under the same code, each with a policy of their own
+        store.add_participant("P01")
+        store.save_preferences("P01", [{"activity": ["use stove"], "action": "remind to turn off"}])
+        store.close_day("P01", store.open_day("P01"))
+        policy = ReshapedPolicy(DiscreteSAC(SACConfig(), seed=seed), None, beta=1.0, method="cacas")
+        store.save_policy("P01", 1, "cacas", policy.to_bytes())
+        store.open_day("P01")
+        at = app(PAGE, participant="P01")
+        _choose(at)
+        label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
+        _button(at, label).click().run()
+        no_exception(at)
+        recorded.append(json.loads(store.interactions_frame("P01", method=None, extra=True)["probabilities"].iloc[0]))
+        if seed == 1:
+            store.remove_participant("P01", confirm="P01")
+    assert recorded[0] != recorded[1]
