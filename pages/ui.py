@@ -53,9 +53,13 @@ def tablet_address_note(code: str) -> None:
     address = tablet_address(code)
     st.code(address, language=None)
     if any(h in address for h in ("://localhost", "://127.0.0.1", "://[::1]")):
-        st.caption("That address works on this computer only: on the participant's tablet, put this computer's "
-                   "network address (the *Network URL* that `streamlit run` prints) in place of "
+        # the app listens on this computer only (.streamlit/config.toml), so Streamlit prints no Network URL
+        st.caption("That address works on this computer only: the app listens here alone, as study data are "
+                   "personal. For the participant's tablet, start it with `streamlit run app.py --server.address "
+                   "<this computer's address on the lab network>` and put that address in place of "
                    f"`{address.split('://')[1].split('/')[0]}`.")
+    st.caption(":material/lock_open: The tablet view hides the researcher's pages; it does not lock them: anyone "
+               "who can reach the app on the network can open every page. Use it on a network you trust.")
 
 
 def keep_preference_forms() -> None:

@@ -511,3 +511,17 @@ def test_a_code_given_again_after_a_removal_gets_its_own_policy(app, store, quic
         if seed == 1:
             store.remove_participant("P01", confirm="P01")
     assert recorded[0] != recorded[1]
+
+
+def test_the_tablet_address_says_how_to_reach_it_and_that_it_is_not_locked(app, store, p01, monkeypatch):
+    """The note named a 'Network URL' that Streamlit does not print while the app listens on this computer
+    only (its config), and did not say that the tablet view is not access control."""
+    import pages.ui
+
+    monkeypatch.setattr(pages.ui, "tablet_address", lambda code, url=None: f"http://localhost:8501/?participant={code}")
+    at = app(PAGE, participant="P01")
+    notes = [c.value for c in at.caption]
+    assert any("`streamlit run app.py --server.address <this computer's address on the lab network>`" in n
+               for n in notes) and not any("Network URL" in n for n in notes)
+    assert any("it does not lock them: anyone who can reach the app on the network can open every page" in n
+               for n in notes)
