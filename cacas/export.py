@@ -164,21 +164,20 @@ def next_day_accuracy(tables: dict[str, pd.DataFrame]) -> pd.DataFrame:
                                                      "in_force": "bool"})
 
 
-def described_preferences(store: StudyStore, interactions: pd.DataFrame) -> dict:
+def described_preferences(preferences: pd.DataFrame) -> dict:
     """Participant code -> the versions of their described preferences' preferred-action table,
-    ``[(saved_at, table), ...]`` oldest first, for daily.csv's success ceiling (evaluation only):
-    each interaction is scored against the version of its time, so preferences edited mid-study
-    leave the closed days' ceilings as they were (they moved with every edit). Participants
-    without any are left out."""
+    ``[(saved_at, table), ...]`` oldest first, from preferences.csv's frame (the store's
+    ``preferences_frame``), for daily.csv's success ceiling (evaluation only): each interaction is
+    scored against the version of its time, so preferences edited mid-study leave the closed days'
+    ceilings as they were (they moved with every edit). Participants without any are left out."""
+    from cacas.preferences import parse_participant
+
     out = {}
-    for code in dict.fromkeys(interactions["participant"].astype(str)):
-        tables = []
-        for v in store.preference_versions(code):
-            described = store.get_preferences(code, v["version"])
-            if described.preferences:
-                tables.append((v["created_at"], described.preferred_action_table()))
+    for code, rows in preferences.sort_values(["participant", "version"]).groupby("participant", sort=False):
+        tables = [(saved, parse_participant({"id": code, "preferences": items}).preferred_action_table())
+                  for saved, items in zip(rows["created_at"], map(json.loads, rows["preferences"])) if items]
         if tables:
-            out[code] = tables
+            out[str(code)] = tables
     return out
 
 
@@ -193,15 +192,16 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
         studies = studies[studies["name"] == study]
     interactions = store.interactions_frame(method=None, study=study, extra=True)
     adaptations, days = store.adaptations_frame(study=study), store.days_frame(study)
+    preferences = store.preferences_frame(study)
     return {
         "interactions": interactions,
         "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days),
-                             described_preferences(store, interactions)),
+                             described_preferences(preferences)),
         "by_preference": by_preference_frame(interactions, adaptations, days),
         "participants": participants,
         "questionnaire": store.questionnaire_frame(study),
         "adaptations": adaptations,
-        "preferences": store.preferences_frame(study),
+        "preferences": preferences,
         "days": days,
         "policies": store.policies_frame(study),
         "studies": studies.reset_index(drop=True),

@@ -362,18 +362,18 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         say(0.02, f"adapting from {len(data)} interactions of days 1..{day} with {method}")
         result = adapt_policy(before, data, method=method, seed=seed,
                               progress=lambda f, m: say(0.02 + 0.9 * f, m))
-        prefs = store.get_preferences(participant)
+        prefs, prefs_version = described_now(store, participant)
         metrics = {"interactions": int(len(data)), "policy_before": before_version}
         accuracy = None
         if prefs is not None and prefs.preferences:
             say(0.94, "scoring the new policy on the described preferences (evaluation only)")
-            metrics.update(scored_on_preferences(store, participant, result.policy, prefs))
+            metrics.update(scored_on_preferences(result.policy, prefs, prefs_version))
             accuracy = metrics["preference_accuracy"]
             runs = store.adaptations_frame(participant)
             if before_version is None and not ((runs["day"] == 0) & (runs["method"] == method)).any():
                 # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
                 store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
-                                        scored_on_preferences(store, participant, before, prefs))
+                                        scored_on_preferences(before, prefs, prefs_version))
         version = store.save_policy(participant, day, method, result.policy.to_bytes(), activate=True)
         params = dict(result.parameters, log=result.log)
         store.record_adaptation(participant, day, method, params, float(result.duration_s), metrics, version)
@@ -385,15 +385,23 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         store.close()
 
 
-def scored_on_preferences(store, participant: str, policy, described) -> dict:
+def described_now(store, participant: str) -> tuple:
+    """The participant's latest described preferences and their version, read together (a version
+    saved while an adaptation runs is not taken for the one it scores on); (None, None) if none."""
+    versions = store.preference_versions(participant)
+    if not versions:
+        return None, None
+    version = versions[-1]["version"]
+    return store.get_preferences(participant, version), version
+
+
+def scored_on_preferences(policy, described, version: int) -> dict:
     """An adaptation run's Fig. 4 metrics (:func:`cacas.adaptation.fig4_metrics`, evaluation only)
-    with the version of the described preferences they were scored against
+    with ``version``, the described preferences' version they were scored against
     (``preferences_version``): preferences edited mid-study leave earlier runs scored on theirs."""
     from cacas.adaptation import EVALUATION_SEED, fig4_metrics
 
-    metrics = fig4_metrics(policy, described, seed=EVALUATION_SEED)
-    metrics["preferences_version"] = store.preference_versions(participant)[-1]["version"]
-    return metrics
+    return dict(fig4_metrics(policy, described, seed=EVALUATION_SEED), preferences_version=version)
 
 
 def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-pr", "orl", "nn"),
@@ -416,13 +424,13 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
         initial = load_initial_policy()
         work = []
         for p in store.list_participants(study):
-            person = store.get_preferences(p.code)
+            person, version = described_now(store, p.code)
             closed = [d.day for d in store.days(p.code) if not d.is_open]
             if person is not None and closed:
-                work.append((p.code, person, closed))
-        total = max(1, sum(len(methods) * (len(c) + 1) for _, _, c in work))
+                work.append((p.code, person, version, closed))
+        total = max(1, sum(len(methods) * (len(c) + 1) for *_, c in work))
         done = recorded = 0
-        for code, person, closed in work:
+        for code, person, version, closed in work:
             data = store.interactions_frame(code, method=None)
             runs = store.adaptations_frame(code)
             have = set(zip(runs["method"], runs["day"].astype(int)))
@@ -430,7 +438,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                 policy = initial
                 if (method, 0) not in have:
                     store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
-                                            scored_on_preferences(store, code, initial, person))
+                                            scored_on_preferences(initial, person, version))
                     recorded += 1
                 done += 1
                 for day in closed:
@@ -442,7 +450,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-p
                     if (method, day) not in have:
                         store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
                                                 float(result.duration_s),
-                                                scored_on_preferences(store, code, policy, person))
+                                                scored_on_preferences(policy, person, version))
                         recorded += 1
                     done += 1
         say(1.0, f"{recorded} comparison runs recorded")
