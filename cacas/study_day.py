@@ -190,6 +190,12 @@ def questionnaire_timing(status: DayStatus) -> str:
     return f"It was given {when} day {status.day} of {STUDY_DAYS}."
 
 
+def waiting_for_preferences(store, participant: str, status: DayStatus) -> bool:
+    """Day 1 cannot start yet: the participant has no described preferences (the study's scores,
+    Fig. 4 and the success ceiling, need them)."""
+    return status.day == 0 and store.get_preferences(participant) is None
+
+
 def start_day(store, participant: str) -> int:
     """Open the participant's next study day (or return the open one).
 
@@ -199,7 +205,7 @@ def start_day(store, participant: str) -> int:
     status = day_status(store, participant)
     if status.open:
         return status.day
-    if status.day == 0 and store.get_preferences(participant) is None:
+    if waiting_for_preferences(store, participant, status):
         raise CacasError(f"participant {participant} has no described preferences; describe them before day 1 "
                          "(Participants page)")
     if status.waiting_for_adaptation:

@@ -19,7 +19,8 @@ from cacas.lab import audio_mime
 from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
-                             previous_interaction, propose, recorded_answer, request_accepts_proposal, start_day)
+                             previous_interaction, propose, recorded_answer, request_accepts_proposal, start_day,
+                             waiting_for_preferences)
 from pages import ui
 
 ui.require_app()
@@ -33,8 +34,8 @@ tablet = ui.tablet_mode()
 
 @st.cache_resource(show_spinner=False)
 def _policy(db: str, who: str, version: int | None, sha256: str | None):
-    """The policy in force for (participant, version); the version and its sha256 are part of the key
-    (a code given to a new participant after a removal starts again at version 1)."""
+    """The policy in force for (participant, version); the checkpoint's sha256 is part of the key too (a
+    code given to a new participant after a removal starts again at version 1)."""
     return policy_in_force(ui.store(), who)
 
 
@@ -225,8 +226,7 @@ if not status.open:
                 f"{status.day + 1} once the researcher has adapted the robot.", icon=":material/hourglass_top:")
         if not tablet:
             ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
-    elif status.day == 0 and store.get_preferences(code) is None:
-        # the study's scores (Fig. 4, the success ceiling) need the preferences described before day 1
+    elif waiting_for_preferences(store, code, status):
         if tablet:
             st.info("The study has not started yet: the researcher will tell you when.", icon=":material/schedule:")
         else:
@@ -303,7 +303,8 @@ else:
     try:
         with st.spinner("The robot is getting ready..."):
             in_force = store.active_policy(code)
-            policy, version = _policy(ui.db_path(), code, status.policy_version, in_force and in_force.sha256)
+            policy, version = _policy(ui.db_path(), code, *((in_force.version, in_force.sha256) if in_force
+                                                             else (None, None)))
     except CacasError as exc:
         st.error(f"The robot's policy cannot be loaded ({exc}). The researcher can put another version in force "
                  "on the Adaptation page.", icon=":material/error:")
