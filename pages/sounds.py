@@ -194,7 +194,8 @@ def _metrics_view(metrics, kind: str) -> None:
 with train:
     running = app_support.open_days(ui.store())  # of every study: the recognisers serve them all
     if running:  # a model saved now serves the tablets from their next interaction on
-        st.warning(f"Study days are open: {', '.join(f'{p} (day {d})' for p, d in running.items())}. A model trained now is used on the tablet from "
+        days = ", ".join(f"{p} (day {d})" for p, d in running.items())
+        st.warning(f"Study days are open: {days}. A model trained now is used on the tablet from "
                    "the next interaction on (its interactions record what the robot heard and saw, not which "
                    "model), and training slows the tablet meanwhile: train between study days if you can.",
                    icon=":material/warning:")

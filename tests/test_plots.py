@@ -2,8 +2,9 @@ import pytest
 import numpy as np
 import pandas as pd
 
-from cacas.plots import CEILING_NAME, accuracy_by_day, methods_figure, preference_days_figure, preference_methods_figure, \
-    preference_rows, success_by_day, success_figure, success_methods_figure
+from cacas.plots import (CEILING_NAME, accuracy_by_day, methods_figure, preference_days_figure,
+                         preference_methods_figure, preference_rows, success_by_day, success_figure,
+                         success_methods_figure)
 
 
 def daily():

@@ -244,7 +244,8 @@ def test_import_never_touches_another_studys_participants(store):
         store.import_personas(clash, source="new.json")
     with pytest.raises(CacasError, match="participant p10 differs from participant P10 only in letter case"):
         store.import_personas({"participants": [{"id": "p10", "preferences": [STOVE]}]}, study="pilot")
-    with pytest.raises(CacasError, match="new.json, participant p13, field .id.: differs from participant P13 only in letter case"):
+    with pytest.raises(CacasError, match="new.json, participant p13, field .id.: differs from participant P13 "
+                                         "only in letter case"):
         store.import_personas({"participants": [{"id": "P13", "preferences": [STOVE]},
                                                 {"id": "p13", "preferences": [STOVE]}]}, source="new.json")
     assert snapshot(store.path) == before  # all or nothing: P11 was not added either

@@ -67,8 +67,10 @@ def read_resnet18_weights(path: str | Path) -> dict[str, torch.Tensor]:
     path = Path(path)
     if not path.is_file():
         raise CacasError(f"{path}: no such weights file; {WEIGHTS_EXPECTED}")
-    torch_archive = zipfile.is_zipfile(path) and any(
-        n.endswith("/data.pkl") or n == "data.pkl" for n in zipfile.ZipFile(path).namelist())  # torch.save's format
+    torch_archive = False  # torch.save's format: a zip archive holding a data.pkl
+    if zipfile.is_zipfile(path):
+        with zipfile.ZipFile(path) as archive:
+            torch_archive = any(n == "data.pkl" or n.endswith("/data.pkl") for n in archive.namelist())
     try:
         state = torch.load(path, map_location="cpu", weights_only=True)
     except Exception:
