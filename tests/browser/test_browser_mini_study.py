@@ -166,7 +166,8 @@ def test_mini_study(server, page, tmp_path):
     # the researcher's own view of the session, in another tab, follows the tablet without a reload
     watch = page.context.new_page()
     goto(watch, f"{server}/session?participant=P01")
-    assert "0 of about 15 interactions today" in text_of(watch)
+    # waited for, not read at once: a page just opened can be read before its first run has drawn it all
+    watch.get_by_text("Day 1 of 7 · 0 of about 15 interactions today").wait_for(timeout=30_000)
 
     speaking_context(page, CANDIDATES)
     shot(page, "session-tablet")
