@@ -5,11 +5,13 @@
   paper reports them in V-A ("most of sound activities can be recognized at an accuracy of 100%").
 * :func:`save_model` / :func:`load_model_file`: a ``.pt`` file of tensors (loaded with
   ``weights_only=True``) beside a ``.json`` metadata file (classes, feature parameters, accuracy,
-  date, training data).
+  date, training data); :func:`model_id` names a saved model in the study records.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import threading
 from dataclasses import dataclass, field
@@ -33,12 +35,14 @@ SHORT_CLIP_SECONDS = 0.5
 @dataclass(frozen=True)
 class Recognition:
     """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``;
-    for a sound, ``seconds``, the length of the clip heard (None for a photo)."""
+    for a sound, ``seconds``, the length of the clip heard (None for a photo); ``model``, the
+    :func:`model_id` of the saved model that recognised it (None for a model not saved)."""
 
     label: str
     probabilities: dict[str, float]
     top3: list[tuple[str, float]]
     seconds: float | None = None
+    model: str | None = None
 
     @property
     def short(self) -> bool:
@@ -56,8 +60,10 @@ class Recognition:
         return self.confidence < UNSURE_BELOW
 
 
-def make_recognition(probs: np.ndarray, classes: Sequence[str], seconds: float | None = None) -> Recognition:
-    """A :class:`Recognition` from a probability vector over ``classes`` (``seconds``: a sound's length)."""
+def make_recognition(probs: np.ndarray, classes: Sequence[str], seconds: float | None = None,
+                     model: str | None = None) -> Recognition:
+    """A :class:`Recognition` from a probability vector over ``classes`` (``seconds``: a sound's
+    length; ``model``: the recognising model's id)."""
     probs = np.asarray(probs, dtype=float)
     order = np.argsort(-probs, kind="stable")
     return Recognition(
@@ -65,6 +71,7 @@ def make_recognition(probs: np.ndarray, classes: Sequence[str], seconds: float |
         probabilities={c: float(p) for c, p in zip(classes, probs)},
         top3=[(classes[int(i)], float(probs[i])) for i in order[:3]],
         seconds=seconds,
+        model=model,
     )
 
 
@@ -165,11 +172,25 @@ def _json_default(obj):
     raise TypeError(f"not JSON serialisable: {type(obj)}")
 
 
-def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
-    """Read a model written by :func:`save_model`: (tensors, metadata). A file that is not one is a
-    CacasError saying what it is not and what is expected (the app and the command line alike):
-    the metadata .json given for the model, a file that is not a PyTorch archive, metadata of
-    another kind or none, tensors torch cannot read."""
+#: Hex digits of a model file's sha256 that name the model (:func:`model_id`).
+MODEL_ID_DIGITS = 12
+
+
+def model_id(data: bytes | Path | str) -> str:
+    """The name under which the study records a saved model (the bytes of its ``.pt`` file, or
+    the file): the first :data:`MODEL_ID_DIGITS` hex digits of their sha256. Each interaction
+    recorded on the tablet keeps the ids of the sound and scene models that recognised its
+    context, so a study can tell which model served which day after a retraining."""
+    if not isinstance(data, bytes):
+        data = Path(data).read_bytes()
+    return hashlib.sha256(data).hexdigest()[:MODEL_ID_DIGITS]
+
+
+def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict, str]:
+    """Read a model written by :func:`save_model`: (tensors, metadata, :func:`model_id`), from one
+    read of the file. A file that is not one is a CacasError saying what it is not and what is
+    expected (the app and the command line alike): the metadata .json given for the model, a file
+    that is not a PyTorch archive, metadata of another kind or none, tensors torch cannot read."""
     import zipfile
 
     import torch
@@ -186,7 +207,8 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
             raise CacasError(f"{path}: a model's JSON metadata, not the {kind} model; give {pt}, "
                              "the model saved beside it")
         raise CacasError(f"{path}: a JSON file, not a {kind} model; {expected}")
-    if not zipfile.is_zipfile(path):  # torch.save writes a zip archive
+    data = path.read_bytes()  # one read: the id names exactly the tensors loaded
+    if not zipfile.is_zipfile(io.BytesIO(data)):  # torch.save writes a zip archive
         raise CacasError(f"{path}: not a {kind} model (not a PyTorch file); {expected}")
     meta_path = path.with_suffix(".json")
     if not meta_path.exists():
@@ -202,11 +224,11 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict]:
         what = f"says it is a {found} model" if found in ("sound", "scene") else "names no model kind"
         raise CacasError(f"{path}: not a {kind} model (its metadata {meta_path} {what}); {expected}")
     try:
-        tensors = torch.load(path, map_location="cpu", weights_only=True)
+        tensors = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
     except Exception as exc:
         raise CacasError(f"{path}: not a readable {kind} model ({' '.join(str(exc).split())[:120]}); "
                          f"{expected}") from None
-    return tensors, meta
+    return tensors, meta, model_id(data)
 
 
 _TRAINING = threading.Lock()

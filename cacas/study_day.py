@@ -99,6 +99,8 @@ class Proposal:
     line: str
     policy_version: int | None
     seen: str | None = None         # the room the robot recognised from its camera, if it did
+    sound_model: str | None = None  # the id of the sound model that heard it (recognition.model_id)
+    scene_model: str | None = None  # the id of the scene model that saw the room
 
     @property
     def robot_speaks(self) -> bool:
@@ -234,10 +236,12 @@ def previous_interaction(store, participant: str, day: int) -> dict | None:
 
 def propose(policy, context: Context, previous: dict | None = None, heard: str | None = None,
             heard_confidence: float | None = None, policy_version: int | None = None,
-            seen: str | None = None) -> Proposal:
+            seen: str | None = None, sound_model: str | None = None,
+            scene_model: str | None = None) -> Proposal:
     """The robot's proposal: the policy state from the context (S1 is what the robot heard and S2
     the room it saw, when recognisers are installed, else as set; S5-S7 from the previous
-    interaction), Eq. 4's action and its line."""
+    interaction), Eq. 4's action and its line. ``sound_model`` / ``scene_model``: the ids of the
+    models that heard and saw (kept with the answer, so a study knows which model served it)."""
     from cacas.simulator import dialog_state
 
     act_on = spaces.canonical("activity", heard) if heard else context.activity
@@ -246,7 +250,8 @@ def propose(policy, context: Context, previous: dict | None = None, heard: str |
     action_index, probs = policy.decide(state)
     action = spaces.ACTIONS[action_index]
     return Proposal(context, act_on, heard_confidence if heard else None, state, action,
-                    np.asarray(probs, dtype=float), dialogue.robot_line(act_on, action), policy_version, seen)
+                    np.asarray(probs, dtype=float), dialogue.robot_line(act_on, action), policy_version, seen,
+                    sound_model if heard else None, scene_model if seen else None)
 
 
 def _normalised(probs: np.ndarray) -> list[float]:
@@ -285,6 +290,7 @@ def answer(store, participant: str, day: int, proposal: Proposal, response: str 
         probabilities=_normalised(proposal.probabilities),
         recognised_activity=proposal.heard if proposal.heard_confidence is not None else None,
         recognised_scene=proposal.seen, policy_version=proposal.policy_version,
+        sound_model=proposal.sound_model, scene_model=proposal.scene_model,
     )
     if user_action is not None:
         wanted = spaces.canonical("action", user_action)

@@ -160,7 +160,9 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     else:
         what = (f"you asked: {dialogue.request_words(user_action)}" + ("" if tablet else f"; recorded as {user_action}")
                 if user_action else RESPONSE_WORDS[ANSWERS[response]] if proposal.robot_speaks else "nothing needed")
-    s["last-saved"] = f"Interaction {index} saved ({what})."
+    # the participant sees the day's count of recorded interactions, which leaves out unanswered ones: a number
+    # here ("Interaction 6" under "5 of about 15") would not match it; the researcher's number is the day's table's
+    s["last-saved"] = f"Saved ({what})." if tablet else f"Interaction {index} saved ({what})."
 
 
 def _match_request() -> None:
@@ -311,7 +313,8 @@ else:
         st.stop()
     proposal = propose(policy, context, previous_interaction(store, code, day),
                        heard=heard.label if heard else None, heard_confidence=heard.confidence if heard else None,
-                       policy_version=version, seen=seen.label if seen else None)
+                       policy_version=version, seen=seen.label if seen else None,
+                       sound_model=heard.model if heard else None, scene_model=seen.model if seen else None)
 
     left, right = st.columns([1, 1])
     with left.container(border=True):

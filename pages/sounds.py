@@ -196,8 +196,8 @@ with train:
     if running:  # a model saved now serves the tablets from their next interaction on
         days = ", ".join(f"{p} (day {d})" for p, d in running.items())
         st.warning(f"Study days are open: {days}. A model trained now is used on the tablet from "
-                   "the next interaction on (its interactions record what the robot heard and saw, not which "
-                   "model), and training slows the tablet meanwhile: train between study days if you can.",
+                   "the next interaction on (each interaction records the id of the model that recognised it), "
+                   "and training slows the tablet meanwhile: train between study days if you can.",
                    icon=":material/warning:")
     for kind, trainer, evaluator in (("Sound", lab.train_sound, lab.evaluate_sound),
                                      ("Scene", lab.train_scene, lab.evaluate_scene)):
@@ -212,7 +212,7 @@ with train:
                        f"{100 * float(meta.get('accuracy', float('nan'))):.1f}% · "
                        f"{data.get('recordings', data.get('images', '?'))} items"
                        f"{' (synthetic)' if data.get('synthetic') else ''} · "
-                       f"{meta.get('training_seconds', '?')} s")
+                       f"{meta.get('training_seconds', '?')} s · model id {model.model_id}")
             k = _KINDS[kind.lower()]
             now = int(_library_counts(kind.lower())[k["items"]].sum())
             then = data.get("recordings" if kind == "Sound" else "images")

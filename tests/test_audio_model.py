@@ -11,7 +11,7 @@ from cacas.audio import SoundRecognizer, library
 from cacas.audio.model import SoundCNN, default_model_path
 from cacas.audio.training import evaluate_sound_model, train_sound_model
 from cacas.errors import CacasError
-from cacas.recognition import Recognition, stratified_group_split
+from cacas.recognition import Recognition, model_id, stratified_group_split
 
 TINY = ["cough", "use blender", "type keyboard", "do nothing"]
 
@@ -75,6 +75,7 @@ def test_save_load_same_predictions(tiny, tmp_path):
         assert key in meta
     assert meta["features"]["n_fft"] == 2048 and meta["classes"] == list(spaces.ACTIVITIES)
     loaded = SoundRecognizer.load(path)
+    assert loaded.model_id == result.recognizer.model_id == model_id(path)  # what interactions record
     clip = library.clip_paths("cough", root)[0]
     a, b = result.recognizer.probabilities(clip), loaded.probabilities(clip)
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)

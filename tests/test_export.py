@@ -38,7 +38,7 @@ def fill(store: StudyStore) -> None:
                 store.record_interaction(who, day, activity="cough", scene="bedroom", hour=7.25 + i,
                                          interval_minutes=[0, 12, 90, 300][i], robot_action="pain check",
                                          response=["accept", "reject", "others", "accept"][i], probabilities=p,
-                                         recognised_activity="sneeze")
+                                         recognised_activity="sneeze", sound_model=f"{d}123456789ab"[:12])
             store.record_interaction(who, day, activity="use stove", scene="kitchen", time_slot=8, interval_bin=3,
                                      robot_action="do nothing", response="reject", type=USER_INITIATED,
                                      user_action="remind to turn off")
@@ -218,6 +218,29 @@ def test_export_import_export_gives_the_same_tables(store, tmp_path):
     assert ev2.iloc[:len(ev1)].equals(ev1) and len(ev2) == len(ev1) + 1
 
 
+def test_a_bundle_from_before_the_model_ids_imports_with_them_empty(store, tmp_path):
+    """Bundles exported before schema version 2 have no sound_model / scene_model columns."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    old = _rewrite(bundle, tmp_path / "old.zip", "interactions", lambda df: df.drop(columns=["sound_model",
+                                                                                           "scene_model"]))
+    target = tmp_path / "b" / "moved.sqlite"
+    assert export.import_bundle(old, target) == 20
+    with StudyStore(target) as moved:
+        frame = moved.interactions_frame(extra=True, method=None)
+    assert set(frame["sound_model"]) == {""} and set(frame["scene_model"]) == {""}
+    assert frame.drop(columns=["sound_model"]).equals(
+        store.interactions_frame(extra=True, method=None).drop(columns=["sound_model"]))
+
+
+def test_the_interactions_export_names_the_recognising_models(store, tmp_path):
+    frame = pd.read_csv(export.export_study(store, tmp_path / "out").tables["interactions"], dtype=str,
+                        keep_default_na=False)
+    heard = frame[frame["recognised_activity"] == "sneeze"]
+    assert len(heard) == 16 and set(heard["sound_model"]) == {"1123456789ab", "2123456789ab"}
+    assert set(frame.loc[frame["recognised_activity"] == "", "sound_model"]) == {""}
+    assert set(frame["scene_model"]) == {""}
+
+
 def test_import_refuses_an_existing_database(store, tmp_path):
     bundle = export.export_study(store, tmp_path / "out").bundle
     existing = tmp_path / "existing.sqlite"
@@ -251,6 +274,8 @@ def _rewrite(bundle, out, table, change):
     ("days", lambda df: df.iloc[1:], "do not fit together"),
     ("policies", lambda df: df.assign(sha256="0" * 64), "does not match its sha256"),
     ("participants", lambda df: df.drop(columns=["study"]), "no column 'study'"),
+    ("interactions", lambda df: df.assign(scene_model="resnet"),
+     "interactions.csv, row 2: scene_model: 'resnet' is not a model id; valid: 12 hex digits"),
 ])
 def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change, message):
     bundle = export.export_study(store, tmp_path / "out").bundle

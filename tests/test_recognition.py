@@ -1,5 +1,6 @@
 """Model files shared by sound and scene recognition (cacas.recognition): save_model / load_model_file."""
 
+import hashlib
 import json
 
 import pytest
@@ -7,7 +8,7 @@ import torch
 
 from cacas.audio import SoundRecognizer
 from cacas.errors import CacasError
-from cacas.recognition import load_model_file, save_model
+from cacas.recognition import load_model_file, model_id, save_model
 from cacas.vision import SceneRecognizer
 
 
@@ -18,10 +19,21 @@ def sound_file(tmp_path):
 
 
 def test_save_then_load_gives_the_tensors_and_metadata(sound_file):
-    tensors, meta = load_model_file(sound_file, "sound")
+    tensors, meta, file_id = load_model_file(sound_file, "sound")
     assert torch.equal(tensors["w"], torch.arange(3.0))
     assert meta == {"kind": "sound", "classes": ["cough"]}
     assert sorted(p.name for p in sound_file.parent.iterdir()) == ["m.json", "m.pt"]  # no temporary left
+    assert file_id == hashlib.sha256(sound_file.read_bytes()).hexdigest()[:12] == model_id(sound_file)
+
+
+def test_a_model_id_names_the_file_s_bytes(sound_file, tmp_path):
+    """Two saves of other weights are two models; the metadata alone does not change the id."""
+    other = save_model(tmp_path / "o.pt", {"w": torch.arange(4.0)}, {"kind": "sound", "classes": ["cough"]})
+    assert model_id(other) != model_id(sound_file)
+    assert len(model_id(other)) == 12 and all(c in "0123456789abcdef" for c in model_id(other))
+    before = model_id(sound_file)
+    sound_file.with_suffix(".json").write_text(json.dumps({"kind": "sound", "classes": ["cough"], "note": "x"}))
+    assert load_model_file(sound_file, "sound")[2] == before
 
 
 def test_a_model_of_the_other_kind_is_refused(sound_file):

@@ -533,6 +533,57 @@ def test_an_older_schema_is_migrated_on_open(tmp_path, monkeypatch):
         assert s._conn.execute("SELECT site FROM participants").fetchone() == ("",)
 
 
+def _version_1_file(path):
+    """A study database as CACAS Studio wrote it before schema version 2 (no model ids), with
+    one interaction recorded."""
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        s.record_interaction("P01", s.open_day("P01"), recognised_activity="cough", **GOOD)
+    con = sqlite3.connect(path, isolation_level=None)
+    con.execute("ALTER TABLE interactions DROP COLUMN sound_model")
+    con.execute("ALTER TABLE interactions DROP COLUMN scene_model")
+    con.execute("PRAGMA user_version = 1")
+    con.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+    con.close()
+    return path
+
+
+def test_a_version_1_database_gains_the_model_ids_on_open(tmp_path):
+    path = _version_1_file(tmp_path / "v1.sqlite")
+    with StudyStore(path) as s:
+        assert s._conn.execute("PRAGMA user_version").fetchone()[0] == SCHEMA_VERSION == 2
+        old = s.interactions_frame("P01", extra=True).iloc[0]
+        assert (old["recognised_activity"], old["sound_model"], old["scene_model"]) == ("cough", "", "")
+        s.record_interaction("P01", 1, sound_model="0123456789ab", scene_model="ba9876543210", **GOOD)
+        new = s.interactions_frame("P01", extra=True).iloc[1]
+        assert (new["sound_model"], new["scene_model"]) == ("0123456789ab", "ba9876543210")
+
+
+def test_a_version_1_database_is_read_without_being_changed(tmp_path):
+    """``cacas export`` of a database the app has not opened since the update: read through a
+    migrated copy in memory; the file stays version 1, byte for byte."""
+    path = _version_1_file(tmp_path / "v1.sqlite")
+    before = path.read_bytes()
+    with StudyStore(path, readonly=True) as s:
+        frame = s.interactions_frame("P01", extra=True)
+        assert list(frame["sound_model"]) == [""] and list(frame["activity"]) == ["cough"]
+        with pytest.raises(CacasError, match="read-only"):
+            s.add_participant("P02")
+    assert path.read_bytes() == before
+    con = sqlite3.connect(path)
+    assert con.execute("PRAGMA user_version").fetchone()[0] == 1
+    con.close()
+
+
+@pytest.mark.parametrize("field", ["sound_model", "scene_model"])
+@pytest.mark.parametrize("bad", ["xyz", "0123456789AB", "0123456789abc", 12])
+def test_a_bad_model_id_names_the_field_and_writes_nothing(store, field, bad):
+    day = store.open_day("P01")
+    with pytest.raises(CacasError, match=rf"{field}: .* is not a model id; valid: 12 hex digits"):
+        store.record_interaction("P01", day, **{field: bad}, **GOOD)
+    assert store.interactions_frame("P01").empty
+
+
 def test_empty_file_becomes_a_study_database(tmp_path):
     path = tmp_path / "new.sqlite"
     path.write_bytes(b"")

@@ -194,6 +194,21 @@ def test_the_robot_acts_on_the_room_it_saw(store, policy):
     assert (row["scene"], row["recognised_scene"]) == ("bedroom", "living room")
 
 
+def test_each_answer_keeps_the_models_that_heard_and_saw(store, policy):
+    """After a retraining mid-study, the interactions say which model recognised what."""
+    day = start_day(store, "P01")
+    ctx = Context.from_choices(4, 6, "cough", "bedroom")
+    answer(store, "P01", day, propose(policy, ctx, None, heard="cough", heard_confidence=0.9, seen="bedroom",
+                                      sound_model="aaaaaaaaaaaa", scene_model="bbbbbbbbbbbb"), response="reject")
+    answer(store, "P01", day, propose(policy, ctx, None, heard="cough", heard_confidence=0.8,
+                                      sound_model="cccccccccccc", scene_model="bbbbbbbbbbbb"), response="reject")
+    answer(store, "P01", day, propose(policy, ctx, None, sound_model="cccccccccccc"), response="reject")
+    rows = store.interactions_frame("P01", extra=True)
+    # no room seen, nothing heard (no recogniser): no model named for it
+    assert list(rows["sound_model"]) == ["aaaaaaaaaaaa", "cccccccccccc", ""]
+    assert list(rows["scene_model"]) == ["bbbbbbbbbbbb", "", ""]
+
+
 def test_asking_for_what_the_robot_offered_is_accepting_it(store, policy):
     day = start_day(store, "P01")
     p = propose(policy, Context.from_choices(3, 6, "use stove", "kitchen"))

@@ -9,7 +9,7 @@ from PIL import Image
 
 from cacas import spaces
 from cacas.errors import CacasError
-from cacas.recognition import Recognition
+from cacas.recognition import Recognition, model_id
 from cacas.vision import SceneRecognizer, build_resnet18, library, synth
 from cacas.vision.model import default_model_path, dequantise_state, quantise_state
 from cacas.vision.training import evaluate_scene_model, train_scene_model
@@ -136,6 +136,7 @@ def test_training_metrics_and_save_load(tiny, tmp_path):
     meta = json.loads(path.with_suffix(".json").read_text())
     assert meta["classes"] == list(spaces.SCENES) and "accuracy" in meta and "trained" in meta
     loaded = SceneRecognizer.load(path)
+    assert loaded.model_id == result.recognizer.model_id == model_id(path)  # what interactions record
     img = library.image_paths("bathroom", root)[0]
     a = result.recognizer.recognize(img)
     b = loaded.recognize(img)

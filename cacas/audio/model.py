@@ -28,7 +28,7 @@ from cacas import spaces
 from cacas.audio.features import FEATURE_PARAMS, FEATURE_SHAPE, SAMPLE_RATE, check_signal, load_clip, mfcc_windows
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Recognition, load_model_file, make_recognition, save_model
+from cacas.recognition import Recognition, load_model_file, make_recognition, model_id, save_model
 
 MODEL_FILE = "sound_cnn.pt"
 
@@ -75,13 +75,14 @@ class SoundRecognizer:
         self.model = model.eval()
         self.classes = list(classes)
         self.metadata = dict(metadata or {})
+        self.model_id: str | None = None  # the saved file's id (recognition.model_id); None until saved
 
     # ---------------------------------------------------------------- files
     @classmethod
     def load(cls, path: Path | str | None = None) -> "SoundRecognizer":
         """Load a model saved by :meth:`save` (default: ``study_data/models/sound_cnn.pt``)."""
         path = Path(path) if path is not None else default_model_path()
-        tensors, meta = load_model_file(path, "sound")
+        tensors, meta, file_id = load_model_file(path, "sound")
         classes = meta.get("classes")
         if not classes:
             raise CacasError(f"{path}: metadata lists no classes")
@@ -92,7 +93,9 @@ class SoundRecognizer:
             model.load_state_dict(tensors)
         except (RuntimeError, KeyError) as exc:
             raise CacasError(f"{path}: weights do not fit the sound CNN ({str(exc).splitlines()[0]})") from None
-        return cls(model, classes, meta)
+        recognizer = cls(model, classes, meta)
+        recognizer.model_id = file_id
+        return recognizer
 
     def save(self, path: Path | str | None = None, **metadata) -> Path:
         """Write the weights (.pt) and metadata (.json: classes, feature parameters, ...)."""
@@ -101,7 +104,9 @@ class SoundRecognizer:
                 "architecture": "SoundCNN: conv3x3 64-128-256 (BN, ReLU, maxpool 4x2/2x2/2x2), avgpool 2x2, dense 128, "
                                 f"linear {len(self.classes)}"}
         self.metadata = meta
-        return save_model(path, {k: v.detach().cpu() for k, v in self.model.state_dict().items()}, meta)
+        path = save_model(path, {k: v.detach().cpu() for k, v in self.model.state_dict().items()}, meta)
+        self.model_id = model_id(path)
+        return path
 
     # ---------------------------------------------------------------- recognition
     @torch.no_grad()
@@ -125,4 +130,4 @@ class SoundRecognizer:
         """The activity of a sound file (WAV/FLAC/OGG) or a mono 32-kHz signal, with the top 3
         and the clip's length (:attr:`Recognition.short` flags one mostly padding)."""
         y = self._signal(clip)
-        return make_recognition(self._pooled(y), self.classes, seconds=len(y) / SAMPLE_RATE)
+        return make_recognition(self._pooled(y), self.classes, seconds=len(y) / SAMPLE_RATE, model=self.model_id)

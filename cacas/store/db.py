@@ -204,6 +204,21 @@ def _open_for_reading(path: Path) -> sqlite3.Connection:
     return conn
 
 
+def _migrated_in_memory(conn: sqlite3.Connection) -> sqlite3.Connection:
+    """A read-only copy in memory of the older study database open on ``conn``, brought up to
+    :data:`SCHEMA_VERSION` there (the file is never changed: ``cacas export`` reads a database
+    the app has not opened since an update). ``conn`` is closed."""
+    try:
+        copy = sqlite3.connect(":memory:", isolation_level=None, check_same_thread=False)
+        conn.backup(copy)
+    finally:
+        conn.close()
+    transact(copy, lambda c: migrate(c, c.execute("PRAGMA user_version").fetchone()[0]))
+    _configure(copy, readonly=True)
+    copy.execute("PRAGMA query_only = ON")
+    return copy
+
+
 def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
     """Open the study database at ``path``.
 
@@ -221,12 +236,14 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
             names = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
         except sqlite3.DatabaseError as exc:
             raise CacasError(f"{path}: cannot be read as a study database ({exc})") from None
-        if version != SCHEMA_VERSION or not set(TABLES) <= names:
+        if not set(TABLES) <= names or not 1 <= version <= SCHEMA_VERSION:
             conn.close()
             remedy = ("it was written by a newer CACAS Studio: update this one" if version > SCHEMA_VERSION
-                      else "open it with the app once to migrate it")
+                      else "it is incomplete")
             raise CacasError(f"{path}: study database schema version {version} cannot be read here "
-                             f"(this CACAS Studio reads version {SCHEMA_VERSION}; {remedy})")
+                             f"(this CACAS Studio reads versions 1 to {SCHEMA_VERSION}; {remedy})")
+        if version < SCHEMA_VERSION:
+            return _migrated_in_memory(conn)
         return conn
     if path.exists():
         if not path.is_file():

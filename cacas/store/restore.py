@@ -30,12 +30,16 @@ RESTORE_COLUMNS: dict[str, list[str]] = {
     "interactions": ["participant", "method", "day", "index", "time", "activity", "scene", "time_slot",
                      "interval", "task", "previous_action", "previous_response", "type", "robot_action",
                      "response", "user_action", "hour", "interval_minutes", "recognised_activity",
-                     "recognised_scene", "probabilities", "policy_version", "created_at"],
+                     "recognised_scene", "sound_model", "scene_model", "probabilities", "policy_version",
+                     "created_at"],
     "adaptations": ["participant", "day", "method", "parameters", "duration_s", "metrics", "policy_version",
                     "created_at"],
     "questionnaire": ["participant", "satisfaction", "comments", "created_at"],
     "events": ["at", "what", "participant", "details"],
 }
+
+#: Columns a bundle written before they existed may lack: read as empty.
+OPTIONAL_COLUMNS: dict[str, list[str]] = {"interactions": ["sound_model", "scene_model"]}  # schema version 2
 
 
 #: The largest whole number a study database column holds (SQLite's 64-bit INTEGER).
@@ -79,6 +83,8 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
     df = tables.get(name)
     if df is None:
         raise CacasError(f"{name}.csv is missing from the bundle")
+    optional = OPTIONAL_COLUMNS.get(name, [])
+    df = df.assign(**{c: "" for c in optional if c not in df.columns})
     missing = [c for c in RESTORE_COLUMNS[name] if c not in df.columns]
     if missing:
         raise CacasError(f"{name}.csv has no column {missing[0]!r}; expected {', '.join(RESTORE_COLUMNS[name])}")
@@ -112,6 +118,7 @@ def _interaction(r: dict[str, Any]) -> tuple:
             None if r["recognised_activity"] == "" else v.name("activity", r["recognised_activity"],
                                                                  "recognised_activity"),
             None if r["recognised_scene"] == "" else v.name("scene", r["recognised_scene"], "recognised_scene"),
+            v.model_id(r["sound_model"], "sound_model"), v.model_id(r["scene_model"], "scene_model"),
             kind, v.name("action", r["robot_action"], "robot_action"), probs,
             v.name("response", r["response"], "response"),
             None if user is None else v.name("action", user, "user_action"),
@@ -193,8 +200,8 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         c.executemany(
             "INSERT INTO interactions (participant_id, day, idx, time, method, activity, scene, hour, time_slot, "
             "interval_minutes, interval_bin, task, previous_action, previous_response, recognised_activity, "
-            "recognised_scene, type, robot_action, probabilities, response, user_action, policy_version, "
-            "created_at) VALUES (" + ", ".join("?" * 23) + ")",
+            "recognised_scene, sound_model, scene_model, type, robot_action, probabilities, response, "
+            "user_action, policy_version, created_at) VALUES (" + ", ".join("?" * 25) + ")",
             [(p(r[0], "interactions"), *r[1:]) for r in interactions])
         c.executemany("INSERT INTO adaptations (participant_id, day, method, parameters, duration_s, metrics, "
                       "policy_version, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",

@@ -9,7 +9,8 @@ What a human-subject study (paper, Section V-B) keeps, one table each:
 * ``interactions``: the context S1-S5 as set (Table I), the recognised activity and scene, S6/S7
   of the policy state (previous action and response), who initiated it (Table II: type_1 robot,
   type_2 user), the robot's action with the policy's 14 probabilities (Eq. 4), the response, the
-  user's requested action and the policy version in force;
+  user's requested action, the policy version in force and the ids of the sound and scene
+  models that recognised the context (version 2);
 * ``adaptations`` (CACAA runs, Table III) and ``policies`` (checkpoint files and their sha256);
 * ``questionnaires`` (the 1-10 satisfaction scale of Section V-B) and ``events`` (what was done
   when).
@@ -136,9 +137,17 @@ _V1 = [
     "CREATE INDEX adaptations_by_participant ON adaptations(participant_id, day)",
 ]
 
+#: Version 2: each interaction names the sound and scene models that recognised its context
+#: (:func:`cacas.recognition.model_id`; NULL where none did, and in rows recorded before).
+_V2 = [
+    "ALTER TABLE interactions ADD COLUMN sound_model TEXT",
+    "ALTER TABLE interactions ADD COLUMN scene_model TEXT",
+]
+
 #: Migrations: (version reached, statements). Append new ones; never edit a released one.
 MIGRATIONS: list[tuple[int, list[str]]] = [
     (1, _V1),
+    (2, _V2),
 ]
 
 SCHEMA_VERSION = MIGRATIONS[-1][0]

@@ -18,6 +18,7 @@ _INTERACTION_SELECT = """
            i.type, i.robot_action, i.response, COALESCE(i.user_action, '') AS user_action,
            i.hour, i.interval_minutes, COALESCE(i.recognised_activity, '') AS recognised_activity,
            COALESCE(i.recognised_scene, '') AS recognised_scene,
+           COALESCE(i.sound_model, '') AS sound_model, COALESCE(i.scene_model, '') AS scene_model,
            COALESCE(i.probabilities, '') AS probabilities, i.policy_version, s.name AS study,
            i.created_at
     FROM interactions i JOIN participants p ON p.id = i.participant_id
@@ -25,7 +26,8 @@ _INTERACTION_SELECT = """
 """
 #: Columns of the interactions export after the INTERACTION_COLUMNS contract.
 INTERACTION_EXTRA_COLUMNS = ["hour", "interval_minutes", "recognised_activity", "recognised_scene",
-                             "probabilities", "policy_version", "study", "created_at"]
+                             "sound_model", "scene_model", "probabilities", "policy_version", "study",
+                             "created_at"]
 
 
 class SessionsMixin:
@@ -94,6 +96,7 @@ class SessionsMixin:
                            previous_response: str = "others", user_action: str | None = None,
                            probabilities: Sequence[float] | None = None,
                            recognised_activity: str | None = None, recognised_scene: str | None = None,
+                           sound_model: str | None = None, scene_model: str | None = None,
                            policy_version: int | None = None, method: str | None = None,
                            time: Any = None, index: int | None = None) -> int:
         """Record one interaction of an open study day; return its row id once committed.
@@ -101,7 +104,8 @@ class SessionsMixin:
         The context as set (Table I): ``activity`` S1, ``scene`` S2, ``hour`` (0 <= h < 24) or
         ``time_slot`` (0..11) S3, ``interval_minutes`` (>= 0) or ``interval_bin`` (0..11) S4,
         ``task`` S5; ``previous_action`` / ``previous_response`` are S6 / S7 of the policy state.
-        ``recognised_activity`` / ``recognised_scene``: what the recognisers reported.
+        ``recognised_activity`` / ``recognised_scene``: what the recognisers reported;
+        ``sound_model`` / ``scene_model``: which saved models did (:func:`cacas.recognition.model_id`).
         ``type``: "type_1" (robot-initiated) or "type_2" (user-initiated, Table II; then
         ``user_action`` is the requested action, not "do nothing"). ``robot_action`` with the
         policy's 14 ``probabilities`` (Eq. 4; a list in Table I's order or a dict by action name),
@@ -126,6 +130,8 @@ class SessionsMixin:
             v.name("activity", recognised_activity, "recognised_activity"),
             recognised_scene=None if recognised_scene is None else
             v.name("scene", recognised_scene, "recognised_scene"),
+            sound_model=v.model_id(sound_model, "sound_model"),
+            scene_model=v.model_id(scene_model, "scene_model"),
             probabilities=v.probabilities(probabilities),
             time=v.timestamp(time),
         )
@@ -181,7 +187,7 @@ class SessionsMixin:
         """The user data: one row per interaction with exactly
         :data:`cacas.records.INTERACTION_COLUMNS` (``extra=True`` appends
         :data:`INTERACTION_EXTRA_COLUMNS`: hour, interval_minutes, recognised activity and scene,
-        the policy's probabilities as JSON, policy version, study, created_at).
+        the ids of the sound and scene models that recognised them, the policy's probabilities as JSON, policy version, study, created_at).
 
         As ``cacas simulate`` writes them: ``time_slot`` is the S3 index (0..11), ``interval``
         the S4 bin's value in minutes (one of :data:`cacas.spaces.INTERVAL_BINS`, e.g. 10 for 12

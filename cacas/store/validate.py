@@ -121,6 +121,20 @@ def name(kind: str, value: Any, field: str) -> str:
         raise CacasError(f"{field}: {value!r} is not a {kind} name") from None
 
 
+def model_id(value: Any, field: str) -> str | None:
+    """A recogniser's id as :func:`cacas.recognition.model_id` gives it (12 lower-case hex
+    digits), or None for none ("" too, as an export writes it)."""
+    from cacas.recognition import MODEL_ID_DIGITS
+
+    if value is None or value == "":
+        return None
+    text_value = str(value)
+    if len(text_value) != MODEL_ID_DIGITS or any(c not in "0123456789abcdef" for c in text_value):
+        raise CacasError(f"{field}: {value!r} is not a model id; valid: {MODEL_ID_DIGITS} hex digits "
+                         "(0-9, a-f) naming a saved model, or empty")
+    return text_value
+
+
 def conversation_type(value: Any) -> str:
     if value not in TYPES:
         raise CacasError(f"interaction type {value!r} is invalid; valid: {ROBOT_INITIATED!r} "

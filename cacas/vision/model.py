@@ -25,7 +25,7 @@ from torch import nn
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
-from cacas.recognition import Recognition, load_model_file, make_recognition, save_model
+from cacas.recognition import Recognition, load_model_file, make_recognition, model_id, save_model
 
 MODEL_FILE = "scene_resnet18.pt"
 IMAGE_SIZE = 112  #: network input (pixels, square); the shipped images are 128 x 128
@@ -168,12 +168,13 @@ class SceneRecognizer:
         self.model = model.eval()
         self.classes = list(classes)
         self.metadata = dict(metadata or {})
+        self.model_id: str | None = None  # the saved file's id (recognition.model_id); None until saved
 
     @classmethod
     def load(cls, path: Path | str | None = None) -> "SceneRecognizer":
         """Load a model saved by :meth:`save` (default: ``study_data/models/scene_resnet18.pt``)."""
         path = Path(path) if path is not None else default_model_path()
-        tensors, meta = load_model_file(path, "scene")
+        tensors, meta, file_id = load_model_file(path, "scene")
         classes = meta.get("classes")
         if not classes:
             raise CacasError(f"{path}: metadata lists no classes")
@@ -182,7 +183,9 @@ class SceneRecognizer:
             model.load_state_dict(dequantise_state(tensors))
         except (RuntimeError, KeyError) as exc:
             raise CacasError(f"{path}: weights do not fit ResNet-18 ({str(exc).splitlines()[0]})") from None
-        return cls(model, classes, meta)
+        recognizer = cls(model, classes, meta)
+        recognizer.model_id = file_id
+        return recognizer
 
     def compact(self) -> None:
         """Round the weights to what :meth:`save` stores (int8 per channel), in place."""
@@ -197,7 +200,9 @@ class SceneRecognizer:
                 "architecture": f"torchvision resnet18, fc -> {len(self.classes)}",
                 "storage": "int8 per output channel for conv/linear weights, float32 otherwise"}
         self.metadata = meta
-        return save_model(path, quantise_state(self.model.state_dict()), meta)
+        path = save_model(path, quantise_state(self.model.state_dict()), meta)
+        self.model_id = model_id(path)
+        return path
 
     @torch.no_grad()
     def probabilities_of(self, images) -> np.ndarray:
@@ -217,4 +222,4 @@ class SceneRecognizer:
             image = load_image(image)
         elif not isinstance(image, Image.Image):
             raise CacasError(f"expected an image file path or a PIL image, got {type(image).__name__}")
-        return make_recognition(self.probabilities_of([image])[0], self.classes)
+        return make_recognition(self.probabilities_of([image])[0], self.classes, model=self.model_id)

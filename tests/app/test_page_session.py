@@ -201,6 +201,7 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     t = np.arange(32000) / 32000
     sf.write(clip, 0.3 * np.sin(2 * np.pi * 300 * t) * np.exp(-4 * t), 32000)
     recognizer = SoundRecognizer(SoundCNN())  # untrained: it hears something, maybe not a cough
+    recognizer.model_id = "0123456789ab"  # as loaded from a saved file
     monkeypatch.setattr(cacas.audio.library, "clip_paths", lambda activity, root=None: [clip])
     monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0)
     monkeypatch.setattr(cacas.audio.SoundRecognizer, "load", classmethod(lambda cls, path=None: recognizer))
@@ -219,6 +220,10 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     next(b for b in at.button if b.label == label).click().run()
     row = store.interactions_frame("P01", method=None, extra=True).iloc[0]
     assert (row["activity"], row["recognised_activity"]) == ("cough", heard)
+    assert row["sound_model"] == "0123456789ab"  # which model heard it, and which saw the room
+    from cacas.recognition import model_id
+    from cacas.vision.model import default_model_path
+    assert row["recognised_scene"] and row["scene_model"] == model_id(default_model_path())
 
 
 @pytest.mark.parametrize("cough_probability, unsure", [(0.35, True), (0.9, False)])
@@ -402,6 +407,15 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
     at = app(PAGE, participant="P01")  # the researcher's sidebar
     assert "Day 1 (open) · 1 interaction that day (+1 unanswered) · policy initial" in [
         c.value for c in at.sidebar.caption]
+    # the answer's confirmation: numbered for the researcher (the day's table's index), plain on the tablet,
+    # whose count of recorded interactions leaves the unanswered one out ("Interaction 3 saved" under "2 of 15")
+    for view, said in (({"view": "tablet"}, "Saved (you asked: "), ({}, "Interaction 4 saved (you asked: ")):
+        at = app(PAGE, participant="P01", **view)
+        _choose(at)
+        at.selectbox(key="request-pick").set_value("set a timer").run()
+        _button(at, "Ask").click().run()
+        no_exception(at)
+        assert [m.value for m in at.success if m.value.startswith(said)], (view, [m.value for m in at.success])
 
 
 def test_the_tablet_address_is_a_whole_address_to_copy(app, store, p01):

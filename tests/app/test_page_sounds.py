@@ -30,7 +30,7 @@ def test_training_says_how_long_the_saved_model_took(app, monkeypatch):
 
     took = {"sound": 74.7, "scene": 424.1}  # the shipped models' training times
     monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 1.0 if kind == "scene" else None)
-    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: SimpleNamespace(metadata={
+    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: SimpleNamespace(model_id="0123456789ab", metadata={
         "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": took[kind]}))
     at = app(PAGE)
     no_exception(at)
@@ -134,7 +134,7 @@ def test_a_model_trained_on_another_library_says_so(app, monkeypatch):
     trained_on = {"now": clips, "before": clips - 2}
     for stamp, (when, n) in enumerate(trained_on.items(), 1):  # a model file of its own each (cached by it)
         monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind, t=stamp: float(t) if kind == "sound" else None)
-        monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind, n=n: SimpleNamespace(metadata={
+        monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind, n=n: SimpleNamespace(model_id="0123456789ab", metadata={
             "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": 70,
             "training_data": {"recordings": n}}))
         at = app(PAGE)
@@ -154,7 +154,7 @@ def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app,
 
     photos = {s: len(image_paths(s)) for s in SCENES}
     monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: 7.0 if kind == "scene" else None)
-    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: SimpleNamespace(metadata={
+    monkeypatch.setattr(cacas.lab, "load_recognizer", lambda kind: SimpleNamespace(model_id="0123456789ab", metadata={
         "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": 400,
         "training_data": {"images": sum(photos.values()) - 5}}))
     at = app(PAGE)
@@ -166,6 +166,8 @@ def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app,
     assert [c.value for c in at.caption if "train it again" in c.value] == [
         f":material/update: The scene library holds {sum(photos.values())} photos now ({sum(photos.values()) - 5} "
         "when this model was trained): train it again to use them."]
+    # the id the study's interactions record for this model (interactions.csv's scene_model)
+    assert [c.value.split(" · ")[-1] for c in at.caption if c.value.startswith("Trained ")] == ["model id 0123456789ab"]
     assert [s.label for s in at.selectbox if s.key in ("sound-add-name", "scene-add-name")] == ["Activity", "Room"]
     # nothing preset: a clip added without a choice went to "cough", the first activity in the list
     assert [s.value for s in at.selectbox if s.key in ("sound-add-name", "scene-add-name")] == [None, None]
