@@ -162,7 +162,7 @@ with fig4:
                    "daily.csv take these in once the day has begun.")
     if not summary.empty and by_pref is not None and len(by_pref):
         st.subheader("Which preferences each method learnt")
-        ui.preference_heatmaps(by_pref, key="results-prefs")
+        ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}")  # each source's own day and method
 
 with quest:
     if source != HUMAN:

@@ -115,13 +115,39 @@ def test_results_of_a_simulated_run(app, db):
     fig4 = at.dataframe[0].value  # the per-method, per-day means under Fig. 4
     assert list(fig4.index) == ["CACAS"] and list(fig4.columns) == ["day 1", "day 2"]
     assert fig4.loc["CACAS"].tolist() == ["20%", "50%"]
-    assert at.select_slider(key="results-prefs-day").value == 2  # the last day first
+    assert at.select_slider(key="results-prefs:Simulated run: run-a-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
     assert any("Simulated participants answer no questionnaire" in i.value for i in at.info)
     # and no human-study form or summary beside that note
     assert "Save answer" not in [b.label for b in at.button]
     assert "Answers" not in [m.label for m in at.metric]
+
+
+def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
+    """A day picked for one run's heatmap was kept for the next run shown (or the human study)."""
+    import pandas as pd
+
+    from cacas import app_support
+
+    for name, days in (("run-a", 2), ("run-c", 3)):
+        daily = pd.DataFrame({"participant": ["P01"] * days, "method": ["cacas"] * days, "day": range(1, days + 1),
+                              "success_rate": [0.5] * days, "preference_accuracy": [0.5] * days,
+                              "cumulative_feedback": range(5, 5 * days + 1, 5), "interactions": [15] * days})
+        by_pref = daily[["participant", "method", "day"]].assign(
+            preference=1, label="Cough: pain check", activity="cough", action="pain check", states=40, correct=20,
+            accuracy=0.5)
+        app_support.save_run(app_support.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
+                             by_pref)
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    at.selectbox(key="results-run").set_value("run-c").run()
+    slider = "results-prefs:Simulated run: {}-day"
+    assert at.select_slider(key=slider.format("run-c")).value == 3
+    at.select_slider(key=slider.format("run-c")).set_value(1).run()
+    at.selectbox(key="results-run").set_value("run-a").run()
+    no_exception(at)
+    assert at.select_slider(key=slider.format("run-a")).value == 2  # run-a's last day, not run-c's pick
 
 
 def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
