@@ -114,8 +114,9 @@ def _sidebar(store) -> None:
                      help="Studies group participants; every database has the study 'default'.")
         codes = [p.code for p in store.list_participants(st.session_state[ui.STUDY_KEY])]
         unknown = st.session_state.get(_UNKNOWN_KEY)
-        if st.session_state.get(ui.PARTICIPANT_KEY) not in codes:
-            st.session_state[ui.PARTICIPANT_KEY] = codes[0] if codes and not unknown else None
+        if st.session_state.get(ui.PARTICIPANT_KEY) not in codes:  # a fresh load, another study, a removal
+            st.session_state[ui.PARTICIPANT_KEY] = None if unknown else app_support.last_participant(
+                store, st.session_state[ui.STUDY_KEY])
         if unknown:
             st.warning(f"Participant {unknown!r} is not in this study database: choose one below.")
         st.selectbox("Participant", codes, key=ui.PARTICIPANT_KEY, placeholder="none yet",

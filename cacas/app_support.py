@@ -123,6 +123,17 @@ def open_days(store, study: str | None = None) -> dict[str, int]:
     return out
 
 
+def last_participant(store, study: str | None = None) -> str | None:
+    """The participant of ``study`` whom the latest event is about (the one the researcher or the
+    tablet last worked with: a recorded answer, an adaptation, a preference saved), else the
+    first by code, else None: the app's sidebar starts there rather than at the first code."""
+    recent = store.events(study=study, limit=1)
+    if len(recent) and recent["participant"].iloc[0]:
+        return str(recent["participant"].iloc[0])
+    people = store.list_participants(study)
+    return people[0].code if people else None
+
+
 def study_file_name(prefix: str, study: str, suffix: str) -> str:
     """A download's file name for a study: no spaces or other characters a shell or a file
     system trips on ("pilot walkB" -> "cacas-study-pilot_walkb.zip"; "study" if nothing is left)."""

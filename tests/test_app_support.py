@@ -261,3 +261,21 @@ def test_overview_names_the_newest_policy_after_a_roll_back(tmp_path):
     assert app_support.overview_frame(store).iloc[0]["policy"] == "version 1 (newest: 2)"
     store.set_active_policy("P01", None)
     assert app_support.overview_frame(store).iloc[0]["policy"] == "initial (newest: 2)"
+
+
+def test_the_sidebar_starts_at_the_participant_last_worked_with(tmp_path):
+    with StudyStore(tmp_path / "s.sqlite") as store:
+        assert app_support.last_participant(store) is None
+        store.add_participant("P02")
+        store.add_participant("P01")
+        store.create_study("pilot")
+        store.add_participant("Q01", study="pilot")
+        assert app_support.last_participant(store, "default") == "P01"  # added last
+        store.record_interaction("P02", store.open_day("P02"), activity="cough", scene="bedroom", hour=8,
+                                 interval_minutes=5, robot_action="pain check", response="accept")
+        assert app_support.last_participant(store, "default") == "P02"  # answered last
+        assert app_support.last_participant(store, "pilot") == "Q01"  # each study its own
+        store.remove_participant("P02", confirm="P02")
+        assert app_support.last_participant(store, "default") == "P01"  # a removed code is not offered
+        store.create_study("empty")
+        assert app_support.last_participant(store, "empty") is None

@@ -18,9 +18,9 @@ def test_overview_lists_participants_with_next_step(app, store):
     steps = dict(zip(df["participant"], df["next step"]))
     assert steps["P01"].startswith("Describe 5 preferences")
     assert steps["P02"].startswith("Start day 1")
-    # the sidebar picked the first participant and the address carries it
-    assert at.session_state["participant"] == "P01"
-    assert at.query_params["participant"] == ["P01"] or at.query_params["participant"] == "P01"
+    # the sidebar picked the participant last worked with (P02's preferences, saved last); the address carries it
+    assert at.session_state["participant"] == "P02"
+    assert at.query_params["participant"] == ["P02"] or at.query_params["participant"] == "P02"
 
 
 def test_address_selects_the_participant(app, store):
@@ -37,6 +37,16 @@ def test_unknown_participant_in_address_is_reported(app, store):
     at = app(participant="P77")
     no_exception(at)
     assert "P77" in texts(at)
+
+
+def test_a_fresh_load_starts_at_the_participant_last_worked_with(app, store):
+    """Not at the first code: a researcher opening the app mid-study finds the participant of the day."""
+    for code in ("P01", "P02", "P03"):
+        store.add_participant(code)
+    store.open_day("P02")
+    at = app()
+    no_exception(at)
+    assert at.session_state["participant"] == "P02" and "Next for P02" in texts(at)
 
 
 def test_choosing_another_participant_in_the_sidebar(app, store):
