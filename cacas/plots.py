@@ -77,6 +77,11 @@ def _day_axis(fig: go.Figure, days) -> None:
     fig.update_xaxes(title_text="day", dtick=1, range=[lo - pad, hi + pad])
 
 
+#: The y range of a rate (success rate, preference accuracy): room above 100 % for a whole marker
+#: there (at 1.02 a day at 100 % was cut in half by the top of the plot).
+RATE_RANGE = [0, 1.06]
+
+
 def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None = None) -> go.Figure:
     """Fig. 3: mean success rate per day, a min-max band across participants, the mean success
     ceiling where daily.csv has one (dashed), and the mean cumulative number of feedback on a
@@ -107,7 +112,7 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
                              marker=dict(symbol="square", size=7),
                              hovertemplate="day %{x}: %{y:.0f} data points<extra></extra>"), secondary_y=True)
-    fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%", secondary_y=False)
+    fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%", secondary_y=False)
     top = float(s["cumulative_feedback"].max()) if s["cumulative_feedback"].notna().any() else 1.0
     fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
                      tickmode="auto", nticks=6, secondary_y=True)
@@ -132,7 +137,7 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
             customdata=s[["min", "max", "cumulative_feedback"]],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]:.0f} data points)<extra></extra>"))
-    fig.update_yaxes(title_text="success rate", range=[0, 1.02], tickformat=".0%")
+    fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title or "Success rate by method, each in its own closed loop", template="plotly_white",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
@@ -198,7 +203,7 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
             customdata=d[["min", "max", "participants"]],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]} participants)<extra></extra>"))
-    fig.update_yaxes(title_text="preference accuracy", range=[0, 1.02], tickformat=".0%")
+    fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, a["day"])
     fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))

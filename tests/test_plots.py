@@ -181,3 +181,12 @@ def test_fig3_hover_says_how_many_participants_each_days_mean_has():
     d = d[~((d["participant"] == d["participant"].iloc[0]) & (d["day"] == 3))]  # one has not reached day 3
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
     assert [int(n) for n in mean.customdata[:, 0]] == [2, 2, 1] and "participants" in mean.hovertemplate
+
+
+def test_a_day_at_100_percent_is_drawn_whole():
+    """The rate axes leave room above 100 % for a marker (at 1.02 the top of the plot cut it in half):
+    the top of the axis is at least a marker's radius (8 px of a 400 px plot) above 100 %."""
+    d = daily().assign(success_rate=1.0, preference_accuracy=1.0)
+    for fig in (success_figure(d), success_methods_figure(d), methods_figure(d)):
+        top = fig.layout.yaxis.range[1]
+        assert fig.layout.yaxis.range[0] == 0 and top >= 1 + 8 / 400 * 2, top
