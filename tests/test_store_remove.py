@@ -154,15 +154,20 @@ def test_an_unknown_participant_is_named_and_nothing_is_written(store):
 
 
 def test_a_failure_part_way_removes_nothing_and_keeps_the_policy_files(store, monkeypatch):
-    """The policy folder is moved aside inside the transaction; a refused move (or a failed
-    commit) leaves the database and the folder as they were."""
+    """The policy files are moved aside inside the transaction; a refused move (here the second
+    file's; or a failed commit) leaves the database and the files as they were."""
     before = rows(store.path)
     files = sorted(p.name for p in (store.policy_dir / "P01").iterdir())
+    assert len(files) == 2
+    real_replace, calls = os.replace, []
 
-    def refuse(*args):
-        raise OSError(13, "Permission denied")
-    monkeypatch.setattr(os, "replace", refuse)
-    with pytest.raises(CacasError, match="policy folder cannot be removed.*nothing was removed"):
+    def refuse_the_second(src, dst):
+        calls.append(src)
+        if len(calls) == 2:
+            raise OSError(13, "Permission denied")
+        return real_replace(src, dst)
+    monkeypatch.setattr(os, "replace", refuse_the_second)
+    with pytest.raises(CacasError, match="policy file cannot be removed.*nothing was removed"):
         store.remove_participant("P01", "P01")
     monkeypatch.undo()
     assert rows(store.path) == before
@@ -197,3 +202,51 @@ def test_a_readonly_store_refuses(store):
     finally:
         ro.close()
     assert rows(store.path, "P01")["participants"] == 1
+
+
+def _beside(store, name, code="P01"):
+    """Another study database in the same folder, with a participant of the same code and a
+    policy of its own (a pilot database beside the main one)."""
+    other = StudyStore(store.path.parent / name)
+    other.add_participant(code)
+    other.save_policy(code, 0, "cacas", f"{name}'s own {code}".encode())
+    return other
+
+
+def test_another_database_in_the_folder_keeps_its_policy_files(store):
+    """policies/ is shared by the study databases beside each other: removing P01 from one
+    deleted the other's P01 checkpoints with the folder (found by a data-analyst review)."""
+    pilot = _beside(store, "pilot.sqlite")
+    assert store.participant_footprint("P01").policy_files == 2  # its own two files, not the pilot's
+    store.remove_participant("P01", "P01")
+    assert pilot.load_policy("P01") == b"pilot.sqlite's own P01"
+    assert [p.name for p in (store.policy_dir / "P01").iterdir()] == [pilot.active_policy("P01").path.name]
+    pilot.remove_participant("P01", "P01")  # the last one takes the folder with it
+    assert not (store.policy_dir / "P01").exists()
+    pilot.close()
+
+
+def test_a_bundle_imported_twice_into_one_folder_keeps_the_other_copy_working(store, tmp_path):
+    """Two imports of one bundle name the same files: removing a participant from one database
+    left the other unable to load (and export) its policies."""
+    from cacas import export
+
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    first, second = tmp_path / "moved" / "a.sqlite", tmp_path / "moved" / "b.sqlite"
+    export.import_bundle(bundle, first)
+    export.import_bundle(bundle, second)
+    with StudyStore(second) as b:
+        assert b.participant_footprint("P01").policy_files == 0  # every file is a.sqlite's too
+        b.remove_participant("P01", "P01")
+    with StudyStore(first) as a:
+        assert a.load_policy("P01") == b"P01 day 1"
+        export.export_study(a, tmp_path / "again")  # every policy file is there
+
+
+def test_an_unreadable_database_beside_keeps_every_file(store):
+    """A study database in the folder that cannot be read might name any file: none is deleted."""
+    (store.path.parent / "damaged.sqlite").write_bytes(store.path.read_bytes()[:100] + b"\0" * 4000)
+    files = sorted(p.name for p in (store.policy_dir / "P01").iterdir())
+    assert store.participant_footprint("P01").policy_files == 0
+    store.remove_participant("P01", "P01")
+    assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files

@@ -17,6 +17,13 @@ from cacas.store import validate as v
 from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
 
 
+def _remove_if_empty(folder) -> None:
+    try:
+        folder.rmdir()
+    except OSError:  # not empty, or gone
+        pass
+
+
 #: Tables holding rows about one participant (a ``participant_id`` column referencing
 #: ``participants``), children first: the order :meth:`PeopleMixin.remove_participant` deletes in
 #: (interactions and adaptation runs name policy versions and days).
@@ -110,6 +117,44 @@ class PeopleMixin:
         """The participant's own folder of policy checkpoints (``policies/<code>/``)."""
         return self.policy_dir / code
 
+    def _named_beside(self, code: str) -> set[str] | None:
+        """The files under ``policies/<code>/`` that the other study databases in this folder name
+        (they share ``policies/``: a pilot database beside the main one, a bundle imported twice),
+        as policy paths; None when one of them cannot be read (then no file is certain to be
+        unused)."""
+        from cacas.store import db
+
+        named: set[str] = set()
+        for other in sorted(self.path.parent.iterdir()):
+            if other.resolve() == self.path.resolve() or not other.is_file():
+                continue
+            try:
+                db.check_study_file(other)
+            except CacasError:
+                continue  # not a study database (the -wal and -shm files, a CSV, ...)
+            try:
+                conn = db._open_for_reading(other)
+                try:
+                    rows = conn.execute("SELECT path FROM policies WHERE path LIKE ?", (f"{code}/%",)).fetchall()
+                finally:
+                    conn.close()
+            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: keep every file
+                return None
+            named.update(r[0] for r in rows)
+        return named
+
+    def _files_to_remove(self, code: str) -> list:
+        """The files in the participant's policy folder no other study database in this folder
+        names: removing the participant deletes these, and keeps the others'."""
+        folder = self._participant_folder(code)
+        if not folder.is_dir():
+            return []
+        named = self._named_beside(code)
+        if named is None:
+            return []
+        return [f for f in sorted(folder.rglob("*")) if f.is_file()
+                and f.relative_to(self.policy_dir).as_posix() not in named]
+
     def _footprint(self, c, pid: int, code: str) -> Footprint:
         def count(table: str) -> int:
             return c.execute(f"SELECT COUNT(*) FROM {table} WHERE participant_id = ?", (pid,)).fetchone()[0]
@@ -119,11 +164,10 @@ class PeopleMixin:
         open_day = None if row is None else row[0]
         today = 0 if open_day is None else c.execute(
             "SELECT COUNT(*) FROM interactions WHERE participant_id = ? AND day = ?", (pid, open_day)).fetchone()[0]
-        folder = self._participant_folder(code)
-        files = sum(1 for f in folder.rglob("*") if f.is_file()) if folder.is_dir() else 0
         events = c.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
         return Footprint(code, count("days"), count("interactions"), count("preferences"), count("policies"),
-                         count("adaptations"), count("questionnaires"), events, files, open_day, today)
+                         count("adaptations"), count("questionnaires"), events, len(self._files_to_remove(code)),
+                         open_day, today)
 
     def participant_footprint(self, code: str) -> Footprint:
         """What :meth:`remove_participant` would delete for ``code`` (counts; see
@@ -138,11 +182,13 @@ class PeopleMixin:
         """Remove a participant and everything recorded about them (a withdrawal from the study,
         or a code added by mistake): their study days, interactions, preference versions, policy
         versions and adaptation runs, questionnaire answers and their events in the log, in one
-        transaction (all or nothing), and their folder of policy checkpoints
-        (``policies/<code>/``). One event "remove_participant" is kept, holding the code and the
-        study only (no participant column, so a new participant given the same code later does
-        not inherit it). Deleted rows are overwritten in the file (``secure_delete``) and the
-        write-ahead log is emptied when no reader holds it.
+        transaction (all or nothing), and their policy checkpoint files (``policies/<code>/``)
+        except those another study database in the same folder names (``policies/`` is shared
+        by the databases beside each other: the same code in a pilot database keeps its files).
+        One event "remove_participant" is kept, holding the code and the study only (no
+        participant column, so a new participant given the same code later does not inherit
+        it). Deleted rows are overwritten in the file (``secure_delete``) and the write-ahead log
+        is emptied when no reader holds it.
 
         ``confirm`` must equal ``code`` exactly (the researcher types it); else CacasError saying
         what to type. An unknown code raises CacasError naming it. Nothing is removed in either
@@ -154,6 +200,7 @@ class PeopleMixin:
                              f"(typed: {typed}); nothing was removed")
         folder = self._participant_folder(code)
         trash = self.policy_dir / f".removed-{code}-{os.getpid()}-{time.time_ns()}"
+        moved: list[tuple] = []  # (file, where it went in the trash)
 
         def fn(c):
             pid = self._pid(c, code)
@@ -169,25 +216,33 @@ class PeopleMixin:
             finally:
                 c.execute("PRAGMA secure_delete = OFF")
             self._event(c, "remove_participant", None, code=code, study=study)
-            if folder.exists() and not trash.exists():  # last: a failure before it leaves the folder in place
+            for f in self._files_to_remove(code):  # last: a failure before it leaves the files in place
+                target = trash / f.relative_to(folder)
                 try:
-                    os.replace(folder, trash)
+                    target.parent.mkdir(parents=True, exist_ok=True)
+                    os.replace(f, target)
                 except OSError as exc:
-                    raise CacasError(f"{folder}: the participant's policy folder cannot be removed "
+                    raise CacasError(f"{f}: the participant's policy file cannot be removed "
                                      f"({exc.strerror or exc}); nothing was removed") from None
+                moved.append((f, target))
             return removed
 
         try:
             removed = self._write(fn)
         except BaseException:
-            if trash.exists() and not folder.exists():  # the transaction was rolled back: put the folder back
-                os.replace(trash, folder)
+            for f, target in reversed(moved):  # the transaction was rolled back: put the files back
+                if target.exists() and not f.exists():
+                    os.replace(target, f)
+            shutil.rmtree(trash, ignore_errors=True)
             raise
         try:
             with self._lock:
                 self._conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # old pages leave the log (if no reader)
         except Exception:  # noqa: BLE001 - best effort: the next checkpoint does it
             pass
+        for sub in sorted((d for d in folder.rglob("*") if d.is_dir()), reverse=True) if folder.is_dir() else []:
+            _remove_if_empty(sub)
+        _remove_if_empty(folder)  # the folder goes with the last file; another database's files keep it
         if trash.exists():
             shutil.rmtree(trash, ignore_errors=True)
             if trash.exists():
