@@ -24,7 +24,7 @@ USER_INITIATED = "type_2"
 RESPONSE_WORDS = {"accept": "accepted", "reject": "rejected", "others": "no response"}
 
 #: Columns of interactions.csv, in order (both simulated and human studies):
-#: participant (code), method, day (1..), index (0.. within the day), time (simulated: "HH:MM",
+#: participant (code), method, day (1..), index (1.. within the day), time (simulated: "HH:MM",
 #: the simulated time of day; human studies: the UTC timestamp of the recording, as the context's
 #: time of day is the one set on the tablet, in time_slot), activity, scene (names), time_slot
 #: (S3 index 0-11), interval (S4 bin value in minutes: 0, 1, 2, 5 ... 200), task (S5 name),
@@ -147,7 +147,9 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     stream, whichever method's policy was in force: ``cumulative_feedback`` counts all of the
     participant's data points up to the end of the day. Rows of ``accuracy`` with no
     interactions of their own (a method adapted from the same data but not run in closed loop,
-    Fig. 4) get an empty success rate and the day's interaction and feedback counts.
+    Fig. 4) get an empty success rate and the day's interaction and feedback counts; on a day
+    with no interactions (begun, nothing recorded yet) those counts are 0 and
+    ``cumulative_feedback`` is the participant's so far.
     ``interactions`` and the success rate count recorded interactions only (:func:`is_recorded`);
     ``unanswered`` counts the rest. ``preferred`` (participant code -> preferred-action table)
     gives ``success_ceiling`` (:func:`preferred_action_contexts`, averaged over the day's
@@ -185,6 +187,17 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     own = daily["interactions"].notna().to_numpy()
     for col in shared:
         daily[col] = np.where(own, daily[col], per_day[col].reindex(at).to_numpy())
+    # a day begun with nothing recorded yet (a human study's open day, scored for Fig. 4): none of
+    # the day's counts, and the feedback so far carried over (it was left empty, and Fig. 3's means
+    # dropped the participant)
+    quiet = daily["interactions"].isna().to_numpy()
+    if quiet.any():
+        daily.loc[quiet, shared] = 0
+        before = per_day["cumulative_feedback"].reset_index()
+        daily.loc[quiet, "cumulative_feedback"] = [
+            int(before.loc[(before["participant"] == who) & (before["day"] < day), "cumulative_feedback"].max()
+                if ((before["participant"] == who) & (before["day"] < day)).any() else 0)
+            for who, day in zip(daily.loc[quiet, "participant"], daily.loc[quiet, "day"])]
     for col in counts + ["cumulative_feedback"]:
         daily[col] = pd.array(pd.to_numeric(daily[col]), dtype="Int64")
     return daily.sort_values(keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)

@@ -103,7 +103,18 @@ def test_daily_table_of_no_interactions():
     assert list(empty.columns) == DAILY_COLUMNS and len(empty) == 0
     only_accuracy = daily_table(STUDY.iloc[:0], pd.DataFrame([("P01", "nn", 1, 0.5)], columns=[
         "participant", "method", "day", "preference_accuracy"]))
-    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, None, None, None, None, None, None, None)]
+    # a day begun, nothing recorded: no counts, no feedback so far, no success rate
+    assert _rows(only_accuracy) == [("P01", "nn", 1, None, 0.5, 0, 0, None, 0, 0, None, 0)]
+
+
+def test_a_day_begun_with_nothing_recorded_yet_carries_the_feedback_so_far():
+    """A human study's open day 3 before its first answer, scored for Fig. 4: its counts were left
+    empty, so Fig. 3's mean cumulative feedback dropped the participant (data-analyst review)."""
+    accuracy = pd.DataFrame([("P01", "nn", 3, 0.6), ("P02", "cacas", 2, 0.4)],
+                            columns=["participant", "method", "day", "preference_accuracy"])
+    rows = [r for r in _rows(daily_table(STUDY, accuracy)) if r[2] in (3,) or r[:3] == ("P02", "cacas", 2)]
+    assert rows == [("P01", "nn", 3, None, 0.6, 7, 0, None, 0, 0, None, 0),  # 4 on day 1 + 3 on day 2
+                    ("P02", "cacas", 2, None, 0.4, 1, 0, None, 0, 0, None, 0)]
 
 
 def test_a_day_with_nothing_recorded_has_no_success_rate():
