@@ -54,6 +54,7 @@ class ExportResult:
 
     tables: dict[str, Path]
     bundle: Path | None  # None: tables only
+    removed: tuple[Path, ...] = ()  # an earlier export's zip beside tables it no longer matches
 
 
 def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
@@ -209,6 +210,38 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     }
 
 
+#: The tables ``cacas simulate --out`` writes too (same names and columns).
+SIMULATION_TABLES = ("daily.csv", "interactions.csv", "by_preference.csv")
+#: What only a study export writes.
+EXPORT_ONLY = tuple(f"{t}.csv" for t in TABLES if f"{t}.csv" not in SIMULATION_TABLES) + (BUNDLE_NAME,)
+
+
+def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
+    """Refuse (CacasError naming ``what``, the folder as the user gave it) to write a study export
+    (``writing="export"``) or a simulation's tables (``"simulation"``) into a folder that holds the
+    other's: the three tables they share would be replaced and the rest left beside them, one
+    folder mixing two studies. An empty folder, a missing one, or one of the same kind is fine."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        return
+    present = {p.name for p in folder.iterdir()}
+    if writing == "simulation":
+        found = [n for n in EXPORT_ONLY if n in present]
+        if found:
+            raise CacasError(f"{what}: holds an export of a study database ({', '.join(found[:3])}"
+                             f"{', ...' if len(found) > 3 else ''}); a simulation's {', '.join(SIMULATION_TABLES)} "
+                             "would replace the study's and leave its other tables beside them; valid: an empty "
+                             "folder, a new one, or an earlier simulation's")
+    elif writing == "export":
+        shared = [n for n in SIMULATION_TABLES if n in present]
+        if shared and "participants.csv" not in present:
+            raise CacasError(f"{what}: holds {', '.join(shared)} but no participants.csv: a simulation's tables "
+                             "(cacas simulate --out), which this export would replace; valid: an empty folder, "
+                             "a new one, or an earlier export's")
+    else:
+        raise ValueError(f"writing={writing!r}")
+
+
 def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
     info.compress_type = zipfile.ZIP_DEFLATED
@@ -245,6 +278,7 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     finally:
         if store is not db:
             store.close()
+    check_output_folder(out_dir, "export", str(out_dir))
     out = files.writable_folder(out_dir, str(out_dir))
     contents = {f"{name}.csv": csv_bytes(tables[name]) for name in TABLES}
     if bundle:
@@ -256,7 +290,12 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
                 _zip_entry(zf, f"policies/{rel}", policies[rel])
         contents[BUNDLE_NAME] = buf.getvalue()
     paths = files.write_all(out, contents)
-    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME))
+    stale = out / BUNDLE_NAME
+    removed = ()
+    if not bundle and stale.is_file():  # an earlier export's zip beside these tables would hold other data
+        stale.unlink()
+        removed = (stale,)
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
 
 
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:

@@ -167,3 +167,32 @@ def test_import_into_a_folder_that_cannot_be_written_names_the_given_path(run, s
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"cacas: error: --db {target}: cannot be written there: ")
     assert "importing" not in err
+
+
+def test_an_export_into_a_simulations_folder_is_refused(run, study, tmp_path, capsys):
+    """The two share daily.csv, interactions.csv and by_preference.csv: an export into a
+    simulation's --out folder replaced its tables silently (data-analyst review)."""
+    sim = tmp_path / "sim"
+    sim.mkdir()
+    for name in ("daily.csv", "interactions.csv", "by_preference.csv"):
+        (sim / name).write_text(f"a simulation's {name}")
+    before = tree(sim)
+    assert run("export", "--db", study, "--out", sim) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "holds daily.csv, interactions.csv, by_preference.csv but no participants.csv" \
+        in err and "valid: an empty folder, a new one, or an earlier export's" in err
+    assert tree(sim) == before
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0  # an earlier export's folder is fine
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+
+
+def test_tables_only_removes_an_earlier_exports_zip(run, study, tmp_path, capsys):
+    """A zip left beside newer tables holds older data (one questionnaire answer fewer, say)."""
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    with StudyStore(study) as s:
+        s.record_questionnaire("P01", 9)
+    capsys.readouterr()
+    assert run("export", "--db", study, "--out", tmp_path / "out", "--tables-only") == 0
+    assert not (tmp_path / "out" / "cacas-study.zip").exists()
+    assert f"removed an earlier export's {tmp_path / 'out' / 'cacas-study.zip'}" in capsys.readouterr().out
+    assert (tmp_path / "out" / "questionnaire.csv").read_text().count("\n") == 3  # header and both answers

@@ -176,3 +176,40 @@ def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypat
     err = capsys.readouterr().err
     assert code == 2 and "interactions.csv: cannot be written (No space left on device)" in err
     assert {p.name: p.read_text() for p in out.iterdir()} == earlier
+
+
+def test_a_simulation_into_a_study_exports_folder_is_refused_before_it_runs(tmp_path, capsys):
+    """Its three tables would replace the study's and leave participants.csv, questionnaire.csv
+    and the zip beside them: one folder mixing two studies (data-analyst review)."""
+    personas = write(tmp_path, GOOD)
+    out = tmp_path / "export"
+    out.mkdir()
+    for name in ("daily.csv", "participants.csv", "questionnaire.csv", "cacas-study.zip"):
+        (out / name).write_text(f"the study's {name}")
+    code = main(["simulate", "--personas", str(personas), "--days", "1", "--interactions", "3", "--quiet",
+                 "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert f"--out {out}: holds an export of a study database (participants.csv, questionnaire.csv, " \
+           "cacas-study.zip)" in err and "valid: an empty folder, a new one, or an earlier simulation's" in err
+    assert (out / "daily.csv").read_text() == "the study's daily.csv"
+
+
+def test_a_terminated_run_leaves_no_empty_folder_behind(tmp_path, capsys, monkeypatch):
+    """SIGTERM (kill, a scheduler's stop) left the new --out folder behind, empty (Ctrl-C did not)."""
+    import os
+    import signal
+
+    import cacas.experiment
+
+    def terminated(*a, **k):
+        os.kill(os.getpid(), signal.SIGTERM)
+        raise AssertionError("SIGTERM did not stop the run")
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", terminated)
+    before = signal.getsignal(signal.SIGTERM)
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out", str(tmp_path / "new"),
+                 "--plot", str(tmp_path / "plots")]) == 143
+    assert "cacas: terminated" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["personas.json"]
+    assert signal.getsignal(signal.SIGTERM) == before  # the caller's handler is back

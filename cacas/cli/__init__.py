@@ -59,9 +59,31 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (``kill``, a job scheduler's stop) while a command runs: handled as Ctrl-C is, so an
+    output folder the command created is not left behind, and nothing is half-written."""
+
+
+def _terminate(signum, frame):
+    raise Terminated()
+
+
 def main(argv: list[str] | None = None) -> int:
+    import signal
+    import threading
+
     parser = build_parser()
     args = parser.parse_args(argv)
+    on_main_thread = threading.current_thread() is threading.main_thread()
+    earlier = signal.signal(signal.SIGTERM, _terminate) if on_main_thread else None
+    try:
+        return _run(args)
+    finally:
+        if on_main_thread:
+            signal.signal(signal.SIGTERM, earlier)
+
+
+def _run(args) -> int:
     try:
         code = args.func(args)
     except CacasError as exc:
@@ -80,6 +102,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"cacas: error: the study database cannot be read ({exc}); restore it from a backup or an "
               f"export", file=sys.stderr)
         return 2
+    except Terminated:
+        print("cacas: terminated", file=sys.stderr)
+        return 143  # 128 + SIGTERM, as the shell reports a process it ended
     except KeyboardInterrupt:
         print("cacas: interrupted", file=sys.stderr)
         return 130

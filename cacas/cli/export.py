@@ -19,14 +19,17 @@ from cacas.store.files import writable_file
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("export", help="write a study database as CSV tables and one zip",
-                              description="Write interactions.csv, daily.csv, participants.csv, "
-                                          "questionnaire.csv, adaptations.csv (and the tables needed to "
-                                          f"move the study) into DIR, and all of them as DIR/{BUNDLE_NAME}.")
+                              description="Write interactions.csv, daily.csv, by_preference.csv, "
+                                          "participants.csv, questionnaire.csv, adaptations.csv (and the "
+                                          f"tables needed to move the study) into DIR, and all of them as "
+                                          f"DIR/{BUNDLE_NAME}. DIR may be new, empty or an earlier export's "
+                                          "(its files are replaced), not a simulation's.")
     p.add_argument("--db", required=True, help="the study database (.sqlite)")
     p.add_argument("--out", required=True, help="output folder (created if missing)")
     p.add_argument("--study", default=None, help="export one study only (default: all)")
     p.add_argument("--tables-only", action="store_true",
-                   help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file)")
+                   help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file; "
+                        "an earlier export's zip in DIR is removed)")
     p.set_defaults(func=run_export)
 
     q = subparsers.add_parser("import", help="load an exported bundle into a new study database",
@@ -43,6 +46,8 @@ def run_export(args: argparse.Namespace) -> int:
         print(f"wrote {path}")
     if result.bundle is not None:
         print(f"wrote {result.bundle}")
+    for path in result.removed:
+        print(f"removed an earlier export's {path} (it no longer matches these tables)")
     return 0
 
 

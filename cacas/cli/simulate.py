@@ -88,6 +88,7 @@ def run(args) -> int:
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
     from cacas.experiment import default_jobs, simulate_study, summary_table
+    from cacas.export import check_output_folder
     from cacas.preferences import load_personas
     from cacas.store import files
 
@@ -96,6 +97,7 @@ def run(args) -> int:
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind
     made = [Path(f) for f in (args.out, args.plot) if f and not Path(f).exists()]
+    check_output_folder(args.out, "simulation", f"--out {args.out}")
     try:
         out = files.writable_folder(args.out, f"--out {args.out}")
         plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
