@@ -195,6 +195,21 @@ def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     assert snapshot(store.path) == before
 
 
+def test_preferences_may_be_given_as_the_participants_persona_object(store):
+    """design.md's participant object was refused with a message about preference 1's fields."""
+    from cacas.preferences import parse_participant
+
+    assert store.save_preferences("P01", {"id": "P01", "preferences": [COUGH]}) == 1
+    assert store.save_preferences("P01", {"preferences": [COUGH]}) == 1  # the same: not saved again
+    assert store.save_preferences("P01", parse_participant({"id": "P01", "preferences": [COUGH]})) == 1
+    for other in ({"id": "P02", "preferences": [COUGH]}, parse_participant({"id": "P02", "preferences": [COUGH]})):
+        with pytest.raises(CacasError, match="participant P01: these preferences are participant P02's"):
+            store.save_preferences("P01", other)
+    assert store.get_preferences("P01").preferences[0].action == "pain check"
+    with pytest.raises(CacasError, match="no preference version 2"):  # nothing else was saved
+        store.get_preferences("P01", version=2)
+
+
 def test_preferences_are_versioned_and_validated(store):
     assert store.get_preferences("P01") is None
     assert store.save_preferences("P01", [STOVE]) == 1
@@ -491,8 +506,11 @@ def test_interactions_frame_filters(store):
         d = store.open_day(who)
         store.record_interaction(who, d, **GOOD)
     store.record_interaction("P02", 1, **GOOD, method="orl")
-    assert store.interactions_frame()["participant"].tolist() == ["P01", "P02"]
-    assert len(store.interactions_frame(method=None)) == 3
+    # by default every interaction, whichever method's policy was in force (the participant's one stream of
+    # user data); the default was "cacas" and left out the ones recorded under a baseline put in force
+    assert store.interactions_frame()["participant"].tolist() == ["P01", "P02", "P02"]
+    assert store.interactions_frame("P02")["method"].tolist() == ["cacas", "orl"]
+    assert store.interactions_frame(method="cacas")["participant"].tolist() == ["P01", "P02"]
     assert store.interactions_frame("P02", method="orl")["method"].tolist() == ["orl"]
     with pytest.raises(CacasError, match="unknown participant"):
         store.interactions_frame("P03")

@@ -283,7 +283,16 @@ class PeopleMixin:
     # --- described preferences (persona format, design.md) ------------------------------------
     @staticmethod
     def _parse_preferences(code: str, preferences: Any) -> prefs.Participant:
+        if isinstance(preferences, dict) and "preferences" in preferences:  # design.md's participant object
+            other = preferences.get("id", code)
+            if str(other).strip() != code:
+                raise CacasError(f"participant {code}: these preferences are participant {other}'s "
+                                 f"(their \"id\"); valid: {code}'s own, or the list of preferences alone")
+            preferences = preferences["preferences"]
         if isinstance(preferences, prefs.Participant):
+            if preferences.id != code:
+                raise CacasError(f"participant {code}: these preferences are participant {preferences.id}'s; "
+                                 f"valid: {code}'s own, or the list of preferences alone")
             items = [p.to_dict() for p in preferences.preferences]
         else:
             items = [p.to_dict() if isinstance(p, prefs.Preference) else p for p in (preferences or [])]
@@ -293,8 +302,9 @@ class PeopleMixin:
         """Store a participant's described preferences as a new version; return the version
         (preferences equal to the latest version are not stored again: its number is returned).
 
-        ``preferences``: a list of Preference objects or persona-format dicts, or a
-        :class:`cacas.preferences.Participant`. Validated with
+        ``preferences``: a list of Preference objects or persona-format dicts, or the
+        participant's own object in the persona format (``{"id": code, "preferences": [...]}``)
+        or :class:`cacas.preferences.Participant` (another participant's is refused). Validated with
         :func:`cacas.preferences.parse_participant` (fields, names, conflicts); an invalid one
         raises CacasError naming the preference and field, and nothing is written.
         """

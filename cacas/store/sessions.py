@@ -182,18 +182,21 @@ class SessionsMixin:
             return cur.lastrowid
         return self._write(fn)
 
-    def interactions_frame(self, participant: str | None = None, method: str | None = "cacas",
+    def interactions_frame(self, participant: str | None = None, method: str | None = None,
                            study: str | None = None, extra: bool = False, day: int | None = None) -> pd.DataFrame:
         """The user data: one row per interaction with exactly
         :data:`cacas.records.INTERACTION_COLUMNS` (``extra=True`` appends
         :data:`INTERACTION_EXTRA_COLUMNS`: hour, interval_minutes, recognised activity and scene,
-        the ids of the sound and scene models that recognised them, the policy's probabilities as JSON, policy version, study, created_at).
+        the ids of the sound and scene models that recognised them, the policy's probabilities as
+        JSON, policy version, study, created_at).
 
         As ``cacas simulate`` writes them: ``time_slot`` is the S3 index (0..11), ``interval``
         the S4 bin's value in minutes (one of :data:`cacas.spaces.INTERVAL_BINS`, e.g. 10 for 12
         minutes), ``user_action`` "" for type_1; ``time`` is the wall-clock timestamp (UTC,
         ISO 8601) at which it was recorded. Filters: one participant (unknown -> CacasError), one
-        ``method`` (None: all), one ``study``, one ``day``. Sorted by participant, day, index.
+        ``method`` (the method of the policy in force; default None: all, the participant's one
+        stream of user data, whichever policy was in force), one ``study``, one ``day``. Sorted by
+        participant, day, index.
         """
         where, params = [], []
         if participant is not None:
