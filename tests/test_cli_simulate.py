@@ -213,3 +213,24 @@ def test_a_terminated_run_leaves_no_empty_folder_behind(tmp_path, capsys, monkey
     assert "cacas: terminated" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["personas.json"]
     assert signal.getsignal(signal.SIGTERM) == before  # the caller's handler is back
+
+
+def test_an_error_after_sigterm_is_said_as_the_termination(tmp_path, capsys, monkeypatch):
+    """SIGTERM to the process group also ends the workers' manager process: the run then failed
+    with 'cacas: error: Connection reset by peer' (exit 2) instead of saying it was terminated."""
+    import os
+    import signal
+
+    import cacas.experiment
+
+    def terminated_then_reset(*a, **k):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+        finally:  # the cleanup talks to the manager process, which the same signal ended
+            raise ConnectionResetError(104, "Connection reset by peer")
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", terminated_then_reset)
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out", str(tmp_path / "new")]) \
+        == 143
+    assert capsys.readouterr().err == "cacas: terminated\n"
+    assert not (tmp_path / "new").exists()

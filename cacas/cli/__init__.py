@@ -64,7 +64,13 @@ class Terminated(KeyboardInterrupt):
     output folder the command created is not left behind, and nothing is half-written."""
 
 
+#: Set once SIGTERM arrived: an error raised after it (a worker's manager process, ended by the
+#: same signal sent to the process group, resets its connection) is part of the termination.
+_SIGNALLED = {"term": False}
+
+
 def _terminate(signum, frame):
+    _SIGNALLED["term"] = True
     raise Terminated()
 
 
@@ -76,6 +82,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     on_main_thread = threading.current_thread() is threading.main_thread()
     earlier = signal.signal(signal.SIGTERM, _terminate) if on_main_thread else None
+    _SIGNALLED["term"] = False
     try:
         return _run(args)
     finally:
@@ -83,12 +90,21 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, earlier)
 
 
+def _failed(message: str) -> int:
+    """Exit code 2 with one line; or, once SIGTERM has arrived, the termination said instead (the
+    error was its doing)."""
+    if _SIGNALLED["term"]:
+        print("cacas: terminated", file=sys.stderr)
+        return 143  # 128 + SIGTERM, as the shell reports a process it ended
+    print(f"cacas: error: {message}", file=sys.stderr)
+    return 2
+
+
 def _run(args) -> int:
     try:
         code = args.func(args)
     except CacasError as exc:
-        print(f"cacas: error: {exc}", file=sys.stderr)
-        return 2
+        return _failed(str(exc))
     except BrokenPipeError:  # e.g. `cacas sound eval | head`: the reader left; not an error of ours
         import os
 
@@ -96,16 +112,12 @@ def _run(args) -> int:
         return 0
     except OSError as exc:  # a file or folder the command could not read or write
         where = f"{exc.filename}: " if exc.filename else ""
-        print(f"cacas: error: {where}{exc.strerror or exc}", file=sys.stderr)
-        return 2
+        return _failed(f"{where}{exc.strerror or exc}")
     except sqlite3.DatabaseError as exc:  # e.g. a damaged page found while reading the tables
-        print(f"cacas: error: the study database cannot be read ({exc}); restore it from a backup or an "
-              f"export", file=sys.stderr)
-        return 2
-    except Terminated:
-        print("cacas: terminated", file=sys.stderr)
-        return 143  # 128 + SIGTERM, as the shell reports a process it ended
-    except KeyboardInterrupt:
+        return _failed(f"the study database cannot be read ({exc}); restore it from a backup or an export")
+    except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (Terminated)
+        if _SIGNALLED["term"]:
+            return _failed("")
         print("cacas: interrupted", file=sys.stderr)
         return 130
     return int(code or 0)
