@@ -90,12 +90,16 @@ def main(argv: list[str] | None = None) -> int:
             signal.signal(signal.SIGTERM, earlier)
 
 
+def _terminated() -> int:
+    print("cacas: terminated", file=sys.stderr)
+    return 143  # 128 + SIGTERM, as the shell reports a process it ended
+
+
 def _failed(message: str) -> int:
     """Exit code 2 with one line; or, once SIGTERM has arrived, the termination said instead (the
     error was its doing)."""
     if _SIGNALLED["term"]:
-        print("cacas: terminated", file=sys.stderr)
-        return 143  # 128 + SIGTERM, as the shell reports a process it ended
+        return _terminated()
     print(f"cacas: error: {message}", file=sys.stderr)
     return 2
 
@@ -117,7 +121,7 @@ def _run(args) -> int:
         return _failed(f"the study database cannot be read ({exc}); restore it from a backup or an export")
     except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (Terminated)
         if _SIGNALLED["term"]:
-            return _failed("")
+            return _terminated()
         print("cacas: interrupted", file=sys.stderr)
         return 130
     return int(code or 0)
