@@ -193,11 +193,15 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
     quiet = daily["interactions"].isna().to_numpy()
     if quiet.any():
         daily.loc[quiet, shared] = 0
-        before = per_day["cumulative_feedback"].reset_index()
-        daily.loc[quiet, "cumulative_feedback"] = [
-            int(before.loc[(before["participant"] == who) & (before["day"] < day), "cumulative_feedback"].max()
-                if ((before["participant"] == who) & (before["day"] < day)).any() else 0)
-            for who, day in zip(daily.loc[quiet, "participant"], daily.loc[quiet, "day"])]
+        running = per_day["cumulative_feedback"]
+        who, when = running.index.get_level_values("participant"), running.index.get_level_values("day")
+
+        def so_far(code, day) -> int:  # the running total is non-decreasing: its last value before ``day``
+            earlier = running[(who == code) & (when < day)]
+            return int(earlier.max()) if len(earlier) else 0
+
+        daily.loc[quiet, "cumulative_feedback"] = [so_far(c, d) for c, d in
+                                                   zip(daily.loc[quiet, "participant"], daily.loc[quiet, "day"])]
     for col in counts + ["cumulative_feedback"]:
         daily[col] = pd.array(pd.to_numeric(daily[col]), dtype="Int64")
     return daily.sort_values(keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)

@@ -155,7 +155,8 @@ class PeopleMixin:
         return [f for f in sorted(folder.rglob("*")) if f.is_file()
                 and f.relative_to(self.policy_dir).as_posix() not in named]
 
-    def _footprint(self, c, pid: int, code: str) -> Footprint:
+    def _footprint(self, c, pid: int, code: str, files: list | None = None) -> Footprint:
+        """``files``: the policy files that would go, if the caller has them (else found here)."""
         def count(table: str) -> int:
             return c.execute(f"SELECT COUNT(*) FROM {table} WHERE participant_id = ?", (pid,)).fetchone()[0]
 
@@ -166,8 +167,8 @@ class PeopleMixin:
             "SELECT COUNT(*) FROM interactions WHERE participant_id = ? AND day = ?", (pid, open_day)).fetchone()[0]
         events = c.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
         return Footprint(code, count("days"), count("interactions"), count("preferences"), count("policies"),
-                         count("adaptations"), count("questionnaires"), events, len(self._files_to_remove(code)),
-                         open_day, today)
+                         count("adaptations"), count("questionnaires"), events,
+                         len(self._files_to_remove(code) if files is None else files), open_day, today)
 
     def participant_footprint(self, code: str) -> Footprint:
         """What :meth:`remove_participant` would delete for ``code`` (counts; see
@@ -206,7 +207,8 @@ class PeopleMixin:
             pid = self._pid(c, code)
             study = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                               "WHERE p.id = ?", (pid,)).fetchone()[0]
-            removed = self._footprint(c, pid, code)
+            doomed = self._files_to_remove(code)  # read the neighbouring databases once
+            removed = self._footprint(c, pid, code, doomed)
             c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
             try:
                 for table in PARTICIPANT_TABLES:
@@ -216,7 +218,7 @@ class PeopleMixin:
             finally:
                 c.execute("PRAGMA secure_delete = OFF")
             self._event(c, "remove_participant", None, code=code, study=study)
-            for f in self._files_to_remove(code):  # last: a failure before it leaves the files in place
+            for f in doomed:  # last: a failure before it leaves the files in place
                 target = trash / f.relative_to(folder)
                 try:
                     target.parent.mkdir(parents=True, exist_ok=True)
