@@ -74,8 +74,19 @@ class CACAAConfig:
 
     @property
     def adapt_updates(self) -> int:
-        """SAC gradient updates of one adaptation (step 2): simulated days x steps x updates."""
-        return self.adapt_train_days * steps_per_day(self.k_minutes) * self.updates_per_step
+        """SAC gradient updates of one adaptation (step 2), as :func:`run_sac_training` makes
+        them: a round of simulated days has one transition (s, a, r, s') fewer than it has steps
+        (the day's last state has no next one), and each transition is followed by
+        ``updates_per_step`` updates."""
+        return self.adapt_train_days * (steps_per_day(self.k_minutes) - 1) * self.updates_per_step
+
+    def trains_initial_policy_like(self, other: "CACAAConfig") -> bool:
+        """Whether step 1 (:func:`train_initial_policy`) trains the same with both configs."""
+        return all(getattr(self, f) == getattr(other, f) for f in STEP1_FIELDS)
+
+
+#: The fields of :class:`CACAAConfig` that CACAA step 1 reads (the others are step 2's).
+STEP1_FIELDS = ("k_minutes", "parallel_days", "initial_train_days", "updates_per_step", "sac")
 
 
 @dataclass
@@ -102,7 +113,7 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
     rewards = np.array([spaces.REWARDS[r] for r in spaces.RESPONSES])
     total = days * gen.steps_per_day
     info: dict = {}
-    accepted = n = 0
+    accepted = n = updates = 0
     for day in range(days):
         gen.reset()
         s = gen.generate_state()
@@ -121,6 +132,7 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
             x2 = spaces.encode_states(s2)
             sac.buffer.add_batch(x, a, rewards[ur], x2)
             info = sac.update(cfg.updates_per_step)
+            updates += cfg.updates_per_step
             s, x = s2, x2
         if progress:
             progress((day + 1) / days, f"{label}: round {day + 1}/{days} of {cfg.parallel_days} simulated days "
@@ -128,6 +140,7 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
                                        f"{accepted / max(n, 1):.0%} of the robot's actions)")
     info["accept_rate"] = accepted / max(n, 1)
     info["steps"] = total
+    info["updates"] = updates
     return info
 
 
@@ -145,28 +158,39 @@ def train_initial_policy(d4a: D4A | None = None, config: CACAAConfig | None = No
     return ReshapedPolicy(sac, None, beta=1.0, method="initial")
 
 
-def initial_policy_path(d4a: D4A | None = None) -> Path:
-    """Where the initial policy trained against ``d4a`` is kept: the shipped D4A pairs' (or
-    ``None``) at ``study_data/models/initial_policy.pt``; another table's beside it, named by a
-    digest of its pairs (``initial_policy-d4a-<digest>.pt``), so that each table trains its own
-    once and a changed table never reuses another's."""
+def _digest(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()[:12]
+
+
+def initial_policy_path(d4a: D4A | None = None, config: CACAAConfig | None = None) -> Path:
+    """Where the initial policy trained against ``d4a`` with ``config`` is kept: the shipped D4A
+    pairs' (or ``None``) with the default step-1 settings at ``study_data/models/initial_policy.pt``;
+    another table's beside it, named by a digest of its pairs (``initial_policy-d4a-<digest>.pt``),
+    and step-1 settings of a config that trains otherwise (:data:`STEP1_FIELDS`) add a digest of
+    them (``-config-<digest>``), so that each trains its own once and none reuses another's."""
     folder = study_data_dir() / "models"
-    if d4a is None:
-        return folder / INITIAL_POLICY_FILE
-    digest = hashlib.sha256(np.ascontiguousarray(d4a.table, dtype=np.int8).tobytes()).hexdigest()[:12]
-    shipped = hashlib.sha256(np.ascontiguousarray(load_d4a().table, dtype=np.int8).tobytes()).hexdigest()[:12]
-    return folder / (INITIAL_POLICY_FILE if digest == shipped else f"initial_policy-d4a-{digest}.pt")
+    name = INITIAL_POLICY_FILE
+    if d4a is not None:
+        digest = _digest(np.ascontiguousarray(d4a.table, dtype=np.int8).tobytes())
+        if digest != _digest(np.ascontiguousarray(load_d4a().table, dtype=np.int8).tobytes()):
+            name = f"initial_policy-d4a-{digest}.pt"
+    if config is not None and not config.trains_initial_policy_like(CACAAConfig()):
+        settings = repr({f: asdict(config)[f] for f in STEP1_FIELDS}).encode()
+        name = name.removesuffix(".pt") + f"-config-{_digest(settings)}.pt"
+    return folder / name
 
 
 def load_initial_policy(progress: Progress | None = None, path: str | Path | None = None,
-                        d4a: D4A | None = None) -> ReshapedPolicy:
-    """The initial policy (CACAA step 1) trained against ``d4a`` (default: the shipped D4A pairs),
-    from :func:`initial_policy_path`; trained (about half a minute) and saved atomically on first
-    use if the file is missing. A researcher's own D4A table gets an initial policy of its own."""
-    path = Path(path) if path else initial_policy_path(d4a)
+                        d4a: D4A | None = None, config: CACAAConfig | None = None) -> ReshapedPolicy:
+    """The initial policy (CACAA step 1) trained against ``d4a`` (default: the shipped D4A pairs)
+    with ``config``'s step-1 settings (default: :class:`CACAAConfig`'s), from
+    :func:`initial_policy_path`; trained (about half a minute with the defaults) and saved
+    atomically on first use if the file is missing. A researcher's own D4A table, or a config
+    that trains step 1 otherwise, gets an initial policy of its own."""
+    path = Path(path) if path else initial_policy_path(d4a, config)
     if path.exists():
         return policy_from_bytes(path.read_bytes())
-    policy = train_initial_policy(d4a=d4a, progress=progress)
+    policy = train_initial_policy(d4a=d4a, config=config, progress=progress)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + f".{time.time_ns()}.tmp")
     tmp.write_bytes(policy.to_bytes())
@@ -238,19 +262,20 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
 
     base_sac = previous.sac if isinstance(previous, ReshapedPolicy) and previous.sac is not None else None
     if base_sac is None:
-        base_sac = load_initial_policy(d4a=d4a).sac
-    sac = base_sac.copy(seed=seed, keep_memory=method == "orl")
+        base_sac = load_initial_policy(d4a=d4a, config=config).sac
+    # SAC's settings (gamma, the target entropy, ...) are the previous agent's unless a config is given
+    sac = base_sac.copy(seed=seed, keep_memory=method == "orl", config=config.sac if config else None)
 
     if method in ("orl", "sac-user-data"):
         s, a, r, s2, day = orl_transitions(interactions)
         n_new = int((day == day.max()).sum()) if len(day) else 0
         if method == "orl":
             if sac.memory is None:
-                sac.memory = load_initial_policy(d4a=d4a).sac.memory
+                sac.memory = load_initial_policy(d4a=d4a, config=config).sac.memory
             if sac.memory is None:
                 from cacas.errors import CacasError
                 raise CacasError("ORL needs the initial policy's replay memory, and the initial policy file "
-                                 f"has none; valid: a file written by this version ({initial_policy_path(d4a)})")
+                                 f"has none; valid: a file written by this version ({initial_policy_path(d4a, config)})")
             sac.restore_memory(sac.memory)
             updates = cfg.adapt_updates
             params["remembered"] = int(len(sac.memory["a"]))
@@ -283,9 +308,9 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
                             (lambda f, m: say(0.1 + 0.9 * f, m)), "adaptation")
     params.update(beta=policy.beta, threshold=cfg.threshold, train_days=cfg.adapt_train_days,
                   k_minutes=cfg.k_minutes, parallel_days=cfg.parallel_days,
-                  target_entropy_ratio=cfg.sac.target_entropy_ratio, gamma=cfg.sac.gamma)
+                  target_entropy_ratio=sac.config.target_entropy_ratio, gamma=sac.config.gamma)
     say(1.0, f"SAC adapted: {cfg.adapt_train_days} rounds of {cfg.parallel_days} simulated days side by side "
-             f"({info['steps']} steps of {cfg.k_minutes:g} minutes, {cfg.adapt_updates} updates), "
+             f"({info['steps']} steps of {cfg.k_minutes:g} minutes, {info['updates']} updates), "
              f"entropy {info.get('entropy', float('nan')):.2f}, alpha {info.get('alpha', float('nan')):.3f}")
     return AdaptationResult(policy, log, params, time.perf_counter() - t0)
 

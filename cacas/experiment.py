@@ -127,6 +127,7 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
     table = participant.preferred_action_table()
     rows = []
     prev_action, prev_response = spaces.DO_NOTHING_ACTION, spaces.OTHERS
+    choose = getattr(policy, "sample", policy.greedy)  # the bandit explores (Thompson); the others act by Eq. 4
     for i in range(n):
         act, scene, slot, interval = (int(v) for v in ctx[i, :4])
         # S5 is the robot's, from the day so far: the action accepted at the previous interaction,
@@ -134,7 +135,7 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
         since = minute[i] - minute[i - 1] if i else np.inf
         task = int(current_task(np.array([prev_action]), np.array([prev_response]), np.array([since]))[0])
         state = np.array([[act, scene, slot, interval, task, prev_action, prev_response]])
-        robot = int(policy.greedy(state)[0])
+        robot = int(choose(state)[0])
         preferred = int(table[act, scene, slot, interval, task])
         silent = rng.random() < no_response_rate
         user_action = ""
@@ -182,10 +183,10 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     methods = check_methods(methods)
     loop = check_loop(loop)
     d4a = d4a or load_d4a()
-    # CACAA step 1 is trained against the D4A pairs: a table of the researcher's own gets its own
-    # initial policy (trained once, then kept beside the shipped one)
+    # CACAA step 1 is trained against the D4A pairs: a table of the researcher's own, or a config
+    # that trains step 1 otherwise, gets its own initial policy (trained once, kept beside the shipped one)
     initial = initial_policy or load_initial_policy(
-        d4a=d4a, progress=(lambda f, m: progress(0.0, f"initial policy for {d4a.source or 'this D4A table'}: {m}"))
+        d4a=d4a, config=config, progress=(lambda f, m: progress(0.0, f"initial policy for {d4a.source or 'this D4A table'}: {m}"))
         if progress else None)
     jobs = max(1, min(jobs or 1, len(participants)))
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,

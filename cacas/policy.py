@@ -131,7 +131,8 @@ class BanditPolicy:
     Each context-action pair has a Beta posterior of "accepted"; its prior comes from the D4A
     pairs (accept: Beta(2, 1), reject: Beta(1, 2), others: Beta(1, 1)) and the activity-level
     counts are shared across time slots at half weight, so a new slot starts from what the
-    activity taught. ``decide`` samples (exploration, for closed-loop use); Fig. 4's accuracy uses
+    activity taught. ``decide`` and ``sample`` draw (exploration: how the robot acts with it, on the
+    tablet and in a closed-loop simulation); Fig. 4's accuracy uses
     the posterior mean (``action_probabilities`` is a softmax of the means, sharp).
     """
 
@@ -186,10 +187,14 @@ class BanditPolicy:
     def greedy(self, states) -> np.ndarray:
         return self.action_probabilities(states).argmax(1)
 
+    def sample(self, states) -> np.ndarray:
+        """Thompson sampling: for each state, the action whose draw from its Beta posterior is
+        highest (what the robot does with this policy, in a study or a closed-loop simulation)."""
+        a, b = self._posterior(self._indices(states))
+        return self.rng.beta(a, b).argmax(1)
+
     def decide(self, state: spaces.State) -> tuple[int, np.ndarray]:
-        a, b = self._posterior(self._indices([state]))
-        draw = self.rng.beta(a, b)[0]
-        return int(draw.argmax()), self.action_probabilities([state])[0]
+        return int(self.sample([state])[0]), self.action_probabilities([state])[0]
 
     def to_bytes(self) -> bytes:
         buf = io.BytesIO()

@@ -45,6 +45,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from cacas import nets, spaces
+from cacas.errors import CacasError
 
 
 @dataclass
@@ -380,10 +381,21 @@ class DiscreteSAC:
         agent.memory = state.get("memory")
         return agent
 
-    def copy(self, seed: int = 0, keep_memory: bool = False) -> "DiscreteSAC":
-        """A fresh agent with the same weights (empty replay buffer, new optimizers); with
-        ``keep_memory`` it carries the same kept replay memory (not yet in its buffer)."""
-        agent = DiscreteSAC.from_state_dict({**self.state_dict(), "memory": None}, seed=seed)
+    def copy(self, seed: int = 0, keep_memory: bool = False, config: SACConfig | None = None) -> "DiscreteSAC":
+        """A fresh agent with the same weights and temperature (empty replay buffer, new
+        optimizers); with ``keep_memory`` it carries the same kept replay memory (not yet in its
+        buffer). ``config``: the learning settings it goes on with (learning rate, discount,
+        target entropy, ...; default this agent's); its network sizes must be this agent's."""
+        state = {**self.state_dict(), "memory": None}
+        if config is not None:
+            shape = ("state_dim", "n_actions", "hidden")
+            differ = [f"{f} {getattr(config, f)} (the agent's: {getattr(self.config, f)})" for f in shape
+                      if getattr(config, f) != getattr(self.config, f)]
+            if differ:
+                raise CacasError(f"the SAC settings do not fit this agent's networks: {', '.join(differ)}; valid: "
+                                 f"the agent's sizes ({', '.join(f'{f} {getattr(self.config, f)}' for f in shape)})")
+            state["config"] = asdict(config)
+        agent = DiscreteSAC.from_state_dict(state, seed=seed)
         agent.memory = self.memory if keep_memory else None
         return agent
 

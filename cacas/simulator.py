@@ -91,9 +91,12 @@ class ContextSource:
     @classmethod
     def from_user_data(cls, contexts: np.ndarray, recorded_share: float = 0.8) -> "ContextSource":
         """States generated from the user data D (Table III step 2): the activities recorded in D
-        are chosen with probability ``recorded_share`` (in proportion to how often they were
-        recorded), any activity otherwise; a recorded activity happens in its recorded scenes
-        and time slots more often. ``contexts``: (n, >=4) S1..S4 indices of the recorded data."""
+        are chosen with probability ``recorded_share`` (in proportion to how many of the given
+        contexts name them), any activity otherwise; a recorded activity happens in its recorded
+        scenes and time slots more often. ``contexts``: (n, >=4) S1..S4 indices of the recorded
+        data; CACAA passes D's samples (:meth:`cacas.user_model.UserData.contexts`, one per
+        distinct S_u, so a context answered five times with the same action counts once, and one
+        where two actions were tried counts twice)."""
         base = ContextSource.generic()
         contexts = np.asarray(contexts)
         if len(contexts) == 0:

@@ -56,6 +56,9 @@ def test_cacas_moves_from_the_initial_action(small_config, small_initial):
     c = small_config  # the log counts rounds of simulated days side by side, and SAC's updates
     assert result.log[-1].startswith(f"SAC adapted: {c.adapt_train_days} rounds of {c.parallel_days} simulated "
                                      f"days side by side") and f"{c.adapt_updates} updates" in result.log[-1]
+    # adapt_updates counts the updates SAC made (ORL is given as many): a round of 24 two-hour
+    # steps has 23 transitions, each followed by updates_per_step updates
+    assert after.sac.updates - small_initial.sac.updates == c.adapt_updates == 1 * 23 * 6
     changes = policy_changes(small_initial, after, stove_days(), top=3)
     assert len(changes) == 3 and changes["changed"].all() and set(changes["action_after"]) == {"set a timer"}
 
@@ -139,7 +142,7 @@ def test_orl_goes_on_learning_from_its_step_1_memory(small_config, small_initial
     assert memory is not None and len(memory["a"]) > 100  # the step-1 experience, kept with the policy
     result = adapt_policy(small_initial, stove_days(3, per_day=8), "orl", seed=0, config=small_config)
     # as many updates as CACAS's SAC makes in one adaptation
-    assert result.parameters["updates"] == small_config.adapt_updates == 1 * 24 * 6
+    assert result.parameters["updates"] == small_config.adapt_updates == 1 * 23 * 6
     assert result.parameters["remembered"] == len(memory["a"])
     assert result.policy.sac.updates == small_initial.sac.updates + small_config.adapt_updates
     # the adapted ORL keeps the memory (not grown: the recorded transitions are re-read from D)
@@ -270,9 +273,47 @@ def test_a_d4a_table_of_ones_own_trains_an_initial_policy_of_its_own(monkeypatch
     assert mine.parent == tmp_path / "models" and mine.name.startswith("initial_policy-d4a-")
     trained = []
     monkeypatch.setattr(adaptation, "train_initial_policy",
-                        lambda d4a=None, progress=None: trained.append(d4a) or small_initial)
+                        lambda d4a=None, config=None, progress=None: trained.append(d4a) or small_initial)
     adaptation.load_initial_policy(d4a=own)
     assert trained == [own] and mine.exists()
     adaptation.load_initial_policy(d4a=own)  # kept: trained once
     adaptation.load_initial_policy()  # the shipped table's is trained for the shipped table
     assert trained == [own, None] and (tmp_path / "models" / "initial_policy.pt").exists()
+
+
+def test_a_given_sac_config_is_the_one_the_adaptation_uses_and_records(small_config, small_initial):
+    from dataclasses import replace
+
+    own = replace(small_config, sac=replace(small_config.sac, gamma=0.5, target_entropy_ratio=0.6, lr=1e-3))
+    result = adapt_policy(small_initial, stove_days(), "cacas", seed=0, config=own)
+    used = result.policy.sac.config
+    assert (used.gamma, used.target_entropy_ratio, used.lr) == (0.5, 0.6, 1e-3)
+    assert (result.parameters["gamma"], result.parameters["target_entropy_ratio"]) == (0.5, 0.6)
+    assert np.isclose(result.policy.sac.target_entropy, 0.6 * np.log(spaces.N_ACTIONS))
+    # without a config, the agent goes on with the previous one's settings, and records them
+    kept = adapt_policy(small_initial, stove_days(), "cacas", seed=0).policy.sac.config
+    assert kept == small_initial.sac.config
+
+
+def test_sac_settings_of_other_network_sizes_are_refused(small_config, small_initial):
+    from dataclasses import replace
+
+    wide = replace(small_config, sac=replace(small_config.sac, hidden=64))
+    with pytest.raises(CacasError, match=r"hidden 64 \(the agent's: 32\).*valid: the agent's sizes"):
+        adapt_policy(small_initial, stove_days(), "cacas", seed=0, config=wide)
+
+
+def test_each_step_1_setting_has_its_own_initial_policy_file(tmp_path, monkeypatch, small_config):
+    from dataclasses import replace
+
+    from cacas.adaptation import CACAAConfig, initial_policy_path
+
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path))
+    shipped = tmp_path / "models" / "initial_policy.pt"
+    assert initial_policy_path() == initial_policy_path(config=CACAAConfig()) == shipped
+    # step 2's settings do not change step 1
+    assert initial_policy_path(config=CACAAConfig(beta=0.5, threshold=0.9, adapt_train_days=5)) == shipped
+    small = initial_policy_path(config=small_config)
+    assert small.parent == shipped.parent and small.name.startswith("initial_policy-config-")
+    assert initial_policy_path(config=replace(small_config, initial_train_days=5)) not in (small, shipped)
+    assert initial_policy_path(config=replace(small_config, beta=0.1)) == small

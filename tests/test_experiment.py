@@ -361,3 +361,39 @@ def test_interactions_are_numbered_from_1_in_their_day_as_in_a_human_study(small
                            initial_policy=small_initial).interactions
     for _, day in inter.groupby("day"):
         assert list(day["index"]) == list(range(1, len(day) + 1))
+
+
+def test_a_study_with_its_own_config_starts_from_an_initial_policy_trained_with_it(monkeypatch, small_config):
+    import cacas.experiment
+
+    seen = []
+
+    class Stop(Exception):
+        pass
+
+    def loader(**kwargs):
+        seen.append(kwargs["config"])
+        raise Stop
+
+    monkeypatch.setattr(cacas.experiment, "load_initial_policy", loader)
+    with pytest.raises(Stop):
+        cacas.experiment.simulate_study(PEOPLE[:1], days=1, config=small_config)
+    assert seen == [small_config]  # step 1 with the study's settings, not the shipped policy's
+
+
+def test_in_a_closed_loop_the_bandit_acts_by_thompson_sampling():
+    """The bandit explores as it would with people (BanditPolicy.decide draws from its Beta
+    posteriors); the other policies act by Eq. 4 (Always has no ``sample``: greedy)."""
+    from cacas.d4a import load_d4a
+    from cacas.policy import BanditPolicy
+
+    def day(seed):
+        bandit = BanditPolicy(load_d4a().table, seed=seed)
+        rows = pd.DataFrame(simulated_day(bandit, PEOPLE[0], 1, 60, np.random.default_rng(0), 0.0, "bandit"))
+        return rows, bandit
+    rows, bandit = day(0)
+    greedy = [spaces.ACTIONS[a] for a in bandit.greedy(records.policy_states(rows))]
+    assert (rows["robot_action"] != greedy).sum() >= 5  # draws, not the posterior mean's argmax
+    again, _ = day(0)
+    pd.testing.assert_frame_equal(rows, again)  # seeded: the same day again
+    assert not rows["robot_action"].equals(day(1)[0]["robot_action"])
