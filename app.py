@@ -15,6 +15,7 @@ import streamlit as st
 
 from cacas import app_support
 from cacas.errors import CacasError
+from cacas.paths import study_data_problem
 from cacas.study_day import day_status
 from pages import ui
 
@@ -158,5 +159,8 @@ if ui.tablet_mode():
 else:
     page = st.navigation(_navigation())
     _sidebar(store)
+    problem = study_data_problem()
+    if problem:  # said on every researcher page, before a participant meets it on the tablet
+        st.error(f"Set-up: {problem}.", icon=":material/folder_off:")
 _write_address(store)
 page.run()

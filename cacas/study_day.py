@@ -202,8 +202,9 @@ def start_day(store, participant: str) -> int:
     """Open the participant's next study day (or return the open one).
 
     Refused while the previous day has not been adapted (Section V-B.1: "After adaptation, the
-    participant can interact with the robot in the next day"), and before day 1 while the participant
-    has no described preferences (the study's scores, Fig. 4 and the success ceiling, need them)."""
+    participant can interact with the robot in the next day"), before day 1 while the participant
+    has no described preferences (the study's scores, Fig. 4 and the success ceiling, need them),
+    and while the study data folder has no readable D4A pairs (nothing is opened)."""
     status = day_status(store, participant)
     if status.open:
         return status.day
@@ -213,6 +214,14 @@ def start_day(store, participant: str) -> int:
     if status.waiting_for_adaptation:
         raise CacasError(f"day {status.day} of participant {participant} is closed but the robot has not "
                          f"been adapted yet; run the adaptation first (Adaptation page)")
+    from cacas.d4a import load_d4a
+    from cacas.paths import study_data_problem
+
+    try:  # checked before the day opens: the robot gets ready, and the day is adapted, with the D4A pairs
+        load_d4a()
+    except CacasError:
+        raise CacasError(f"day {status.day + 1} of participant {participant} not started: "
+                         f"{study_data_problem() or 'the D4A pairs cannot be read'}") from None
     return store.open_day(participant)
 
 

@@ -35,6 +35,18 @@ def test_day_1_waits_for_the_described_preferences(tmp_path):
         assert start_day(s, "P02") == 1
 
 
+def test_a_day_is_not_started_without_the_d4a_pairs(store, tmp_path, monkeypatch):
+    """An empty $CACAS_STUDY_DATA failed only at the first proposal, in front of the participant,
+    with day 1 already open (walkthrough): now the day is refused, naming the folder and the fix."""
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path / "empty"))
+    with pytest.raises(CacasError, match=r"^day 1 of participant P01 not started: the study data folder .*empty "
+                                          r"lacks the shipped d4a.csv, .*valid: a copy of the shipped folder"):
+        start_day(store, "P01")
+    assert day_status(store, "P01").day == 0  # nothing opened
+    monkeypatch.delenv("CACAS_STUDY_DATA")
+    assert start_day(store, "P01") == 1
+
+
 @pytest.fixture
 def policy():
     return ReshapedPolicy(DiscreteSAC(SACConfig(), seed=0), None, beta=1.0, method="initial")

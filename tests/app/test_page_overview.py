@@ -120,3 +120,14 @@ def test_a_new_visit_opens_the_study_being_run(app, store):
     store.add_participant("P01")  # then a default-study participant is added: that study is the latest
     assert app().selectbox(key="study").value == "default"
     assert app(study="pilot-walk").selectbox(key="study").value == "pilot-walk"  # the address wins
+
+
+def test_a_study_data_folder_without_the_shipped_files_is_said_on_every_researcher_page(app, tmp_path, monkeypatch):
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path / "empty"))
+    for page in (None, "pages/participants.py", "pages/results.py"):
+        at = app(page)
+        assert not at.exception
+        setup = [e.value for e in at.error if e.value.startswith("Set-up: the study data folder")]
+        assert len(setup) == 1 and "lacks the shipped d4a.csv" in setup[0] and "cp -r" in setup[0]
+    monkeypatch.delenv("CACAS_STUDY_DATA")
+    assert not [e for e in app().error if e.value.startswith("Set-up")]
