@@ -458,4 +458,4 @@ with tabs["Import / export"]:
         st.caption(f"{n} participant(s) with preferences in study '{study}'.")
         st.download_button("Download personas.json", text.encode("utf-8"),
                            file_name=app_support.study_file_name("personas", study, ".json"),
-                           mime="application/json", disabled=n == 0, icon=":material/download:")
+                           mime="application/json", disabled=n == 0, icon=":material/download:", on_click="ignore")

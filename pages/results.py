@@ -239,5 +239,5 @@ with data:
         else:
             st.download_button("Download everything (zip of every table and policy file)", _bundle,
                                file_name=app_support.study_file_name("cacas-study", study, ".zip"),
-                               mime="application/zip",
-                               icon=":material/folder_zip:")
+                               mime="application/zip", icon=":material/folder_zip:",
+                               on_click="ignore")  # a rerun would drop the other buttons' prepared files

@@ -184,7 +184,8 @@ def as_in_csv(df: pd.DataFrame) -> pd.DataFrame:
 
 def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
     st.download_button(label or f"Download {file_name}", records.csv_bytes(df), file_name=file_name,
-                       mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:")
+                       mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:",
+                       on_click="ignore")  # no rerun: a download right after another one found its file gone
 
 
 #: A share as a whole percentage (halves rounded up), "–" for none.
