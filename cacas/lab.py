@@ -136,6 +136,25 @@ def _recognize_bytes(recognizer, name: str, data: bytes, default_name: str):
             raise CacasError(str(exc).replace(str(path), name)) from None
 
 
+def library_stamp(kind: str, name: str | None = None) -> tuple:
+    """The sound or scene library's folder times (``name``'s folder alone when given): a cache
+    key, so that a page lists and plays what the library holds now, whoever added to it (the
+    page, ``cacas sound import``, a copy). A folder's time changes when a file is added or
+    removed in it."""
+    if kind == "sound":
+        from cacas.audio.library import activity_slug as folder_of, sounds_dir as root_of
+    elif kind == "scene":
+        from cacas.vision.library import scene_slug as folder_of, scenes_dir as root_of
+    else:
+        raise CacasError(f"unknown library kind {kind!r}; valid: sound, scene")
+    root = root_of()
+    if name is not None:
+        folders = [root / folder_of(name)]
+    else:
+        folders = [root] + (sorted(p for p in root.iterdir() if p.is_dir()) if root.is_dir() else [])
+    return (str(root),) + tuple((f.name, f.stat().st_mtime_ns if f.exists() else None) for f in folders)
+
+
 def model_stamp(kind: str) -> float | None:
     """The saved sound or scene model's modification time (None: no model saved): a cache key, so
     that a page reloads a model that was retrained."""

@@ -11,7 +11,7 @@ from __future__ import annotations
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, dialogue, spaces
+from cacas import app_support, dialogue, lab, spaces
 from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
@@ -39,9 +39,18 @@ def _policy(db: str, who: str, version: int | None, sha256: str | None):
     return policy_in_force(ui.store(), who)
 
 
-@st.cache_data(show_spinner=False)
 def _library(kind: str, name: str) -> list[str]:
-    """The library's clips of an activity ("sound") or photos of a room ("scene")."""
+    """The library's clips of an activity ("sound") or photos of a room ("scene"), as its folder
+    holds them now (clips added while the app runs are played)."""
+    try:
+        stamp = lab.library_stamp(kind, name)
+    except (CacasError, OSError):
+        return []
+    return _library_files(kind, name, stamp)
+
+
+@st.cache_data(show_spinner=False, max_entries=512)
+def _library_files(kind: str, name: str, stamp: tuple) -> list[str]:
     from cacas.audio.library import clip_paths
     from cacas.vision.library import image_paths
 

@@ -95,9 +95,14 @@ def _add(kind: str) -> None:
     st.cache_data.clear()
 
 
-@st.cache_data(show_spinner=False)
 def _library_counts(kind: str) -> pd.DataFrame:
-    """Files in the library for each activity ("sound") or room ("scene")."""
+    """Files in the library for each activity ("sound") or room ("scene"), as the folders hold
+    them now (a clip added by ``cacas sound import`` while the app runs is counted)."""
+    return _counts(kind, lab.library_stamp(kind))
+
+
+@st.cache_data(show_spinner=False, max_entries=16)
+def _counts(kind: str, stamp: tuple) -> pd.DataFrame:
     k = _KINDS[kind]
     rows = []
     for name in k["names"]:

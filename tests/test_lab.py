@@ -170,3 +170,17 @@ def test_add_photos_adds_checked_photos_all_or_nothing(tmp_path):
     assert image_paths("living room", root) == sorted(added)  # nothing half-added
     with pytest.raises(CacasError, match=r"attic.*valid.*kitchen"):
         lab.add_photos("attic", [("a.png", _png())], root)
+
+
+def test_library_stamp_changes_when_a_folder_gains_a_file(study_data):
+    (study_data / "sounds" / "cough").mkdir(parents=True)
+    whole, cough, sneeze = lab.library_stamp("sound"), lab.library_stamp("sound", "cough"), \
+        lab.library_stamp("sound", "sneeze")
+    assert lab.library_stamp("sound") == whole  # nothing changed, same key
+    (study_data / "sounds" / "cough" / "a.wav").write_bytes(b"x")
+    assert lab.library_stamp("sound") != whole and lab.library_stamp("sound", "cough") != cough
+    assert lab.library_stamp("sound", "sneeze") == sneeze  # another activity's folder keeps its key
+    (study_data / "scenes").mkdir()
+    assert lab.library_stamp("scene", "kitchen")[-1] == ("kitchen", None)  # no folder yet
+    with pytest.raises(CacasError, match=r"^unknown library kind 'speech'; valid: sound, scene$"):
+        lab.library_stamp("speech")

@@ -190,3 +190,26 @@ def test_training_while_a_study_day_is_open_is_warned(app, store):
     no_exception(at)
     assert [w.value.split(".")[0] for w in at.warning if "Study days are open" in w.value] == [
         "Study days are open: P01 (day 1), Q01 (day 2)"]
+
+
+def test_clips_added_outside_the_page_are_counted_without_a_restart(app, tmp_path, monkeypatch):
+    """`cacas sound import` (or a copy) while the app runs: the library stayed at its old count
+    until the server restarted, and the tablet played no clip of the new folder (walkthrough)."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds" / "cough").mkdir(parents=True)
+    (data / "sounds" / "cough" / "a.wav").write_bytes(_wav())
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    at = app(PAGE)
+    no_exception(at)
+    summary = lambda: [m.value for m in at.markdown if m.value.endswith(" activities.")]  # noqa: E731
+    assert summary() == ["**1 clips** for **1 of 33** activities."]
+    (data / "sounds" / "cough" / "b.wav").write_bytes(_wav())
+    (data / "sounds" / "sneeze").mkdir()
+    (data / "sounds" / "sneeze" / "c.wav").write_bytes(_wav())
+    at.run()
+    assert summary() == ["**3 clips** for **2 of 33** activities."]
