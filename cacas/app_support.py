@@ -99,8 +99,9 @@ def rolled_back_note(events: pd.DataFrame) -> str:
     who = sorted(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
     if not who:
         return ""
-    return (f" After a roll-back ({', '.join(who)}), a day uses the version put in force instead: Fig. 4 scores "
-            "that version for CACAS, while the baselines keep their runs adapted from days 1..d-1.")
+    return (f" After a roll-back ({', '.join(who)}), a day uses the version put in force instead (a day rolled back "
+            "in its middle, the version most of its interactions had): Fig. 4 scores that version for CACAS, while "
+            "the baselines keep their runs adapted from days 1..d-1.")
 
 
 def policy_label(in_force: int | None, versions) -> str:

@@ -31,6 +31,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from cacas.errors import CacasError
@@ -64,7 +65,9 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
     A run recorded for day d (adapted from days 1..d; day 0: the initial policy) is in force on
     day d + 1 (the latest such run of its method). Where a day's interactions name the policy
     version in force and a run produced that version, that run is used instead (this follows a
-    roll-back). Days not started yet are not listed (:func:`next_day_accuracy` scores them).
+    roll-back); a day with a roll-back in the middle is the version most of its interactions were
+    recorded with (the later one on a tie). Days not started yet are not listed
+    (:func:`next_day_accuracy` scores them).
     """
     cols = ["participant", "method", "day", "run"]
     if not len(adaptations):
@@ -76,10 +79,13 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
         ["participant", "method", "day"])["run"]
     linked = runs.dropna(subset=["policy_version"])
     if len(interactions):
-        last = interactions.drop_duplicates(["participant", "method", "day"], keep="last")
-        for who, method, day, version in zip(last["participant"], last["method"], last["day"],
-                                             last["policy_version"]):
-            if pd.isna(version):
+        keys = ["participant", "method", "day"]
+        tally = (interactions[keys].assign(version=interactions["policy_version"].fillna(-1).astype("int64"),
+                                           at=np.arange(len(interactions)))
+                 .groupby(keys + ["version"]).agg(n=("at", "size"), last=("at", "max")).reset_index())
+        most = tally.sort_values(["n", "last"], kind="stable").drop_duplicates(keys, keep="last")
+        for who, method, day, version in zip(most["participant"], most["method"], most["day"], most["version"]):
+            if version == -1:  # the initial policy (no version)
                 hit = runs[(runs["participant"] == who) & (runs["method"] == method) & (runs["day"] == 0)]
             else:
                 hit = linked[(linked["participant"] == who) & (linked["policy_version"] == version)]

@@ -199,5 +199,6 @@ def test_the_results_page_says_what_a_roll_back_changes(tmp_path):
         assert app_support.rolled_back_note(store.events()) == ""
         store.set_active_policy("P02", None)  # back to the initial policy
         assert app_support.rolled_back_note(store.events()) == (
-            " After a roll-back (P02), a day uses the version put in force instead: Fig. 4 scores that version for "
-            "CACAS, while the baselines keep their runs adapted from days 1..d-1.")
+            " After a roll-back (P02), a day uses the version put in force instead (a day rolled back in its middle, "
+            "the version most of its interactions had): Fig. 4 scores that version for CACAS, while the baselines "
+            "keep their runs adapted from days 1..d-1.")

@@ -199,6 +199,31 @@ def test_daily_accuracy_follows_the_policy_in_force_after_rollback(tmp_path):
         assert math.isclose(daily.loc[("P01", "cacas", 3), "preference_accuracy"], 0.1)
 
 
+def test_a_day_rolled_back_in_its_middle_is_scored_by_the_version_most_of_it_had(tmp_path):
+    """6 interactions under version 1, a roll-back to the initial policy, 2 more: the day was
+    scored as the initial policy's (its last interaction's version; walkthrough)."""
+    with StudyStore(tmp_path / "s.sqlite") as s:
+        s.add_participant("P01")
+        s.close_day("P01", s.open_day("P01"))
+        s.record_adaptation("P01", 0, "cacas", {}, 1.0, {"preference_accuracy": 0.2})  # the initial policy
+        v = s.save_policy("P01", 1, "cacas", b"policy 1")
+        s.record_adaptation("P01", 1, "cacas", {}, 1.0, {"preference_accuracy": 0.7}, policy_version=v)
+        day = s.open_day("P01")
+
+        def interact(n):
+            for _ in range(n):
+                s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                                     robot_action="pain check", response="accept")
+        interact(6)
+        s.set_active_policy("P01", None)
+        interact(2)
+        daily = export.export_tables(s)["daily"].set_index(["participant", "method", "day"])
+        assert math.isclose(daily.loc[("P01", "cacas", 2), "preference_accuracy"], 0.7)
+        interact(5)  # now most of the day is under the initial policy
+        daily = export.export_tables(s)["daily"].set_index(["participant", "method", "day"])
+        assert math.isclose(daily.loc[("P01", "cacas", 2), "preference_accuracy"], 0.2)
+
+
 def test_export_import_export_gives_the_same_tables(store, tmp_path):
     first = export.export_study(store, tmp_path / "first")
     target = tmp_path / "b" / "moved.sqlite"
