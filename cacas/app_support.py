@@ -401,10 +401,14 @@ def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
 
 # --- interactions as a readable table ------------------------------------------------------------
 
+#: What the day's table says where no model recognised the context (the robot used it as set).
+AS_SET = "(as set)"
+
+
 def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
     """The interactions table with names instead of indices, for reading on a page: what the
     participant set (S1-S4), what the robot heard and saw (when ``df`` has the store's extra columns and
-    a recogniser was used; else the activity and room set), the robot's proposal and the answer
+    a recogniser was used; else :data:`AS_SET`), the robot's proposal and the answer
     ("asked for X" for a participant's request, where the robot's proposal was not taken)."""
     columns = ["day", "#", "time of day", "since last activity", "activity", "room", "robot heard", "robot saw",
                "robot proposed", "answer"]
@@ -422,8 +426,10 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
         # S4: interactions.csv's interval is the bin's minutes
         "since last activity": [spaces.interval_label(spaces.interval_bin(float(m))) for m in df["interval"]],
         "activity": df["activity"], "room": df["scene"],
-        "robot heard": heard.where(heard.notna() & (heard != ""), df["activity"]),
-        "robot saw": saw.where(saw.notna() & (saw != ""), df["scene"]),
+        # no recogniser (or a frame without the store's extra columns): the robot used the context as set,
+        # and says so rather than repeat it as if heard (the export's recognised_* columns are empty then)
+        "robot heard": heard.where(heard.notna() & (heard != ""), AS_SET),
+        "robot saw": saw.where(saw.notna() & (saw != ""), AS_SET),
         "robot proposed": df["robot_action"], "answer": answer,
     }, columns=columns)
 
