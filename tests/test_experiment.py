@@ -332,25 +332,27 @@ def test_the_robots_task_s5_is_in_progress_by_the_days_clock():
     assert busy_rows > 0  # the check saw tasks in progress, not only idle rows
 
 
-def test_a_study_with_its_own_d4a_table_starts_from_that_tables_initial_policy(monkeypatch):
+@pytest.mark.parametrize("what", ["d4a", "config"])
+def test_a_study_with_its_own_d4a_table_or_config_starts_from_an_initial_policy_of_its_own(what, monkeypatch,
+                                                                                          small_config):
+    """CACAA step 1 trains against the D4A pairs with the config's step-1 settings: `--d4a FILE`
+    used the shipped table's cached initial policy, and so did a config of one's own."""
     import cacas.experiment
     from cacas.d4a import D4A, load_d4a
 
-    own = D4A(load_d4a().table[:, ::-1].copy(), source="mine.csv")
+    own = D4A(load_d4a().table[:, ::-1].copy(), source="mine.csv") if what == "d4a" else small_config
     seen = []
 
     class Stop(Exception):
         pass
 
     def loader(**kwargs):
-        seen.append(kwargs["d4a"])
+        seen.append(kwargs[what])
         raise Stop
 
     monkeypatch.setattr(cacas.experiment, "load_initial_policy", loader)
-    people = parse_personas({"participants": [{"id": "P01", "preferences": [
-        {"activity": ["cough"], "action": "pain check"}]}]})
     with pytest.raises(Stop):
-        cacas.experiment.simulate_study(people, days=1, d4a=own)
+        cacas.experiment.simulate_study(PEOPLE[:1], days=1, **{what: own})
     assert seen == [own]
 
 
@@ -361,24 +363,6 @@ def test_interactions_are_numbered_from_1_in_their_day_as_in_a_human_study(small
                            initial_policy=small_initial).interactions
     for _, day in inter.groupby("day"):
         assert list(day["index"]) == list(range(1, len(day) + 1))
-
-
-def test_a_study_with_its_own_config_starts_from_an_initial_policy_trained_with_it(monkeypatch, small_config):
-    import cacas.experiment
-
-    seen = []
-
-    class Stop(Exception):
-        pass
-
-    def loader(**kwargs):
-        seen.append(kwargs["config"])
-        raise Stop
-
-    monkeypatch.setattr(cacas.experiment, "load_initial_policy", loader)
-    with pytest.raises(Stop):
-        cacas.experiment.simulate_study(PEOPLE[:1], days=1, config=small_config)
-    assert seen == [small_config]  # step 1 with the study's settings, not the shipped policy's
 
 
 def test_in_a_closed_loop_the_bandit_acts_by_thompson_sampling():
