@@ -158,7 +158,9 @@ if ui.tablet_mode():
                          position="hidden")
 else:
     page = st.navigation(_navigation())
-    _sidebar(store, page.title)
+    # a bare run has a stub page without a title: a Simulation lab worker process re-runs this
+    # script as its __main__ when it starts (multiprocessing's spawn), and must get through it
+    _sidebar(store, getattr(page, "title", ""))
     problem = study_data_problem()
     if problem:  # said on every researcher page, before a participant meets it on the tablet
         st.error(f"Set-up: {problem}.", icon=":material/folder_off:")

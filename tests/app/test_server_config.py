@@ -23,3 +23,17 @@ def test_study_data_stays_on_this_machine_and_code_on_disk_is_not_reloaded_into_
     # running server (modules reloaded while cached stores and policies keep the old classes)
     assert got == {"server.address": "localhost", "server.fileWatcherType": "none",
                    "server.runOnSave": False, "browser.gatherUsageStats": False}
+
+
+def test_the_app_script_runs_bare_as_a_worker_process_runs_it(tmp_path):
+    """A Simulation lab worker (multiprocessing's spawn) re-runs app.py, the server's __main__,
+    without a Streamlit runtime before it starts its work: the script must get through it (a
+    page's title read on the bare stub page crashed every worker)."""
+    import os
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, str(PROJECT_ROOT / "app.py")], cwd=tmp_path, capture_output=True, text=True,
+                         env=dict(os.environ, CACAS_DB=str(tmp_path / "s.sqlite")), timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "Traceback" not in run.stderr
