@@ -12,6 +12,7 @@ to the researcher's pages, no preferences, no other participants.
 from pathlib import Path
 
 import streamlit as st
+from streamlit.runtime.scriptrunner import get_script_run_ctx
 
 from cacas import app_support
 from cacas.errors import CacasError
@@ -142,27 +143,33 @@ def _sidebar(store, page_title: str) -> None:
         st.caption(f"Database: `{ui.db_path()}`")
 
 
-try:
-    store = ui.store()
-except CacasError as exc:
-    st.error(f"The study database cannot be opened: {exc}")
-    st.stop()
-
-_sync_participant(store)
-ui.keep_preference_forms()
-if ui.tablet_mode():
-    if not st.session_state.get(ui.PARTICIPANT_KEY):
-        st.error("This tablet address names no known participant. Ask the researcher for your link.")
+def main() -> None:
+    """Open the study database, route to the page and draw the sidebar."""
+    try:
+        store = ui.store()
+    except CacasError as exc:
+        st.error(f"The study database cannot be opened: {exc}")
         st.stop()
-    page = st.navigation([st.Page("pages/session.py", title="Study session", default=True)],
-                         position="hidden")
-else:
-    page = st.navigation(_navigation())
-    # a bare run has a stub page without a title: a Simulation lab worker process re-runs this
-    # script as its __main__ when it starts (multiprocessing's spawn), and must get through it
-    _sidebar(store, getattr(page, "title", ""))
-    problem = study_data_problem()
-    if problem:  # said on every researcher page, before a participant meets it on the tablet
-        st.error(f"Set-up: {problem}.", icon=":material/folder_off:")
-_write_address(store)
-page.run()
+
+    _sync_participant(store)
+    ui.keep_preference_forms()
+    if ui.tablet_mode():
+        if not st.session_state.get(ui.PARTICIPANT_KEY):
+            st.error("This tablet address names no known participant. Ask the researcher for your link.")
+            st.stop()
+        page = st.navigation([st.Page("pages/session.py", title="Study session", default=True)],
+                             position="hidden")
+    else:
+        page = st.navigation(_navigation())
+        _sidebar(store, page.title)
+        problem = study_data_problem()
+        if problem:  # said on every researcher page, before a participant meets it on the tablet
+            st.error(f"Set-up: {problem}.", icon=":material/folder_off:")
+    _write_address(store)
+    page.run()
+
+
+# A Simulation lab worker process imports this script, the server's __main__, when it starts
+# (multiprocessing's spawn), with no Streamlit session: it has nothing to show, nor a database to open.
+if get_script_run_ctx() is not None:
+    main()

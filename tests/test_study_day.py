@@ -47,6 +47,30 @@ def test_a_day_is_not_started_without_the_d4a_pairs(store, tmp_path, monkeypatch
     assert start_day(store, "P01") == 1
 
 
+def test_a_day_is_not_started_with_a_d4a_file_that_does_not_parse(store, tmp_path, monkeypatch):
+    """The folder has every shipped file but a D4A table edited wrongly: its own error is said
+    (it was replaced by a vague 'cannot be read')."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    for name in ("personas", "sounds", "scenes", "models"):
+        (data / name).mkdir(parents=True)
+    shutil.copy(PROJECT_ROOT / "study_data" / "d4a.csv", data / "d4a.csv")
+    with open(data / "d4a.csv", "a") as f:
+        f.write("not an activity,accept\n")
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    from cacas.d4a import load_d4a
+
+    with pytest.raises(CacasError) as parse:
+        load_d4a()
+    with pytest.raises(CacasError) as refused:
+        start_day(store, "P01")
+    assert str(refused.value) == f"day 1 of participant P01 not started: {parse.value}"
+    assert day_status(store, "P01").day == 0  # nothing opened
+
+
 @pytest.fixture
 def policy():
     return ReshapedPolicy(DiscreteSAC(SACConfig(), seed=0), None, beta=1.0, method="initial")

@@ -27,8 +27,9 @@ def test_study_data_stays_on_this_machine_and_code_on_disk_is_not_reloaded_into_
 
 def test_the_app_script_runs_bare_as_a_worker_process_runs_it(tmp_path):
     """A Simulation lab worker (multiprocessing's spawn) re-runs app.py, the server's __main__,
-    without a Streamlit runtime before it starts its work: the script must get through it (a
-    page's title read on the bare stub page crashed every worker)."""
+    without a Streamlit session before it starts its work: the script must get through it (a
+    page's title read on the bare stub page crashed every worker), and do nothing there (each
+    worker opened the study database)."""
     import os
     import subprocess
     import sys
@@ -37,3 +38,4 @@ def test_the_app_script_runs_bare_as_a_worker_process_runs_it(tmp_path):
                          env=dict(os.environ, CACAS_DB=str(tmp_path / "s.sqlite")), timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
     assert "Traceback" not in run.stderr
+    assert not (tmp_path / "s.sqlite").exists()  # no database opened (nor created) by a worker
