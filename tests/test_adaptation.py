@@ -1,3 +1,4 @@
+import dataclasses
 import inspect
 
 import numpy as np
@@ -35,7 +36,12 @@ def stove_state():
 
 @pytest.mark.parametrize("method", METHODS)
 def test_every_method_adapts_to_a_participant_who_asks_for_a_timer(method, small_config, small_initial):
-    result = adapt_policy(small_initial, stove_days(), method, seed=0, config=small_config)
+    # 16 simulated days side by side, not the fixture's 4: without reshaping, SAC finds the timer
+    # only by trying it, from a probability near 0.005; with 4 days one round tries it about once,
+    # so whether it learns was the luck of a draw that the CPU's floating point changes (measured
+    # on an AMD EPYC: seeds 0 and 1 of 0-3 failed with 4 days; 12 of 12 seeds learn it with 16)
+    config = dataclasses.replace(small_config, parallel_days=16)
+    result = adapt_policy(small_initial, stove_days(), method, seed=0, config=config)
     assert result.log and result.parameters["method"] == method and result.duration_s >= 0
     p = result.policy.action_probabilities([stove_state()])
     assert np.isclose(p.sum(), 1.0, atol=1e-5)
@@ -44,8 +50,9 @@ def test_every_method_adapts_to_a_participant_who_asks_for_a_timer(method, small
     assert before < 0.1  # the initial policy does not know this participant
     if method == "sac-user-data":  # a few SAC updates per recorded transition: it moves, slowly
         assert p[0, timer] > 5 * before  # measured: 0.11-0.15 from 0.016 over seeds 0-2
-    else:  # the others learn it outright (measured: P >= 0.93 over seeds 0-2)
-        assert spaces.ACTIONS[result.policy.decide(stove_state())[0]] == "set a timer"
+    else:  # the others learn it outright (measured: P >= 0.95 over seeds 0-11); greedy: Eq. 4, and
+        # for the bandit its posterior means (its decide() is a Thompson draw)
+        assert spaces.ACTIONS[result.policy.greedy([stove_state()])[0]] == "set a timer"
 
 
 def test_cacas_moves_from_the_initial_action(small_config, small_initial):

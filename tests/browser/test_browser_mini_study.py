@@ -15,17 +15,25 @@ import tempfile
 from pathlib import Path
 
 import pytest
+from playwright.sync_api import TimeoutError as PlaywrightTimeout
 
 SCREENSHOTS = Path(os.environ.get("CACAS_SCREENSHOTS") or Path(tempfile.gettempdir()) / "cacas-screenshots")
 
 pytestmark = pytest.mark.browser
 
 IDLE = "[data-testid='stApp'][data-test-script-state='notRunning']"
+RUNNING = "[data-testid='stApp'][data-test-script-state='running']"
 
 
 def idle(page, timeout: int = 60_000) -> None:
-    """Wait until the script run that the last action started has finished."""
-    page.wait_for_timeout(300)
+    """Wait until the script run that the last action started has finished: first for it to
+    start (up to 2 s; an action that reruns nothing, or a run over before it is seen, goes on),
+    then for it to end. A fixed pause before the wait read a busy server's page before its run
+    began (a CI run: the tablet still showed the proposal after "Accept")."""
+    try:
+        page.wait_for_selector(RUNNING, timeout=2_000)
+    except PlaywrightTimeout:
+        pass
     page.wait_for_selector(IDLE, timeout=timeout)
     page.wait_for_timeout(200)
 
@@ -70,6 +78,20 @@ def fill(page, label: str, text: str, first: bool = False) -> None:
 
 def text_of(page) -> str:
     return page.locator("[data-testid='stMain']").inner_text()
+
+
+def shows(page, *texts: str, timeout: int = 30_000) -> str:
+    """The page's text once it holds every one of ``texts`` (waited for, as a person reads the
+    page when it has drawn what they did); fails naming what is missing and what the page says."""
+    try:
+        page.wait_for_function(
+            "texts => { const m = document.querySelector(\"[data-testid='stMain']\");"
+            " return m && texts.every(t => m.innerText.includes(t)); }", arg=list(texts), timeout=timeout)
+    except PlaywrightTimeout:
+        body = text_of(page)
+        missing = [t for t in texts if t not in body]
+        raise AssertionError(f"the page does not show {missing} after {timeout / 1000:g} s; it says:\n{body[:2000]}")
+    return text_of(page)
 
 
 def shot(page, name: str) -> None:
@@ -120,7 +142,7 @@ def test_mini_study(server, page, tmp_path):
             if r.url.split(":")[0] in ("http", "https", "ws", "wss") and not r.url.startswith(server) else None)
     # --- overview and participants -------------------------------------------------------------------
     goto(page, server)
-    assert "No participants yet" in text_of(page)
+    shows(page, "No participants yet")
     page.locator("[data-testid='stSidebarNav'] a", has_text="Participants").click()
     idle(page)
     page.get_by_role("tab", name="Add a participant").click()
@@ -151,16 +173,15 @@ def test_mini_study(server, page, tmp_path):
     page.get_by_role("option", name="pain check", exact=True).first.click()
     idle(page)
     click(page, "Save preferences")
-    body = text_of(page)
-    assert "Saved version 1 of P01's preferences: 2 preferences" in body, body[:2000]
+    shows(page, "Saved version 1 of P01's preferences: 2 preferences")
     shot(page, "participants")
 
     # --- the tablet view: five interactions, with a reload in the middle ----------------------------
     goto(page, f"{server}/?participant=P01&view=tablet")
-    assert "Hello, P01" in text_of(page)
+    shows(page, "Hello, P01")
     assert page.locator("[data-testid='stSidebarNav']").count() == 0  # no researcher pages
     click(page, "Start day 1")
-    assert "0 of about 15 interactions today" in text_of(page)
+    shows(page, "0 of about 15 interactions today")
     shot(page, "session-context")
 
     # the researcher's own view of the session, in another tab, follows the tablet without a reload
@@ -172,13 +193,13 @@ def test_mini_study(server, page, tmp_path):
     speaking_context(page, CANDIDATES)
     shot(page, "session-tablet")
     click(page, "Accept")
-    assert "Saved (accepted)" in text_of(page)
+    shows(page, "Saved (accepted)")
     watch.get_by_text("Day 1 of 7 · 1 of about 15 interactions today").wait_for(timeout=30_000)
     watch.close()
 
     speaking_context(page, CANDIDATES[1:] + CANDIDATES[:1])
     click(page, "Reject")
-    assert "Saved (rejected)" in text_of(page)
+    shows(page, "Saved (rejected)")
 
     speaking_context(page, CANDIDATES[2:] + CANDIDATES[:2])
     # reload in the middle of an interaction: the same proposal comes back, nothing is lost
@@ -186,25 +207,24 @@ def test_mini_study(server, page, tmp_path):
     page.reload()
     page.wait_for_selector("[data-testid='stApp']")
     idle(page)
-    assert "2 of about 15 interactions today" in text_of(page)
+    shows(page, "2 of about 15 interactions today")
     assert page.locator("[data-testid='stChatMessage']").first.inner_text() == before
     click(page, "No response")
-    assert "Saved (no response)" in text_of(page)
+    shows(page, "Saved (no response)")
 
     interact(page, "cough", "bedroom")
     choose(page, "Pick an action", "Check whether I am in pain")
     click(page, "Ask")
-    assert "Saved (you asked: check whether I am in pain)" in text_of(page)
+    shows(page, "Saved (you asked: check whether I am in pain)")
 
     interact(page, "use hair dryer", "bathroom", slot="18:00-20:00")  # no described preference here
     fill(page, "Or type your request", "please set a timer for me")
     click(page, "Say it")
-    assert "You would like me to set a timer. Is that right?" in text_of(page)
+    shows(page, "You would like me to set a timer. Is that right?")
     click(page, "Yes, please")
-    body = text_of(page)
-    assert "Saved (you asked: set a timer)" in body
     # the day's count is of recorded interactions: the unanswered one is said apart (Section V-B)
-    assert "4 of about 15 interactions today (and 1 without an answer, which does not count)" in body
+    shows(page, "Saved (you asked: set a timer)",
+          "4 of about 15 interactions today (and 1 without an answer, which does not count)")
 
     # --- researcher: close the day and adapt ---------------------------------------------------------
     goto(page, f"{server}/?participant=P01")
@@ -216,12 +236,12 @@ def test_mini_study(server, page, tmp_path):
     click(page, "Close day 1 and adapt")
     page.wait_for_selector("text=is in force from day 2", timeout=600_000)  # a loaded machine only slows it
     idle(page)
-    assert "Day 1 is closed and adapted" in text_of(page)
+    shows(page, "Day 1 is closed and adapted")
     shot(page, "adaptation")
 
     # --- results: day 1, and the interactions CSV -----------------------------------------------------
     goto(page, f"{server}/results?participant=P01")
-    assert "Day 1 mean success rate" in text_of(page)
+    shows(page, "Day 1 mean success rate")
     shot(page, "results")
     page.get_by_role("tab", name="Tables").click()
     page.locator("[data-testid='stExpander']", has_text="interactions.csv").first.click()
@@ -241,7 +261,7 @@ def test_mini_study(server, page, tmp_path):
 
     # --- the lab pages open too ---------------------------------------------------------------------
     goto(page, f"{server}/simulation?participant=P01")
-    assert "Simulation lab" in text_of(page)
+    shows(page, "Simulation lab")
     # a small simulated study: one persona, two days, CACAS and NN
     for label in ("Simulated participants", "Methods"):
         _widget(page, "stMultiSelect", label).get_by_role("button", name="Clear all").click()
@@ -290,15 +310,15 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     uploader = page.locator("[data-testid='stFileUploaderDropzoneInput']")
     uploader.set_input_files([str(folder / "daily.csv"), str(folder / "notes.csv")])
     idle(page)
-    assert "notes.csv: not a daily.csv, by_preference.csv or interactions.csv" in text_of(page)
+    shows(page, "notes.csv: not a daily.csv, by_preference.csv or interactions.csv")
     page.get_by_role("button", name="Remove notes.csv").click()
     idle(page)
     uploader.set_input_files([str(folder / "by_preference.csv")])
     idle(page)
-    assert "Uploaded: daily.csv, by_preference.csv." in text_of(page)
+    shows(page, "Uploaded: daily.csv, by_preference.csv.")
     page.get_by_role("tab", name="Fig. 4 · methods").click()
     idle(page)
-    assert "Which preferences each method learnt" in text_of(page)
+    shows(page, "Which preferences each method learnt")
     assert page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").count() >= 2
     shot(page, "results-upload")
 
@@ -319,7 +339,7 @@ def test_importing_a_persona_file_says_so(server, page):
     toast.first.wait_for(timeout=30_000)
     assert "Imported 8 participants: P01, P02, P03, P04, P05, P06, P07, P08." in toast.first.inner_text()
     idle(page)
-    assert "Preferences of P01" in text_of(page)
+    shows(page, "Preferences of P01")
     shot(page, "participants-imported")
 
 
@@ -340,7 +360,7 @@ def test_a_clip_shorter_than_half_a_second_is_flagged(server, page, tmp_path):
         str(clip))
     page.get_by_text("The clip is 0.03 s long").wait_for(timeout=60_000)
     idle(page)
-    assert "heard mostly the silence that pads it" in text_of(page)
+    shows(page, "heard mostly the silence that pads it")
     assert page.locator("[role='tabpanel']:visible [data-testid='stAudio']").count() == 1  # the clip, to hear
     shot(page, "sounds-short-clip")
 
@@ -358,7 +378,7 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     goto(page, f"{library_server.url}/sounds")
     page.get_by_role("tab", name="Scene library").click()
     idle(page)
-    assert "240 photos for 6 of 6 rooms" in text_of(page)
+    shows(page, "240 photos for 6 of 6 rooms")
     page.get_by_role("tab", name="Add photos").click()
     idle(page)
     panel = page.locator("[role='tabpanel']:visible")
@@ -388,4 +408,4 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     page.get_by_text("the same image is already in the library as kitchen/our_kitchen.png").wait_for(timeout=30_000)
     page.get_by_role("tab", name="Scene library").click()
     idle(page)
-    assert "241 photos for 6 of 6 rooms" in text_of(page)
+    shows(page, "241 photos for 6 of 6 rooms")
