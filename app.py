@@ -108,7 +108,11 @@ def _on_participant_change() -> None:
         st.query_params.pop(key, None)
 
 
-def _sidebar(store, page_title: str) -> None:
+#: The page that says beside its forms which preference changes are unsaved (the sidebar does not repeat it there).
+FORMS_PAGE = "pages/participants.py"
+
+
+def _sidebar(store, page) -> None:
     with st.sidebar:
         st.markdown("### :material/smart_toy: CACAS Studio")
         studies = [s.name for s in store.studies()]
@@ -137,7 +141,7 @@ def _sidebar(store, page_title: str) -> None:
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
             st.caption(f"Participant's tablet: [open the tablet view](./?participant={code}&view=tablet)")
         unsaved = ui.unsaved_preference_forms()
-        if unsaved and page_title != "Participants":  # that page says it beside the form itself
+        if unsaved and page.url_path != Path(FORMS_PAGE).stem:  # that page says it beside the form itself
             st.warning(f"Unsaved preference changes: {', '.join(unsaved)}. Save or discard them on the Participants "
                        "page.", icon=":material/edit_note:")
         st.caption(f"Database: `{ui.db_path()}`")
@@ -161,7 +165,7 @@ def main() -> None:
                              position="hidden")
     else:
         page = st.navigation(_navigation())
-        _sidebar(store, page.title)
+        _sidebar(store, page)
         problem = study_data_problem()
         if problem:  # said on every researcher page, before a participant meets it on the tablet
             st.error(f"Set-up: {problem}.", icon=":material/folder_off:")

@@ -249,6 +249,9 @@ def test_unsaved_changes_survive_other_pages_until_saved_or_discarded(app, store
     _fill(at, "P01", 1, 2, words="When I fall, call my daughter.", activity=["fall down"])
     at.run()
     assert _unsaved(at)
+    # one run more, as any click makes: the sidebar is drawn before the page notes the unsaved form
+    at.run()
+    assert _unsaved(at)
     assert not at.sidebar.warning  # the page says it beside the form; the sidebar sent there from there
     at.switch_page("pages/overview.py").run()
     no_exception(at)
