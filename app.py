@@ -16,7 +16,7 @@ from streamlit.runtime.scriptrunner import get_script_run_ctx
 
 from cacas import app_support
 from cacas.errors import CacasError
-from cacas.paths import study_data_problem
+from cacas.paths import study_data_blocked, study_data_problem
 from cacas.study_day import day_status
 from pages import ui
 
@@ -168,7 +168,7 @@ def main() -> None:
         _sidebar(store, page)
         problem = study_data_problem()
         if problem:  # said on every researcher page, before a participant meets it on the tablet
-            st.error(f"Set-up: {problem}.", icon=":material/folder_off:")
+            (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
     _write_address(store)
     page.run()
 

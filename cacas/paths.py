@@ -8,10 +8,21 @@ from pathlib import Path
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 #: The environment variable that moves the study data folder.
 STUDY_DATA_ENV = "CACAS_STUDY_DATA"
-#: What the shipped folder holds that a study needs: the D4A pairs (the generic user, Section
-#: IV-B.3: the initial policy trains against them and every adaptation's decision model asks
-#: them), the example personas, the sound and scene libraries, and the trained models.
-SHIPPED = ("d4a.csv", "personas", "sounds", "scenes", "models")
+#: What the shipped folder holds that a study uses, and what a folder without it cannot do. Only
+#: the D4A pairs stop a study (the generic user, Section IV-B.3: the initial policy trains
+#: against them and every adaptation's decision model asks them); without the others the study
+#: runs with less.
+SHIPPED = {
+    "d4a.csv": "the robot cannot get ready (the initial policy trains against the D4A pairs) and no policy can "
+               "be adapted",
+    "personas": "the Simulation lab has no example personas",
+    "sounds": "the tablet plays no activity sound and no sound model can be trained",
+    "scenes": "the tablet shows no room photo and no scene model can be trained",
+    "models": "the robot recognises nothing (it uses the context as set) and trains its initial policy on first "
+              "use",
+}
+#: The shipped entry without which no study day can start.
+REQUIRED = "d4a.csv"
 
 
 def study_data_dir() -> Path:
@@ -27,14 +38,21 @@ def missing_shipped(folder: str | Path | None = None) -> list[str]:
 
 
 def study_data_problem(folder: str | Path | None = None) -> str | None:
-    """One line naming what the study data folder lacks of the shipped files and how to set it
-    up, or None when nothing is missing."""
+    """One line naming what the study data folder lacks of the shipped files, what that stops,
+    and how to set it up, or None when nothing is missing. The advice copies the missing entries
+    alone and overwrites nothing (``cp -rn``): the folder may already hold a study database."""
     folder = Path(folder) if folder is not None else study_data_dir()
     missing = missing_shipped(folder)
     if not missing:
         return None
-    why = (": without d4a.csv the robot cannot get ready (the initial policy trains against it) and no "
-           "policy can be adapted" if "d4a.csv" in missing else "")
-    return (f"the study data folder {folder} lacks the shipped {', '.join(missing)}{why}; valid: a copy of the "
-            f"shipped folder (cp -r {PROJECT_ROOT / 'study_data'}/. {folder}), or ${STUDY_DATA_ENV} unset "
-            f"(to keep only the study database elsewhere, set $CACAS_DB to its file)")
+    shipped = PROJECT_ROOT / "study_data"
+    copy = " ".join(str(shipped / name) for name in missing)
+    return (f"the study data folder {folder} lacks the shipped {', '.join(missing)} "
+            f"({'; '.join(f'without {name}, {SHIPPED[name]}' for name in missing)}); valid: copy "
+            f"{'it' if len(missing) == 1 else 'them'} from the shipped folder (cp -rn {copy} {folder}/), or "
+            f"${STUDY_DATA_ENV} unset (to keep only the study database elsewhere, set $CACAS_DB to its file)")
+
+
+def study_data_blocked(folder: str | Path | None = None) -> bool:
+    """Whether the study data folder lacks what every study day needs (:data:`REQUIRED`)."""
+    return REQUIRED in missing_shipped(folder)

@@ -215,12 +215,12 @@ def start_day(store, participant: str) -> int:
         raise CacasError(f"day {status.day} of participant {participant} is closed but the robot has not "
                          f"been adapted yet; run the adaptation first (Adaptation page)")
     from cacas.d4a import load_d4a
-    from cacas.paths import missing_shipped, study_data_problem
+    from cacas.paths import study_data_blocked, study_data_problem
 
     try:  # checked before the day opens: the robot gets ready, and the day is adapted, with the D4A pairs
         load_d4a()
     except CacasError as exc:  # a folder without the shipped files, or a D4A file that does not parse
-        why = study_data_problem() if "d4a.csv" in missing_shipped() else str(exc)
+        why = study_data_problem() if study_data_blocked() else str(exc)
         raise CacasError(f"day {status.day + 1} of participant {participant} not started: {why}") from None
     return store.open_day(participant)
 

@@ -86,11 +86,18 @@ def _recognise(kind: str, path: str, stamp: float | None) -> Recognition | None:
 
 # --- callbacks ------------------------------------------------------------------------------------
 
+#: What the tablet says when the day cannot start (a set-up problem the researcher must mend):
+#: the participant is not shown the researcher's message, which stays one click away.
+NOT_READY = "The robot is not ready to start the day: please ask the researcher."
+
+
 def _start_day() -> None:
+    st.session_state["session-error-detail"] = None
     try:
         day = start_day(store, code)
     except CacasError as exc:
-        st.session_state["session-error"] = str(exc)
+        st.session_state["session-error"] = NOT_READY if tablet else str(exc)
+        st.session_state["session-error-detail"] = str(exc) if tablet else None
     else:
         st.session_state["session-error"] = None
         _cancel()  # a new day never opens on a context left from the day before
@@ -225,6 +232,9 @@ else:
 
 if st.session_state.get("session-error"):
     st.error(st.session_state["session-error"], icon=":material/error:")
+    if st.session_state["session-error"] == NOT_READY and st.session_state.get("session-error-detail"):
+        with st.expander("For the researcher"):
+            st.write(st.session_state["session-error-detail"])
 saved = st.session_state.pop("last-saved", None)
 if saved:
     st.success(saved, icon=":material/check_circle:")

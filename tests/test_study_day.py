@@ -40,7 +40,7 @@ def test_a_day_is_not_started_without_the_d4a_pairs(store, tmp_path, monkeypatch
     with day 1 already open (walkthrough): now the day is refused, naming the folder and the fix."""
     monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path / "empty"))
     with pytest.raises(CacasError, match=r"^day 1 of participant P01 not started: the study data folder .*empty "
-                                          r"lacks the shipped d4a.csv, .*valid: a copy of the shipped folder"):
+                                          r"lacks the shipped d4a.csv, .*valid: copy them from the shipped folder"):
         start_day(store, "P01")
     assert day_status(store, "P01").day == 0  # nothing opened
     monkeypatch.delenv("CACAS_STUDY_DATA")

@@ -1,4 +1,5 @@
 from apphelpers import no_exception, texts
+from cacas.paths import PROJECT_ROOT, SHIPPED, study_data_problem
 
 
 def test_overview_opens_empty(app):
@@ -128,6 +129,20 @@ def test_a_study_data_folder_without_the_shipped_files_is_said_on_every_research
         at = app(page)
         assert not at.exception
         setup = [e.value for e in at.error if e.value.startswith("Set-up: the study data folder")]
-        assert len(setup) == 1 and "lacks the shipped d4a.csv" in setup[0] and "cp -r" in setup[0]
+        assert len(setup) == 1 and "lacks the shipped d4a.csv" in setup[0] and "cp -rn" in setup[0]
+    # without the D4A pairs no day can start (an error); without the sound library the study runs
+    # with less (a warning: the tablet plays no sound)
+    data = tmp_path / "no-sounds"
+    data.mkdir()
+    for name in SHIPPED:
+        if name != "sounds":
+            (data / name).symlink_to(PROJECT_ROOT / "study_data" / name)
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    at = app()
+    assert not [e for e in at.error if e.value.startswith("Set-up")]
+    assert [w.value for w in at.warning if w.value.startswith("Set-up")] == [
+        f"Set-up: {study_data_problem(data)}."]
     monkeypatch.delenv("CACAS_STUDY_DATA")
-    assert not [e for e in app().error if e.value.startswith("Set-up")]
+    at = app()
+    assert not [e for e in at.error if e.value.startswith("Set-up")] + [w for w in at.warning
+                                                                        if w.value.startswith("Set-up")]

@@ -489,6 +489,25 @@ def test_no_day_1_before_the_preferences_are_described(app, store):
     assert not [b for b in at.button if b.label.startswith("Start day")]
 
 
+def test_a_day_that_cannot_start_asks_the_participant_to_fetch_the_researcher(app, store, p01, tmp_path, monkeypatch):
+    """Without the D4A pairs no day starts: the researcher's view says why and how to set it up;
+    the tablet tells the participant to ask the researcher, the reason one click away (it showed
+    the participant the folder and a cp command)."""
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path / "empty"))
+    at = app(PAGE, participant="P01")
+    _button(at, "Start day 1").click().run()
+    no_exception(at)
+    assert [e.value for e in at.error if "not started" in e.value][0].startswith(
+        "day 1 of participant P01 not started: the study data folder")
+    tab = app(PAGE, participant="P01", view="tablet")
+    _button(tab, "Start day 1").click().run()
+    no_exception(tab)
+    assert [e.value for e in tab.error] == ["The robot is not ready to start the day: please ask the researcher."]
+    assert tab.expander[0].label == "For the researcher"
+    assert "day 1 of participant P01 not started: the study data folder" in texts(tab)
+    assert store.resume("P01").day == 0  # nothing opened
+
+
 def test_the_three_answers_look_alike(app, store, p01, quick_policy):
     """A highlighted Accept beside plain Reject and No response would nudge the participant's answer."""
     store.open_day("P01")
