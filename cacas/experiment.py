@@ -2,12 +2,13 @@
 
 Simulated participants follow their described preferences: each day they act in about
 ``interactions`` contexts their preferences cover, in time order; the robot acts with the policy
-in force (Eq. 4); the participant accepts the preferred action, rejects another one, sometimes
-does not respond (``no_response_rate``), and asks for the preferred action when the robot does
-nothing (a user-initiated, type_2 interaction). Optionally (``ask_after_reject``, default 0:
-design.md's participant) they answer a share of the wrong proposals by asking for the preferred
-action instead, as the tablet's "Or ask the robot yourself" lets people do: a type_2
-interaction that rejects the robot's proposal.
+in force as on the tablet (``decide``: Eq. 4; the bandit by a Thompson draw); the participant
+accepts the preferred action, rejects another one, sometimes does not respond
+(``no_response_rate``), and asks for the preferred action when the robot does nothing (a
+user-initiated, type_2 interaction). Optionally (``ask_after_reject``, default 0: design.md's
+participant) they answer a share of the wrong proposals by asking for the preferred action
+instead, as the tablet's "Or ask the robot yourself" lets people do: a type_2 interaction that
+rejects the robot's proposal.
 
 Day 1 uses the initial policy (CACAA step 1). After each day every method adapts from the same
 interactions (as in the paper's Fig. 4: the interactions come from the closed loop of the first
@@ -127,7 +128,6 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
     table = participant.preferred_action_table()
     rows = []
     prev_action, prev_response = spaces.DO_NOTHING_ACTION, spaces.OTHERS
-    choose = getattr(policy, "sample", policy.greedy)  # the bandit explores (Thompson); the others act by Eq. 4
     for i in range(n):
         act, scene, slot, interval = (int(v) for v in ctx[i, :4])
         # S5 is the robot's, from the day so far: the action accepted at the previous interaction,
@@ -135,7 +135,7 @@ def simulated_day(policy, participant: Participant, day: int, n_interactions: in
         since = minute[i] - minute[i - 1] if i else np.inf
         task = int(current_task(np.array([prev_action]), np.array([prev_response]), np.array([since]))[0])
         state = np.array([[act, scene, slot, interval, task, prev_action, prev_response]])
-        robot = int(choose(state)[0])
+        robot = policy.decide(state[0])[0]  # as on the tablet: Eq. 4, or the bandit's Thompson draw
         preferred = int(table[act, scene, slot, interval, task])
         silent = rng.random() < no_response_rate
         user_action = ""

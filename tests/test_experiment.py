@@ -14,7 +14,14 @@ PEOPLE = parse_personas({"participants": [
     {"id": "P02", "preferences": [{"activity": ["watch TV"], "action": "chitchat"}]}]})
 
 
-class Always:
+class Acts:
+    """A test policy acts as the app's do (``decide``: the action for one state) by its ``greedy``."""
+
+    def decide(self, state):
+        return int(self.greedy(np.asarray([state]))[0]), None
+
+
+class Always(Acts):
     def __init__(self, action):
         self.action = action
 
@@ -302,7 +309,7 @@ def test_outside_every_preference_the_simulated_participant_answers_by_the_d4a_p
     assert d4a.response(stove, off) == spaces.ACCEPT and d4a.response(stove, chat) != spaces.ACCEPT
 
 
-class Preferred:
+class Preferred(Acts):
     """The robot always proposes what the participant prefers: every proposal is accepted."""
 
     def __init__(self, person):
