@@ -23,7 +23,6 @@ from pages import ui
 # A local favicon: a ":material/..." page icon makes the browser fetch it from Google's servers,
 # and the app makes no requests beyond this machine.
 ICON = Path(__file__).resolve().parent / "study_data" / "icon.png"
-st.set_page_config(page_title="CACAS Studio", page_icon=str(ICON) if ICON.exists() else None, layout="wide")
 
 #: (section, file, title, icon) of each page, in navigation order.
 PAGES = [
@@ -149,6 +148,7 @@ def _sidebar(store, page) -> None:
 
 def main() -> None:
     """Open the study database, route to the page and draw the sidebar."""
+    st.set_page_config(page_title="CACAS Studio", page_icon=str(ICON) if ICON.exists() else None, layout="wide")
     try:
         store = ui.store()
     except CacasError as exc:
@@ -175,5 +175,5 @@ def main() -> None:
 
 # A Simulation lab worker process imports this script, the server's __main__, when it starts
 # (multiprocessing's spawn), with no Streamlit session: it has nothing to show, nor a database to open.
-if get_script_run_ctx() is not None:
+if get_script_run_ctx(suppress_warning=True) is not None:
     main()

@@ -14,7 +14,7 @@ import pytest  # noqa: E402
 
 @pytest.fixture(scope="session")
 def small_config():
-    """CACAA hyper-parameters shrunk for tests: 2-hour steps, few simulated days."""
+    """CACAA hyper-parameters shrunk for tests: 1-hour steps, few simulated days."""
     from cacas.adaptation import CACAAConfig
     from cacas.sac import SACConfig
 

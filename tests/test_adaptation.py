@@ -63,7 +63,7 @@ def test_cacas_moves_from_the_initial_action(small_config, small_initial):
     c = small_config  # the log counts rounds of simulated days side by side, and SAC's updates
     assert result.log[-1].startswith(f"SAC adapted: {c.adapt_train_days} rounds of {c.parallel_days} simulated "
                                      f"days side by side") and f"{c.adapt_updates} updates" in result.log[-1]
-    # adapt_updates counts the updates SAC made (ORL is given as many): a round of 24 two-hour
+    # adapt_updates counts the updates SAC made (ORL is given as many): a round of 24 one-hour
     # steps has 23 transitions, each followed by updates_per_step updates
     assert after.sac.updates - small_initial.sac.updates == c.adapt_updates == 1 * 23 * 6
     changes = policy_changes(small_initial, after, stove_days(), top=3)

@@ -558,3 +558,28 @@ def test_the_tablet_address_says_how_to_reach_it_and_that_it_is_not_locked(app, 
                for n in notes) and not any("Network URL" in n for n in notes)
     assert any("it does not lock them: anyone who can reach the app on the network can open every page" in n
                for n in notes)
+
+
+def test_the_tablet_plays_a_clip_added_while_the_app_runs(app, store, p01, quick_policy, tmp_path, monkeypatch):
+    """A clip added by `cacas sound import` (or a copy) while the app runs is played from the next
+    interaction: the tablet's listing of an activity's clips was cached until a restart."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+    from test_page_sounds import _wav
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    shutil.copy(PROJECT_ROOT / "study_data" / "d4a.csv", data / "d4a.csv")
+    (data / "sounds").mkdir()
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", view="tablet")
+    _choose(at, activity="sneeze", scene="bedroom")
+    assert "No sound clip for this activity in the library." in texts(at)
+    _button(at, "No response" if any(b.label == "No response" for b in at.button) else "Nothing needed").click().run()
+    (data / "sounds" / "sneeze").mkdir()
+    (data / "sounds" / "sneeze" / "a.wav").write_bytes(_wav())
+    _choose(at, activity="sneeze", scene="bedroom")
+    assert "No sound clip for this activity in the library." not in texts(at)
+    assert len(at.get("audio")) == 1
