@@ -8,6 +8,8 @@ Every answer is written to the study database the moment it is given.
 
 from __future__ import annotations
 
+import time
+
 import pandas as pd
 import streamlit as st
 
@@ -16,6 +18,7 @@ from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
+from cacas.on_tablet import Shown, TabletBoard
 from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
@@ -37,6 +40,15 @@ def _policy(db: str, who: str, version: int | None, sha256: str | None):
     """The policy in force for (participant, version); the checkpoint's sha256 is part of the key too (a
     code given to a new participant after a removal starts again at version 1)."""
     return policy_in_force(ui.store(), who)
+
+
+@st.cache_resource(show_spinner=False)
+def _board() -> TabletBoard:
+    """What each participant's tablet shows now, shared by this server's sessions."""
+    return TabletBoard()
+
+
+board, db = _board(), ui.db_path()
 
 
 def _library(kind: str, name: str) -> list[str]:
@@ -143,6 +155,7 @@ def _cancel() -> None:
     for key in ("ctx", "at"):
         st.query_params.pop(key, None)
     _clear_request()
+    st.session_state.pop("run-here", None)  # the researcher's view follows the tablet again
 
 
 def _record(day: int, index: int, proposal, response: str | None = None, user_action: str | None = None) -> None:
@@ -206,23 +219,41 @@ FOLLOW_EVERY_SECONDS = 3
 
 
 @st.fragment(run_every=FOLLOW_EVERY_SECONDS)
-def _follow_the_tablet(drawn) -> None:
+def _follow_the_tablet(drawn, drawn_shown) -> None:
     """The researcher's view follows the participant's tablet: once an interaction is saved there (or the
-    day is opened, closed or adapted elsewhere) the whole page is drawn again, without a reload. The
-    tablet itself is never redrawn under the participant's hands."""
+    day is opened, closed or adapted elsewhere), or the tablet shows another proposal, the whole page is
+    drawn again, without a reload. The tablet itself is never redrawn under the participant's hands."""
     try:
         now = day_status(store, code)
     except CacasError:  # the participant was removed meanwhile: the whole page says so
         st.rerun()
-    if now != drawn:
+    if now != drawn or board.shown(db, code) != drawn_shown:
         st.rerun()
+
+
+def _run_here() -> None:
+    st.session_state["run-here"] = True
+
+
+def _on_the_tablet(shown: Shown) -> None:
+    """The researcher's view of the proposal the participant is answering on the tablet, in place of a
+    context form of its own for the same interaction."""
+    with st.container(border=True):
+        st.markdown(f"**On {code}'s tablet now** · interaction {shown.index}, shown at "
+                    f"{time.strftime('%H:%M', time.localtime(shown.since))}")
+        st.caption(f"{shown.activity} in the {shown.scene} · {shown.time_slot}")
+        with st.chat_message("assistant", avatar=":material/smart_toy:"):
+            st.markdown(shown.line)
+        st.caption("The participant answers on the tablet; this page follows it. Running the interaction here "
+                   "as well would record your answer in the participant's place.")
+        st.button("Run this interaction from here instead", on_click=_run_here, icon=":material/tablet:")
 
 
 # --- page -------------------------------------------------------------------------------------------
 
 status = day_status(store, code)
 if not tablet:
-    _follow_the_tablet(status)
+    _follow_the_tablet(status, board.shown(db, code))
 if tablet:
     st.markdown(f"## :material/smart_toy: Hello, {code}")
 else:
@@ -240,6 +271,8 @@ if saved:
     st.success(saved, icon=":material/check_circle:")
 
 if not status.open:
+    if tablet:
+        board.clear(db, code)
     if status.finished:
         st.success(f"All {STUDY_DAYS} days are done. Thank you for taking part!", icon=":material/celebration:")
     elif status.waiting_for_adaptation:
@@ -286,7 +319,12 @@ if token_ctx:
             st.info(f"That proposal was answered already. Set what you are doing now for interaction {done + 1}.",
                     icon=":material/info:")
 
-if context is None:
+on_tablet = None if tablet else board.shown(db, code, day, done + 1)
+if context is None and on_tablet is not None and not st.session_state.get("run-here"):
+    _on_the_tablet(on_tablet)
+elif context is None:
+    if tablet:
+        board.clear(db, code)
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     with st.form("context", border=True):
@@ -334,6 +372,9 @@ else:
                        heard=heard.label if heard else None, heard_confidence=heard.confidence if heard else None,
                        policy_version=version, seen=seen.label if seen else None,
                        sound_model=heard.model if heard else None, scene_model=seen.model if seen else None)
+    if tablet:  # the researcher's view shows it, and offers no second form for this interaction
+        board.show(db, code, Shown(day, index, context.activity, context.scene,
+                                   spaces.time_slot_label(context.time_slot), proposal.action, proposal.line))
 
     left, right = st.columns([1, 1])
     with left.container(border=True):

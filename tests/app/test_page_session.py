@@ -583,3 +583,27 @@ def test_the_tablet_plays_a_clip_added_while_the_app_runs(app, store, p01, quick
     _choose(at, activity="sneeze", scene="bedroom")
     assert "No sound clip for this activity in the library." not in texts(at)
     assert len(at.get("audio")) == 1
+
+
+def test_the_researchers_view_shows_the_tablets_proposal_instead_of_a_form_of_its_own(app, store, p01, quick_policy):
+    """Both screens offered a context form for the same interaction: the researcher's answer was
+    recorded in the participant's place and the participant's then refused (walkthrough). The
+    researcher's view now shows what the tablet proposes, and runs the interaction itself only when
+    asked to."""
+    store.open_day("P01")
+    tab = app(PAGE, participant="P01", view="tablet")
+    _choose(tab)
+    line = tab.chat_message[0].children[0].value.strip("*")  # the robot's line, in bold on the tablet
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert "On P01's tablet now" in texts(desk) and line in texts(desk)
+    assert "use stove in the kitchen · 06:00-08:00" in texts(desk)
+    assert not [b for b in desk.button if b.label == "Do it"]  # no form of its own for interaction 1
+    _button(desk, "Run this interaction from here instead").click().run()
+    assert [b for b in desk.button if b.label == "Do it"]
+    # the participant answers on the tablet: the researcher's view follows (a form for interaction 2)
+    label = "Accept" if any(b.label == "Accept" for b in tab.button) else "Nothing needed"
+    _button(tab, label).click().run()
+    desk = app(PAGE, participant="P01")
+    assert "On P01's tablet now" not in texts(desk) and [b for b in desk.button if b.label == "Do it"]
+    assert len(store.interactions_frame("P01", method=None)) == 1

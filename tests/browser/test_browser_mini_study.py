@@ -192,6 +192,10 @@ def test_mini_study(server, page, tmp_path):
 
     speaking_context(page, CANDIDATES)
     shot(page, "session-tablet")
+    # the researcher's view shows the proposal the participant is answering, not a form of its own
+    watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
+    assert watch.locator("button", has_text="Do it").count() == 0
+    shot(watch, "session-researcher-following")
     click(page, "Accept")
     shows(page, "Saved (accepted)")
     watch.get_by_text("Day 1 of 7 · 1 of about 15 interactions today").wait_for(timeout=30_000)

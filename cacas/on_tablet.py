@@ -1,0 +1,63 @@
+"""What each participant's tablet shows now: the robot's proposal awaiting the participant's
+answer (Section V-B.1: the participant sets the context on a tablet and answers the robot there).
+
+The researcher's own view of the session reads it, so that it shows the proposal the participant
+is answering and does not offer a second context form for the same interaction: two screens
+proposing for one interaction recorded the researcher's answer in the participant's place, and
+the participant's answer was then refused. One board lives in the server process and is shared by
+its sessions (the app keeps it in a cached resource); nothing of it is written to the study
+database, which records answers only.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field
+
+
+@dataclass(frozen=True)
+class Shown:
+    """A proposal on a participant's tablet: for interaction ``index`` of ``day``, in the context
+    the participant set (activity, room, time of day), the robot's ``action`` and ``line``;
+    ``since`` is when it was first shown (seconds since the epoch; not part of equality, so a
+    tablet drawing the same proposal again changes nothing)."""
+
+    day: int
+    index: int
+    activity: str
+    scene: str
+    time_slot: str
+    action: str
+    line: str
+    since: float = field(default=0.0, compare=False)
+
+
+class TabletBoard:
+    """Per (study database, participant): the proposal their tablet shows, or nothing."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._shown: dict[tuple[str, str], Shown] = {}
+
+    def show(self, db: str, participant: str, shown: Shown) -> None:
+        """The tablet draws ``shown``: kept with the time it was first shown."""
+        key = (str(db), participant)
+        with self._lock:
+            held = self._shown.get(key)
+            since = held.since if held == shown else time.time()
+            self._shown[key] = Shown(**{**shown.__dict__, "since": since})
+
+    def clear(self, db: str, participant: str) -> None:
+        """The tablet shows no proposal (it was answered, or the participant went back to the form)."""
+        with self._lock:
+            self._shown.pop((str(db), participant), None)
+
+    def shown(self, db: str, participant: str, day: int | None = None, index: int | None = None) -> Shown | None:
+        """The proposal the participant's tablet shows; with ``day`` and ``index``, only if it is
+        for that interaction (one already answered elsewhere, or of a closed day, is not)."""
+        with self._lock:
+            held = self._shown.get((str(db), participant))
+        if held is None or (day is not None and held.day != day) or (index is not None and held.index != index):
+            return None
+        return held
