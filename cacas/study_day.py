@@ -380,7 +380,11 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         say(0.0, f"closing day {day}" if days[day].is_open else f"day {day} is closed")
         store.close_day(participant, day)
         before, before_version = policy_in_force(store, participant)
-        say(0.02, f"adapting from {len(data)} interactions of days 1..{day} with {method}")
+        recorded = int(records.is_recorded(data).sum())
+        say(0.02, f"adapting with {method} from {recorded} recorded interaction{'' if recorded == 1 else 's'} of "
+                  f"{'day 1' if day == 1 else f'days 1-{day}'}"
+                  + (f" ({len(data) - recorded} more saved unanswered, which give no user data)"
+                     if recorded < len(data) else ""))
         result = adapt_policy(before, data, method=method, seed=seed,
                               progress=lambda f, m: say(0.02 + 0.9 * f, m))
         prefs, prefs_version = described_now(store, participant)

@@ -296,12 +296,14 @@ if not status.open:
 
 day = status.day
 done = status.interactions_today  # saved today: the next interaction's number is done + 1
-# the ~15 a day are interactions the paper records (answered, or asked for): an unanswered one is saved apart
+# the ~15 a day are interactions the paper records (answered, or asked for): an unanswered one is saved apart,
+# and said apart on the researcher's view only (a participant who tapped "Nothing needed" read that their tap
+# was "without an answer")
 unanswered = status.unanswered_today
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
             text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
-                 "today" + (f" (and {unanswered} without an answer, which do{'es' if unanswered == 1 else ''} not count)"
-                            if unanswered else ""))
+                 "today" + (f" (and {unanswered} not counted: no response, or nothing needed while the robot was "
+                            "quiet)" if unanswered and not tablet else ""))
 if status.recorded_today >= TARGET_INTERACTIONS:
     st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
 
@@ -452,7 +454,8 @@ else:
 
 if done and not tablet:
     # a key keeps it open while the count in its label follows the tablet
-    with st.expander(f"Today's interactions ({done})", key="today-interactions"):
+    with st.expander(f"Today's interactions ({status.recorded_today} recorded"
+                     + (f", {unanswered} not counted)" if unanswered else ")"), key="today-interactions"):
         today = store.interactions_frame(code, method=None, extra=True)
         view = app_support.interactions_view(today[today["day"] == day]).drop(columns="day")  # one day: room for
         st.dataframe(view, hide_index=True, width="stretch")                                  # the answer

@@ -311,7 +311,13 @@ def test_every_version_is_scored_on_the_same_test_states_whatever_the_adaptation
         start_day(s, "P01")
         s.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="do nothing", response="accept", type="type_2", user_action="pain check")
-    adapt_day(path, "P01", 1, method="nn", seed=99_999)
+        s.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                             robot_action="chitchat", response="others")  # left unanswered
+    said = []
+    adapt_day(path, "P01", 1, method="nn", seed=99_999, progress=lambda f, m: said.append(m))
+    # the progress counts what gives user data, as the tablet's counter does
+    assert "adapting with nn from 1 recorded interaction of day 1 (1 more saved unanswered, which give no user " \
+           "data)" in said
     with StudyStore(path) as s:
         runs = s.adaptations_frame("P01")
         described = s.get_preferences("P01")

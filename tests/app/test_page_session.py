@@ -398,15 +398,17 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
     kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
     store.record_interaction("P01", day, robot_action="pain check", response="accept", **kw)
     store.record_interaction("P01", day, robot_action="chitchat", response="others", **kw)
-    for view in ({}, {"view": "tablet"}):
+    for view, apart in (({}, " (and 1 not counted: no response, or nothing needed while the robot was quiet)"),
+                        ({"view": "tablet"}, "")):  # the participant is not told their tap did not count
         at = app(PAGE, participant="P01", **view)
         no_exception(at)
         bar = at.get("progress")[0]
-        assert bar.proto.text == ("Day 1 of 7 · 1 of about 15 interactions today (and 1 without an answer, "
-                                  "which does not count)")
-    at = app(PAGE, participant="P01")  # the researcher's sidebar
+        assert bar.proto.text == "Day 1 of 7 · 1 of about 15 interactions today" + apart
+    at = app(PAGE, participant="P01")  # the researcher's sidebar and the day's table say the same two numbers
     assert "Day 1 (open) · 1 interaction that day (+1 unanswered) · policy initial" in [
         c.value for c in at.sidebar.caption]
+    assert [e.label for e in at.expander if e.label.startswith("Today")] == [
+        "Today's interactions (1 recorded, 1 not counted)"]
     # the answer's confirmation: numbered for the researcher (the day's table's index), plain on the tablet,
     # whose count of recorded interactions leaves the unanswered one out ("Interaction 3 saved" under "2 of 15")
     for view, said in (({"view": "tablet"}, "Saved (you asked: "), ({}, "Interaction 4 saved (you asked: ")):
