@@ -254,10 +254,13 @@ def _on_the_tablet(shown: Shown) -> None:
 status = day_status(store, code)
 if not tablet:
     _follow_the_tablet(status, board.shown(db, code))
+head, back = st.columns([3, 1], vertical_alignment="center")
 if tablet:
-    st.markdown(f"## :material/smart_toy: Hello, {code}")
+    head.markdown(f"## :material/smart_toy: Hello, {code}")
 else:
-    st.title(f"Study session · {code}")
+    head.title(f"Study session · {code}")
+back = back.empty()  # "Choose a different activity" while a proposal is shown: in view, not below the request form
+if not tablet:
     with st.expander(f"{code}'s own tablet view (no researcher pages): its address"):
         ui.tablet_address_note(code)
 
@@ -450,7 +453,7 @@ else:
             c4.button("Say it", icon=":material/chat:", on_click=_match_request, width="stretch")
             if st.session_state.get("request-error"):
                 st.warning(st.session_state["request-error"], icon=":material/help:")
-    st.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:")
+    back.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:", width="stretch")
 
 if done and not tablet:
     # a key keeps it open while the count in its label follows the tablet

@@ -192,6 +192,14 @@ def test_mini_study(server, page, tmp_path):
 
     speaking_context(page, CANDIDATES)
     shot(page, "session-tablet")
+    # on a 1024 x 768 tablet the answers, the request form and the way back are in view without scrolling
+    # (the typed request and "Choose a different activity" were below the fold)
+    page.set_viewport_size({"width": 1024, "height": 768})
+    page.wait_for_timeout(500)
+    for target in (button(page, "Say it"), button(page, "Choose a different activity"), button(page, "No response")):
+        box = target.bounding_box()
+        assert box is not None and box["y"] + box["height"] <= 768, box
+    page.set_viewport_size({"width": 1360, "height": 900})
     # the researcher's view shows the proposal the participant is answering, not a form of its own
     watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
     assert watch.locator("button", has_text="Do it").count() == 0
