@@ -719,15 +719,35 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
             + ("; compare methods again to add them." if again else "."))
 
 
+def uncompared_note(daily: pd.DataFrame, closed_loop: str = "cacas") -> str:
+    """The Fig. 4 caption's sentence on a human study's days whose baselines have not been
+    compared yet: the comparison adapts them from the days recorded when it runs, so days
+    recorded since show the closed-loop method alone and its baselines' lines end early; ""
+    when every day with a score is compared, or no comparison has been run."""
+    d = daily[daily["preference_accuracy"].notna()]
+    baselines = [m for m in dict.fromkeys(d["method"]) if m != closed_loop]
+    if not baselines:
+        return ""
+    parts = []
+    for who, g in d.groupby("participant", sort=True):
+        compared = set(g.loc[g["method"] != closed_loop, "day"].astype(int))
+        alone = sorted(set(g.loc[g["method"] == closed_loop, "day"].astype(int)) - compared)
+        if compared and alone:
+            parts.append(f"{who} day{'s' if len(alone) > 1 else ''} {day_ranges(alone)}")
+    if not parts:
+        return ""
+    return (f" Not compared yet, so {plots.METHOD_LABELS.get(closed_loop, closed_loop)} alone: " + "; ".join(parts)
+            + "; compare methods again to add them.")
+
+
 def next_day_view(ahead: pd.DataFrame) -> pd.DataFrame:
     """The Results page's table of the policies adapted for a day not started yet
     (:func:`cacas.export.next_day_accuracy`): one row per participant and day, one column per
     method (in the figures' order) with its accuracy in percent, the policy in force marked."""
-    order = {m: i for i, m in enumerate(plots.METHOD_LABELS)}
     rows = []
     for (who, day), g in ahead.groupby(["participant", "day"], sort=True):
         row = {"participant": who, "day": int(day)}
-        for m in sorted(g["method"], key=lambda m: (order.get(m, len(order)), m)):
+        for m in plots.in_method_order(g["method"]):
             r = g[g["method"] == m].iloc[0]
             row[plots.METHOD_LABELS.get(m, m)] = percent(r["preference_accuracy"]) + (" in force" if r["in_force"] else "")
         rows.append(row)

@@ -15,6 +15,18 @@ from plotly.subplots import make_subplots
 CEILING_NAME = "where a described preference names an action (mean)"
 METHOD_LABELS = {"cacas": "CACAS", "cacas-no-pr": "CACAS w/o PR", "orl": "ORL", "nn": "NN",
                  "bandit": "Bandit (TS)", "sac-user-data": "SAC on user data"}
+
+
+def in_method_order(methods) -> list[str]:
+    """The methods given, each once, in one order on every page and figure: the paper's (CACAS,
+    w/o PR, ORL, NN; :data:`METHOD_LABELS`), then ours, then any other as given. (Each table
+    took its data's order: a human study's export is sorted by name, so NN came before ORL there
+    and after it elsewhere.)"""
+    rank = {m: i for i, m in enumerate(METHOD_LABELS)}
+    given = list(dict.fromkeys(methods))
+    return sorted(given, key=lambda m: (rank.get(m, len(rank)), given.index(m)))
+
+
 METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
                   "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
@@ -155,7 +167,7 @@ def incomplete_comparisons(daily: pd.DataFrame) -> pd.DataFrame:
     methods, in the table's order). A human study's methods are compared only for the
     participants the comparison has been run for; a stopped comparison leaves some out."""
     d = _scored(daily)
-    methods = list(dict.fromkeys(d["method"]))
+    methods = in_method_order(d["method"])
     rows = []
     for (who, day), g in d.groupby(["participant", "day"], sort=True):
         wanted = [m for m in methods if m in set(d.loc[d["day"] == day, "method"])]
@@ -176,9 +188,12 @@ def accuracy_by_day(daily: pd.DataFrame) -> pd.DataFrame:
         left = set(zip(out["participant"], out["day"]))
         d = d[[(p, day) not in left for p, day in zip(d["participant"], d["day"])]]
     g = d.groupby(["method", "day"], sort=False)["preference_accuracy"]
-    return pd.DataFrame({"mean": g.mean(), "min": g.min(), "max": g.max(),
-                         "participants": d.groupby(["method", "day"], sort=False)["participant"].nunique()}
-                        ).reset_index()
+    out = pd.DataFrame({"mean": g.mean(), "min": g.min(), "max": g.max(),
+                        "participants": d.groupby(["method", "day"], sort=False)["participant"].nunique()}
+                       ).reset_index()
+    rank = {m: i for i, m in enumerate(in_method_order(out["method"]))}
+    return out.sort_values(["method", "day"], key=lambda c: c.map(rank) if c.name == "method" else c,
+                           kind="stable").reset_index(drop=True)
 
 
 def accuracy_table(daily: pd.DataFrame) -> pd.DataFrame:
@@ -255,6 +270,6 @@ def preference_methods_figure(by_preference: pd.DataFrame, day: int | None = Non
     each preference's test states, side by side."""
     day = int(by_preference["day"].max()) if day is None else int(day)
     rows = by_preference[by_preference["day"].astype(int) == day]
-    methods = list(dict.fromkeys(rows["method"]))
+    methods = in_method_order(rows["method"])
     return _preference_heatmap(rows, "method", methods, f"Accuracy by described preference and method, day {day}",
                                "method")

@@ -152,7 +152,8 @@ with fig4:
                      width="stretch", column_config={"_index": st.column_config.TextColumn("method", width="medium")})
         left = plots.incomplete_comparisons(accuracy)
         st.caption("Mean preference accuracy over participants, per method and day (Fig. 4): each day's "
-                   "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN))
+                   "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN)
+                   + (app_support.uncompared_note(accuracy) if source == HUMAN else ""))
     ahead = next_day_accuracy(tables) if source == HUMAN else []
     if len(ahead):
         st.markdown("**Adapted for the next day, not started yet**")

@@ -238,7 +238,7 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
     day, or one method day by day; then the table's download."""
     st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
                "learnt, and when. A row that stays pale is a preference the method never learnt.")
-    methods = list(dict.fromkeys(by_preference["method"]))
+    methods = plots.in_method_order(by_preference["method"])
     days = sorted(int(d) for d in by_preference["day"].unique())
     by_method, by_day = "Methods on one day", "One method, day by day"
     view = st.segmented_control("Show", [by_method, by_day], default=by_method, key=f"{key}-view") or by_method

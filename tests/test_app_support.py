@@ -248,6 +248,21 @@ def test_day_ranges_and_the_fig4_left_out_note():
     assert left_out_note(left.iloc[:0]) == ""
 
 
+def test_days_recorded_since_the_last_comparison_are_named():
+    """Walkthrough: after comparing on day 2 and recording days 3-4, Fig. 4's baselines stopped at
+    day 3 with nothing saying why."""
+    import pandas as pd
+
+    rows = [("P01", "cacas", d, 0.5) for d in (1, 2, 3, 4)] + [("P01", m, d, 0.3) for m in ("orl", "nn")
+                                                               for d in (1, 2)]
+    rows += [("P02", "cacas", 1, 0.4), ("P02", "cacas", 2, None), ("P02", "orl", 1, 0.2), ("P02", "nn", 1, 0.2)]
+    daily = pd.DataFrame(rows, columns=["participant", "method", "day", "preference_accuracy"])
+    assert app_support.uncompared_note(daily) == (
+        " Not compared yet, so CACAS alone: P01 days 3-4; compare methods again to add them.")
+    assert app_support.uncompared_note(daily[daily["day"] <= 2]) == ""  # every scored day compared
+    assert app_support.uncompared_note(daily[daily["method"] == "cacas"]) == ""  # never compared: the button says it
+
+
 def test_overview_names_the_newest_policy_after_a_roll_back(tmp_path):
     """Walkthrough: after a roll-back the Overview read "version 1", as if no later version existed."""
     store = StudyStore(tmp_path / "s.sqlite")

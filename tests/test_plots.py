@@ -138,6 +138,23 @@ def test_accuracy_table_is_fig4_as_a_table():
     assert accuracy_table(daily().assign(preference_accuracy=np.nan)).empty
 
 
+def test_methods_come_in_one_order_whatever_the_tables_order():
+    """A human study's export is sorted by name (nn before orl): Fig. 4's table and legend, the
+    heatmap and the next-day table listed NN before ORL, the Simulation lab after it."""
+    from cacas.plots import accuracy_table, in_method_order
+
+    assert in_method_order(["nn", "zeta", "orl", "cacas", "bandit", "nn", "alpha", "cacas-no-pr"]) == [
+        "cacas", "cacas-no-pr", "orl", "nn", "bandit", "zeta", "alpha"]
+    d = daily()
+    by_name = pd.concat([d, d.assign(method="orl"), d.assign(method="cacas-no-pr")]).sort_values("method")
+    assert list(accuracy_table(by_name).index) == ["CACAS", "CACAS w/o PR", "ORL", "NN"]
+    assert [t.name for t in methods_figure(by_name).data] == ["CACAS", "CACAS w/o PR", "ORL", "NN"]
+    rows = pd.DataFrame([{"participant": "P01", "method": m, "day": 1, "preference": 1, "label": "x",
+                          "activity": "cough", "action": "pain check", "states": 5, "correct": 1, "accuracy": 0.2}
+                         for m in ("nn", "orl", "cacas")])
+    assert list(preference_methods_figure(rows).data[0].x) == ["CACAS", "ORL", "NN"]
+
+
 def test_success_by_day_has_whole_days_for_a_table_read_with_float_days():
     s = success_by_day(daily().assign(day=lambda d: d["day"].astype(float)))
     assert s["day"].tolist() == [1, 2, 3] and s["day"].dtype.kind == "i"

@@ -315,6 +315,19 @@ def test_human_study_compares_on_the_same_participants(app, store):
     assert values["Participants on day 2"].value == "1 of 2"
 
 
+def test_days_recorded_since_the_comparison_are_said_to_need_it(app, store):
+    """Compared after day 1, then day 2 recorded: Fig. 4's NN line ended at day 1 and nothing said why."""
+    _study_with_a_day(store)
+    store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.25})
+    store.record_adaptation("P01", 1, "cacas", {}, 0.0, {"preference_accuracy": 0.75})
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "Not compared yet, so CACAS alone: P01 day 2; compare methods again to add them." in texts(at)
+
+
 def test_tables_show_empty_cells_empty(app, db):
     """daily.csv's baseline rows have no success rate: the Tables tab shows the cell empty, as the
     CSV holds it (Streamlit's table wrote "None")."""
