@@ -385,20 +385,24 @@ def preferences_learnt(before, after, participant: Participant, n: int = 400, se
     return out[["preference", "label", "action", "states", "before", "after"]]
 
 
-def policy_changes(before, after, interactions: pd.DataFrame, top: int = 10) -> pd.DataFrame:
-    """The participant's most frequent contexts (S1-S4) and the action of each policy there, in
-    the state of the context's latest interaction (its S5-S7: the robot's task, previous action
-    and response), so that a policy that was in force then chooses what the robot did."""
+def policy_changes(before, after, interactions: pd.DataFrame, top: int | None = None) -> pd.DataFrame:
+    """The participant's contexts (S1-S4), most frequent first (the most recent first among
+    equals), ``top`` of them (all by default), and the action of each policy there, in the state
+    of the context's latest interaction (its S5-S7: the robot's task, previous action and
+    response), so that a policy that was in force then chooses what the robot did. The time of
+    day and the time since the last activity read as the tablet writes them (their bins)."""
     cols = ["activity", "scene", "time_slot", "interval"]
     if len(interactions) == 0:
         return pd.DataFrame(columns=cols + ["times", "action_before", "action_after", "changed"])
-    ordered = interactions.sort_values(["day", "index"], kind="stable")
+    ordered = interactions.sort_values(["day", "index"], kind="stable").reset_index(drop=True)
     latest = ordered.groupby(cols)[["task", "previous_action", "previous_response"]].last()
-    freq = (ordered.groupby(cols).size().rename("times").reset_index()
-            .sort_values("times", ascending=False, kind="stable").head(top).reset_index(drop=True))
+    last_seen = ordered.assign(_last=np.arange(len(ordered))).groupby(cols)["_last"].max()  # its latest row
+    freq = (ordered.groupby(cols).size().rename("times").reset_index().join(last_seen, on=cols)
+            .sort_values(["times", "_last"], ascending=False, kind="stable").head(top).reset_index(drop=True))
     st = records.policy_states(freq.join(latest, on=cols))
     freq["action_before"] = [spaces.ACTIONS[a] for a in before.greedy(st)]
     freq["action_after"] = [spaces.ACTIONS[a] for a in after.greedy(st)]
     freq["changed"] = freq["action_before"] != freq["action_after"]
     freq["time_slot"] = [spaces.time_slot_label(int(t)) for t in freq["time_slot"]]
-    return freq
+    freq["interval"] = [spaces.interval_label(spaces.interval_bin(float(m))) for m in freq["interval"]]
+    return freq.drop(columns="_last")

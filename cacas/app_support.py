@@ -365,9 +365,11 @@ def _strip_where(message: str) -> str:
 
 
 def hours_label(hours) -> str:
+    """A preference's hours as the tablet and the day's table write a time of day (S3):
+    [(6, 12)] -> "06:00-12:00"; one two-hour slot is :func:`cacas.spaces.time_slot_label`'s."""
     if not hours:
         return "any time"
-    return ", ".join(f"{a:02d}-{b:02d} h" for a, b in hours)
+    return ", ".join(f"{a:02d}:00-{b:02d}:00" for a, b in hours)
 
 
 def preferences_table(participant: prefs.Participant) -> pd.DataFrame:

@@ -144,7 +144,7 @@ else:
         sha = {v.version: v.sha256 for v in versions}
         p_before = _initial() if before == 0 else _load(db, code, before, sha[before])
         p_after = _initial() if after == 0 else _load(db, code, after, sha[after])
-        changes = policy_changes(p_before, p_after, data, top=10)
+        changes = policy_changes(p_before, p_after, data)
     except CacasError as exc:
         st.error(str(exc))
     else:
@@ -152,10 +152,10 @@ else:
             st.caption("No interactions yet.")
         else:
             n = int(changes["changed"].sum())
-            st.markdown(f"The robot's action in {code}'s **{len(changes)} most frequent contexts**, each as at "
-                        f"its latest interaction (the robot's task, its previous action and the answer): "
-                        f"**{n}** changed.")
-            view = changes.rename(columns={"time_slot": "time of day", "interval": "interval (min)",
+            st.markdown(f"The robot's action in each of {code}'s **{len(changes)} contexts** (most frequent first, "
+                        f"then the most recent), each as at its latest interaction (the robot's task, its previous "
+                        f"action and the answer): **{n}** changed.")
+            view = changes.rename(columns={"time_slot": "time of day", "interval": "since last activity",
                                            "times": "seen", "action_before": "before", "action_after": "after"})
             st.dataframe(view.style.apply(
                 lambda r: ["background-color: #fff4d6" if r["changed"] else "" for _ in r], axis=1),

@@ -20,7 +20,6 @@ st.caption("Participants are known by pseudonymous codes only (e.g. P01), never 
            "about 5 preferences: in which context they want which robot action. The robot never sees them; "
            "they drive the simulated participant and the evaluation of Fig. 4 (Su & Sheng, Section V-B).")
 
-SLOT_LABELS = {i: app_support.hours_label([(2 * i, 2 * i + 2)]) for i in range(spaces.N_SLOTS)}  # "06-08 h"
 ANY = "(choose an action)"
 OPEN_TAB = "participants-open-tab"
 #: participant -> {interval slider key: range} put back by "Put version n on the form": a range
@@ -371,7 +370,7 @@ if code:
                                placeholder="one or more sound activities")
                 c2.multiselect("Rooms (S2)", spaces.SCENES, key=k("scene"), placeholder="any room")
                 c3, c4 = st.columns(2)
-                c3.multiselect("Time of day (S3)", list(SLOT_LABELS), format_func=SLOT_LABELS.get,
+                c3.multiselect("Time of day (S3)", list(range(spaces.N_SLOTS)), format_func=spaces.time_slot_label,
                                key=k("slots"), placeholder="any time")
                 # value= (a pair) makes it a range slider, so its value is never set through the session
                 # (Streamlit warns when both are); persist_state keeps it while other pages are open

@@ -261,6 +261,20 @@ def test_policy_changes_judge_each_context_in_its_latest_recorded_state(small_in
     assert tuple(seen.states[0, 4:]) == (timer, timer, accept)  # S5-S7 of interaction index 2, the latest
 
 
+def test_policy_changes_list_every_context_most_frequent_then_most_recent_first(small_initial):
+    """Walkthrough: every context seen once, and "the 10 most frequent" dropped two of twelve, with
+    nothing to say which; the interval read 60 where the tablet says 60-90 min."""
+    rows = stove_days(days=2, per_day=4)  # slots 3-6 on both days: each context twice...
+    rows.loc[rows["day"] == 2, "time_slot"] = [3, 7, 8, 9]  # ...but on day 2 three new ones, seen once
+    rows["interval"] = 60
+    changes = policy_changes(small_initial, small_initial, rows.sample(frac=1, random_state=0))
+    assert list(changes["times"]) == [2, 1, 1, 1, 1, 1, 1]
+    assert list(changes["time_slot"]) == ["06:00-08:00", "18:00-20:00", "16:00-18:00", "14:00-16:00",
+                                          "12:00-14:00", "10:00-12:00", "08:00-10:00"]  # ties: the latest first
+    assert set(changes["interval"]) == {"60-90 min"} and not changes["changed"].any()
+    assert len(policy_changes(small_initial, small_initial, rows, top=3)) == 3
+
+
 def test_a_d4a_table_of_ones_own_trains_an_initial_policy_of_its_own(monkeypatch, tmp_path, small_initial):
     """CACAA step 1 is trained against the D4A pairs: `--d4a FILE` used the shipped table's cached
     initial policy (walkthrough: day 1 identical to the default run with a table accepting only

@@ -294,3 +294,12 @@ def test_the_sidebar_starts_at_the_participant_last_worked_with(tmp_path):
         assert app_support.last_participant(store, "default") == "P01"  # a removed code is not offered
         store.create_study("empty")
         assert app_support.last_participant(store, "empty") is None
+
+
+def test_a_preferences_hours_read_as_the_tablet_writes_a_time_of_day():
+    """The Participants table said "06-12 h", its form "06-08 h", the tablet "06:00-08:00"."""
+    from cacas import spaces
+
+    assert app_support.hours_label([(6, 12), (20, 24)]) == "06:00-12:00, 20:00-24:00"
+    assert app_support.hours_label([(6, 8)]) == spaces.time_slot_label(3)
+    assert app_support.hours_label(None) == "any time"

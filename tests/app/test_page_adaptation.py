@@ -65,7 +65,7 @@ def test_close_day_and_adapt(app, store, quick_policy):
     assert runs["preference_accuracy"].iloc[0] == pytest.approx(preference_accuracy(quick_policy, described))
     assert runs["preference_accuracy"].iloc[-1] == pytest.approx(preference_accuracy(adapted, described))
     assert f"policy version {active.version} is in force from day 2" in texts(at)
-    assert "most frequent contexts" in texts(at)
+    assert "contexts** (most frequent first, then the most recent)" in texts(at)
     assert "Day 1 is closed and adapted" in texts(at)
     # each described preference, before and after, on Fig. 4's test states
     learnt = next(d.value for d in at.dataframe if "after" in d.value.columns and "label" in d.value.columns)
@@ -184,7 +184,7 @@ def test_what_changed_uses_the_policy_of_the_participant_who_has_the_code_now(ap
         no_exception(at)
         table = next(d.value for d in at.dataframe if {"activity", "after"} <= set(d.value.columns))  # What changed
         expected = policy_changes(quick_policy, policy_from_bytes(store.load_policy("P01", version=1)),
-                                  store.interactions_frame("P01", method=None), top=10)
+                                  store.interactions_frame("P01", method=None))
         shown.append((table["after"].tolist(), expected["action_after"].tolist()))
         if seed == 1:
             store.remove_participant("P01", confirm="P01")
