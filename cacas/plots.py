@@ -49,15 +49,23 @@ def closed_loop_methods(daily: pd.DataFrame) -> list[str]:
 
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
     """Per day: mean, min and max success rate across participants, mean cumulative feedback,
-    and the mean success ceiling (NaN where daily.csv has none)."""
+    the mean success ceiling (NaN where daily.csv has none) and the mean number of the day's
+    recorded interactions a participant (``interactions``; NaN where daily.csv has none)."""
     d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
     ceiling = pd.to_numeric(d["success_ceiling"], errors="coerce") if "success_ceiling" in d.columns else float("nan")
-    g = d.assign(day=d["day"].astype(int), _ceiling=ceiling).groupby("day")
+    count = pd.to_numeric(d["interactions"], errors="coerce") if "interactions" in d.columns else float("nan")
+    g = d.assign(day=d["day"].astype(int), _ceiling=ceiling, _count=count).groupby("day")
     return pd.DataFrame({
         "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
         "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
         "participants": g["participant"].nunique(), "ceiling": g["_ceiling"].mean(),
+        "interactions": g["_count"].mean().astype(float),
     }).reset_index()
+
+
+#: Fig. 3 labels a day whose mean success rate rests on fewer recorded interactions a participant
+#: than this (a day begun: one or two answers swing its rate from 0 to 100 %).
+FEW_INTERACTIONS = 5
 
 
 def success_change(daily: pd.DataFrame, method: str, first: int, last: int) -> tuple[float, int]:
@@ -108,10 +116,17 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              hoverinfo="skip"), secondary_y=False)
     # each day's mean is over the participants who had that day: the hover says how many (a study in
     # progress has fewer on its later days)
-    fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
-                             line=dict(color=colour, width=3), customdata=s[["participants"]],
-                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]} participants)"
-                                           "<extra></extra>"), secondary_y=False)
+    few = s["interactions"] < FEW_INTERACTIONS
+    fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers+text", name="success rate (mean)",
+                             line=dict(color=colour, width=3), customdata=s[["participants", "interactions"]],
+                             text=[f"{n:.0f} interaction{'' if round(n) == 1 else 's'}" if f else ""
+                                   for n, f in zip(s["interactions"], few)],
+                             textposition="top center", textfont=dict(size=12, color="#404040"),
+                             marker=dict(size=[11 if f else 7 for f in few],  # hollow: a rate on few answers
+                                         symbol=["circle-open" if f else "circle" for f in few]),
+                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]} participants, "
+                                           "%{customdata[1]:.1f} recorded interactions each)<extra></extra>"),
+                  secondary_y=False)
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
         # not a bound: where no preference names an action a participant may still accept what the robot offers
         fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME,

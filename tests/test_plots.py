@@ -200,6 +200,20 @@ def test_fig3_hover_says_how_many_participants_each_days_mean_has():
     assert [int(n) for n in mean.customdata[:, 0]] == [2, 2, 1] and "participants" in mean.hovertemplate
 
 
+def test_fig3_labels_a_day_whose_rate_rests_on_few_interactions():
+    """Walkthrough: a day begun with 2 answers plotted at 50 % like a full day beside one at 0 % on a
+    single answer; nothing on the figure said so."""
+    d = daily()
+    d.loc[d["day"] == 3, "interactions"] = [2, 2, 1, 1]  # cacas, nn of P01; cacas, nn of P02
+    mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
+    assert list(mean.text) == ["", "", "2 interactions"]  # (2 + 1) / 2 = 1.5, said as 2
+    assert [float(n) for n in mean.customdata[:, 1]] == [15.0, 15.0, 1.5]
+    assert "recorded interactions each" in mean.hovertemplate
+    no_count = next(t for t in success_figure(daily().drop(columns="interactions")).data
+                    if t.name == "success rate (mean)")
+    assert list(no_count.text) == ["", "", ""]  # a daily.csv without the column draws as before
+
+
 def test_a_day_at_100_percent_is_drawn_whole():
     """The rate axes leave room above 100 % for a marker (at 1.02 the top of the plot cut it in half):
     the top of the axis is at least a marker's radius (8 px of a 400 px plot) above 100 %."""
