@@ -210,7 +210,9 @@ else:
     st.caption("None yet.")
 
 if len(runs):
-    with st.expander(f"Adaptation runs ({len(runs)})"):
+    scored = int((runs["day"] == 0).sum())  # day 0: the initial policy scored for Fig. 4's day 1, not adapted
+    with st.expander(f"Adaptation runs ({len(runs) - scored} after study days"
+                     + (f", {scored} scoring the initial policy as day 0" if scored else "") + ")"):
         table = app_support.runs_table(runs)
         st.dataframe(table, hide_index=True, width="stretch", column_order=_named(table),
                      column_config={"duration (s)": st.column_config.NumberColumn(format="%.1f"),

@@ -59,6 +59,8 @@ def test_close_day_and_adapt(app, store, quick_policy):
     assert active is not None and active.day == day
     runs = store.adaptations_frame("P01")
     assert list(runs["day"]) == [0, 1]  # day 0: the initial policy's accuracy (Fig. 4, day 1)
+    assert [e.label for e in at.expander if e.label.startswith("Adaptation runs")] == [
+        "Adaptation runs (1 after study days, 1 scoring the initial policy as day 0)"]  # it said "(2)" for one
     # each run's accuracy is its policy's, on Fig. 4's test states (seed 0, the page's default)
     described = store.get_preferences("P01")
     adapted = policy_from_bytes(store.load_policy("P01", version=active.version))
