@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 
 @dataclass(frozen=True)
@@ -46,7 +46,7 @@ class TabletBoard:
         with self._lock:
             held = self._shown.get(key)
             since = held.since if held == shown else time.time()
-            self._shown[key] = Shown(**{**shown.__dict__, "since": since})
+            self._shown[key] = replace(shown, since=since)
 
     def clear(self, db: str, participant: str) -> None:
         """The tablet shows no proposal (it was answered, or the participant went back to the form)."""

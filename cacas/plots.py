@@ -15,6 +15,8 @@ from plotly.subplots import make_subplots
 CEILING_NAME = "where a described preference names an action (mean)"
 METHOD_LABELS = {"cacas": "CACAS", "cacas-no-pr": "CACAS w/o PR", "orl": "ORL", "nn": "NN",
                  "bandit": "Bandit (TS)", "sac-user-data": "SAC on user data"}
+METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
+                  "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
 def in_method_order(methods) -> list[str]:
@@ -25,10 +27,6 @@ def in_method_order(methods) -> list[str]:
     rank = {m: i for i, m in enumerate(METHOD_LABELS)}
     given = list(dict.fromkeys(methods))
     return sorted(given, key=lambda m: (rank.get(m, len(rank)), given.index(m)))
-
-
-METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
-                  "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
 def loop_method(daily: pd.DataFrame) -> str | None:
