@@ -150,3 +150,42 @@ def test_one_store_shared_by_threads(tmp_path):
     assert store.resume("P01").interactions_today == 200
     assert sorted(store.interactions_frame("P01")["index"]) == list(range(1, 201))
     store.close()
+
+
+def _in_another_process(code: str, path: Path) -> str:
+    out = subprocess.run([sys.executable, "-c", code, str(path)], env=_env(), capture_output=True, text=True,
+                         timeout=60)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return out.stdout.strip()
+
+
+COUNT = r"""
+import sys
+from cacas.store import StudyStore
+with StudyStore(sys.argv[1], readonly=True) as s:
+    print(len(s.interactions_frame(None, method=None)))
+"""
+
+
+def test_opening_the_database_again_in_a_process_keeps_its_locks(tmp_path):
+    """Every new StudyStore read the file's header with open() and close(); closing any descriptor
+    of a file drops all of the process's POSIX locks on it, SQLite's included (sqlite.org
+    "How To Corrupt" 2.2). An adaptation (a second StudyStore in the server), then any other
+    process closing its connection (`cacas export`), and that process took itself for the last
+    one: it removed the WAL, and every answer the app wrote afterwards went to a deleted file while
+    the tablet said "Saved" (helper's walkthrough: 38 answers lost at the next restart)."""
+    path = tmp_path / "study.sqlite"
+    app = StudyStore(path)  # the server's own store, open all along
+    app.add_participant("P01")
+    day = app.open_day("P01")
+    kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5, robot_action="pain check",
+              response="accept")
+    app.record_interaction("P01", day, **kw)
+    for readonly in (False, True):  # an adaptation's store, and a read-only one (the store's own checks)
+        StudyStore(path, readonly=readonly).close()
+    assert _in_another_process(COUNT, path) == "1"  # `cacas export`: opens, reads, closes
+    assert Path(f"{path}-wal").exists()  # the app's connection still holds it
+    app.record_interaction("P01", day, **kw)  # acknowledged to the participant
+    assert _in_another_process(COUNT, path) == "2"
+    app.close()
+    assert _in_another_process(COUNT, path) == "2"

@@ -245,7 +245,9 @@ def test_a_bundle_imported_twice_into_one_folder_keeps_the_other_copy_working(st
 
 def test_an_unreadable_database_beside_keeps_every_file(store):
     """A study database in the folder that cannot be read might name any file: none is deleted."""
-    (store.path.parent / "damaged.sqlite").write_bytes(store.path.read_bytes()[:100] + b"\0" * 4000)
+    other = store.path.parent / "other" / "intact.sqlite"  # a study database's header: not read from the open one
+    StudyStore(other).close()
+    (store.path.parent / "damaged.sqlite").write_bytes(other.read_bytes()[:100] + b"\0" * 4000)
     files = sorted(p.name for p in (store.policy_dir / "P01").iterdir())
     assert store.participant_footprint("P01").policy_files == 0
     store.remove_participant("P01", "P01")

@@ -33,30 +33,66 @@ BUSY_TIMEOUT_MS = 10_000
 WRITE_RETRIES = 8
 
 
-def read_header(path: Path) -> tuple[bool, int]:
-    """(is a SQLite file, application_id) from the 100-byte file header, without opening it
-    with SQLite (so nothing is created or changed)."""
-    with open(path, "rb") as fh:
-        head = fh.read(100)
-    if len(head) < 100 or not head.startswith(SQLITE_MAGIC):
-        return False, 0
-    return True, int.from_bytes(head[68:72], "big")
+#: Files SQLite keeps beside a database (and this package's writer lock): never databases themselves.
+SIDECARS = ("-wal", "-shm", "-journal", "-writer.lock")
+
+
+def is_sidecar(path: Path) -> bool:
+    """A file SQLite (or :class:`WriterQueue`) keeps beside a database: not to be opened as one."""
+    return Path(path).name.endswith(SIDECARS)
+
+
+class NotAStudyDatabase(CacasError):
+    """The file is not a CACAS study database (missing, a folder, a file SQLite keeps beside a
+    database, not SQLite, another application's), as opposed to one that cannot be read now."""
 
 
 def check_study_file(path: Path) -> None:
-    """CacasError naming ``path`` unless it is an existing CACAS study database. Reads only."""
+    """CacasError naming ``path`` unless it is an existing CACAS study database. Reads only
+    (through SQLite alone: see :func:`_open_study_file`)."""
+    _open_study_file(path).close()
+
+
+def _open_study_file(path: Path) -> sqlite3.Connection:
+    """A read-only connection (:func:`_open_for_reading`) to ``path`` once it is known to be a
+    CACAS study database (its application_id); else :class:`NotAStudyDatabase`, or CacasError
+    for a study database that cannot be read, naming the file.
+
+    The file is read through SQLite alone, never with a descriptor of our own: closing any
+    descriptor of a file drops every POSIX lock the process holds on it, SQLite's included
+    (sqlite.org, "How To Corrupt An SQLite Database File", 2.2). A header read with open() while
+    the app held the database open let the next process that closed a connection (``cacas
+    export``) take itself for the last one and remove the WAL, and the app's later answers went to
+    a deleted file. SQLite's own connections in one process share their locks, so opening and
+    closing one here is safe."""
+    path = Path(path)
     if not path.exists():
-        raise CacasError(f"{path}: no such study database")
+        raise NotAStudyDatabase(f"{path}: no such study database")
     if not path.is_file():
-        raise CacasError(f"{path}: is not a file; expected a CACAS study database (.sqlite)")
+        raise NotAStudyDatabase(f"{path}: is not a file; expected a CACAS study database (.sqlite)")
+    if is_sidecar(path):
+        raise NotAStudyDatabase(f"{path}: is a file SQLite keeps beside a database, not a study database")
+    if path.stat().st_size == 0:
+        raise NotAStudyDatabase(f"{path}: is not a study database (not an SQLite file)")
     try:
-        is_sqlite, app_id = read_header(path)
-    except OSError as exc:
-        raise CacasError(f"{path}: cannot be read ({exc.__class__.__name__})") from None
-    if not is_sqlite:
-        raise CacasError(f"{path}: is not a study database (not an SQLite file)")
+        conn = _open_for_reading(path)
+    except sqlite3.Error as exc:
+        raise CacasError(f"{path}: cannot be read ({exc})") from None
+    try:
+        app_id = conn.execute("PRAGMA application_id").fetchone()[0]
+    except sqlite3.DatabaseError as exc:
+        conn.close()
+        if _not_sqlite(exc):
+            raise NotAStudyDatabase(f"{path}: is not a study database (not an SQLite file)") from None
+        raise CacasError(f"{path}: cannot be read ({exc})") from None
     if app_id != APPLICATION_ID:
-        raise CacasError(f"{path}: is not a study database (an SQLite file of another application)")
+        conn.close()
+        raise NotAStudyDatabase(f"{path}: is not a study database (an SQLite file of another application)")
+    return conn
+
+
+def _not_sqlite(exc: sqlite3.Error) -> bool:
+    return "not a database" in str(exc).lower()
 
 
 def _configure(conn: sqlite3.Connection, readonly: bool) -> None:
@@ -186,8 +222,8 @@ def _init_schema(conn: sqlite3.Connection, path: Path) -> None:
 
     changed = transact(conn, check_and_migrate)
     if changed:
-        # Put the header (application_id) into the main file at once, so that a reader that
-        # only looks at the header (check_study_file) recognises the file.
+        # the new header (application_id) into the main file at once: a copy of the file alone is
+        # recognised too
         conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
 
 
@@ -228,13 +264,13 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
     """
     path = Path(path)
     if readonly:
-        check_study_file(path)
+        conn = _open_study_file(path)
         try:
-            conn = _open_for_reading(path)
             _configure(conn, readonly=True)
             version = conn.execute("PRAGMA user_version").fetchone()[0]
             names = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
         except sqlite3.DatabaseError as exc:
+            conn.close()
             raise CacasError(f"{path}: cannot be read as a study database ({exc})") from None
         if not set(TABLES) <= names or not 1 <= version <= SCHEMA_VERSION:
             conn.close()
@@ -245,11 +281,9 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
         if version < SCHEMA_VERSION:
             return _migrated_in_memory(conn)
         return conn
-    if path.exists():
+    if path.exists():  # a file that is not SQLite's is refused by SQLite itself, unchanged (below)
         if not path.is_file():
             raise CacasError(f"{path}: is not a file; expected a CACAS study database (.sqlite)")
-        if path.stat().st_size and not read_header(path)[0]:
-            raise CacasError(f"{path}: is not a study database (not an SQLite file)")
     else:
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
@@ -268,6 +302,8 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
             raise CacasError(f"{path}: cannot switch the study database to WAL mode (got {mode})")
     except sqlite3.DatabaseError as exc:
         conn.close()
+        if _not_sqlite(exc):
+            raise CacasError(f"{path}: is not a study database (not an SQLite file)") from None
         if "unable to open" in str(exc) or "readonly" in str(exc):
             raise CacasError(f"{path}: cannot open the study database for writing ({exc}); check that the file and "
                              "its folder are writable") from None

@@ -126,20 +126,22 @@ class PeopleMixin:
 
         named: set[str] = set()
         for other in sorted(self.path.parent.iterdir()):
-            if other.resolve() == self.path.resolve() or not other.is_file():
+            # never opened: this database, and the files SQLite keeps beside a database (opened and
+            # closed here, they would drop SQLite's locks on them: see db.check_study_file)
+            if other.resolve() == self.path.resolve() or not other.is_file() or db.is_sidecar(other):
                 continue
             try:
-                db.check_study_file(other)
+                conn = db._open_study_file(other)
+            except db.NotAStudyDatabase:
+                continue  # a CSV, a notes file, another application's database, ...
             except CacasError:
-                continue  # not a study database (the -wal and -shm files, a CSV, ...)
+                return None  # a study database that cannot be read (busy, damaged): keep every file
             try:
-                conn = db._open_for_reading(other)
-                try:
-                    rows = conn.execute("SELECT path FROM policies").fetchall()  # a few rows a day
-                finally:
-                    conn.close()
+                rows = conn.execute("SELECT path FROM policies").fetchall()  # a few rows a day
             except Exception:  # noqa: BLE001 - unreadable, busy, damaged: keep every file
                 return None
+            finally:
+                conn.close()
             named.update(r[0] for r in rows)
         return named
 
