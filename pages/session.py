@@ -18,7 +18,7 @@ from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
-from cacas.on_tablet import Shown, TabletBoard
+from cacas.on_tablet import Shown
 from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
@@ -42,13 +42,7 @@ def _policy(db: str, who: str, version: int | None, sha256: str | None):
     return policy_in_force(ui.store(), who)
 
 
-@st.cache_resource(show_spinner=False)
-def _board() -> TabletBoard:
-    """What each participant's tablet shows now, shared by this server's sessions."""
-    return TabletBoard()
-
-
-board, db = _board(), ui.db_path()
+board, db = ui.tablet_board(), ui.db_path()
 
 
 def _library(kind: str, name: str) -> list[str]:

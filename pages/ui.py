@@ -11,6 +11,7 @@ import streamlit as st
 from cacas import app_support, lab, plots, records
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER, STOPPED, Job
+from cacas.on_tablet import TabletBoard
 from cacas.store import StudyStore, default_db_path
 
 def require_app() -> None:
@@ -90,6 +91,14 @@ def db_path() -> str:
 def store() -> StudyStore:
     """The study database, opened once per server process (thread-safe)."""
     return _open_store(db_path())
+
+
+@st.cache_resource(show_spinner=False)
+def tablet_board() -> TabletBoard:
+    """What each participant's tablet shows now, shared by this server's sessions (the Study
+    session page writes it from the tablet and reads it on the researcher's view; Adaptation
+    reads it before a day is closed)."""
+    return TabletBoard()
 
 
 def participant() -> str | None:

@@ -191,3 +191,21 @@ def test_what_changed_uses_the_policy_of_the_participant_who_has_the_code_now(ap
         if seed == 1:
             store.remove_participant("P01", confirm="P01")
     assert shown[1][0] == shown[1][1]  # the new participant's own version 1
+
+
+def test_closing_a_day_while_the_tablet_shows_a_proposal_is_warned(app, store, quick_policy):
+    """The participant's answer to a proposal still on the tablet is not saved once the day is
+    closed; the page said so only in a tooltip (walkthrough)."""
+    from test_page_session import _choose
+
+    _day_with_interactions(store)
+    tab = app("pages/session.py", participant="P01", view="tablet")
+    _choose(tab)  # interaction 5 of day 1 on the tablet, not answered yet
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    warned = [w.value for w in at.warning if "tablet shows a proposal" in w.value]
+    assert len(warned) == 1 and warned[0].startswith("P01's tablet shows a proposal for interaction 5 (use stove, shown")
+    assert warned[0].endswith("let the participant answer it before closing the day, or the answer is not saved.")
+    label = "Accept" if any(b.label == "Accept" for b in tab.button) else "Nothing needed"
+    next(b for b in tab.button if b.label == label).click().run()  # answered: nothing to warn about
+    assert not [w for w in app(PAGE, participant="P01").warning if "tablet shows a proposal" in w.value]
