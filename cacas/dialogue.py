@@ -273,11 +273,26 @@ def _words(text: str) -> list[str]:
     return _WORD.findall(text.lower().replace("’", "'"))
 
 
+#: Particles of phrasal verbs that take their object in between: "put the knife back", "turn the oven off".
+_PARTICLES = {"back", "away", "off", "on", "out", "up", "down"}
+#: How many words may stand between such a verb and its particle.
+_PARTICLE_REACH = 4
+
+
 def _positions(words: list[str], phrase: tuple[str, ...]) -> set[int]:
-    """Word positions of every occurrence of ``phrase`` in ``words``."""
+    """Word positions of every occurrence of ``phrase`` in ``words``; a verb and its particle
+    ("put back", "turn off") also with up to :data:`_PARTICLE_REACH` words between them, the
+    object's ("put the knife back" was taken for "remind to be careful" by its knife alone)."""
     n = len(phrase)
-    return {i + k for i in range(len(words) - n + 1) if tuple(words[i:i + n]) == phrase
-            for k in range(n)}
+    found = {i + k for i in range(len(words) - n + 1) if tuple(words[i:i + n]) == phrase for k in range(n)}
+    if n == 2 and phrase[1] in _PARTICLES:
+        for i, w in enumerate(words):
+            if w == phrase[0]:
+                j = next((j for j in range(i + 2, min(len(words), i + 2 + _PARTICLE_REACH)) if words[j] == phrase[1]),
+                         None)
+                if j is not None:
+                    found.update((i, j))
+    return found
 
 
 _PHRASES: dict[str, list[tuple[str, ...]]] = {

@@ -67,6 +67,10 @@ def test_names_are_case_insensitive_and_unknown_is_an_error():
     ("tell me to be careful with the knife", "remind to be careful"),
     ("give me a hand", "ask to offer help"),
     ("PAIN CHECK", "pain check"),
+    # a verb and its particle around the object: the knife alone made it "remind to be careful" (walkthrough)
+    ("please remind me to put the knife back", "remind to put back"),
+    ("put my keys away", "remind to put back"),
+    ("please switch the TV off", "remind to turn off"),
 ])
 def test_match_request(text, action):
     assert dialogue.match_request(text).action == action
@@ -147,7 +151,8 @@ def test_the_misunderstood_message_reads_as_a_sentence():
 
 @pytest.mark.parametrize("text", ["please don't call anyone", "no need to call anyone", "never call my son",
                                   "I do not want a timer", "stop the chitchat", "do not remind me to turn off the stove",
-                                  "Don’t remind me to unplug the hair dryer", "don't you dare call my son"])
+                                  "Don’t remind me to unplug the hair dryer", "don't you dare call my son",
+                                  "don't put the knife back"])
 def test_a_request_not_to_do_something_is_not_taken_for_the_request(text):
     """'Please don't call anyone' was confirmed as 'call someone for help': one tap from recording the
     opposite of what was said. It is answered in place, nothing matched."""
