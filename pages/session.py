@@ -240,7 +240,7 @@ def _on_the_tablet(shown: Shown) -> None:
             st.markdown(shown.line)
         st.caption("The participant answers on the tablet; this page follows it. Running the interaction here "
                    "as well would record your answer in the participant's place.")
-        st.button("Run this interaction from here instead", on_click=_run_here, icon=":material/tablet:")
+        ui.button(st, "Run this interaction from here instead", _run_here, icon=":material/tablet:")
 
 
 # --- page -------------------------------------------------------------------------------------------
@@ -287,7 +287,7 @@ if not status.open:
     else:
         st.markdown(f"Day **{status.day_on_screen}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
                     "with the robot, following your daily routine.")
-        st.button(f"Start day {status.day_on_screen}", type="primary", on_click=_start_day,
+        ui.button(st, f"Start day {status.day_on_screen}", _start_day, type="primary",
                   icon=":material/play_arrow:")
     st.stop()
 
@@ -341,8 +341,8 @@ elif context is None:
         c3.selectbox(f"Activity{part('S1')}", spaces.ACTIVITIES, index=None, key="ctx-activity",
                      placeholder="choose an activity")
         c4.selectbox(f"Room{part('S2')}", spaces.SCENES, index=None, key="ctx-scene", placeholder="choose a room")
-        st.form_submit_button("Do it", type="primary", icon=":material/play_arrow:", on_click=_set_context,
-                              width="stretch")
+        ui.button(st, "Do it", _set_context, submit=True, type="primary", icon=":material/play_arrow:",
+                  width="stretch")
     _warm_up()  # after the form: it is on the screen meanwhile
 else:
     index = done + 1
@@ -417,37 +417,38 @@ else:
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(dialogue.confirmation_line(matched, proposal.heard, said))
         y, n, _ = st.columns([1, 1, 2])
-        y.button("Yes, please", type="primary", icon=":material/check:", width="stretch",
-                 on_click=_record, args=(day, index, proposal), kwargs={"user_action": matched})
-        n.button("No", icon=":material/close:", width="stretch", on_click=_reject_match)
+        # ui.button: a tap is not lost after a server restart (a new session's first click runs no callback)
+        ui.button(y, "Yes, please", _record, args=(day, index, proposal), kwargs={"user_action": matched},
+                  type="primary", icon=":material/check:", width="stretch")
+        ui.button(n, "No", _reject_match, icon=":material/close:", width="stretch")
     else:
         if proposal.robot_speaks:
             b1, b2, b3 = st.columns(3)
             # the three answers look alike: a highlighted "Accept" would nudge the participant's feedback
-            b1.button("Accept", icon=":material/thumb_up:", width="stretch",
-                      on_click=_record, args=(day, index, proposal, "accept"))
-            b2.button("Reject", icon=":material/thumb_down:", width="stretch",
-                      on_click=_record, args=(day, index, proposal, "reject"))
-            b3.button("No response", icon=":material/do_not_disturb_on:", width="stretch",
-                      on_click=_record, args=(day, index, proposal, "no response"))
+            ui.button(b1, "Accept", _record, args=(day, index, proposal, "accept"), icon=":material/thumb_up:",
+                      width="stretch")
+            ui.button(b2, "Reject", _record, args=(day, index, proposal, "reject"), icon=":material/thumb_down:",
+                      width="stretch")
+            ui.button(b3, "No response", _record, args=(day, index, proposal, "no response"),
+                      icon=":material/do_not_disturb_on:", width="stretch")
         else:
-            st.button("Nothing needed", icon=":material/check:", on_click=_record,
-                      args=(day, index, proposal, "no response"))
+            ui.button(st, "Nothing needed", _record, args=(day, index, proposal, "no response"),
+                      icon=":material/check:")
 
         with st.container(border=True):
             st.markdown("**Or ask the robot yourself**")
             c1, c2 = st.columns([3, 1], vertical_alignment="bottom")
             pick = c1.selectbox("Pick an action", list(dialogue.REQUESTS), index=None, key="request-pick",
                                 format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
-            c2.button("Ask", icon=":material/record_voice_over:", disabled=pick is None, width="stretch",
-                      on_click=_record, args=(day, index, proposal), kwargs={"user_action": pick})
+            ui.button(c2, "Ask", _record, args=(day, index, proposal), kwargs={"user_action": pick},
+                      icon=":material/record_voice_over:", disabled=pick is None, width="stretch")
             c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
             c3.text_input("Or type your request", key="request-text",
                           placeholder="e.g. remind me to turn off the stove")
-            c4.button("Say it", icon=":material/chat:", on_click=_match_request, width="stretch")
+            ui.button(c4, "Say it", _match_request, icon=":material/chat:", width="stretch")
             if st.session_state.get("request-error"):
                 st.warning(st.session_state["request-error"], icon=":material/help:")
-    back.button("Choose a different activity", on_click=_cancel, icon=":material/arrow_back:", width="stretch")
+    ui.button(back, "Choose a different activity", _cancel, icon=":material/arrow_back:", width="stretch")
 
 if done and not tablet:
     # a key keeps it open while the count in its label follows the tablet

@@ -101,6 +101,33 @@ def tablet_board() -> TabletBoard:
     return TabletBoard()
 
 
+#: Which callback ran for the click of this run (see :func:`button`).
+_CALLBACK_RAN = "button-callback-ran"
+
+
+def button(where, label: str, on_click, *, args=(), kwargs=None, key: str | None = None, submit: bool = False,
+           **options) -> None:
+    """``where.button`` (``where.form_submit_button`` with ``submit``) whose ``on_click`` runs once
+    for every click, also for the first click that reaches a session which has not drawn the button
+    yet. A server restarted under an open page gives the page a new session at its next click, and
+    Streamlit calls a widget's callback only in a session that drew the widget before: the
+    participant's first tap after a restart was lost without a word. Here the click, seen in the
+    button's value, runs the callback then, and the page is drawn again."""
+    kwargs = kwargs or {}
+    key = key or f"button:{label}"
+
+    def callback(*a, **k):
+        st.session_state[_CALLBACK_RAN] = key
+        on_click(*a, **k)
+
+    draw = where.form_submit_button if submit else where.button
+    if draw(label, key=key, on_click=callback, args=args, kwargs=kwargs, **options) \
+            and st.session_state.pop(_CALLBACK_RAN, None) != key:
+        callback(*args, **kwargs)
+        st.session_state.pop(_CALLBACK_RAN, None)
+        st.rerun()
+
+
 def participant() -> str | None:
     """The participant selected in the sidebar (or fixed by the tablet address)."""
     return st.session_state.get(PARTICIPANT_KEY)

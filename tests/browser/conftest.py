@@ -36,9 +36,10 @@ def initial_policy():
     return load_initial_policy()
 
 
-def _run_app(tmp: Path, **env):
-    """``streamlit run app.py`` on a free port with ``env`` added; yields its base URL, then stops it."""
-    port = _free_port()
+def _run_app(tmp: Path, port: int | None = None, **env):
+    """``streamlit run app.py`` on ``port`` (default a free one) with ``env`` added; yields its base
+    URL, then stops it."""
+    port = port or _free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", **env)
     log = open(tmp / "streamlit.log", "w")
     proc = subprocess.Popen(

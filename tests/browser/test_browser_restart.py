@@ -1,0 +1,43 @@
+"""A server restarted under the participant's open tablet: their first tap afterwards is saved.
+
+The page comes back from its address (the proposal's context and interaction mark) and its next
+click reaches a new session; Streamlit runs a button's callback only in a session that drew the
+button, so the first tap after a restart was lost without a word (pages.ui.button)."""
+
+from __future__ import annotations
+
+import pytest
+
+from cacas.store import StudyStore
+from conftest import _free_port, _run_app
+from test_browser_mini_study import CANDIDATES, button, goto, shows, speaking_context
+
+pytestmark = pytest.mark.browser
+
+
+def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initial_policy):
+    db = tmp_path / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["use stove"], "scene": ["kitchen"], "action": "remind to turn off"}])
+        s.open_day("P01")
+    port = _free_port()
+    first = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    url = next(first)
+    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    page.set_default_timeout(30_000)
+    goto(page, f"{url}/?participant=P01&view=tablet")
+    speaking_context(page, CANDIDATES)
+    next(first, None)  # the server stops, and starts again on the same port and database
+    second = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    next(second)
+    try:
+        page.wait_for_timeout(3_000)  # the page reconnects by itself
+        button(page, "Accept").click()  # once
+        shows(page, "Saved (accepted)", timeout=90_000)  # a new server loads the policy first
+        with StudyStore(db, readonly=True) as s:
+            rows = s.interactions_frame("P01", method=None)
+        assert list(rows["response"]) == ["accept"] and list(rows["index"]) == [1]
+    finally:
+        page.close()
+        next(second, None)
