@@ -32,6 +32,11 @@ class Shown:
     line: str
     since: float = field(default=0.0, compare=False)
 
+    @property
+    def shown_at(self) -> str:
+        """When it was first shown, as the server's clock reads it (HH:MM)."""
+        return time.strftime("%H:%M", time.localtime(self.since))
+
 
 class TabletBoard:
     """Per (study database, participant): the proposal their tablet shows, or nothing."""

@@ -3,8 +3,6 @@ what changed, and roll back to an earlier day's policy."""
 
 from __future__ import annotations
 
-import time
-
 import streamlit as st
 
 from cacas import app_support
@@ -92,7 +90,7 @@ else:
         shown = ui.tablet_board().shown(db, code, day=day, index=status.interactions_today + 1)
         if shown is not None:  # the participant is about to answer: an answer after closing is not saved
             st.warning(f"{code}'s tablet shows a proposal for interaction {shown.index} ({shown.activity}, shown at "
-                       f"{time.strftime('%H:%M', time.localtime(shown.since))}): let the participant answer it "
+                       f"{shown.shown_at}): let the participant answer it "
                        "before closing the day, or the answer is not saved.", icon=":material/tablet:")
         # closing cannot be undone: a day short of the ~15 interactions is closed only when the researcher says so
         short = 0 < status.interactions_today and status.recorded_today < TARGET_INTERACTIONS

@@ -8,8 +8,6 @@ Every answer is written to the study database the moment it is given.
 
 from __future__ import annotations
 
-import time
-
 import pandas as pd
 import streamlit as st
 
@@ -234,7 +232,7 @@ def _on_the_tablet(shown: Shown) -> None:
     context form of its own for the same interaction."""
     with st.container(border=True):
         st.markdown(f"**On {code}'s tablet now** · interaction {shown.index}, shown at "
-                    f"{time.strftime('%H:%M', time.localtime(shown.since))}")
+                    f"{shown.shown_at}")
         st.caption(f"{shown.activity} in the {shown.scene} · {shown.time_slot}")
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(shown.line)

@@ -26,7 +26,6 @@ from cacas.store.schema import APPLICATION_ID, SCHEMA_VERSION, TABLES, migrate
 
 T = TypeVar("T")
 
-SQLITE_MAGIC = b"SQLite format 3\x00"
 #: How long one statement waits for another process's lock (milliseconds).
 BUSY_TIMEOUT_MS = 10_000
 #: How often a whole write transaction is retried after SQLITE_BUSY / "database is locked".
@@ -47,13 +46,7 @@ class NotAStudyDatabase(CacasError):
     database, not SQLite, another application's), as opposed to one that cannot be read now."""
 
 
-def check_study_file(path: Path) -> None:
-    """CacasError naming ``path`` unless it is an existing CACAS study database. Reads only
-    (through SQLite alone: see :func:`_open_study_file`)."""
-    _open_study_file(path).close()
-
-
-def _open_study_file(path: Path) -> sqlite3.Connection:
+def open_study_file(path: Path) -> sqlite3.Connection:
     """A read-only connection (:func:`_open_for_reading`) to ``path`` once it is known to be a
     CACAS study database (its application_id); else :class:`NotAStudyDatabase`, or CacasError
     for a study database that cannot be read, naming the file.
@@ -264,7 +257,7 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
     """
     path = Path(path)
     if readonly:
-        conn = _open_study_file(path)
+        conn = open_study_file(path)
         try:
             _configure(conn, readonly=True)
             version = conn.execute("PRAGMA user_version").fetchone()[0]

@@ -127,11 +127,11 @@ class PeopleMixin:
         named: set[str] = set()
         for other in sorted(self.path.parent.iterdir()):
             # never opened: this database, and the files SQLite keeps beside a database (opened and
-            # closed here, they would drop SQLite's locks on them: see db.check_study_file)
+            # closed here, they would drop SQLite's locks on them: see db.open_study_file)
             if other.resolve() == self.path.resolve() or not other.is_file() or db.is_sidecar(other):
                 continue
             try:
-                conn = db._open_study_file(other)
+                conn = db.open_study_file(other)
             except db.NotAStudyDatabase:
                 continue  # a CSV, a notes file, another application's database, ...
             except CacasError:
