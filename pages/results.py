@@ -146,10 +146,9 @@ with fig4:
                 "described preferences.")
     else:
         st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
-        # as text: "–" where a method has no score that day (Streamlit's table shows "None" for an empty
-        # number whatever the Styler's na_rep)
-        st.dataframe(summary.apply(lambda col: col.map(lambda x: "–" if pd.isna(x) else ui.percent(x))),
-                     width="stretch", column_config={"_index": st.column_config.TextColumn("method", width="medium")})
+        st.dataframe(100 * summary, width="stretch", placeholder="–",  # "–": a method without a score that day
+                     column_config={"_index": st.column_config.TextColumn("method", width="medium"),
+                                    **{day: st.column_config.NumberColumn(format="%.0f%%") for day in summary}})
         left = plots.incomplete_comparisons(accuracy)
         st.caption("Mean preference accuracy over participants, per method and day (Fig. 4): each day's "
                    "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN)
@@ -224,7 +223,8 @@ with data:
         if name in ("events", "policies", "studies", "preferences", "days") and source == HUMAN:
             continue
         with st.expander(f"{name}.csv · {len(df)} row{'s' if len(df) != 1 else ''}", expanded=name == "daily"):
-            st.dataframe(ui.as_in_csv(df), hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)))
+            st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)),
+                         placeholder="")  # an empty cell as the CSV holds it, not "None"
             ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
         def _bundle() -> bytes:

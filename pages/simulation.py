@@ -134,18 +134,18 @@ if runs:
     c2.plotly_chart(plots.methods_figure(daily), width="stretch")
     summary = summary_table(daily)
     shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]
-    # as text: "–" where a method has no success rate (it did not act: the Fig. 4 protocol); the
-    # table's renderer shows "None" for an empty number whatever its format
+    # "–" where a method has no success rate (it did not act: the Fig. 4 protocol)
     shown = summary.assign(method=summary["method"].map(lambda m: plots.METHOD_LABELS.get(m, m)),
-                           **{c: summary[c].map(ui.percent) for c in shares})
-    st.dataframe(shown, hide_index=True, width="stretch",
-                 column_config={"success_rate": st.column_config.TextColumn("success rate"),
-                                "success_ceiling": st.column_config.TextColumn(
-                                    "success ceiling",
+                           **{c: 100 * summary[c] for c in shares})
+    share = {"format": "%.0f%%"}
+    st.dataframe(shown, hide_index=True, width="stretch", placeholder="–",
+                 column_config={"success_rate": st.column_config.NumberColumn("success rate", **share),
+                                "success_ceiling": st.column_config.NumberColumn(
+                                    "success ceiling", **share,
                                     help="The share of the recorded interactions where a described preference "
                                          "names an action (Fig. 3's dashed line). Not a bound: elsewhere the "
                                          "simulated participant answers by the D4A pairs and may still accept."),
-                                "preference_accuracy": st.column_config.TextColumn("preference accuracy"),
+                                "preference_accuracy": st.column_config.NumberColumn("preference accuracy", **share),
                                 "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
                                                                                      format="%.1f")})
     d1, d2, d3 = st.columns(3)

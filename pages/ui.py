@@ -205,19 +205,6 @@ def load_run(db: str, name: str) -> app_support.Run:
         st.stop()
 
 
-def as_in_csv(df: pd.DataFrame) -> pd.DataFrame:
-    """``df`` for display: a column with empty cells shows them empty, its other cells as the CSV
-    download writes them (Streamlit's table shows "None" for an empty number whatever its
-    format); complete columns keep their type, so they sort as numbers."""
-    gaps = [c for c in df.columns if df[c].isna().any()]
-    if not gaps:
-        return df
-    import io
-
-    text = pd.read_csv(io.BytesIO(records.csv_bytes(df[gaps])), dtype=str, keep_default_na=False)
-    return df.assign(**{c: text[c].to_numpy() for c in gaps})
-
-
 def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
     st.download_button(label or f"Download {file_name}", records.csv_bytes(df), file_name=file_name,
                        mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:",

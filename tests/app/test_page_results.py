@@ -117,7 +117,7 @@ def test_results_of_a_simulated_run(app, db):
     assert at.metric[1].value == "15 data points" and at.metric[2].value == "1"
     fig4 = at.dataframe[0].value  # the per-method, per-day means under Fig. 4
     assert list(fig4.index) == ["CACAS"] and list(fig4.columns) == ["day 1", "day 2"]
-    assert fig4.loc["CACAS"].tolist() == ["20%", "50%"]
+    assert fig4.loc["CACAS"].tolist() == [20, 50]
     assert at.select_slider(key="results-prefs:Simulated run: run-a-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
@@ -279,7 +279,7 @@ def test_right_after_an_adaptation_the_policies_for_the_next_day_are_listed_apar
     fig4 = at.dataframe[0].value
     # Fig. 4 is daily.csv's (the walkthrough's export drew another figure than the page), the day ahead
     # a table of its own
-    assert list(fig4.columns) == ["day 1"] and fig4.loc["CACAS"].tolist() == ["25%"]
+    assert list(fig4.columns) == ["day 1"] and fig4.loc["CACAS"].tolist() == [25]
     ahead = at.dataframe[1].value
     assert ahead.to_dict("records") == [{"participant": "P01", "day": 2, "CACAS": "75%"}]
     assert any("Fig. 4 and daily.csv take these in once the day has begun." in c.value for c in at.caption)
@@ -306,8 +306,8 @@ def test_human_study_compares_on_the_same_participants(app, store):
     at = app(PAGE, participant="P01")
     no_exception(at)
     table = next(d.value for d in at.dataframe if "day 1" in list(d.value.columns))
-    assert table.loc["CACAS", "day 1"] == "25%" and table.loc["NN", "day 1"] == "25%"  # not (25% + 95%) / 2
-    assert table.loc["NN", "day 2"] == "50%"
+    assert table.loc["CACAS", "day 1"] == 25 and table.loc["NN", "day 1"] == 25  # not (25% + 95%) / 2
+    assert table.loc["NN", "day 2"] == 50
     assert "so these are left out: W02 day 1 (no NN); compare methods again to add them." in texts(at)
     values = {m.label: m for m in at.metric}
     rate = values["Day 2 mean success rate so far"]
@@ -330,7 +330,8 @@ def test_days_recorded_since_the_comparison_are_said_to_need_it(app, store):
 
 def test_tables_show_empty_cells_empty(app, db):
     """daily.csv's baseline rows have no success rate: the Tables tab shows the cell empty, as the
-    CSV holds it (Streamlit's table wrote "None")."""
+    CSV holds it (Streamlit's table wrote "None"), and the column stays a number column (it was shown
+    as CSV text: left-aligned, six decimals, sorted as text)."""
     import pandas as pd
 
     from cacas import app_support
@@ -342,13 +343,18 @@ def test_tables_show_empty_cells_empty(app, db):
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
-    shown = next(d.value for d in at.dataframe if "success_rate" in d.value.columns and len(d.value) == 2)
-    assert list(shown["success_rate"]) == ["0.300000", ""]
-    assert list(shown["day"]) == [1, 1]  # complete columns keep their type
+    table = next(d for d in at.dataframe if "success_rate" in d.value.columns and len(d.value) == 2)
+    assert table.proto.placeholder == ""  # the empty cell drawn empty
+    shown = table.value
+    assert shown["success_rate"].iloc[0] == 0.3 and pd.isna(shown["success_rate"].iloc[1])
+    assert shown["success_rate"].dtype.kind == "f" and list(shown["day"]) == [1, 1]  # numbers sort as numbers
     # Fig. 4's table: a method without a score that day shows a dash
     two = pd.concat([daily, daily.assign(day=2, preference_accuracy=[0.4, float("nan")])])
     app_support.save_run(app_support.runs_dir(db), "run-b", two, pd.DataFrame({"participant": ["P01"]}), {})
     at.run()
     at.selectbox(key="results-run").set_value("run-b").run()
-    fig4 = next(d.value for d in at.dataframe if "day 2" in d.value.columns)
-    assert fig4.loc["NN"].tolist() == ["10%", "–"] and fig4.loc["CACAS"].tolist() == ["20%", "40%"]
+    element = next(d for d in at.dataframe if "day 2" in d.value.columns)
+    fig4 = element.value
+    assert element.proto.placeholder == "–"
+    assert fig4.loc["NN", "day 1"] == 10 and pd.isna(fig4.loc["NN", "day 2"])
+    assert fig4.loc["CACAS"].tolist() == [20, 40]

@@ -1,3 +1,5 @@
+import json
+
 from apphelpers import no_exception, texts
 
 from cacas.jobs import RUNNER
@@ -36,7 +38,6 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     assert job.label == "Simulating P01 · 2 days · nn · seed 0"
     assert ("1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections"
             " · personas: study_data/personas/example.json") in texts(at)
-    import json
     assert json.loads((job.result / "settings.json").read_text())["personas"] == "study_data/personas/example.json"
     assert len(at.get("plotly_chart")) == 3  # Fig. 3, Fig. 4 and Fig. 4 by described preference
     assert (job.result / "by_preference.csv").exists()
@@ -152,8 +153,14 @@ def test_enter_in_a_field_does_not_start_a_run(app):
 def test_a_method_without_a_success_rate_shows_a_dash_not_none(app, db):
     at = app(PAGE)
     run_small_study(at, db, ["nn", "bandit"])  # Fig. 4 protocol: only nn acts
-    table = next(d.value for d in at.dataframe if "success_rate" in d.value.columns)
+    """... and the shares stay numbers (percent), so that the columns sort as numbers."""
+    element = next(d for d in at.dataframe if "success_rate" in d.value.columns)
+    assert element.proto.placeholder == "–"
+    table = element.value
     rows = table.set_index(["method", "day"])
-    assert set(rows.loc["Bandit (TS)", "success_rate"]) == {"–"}
-    assert all(v.endswith("%") for v in rows.loc["NN", "success_rate"])
-    assert all(v.endswith("%") for v in table["preference_accuracy"])
+    assert rows.loc["Bandit (TS)", "success_rate"].isna().all()
+    nn = rows.loc["NN", "success_rate"]
+    assert nn.notna().all() and nn.between(0, 100).all() and (nn > 1).any()  # percent, not shares
+    assert table["preference_accuracy"].between(0, 100).all()
+    config = json.loads(element.proto.columns)
+    assert all(config[c]["type_config"]["format"] == "%.0f%%" for c in ("success_rate", "preference_accuracy"))
