@@ -155,6 +155,7 @@ def main() -> None:
         st.error(f"The study database cannot be opened: {exc}")
         st.stop()
 
+    ui.run_missed_click()  # where Streamlit runs a button's callback: before anything is drawn
     _sync_participant(store)
     ui.keep_preference_forms()
     if ui.tablet_mode():

@@ -99,14 +99,14 @@ else:
             key=f"close-short-{code}-{day}",
             help="A closed day takes no more interactions and cannot be reopened. If the tablet shows a proposal, "
                  "let the participant answer it first: an answer given after closing is not saved.")
-        st.button(f"Close day {day} and adapt", type="primary", icon=":material/model_training:",
-                  on_click=_start, args=(code, day), disabled=status.interactions_today == 0 or not sure,
+        ui.button(st, f"Close day {day} and adapt", _start, args=(code, day), type="primary",
+                  icon=":material/model_training:", disabled=status.interactions_today == 0 or not sure,
                   help="Closes the day (no more interactions on it) and adapts the policy.")
         if status.interactions_today == 0:
             st.caption("No interactions on this day yet.")
     elif status.waiting_for_adaptation:
-        st.button(f"Adapt after day {day}", type="primary", icon=":material/model_training:",
-                  on_click=_start, args=(code, day))
+        ui.button(st, f"Adapt after day {day}", _start, args=(code, day), type="primary",
+                  icon=":material/model_training:")
     else:
         st.success(f"Day {day} is closed and adapted; day {day + 1} can start on the tablet.",
                    icon=":material/check_circle:")
@@ -207,8 +207,8 @@ if versions:
         options = [0] + [v.version for v in versions]
         st.selectbox("Policy", options, format_func=lambda v: "initial policy" if v == 0 else f"version {v}",
                      index=options.index(active), key=f"rollback-version-{stamp}")
-        st.form_submit_button("Put in force", on_click=_rollback, args=(code, f"rollback-version-{stamp}"),
-                              icon=":material/history:")
+        ui.button(st, "Put in force", _rollback, args=(code, f"rollback-version-{stamp}"), submit=True,
+                  icon=":material/history:")
     if st.session_state.get("rollback-error"):
         st.error(st.session_state["rollback-error"])
 else:

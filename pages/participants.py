@@ -255,8 +255,8 @@ def _removal_section(who: str) -> None:
         st.info(f"A policy is being adapted for {who}: remove them once it has finished (Adaptation page).",
                 icon=":material/hourglass_top:")
     typed = st.text_input(f"Type {who} to confirm", key=f"remove-confirm-{who}", disabled=busy)
-    st.button(f"Remove {who}", type="secondary", icon=":material/delete:", key=f"remove-{who}",
-              disabled=busy or typed != who, on_click=_remove_participant, args=(who,))
+    ui.button(st, f"Remove {who}", _remove_participant, args=(who,), type="secondary", icon=":material/delete:",
+              key=f"remove-{who}", disabled=busy or typed != who)
     error = st.session_state.get("remove-error")
     if error and error[0] == who:
         st.error(error[1], icon=":material/error:")
@@ -309,8 +309,8 @@ if code:
                         st.caption("This version has preferences limited to robot tasks (from an imported file), "
                                    "which the form cannot hold: import that file again to restore it.")
                     else:
-                        st.button(f"Put version {old} on the form", icon=":material/history:",
-                                  on_click=_restore_version, args=(code, version, old),
+                        ui.button(st, f"Put version {old} on the form", _restore_version,
+                                  args=(code, version, old), icon=":material/history:",
                                   help="It becomes unsaved changes below: save them to make it the newest version.")
         else:
             st.info(f"{code} has no preferences yet. Describe them below, in the participant's own words.")
@@ -392,10 +392,10 @@ if code:
                      f"need{'' if len(bad) > 1 else 's'} fixing (the message is under "
                      f"{'each' if len(bad) > 1 else 'it'} above).", icon=":material/error:")
         c1, c2 = st.columns([1, 1])
-        c1.button("Save preferences", type="primary", icon=":material/save:", on_click=_save_preferences,
-                  args=(code, version, count, tasks), key=f"save-prefs-{code}")
+        ui.button(c1, "Save preferences", _save_preferences, args=(code, version, count, tasks), type="primary",
+                  icon=":material/save:", key=f"save-prefs-{code}")
         if unsaved:
-            c2.button("Discard changes", on_click=_discard_changes, args=(code,), icon=":material/undo:",
+            ui.button(c2, "Discard changes", _discard_changes, args=(code,), icon=":material/undo:",
                       key=f"discard-{code}")
             started = day_status(store, code).day
             if started and existing:  # mid-study: Fig. 4's scores change version from here on
@@ -410,7 +410,7 @@ if code:
             st.text_area("Notes (no names or contact details)", value=info.notes, key=f"notes-{code}")
             if st.session_state.get("details-error"):
                 st.error(st.session_state["details-error"], icon=":material/error:")
-            st.form_submit_button("Save details", on_click=_update_details, args=(code,))
+            ui.button(st, "Save details", _update_details, args=(code,), submit=True)
         st.caption(f"Added {app_support.short_time(info.created_at)} · study {info.study} · tablet address:")
         ui.tablet_address_note(code)
         with st.expander(f"Remove {code}", icon=":material/person_remove:"):
@@ -424,8 +424,8 @@ with tabs["Add a participant"]:
         st.text_area("Notes", key="new-notes", placeholder="Optional; no names or contact details")
         if st.session_state.get("add-error"):
             st.error(st.session_state["add-error"], icon=":material/error:")
-        st.form_submit_button("Add participant", type="primary", icon=":material/person_add:",
-                              on_click=_add_participant)
+        ui.button(st, "Add participant", _add_participant, submit=True, type="primary",
+                  icon=":material/person_add:")
     st.caption(f"{len(people)} participant(s) in study '{study}'.")
     with st.expander("New study: participants are added to the study chosen in the sidebar"):
         with st.form("new-study", border=False):
@@ -433,7 +433,7 @@ with tabs["Add a participant"]:
             st.text_input("Description", key="new-study-description")
             if st.session_state.get("study-error"):
                 st.error(st.session_state["study-error"], icon=":material/error:")
-            st.form_submit_button("Create study", on_click=_create_study)
+            ui.button(st, "Create study", _create_study, submit=True)
 
 with tabs["Import / export"]:
     c1, c2 = st.columns(2)
@@ -444,7 +444,7 @@ with tabs["Import / export"]:
                    "new version. All or nothing: one bad entry, or a participant of another study, and nothing "
                    "is imported.")
         st.file_uploader("Persona file", type=["json"], key="persona-upload")
-        st.button("Import", on_click=_import_personas, icon=":material/upload:")
+        ui.button(st, "Import", _import_personas, icon=":material/upload:")
         if st.session_state.get("import-error"):
             st.error(st.session_state["import-error"], icon=":material/error:")
         done = st.session_state.pop("import-done", None)

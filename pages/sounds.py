@@ -127,7 +127,7 @@ def _add_tab(kind: str, intro: str) -> None:
     else:
         with st.expander("Or take one with this device's camera"):
             st.camera_input("Take a photo", key=capture_key)
-    st.button("Add to the library", type="primary", on_click=_add, args=(kind,), icon=":material/library_add:",
+    ui.button(st, "Add to the library", _add, args=(kind,), type="primary", icon=":material/library_add:",
               key=f"{kind}-add")
     if st.session_state.get(f"{kind}-error"):
         st.error(st.session_state[f"{kind}-error"], icon=":material/error:")

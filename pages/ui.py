@@ -103,6 +103,8 @@ def tablet_board() -> TabletBoard:
 
 #: Which callback ran for the click of this run (see :func:`button`).
 _CALLBACK_RAN = "button-callback-ran"
+#: a click whose callback Streamlit did not run: (callback, args, kwargs), run by the next run's start
+_MISSED_CLICK = "button-missed-click"
 
 
 def button(where, label: str, on_click, *, args=(), kwargs=None, key: str | None = None, submit: bool = False,
@@ -110,9 +112,11 @@ def button(where, label: str, on_click, *, args=(), kwargs=None, key: str | None
     """``where.button`` (``where.form_submit_button`` with ``submit``) whose ``on_click`` runs once
     for every click, also for the first click that reaches a session which has not drawn the button
     yet. A server restarted under an open page gives the page a new session at its next click, and
-    Streamlit calls a widget's callback only in a session that drew the widget before: the
-    participant's first tap after a restart was lost without a word. Here the click, seen in the
-    button's value, runs the callback then, and the page is drawn again."""
+    Streamlit calls a widget's callback only in a session that drew the widget before: the first
+    click after a restart was lost without a word. Here the click, seen in the button's value, is
+    kept, and the page runs again, calling it first thing (``run_missed_click``, from ``app.py``):
+    where Streamlit calls callbacks, before any widget is drawn, so that a callback may still set
+    the sidebar's participant or the page's open tab."""
     kwargs = kwargs or {}
     key = key or f"button:{label}"
 
@@ -123,9 +127,16 @@ def button(where, label: str, on_click, *, args=(), kwargs=None, key: str | None
     draw = where.form_submit_button if submit else where.button
     if draw(label, key=key, on_click=callback, args=args, kwargs=kwargs, **options) \
             and st.session_state.pop(_CALLBACK_RAN, None) != key:
-        callback(*args, **kwargs)
-        st.session_state.pop(_CALLBACK_RAN, None)
-        st.rerun()
+        st.session_state[_MISSED_CLICK] = (on_click, args, kwargs)
+        st.rerun()  # a rerun keeps the widgets' values, those drawn after this button too
+
+
+def run_missed_click() -> None:
+    """Call the callback of a click that Streamlit did not call (``button``); first thing in a run."""
+    missed = st.session_state.pop(_MISSED_CLICK, None)
+    if missed is not None:
+        on_click, args, kwargs = missed
+        on_click(*args, **kwargs)
 
 
 def participant() -> str | None:

@@ -10,7 +10,7 @@ import pytest
 
 from cacas.store import StudyStore
 from conftest import _free_port, _run_app
-from test_browser_mini_study import CANDIDATES, button, goto, shows, speaking_context
+from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context
 
 pytestmark = pytest.mark.browser
 
@@ -38,6 +38,35 @@ def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initia
         with StudyStore(db, readonly=True) as s:
             rows = s.interactions_frame("P01", method=None)
         assert list(rows["response"]) == ["accept"] and list(rows["index"]) == [1]
+    finally:
+        page.close()
+        next(second, None)
+
+
+def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, browser):
+    """The same for the researcher's pages: a participant typed into the form before a restart is
+    added by one click on "Add participant" after it (the click was lost: nothing added)."""
+    db = tmp_path / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+    port = _free_port()
+    first = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    url = next(first)
+    page = browser.new_page(viewport={"width": 1360, "height": 900})
+    page.set_default_timeout(30_000)
+    goto(page, f"{url}/participants")
+    page.get_by_role("tab", name="Add a participant").click()
+    idle(page)
+    page.get_by_role("textbox", name="Pseudonymous code", exact=True).fill("P02")  # in a form: no rerun
+    next(first, None)  # the server stops, and starts again on the same port and database
+    second = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    next(second)
+    try:
+        page.wait_for_timeout(3_000)  # the page reconnects by itself
+        button(page, "Add participant").click()  # once
+        shows(page, "Preferences of P02")
+        with StudyStore(db, readonly=True) as s:
+            assert [p.code for p in s.list_participants()] == ["P01", "P02"]
     finally:
         page.close()
         next(second, None)
