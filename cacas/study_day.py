@@ -429,44 +429,55 @@ def scored_on_preferences(policy, described, version: int) -> dict:
     return dict(fig4_metrics(policy, described, seed=EVALUATION_SEED), preferences_version=version)
 
 
-def compare_methods(db_path: str | Path, methods: tuple[str, ...] = ("cacas-no-pr", "orl", "nn"),
+def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                     study: str | None = None, seed: int = 0, progress: Progress | None = None) -> int:
     """Fig. 4 on the human study (Section V-B.1): "we used the interaction data each day to adapt
     those models and tested them by generating data using the described preferences".
 
-    For every participant with described preferences and every closed day d, each method adapts
-    from days 1..d (its own chain, starting from the initial policy) and the result is scored
-    with ``fig4_metrics``; runs are recorded as adaptations of that method (day 0: the initial
-    policy), so the exported daily.csv and by_preference.csv have each method's. Runs already recorded
-    are skipped. Returns the number of runs recorded.
+    For every participant with described preferences and every closed day d, each method (default:
+    the paper's four, ``experiment.PAPER_METHODS``) adapts from days 1..d (its own chain, starting
+    from the initial policy) and the result is scored with ``fig4_metrics``; runs are recorded as
+    adaptations of that method (day 0: the initial policy), so the exported daily.csv and
+    by_preference.csv have each method's. Runs already recorded are kept: the method the study
+    adapted with (CACAS, or another a researcher chose) has its days already, and a method is
+    adapted only as far as its last day without a run. Returns the number of runs recorded.
     """
     from cacas.adaptation import adapt_policy, load_initial_policy
+    from cacas.experiment import PAPER_METHODS
     from cacas.store import StudyStore
 
+    methods = PAPER_METHODS if methods is None else methods
     say = progress or (lambda f, m: None)
     store = StudyStore(db_path)
     try:
         initial = load_initial_policy()
-        work = []
+        work = []  # (participant, preferences, their version, {method: the closed days to adapt through})
         for p in store.list_participants(study):
             person, version = described_now(store, p.code)
             closed = [d.day for d in store.days(p.code) if not d.is_open]
-            if person is not None and closed:
-                work.append((p.code, person, version, closed))
-        total = max(1, sum(len(methods) * (len(c) + 1) for *_, c in work))
-        done = recorded = 0
-        for code, person, version, closed in work:
-            data = store.interactions_frame(code, method=None)
-            runs = store.adaptations_frame(code)
+            if person is None or not closed:
+                continue
+            runs = store.adaptations_frame(p.code)
             have = set(zip(runs["method"], runs["day"].astype(int)))
+            chains = {}
             for method in methods:
+                missing = [d for d in [0] + closed if (method, d) not in have]
+                if missing:
+                    chains[method] = [d for d in closed if d <= max(missing)]
+            if chains:
+                work.append((p.code, person, version, have, chains))
+        total = max(1, sum(1 + len(days) for *_, chains in work for days in chains.values()))
+        done = recorded = 0
+        for code, person, version, have, chains in work:
+            data = store.interactions_frame(code, method=None)
+            for method, days in chains.items():
                 policy = initial
                 if (method, 0) not in have:
                     store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
                                             scored_on_preferences(initial, person, version))
                     recorded += 1
                 done += 1
-                for day in closed:
+                for day in days:
                     what = f"{code}: {method} after day {day}"
                     say(done / total, what)
                     result = adapt_policy(policy, data[data["day"] <= day], method=method, seed=seed + day,

@@ -131,8 +131,9 @@ with fig4:
                                                                 "again goes on from where it stopped.")
         if job is None or not job.running:
             if st.button("Compare methods on this study's data", icon=":material/compare_arrows:",
-                         help="Adapts CACAS w/o PR, ORL and NN day by day from each participant's interactions "
-                              "(in the background; a few seconds per participant and day)."):
+                         help="Adapts CACAS w/o PR, ORL and NN (and CACAS, for a participant adapted with "
+                              "another method) day by day from each participant's interactions, where a day has no "
+                              "run yet (in the background; a few seconds per participant, method and day)."):
                 RUNNER.start(key, compare_methods, db, study=study, label="Comparing methods")
                 st.rerun()
             if job is not None and job.status == FAILED:

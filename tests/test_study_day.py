@@ -220,6 +220,54 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
     assert nn.loc[2, "accuracy"] == 1.0 and nn.loc[2, "correct"] == 400
 
 
+def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, monkeypatch, policy):
+    """By default the paper's four methods: a participant whose study adapted with NN gets CACAS,
+    CACAS w/o PR and ORL (Fig. 4 left them out for good: the comparison never ran CACAS, and the
+    caption said to compare again); NN's recorded days are not adapted again, and a method missing
+    only day 1 is adapted no further than day 1."""
+    import cacas.adaptation
+    from cacas.adaptation import AdaptationResult
+    from cacas.export import export_tables
+    from cacas.experiment import PAPER_METHODS
+    from cacas.plots import incomplete_comparisons
+    from cacas.study_day import compare_methods
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    adapted = []
+
+    def fake_adapt(before, data, method, seed=0, progress=None):
+        adapted.append((method, int(data["day"].max())))
+        return AdaptationResult(policy, [], {"method": method}, 0.0)
+    monkeypatch.setattr(cacas.adaptation, "adapt_policy", fake_adapt)
+    path = tmp_path / "c.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("E05")
+        s.save_preferences("E05", [{"activity": ["cough"], "action": "pain check"}])
+        for day in (1, 2):
+            start_day(s, "E05")
+            s.record_interaction("E05", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+            s.close_day("E05", day)
+            s.record_adaptation("E05", day, "nn", {}, 1.0, {"preference_accuracy": 0.5},  # the study adapted with NN
+                                s.save_policy("E05", day, "nn", policy.to_bytes(), activate=True))
+        s.record_adaptation("E05", 0, "nn", {"initial": True}, 0.0, {"preference_accuracy": 0.5})
+        s.record_adaptation("E05", 0, "orl", {}, 0.0, {"preference_accuracy": 0.5})
+        s.record_adaptation("E05", 1, "orl", {}, 1.0, {"preference_accuracy": 0.5})
+        s.record_adaptation("E05", 0, "cacas-no-pr", {}, 0.0, {"preference_accuracy": 0.5})
+        s.record_adaptation("E05", 1, "cacas-no-pr", {}, 1.0, {"preference_accuracy": 0.5})
+        s.record_adaptation("E05", 2, "cacas-no-pr", {}, 1.0, {"preference_accuracy": 0.5})
+    assert PAPER_METHODS == ("cacas", "cacas-no-pr", "orl", "nn")
+    assert compare_methods(path) == 4  # CACAS days 0, 1, 2; ORL day 2
+    assert sorted(adapted) == [("cacas", 1), ("cacas", 2), ("orl", 1), ("orl", 2)]  # ORL's chain through day 2
+    with StudyStore(path) as s:
+        runs = s.adaptations_frame("E05")
+        assert sorted(runs.loc[runs["method"] == "cacas", "day"]) == [0, 1, 2]
+        daily = export_tables(s)["daily"]
+    assert incomplete_comparisons(daily).empty  # E05 is in Fig. 4 on every day
+    adapted.clear()
+    assert compare_methods(path) == 0 and adapted == []  # all there: nothing adapted again
+
+
 def test_the_robot_acts_on_the_room_it_saw(store, policy):
     day = start_day(store, "P01")
     ctx = Context.from_choices(4, 6, "cough", "bedroom")
