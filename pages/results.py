@@ -39,7 +39,7 @@ if source == SIMULATED:
 if source == HUMAN:
     tables = export_tables(store, study)
     daily = tables["daily"]
-    n_people, n_started = len(tables["participants"]), daily["participant"].nunique()
+    n_people, n_started = len(tables["participants"]), tables["days"]["participant"].nunique()  # as Overview's "Started"
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''} "
                f"({n_started} with a study day), {len(tables['interactions'])} interactions logged, "
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for), "

@@ -35,6 +35,10 @@ def test_results_show_day_one_and_downloads(app, store):
     # a download reruns nothing: a rerun replaced the prepared files of the other buttons, and a
     # download right after another one found its file gone (MediaFileStorageError)
     assert [b.label for b in at.get("download_button") if not b.proto.ignore_rerun] == []
+    store.add_participant("P03")
+    store.open_day("P03")  # a day begun, nothing recorded on it: a study day all the same (as Overview's "Started")
+    at.run()
+    assert "3 participants (2 with a study day), 3 interactions logged" in texts(at)
 
 
 def test_a_day_in_progress_is_shown_as_so_far(app, store):
