@@ -47,8 +47,9 @@ def closed_loop_methods(daily: pd.DataFrame) -> list[str]:
 
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
     """Per day: mean, min and max success rate across participants, mean cumulative feedback,
-    the mean success ceiling (NaN where daily.csv has none) and the mean number of the day's
-    recorded interactions a participant (``interactions``; NaN where daily.csv has none)."""
+    the mean success ceiling (NaN where daily.csv has none) and the mean, fewest and most of the
+    day's recorded interactions a participant (``interactions``, ``fewest``, ``most``; NaN where
+    daily.csv has none)."""
     d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
     ceiling = pd.to_numeric(d["success_ceiling"], errors="coerce") if "success_ceiling" in d.columns else float("nan")
     count = pd.to_numeric(d["interactions"], errors="coerce") if "interactions" in d.columns else float("nan")
@@ -57,12 +58,14 @@ def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
         "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
         "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
         "participants": g["participant"].nunique(), "ceiling": g["_ceiling"].mean(),
-        "interactions": g["_count"].mean().astype(float),
+        "interactions": g["_count"].mean().astype(float), "fewest": g["_count"].min().astype(float),
+        "most": g["_count"].max().astype(float),
     }).reset_index()
 
 
-#: Fig. 3 labels a day whose mean success rate rests on fewer recorded interactions a participant
-#: than this (a day begun: one or two answers swing its rate from 0 to 100 %).
+#: Fig. 3 labels a day where a participant's success rate rests on fewer recorded interactions
+#: than this (a day begun: one or two answers swing its rate from 0 to 100 %, and the band's
+#: edge with it).
 FEW_INTERACTIONS = 5
 
 
@@ -113,17 +116,18 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              fillcolor="rgba(47,111,143,0.18)", name="min-max across participants",
                              hoverinfo="skip"), secondary_y=False)
     # each day's mean is over the participants who had that day: the hover says how many (a study in
-    # progress has fewer on its later days)
-    few = s["interactions"] < FEW_INTERACTIONS
+    # progress has fewer on its later days), and on how many recorded interactions each
+    few = s["fewest"] < FEW_INTERACTIONS
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers+text", name="success rate (mean)",
-                             line=dict(color=colour, width=3), customdata=s[["participants", "interactions"]],
-                             text=[f"{n:.0f} interaction{'' if round(n) == 1 else 's'}" if f else ""
-                                   for n, f in zip(s["interactions"], few)],
+                             line=dict(color=colour, width=3),
+                             customdata=[[_participants(n), _interactions_each(lo, hi)]
+                                         for n, lo, hi in zip(s["participants"], s["fewest"], s["most"])],
+                             text=[_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"], s["fewest"], few)],
                              textposition="top center", textfont=dict(size=12, color="#404040"),
                              marker=dict(size=[11 if f else 7 for f in few],  # hollow: a rate on few answers
                                          symbol=["circle-open" if f else "circle" for f in few]),
-                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]} participants, "
-                                           "%{customdata[1]:.1f} recorded interactions each)<extra></extra>"),
+                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]}, "
+                                           "%{customdata[1]})<extra></extra>"),
                   secondary_y=False)
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
         # not a bound: where no preference names an action a participant may still accept what the robot offers
@@ -136,7 +140,8 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
                              mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
                              marker=dict(symbol="square", size=7),
-                             hovertemplate="day %{x}: %{y:.0f} data points<extra></extra>"), secondary_y=True)
+                             customdata=[data_points(x) for x in s["cumulative_feedback"]],
+                             hovertemplate="day %{x}: %{customdata}<extra></extra>"), secondary_y=True)
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%", secondary_y=False)
     top = float(s["cumulative_feedback"].max()) if s["cumulative_feedback"].notna().any() else 1.0
     fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
@@ -148,6 +153,33 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
                       template="plotly_white")
     return fig
+
+
+def data_points(mean_feedback: float) -> str:
+    """A mean cumulative feedback as Fig. 3's hover and the Results page say it: "104 data points",
+    "12.5 data points" (a mean over participants keeps its half; whole numbers stay whole)."""
+    if pd.isna(mean_feedback):
+        return ""
+    n = f"{mean_feedback:.1f}".removesuffix(".0")
+    return f"{n} data point{'' if n == '1' else 's'}"
+
+
+def _participants(n) -> str:
+    return "" if pd.isna(n) else f"{n:.0f} participant{'' if n == 1 else 's'}"
+
+
+def _interactions_each(fewest, most) -> str:
+    """The hover's "6 recorded interactions each" (or "1-6 ... each"); "" where daily.csv has no count."""
+    if pd.isna(fewest):
+        return ""
+    count = f"{fewest:.0f}" if fewest == most else f"{fewest:.0f}-{most:.0f}"
+    return f"{count} recorded interaction{'' if count == '1' else 's'}" + ("" if fewest == most else " each")
+
+
+def _few_label(participants, fewest) -> str:
+    """A hollow day's label: the fewest recorded interactions a participant's rate rests on."""
+    n = f"{fewest:.0f} interaction{'' if fewest == 1 else 's'}"
+    return n if participants == 1 else f"fewest {n}"
 
 
 def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:

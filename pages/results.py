@@ -104,7 +104,7 @@ with fig3:
                       if len(per_day) > 1 else None,
                       f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the day "
                       "is closed." if in_progress else None])) or None)
-        c2.metric(f"Mean cumulative feedback, day {last}", f"{per_day.loc[last, 'cumulative_feedback']:.0f} data points")
+        c2.metric(f"Mean cumulative feedback, day {last}", plots.data_points(per_day.loc[last, "cumulative_feedback"]))
         c3.metric(f"Participants on day {last}", n_last if n_last == n_all else f"{n_last} of {n_all}",
                   help=None if n_last == n_all else f"{n_all} participants have a day in the figure; "
                   f"{n_last} {'has' if n_last == 1 else 'have'} reached day {last}.")

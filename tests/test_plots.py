@@ -2,7 +2,7 @@ import pytest
 import numpy as np
 import pandas as pd
 
-from cacas.plots import (CEILING_NAME, accuracy_by_day, methods_figure, preference_days_figure,
+from cacas.plots import (CEILING_NAME, accuracy_by_day, data_points, methods_figure, preference_days_figure,
                          preference_methods_figure, preference_rows, success_by_day, success_figure,
                          success_methods_figure)
 
@@ -197,21 +197,40 @@ def test_fig3_hover_says_how_many_participants_each_days_mean_has():
     d = daily()
     d = d[~((d["participant"] == d["participant"].iloc[0]) & (d["day"] == 3))]  # one has not reached day 3
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
-    assert [int(n) for n in mean.customdata[:, 0]] == [2, 2, 1] and "participants" in mean.hovertemplate
+    assert [str(n) for n in [row[0] for row in mean.customdata]] == ["2 participants", "2 participants", "1 participant"]
+    assert "mean of %{customdata[0]}" in mean.hovertemplate
 
 
 def test_fig3_labels_a_day_whose_rate_rests_on_few_interactions():
     """Walkthrough: a day begun with 2 answers plotted at 50 % like a full day beside one at 0 % on a
-    single answer; nothing on the figure said so."""
+    single answer; nothing on the figure said so. A review: the label and the hollow marker came
+    from the mean count (1 and 6 answers labelled "4 interactions"; 1 and 15 not flagged, though
+    the band's edge rests on one answer), and the hover said "3.5 recorded interactions each"."""
     d = daily()
     d.loc[d["day"] == 3, "interactions"] = [2, 2, 1, 1]  # cacas, nn of P01; cacas, nn of P02
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
-    assert list(mean.text) == ["", "", "2 interactions"]  # (2 + 1) / 2 = 1.5, said as 2
-    assert [float(n) for n in mean.customdata[:, 1]] == [15.0, 15.0, 1.5]
-    assert "recorded interactions each" in mean.hovertemplate
+    assert list(mean.text) == ["", "", "fewest 1 interaction"]
+    assert [str(n) for n in [row[1] for row in mean.customdata]] == ["15 recorded interactions", "15 recorded interactions",
+                                                       "1-2 recorded interactions each"]
+    d.loc[d["day"] == 3, "interactions"] = [15, 15, 1, 1]  # the mean, 8, was not "few"
+    mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
+    assert list(mean.text) == ["", "", "fewest 1 interaction"] and mean.marker.symbol[2] == "circle-open"
+    one = d[d["participant"] == d["participant"].iloc[0]].assign(interactions=lambda x: x["day"].map({1: 15, 2: 15, 3: 3}))
+    mean = next(t for t in success_figure(one).data if t.name == "success rate (mean)")
+    assert list(mean.text) == ["", "", "3 interactions"] and mean.marker.symbol[:2] == ("circle", "circle")
     no_count = next(t for t in success_figure(daily().drop(columns="interactions")).data
                     if t.name == "success rate (mean)")
     assert list(no_count.text) == ["", "", ""]  # a daily.csv without the column draws as before
+
+
+def test_fig3_cumulative_feedback_hover_keeps_the_half():
+    """The mean cumulative feedback 12.5: the hover said 13, the metric above it 12."""
+    d = daily()
+    d.loc[(d["day"] == 2) & (d["participant"] == d["participant"].iloc[0]), "cumulative_feedback"] = 15
+    cumulative = next(t for t in success_figure(d).data if t.name == "cumulative feedback (mean)")
+    assert list(cumulative.customdata) == ["10 data points", "17.5 data points", "30 data points"]
+    assert "%{customdata}" in cumulative.hovertemplate
+    assert data_points(1.0) == "1 data point" and data_points(104.04) == "104 data points"
 
 
 def test_a_day_at_100_percent_is_drawn_whole():
