@@ -49,7 +49,7 @@ from cacas.simulator import ContextSource, ResponseModel, StateGenerator, prefer
 from cacas.user_model import UMA, DecisionModel
 
 Progress = Callable[[float, str], None]
-METHODS = ("cacas", "cacas-no-pr", "orl", "nn", "bandit", "sac-user-data")
+METHODS = records.METHOD_ORDER
 INITIAL_POLICY_FILE = "initial_policy.pt"
 
 

@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from cacas.errors import CacasError
+from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files
 from cacas.store.restore import RESTORE_COLUMNS, restore
@@ -95,7 +96,7 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
     have = set(zip(days["participant"], days["day"].astype(int)))
     keep = [(p, int(d)) in have for p, d in zip(run["participant"], run["day"])]
     run = run[keep].astype({"day": "int64", "run": "int64"})
-    return run.sort_values(["participant", "method", "day"]).reset_index(drop=True)[cols]
+    return records.in_method_order(run, ["participant", "method", "day"]).reset_index(drop=True)[cols]
 
 
 def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:

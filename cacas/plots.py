@@ -10,6 +10,8 @@ import pandas as pd
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
 
+from cacas import records
+
 #: Fig. 3's dashed line, daily.csv's success_ceiling: the share of the day's interactions in a context where a
 #: described preference names an action (the success rate proposing the described preferences would reach there)
 CEILING_NAME = "where a described preference names an action (mean)"
@@ -21,10 +23,10 @@ METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b"
 
 def in_method_order(methods) -> list[str]:
     """The methods given, each once, in one order on every page and figure: the paper's (CACAS,
-    w/o PR, ORL, NN; :data:`METHOD_LABELS`), then ours, then any other as given. (Each table
-    took its data's order: a human study's export is sorted by name, so NN came before ORL there
-    and after it elsewhere.)"""
-    rank = {m: i for i, m in enumerate(METHOD_LABELS)}
+    w/o PR, ORL, NN; :data:`cacas.records.METHOD_ORDER`), then ours, then any other as given.
+    (Each table took its data's order: a human study's export was sorted by name, so NN came
+    before ORL there and after it elsewhere.)"""
+    rank = {m: i for i, m in enumerate(records.METHOD_ORDER)}
     given = list(dict.fromkeys(methods))
     return sorted(given, key=lambda m: (rank.get(m, len(rank)), given.index(m)))
 

@@ -16,6 +16,18 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
+#: The methods, in one order on every table, figure and CSV: the paper's (Fig. 4: CACAS, CACAS
+#: w/o PR, ORL, NN), then ours (``cacas.adaptation.METHODS``).
+METHOD_ORDER = ("cacas", "cacas-no-pr", "orl", "nn", "bandit", "sac-user-data")
+
+
+def in_method_order(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+    """``table`` sorted by ``keys``, its ``method`` column in :data:`METHOD_ORDER` (any other
+    method after those, by name), not by name (a human study's export had NN before ORL)."""
+    rank = {m: f"{i:02d}" for i, m in enumerate(METHOD_ORDER)}
+    return table.sort_values(keys, kind="stable", key=lambda c: c.map(lambda m: rank.get(m, f"99{m}"))
+                             if c.name == "method" else c)
+
 #: Who started an interaction (Table II's conversation type).
 ROBOT_INITIATED = "type_1"
 USER_INITIATED = "type_2"
@@ -204,7 +216,7 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
                                                    zip(daily.loc[quiet, "participant"], daily.loc[quiet, "day"])]
     for col in counts + ["cumulative_feedback"]:
         daily[col] = pd.array(pd.to_numeric(daily[col]), dtype="Int64")
-    return daily.sort_values(keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
+    return in_method_order(daily, keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
 
 
 _CSV_FORMAT = dict(index=False, float_format="%.6f", lineterminator="\n")

@@ -143,6 +143,22 @@ def test_by_preference_table_follows_the_runs_in_force(store):
         assert math.isclose(daily.loc[(row.participant, row.method, row.day)], row.accuracy)
 
 
+def test_tables_list_the_methods_in_the_papers_order(store):
+    """daily.csv and by_preference.csv of a human study: CACAS, w/o PR, ORL, NN, then ours, as
+    ``cacas simulate`` writes them (review: sorted by name, NN came before ORL)."""
+    pref = [{"preference": 1, "label": "cough -> pain check", "activity": "cough", "action": "pain check",
+             "states": 400, "correct": 100}]
+    for method in ("orl", "bandit", "nn", "cacas-no-pr"):
+        for day in (0, 1, 2):
+            store.record_adaptation("P01", day, method, {}, 0.0, {"preference_accuracy": 0.25, "by_preference": pref})
+    tables = export.export_tables(store)
+    order = ["cacas", "cacas-no-pr", "orl", "nn", "bandit"]
+    for name in ("daily", "by_preference"):
+        p01 = tables[name][tables[name]["participant"] == "P01"]
+        assert list(dict.fromkeys(p01["method"])) == order, name
+        assert list(p01.loc[p01["method"] == "orl", "day"]) == [1, 2]  # days in order within a method
+
+
 def test_next_day_accuracy_scores_the_policies_adapted_for_a_day_not_started(store):
     def ahead():
         table = export.next_day_accuracy(export.export_tables(store))
