@@ -171,6 +171,21 @@ def test_store_interactions_give_the_recorded_state(store):
     assert tuple(states[0][:4]) == (spaces.activity_index("cough"), 0, 4, spaces.interval_bin(30))
 
 
+def two_adapted_days(path, code: str, method: str, policy, **interaction) -> None:
+    """A participant who described coughs -> pain check, with two closed days of one cough each,
+    each adapted with ``method`` (``policy`` saved as that day's version, in force)."""
+    with StudyStore(path) as s:
+        s.add_participant(code)
+        s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+        for day in (1, 2):
+            start_day(s, code)
+            s.record_interaction(code, day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 **interaction)
+            s.close_day(code, day)
+            s.record_adaptation(code, day, method, {}, 1.0, {"preference_accuracy": 0.5},
+                                s.save_policy(code, day, method, policy.to_bytes(), activate=True))
+
+
 def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, policy):
     import cacas.adaptation
     from cacas.export import export_tables
@@ -178,17 +193,8 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
 
     monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
     path = tmp_path / "c.sqlite"
-    with StudyStore(path) as s:
-        s.add_participant("P01")
-        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-        for day in (1, 2):
-            start_day(s, "P01")
-            s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                                 robot_action="do nothing", response="accept", type="type_2",
-                                 user_action="pain check")
-            s.close_day("P01", day)
-            s.record_adaptation("P01", day, "cacas", {}, 1.0, {},
-                                s.save_policy("P01", day, "cacas", policy.to_bytes(), activate=False))
+    two_adapted_days(path, "P01", "cacas", policy, robot_action="do nothing", response="accept", type="type_2",
+                     user_action="pain check")
     seen = []
     real_adapt = cacas.adaptation.adapt_policy
 
@@ -240,16 +246,8 @@ def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, mon
         return AdaptationResult(policy, [], {"method": method}, 0.0)
     monkeypatch.setattr(cacas.adaptation, "adapt_policy", fake_adapt)
     path = tmp_path / "c.sqlite"
+    two_adapted_days(path, "E05", "nn", policy, robot_action="pain check", response="accept")  # the study's NN
     with StudyStore(path) as s:
-        s.add_participant("E05")
-        s.save_preferences("E05", [{"activity": ["cough"], "action": "pain check"}])
-        for day in (1, 2):
-            start_day(s, "E05")
-            s.record_interaction("E05", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                                 robot_action="pain check", response="accept")
-            s.close_day("E05", day)
-            s.record_adaptation("E05", day, "nn", {}, 1.0, {"preference_accuracy": 0.5},  # the study adapted with NN
-                                s.save_policy("E05", day, "nn", policy.to_bytes(), activate=True))
         s.record_adaptation("E05", 0, "nn", {"initial": True}, 0.0, {"preference_accuracy": 0.5})
         s.record_adaptation("E05", 0, "orl", {}, 0.0, {"preference_accuracy": 0.5})
         s.record_adaptation("E05", 1, "orl", {}, 1.0, {"preference_accuracy": 0.5})

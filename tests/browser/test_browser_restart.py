@@ -6,6 +6,8 @@ button, so the first tap after a restart was lost without a word (pages.ui.butto
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import pytest
 
 from cacas.store import StudyStore
@@ -15,32 +17,43 @@ from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speak
 pytestmark = pytest.mark.browser
 
 
+@contextmanager
+def app_to_restart(tmp_path, db):
+    """The app on a port of its own; yields its URL and ``restart()``, which stops the server and
+    starts it again on the same port and database (an open page reconnects by itself)."""
+    port = _free_port()
+    runs = [_run_app(tmp_path, port=port, CACAS_DB=str(db))]
+    url = next(runs[0])
+
+    def restart():
+        next(runs[-1], None)
+        runs.append(_run_app(tmp_path, port=port, CACAS_DB=str(db)))
+        next(runs[-1])
+    try:
+        yield url, restart
+    finally:
+        next(runs[-1], None)
+
+
 def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initial_policy):
     db = tmp_path / "study.sqlite"
     with StudyStore(db) as s:
         s.add_participant("P01")
         s.save_preferences("P01", [{"activity": ["use stove"], "scene": ["kitchen"], "action": "remind to turn off"}])
         s.open_day("P01")
-    port = _free_port()
-    first = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-    url = next(first)
     page = browser.new_page(viewport={"width": 1024, "height": 768})
     page.set_default_timeout(30_000)
-    goto(page, f"{url}/?participant=P01&view=tablet")
-    speaking_context(page, CANDIDATES)
-    next(first, None)  # the server stops, and starts again on the same port and database
-    second = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-    next(second)
-    try:
+    with app_to_restart(tmp_path, db) as (url, restart):
+        goto(page, f"{url}/?participant=P01&view=tablet")
+        speaking_context(page, CANDIDATES)
+        restart()
         page.wait_for_timeout(3_000)  # the page reconnects by itself
         button(page, "Accept").click()  # once
         shows(page, "Saved (accepted)", timeout=90_000)  # a new server loads the policy first
         with StudyStore(db, readonly=True) as s:
             rows = s.interactions_frame("P01", method=None)
         assert list(rows["response"]) == ["accept"] and list(rows["index"]) == [1]
-    finally:
-        page.close()
-        next(second, None)
+    page.close()
 
 
 def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, browser):
@@ -49,24 +62,17 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
     db = tmp_path / "study.sqlite"
     with StudyStore(db) as s:
         s.add_participant("P01")
-    port = _free_port()
-    first = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-    url = next(first)
     page = browser.new_page(viewport={"width": 1360, "height": 900})
     page.set_default_timeout(30_000)
-    goto(page, f"{url}/participants")
-    page.get_by_role("tab", name="Add a participant").click()
-    idle(page)
-    page.get_by_role("textbox", name="Pseudonymous code", exact=True).fill("P02")  # in a form: no rerun
-    next(first, None)  # the server stops, and starts again on the same port and database
-    second = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-    next(second)
-    try:
-        page.wait_for_timeout(3_000)  # the page reconnects by itself
+    with app_to_restart(tmp_path, db) as (url, restart):
+        goto(page, f"{url}/participants")
+        page.get_by_role("tab", name="Add a participant").click()
+        idle(page)
+        page.get_by_role("textbox", name="Pseudonymous code", exact=True).fill("P02")  # in a form: no rerun
+        restart()
+        page.wait_for_timeout(3_000)
         button(page, "Add participant").click()  # once
         shows(page, "Preferences of P02")
         with StudyStore(db, readonly=True) as s:
             assert [p.code for p in s.list_participants()] == ["P01", "P02"]
-    finally:
-        page.close()
-        next(second, None)
+    page.close()
