@@ -373,12 +373,17 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         days = {d.day: d for d in store.days(participant)}
         if day not in days:
             raise CacasError(f"participant {participant} has no day {day}")
-        data = store.interactions_frame(participant, method=None)
-        data = data[data["day"] <= day]
-        if not (data["day"] == day).any():
+        if max(days) != day:  # a page drawn before the next day began (save_adapted_policy checks again)
+            raise CacasError(f"day {day} of participant {participant} cannot be adapted any more: day {max(days)} "
+                             "has begun")
+        if day in adapted_days(store, participant):
+            raise CacasError(f"day {day} of participant {participant} is adapted already (from another tab?)")
+        if not len(store.interactions_frame(participant, method=None, day=day)):
             raise CacasError(f"day {day} of participant {participant} has no interactions; nothing to adapt from")
         say(0.0, f"closing day {day}" if days[day].is_open else f"day {day} is closed")
         store.close_day(participant, day)
+        data = store.interactions_frame(participant, method=None)  # read once the day is closed: all of it
+        data = data[data["day"] <= day]
         before, before_version = policy_in_force(store, participant)
         recorded = int(records.is_recorded(data).sum())
         say(0.02, f"adapting with {method} from {recorded} recorded interaction{'' if recorded == 1 else 's'} of "
@@ -399,9 +404,8 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
                 # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
                 store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
                                         scored_on_preferences(before, prefs, prefs_version))
-        version = store.save_policy(participant, day, method, result.policy.to_bytes(), activate=True)
-        params = dict(result.parameters, log=result.log)
-        store.record_adaptation(participant, day, method, params, float(result.duration_s), metrics, version)
+        version = store.save_adapted_policy(participant, day, method, result.policy.to_bytes(),
+                                            dict(result.parameters, log=result.log), float(result.duration_s), metrics)
         changes = policy_changes(before, result.policy, data)
         say(1.0, f"policy version {version} saved; in force from day {day + 1}")
         return DayAdaptation(participant, day, method, version, float(result.duration_s), list(result.log),

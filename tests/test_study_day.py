@@ -3,6 +3,7 @@ import dataclasses
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from cacas import records, spaces
@@ -375,6 +376,87 @@ def test_every_version_is_scored_on_the_same_test_states_whatever_the_adaptation
     assert runs["preference_accuracy"].iloc[-1] == pytest.approx(expected["preference_accuracy"])
     # each run names the version of the described preferences it was scored against
     assert [json.loads(m)["preferences_version"] for m in runs["metrics"]] == [1, 1]
+
+
+def _day_one_with_a_request(path) -> None:
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        start_day(s, "P01")
+        s.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="do nothing", response="accept", type="type_2", user_action="pain check")
+
+
+def test_a_day_is_adapted_once(tmp_path, monkeypatch, policy):
+    """Walkthrough: an Adaptation tab drawn before day 1 was adapted elsewhere adapted it again
+    during day 2 (the same data twice; a new policy put in force in the middle of day 2), without a
+    word. Refused before training and, for two servers finishing together, when saving."""
+    import cacas.adaptation
+    from cacas.study_day import adapt_day
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "s.sqlite"
+    _day_one_with_a_request(path)
+    adapt_day(path, "P01", 1, method="nn")
+    with pytest.raises(CacasError, match="day 1 of participant P01 is adapted already"):
+        adapt_day(path, "P01", 1, method="nn")
+    with StudyStore(path) as s:
+        start_day(s, "P01")
+        s.record_interaction("P01", 2, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    with pytest.raises(CacasError, match="day 1 of participant P01 cannot be adapted any more: day 2 has begun"):
+        adapt_day(path, "P01", 1, method="nn")
+    with StudyStore(path) as s:  # the last line of defence: the save itself, in one transaction
+        with pytest.raises(CacasError, match="cannot be adapted any more: day 2 has begun; nothing was saved"):
+            s.save_adapted_policy("P01", 1, "nn", policy.to_bytes(), {}, 1.0, {})
+        s.close_day("P01", 2)
+        version = s.save_adapted_policy("P01", 2, "nn", policy.to_bytes(), {"epochs": 1}, 1.0, {"x": 1})
+        with pytest.raises(CacasError, match=r"day 2 of participant P01 is adapted already \(policy version 2"):
+            s.save_adapted_policy("P01", 2, "nn", policy.to_bytes(), {}, 1.0, {})
+        assert [(p.version, p.day, p.active) for p in s.policy_versions("P01")] == [(1, 1, False), (2, 2, True)]
+        runs = s.adaptations_frame("P01")
+        assert [(d, None if pd.isna(v) else int(v)) for d, v in zip(runs["day"], runs["policy_version"])] == \
+            [(0, None), (1, 1), (2, version)]
+
+
+def test_the_adapted_policy_and_its_run_are_saved_together(tmp_path, monkeypatch, policy):
+    """Walkthrough: killed between saving the policy and recording its run, a day showed as
+    adapted with no run (no log, no accuracy, no way to adapt it again). One transaction now: a
+    run that fails to be recorded leaves neither (and no file)."""
+    path = tmp_path / "s.sqlite"
+    _day_one_with_a_request(path)
+    with StudyStore(path) as s:
+        s.close_day("P01", 1)
+        with pytest.raises(CacasError, match="metrics"):
+            s.save_adapted_policy("P01", 1, "nn", policy.to_bytes(), {}, 1.0, {"bad": object()})
+        assert s.policy_versions("P01") == [] and s.adaptations_frame("P01").empty
+        assert not list((path.parent / "policies").rglob("*.pt"))
+        assert day_status(s, "P01").waiting_for_adaptation
+
+
+def test_the_adaptation_reads_the_day_once_it_is_closed(tmp_path, monkeypatch, policy):
+    """Walkthrough: an answer saved between reading the day's data and closing the day was kept on
+    the day but not adapted from."""
+    import cacas.adaptation
+    import cacas.study_day
+    from cacas.study_day import adapt_day
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "s.sqlite"
+    _day_one_with_a_request(path)
+    real_close = StudyStore.close_day
+
+    def close_after_one_more_answer(self, participant, day):  # the tablet's answer arrives just before
+        with StudyStore(path) as other:
+            other.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                                     robot_action="pain check", response="accept")
+        return real_close(self, participant, day)
+    monkeypatch.setattr(StudyStore, "close_day", close_after_one_more_answer)
+    said = []
+    adapt_day(path, "P01", 1, method="nn", progress=lambda f, m: said.append(m))
+    assert any(m.startswith("adapting with nn from 2 recorded interactions of day 1") for m in said)
+    with StudyStore(path) as s:
+        assert json.loads(s.adaptations_frame("P01")["metrics"].iloc[-1])["interactions"] == 2
 
 
 def test_an_answer_is_told_from_another_screens_answer(store, policy):

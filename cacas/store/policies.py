@@ -23,24 +23,32 @@ class PoliciesMixin:
         ``method``; ``parameters`` and ``metrics`` are JSON-able dicts (metrics key
         "preference_accuracy" feeds daily.csv), ``policy_version`` the checkpoint it produced.
         Returns the run's id."""
-        method = v.method(method)
-        day = v.integer(day, "day", 0)  # 0: the initial policy
-        params_json, metrics_json = v.json_dict(parameters, "parameters"), v.json_dict(metrics, "metrics")
-        duration = v.number(duration_s, "duration_s", 0)
+        method, day = v.method(method), v.integer(day, "day", 0)  # 0: the initial policy
+        run = self._adaptation_row(parameters, duration_s, metrics)
         code = str(participant).strip()
 
         def fn(c):
             pid = self._pid(c, participant)
             if day:
                 self._day_row(c, pid, code, day)
-            version = self._check_version(c, pid, code, policy_version)
-            cur = c.execute("INSERT INTO adaptations (participant_id, day, method, parameters, duration_s, "
-                            "metrics, policy_version, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
-                            (pid, day, method, params_json, duration, metrics_json, version, v.now()))
-            self._event(c, "record_adaptation", code, day=day, method=method, id=cur.lastrowid,
-                        duration_s=duration, policy_version=version)
-            return cur.lastrowid
+            return self._insert_adaptation(c, pid, code, day, method, run,
+                                           self._check_version(c, pid, code, policy_version))
         return self._write(fn)
+
+    @staticmethod
+    def _adaptation_row(parameters: dict, duration_s: float, metrics: dict) -> tuple:
+        return (v.json_dict(parameters, "parameters"), v.number(duration_s, "duration_s", 0),
+                v.json_dict(metrics, "metrics"))
+
+    def _insert_adaptation(self, c, pid: int, code: str, day: int, method: str, run: tuple,
+                           version: int | None) -> int:
+        params_json, duration, metrics_json = run
+        cur = c.execute("INSERT INTO adaptations (participant_id, day, method, parameters, duration_s, "
+                        "metrics, policy_version, created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                        (pid, day, method, params_json, duration, metrics_json, version, v.now()))
+        self._event(c, "record_adaptation", code, day=day, method=method, id=cur.lastrowid,
+                    duration_s=duration, policy_version=version)
+        return cur.lastrowid
 
     def adaptations_frame(self, participant: str | None = None, study: str | None = None) -> pd.DataFrame:
         """adaptations.csv: participant, day, method, parameters (JSON), duration_s, metrics
@@ -71,9 +79,46 @@ class PoliciesMixin:
         version number (1..n per participant); with ``activate`` it becomes the policy in force.
         """
         method, day = v.method(method), v.integer(day, "day", 0)
+        code = v.code(participant)
+
+        def fn(c, rel, digest, size):
+            return self._insert_policy(c, self._pid(c, code), code, day, method, rel, digest, size, activate)
+        return self._with_policy_file(code, day, method, data, fn)
+
+    def save_adapted_policy(self, participant: str, day: int, method: str, data: bytes, parameters: dict,
+                            duration_s: float, metrics: dict) -> int:
+        """The end of a day's adaptation (Table III step 2), all or nothing: the policy adapted
+        from days 1..``day`` saved and put in force, and its run recorded, in one transaction.
+        Refused, nothing written, when ``day`` is no longer the participant's latest day or a
+        policy was adapted after it meanwhile (another tab or server adapted it: a second run
+        would adapt the same data twice and replace the policy in force during the next day).
+        Returns the new version."""
+        method, day = v.method(method), v.integer(day, "day", 1)
+        code = v.code(participant)
+        run = self._adaptation_row(parameters, duration_s, metrics)
+
+        def fn(c, rel, digest, size):
+            pid = self._pid(c, code)
+            self._day_row(c, pid, code, day)
+            latest = c.execute("SELECT MAX(day) FROM days WHERE participant_id = ?", (pid,)).fetchone()[0]
+            if latest != day:
+                raise CacasError(f"day {day} of participant {code} cannot be adapted any more: day {latest} has "
+                                 "begun; nothing was saved")
+            done = c.execute("SELECT MAX(version) FROM policies WHERE participant_id = ? AND day = ?",
+                             (pid, day)).fetchone()[0]
+            if done is not None:
+                raise CacasError(f"day {day} of participant {code} is adapted already (policy version {done}, "
+                                 "from another tab or server?); nothing was saved")
+            version = self._insert_policy(c, pid, code, day, method, rel, digest, size, activate=True)
+            self._insert_adaptation(c, pid, code, day, method, run, version)
+            return version
+        return self._with_policy_file(code, day, method, data, fn)
+
+    def _with_policy_file(self, code: str, day: int, method: str, data: bytes, fn):
+        """Write the checkpoint file of ``data``, then ``fn(c, rel, digest, size)`` in a write
+        transaction; the file is removed again if the transaction fails (no file without its row)."""
         if not isinstance(data, (bytes, bytearray)) or not data:
             raise CacasError("policy data must be non-empty bytes (ReshapedPolicy.to_bytes())")
-        code = v.code(participant)
         digest = files.sha256(bytes(data))
         rel = f"{code}/day{day}-{method}-{digest[:8]}.pt"
 
@@ -85,24 +130,22 @@ class PoliciesMixin:
         if self.readonly:
             raise CacasError(f"{self.path}: opened read-only; nothing was written")
         files.atomic_write(self.policy_dir / rel, bytes(data))
-
-        def fn(c):
-            pid = self._pid(c, code)
-            version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM policies WHERE participant_id = ?",
-                                (pid,)).fetchone()[0]
-            c.execute("INSERT INTO policies (participant_id, version, day, method, path, sha256, size, created_at) "
-                      "VALUES (?, ?, ?, ?, ?, ?, ?, ?)", (pid, version, day, method, rel, digest, len(data), v.now()))
-            if activate:
-                c.execute("UPDATE participants SET active_policy = ?, updated_at = ? WHERE id = ?",
-                          (version, v.now(), pid))
-            self._event(c, "save_policy", code, version=version, day=day, method=method, sha256=digest,
-                        active=activate)
-            return version
         try:
-            return self._write(fn)
+            return self._write(lambda c: fn(c, rel, digest, len(data)))
         except BaseException:  # e.g. the participant was removed meanwhile: no file without its row
             self._drop_unreferenced(rel)
             raise
+
+    def _insert_policy(self, c, pid: int, code: str, day: int, method: str, rel: str, digest: str, size: int,
+                       activate: bool) -> int:
+        version = c.execute("SELECT COALESCE(MAX(version), 0) + 1 FROM policies WHERE participant_id = ?",
+                            (pid,)).fetchone()[0]
+        c.execute("INSERT INTO policies (participant_id, version, day, method, path, sha256, size, created_at) "
+                  "VALUES (?, ?, ?, ?, ?, ?, ?, ?)", (pid, version, day, method, rel, digest, size, v.now()))
+        if activate:
+            c.execute("UPDATE participants SET active_policy = ?, updated_at = ? WHERE id = ?", (version, v.now(), pid))
+        self._event(c, "save_policy", code, version=version, day=day, method=method, sha256=digest, active=activate)
+        return version
 
     def _drop_unreferenced(self, rel: str) -> None:
         """Delete the checkpoint file ``rel`` (and its folder, if left empty) unless a policy
