@@ -6,6 +6,7 @@ from cacas import app_support, spaces
 from cacas.preferences import persona_json
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER
+from cacas.store.people import PreferencesChanged
 from cacas.study_day import day_status
 from pages import ui
 
@@ -137,7 +138,12 @@ def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
     if person is None:
         return
     try:
-        new_version = store.save_preferences(who, person)
+        new_version = store.save_preferences(who, person, edited_version=version)
+    except PreferencesChanged as exc:  # the form is of an older version now: it shows the latest next
+        s.pop("pref-check", None)
+        s["pref-conflict"] = (who, f"Not saved: {exc}. The form now shows the latest version: make your "
+                                   "changes again on it.")
+        return
     except CacasError as exc:
         s["pref-check"] = (who, {}, str(exc), _form_values(who, version))
         return
@@ -321,7 +327,10 @@ if code:
         if stale:  # e.g. a persona file imported meanwhile: the form would edit a version no longer in force
             was_unsaved = st.session_state.get(ui.UNSAVED_FORMS_KEY, {}).get(code)
             _drop_form(code)
-            if was_unsaved:
+            conflict = st.session_state.pop("pref-conflict", None)
+            if conflict and conflict[0] == code:
+                st.error(conflict[1], icon=":material/error:")
+            elif was_unsaved:
                 st.warning(f"Changes typed on the form of version {', '.join(sorted(stale))} were not saved: "
                            f"version {version} of {code}'s preferences was saved meanwhile (e.g. by an import), "
                            "and the form now shows it.", icon=":material/warning:")

@@ -657,3 +657,13 @@ def test_interactions_of_one_day(store):
     assert len(store.interactions_frame("P01", method=None, day=day + 1)) == 0
     with pytest.raises(CacasError, match="day"):
         store.interactions_frame("P01", method=None, day=0)
+
+
+def test_the_store_refuses_preferences_edited_from_an_older_version(store):
+    from cacas.store.people import PreferencesChanged
+
+    store.add_participant("P09")
+    assert store.save_preferences("P09", [{"activity": ["cough"], "action": "pain check"}], edited_version=0) == 1
+    with pytest.raises(PreferencesChanged, match="version 1 of P09's preferences was saved"):
+        store.save_preferences("P09", [{"activity": ["cough"], "action": "chitchat"}], edited_version=0)
+    assert store.save_preferences("P09", [{"activity": ["cough"], "action": "chitchat"}], edited_version=1) == 2

@@ -17,6 +17,10 @@ from cacas.store import validate as v
 from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
 
 
+class PreferencesChanged(CacasError):
+    """Preferences edited from a version that is no longer the latest (``save_preferences``)."""
+
+
 def _remove_if_empty(folder) -> None:
     try:
         folder.rmdir()
@@ -302,7 +306,7 @@ class PeopleMixin:
             items = [p.to_dict() if isinstance(p, prefs.Preference) else p for p in (preferences or [])]
         return prefs.parse_participant({"id": code, "preferences": items})
 
-    def save_preferences(self, code: str, preferences: Any) -> int:
+    def save_preferences(self, code: str, preferences: Any, edited_version: int | None = None) -> int:
         """Store a participant's described preferences as a new version; return the version
         (preferences equal to the latest version are not stored again: its number is returned).
 
@@ -311,13 +315,25 @@ class PeopleMixin:
         or :class:`cacas.preferences.Participant` (another participant's is refused). Validated with
         :func:`cacas.preferences.parse_participant` (fields, names, conflicts); an invalid one
         raises CacasError naming the preference and field, and nothing is written.
+        ``edited_version``: the version these preferences were edited from (0: none); refused,
+        nothing written, if another version was saved since (two researchers on one form: the
+        later save undid the earlier one without a word).
         """
         code = str(code).strip()
         person = self._parse_preferences(code, preferences)
         prefs.check_private_words(person)  # on the way in only: versions saved before the check still read
 
         def fn(c):
-            return self._save_version(c, self._pid(c, code), code, person)
+            pid = self._pid(c, code)
+            if edited_version is not None:
+                latest = c.execute("SELECT COALESCE(MAX(version), 0) FROM preferences WHERE participant_id = ?",
+                                   (pid,)).fetchone()[0]
+                if latest != edited_version:
+                    raise PreferencesChanged(
+                        f"version {latest} of {code}'s preferences was saved (in another tab, or by an import) "
+                        f"while these changes were made to version {edited_version}; nothing was saved, as saving "
+                        "would undo it")
+            return self._save_version(c, pid, code, person)
         return self._write(fn)
 
     @staticmethod

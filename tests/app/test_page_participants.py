@@ -299,6 +299,26 @@ def test_unsaved_changes_on_a_version_replaced_meanwhile_are_said_to_be_lost(app
     assert not at.warning  # said once; the sidebar (drawn before the page noticed) says nothing now
 
 
+def test_saving_a_form_of_a_version_replaced_meanwhile_undoes_nothing(app, store):
+    """Walkthrough: two tabs on P01's version 1; the second to save wrote version 3 = version 1 plus
+    its change, undoing the first tab's version 2 without a word. Refused now, and said."""
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 1, 1, action="show compassion")
+    at.run()
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "chitchat"}])  # the other tab saves first
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert [p["version"] for p in store.preference_versions("P01")] == [1, 2]
+    assert store.get_preferences("P01").preferences[0].action == "chitchat"  # the other tab's save stands
+    assert [e.value for e in at.main.error] == [
+        "Not saved: version 2 of P01's preferences was saved (in another tab, or by an import) while these "
+        "changes were made to version 1; nothing was saved, as saving would undo it. The form now shows the "
+        "latest version: make your changes again on it."]
+    assert at.selectbox(key="pf-P01-v2-1-action").value == "chitchat" and not at.main.warning
+
+
 def test_contact_details_in_a_preferences_words_are_refused_in_place(app, store):
     store.add_participant("P01")
     at = app(PAGE, participant="P01")
