@@ -108,6 +108,17 @@ def _start_day() -> None:
         st.toast(f"Day {day} started.", icon=":material/today:")
 
 
+def _status_or_gone():
+    """The participant's day status; None when they were removed meanwhile (a tap on a tablet left
+    open then showed a traceback naming the other participants): the page, run next, says that the
+    address names no participant."""
+    try:
+        return day_status(store, code)
+    except CacasError:
+        _cancel()
+        return None
+
+
 def _set_context() -> None:
     s = st.session_state
     missing = [what for what, key in (("the time of day", "ctx-slot"),
@@ -122,7 +133,9 @@ def _set_context() -> None:
         s["session-error"] = str(exc)
         return
     s["session-error"] = None
-    status = day_status(store, code)
+    status = _status_or_gone()
+    if status is None:
+        return
     # the proposal belongs to one interaction: the browser's Back button brings its address back after
     # it was answered, and the page must not take it for the next interaction (a second answer)
     st.query_params["ctx"], st.query_params["at"] = ctx.to_token(), _interaction_mark(status.day,
@@ -154,7 +167,9 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     """Write the answer once: it is for the day's interaction ``index``, so a second click (or a
     second tab) on the same proposal writes nothing (the store checks it as it writes)."""
     s = st.session_state
-    status = day_status(store, code)
+    status = _status_or_gone()
+    if status is None:
+        return
     if not status.open or status.day != day:  # the researcher closed the day while this proposal was on the tablet
         s["session-error"] = (f"This answer was not saved: day {day} was closed meanwhile. Ask the researcher "
                               "whether to start the next day.")

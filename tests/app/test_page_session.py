@@ -295,6 +295,25 @@ def test_an_answer_after_the_day_was_closed_meanwhile_says_it_was_not_saved(app,
     assert "ctx" not in at.query_params  # the closed day's proposal is gone: day 2 starts afresh
 
 
+@pytest.mark.parametrize("tap", ["answer", "do it"])
+def test_a_tap_after_the_participant_was_removed_says_the_address_names_no_one(app, store, p01, quick_policy, tap):
+    """Walkthrough: a tablet left open on a proposal (or the context form) when the researcher
+    removed its participant showed a traceback naming the other participants at the next tap."""
+    store.add_participant("P02")
+    store.open_day("P01")
+    query = dict(ctx="3.6.20.2", at="1.1") if tap == "answer" else {}
+    at = app(participant="P01", view="tablet", **query)
+    no_exception(at)
+    if tap == "do it":
+        for key, value in (("ctx-slot", 3), ("ctx-interval", 6), ("ctx-activity", "cough"), ("ctx-scene", "bedroom")):
+            at.session_state[key] = value
+    store.remove_participant("P01", confirm="P01")
+    label = next(b.label for b in at.button if b.label in ("Accept", "Nothing needed", "Do it"))
+    _button(at, label).click().run()
+    no_exception(at)
+    assert "names no known participant" in texts(at) and "P02" not in texts(at)
+
+
 def test_a_missing_policy_file_is_a_message_not_a_crash(app, store, p01, quick_policy):
     day = store.open_day("P01")
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
