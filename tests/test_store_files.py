@@ -5,7 +5,7 @@ import os
 import pytest
 
 from cacas.errors import CacasError
-from cacas.store import files
+from cacas.store import StudyStore, files
 from unwritable import unwritable_folder  # noqa: F401
 
 
@@ -67,3 +67,22 @@ def test_writable_file_without_creating_folders_wants_the_folder(tmp_path):
     with pytest.raises(CacasError, match="the folder .*absent does not exist"):
         files.writable_file(tmp_path / "absent" / "b.json", "--json", create_folders=False)
     assert files.writable_file(tmp_path / "b.json", "--json", create_folders=False) == tmp_path / "b.json"
+
+
+def test_a_database_opened_through_a_link_keeps_its_files_beside_the_file(tmp_path):
+    """Walkthrough: with CACAS_DB a symbolic link, policies were written beside the link, so an
+    export of the real file (and a backup of its folder) missed them; the writer lock differed too."""
+    real = tmp_path / "real" / "study.sqlite"
+    real.parent.mkdir()
+    link = tmp_path / "elsewhere" / "current.sqlite"
+    link.parent.mkdir()
+    link.symlink_to(real)
+    with StudyStore(link) as s:
+        s.add_participant("P01")
+        s.open_day("P01")
+        s.close_day("P01", 1)
+        s.save_policy("P01", 1, "cacas", b"a policy")
+        assert s.path == real and s.policy_dir == real.parent / "policies"
+    assert list((real.parent / "policies").rglob("*.pt")) and not (link.parent / "policies").exists()
+    with StudyStore(real, readonly=True) as s:
+        assert s.load_policy("P01") == b"a policy"

@@ -98,7 +98,9 @@ class StoreBase:
     """Connection handling shared by the method groups of StudyStore (see its docstring)."""
 
     def __init__(self, path: str | Path | None = None, readonly: bool = False):
-        self.path = Path(path) if path is not None else default_db_path()
+        # the file itself, not a link to it: its policies/ folder, writer lock and SQLite's -wal and
+        # -shm files sit beside it, whichever path (or link) opened it
+        self.path = (Path(path) if path is not None else default_db_path()).resolve()
         self.readonly = readonly
         self._lock = threading.RLock()
         self._conn = db.connect(self.path, readonly=readonly)
