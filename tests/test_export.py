@@ -317,6 +317,9 @@ def _rewrite(bundle, out, table, change):
     ("participants", lambda df: df.drop(columns=["study"]), "no column 'study'"),
     ("interactions", lambda df: df.assign(scene_model="resnet"),
      "interactions.csv, row 2: scene_model: 'resnet' is not a model id; valid: 12 hex digits"),
+    # walkthrough: imported, then every tablet answer failed with a TypeError
+    ("participants", lambda df: df.assign(active_policy=df["active_policy"].where(df["active_policy"] == "", "7")),
+     "participant P01's policy in force is version 7, which policies.csv does not have"),
 ])
 def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change, message):
     bundle = export.export_study(store, tmp_path / "out").bundle

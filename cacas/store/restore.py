@@ -195,7 +195,11 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
                       [(p(r[0], "days"), *r[1:]) for r in days])
         c.executemany("INSERT INTO policies (participant_id, version, day, method, path, sha256, size, "
                       "created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", [(p(r[0], "policies"), *r[1:]) for r in policies])
+        saved = {(r[0], r[1]) for r in policies}
         for code, _s, _a, _n, active, _c, _u in people:
+            if active is not None and (code, active) not in saved:  # the column has no foreign key
+                raise CacasError(f"participants.csv: participant {code}'s policy in force is version {active}, "
+                                 "which policies.csv does not have")
             c.execute("UPDATE participants SET active_policy = ? WHERE id = ?", (active, pid[code]))
         c.executemany(
             "INSERT INTO interactions (participant_id, day, idx, time, method, activity, scene, hour, time_slot, "
