@@ -24,6 +24,7 @@ from pathlib import Path
 import pandas as pd
 
 from cacas.errors import CacasError
+from cacas.store import recovery
 from cacas.store import validate as v
 from cacas.store.base import (DB_ENV, DEFAULT_STUDY, DayInfo, ParticipantInfo, PolicyVersion, ResumeInfo,
                               StoreBase, Study, default_db_path)
@@ -50,6 +51,8 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
 
     def __init__(self, path: str | Path | None = None, readonly: bool = False):
         super().__init__(path, readonly)
+        if not readonly:
+            recovery.tidy(self)  # what a removal or an import killed mid-way left beside the database
 
     # --- questionnaire (Section V-B.1) ---------------------------------------------------------
     def record_questionnaire(self, participant: str, satisfaction: int, comments: str = "") -> int:
