@@ -41,6 +41,7 @@ import torch
 
 from cacas import records, spaces
 from cacas.d4a import D4A, load_d4a
+from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, policy_from_bytes
 from cacas.preferences import Participant
@@ -186,10 +187,16 @@ def load_initial_policy(progress: Progress | None = None, path: str | Path | Non
     with ``config``'s step-1 settings (default: :class:`CACAAConfig`'s), from
     :func:`initial_policy_path`; trained (about half a minute with the defaults) and saved
     atomically on first use if the file is missing. A researcher's own D4A table, or a config
-    that trains step 1 otherwise, gets an initial policy of its own."""
+    that trains step 1 otherwise, gets an initial policy of its own. A damaged file (not a policy
+    any more) is moved aside as ``<name>.damaged-<ns>`` and the policy trained again: it is made
+    from the D4A pairs alone, the same on this machine (the tablet said to put another version in
+    force, which before day 1 there is not)."""
     path = Path(path) if path else initial_policy_path(d4a, config)
     if path.exists():
-        return policy_from_bytes(path.read_bytes())
+        try:
+            return policy_from_bytes(path.read_bytes())
+        except CacasError:
+            path.replace(path.with_name(f"{path.name}.damaged-{time.time_ns()}"))
     policy = train_initial_policy(d4a=d4a, config=config, progress=progress)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + f".{time.time_ns()}.tmp")
@@ -238,7 +245,6 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
     INTERACTION_COLUMNS rows of days 1..d. Never reads described preferences.
     """
     if method not in METHODS:
-        from cacas.errors import CacasError
         raise CacasError(f"unknown method {method!r}; valid: {', '.join(METHODS)}")
     _threads()
     cfg = config or CACAAConfig()

@@ -275,6 +275,23 @@ def test_policy_changes_list_every_context_most_frequent_then_most_recent_first(
     assert len(policy_changes(small_initial, small_initial, rows, top=3)) == 3
 
 
+def test_a_damaged_initial_policy_is_trained_again(monkeypatch, tmp_path, small_initial):
+    """Walkthrough: a damaged initial_policy.pt stopped every tablet with "not a CACAS policy file
+    (ValueError). The researcher can put another version in force", which before day 1 there is
+    not. It is made from the D4A pairs alone: trained again, the damaged file kept aside."""
+    path = tmp_path / "initial_policy.pt"
+    path.write_bytes(b"half a file")
+    trained = []
+    monkeypatch.setattr(adaptation, "train_initial_policy",
+                        lambda d4a=None, config=None, progress=None: trained.append(1) or small_initial)
+    policy = adaptation.load_initial_policy(path=path)
+    assert trained == [1] and policy.to_bytes() == small_initial.to_bytes() == path.read_bytes()
+    aside = list(tmp_path.glob("initial_policy.pt.damaged-*"))
+    assert len(aside) == 1 and aside[0].read_bytes() == b"half a file"
+    adaptation.load_initial_policy(path=path)
+    assert trained == [1]  # the new file is read from now on
+
+
 def test_a_d4a_table_of_ones_own_trains_an_initial_policy_of_its_own(monkeypatch, tmp_path, small_initial):
     """CACAA step 1 is trained against the D4A pairs: `--d4a FILE` used the shipped table's cached
     initial policy (walkthrough: day 1 identical to the default run with a table accepting only
