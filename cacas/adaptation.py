@@ -279,7 +279,6 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
             if sac.memory is None:
                 sac.memory = load_initial_policy(d4a=d4a, config=config).sac.memory
             if sac.memory is None:
-                from cacas.errors import CacasError
                 raise CacasError("ORL needs the initial policy's replay memory, and the initial policy file "
                                  f"has none; valid: a file written by this version ({initial_policy_path(d4a, config)})")
             sac.restore_memory(sac.memory)
