@@ -218,7 +218,7 @@ def _remove_participant(who: str) -> None:
     s = st.session_state
     codes = [p.code for p in store.list_participants(study)]
     try:
-        store.remove_participant(who, s.get(f"remove-confirm-{who}", ""))
+        gone = store.remove_participant(who, s.get(f"remove-confirm-{who}", ""))
     except CacasError as exc:
         s["remove-error"] = (who, str(exc))
         return
@@ -233,8 +233,15 @@ def _remove_participant(who: str) -> None:
     after = [c for c in rest if c > who]
     ui.select_participant(after[0] if after else (rest[-1] if rest else None))
     s.pop(OPEN_TAB, None)
-    s["removed"] = who
+    s["removed"] = (who, _kept_note(gone))
     st.toast(f"Participant {who} removed, with everything recorded about them.", icon=":material/delete:")
+
+
+def _kept_note(footprint) -> str:
+    """What the removal leaves of the participant's policy files, and why; "" if nothing."""
+    k = footprint.kept_files
+    return f"{k} policy file{'' if k == 1 else 's'} of {footprint.code} stay{'s' if k == 1 else ''}: " \
+           f"{footprint.kept_because}." if k else ""
 
 
 def _removal_section(who: str) -> None:
@@ -251,7 +258,7 @@ def _removal_section(who: str) -> None:
                 f"{n(left.adaptation_runs, 'adaptation run')}, {n(left.questionnaire_answers, 'questionnaire answer')} "
                 f"and their {n(left.events, 'event')} in the log, which keeps one entry: '{who} removed'.")
     st.caption("Exports and persona files downloaded before keep their copy: delete those by hand. "
-               "Simulation lab runs are not participant data and stay.")
+               "Simulation lab runs are not participant data and stay. " + _kept_note(left))
     if left.open_day is not None:
         st.warning(f"Day {left.open_day} is open ({n(left.open_day_interactions, 'interaction')} so far): removing "
                    f"{who} ends it and deletes it with the rest; their tablet then says its address names no "
@@ -273,8 +280,10 @@ def _removal_section(who: str) -> None:
 people = store.list_participants(study)
 removed = st.session_state.pop("removed", None)
 if removed:
-    st.success(f"Participant {removed} was removed, with everything recorded about them"
+    st.success(f"Participant {removed[0]} was removed, with everything recorded about them"
                + (f"; {code} is selected now." if code else "."), icon=":material/check_circle:")
+    if removed[1]:
+        st.warning(removed[1], icon=":material/folder_open:")
 tab_names = ([f"Preferences of {code}", f"Details of {code}"] if code else []) + ["Add a participant",
                                                                                   "Import / export"]
 if st.session_state.get(OPEN_TAB) not in tab_names:  # e.g. another participant chosen in the sidebar

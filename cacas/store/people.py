@@ -51,6 +51,8 @@ class Footprint:
     policy_files: int
     open_day: int | None
     open_day_interactions: int
+    kept_files: int = 0        # their policy files that stay, and why (a removal said "0 files" and kept them)
+    kept_because: str = ""
 
 
 class PeopleMixin:
@@ -125,7 +127,11 @@ class PeopleMixin:
         """The files under ``policies/<code>/`` that the other study databases in this folder name
         (they share ``policies/``: a pilot database beside the main one, a bundle imported twice),
         as policy paths; None when one of them cannot be read (then no file is certain to be
-        unused)."""
+        unused: :meth:`_beside` names it)."""
+        return self._beside(code)[0]
+
+    def _beside(self, code: str) -> tuple[set[str] | None, str]:
+        """(:meth:`_named_beside`, the name of a study database beside this one that cannot be read, or "")."""
         from cacas.store import db
 
         named: set[str] = set()
@@ -139,30 +145,34 @@ class PeopleMixin:
             except db.NotAStudyDatabase:
                 continue  # a CSV, a notes file, another application's database, ...
             except CacasError:
-                return None  # a study database that cannot be read (busy, damaged): keep every file
+                return None, other.name  # a study database that cannot be read (busy, damaged): keep every file
             try:
                 rows = conn.execute("SELECT path FROM policies").fetchall()  # a few rows a day
             except Exception:  # noqa: BLE001 - unreadable, busy, damaged: keep every file
-                return None
+                return None, other.name
             finally:
                 conn.close()
             named.update(r[0] for r in rows)
-        return named
+        return named, ""
 
-    def _files_to_remove(self, code: str) -> list:
+    def _files_to_remove(self, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
-        names: removing the participant deletes these, and keeps the others'."""
+        names: removing the participant deletes these, and keeps the others'; with the number kept
+        and why."""
         folder = self._participant_folder(code)
         if not folder.is_dir():
-            return []
-        named = self._named_beside(code)
+            return [], 0, ""
+        every = [f for f in sorted(folder.rglob("*")) if f.is_file()]
+        named, unreadable = self._beside(code)
         if named is None:
-            return []
-        return [f for f in sorted(folder.rglob("*")) if f.is_file()
-                and f.relative_to(self.policy_dir).as_posix() not in named]
+            return [], len(every), (f"the study database {unreadable} beside this one cannot be read, and may use "
+                                    f"them: delete policies/{code}/ by hand once you know it does not")
+        doomed = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
+        kept = len(every) - len(doomed)
+        return doomed, kept, "another study database beside this one uses them" if kept else ""
 
-    def _footprint(self, c, pid: int, code: str, files: list | None = None) -> Footprint:
-        """``files``: the policy files that would go, if the caller has them (else found here)."""
+    def _footprint(self, c, pid: int, code: str, files: tuple | None = None) -> Footprint:
+        """``files``: :meth:`_files_to_remove`'s answer, if the caller has it (else found here)."""
         def count(table: str) -> int:
             return c.execute(f"SELECT COUNT(*) FROM {table} WHERE participant_id = ?", (pid,)).fetchone()[0]
 
@@ -172,9 +182,10 @@ class PeopleMixin:
         today = 0 if open_day is None else c.execute(
             "SELECT COUNT(*) FROM interactions WHERE participant_id = ? AND day = ?", (pid, open_day)).fetchone()[0]
         events = c.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
+        doomed, kept, why = self._files_to_remove(code) if files is None else files
         return Footprint(code, count("days"), count("interactions"), count("preferences"), count("policies"),
-                         count("adaptations"), count("questionnaires"), events,
-                         len(self._files_to_remove(code) if files is None else files), open_day, today)
+                         count("adaptations"), count("questionnaires"), events, len(doomed), open_day, today,
+                         kept, why)
 
     def participant_footprint(self, code: str) -> Footprint:
         """What :meth:`remove_participant` would delete for ``code`` (counts; see
@@ -213,8 +224,9 @@ class PeopleMixin:
             pid = self._pid(c, code)
             study = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                               "WHERE p.id = ?", (pid,)).fetchone()[0]
-            doomed = self._files_to_remove(code)  # read the neighbouring databases once
-            removed = self._footprint(c, pid, code, doomed)
+            files = self._files_to_remove(code)  # read the neighbouring databases once
+            doomed = files[0]
+            removed = self._footprint(c, pid, code, files)
             c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
             try:
                 for table in PARTICIPANT_TABLES:

@@ -461,6 +461,28 @@ def test_removing_the_last_participant_leaves_none_selected(app, store):
     no_exception(at)
 
 
+def test_policy_files_a_removal_keeps_are_said_before_and_after(app, store):
+    """Walkthrough: with a damaged study database beside this one, the removal said "(0 files)" and
+    kept every policy file without a word."""
+    store.add_participant("P01")
+    store.open_day("P01")
+    store.close_day("P01", 1)
+    store.save_policy("P01", 1, "cacas", b"P01's policy")
+    from cacas.store import StudyStore
+
+    intact = store.path.parent / "other" / "intact.sqlite"  # a study database's header, not read from the open one
+    StudyStore(intact).close()
+    (store.path.parent / "copy.sqlite").write_bytes(intact.read_bytes()[:100] + b"\0" * 4000)
+    at = app(PAGE, participant="P01")
+    said = ("1 policy file of P01 stays: the study database copy.sqlite beside this one cannot be read, and may "
+            "use them: delete policies/P01/ by hand once you know it does not.")
+    assert any(said in c.value for c in at.caption)
+    at.text_input(key="remove-confirm-P01").set_value("P01").run()
+    _remove_button(at, "P01").click().run()
+    no_exception(at)
+    assert [w.value for w in at.main.warning] == [said]
+
+
 def test_a_save_error_goes_once_the_form_changes(app, store):
     """An empty save says what to do; once the preferences are filled (or after leaving and
     coming back to the page) that message is gone: it was about a form that is no longer there."""
