@@ -234,7 +234,8 @@ def _remove_participant(who: str) -> None:
     ui.select_participant(after[0] if after else (rest[-1] if rest else None))
     s.pop(OPEN_TAB, None)
     s["removed"] = (who, _kept_note(gone))
-    st.toast(f"Participant {who} removed, with everything recorded about them.", icon=":material/delete:")
+    st.toast(f"Participant {who} removed, with everything recorded about them"
+             + (" but policy files named at the top of the page." if gone.kept_files else "."), icon=":material/delete:")
 
 
 def _kept_note(footprint) -> str:

@@ -219,7 +219,7 @@ def test_another_database_in_the_folder_keeps_its_policy_files(store):
     pilot = _beside(store, "pilot.sqlite")
     footprint = store.participant_footprint("P01")
     assert footprint.policy_files == 2  # its own two files, not the pilot's
-    assert (footprint.kept_files, footprint.kept_because) == (1, "another study database beside this one uses them")
+    assert (footprint.kept_files, footprint.kept_because) == (1, "another study database beside this one names these files")
     store.remove_participant("P01", "P01")
     assert pilot.load_policy("P01") == b"pilot.sqlite's own P01"
     assert [p.name for p in (store.policy_dir / "P01").iterdir()] == [pilot.active_policy("P01").path.name]
@@ -255,8 +255,8 @@ def test_an_unreadable_database_beside_keeps_every_file(store):
     assert before.policy_files == 0
     # ... and says so (walkthrough: "0 files" and nothing more, the files staying without a word)
     assert before.kept_files == len(files) == 2
-    assert before.kept_because == ("the study database damaged.sqlite beside this one cannot be read, and may use "
-                                   "them: delete policies/P01/ by hand once you know it does not")
+    assert before.kept_because == ("the study database damaged.sqlite beside this one cannot be read, and may name "
+                                   "these files: delete policies/P01/ by hand once you know it does not")
     removed = store.remove_participant("P01", "P01")
     assert (removed.kept_files, removed.kept_because) == (before.kept_files, before.kept_because)
     assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files

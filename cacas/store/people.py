@@ -165,11 +165,11 @@ class PeopleMixin:
         every = [f for f in sorted(folder.rglob("*")) if f.is_file()]
         named, unreadable = self._beside(code)
         if named is None:
-            return [], len(every), (f"the study database {unreadable} beside this one cannot be read, and may use "
-                                    f"them: delete policies/{code}/ by hand once you know it does not")
+            return [], len(every), (f"the study database {unreadable} beside this one cannot be read, and may name "
+                                    f"these files: delete policies/{code}/ by hand once you know it does not")
         doomed = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
         kept = len(every) - len(doomed)
-        return doomed, kept, "another study database beside this one uses them" if kept else ""
+        return doomed, kept, "another study database beside this one names these files" if kept else ""
 
     def _footprint(self, c, pid: int, code: str, files: tuple | None = None) -> Footprint:
         """``files``: :meth:`_files_to_remove`'s answer, if the caller has it (else found here)."""

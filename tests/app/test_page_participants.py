@@ -475,7 +475,7 @@ def test_policy_files_a_removal_keeps_are_said_before_and_after(app, store):
     (store.path.parent / "copy.sqlite").write_bytes(intact.read_bytes()[:100] + b"\0" * 4000)
     at = app(PAGE, participant="P01")
     said = ("1 policy file of P01 stays: the study database copy.sqlite beside this one cannot be read, and may "
-            "use them: delete policies/P01/ by hand once you know it does not.")
+            "name these files: delete policies/P01/ by hand once you know it does not.")
     assert any(said in c.value for c in at.caption)
     at.text_input(key="remove-confirm-P01").set_value("P01").run()
     _remove_button(at, "P01").click().run()
