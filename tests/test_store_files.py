@@ -86,3 +86,20 @@ def test_a_database_opened_through_a_link_keeps_its_files_beside_the_file(tmp_pa
     assert list((real.parent / "policies").rglob("*.pt")) and not (link.parent / "policies").exists()
     with StudyStore(real, readonly=True) as s:
         assert s.load_policy("P01") == b"a policy"
+
+
+def test_a_damaged_study_database_is_called_damaged(tmp_path):
+    """Walkthrough: a truncated study database was refused as "is not a study database (database
+    disk image is malformed)"; it is one, damaged. The file is left as it was."""
+    intact = tmp_path / "intact.sqlite"
+    with StudyStore(intact) as s:
+        for i in range(300):  # pages beyond the header
+            s.add_participant(f"P{i:03d}", notes="x" * 200)
+    damaged = tmp_path / "study.sqlite"
+    data = intact.read_bytes()
+    damaged.write_bytes(data[:4096] + b"\0" * (len(data) - 4096))
+    before = damaged.read_bytes()
+    with pytest.raises(CacasError, match=r"study.sqlite: the database file is damaged \(.*malformed.*\); nothing "
+                                         r"was changed\. Restore it from a backup or an export"):
+        StudyStore(damaged)
+    assert damaged.read_bytes() == before

@@ -300,6 +300,9 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
         if "unable to open" in str(exc) or "readonly" in str(exc):
             raise CacasError(f"{path}: cannot open the study database for writing ({exc}); check that the file and "
                              "its folder are writable") from None
+        if "malformed" in str(exc).lower():  # a study database's header, damaged further on (truncated, ...)
+            raise CacasError(f"{path}: the database file is damaged ({exc}); nothing was changed. Restore it from "
+                             "a backup or an export") from None
         raise CacasError(f"{path}: is not a study database ({exc})") from None
     except BaseException:
         conn.close()
