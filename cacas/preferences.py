@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable
 
@@ -103,6 +103,12 @@ class Participant:
 
     def to_dict(self) -> dict[str, Any]:
         return {"id": self.id, "preferences": [p.to_dict() for p in self.preferences]}
+
+    def without_words(self) -> "Participant":
+        """The same preferences without the participant's own words (``description``): what a
+        simulated run of a study's participants keeps, as its files stay after a participant's
+        removal (labels fall back to "activity -> action")."""
+        return replace(self, preferences=tuple(replace(p, description="") for p in self.preferences))
 
     def coverage_mask(self) -> np.ndarray:
         """Union of the preferences' covered S1-S4 states."""

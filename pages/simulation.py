@@ -43,7 +43,9 @@ try:
             people = app_support.uploaded_personas(up.name, up.getvalue())
             source = app_support.persona_source(choice, up.name, up.getvalue())
     else:
-        people = [p for p in (store.get_preferences(c.code) for c in store.list_participants(study)) if p is not None]
+        # without their own words: the run's files (by_preference.csv's labels) stay after a participant's removal
+        people = [p.without_words() for p in (store.get_preferences(c.code) for c in store.list_participants(study))
+                  if p is not None]
         source = app_support.persona_source(choice, study=study)
         if not people:
             problem = "No participant of this study has described preferences yet."

@@ -164,3 +164,21 @@ def test_a_method_without_a_success_rate_shows_a_dash_not_none(app, db):
     assert table["preference_accuracy"].between(0, 100).all()
     config = json.loads(element.proto.columns)
     assert all(config[c]["type_config"]["format"] == "%.0f%%" for c in ("success_rate", "preference_accuracy"))
+
+
+def test_a_run_of_this_studys_participants_keeps_none_of_their_words(app, db, store):
+    """Walkthrough: a run over the study's participants wrote each preference's own words into
+    its by_preference.csv, which stays after the participant is removed ("Simulation lab runs are
+    not participant data")."""
+    import pandas as pd
+
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"description": "When I cough at night, ask whether I am in pain",
+                                    "activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE)
+    at.radio(key="sim-source").set_value("This study's participants").run()
+    job = run_small_study(at, db, ["nn"])
+    labels = pd.read_csv(job.result / "by_preference.csv")["label"]
+    assert set(labels) == {"cough -> pain check"}
+    assert not [f.name for f in job.result.iterdir() if f.suffix in (".csv", ".json", ".html")
+                and "ask whether I am in pain" in f.read_text()]
