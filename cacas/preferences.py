@@ -198,6 +198,8 @@ def _hours(value: Any, where: str) -> tuple[tuple[int, int], ...] | None:
             extra = ""
             if ok and pair[0] >= pair[1]:
                 extra = " (a range over midnight is two ranges, e.g. [[22, 24], [0, 2]])"
+            elif isinstance(pair, list) and any(isinstance(h, float) for h in pair):
+                extra = " (hours are whole numbers, written without a decimal point: 6, not 6.0)"
             raise CacasError(f"{where}: {json.dumps(pair)} is invalid{extra}; valid: {hint}")
         out.append((pair[0], pair[1]))
     return tuple(out)
@@ -326,6 +328,9 @@ def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
     """Validate a persona document (already parsed JSON) into participants."""
     if not isinstance(data, dict) or not isinstance(data.get("participants"), list):
         raise CacasError(f"{_where(source)}: must be a JSON object with a list 'participants'")
+    unknown = sorted(set(data) - {"participants"})
+    if unknown:  # a misspelt key was passed over without a word, as participants' and preferences' are not
+        raise CacasError(f"{_where(source, fld=unknown[0])}: unknown field; valid fields: participants")
     if not data["participants"]:
         raise CacasError(f"{_where(source)}: 'participants' is empty; add at least one participant")
     people = [parse_participant(p, source, i) for i, p in enumerate(data["participants"])]
@@ -353,6 +358,21 @@ def load_personas(path: str | Path) -> list[Participant]:
     return parse_personas(persona_json(data, str(path)), str(path))
 
 
+class _TwiceInOneObject(CacasError):
+    pass
+
+
+def _once_each(pairs: list[tuple[str, Any]]) -> dict:
+    """A JSON object whose keys appear once each (``json`` keeps the last of two without a word:
+    ``"action": "pain check", "action": "chitchat"`` ran as chitchat)."""
+    seen = {}
+    for key, value in pairs:
+        if key in seen:
+            raise _TwiceInOneObject(f"field '{key}' appears twice in one object; write each field once")
+        seen[key] = value
+    return seen
+
+
 def persona_json(data: str | bytes, source: str) -> Any:
     """The JSON document of a persona file's text or bytes; CacasError naming ``source`` if it is
     not UTF-8 text, not JSON, or nested too deeply to be a persona file. A UTF-8 byte-order mark
@@ -363,11 +383,13 @@ def persona_json(data: str | bytes, source: str) -> Any:
         raise CacasError(f"{source}: cannot be read as UTF-8 text; valid: a JSON persona file") from None
     text = text.removeprefix("\ufeff")  # text decoded by the caller as plain utf-8
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=_once_each)
     except json.JSONDecodeError as exc:
         raise CacasError(f"{source}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
     except RecursionError:
         raise CacasError(f"{source}: nested too deeply to be a persona file; valid: design.md's format") from None
+    except _TwiceInOneObject as exc:
+        raise CacasError(f"{source}: {exc}") from None
 
 
 def dumps_personas(participants: Iterable[Participant]) -> str:

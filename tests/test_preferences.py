@@ -55,6 +55,7 @@ def test_preferred_action_table():
     ({"interval": [30, 0]}, "interval", "min <= max"),
     ({"task": ["bake"]}, "task", "'bake'"),
     ({"colour": "red"}, "colour", "unknown field"),
+    ({"hours": [[6.0, 10]]}, "hours", "hours are whole numbers, written without a decimal point: 6, not 6.0"),
 ])
 def test_bad_preference_names_participant_preference_field(change, field, needle):
     bad = dict(STOVE, **change)
@@ -144,10 +145,20 @@ def test_save_load_round_trip(tmp_path):
     (b"\x89PNG\r\n\x1a\n\x00\x00", r"upload.json: cannot be read as UTF-8 text; valid: a JSON persona file"),
     ("[" * 100_000 + "]" * 100_000, r"upload.json: nested too deeply to be a persona file"),
     ("{", r"upload.json: not valid JSON \(line 1, column 2"),
+    # json kept the last of two without a word: this preference ran as chitchat
+    ('{"participants": [{"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check", '
+     '"action": "chitchat"}]}]}', r"upload.json: field 'action' appears twice in one object; write each field once"),
 ])
 def test_persona_json_that_is_not_a_persona_document(data, message):
     with pytest.raises(CacasError, match=message):
         prefs.persona_json(data, "upload.json")
+
+
+def test_an_unknown_top_level_field_is_refused():
+    """A misspelt top-level key passed without a word (participants' and preferences' are refused)."""
+    with pytest.raises(CacasError, match="people.json, field 'studdy': unknown field; valid fields: participants"):
+        prefs.parse_personas({"participants": [{"id": "P01", "preferences": [STOVE]}], "studdy": "typo"},
+                             "people.json")
 
 
 def test_an_infinite_interval_is_refused():
