@@ -387,7 +387,7 @@ def persona_json(data: str | bytes, source: str) -> Any:
     except json.JSONDecodeError as exc:
         raise CacasError(f"{source}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
     except RecursionError:
-        raise CacasError(f"{source}: nested too deeply to be a persona file; valid: design.md's format") from None
+        raise CacasError(f"{source}: nested too deeply to be a persona file; valid: the format of docs/personas.md") from None
     except _TwiceInOneObject as exc:
         raise CacasError(f"{source}: {exc}") from None
 

@@ -458,7 +458,7 @@ with tabs["Import / export"]:
     c1, c2 = st.columns(2)
     with c1:
         st.markdown("**Import a persona file**")
-        st.caption("design.md's format: `{\"participants\": [{\"id\": \"P01\", \"preferences\": [...]}]}`. "
+        st.caption("The persona format (docs/personas.md in the project): `{\"participants\": [{\"id\": \"P01\", \"preferences\": [...]}]}`. "
                    f"Missing participants are added to study '{study}'; each one's preferences are saved as a "
                    "new version. All or nothing: one bad entry, or a participant of another study, and nothing "
                    "is imported.")

@@ -38,7 +38,7 @@ try:
         people = load_personas(study_data_dir() / "personas" / EXAMPLES[choice])
         source = app_support.persona_source(choice, EXAMPLES[choice])
     elif choice.startswith("Upload"):
-        up = st.file_uploader("Persona file (.json, design.md's format)", type=["json"], key="sim-upload")
+        up = st.file_uploader("Persona file (.json, the format of docs/personas.md)", type=["json"], key="sim-upload")
         if up is not None:
             people = app_support.uploaded_personas(up.name, up.getvalue())
             source = app_support.persona_source(choice, up.name, up.getvalue())

@@ -214,3 +214,16 @@ def test_overlap_without_tasks_gives_no_task_in_the_example():
     with pytest.raises(CacasError) as err:
         prefs.parse_personas(doc(a, b), "f.json")
     assert "task is" not in str(err.value)
+
+
+def test_the_persona_format_page_shows_a_valid_file_and_every_field():
+    """docs/personas.md is the format a researcher reads (the contract lived only outside the
+    repository): its example parses, and its table names every field the validator knows."""
+    import re
+    from pathlib import Path
+
+    page = (Path(__file__).resolve().parents[1] / "docs" / "personas.md").read_text()
+    example = re.search(r"```json\n(.*?)```", page, re.S).group(1)
+    assert prefs.parse_personas(prefs.persona_json(example, "docs/personas.md"))[0].covered_count() > 0
+    table = set(re.findall(r"^\| `(\w+)` \|", page, re.M))
+    assert table == set(prefs.FIELDS) | {"participants", "id", "preferences"}

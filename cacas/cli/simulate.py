@@ -43,7 +43,7 @@ def _rate(text: str) -> float:
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--personas", required=True, metavar="FILE", help="persona JSON file (design.md format)")
+    p.add_argument("--personas", required=True, metavar="FILE", help="persona JSON file (its format: docs/personas.md)")
     p.add_argument("--days", type=_whole, default=7, help="study days (default 7)")
     p.add_argument("--interactions", type=_whole, default=15, help="interactions a day, about (default 15)")
     p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
