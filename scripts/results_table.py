@@ -16,8 +16,30 @@ PAPER = {"success day 1": 0.30, "success day 7": 0.85, "cacas day 7": 0.89,
          "cacas-no-pr day 7": 0.89 - 0.19, "orl day 7": 0.89 - 0.36, "nn day 7": 0.89 - 0.68}
 
 
+REQUIRED = ("participant", "method", "day", "success_rate", "preference_accuracy", "cumulative_feedback")
+
+
+def _fail(message: str) -> None:
+    print(f"results_table: {message}", file=sys.stderr)
+    sys.exit(2)
+
+
+def read_daily(path: str) -> pd.DataFrame:
+    """daily.csv, or exit code 2 with one line naming the file and what is wrong."""
+    try:
+        daily = pd.read_csv(path)
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        _fail(f"{path}: cannot be read as a daily.csv ({exc.__class__.__name__}: "
+                 f"{getattr(exc, 'strerror', None) or exc})")
+    missing = [c for c in REQUIRED if c not in daily.columns]
+    if missing:
+        _fail(f"{path}: not a daily.csv of cacas simulate or cacas export (no column "
+                 f"{missing[0]!r}); valid: columns {', '.join(REQUIRED)}, ...")
+    return daily
+
+
 def main(path: str) -> None:
-    daily = pd.read_csv(path)
+    daily = read_daily(path)
     if "success_ceiling" not in daily.columns:  # written before the column existed
         daily["success_ceiling"] = float("nan")
     methods = list(dict.fromkeys(daily["method"]))
@@ -52,4 +74,6 @@ def main(path: str) -> None:
 
 
 if __name__ == "__main__":
+    if len(sys.argv) != 2:
+        _fail("usage: python3 scripts/results_table.py DAILY_CSV")
     main(sys.argv[1])

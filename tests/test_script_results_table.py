@@ -63,3 +63,18 @@ def test_a_daily_csv_written_before_the_success_ceiling_existed(script, tmp_path
     rows = table(script, daily(float("nan")).drop(columns="success_ceiling"), tmp_path, capsys)
     assert rows[0][:3] == ["day", "success rate (cacas) mean [min-max]", "cumulative feedback"]
     assert rows[2][:3] == ["1", "0.30 [0.20-0.40]", "10.0"]
+
+
+@pytest.mark.parametrize("content, needle", [
+    (None, "missing.csv: cannot be read as a daily.csv (FileNotFoundError: No such file or directory)"),
+    ("a,b\n1,2\n", "not a daily.csv of cacas simulate or cacas export (no column 'participant')"),
+])
+def test_a_file_that_is_not_a_daily_csv_is_one_line_exit_2(script, tmp_path, capsys, content, needle):
+    """Walkthrough: a missing file printed a traceback."""
+    path = tmp_path / "missing.csv"
+    if content is not None:
+        path.write_text(content)
+    with pytest.raises(SystemExit) as exc:
+        script.main(str(path))
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and needle in err and len(err.strip().splitlines()) == 1
