@@ -237,3 +237,14 @@ def test_an_error_after_sigterm_is_said_as_the_termination(tmp_path, capsys, mon
         == 143
     assert capsys.readouterr().err == "cacas: terminated\n"
     assert not (tmp_path / "new").exists()
+
+
+def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys):
+    """Walkthrough: "Anna Smith" ran without a word, though the study database refuses names as
+    codes (design.md: pseudonymous codes only). The file is the researcher's: it runs, with a note."""
+    people = {"participants": [dict(GOOD["participants"][0], id="Anna Smith")]}
+    code = main(["simulate", "--personas", str(write(tmp_path, people)), "--out", str(tmp_path / "out"),
+                 "--days", "1", "--interactions", "2", "--methods", "nn", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 0 and (tmp_path / "out" / "daily.csv").exists()
+    assert "note: " in err and "participant 'Anna Smith' is not a pseudonymous code" in err and "never a name" in err

@@ -17,6 +17,7 @@ method).
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from cacas.errors import CacasError
@@ -91,8 +92,13 @@ def run(args) -> int:
     from cacas.export import check_output_folder
     from cacas.preferences import load_personas
     from cacas.store import files
+    from cacas.store import validate as v
 
     people = load_personas(args.personas)
+    for person in people:  # read as it is (the researcher's file), but the study database would refuse it
+        if not v.CODE_RE.match(person.id):
+            print(f"cacas simulate: note: {args.personas}: participant {person.id!r} is not {v.CODE_HINT}; the "
+                  "study database refuses such codes", file=sys.stderr)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind
