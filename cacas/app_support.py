@@ -392,13 +392,20 @@ def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
 def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
     """Section V-B.2's summary of the satisfaction scale (latest answer per participant): n, mean,
     sample standard deviation and the share rating 8 or higher (the paper: mean 8.125, SD 0.64,
-    87.5% at 8 or above)."""
+    87.5% at 8 or above), and ``mid_study``: the participants whose answer counted was given
+    before their 7th study day (the paper asks after the study)."""
     if answers is None or answers.empty:
-        return {"n": 0, "mean": math.nan, "sd": math.nan, "share_8_or_more": math.nan}
-    latest = answers.drop_duplicates("participant", keep="last")["satisfaction"].astype(float)
+        return {"n": 0, "mean": math.nan, "sd": math.nan, "share_8_or_more": math.nan, "mid_study": []}
+    last = answers.drop_duplicates("participant", keep="last")
+    latest = last["satisfaction"].astype(float)
+    # the paper asks after the 7 days: answers given earlier are counted, and named (``day``: the
+    # participant's study day when they answered, as questionnaire.csv has it)
+    early = (last["day"].fillna(0).astype(int) < STUDY_DAYS if "day" in last.columns
+             else pd.Series(False, index=last.index))
     return {"n": int(len(latest)), "mean": float(latest.mean()),
             "sd": float(latest.std(ddof=1)) if len(latest) > 1 else math.nan,
-            "share_8_or_more": float((latest >= 8).mean())}
+            "share_8_or_more": float((latest >= 8).mean()),
+            "mid_study": sorted(last.loc[early, "participant"])}
 
 
 # --- interactions as a readable table ------------------------------------------------------------

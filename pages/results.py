@@ -13,7 +13,7 @@ from cacas import app_support, plots, records
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables, next_day_accuracy
 from cacas.jobs import FAILED, RUNNER
-from cacas.study_day import compare_methods, day_status, questionnaire_timing
+from cacas.study_day import STUDY_DAYS, compare_methods, day_status, questionnaire_timing
 from pages import ui
 
 ui.require_app()
@@ -181,8 +181,11 @@ with quest:
         c2.metric("Mean", "–" if pd.isna(s["mean"]) else f"{s['mean']:.2f}")
         c3.metric("SD", "–" if pd.isna(s["sd"]) else f"{s['sd']:.2f}")
         c4.metric("Rated 8 or higher", ui.percent(s["share_8_or_more"]))
+        early = s["mid_study"]
         st.caption("Latest answer per participant; sample standard deviation. The paper: mean 8.125, SD 0.64, "
-                   "87.5% at 8 or higher.")
+                   "87.5% at 8 or higher, asked after the 7 days."
+                   + (f" Counted here though given before their day {STUDY_DAYS}: {', '.join(early)} (questionnaire.csv's "
+                      "day says when)." if early else ""))
         codes = [p.code for p in store.list_participants(study)]
         if codes:
             # a refused answer keeps what was entered; a saved one empties the form (new widget keys)

@@ -21,6 +21,16 @@ def test_questionnaire_summary_matches_the_papers_definition():
     assert app_support.questionnaire_summary(again)["mean"] == pytest.approx(8.5)
     empty = app_support.questionnaire_summary(answers.iloc[:0])
     assert empty["n"] == 0 and math.isnan(empty["mean"])
+    assert s["mid_study"] == []  # a table without days (an upload): none named
+
+
+def test_answers_given_before_the_last_day_are_named():
+    """Review: an answer given on day 1 counted in the mean, SD and share at 8 or more without a
+    word (the paper asks after the 7 days); the latest answer decides."""
+    answers = pd.DataFrame({"participant": ["P01", "P02", "P03", "P03"], "day": [7, 1, 2, 7],
+                            "satisfaction": [9, 10, 6, 8]})
+    s = app_support.questionnaire_summary(answers)
+    assert s["n"] == 3 and s["mid_study"] == ["P02"]
 
 
 def test_slots_and_hours():

@@ -74,6 +74,8 @@ def test_questionnaire_entry_and_summary(app, store):
     assert at.button_group(key="quest-score-1").value is None and at.text_area(key="quest-comments-1").value == ""
     values = {m.label: m.value for m in at.metric}
     assert values["Answers"] == "1" and values["Mean"] == "9.00" and values["Rated 8 or higher"] == "100%"
+    assert any("Counted here though given before their day 7: P01 (questionnaire.csv's day says when)." in c.value
+               for c in at.caption)  # answered after day 1: named
     shown = next(d.value for d in at.dataframe if "satisfaction" in d.value.columns)
     assert list(shown.columns) == ["participant", "day", "satisfaction", "comments", "saved"]
     assert shown["saved"].iloc[0].endswith(" UTC")
