@@ -37,7 +37,7 @@ import pandas as pd
 from cacas.errors import CacasError
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
-from cacas.store import StudyStore, files
+from cacas.store import StudyStore, files, recovery
 from cacas.store.restore import RESTORE_COLUMNS, restore
 from cacas.study_day import STUDY_DAYS
 
@@ -352,6 +352,12 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
     tables, policies = read_bundle(bundle)
     db_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
+    with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
+        return _import_into(tmp, db_path, tables, policies)
+
+
+def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
+    """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``."""
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
@@ -379,7 +385,8 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
             p.unlink(missing_ok=True)
         raise
     finally:
-        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock")):
+        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock"),
+                  recovery.import_lock(tmp)):
             p.unlink(missing_ok=True)
 
 

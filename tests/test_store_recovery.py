@@ -1,75 +1,123 @@
 """What a removal or an import killed mid-way leaves beside the database (cacas.store.recovery)."""
 
+import os
+import signal
 import subprocess
 import sys
+import textwrap
 
 from cacas.store import StudyStore, recovery
 
 
-def _dead_pid() -> int:
-    """The id of a process that has ended."""
-    p = subprocess.Popen([sys.executable, "-c", "pass"])
-    p.wait()
-    return p.pid
-
-
-def _participant_with_a_policy(path) -> str:
+def _participant_with_a_policy(path, code="P03") -> str:
     with StudyStore(path) as s:
-        s.add_participant("P03")
-        s.open_day("P03")
-        s.close_day("P03", 1)
-        s.save_policy("P03", 1, "cacas", b"P03's policy")
-        return s.active_policy("P03").path.relative_to(s.policy_dir).as_posix()
+        s.add_participant(code)
+        s.open_day(code)
+        s.close_day(code, 1)
+        s.save_policy(code, 1, "cacas", f"{code}'s policy".encode())
+        return s.active_policy(code).path.relative_to(s.policy_dir).as_posix()
+
+
+def _left_aside(tmp_path, rel, content=None):
+    """A removal's folder of moved-aside files, as a killed removal leaves it (its lock file not held)."""
+    home = tmp_path / "policies" / rel
+    trash = tmp_path / "policies" / ".removed-P03-4242-123"
+    trash.mkdir(parents=True, exist_ok=True)
+    (trash / recovery.REMOVAL_LOCK).touch()
+    if content is None:
+        home.rename(trash / home.name)
+    else:
+        (trash / home.name).write_bytes(content)
+    return home, trash
 
 
 def test_a_removal_killed_before_its_commit_gets_its_files_back(tmp_path):
     """Walkthrough: killed after the files were moved aside and before the commit, the participant
     was still in the study with every policy file gone (the tablet could not load the robot's
-    policy, the export failed)."""
+    policy, the export failed). Killed for real here, in the middle of moving the files."""
     path = tmp_path / "study.sqlite"
-    rel = _participant_with_a_policy(path)
-    home = tmp_path / "policies" / rel
-    trash = tmp_path / "policies" / f".removed-P03-{_dead_pid()}-123"
-    (trash / home.name).parent.mkdir(parents=True)
-    home.rename(trash / home.name)  # where the killed removal left it
-    with StudyStore(path) as s:  # the next opening puts it back
+    _participant_with_a_policy(path)
+    remover = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import os, sys, time
+        from cacas.store import StudyStore
+        real = os.replace
+        def replace_then_hang(a, b):
+            real(a, b)
+            print("moved aside", flush=True)
+            time.sleep(120)
+        os.replace = replace_then_hang
+        StudyStore({str(path)!r}).remove_participant("P03", "P03")
+        """)], stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+    try:
+        assert remover.stdout.readline().strip() == "moved aside"
+        trash = next((tmp_path / "policies").glob(".removed-P03-*"))
+        assert not recovery._abandoned(trash / recovery.REMOVAL_LOCK)  # the removal holds it while it runs
+        remover.send_signal(signal.SIGKILL)
+        remover.wait(10)
+    finally:
+        remover.kill()
+    with StudyStore(path) as s:  # the next opening puts the file back: the removal never committed
         assert s.load_policy("P03") == b"P03's policy"
-    assert not trash.exists()
+    assert not list((tmp_path / "policies").glob(".removed-*"))
 
 
 def test_a_removal_killed_after_its_commit_has_its_files_deleted(tmp_path):
     path = tmp_path / "study.sqlite"
     rel = _participant_with_a_policy(path)
-    home = tmp_path / "policies" / rel
-    kept = home.read_bytes()
+    kept = (tmp_path / "policies" / rel).read_bytes()
     with StudyStore(path) as s:
         s.remove_participant("P03", confirm="P03")
-    trash = tmp_path / "policies" / f".removed-P03-{_dead_pid()}-123"  # as if deleting it had been cut short
-    trash.mkdir()
-    (trash / home.name).write_bytes(kept)
+    home, trash = _left_aside(tmp_path, rel, content=kept)  # as if deleting it had been cut short
     StudyStore(path).close()
     assert not trash.exists() and not home.exists()
 
 
-def test_a_removal_running_now_is_left_alone(tmp_path):
+def test_a_file_another_database_beside_names_goes_back(tmp_path):
+    """policies/ is shared by the databases in one folder: a moved-aside file a neighbour names is
+    theirs, whatever this database says."""
     path = tmp_path / "study.sqlite"
-    _participant_with_a_policy(path)
-    trash = tmp_path / "policies" / ".removed-P03-1-123"  # process 1 runs: a removal in progress
-    trash.mkdir()
-    (trash / "day1-cacas-x.pt").write_bytes(b"x")
+    rel = _participant_with_a_policy(path)
+    with StudyStore(path) as s:
+        s.remove_participant("P03", confirm="P03")
+    pilot = tmp_path / "pilot.sqlite"
+    assert _participant_with_a_policy(pilot) == rel  # the same code, the same bytes: the same file name
+    home, trash = _left_aside(tmp_path, rel)
     StudyStore(path).close()
-    assert (trash / "day1-cacas-x.pt").exists()
+    assert home.read_bytes() == b"P03's policy" and not trash.exists()
+    with StudyStore(pilot, readonly=True) as s:
+        assert s.load_policy("P03") == b"P03's policy"
+
+
+def test_a_removal_running_now_or_unknown_is_left_alone(tmp_path):
+    """A folder whose lock is held (a removal in another thread or process) or that has no lock
+    file (nothing is known of it) is not touched."""
+    path = tmp_path / "study.sqlite"
+    rel = _participant_with_a_policy(path)
+    home, trash = _left_aside(tmp_path, rel)
+    with recovery.busy(trash / recovery.REMOVAL_LOCK):  # held by this process, on another descriptor
+        StudyStore(path).close()
+        assert (trash / home.name).exists() and not home.exists()
+    (trash / recovery.REMOVAL_LOCK).unlink()
+    StudyStore(path).close()
+    assert (trash / home.name).exists()
+    (trash / recovery.REMOVAL_LOCK).touch()
+    StudyStore(path).close()
+    assert home.exists() and not trash.exists()
 
 
 def test_the_hidden_database_of_an_import_killed_mid_way_is_deleted(tmp_path):
     """Walkthrough: a killed `cacas import` left `.study.sqlite.importing-<pid>`, a full copy of the
     study's data that removing a participant could not reach (and that kept their files)."""
-    dead = _dead_pid()
-    left = [tmp_path / f".study.sqlite.importing-{dead}", tmp_path / f".study.sqlite.importing-{dead}-wal"]
+    killed = tmp_path / ".study.sqlite.importing-4242"
+    left = [killed, tmp_path / f"{killed.name}-wal", recovery.import_lock(killed)]
     for f in left:
         f.write_bytes(b"half an import")
-    running = tmp_path / ".study.sqlite.importing-1"
+    running = tmp_path / ".study.sqlite.importing-4343"
     running.write_bytes(b"an import going on")
-    StudyStore(tmp_path / "study.sqlite").close()
-    assert not any(f.exists() for f in left) and running.exists()
-    assert recovery.delete_abandoned_imports(tmp_path) == []
+    with recovery.busy(recovery.import_lock(running)):
+        StudyStore(tmp_path / "study.sqlite").close()
+        assert not any(f.exists() for f in left) and running.exists()
+    unknown = tmp_path / ".other.sqlite.importing-99999999999999999999"  # no lock file: not touched
+    unknown.write_bytes(b"?")
+    assert recovery.delete_abandoned_imports(tmp_path) == [running, recovery.import_lock(running)]
+    assert unknown.exists()

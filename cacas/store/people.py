@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import shutil
@@ -13,6 +14,7 @@ import pandas as pd
 
 from cacas import preferences as prefs
 from cacas.errors import CacasError
+from cacas.store import recovery
 from cacas.store import validate as v
 from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
 
@@ -219,6 +221,7 @@ class PeopleMixin:
         folder = self._participant_folder(code)
         trash = self.policy_dir / f".removed-{code}-{os.getpid()}-{time.time_ns()}"
         moved: list[tuple] = []  # (file, where it went in the trash)
+        held = contextlib.ExitStack()  # the trash's lock, held until it is deleted (recovery.busy)
 
         def fn(c):
             pid = self._pid(c, code)
@@ -239,6 +242,9 @@ class PeopleMixin:
             for f in doomed:  # last: a failure before it leaves the files in place
                 target = trash / f.relative_to(folder)
                 try:
+                    if not trash.exists():  # a crash from here on is put right at the next opening
+                        trash.mkdir(parents=True)
+                        held.enter_context(recovery.busy(trash / recovery.REMOVAL_LOCK))
                     target.parent.mkdir(parents=True, exist_ok=True)
                     os.replace(f, target)
                 except OSError as exc:
@@ -247,6 +253,12 @@ class PeopleMixin:
                 moved.append((f, target))
             return removed
 
+        with held:
+            return self._remove_and_tidy(code, fn, folder, trash, moved)
+
+    def _remove_and_tidy(self, code: str, fn, folder, trash, moved: list) -> Footprint:
+        """:meth:`remove_participant`'s transaction ``fn``, then its files: put back if it failed,
+        deleted with the trash folder once it committed."""
         try:
             removed = self._write(fn)
         except BaseException:

@@ -10,11 +10,17 @@ put right when the database is next opened for writing.
   when complete. Killed, that hidden file stays: a copy of the bundle's study data (the
   participants' interactions among them) that a later removal cannot reach. It is deleted.
 
-Only what a process no longer running left behind is touched (the process id is in the name).
+Only what is no longer being worked on is touched: a removal or an import holds a kernel lock
+(``flock``) on a lock file of its own while it runs (:func:`busy`), which the kernel releases
+when the process ends, however it ends; another process, or another thread, cannot take it
+meanwhile. (A process id in a name is not enough: after a restart another process may have it,
+and in another container a running process looks gone.)
 """
 
 from __future__ import annotations
 
+import contextlib
+import glob
 import os
 import re
 import shutil
@@ -22,17 +28,50 @@ from pathlib import Path
 
 from cacas.errors import CacasError
 
-_REMOVAL = re.compile(r"\.removed-(?P<code>.+)-(?P<pid>\d+)-\d+")
-_IMPORT = re.compile(r"\..+\.importing-(?P<pid>\d+)(?:-wal|-shm|-journal|-writer\.lock)?")
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no kernel locks; nothing is put right at opening
+    fcntl = None
+
+#: The lock file a removal keeps in its folder of moved-aside files.
+REMOVAL_LOCK = ".busy"
+_REMOVAL = re.compile(r"\.removed-(?P<code>.+)-\d+-\d+")
+_IMPORT = re.compile(r"(?P<base>\..+\.importing-\d+)(?:-wal|-shm|-journal|-writer\.lock|-busy\.lock)?")
 
 
-def _running(pid: int) -> bool:
+def import_lock(tmp: Path) -> Path:
+    """The lock file an import holds while it builds ``tmp`` (its hidden database)."""
+    return Path(f"{tmp}-busy.lock")
+
+
+@contextlib.contextmanager
+def busy(lock: Path):
+    """Hold an exclusive ``flock`` on ``lock`` (created if missing) for the ``with`` block: what
+    :func:`tidy` finds locked is left alone."""
+    fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o600)
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+        if fcntl is not None:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)  # releases the flock (flock locks, unlike POSIX ones, belong to this descriptor)
+
+
+def _abandoned(lock: Path) -> bool:
+    """Nobody holds ``lock``: the work it guarded ended, or was killed. Without a lock file (or
+    without kernel locks) nothing is known, and nothing is touched."""
+    if fcntl is None or not lock.is_file():
         return False
-    except PermissionError:  # another user's process
-        return True
+    try:
+        fd = os.open(lock, os.O_RDWR)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        return False  # held: a removal or an import running now
+    finally:
+        os.close(fd)
     return True
 
 
@@ -44,14 +83,14 @@ def finish_interrupted_removals(store) -> list[Path]:
         return done
     for trash in sorted(store.policy_dir.glob(".removed-*")):
         m = _REMOVAL.fullmatch(trash.name)
-        if not m or not trash.is_dir() or _running(int(m["pid"])):
+        if not m or not trash.is_dir() or not _abandoned(trash / REMOVAL_LOCK):
             continue
         code = m["code"]
         beside = store._named_beside(code)
         if beside is None:  # a study database that cannot be read now: nothing is certain to be unused
             continue
         here = {row[0] for row in store._read(lambda c: c.execute("SELECT path FROM policies").fetchall())}
-        for f in sorted(p for p in trash.rglob("*") if p.is_file()):
+        for f in sorted(p for p in trash.rglob("*") if p.is_file() and p.name != REMOVAL_LOCK):
             rel = f"{code}/{f.relative_to(trash).as_posix()}"
             home = store.policy_dir / rel
             if rel in here | beside and not home.exists():
@@ -63,14 +102,18 @@ def finish_interrupted_removals(store) -> list[Path]:
 
 
 def delete_abandoned_imports(folder: Path) -> list[Path]:
-    """Delete the hidden databases (and their SQLite files) of imports killed mid-way in
+    """Delete the hidden databases (and their SQLite and lock files) of imports killed mid-way in
     ``folder`` (module docstring); returns the files deleted."""
     gone = []
-    for f in sorted(Path(folder).glob(".*.importing-*")):
-        m = _IMPORT.fullmatch(f.name)
-        if m and f.is_file() and not _running(int(m["pid"])):
-            f.unlink(missing_ok=True)
-            gone.append(f)
+    bases = {m["base"] for m in (_IMPORT.fullmatch(f.name) for f in Path(folder).glob(".*.importing-*")) if m}
+    for base in sorted(bases):
+        if not _abandoned(import_lock(Path(folder) / base)):
+            continue
+        for f in sorted(Path(folder).glob(f"{glob.escape(base)}*")):
+            m = _IMPORT.fullmatch(f.name)
+            if m and m["base"] == base and f.is_file():
+                f.unlink(missing_ok=True)
+                gone.append(f)
     return gone
 
 
