@@ -121,3 +121,18 @@ def test_the_hidden_database_of_an_import_killed_mid_way_is_deleted(tmp_path):
     unknown.write_bytes(b"?")
     assert recovery.delete_abandoned_imports(tmp_path) == [running, recovery.import_lock(running)]
     assert unknown.exists()
+
+
+def test_policies_kept_beside_a_link_move_beside_the_file(tmp_path):
+    """Review: a study run through a link kept its policies beside the link until they moved beside
+    the file; opened after the update, the tablet could not find them. They move at the opening."""
+    real = tmp_path / "real" / "study.sqlite"
+    rel = _participant_with_a_policy(real)
+    link = tmp_path / "elsewhere" / "current.sqlite"
+    link.parent.mkdir()
+    link.symlink_to(real)
+    (link.parent / "policies" / rel).parent.mkdir(parents=True)
+    (tmp_path / "real" / "policies" / rel).rename(link.parent / "policies" / rel)  # where the old code wrote it
+    with StudyStore(link) as s:
+        assert s.load_policy("P03") == b"P03's policy"
+    assert not (link.parent / "policies" / rel).exists()

@@ -100,7 +100,8 @@ class StoreBase:
     def __init__(self, path: str | Path | None = None, readonly: bool = False):
         # the file itself, not a link to it: its policies/ folder, writer lock and SQLite's -wal and
         # -shm files sit beside it, whichever path (or link) opened it
-        self.path = (Path(path) if path is not None else default_db_path()).resolve()
+        self.opened_as = Path(path) if path is not None else default_db_path()
+        self.path = self.opened_as.resolve()
         self.readonly = readonly
         self._lock = threading.RLock()
         self._conn = db.connect(self.path, readonly=readonly)

@@ -117,10 +117,28 @@ def delete_abandoned_imports(folder: Path) -> list[Path]:
     return gone
 
 
+def adopt_policies_beside_link(store) -> list[Path]:
+    """A database opened through a symbolic link in another folder kept its policy files beside
+    the link until session 19 (they are beside the file now): those it names and misses beside the
+    file are moved there. Returns the files moved."""
+    link_dir = store.opened_as.parent / "policies"
+    if store.opened_as.parent.resolve() == store.path.parent or not link_dir.is_dir():
+        return []
+    moved = []
+    for (rel,) in store._read(lambda c: c.execute("SELECT path FROM policies").fetchall()):
+        old, new = link_dir / rel, store.policy_dir / rel
+        if old.is_file() and not new.exists():
+            new.parent.mkdir(parents=True, exist_ok=True)
+            shutil.move(old, new)
+            moved.append(new)
+    return moved
+
+
 def tidy(store) -> None:
-    """Both of the above, for a database just opened for writing; best effort (what cannot be
+    """All of the above, for a database just opened for writing; best effort (what cannot be
     done now is left for the next opening)."""
     try:
+        adopt_policies_beside_link(store)
         delete_abandoned_imports(store.path.parent)
         finish_interrupted_removals(store)
     except (OSError, CacasError):
