@@ -463,9 +463,15 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                 continue
             runs = store.adaptations_frame(p.code)
             have = set(zip(runs["method"], runs["day"].astype(int)))
+            # a closed day waiting for its adaptation is the study's own method's to adapt (and put in
+            # force): a comparison run of that method there would stand in for it on Results
+            saved = store.policy_versions(p.code)
+            own = saved[-1].method if saved else "cacas"
+            waiting = closed[-1] if day_status(store, p.code).waiting_for_adaptation else None
             chains = {}
             for method in methods:
-                missing = [d for d in [0] + closed if (method, d) not in have]
+                missing = [d for d in [0] + closed if (method, d) not in have
+                           and not (method == own and d == waiting)]
                 if missing:
                     chains[method] = [d for d in closed if d <= max(missing)]
             if chains:

@@ -265,6 +265,18 @@ def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, mon
     assert incomplete_comparisons(daily).empty  # E05 is in Fig. 4 on every day
     adapted.clear()
     assert compare_methods(path) == 0 and adapted == []  # all there: nothing adapted again
+    # a day closed and waiting for the study's own adaptation (NN's here) gets no NN comparison run,
+    # which Results would show as that day's policy; the other methods are compared on it
+    with StudyStore(path) as s:
+        start_day(s, "E05")
+        s.record_interaction("E05", 3, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+        s.close_day("E05", 3)
+    assert compare_methods(path) == 3
+    assert sorted(m for m, day in adapted if day == 3) == ["cacas", "cacas-no-pr", "orl"]
+    with StudyStore(path) as s:
+        assert day_status(s, "E05").waiting_for_adaptation
+        assert not ((s.adaptations_frame("E05")["method"] == "nn") & (s.adaptations_frame("E05")["day"] == 3)).any()
 
 
 def test_the_robot_acts_on_the_room_it_saw(store, policy):
