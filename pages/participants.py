@@ -141,8 +141,8 @@ def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
         new_version = store.save_preferences(who, person, edited_version=version)
     except PreferencesChanged as exc:  # the form is of an older version now: it shows the latest next
         s.pop("pref-check", None)
-        s["pref-conflict"] = (who, f"Not saved: {exc}. The form now shows the latest version: make your "
-                                   "changes again on it.")
+        s["pref-conflict"] = (who, f"{str(exc)[0].upper()}{str(exc)[1:]}. The form now shows the latest version: "
+                                   "make your changes again on it.")
         return
     except CacasError as exc:
         s["pref-check"] = (who, {}, str(exc), _form_values(who, version))
@@ -234,8 +234,9 @@ def _remove_participant(who: str) -> None:
     ui.select_participant(after[0] if after else (rest[-1] if rest else None))
     s.pop(OPEN_TAB, None)
     s["removed"] = (who, _kept_note(gone))
-    st.toast(f"Participant {who} removed, with everything recorded about them"
-             + (" but policy files named at the top of the page." if gone.kept_files else "."), icon=":material/delete:")
+    st.toast(f"Participant {who} removed, with everything recorded about them." if not gone.kept_files else
+             f"Participant {who} removed. Some of their policy files stay: see the note at the top of the page.",
+             icon=":material/delete:")
 
 
 def _kept_note(footprint) -> str:

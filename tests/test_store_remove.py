@@ -250,13 +250,18 @@ def test_an_unreadable_database_beside_keeps_every_file(store):
     other = store.path.parent / "other" / "intact.sqlite"  # a study database's header: not read from the open one
     StudyStore(other).close()
     (store.path.parent / "damaged.sqlite").write_bytes(other.read_bytes()[:100] + b"\0" * 4000)
+    pilot = _beside(store, "pilot.sqlite")  # a readable neighbour naming one more P01 file
+    pilot.close()
     files = sorted(p.name for p in (store.policy_dir / "P01").iterdir())
     before = store.participant_footprint("P01")
     assert before.policy_files == 0
-    # ... and says so (walkthrough: "0 files" and nothing more, the files staying without a word)
-    assert before.kept_files == len(files) == 2
+    # ... and says so (walkthrough: "0 files" and nothing more, the files staying without a word),
+    # naming for deletion only the files no readable database names (review: "delete policies/P01/"
+    # would have taken the pilot's file too)
+    assert before.kept_files == len(files) == 3
+    ours = sorted(f"policies/P01/{p.path.name}" for p in store.policy_versions("P01"))
     assert before.kept_because == ("the study database damaged.sqlite beside this one cannot be read, and may name "
-                                   "these files: delete policies/P01/ by hand once you know it does not")
+                                   f"these files: once you know it does not, delete {', '.join(ours)} by hand")
     removed = store.remove_participant("P01", "P01")
     assert (removed.kept_files, removed.kept_because) == (before.kept_files, before.kept_because)
     assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files

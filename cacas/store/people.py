@@ -130,13 +130,16 @@ class PeopleMixin:
         (they share ``policies/``: a pilot database beside the main one, a bundle imported twice),
         as policy paths; None when one of them cannot be read (then no file is certain to be
         unused: :meth:`_beside` names it)."""
-        return self._beside(code)[0]
+        named, unreadable = self._beside(code)
+        return None if unreadable else named
 
-    def _beside(self, code: str) -> tuple[set[str] | None, str]:
-        """(:meth:`_named_beside`, the name of a study database beside this one that cannot be read, or "")."""
+    def _beside(self, code: str) -> tuple[set[str], str]:
+        """The policy paths the readable study databases beside this one name, and the name of one
+        that cannot be read ("" if none)."""
         from cacas.store import db
 
         named: set[str] = set()
+        unreadable = ""
         for other in sorted(self.path.parent.iterdir()):
             # never opened: this database, and the files SQLite keeps beside a database (opened and
             # closed here, they would drop SQLite's locks on them: see db.open_study_file)
@@ -147,31 +150,34 @@ class PeopleMixin:
             except db.NotAStudyDatabase:
                 continue  # a CSV, a notes file, another application's database, ...
             except CacasError:
-                return None, other.name  # a study database that cannot be read (busy, damaged): keep every file
+                unreadable = unreadable or other.name  # busy, damaged: it may name any file
+                continue
             try:
-                rows = conn.execute("SELECT path FROM policies").fetchall()  # a few rows a day
-            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: keep every file
-                return None, other.name
+                named.update(r[0] for r in conn.execute("SELECT path FROM policies").fetchall())
+            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: it may name any file
+                unreadable = unreadable or other.name
             finally:
                 conn.close()
-            named.update(r[0] for r in rows)
-        return named, ""
+        return named, unreadable
 
     def _files_to_remove(self, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
         names: removing the participant deletes these, and keeps the others'; with the number kept
-        and why."""
+        and why. A database beside that cannot be read may name any: every file is kept, and those
+        no readable one names are listed for the researcher to delete once they know."""
         folder = self._participant_folder(code)
         if not folder.is_dir():
             return [], 0, ""
         every = [f for f in sorted(folder.rglob("*")) if f.is_file()]
         named, unreadable = self._beside(code)
-        if named is None:
-            return [], len(every), (f"the study database {unreadable} beside this one cannot be read, and may name "
-                                    f"these files: delete policies/{code}/ by hand once you know it does not")
-        doomed = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
-        kept = len(every) - len(doomed)
-        return doomed, kept, "another study database beside this one names these files" if kept else ""
+        unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
+        if unreadable:
+            listed = ", ".join(f"policies/{f.relative_to(self.policy_dir).as_posix()}" for f in unused[:3]) + (
+                f" and {len(unused) - 3} more in policies/{code}/" if len(unused) > 3 else "")
+            why = f"the study database {unreadable} beside this one cannot be read, and may name these files"
+            return [], len(every), why + (f": once you know it does not, delete {listed} by hand" if unused else "")
+        kept = len(every) - len(unused)
+        return unused, kept, "another study database beside this one names these files" if kept else ""
 
     def _footprint(self, c, pid: int, code: str, files: tuple | None = None) -> Footprint:
         """``files``: :meth:`_files_to_remove`'s answer, if the caller has it (else found here)."""

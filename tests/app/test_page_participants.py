@@ -313,7 +313,7 @@ def test_saving_a_form_of_a_version_replaced_meanwhile_undoes_nothing(app, store
     assert [p["version"] for p in store.preference_versions("P01")] == [1, 2]
     assert store.get_preferences("P01").preferences[0].action == "chitchat"  # the other tab's save stands
     assert [e.value for e in at.main.error] == [
-        "Not saved: version 2 of P01's preferences was saved (in another tab, or by an import) while these "
+        "Version 2 of P01's preferences was saved (in another tab, or by an import) while these "
         "changes were made to version 1; nothing was saved, as saving would undo it. The form now shows the "
         "latest version: make your changes again on it."]
     assert at.selectbox(key="pf-P01-v2-1-action").value == "chitchat" and not at.main.warning
@@ -475,7 +475,8 @@ def test_policy_files_a_removal_keeps_are_said_before_and_after(app, store):
     (store.path.parent / "copy.sqlite").write_bytes(intact.read_bytes()[:100] + b"\0" * 4000)
     at = app(PAGE, participant="P01")
     said = ("1 policy file of P01 stays: the study database copy.sqlite beside this one cannot be read, and may "
-            "name these files: delete policies/P01/ by hand once you know it does not.")
+            f"name these files: once you know it does not, delete policies/P01/{store.active_policy('P01').path.name} "
+            "by hand.")
     assert any(said in c.value for c in at.caption)
     at.text_input(key="remove-confirm-P01").set_value("P01").run()
     _remove_button(at, "P01").click().run()
