@@ -196,7 +196,10 @@ def load_initial_policy(progress: Progress | None = None, path: str | Path | Non
         try:
             return policy_from_bytes(path.read_bytes())
         except CacasError:
-            path.replace(path.with_name(f"{path.name}.damaged-{time.time_ns()}"))
+            try:
+                path.replace(path.with_name(f"{path.name}.damaged-{time.time_ns()}"))
+            except FileNotFoundError:  # another process moved it aside first
+                pass
     policy = train_initial_policy(d4a=d4a, config=config, progress=progress)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + f".{time.time_ns()}.tmp")

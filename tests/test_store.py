@@ -667,3 +667,6 @@ def test_the_store_refuses_preferences_edited_from_an_older_version(store):
     with pytest.raises(PreferencesChanged, match="version 1 of P09's preferences was saved"):
         store.save_preferences("P09", [{"activity": ["cough"], "action": "chitchat"}], edited_version=0)
     assert store.save_preferences("P09", [{"activity": ["cough"], "action": "chitchat"}], edited_version=1) == 2
+    with pytest.raises(PreferencesChanged, match=r"P09's preferences are not the ones this form was drawn from "
+                                                 r"\(version 5; the latest is version 2 now\); nothing was saved"):
+        store.save_preferences("P09", [{"activity": ["cough"], "action": "pain check"}], edited_version=5)

@@ -103,3 +103,20 @@ def test_a_damaged_study_database_is_called_damaged(tmp_path):
                                          r"was changed\. Restore it from a backup or an export"):
         StudyStore(damaged)
     assert damaged.read_bytes() == before
+
+
+def test_a_refused_save_keeps_the_file_another_database_names(tmp_path):
+    """Review: a save refused after its file was written deleted it, though a database beside this
+    one (a bundle imported twice) named the same file (the same bytes give the same name)."""
+    a, b = StudyStore(tmp_path / "a.sqlite"), StudyStore(tmp_path / "b.sqlite")
+    for s in (a, b):
+        s.add_participant("P01")
+        s.open_day("P01")
+        s.close_day("P01", 1)
+    b.save_adapted_policy("P01", 1, "nn", b"the same policy", {}, 1.0, {})
+    a.save_adapted_policy("P01", 1, "nn", b"another policy", {}, 1.0, {})
+    with pytest.raises(CacasError, match="adapted already"):
+        a.save_adapted_policy("P01", 1, "nn", b"the same policy", {}, 1.0, {})
+    assert b.load_policy("P01") == b"the same policy"
+    a.close()
+    b.close()

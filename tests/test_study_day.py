@@ -437,11 +437,16 @@ def test_the_adapted_policy_and_its_run_are_saved_together(tmp_path, monkeypatch
     run that fails to be recorded leaves neither (and no file)."""
     path = tmp_path / "s.sqlite"
     _day_one_with_a_request(path)
+
+    def killed_while_recording_the_run(*args, **kwargs):  # inside the transaction, after the policy's rows
+        raise CacasError("the process died here")
+    monkeypatch.setattr(StudyStore, "_insert_adaptation", killed_while_recording_the_run)
     with StudyStore(path) as s:
         s.close_day("P01", 1)
-        with pytest.raises(CacasError, match="metrics"):
-            s.save_adapted_policy("P01", 1, "nn", policy.to_bytes(), {}, 1.0, {"bad": object()})
-        assert s.policy_versions("P01") == [] and s.adaptations_frame("P01").empty
+        with pytest.raises(CacasError, match="died"):
+            s.save_adapted_policy("P01", 1, "nn", policy.to_bytes(), {}, 1.0, {})
+        assert s.policy_versions("P01") == [] and s.active_policy("P01") is None
+        assert s.adaptations_frame("P01").empty
         assert not list((path.parent / "policies").rglob("*.pt"))
         assert day_status(s, "P01").waiting_for_adaptation
 

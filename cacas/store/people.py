@@ -358,6 +358,11 @@ class PeopleMixin:
             if edited_version is not None:
                 latest = c.execute("SELECT COALESCE(MAX(version), 0) FROM preferences WHERE participant_id = ?",
                                    (pid,)).fetchone()[0]
+                if latest < edited_version:  # the participant removed and added again meanwhile
+                    raise PreferencesChanged(
+                        f"{code}'s preferences are not the ones this form was drawn from (version {edited_version}; "
+                        f"{'none is saved' if not latest else f'the latest is version {latest}'} now); nothing was "
+                        "saved")
                 if latest != edited_version:
                     raise PreferencesChanged(
                         f"version {latest} of {code}'s preferences was saved (in another tab, or by an import) "

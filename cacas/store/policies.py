@@ -129,11 +129,13 @@ class PoliciesMixin:
         self._read(check)  # refuse before writing a file
         if self.readonly:
             raise CacasError(f"{self.path}: opened read-only; nothing was written")
+        existed = (self.policy_dir / rel).exists()  # the same bytes, which another database beside may name
         files.atomic_write(self.policy_dir / rel, bytes(data))
         try:
             return self._write(lambda c: fn(c, rel, digest, len(data)))
         except BaseException:  # e.g. the participant was removed meanwhile: no file without its row
-            self._drop_unreferenced(rel)
+            if not existed:
+                self._drop_unreferenced(rel)
             raise
 
     def _insert_policy(self, c, pid: int, code: str, day: int, method: str, rel: str, digest: str, size: int,
