@@ -49,7 +49,7 @@ from cacas.policy import policy_from_bytes
 from cacas.preferences import Participant
 from cacas.simulator import current_task, preference_states
 
-PAPER_METHODS = ("cacas", "cacas-no-pr", "orl", "nn")
+PAPER_METHODS = records.PAPER_METHODS
 #: Who acts in the simulated study: the first method, every method adapting from its interactions
 #: (the paper's Fig. 4), or each method in a closed loop of its own.
 LOOPS = ("first", "each")

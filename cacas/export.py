@@ -96,7 +96,7 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
     have = set(zip(days["participant"], days["day"].astype(int)))
     keep = [(p, int(d)) in have for p, d in zip(run["participant"], run["day"])]
     run = run[keep].astype({"day": "int64", "run": "int64"})
-    return records.in_method_order(run, ["participant", "method", "day"]).reset_index(drop=True)[cols]
+    return records.sort_by_method(run, ["participant", "method", "day"]).reset_index(drop=True)[cols]
 
 
 def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:

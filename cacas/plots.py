@@ -122,7 +122,7 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     few = s["fewest"] < FEW_INTERACTIONS
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers+text", name="success rate (mean)",
                              line=dict(color=colour, width=3),
-                             customdata=[[_participants(n), _interactions_each(lo, hi)]
+                             customdata=[[_participants(n), _interactions_each(n, lo, hi)]
                                          for n, lo, hi in zip(s["participants"], s["fewest"], s["most"])],
                              text=[_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"], s["fewest"], few)],
                              textposition="top center", textfont=dict(size=12, color="#404040"),
@@ -170,12 +170,13 @@ def _participants(n) -> str:
     return "" if pd.isna(n) else f"{n:.0f} participant{'' if n == 1 else 's'}"
 
 
-def _interactions_each(fewest, most) -> str:
-    """The hover's "6 recorded interactions each" (or "1-6 ... each"); "" where daily.csv has no count."""
+def _interactions_each(participants, fewest, most) -> str:
+    """The hover's "6 recorded interactions each" ("1-6 ... each"; one participant's: "6 recorded
+    interactions"); "" where daily.csv has no count."""
     if pd.isna(fewest):
         return ""
     count = f"{fewest:.0f}" if fewest == most else f"{fewest:.0f}-{most:.0f}"
-    return f"{count} recorded interaction{'' if count == '1' else 's'}" + ("" if fewest == most else " each")
+    return f"{count} recorded interaction{'' if count == '1' else 's'}" + (" each" if participants > 1 else "")
 
 
 def _few_label(participants, fewest) -> str:

@@ -18,10 +18,11 @@ import pandas as pd
 
 #: The methods, in one order on every table, figure and CSV: the paper's (Fig. 4: CACAS, CACAS
 #: w/o PR, ORL, NN), then ours (``cacas.adaptation.METHODS``).
-METHOD_ORDER = ("cacas", "cacas-no-pr", "orl", "nn", "bandit", "sac-user-data")
+PAPER_METHODS = ("cacas", "cacas-no-pr", "orl", "nn")
+METHOD_ORDER = PAPER_METHODS + ("bandit", "sac-user-data")
 
 
-def in_method_order(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
+def sort_by_method(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     """``table`` sorted by ``keys``, its ``method`` column in :data:`METHOD_ORDER` (any other
     method after those, by name), not by name (a human study's export had NN before ORL)."""
     rank = {m: f"{i:02d}" for i, m in enumerate(METHOD_ORDER)}
@@ -216,7 +217,7 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
                                                    zip(daily.loc[quiet, "participant"], daily.loc[quiet, "day"])]
     for col in counts + ["cumulative_feedback"]:
         daily[col] = pd.array(pd.to_numeric(daily[col]), dtype="Int64")
-    return in_method_order(daily, keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
+    return sort_by_method(daily, keys).reindex(columns=DAILY_COLUMNS).reset_index(drop=True)
 
 
 _CSV_FORMAT = dict(index=False, float_format="%.6f", lineterminator="\n")

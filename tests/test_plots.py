@@ -210,14 +210,15 @@ def test_fig3_labels_a_day_whose_rate_rests_on_few_interactions():
     d.loc[d["day"] == 3, "interactions"] = [2, 2, 1, 1]  # cacas, nn of P01; cacas, nn of P02
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
     assert list(mean.text) == ["", "", "fewest 1 interaction"]
-    assert [str(n) for n in [row[1] for row in mean.customdata]] == ["15 recorded interactions", "15 recorded interactions",
-                                                       "1-2 recorded interactions each"]
+    assert [str(n) for n in [row[1] for row in mean.customdata]] == [
+        "15 recorded interactions each", "15 recorded interactions each", "1-2 recorded interactions each"]
     d.loc[d["day"] == 3, "interactions"] = [15, 15, 1, 1]  # the mean, 8, was not "few"
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
     assert list(mean.text) == ["", "", "fewest 1 interaction"] and mean.marker.symbol[2] == "circle-open"
     one = d[d["participant"] == d["participant"].iloc[0]].assign(interactions=lambda x: x["day"].map({1: 15, 2: 15, 3: 3}))
     mean = next(t for t in success_figure(one).data if t.name == "success rate (mean)")
     assert list(mean.text) == ["", "", "3 interactions"] and mean.marker.symbol[:2] == ("circle", "circle")
+    assert mean.customdata[2][1] == "3 recorded interactions"  # one participant: no "each"
     no_count = next(t for t in success_figure(daily().drop(columns="interactions")).data
                     if t.name == "success rate (mean)")
     assert list(no_count.text) == ["", "", ""]  # a daily.csv without the column draws as before

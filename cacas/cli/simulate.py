@@ -1,4 +1,4 @@
-"""``cacas simulate``: a whole simulated study (design.md's contract).
+"""``cacas simulate``: a whole simulated study (design.md's contract; the persona file: docs/personas.md).
 
     cacas simulate --personas FILE [--days 7] [--interactions 15]
                    [--methods cacas,cacas-no-pr,orl,nn] [--seed 0] --out DIR [--plot DIR]
