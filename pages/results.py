@@ -41,7 +41,8 @@ if source == HUMAN:
     daily = tables["daily"]
     n_people, n_started = len(tables["participants"]), tables["days"]["participant"].nunique()  # as Overview's "Started"
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''} "
-               f"({n_started} with a study day), {len(tables['interactions'])} interactions logged, "
+               f"({n_started} with a study day), {len(tables['interactions'])} "
+               f"interaction{'' if len(tables['interactions']) == 1 else 's'} logged, "
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
                "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"]))

@@ -364,3 +364,13 @@ def test_tables_show_empty_cells_empty(app, db):
     assert element.proto.placeholder == "–"
     assert fig4.loc["NN", "day 1"] == 10 and pd.isna(fig4.loc["NN", "day 2"])
     assert fig4.loc["CACAS"].tolist() == [20, 40]
+
+
+def test_one_interaction_is_said_in_the_singular(app, store):
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "1 participant (1 with a study day), 1 interaction logged, 1 of them recorded" in texts(at)
