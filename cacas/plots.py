@@ -47,19 +47,32 @@ def closed_loop_methods(daily: pd.DataFrame) -> list[str]:
     return list(dict.fromkeys(daily.loc[daily["success_rate"].notna(), "method"]))
 
 
+def _on_the_day(daily: pd.DataFrame) -> pd.Series:
+    """daily's rows of a day a participant had under that method: with a success rate, or begun
+    with nothing recorded yet (no rate, ``interactions`` 0), as opposed to a method not in force."""
+    rated = daily["success_rate"].notna()
+    if "interactions" not in daily.columns:
+        return rated
+    return rated | (pd.to_numeric(daily["interactions"], errors="coerce") == 0)
+
+
 def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
-    """Per day: mean, min and max success rate across participants, mean cumulative feedback,
+    """Per day: mean, min and max success rate across the participants with one (``participants``),
     the mean success ceiling (NaN where daily.csv has none) and the mean, fewest and most of the
-    day's recorded interactions a participant (``interactions``, ``fewest``, ``most``; NaN where
-    daily.csv has none)."""
-    d = daily[(daily["method"] == method) & daily["success_rate"].notna()]
+    day's recorded interactions they rest on (``interactions``, ``fewest``, ``most``; NaN where
+    daily.csv has none); and over every participant who had the day (``on_day``: a day begun with
+    nothing recorded yet has no rate), the mean cumulative feedback."""
+    d = daily[(daily["method"] == method) & _on_the_day(daily)]
+    rated = d["success_rate"].notna()
     ceiling = pd.to_numeric(d["success_ceiling"], errors="coerce") if "success_ceiling" in d.columns else float("nan")
-    count = pd.to_numeric(d["interactions"], errors="coerce") if "interactions" in d.columns else float("nan")
-    g = d.assign(day=d["day"].astype(int), _ceiling=ceiling, _count=count).groupby("day")
+    count = pd.to_numeric(d["interactions"], errors="coerce").where(rated) if "interactions" in d.columns \
+        else float("nan")
+    g = d.assign(day=d["day"].astype(int), _ceiling=ceiling, _count=count,
+                 _rated=d["participant"].where(rated)).groupby("day")
     return pd.DataFrame({
         "mean": g["success_rate"].mean(), "min": g["success_rate"].min(), "max": g["success_rate"].max(),
         "cumulative_feedback": g["cumulative_feedback"].mean().astype(float),
-        "participants": g["participant"].nunique(), "ceiling": g["_ceiling"].mean(),
+        "participants": g["_rated"].nunique(), "on_day": g["participant"].nunique(), "ceiling": g["_ceiling"].mean(),
         "interactions": g["_count"].mean().astype(float), "fewest": g["_count"].min().astype(float),
         "most": g["_count"].max().astype(float),
     }).reset_index()
@@ -87,7 +100,7 @@ def _gaps_for_missing_days(s: pd.DataFrame, daily: pd.DataFrame) -> pd.DataFrame
     """``s`` (one row per day) with empty rows for the study's other days, so that a line breaks
     where its method was not in force (a human study adapted with another method that day)
     instead of joining the days around it."""
-    days = sorted(int(d) for d in daily.loc[daily["success_rate"].notna(), "day"].unique())
+    days = sorted(int(d) for d in daily.loc[_on_the_day(daily), "day"].unique())
     return s.set_index("day").reindex(days).rename_axis("day").reset_index()
 
 
@@ -122,8 +135,9 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     few = s["fewest"] < FEW_INTERACTIONS
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers+text", name="success rate (mean)",
                              line=dict(color=colour, width=3),
-                             customdata=[[_participants(n), _interactions_each(n, lo, hi)]
-                                         for n, lo, hi in zip(s["participants"], s["fewest"], s["most"])],
+                             customdata=[[_participants(n, on), _interactions_each(n, lo, hi)]
+                                         for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
+                                                                  s["most"])],
                              text=[_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"], s["fewest"], few)],
                              textposition="top center", textfont=dict(size=12, color="#404040"),
                              marker=dict(size=[11 if f else 7 for f in few],  # hollow: a rate on few answers
@@ -166,8 +180,12 @@ def data_points(mean_feedback: float) -> str:
     return f"{n} data point{'' if n == '1' else 's'}"
 
 
-def _participants(n) -> str:
-    return "" if pd.isna(n) else f"{n:.0f} participant{'' if n == 1 else 's'}"
+def _participants(n, on_day=None) -> str:
+    """The hover's "2 participants" (and those on the day with nothing recorded yet, whose rate is to come)."""
+    if pd.isna(n):
+        return ""
+    more = 0 if on_day is None or pd.isna(on_day) else int(on_day - n)
+    return f"{n:.0f} participant{'' if n == 1 else 's'}" + (f"; {more} more with nothing recorded yet" if more else "")
 
 
 def _interactions_each(participants, fewest, most) -> str:

@@ -89,7 +89,7 @@ with fig3:
         first = per_day.index.min()
         change, paired = plots.success_change(daily, method, first, last)
         change = round(100 * change) if paired else 0
-        n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["participants"].max())
+        n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["on_day"].max())
         in_progress = sorted(c for c, d in app_support.open_days(store, study).items() if d == last) \
             if source == HUMAN else []
         n_first = int(per_day.loc[first, "participants"])
@@ -100,15 +100,16 @@ with fig3:
                   + ("" if paired == n_first == n_last else f" ({paired} with both days)"),
                   delta_color="normal" if change else "off",
                   help=" ".join(filter(None, [
-                      f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with that "
-                      f"day; the change is over the {paired} with both day {first} and day {last}."
+                      f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with a "
+                      f"success rate that day; the change is over the {paired} with both day {first} and day {last}."
                       if len(per_day) > 1 else None,
                       f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the day "
                       "is closed." if in_progress else None])) or None)
         c2.metric(f"Mean cumulative feedback, day {last}", plots.data_points(per_day.loc[last, "cumulative_feedback"]))
-        c3.metric(f"Participants on day {last}", n_last if n_last == n_all else f"{n_last} of {n_all}",
-                  help=None if n_last == n_all else f"{n_all} participants have a day in the figure; "
-                  f"{n_last} {'has' if n_last == 1 else 'have'} reached day {last}.")
+        on_day = int(per_day.loc[last, "on_day"])  # also those with nothing recorded yet that day
+        c3.metric(f"Participants on day {last}", on_day if on_day == n_all else f"{on_day} of {n_all}",
+                  help=None if on_day == n_all else f"{n_all} participants have a day in the figure; "
+                  f"{on_day} {'has' if on_day == 1 else 'have'} reached day {last}.")
         if in_progress:
             st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                        "are so far, and change until the day is closed.")

@@ -224,6 +224,29 @@ def test_fig3_labels_a_day_whose_rate_rests_on_few_interactions():
     assert list(no_count.text) == ["", "", ""]  # a daily.csv without the column draws as before
 
 
+def test_fig3_counts_a_day_begun_with_nothing_recorded_in_its_feedback_not_its_rate():
+    """Review: a participant whose day holds only unanswered proposals (daily.csv: no rate,
+    interactions 0) was left out of Fig. 3 altogether: their feedback so far left the day's mean
+    cumulative feedback, and a day where nobody had answered yet was not drawn."""
+    d = daily()
+    first = d["participant"] == "P01"
+    d.loc[first & (d["day"] == 3) & (d["method"] == "cacas"), ["success_rate", "interactions", "cumulative_feedback"]] = \
+        [float("nan"), 0, 20]  # day 3 begun, nothing recorded: feedback as after day 2
+    s = success_by_day(d).set_index("day")
+    assert s.loc[3, "mean"] == pytest.approx(0.4 + 0.3)  # P02's alone
+    assert (s.loc[3, "participants"], s.loc[3, "on_day"]) == (1, 2)
+    assert s.loc[3, "cumulative_feedback"] == (20 + 30) / 2  # P01's 20 counts
+    mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
+    assert mean.customdata[2][0] == "1 participant; 1 more with nothing recorded yet"
+    nobody = pd.concat([d[d["day"] < 3], d[(d["day"] == 3) & first]])  # day 3: only P01, nothing recorded
+    s = success_by_day(nobody).set_index("day")
+    assert pd.isna(s.loc[3, "mean"]) and s.loc[3, "cumulative_feedback"] == 20
+    cumulative = next(t for t in success_figure(nobody).data if t.name == "cumulative feedback (mean)")
+    assert list(cumulative.x) == [1, 2, 3]  # the day is drawn
+    # a method not in force that day (a Fig. 4 row: no rate, the day's count) is not "on the day"
+    assert success_by_day(d, "nn").empty
+
+
 def test_fig3_cumulative_feedback_hover_keeps_the_half():
     """The mean cumulative feedback 12.5: the hover said 13, the metric above it 12."""
     d = daily()

@@ -374,3 +374,18 @@ def test_one_interaction_is_said_in_the_singular(app, store):
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert "1 participant (1 with a study day), 1 interaction logged, 1 of them recorded" in texts(at)
+
+
+def test_a_day_begun_with_only_unanswered_proposals_is_on_fig3(app, store):
+    """Review: such a day was left out of Fig. 3 and its metrics, as if the participant had not
+    begun it."""
+    _study_with_a_day(store)
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                             robot_action="pain check", response="others")  # left unanswered: not recorded
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    values = {m.label: m.value for m in at.metric}
+    assert values["Day 2 mean success rate so far"] == "–"
+    assert values["Participants on day 2"] == "1"
+    assert values["Mean cumulative feedback, day 2"] == "3 data points"  # day 1's, carried over
