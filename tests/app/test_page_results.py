@@ -326,9 +326,7 @@ def test_days_recorded_since_the_comparison_are_said_to_need_it(app, store):
     _study_with_a_day(store)
     store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.25})
     store.record_adaptation("P01", 1, "cacas", {}, 0.0, {"preference_accuracy": 0.75})
-    day = store.open_day("P01")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="pain check", response="accept")
+    _a_cough(store, store.open_day("P01"))
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert "Not compared yet, so CACAS alone: P01 day 2; compare methods again to add them." in texts(at)
@@ -366,11 +364,15 @@ def test_tables_show_empty_cells_empty(app, db):
     assert fig4.loc["CACAS"].tolist() == [20, 40]
 
 
+def _a_cough(store, day: int, response: str = "accept") -> None:
+    """One interaction of P01's ``day``: a cough, the robot's pain check, ``response``."""
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response=response)
+
+
 def test_one_interaction_is_said_in_the_singular(app, store):
     store.add_participant("P01")
-    day = store.open_day("P01")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="pain check", response="accept")
+    _a_cough(store, store.open_day("P01"))
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert "1 participant (1 with a study day), 1 interaction logged, 1 of them recorded" in texts(at)
@@ -380,9 +382,7 @@ def test_a_day_begun_with_only_unanswered_proposals_is_on_fig3(app, store):
     """Review: such a day was left out of Fig. 3 and its metrics, as if the participant had not
     begun it."""
     _study_with_a_day(store)
-    day = store.open_day("P01")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
-                             robot_action="pain check", response="others")  # left unanswered: not recorded
+    _a_cough(store, store.open_day("P01"), response="others")  # left unanswered: not recorded
     at = app(PAGE, participant="P01")
     no_exception(at)
     values = {m.label: m.value for m in at.metric}
