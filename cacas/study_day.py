@@ -394,18 +394,16 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
                               progress=lambda f, m: say(0.02 + 0.9 * f, m))
         prefs, prefs_version = described_now(store, participant)
         metrics = {"interactions": int(len(data)), "policy_before": before_version}
-        accuracy = None
+        accuracy = initial = None
         if prefs is not None and prefs.preferences:
             say(0.94, "scoring the new policy on the described preferences (evaluation only)")
             metrics.update(scored_on_preferences(result.policy, prefs, prefs_version))
             accuracy = metrics["preference_accuracy"]
-            runs = store.adaptations_frame(participant)
-            if before_version is None and not ((runs["day"] == 0) & (runs["method"] == method)).any():
-                # Fig. 4's day 1: the initial policy (CACAA step 1) on the described preferences
-                store.record_adaptation(participant, 0, method, {"initial": True}, 0.0,
-                                        scored_on_preferences(before, prefs, prefs_version))
+            if before_version is None:  # Fig. 4's day 1: the initial policy (CACAA step 1), recorded once
+                initial = scored_on_preferences(before, prefs, prefs_version)
         version = store.save_adapted_policy(participant, day, method, result.policy.to_bytes(),
-                                            dict(result.parameters, log=result.log), float(result.duration_s), metrics)
+                                            dict(result.parameters, log=result.log), float(result.duration_s), metrics,
+                                            initial_metrics=initial)
         changes = policy_changes(before, result.policy, data)
         say(1.0, f"policy version {version} saved; in force from day {day + 1}")
         return DayAdaptation(participant, day, method, version, float(result.duration_s), list(result.log),

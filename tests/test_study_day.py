@@ -451,6 +451,30 @@ def test_the_adapted_policy_and_its_run_are_saved_together(tmp_path, monkeypatch
         assert day_status(s, "P01").waiting_for_adaptation
 
 
+def test_the_initial_policys_score_is_recorded_with_the_first_adaptation_or_not_at_all(tmp_path, policy):
+    """Review: the day-0 run (Fig. 4's day 1) was recorded before the adaptation's transaction, so
+    a second tab refused at the save still left one, beside the first tab's."""
+    path = tmp_path / "s.sqlite"
+    _day_one_with_a_request(path)
+    with StudyStore(path) as s:
+        s.close_day("P01", 1)
+        s.save_policy("P01", 1, "nn", policy.to_bytes())  # the other tab's, saved first
+        with pytest.raises(CacasError, match="adapted already"):
+            s.save_adapted_policy("P01", 1, "cacas", policy.to_bytes(), {}, 1.0, {},
+                                  initial_metrics={"preference_accuracy": 0.2})
+        assert s.adaptations_frame("P01").empty
+        s.add_participant("P02")
+        for day in (1, 2):
+            s.open_day("P02")
+            s.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+            s.close_day("P02", day)
+            s.save_adapted_policy("P02", day, "cacas", policy.to_bytes(), {}, 1.0, {},
+                                  initial_metrics={"preference_accuracy": 0.2})
+        runs = s.adaptations_frame("P02")
+        assert list(runs["day"]) == [0, 1, 2] and runs["preference_accuracy"].iloc[0] == 0.2
+
+
 def test_the_adaptation_reads_the_day_once_it_is_closed(tmp_path, monkeypatch, policy):
     """Walkthrough: an answer saved between reading the day's data and closing the day was kept on
     the day but not adapted from."""

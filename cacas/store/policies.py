@@ -86,16 +86,18 @@ class PoliciesMixin:
         return self._with_policy_file(code, day, method, data, fn)
 
     def save_adapted_policy(self, participant: str, day: int, method: str, data: bytes, parameters: dict,
-                            duration_s: float, metrics: dict) -> int:
+                            duration_s: float, metrics: dict, initial_metrics: dict | None = None) -> int:
         """The end of a day's adaptation (Table III step 2), all or nothing: the policy adapted
         from days 1..``day`` saved and put in force, and its run recorded, in one transaction.
         Refused, nothing written, when ``day`` is no longer the participant's latest day or a
         policy was adapted after it meanwhile (another tab or server adapted it: a second run
         would adapt the same data twice and replace the policy in force during the next day).
-        Returns the new version."""
+        ``initial_metrics``: the initial policy's scores (Fig. 4's day 1), recorded as the
+        method's day-0 run unless it has one. Returns the new version."""
         method, day = v.method(method), v.integer(day, "day", 1)
         code = v.code(participant)
         run = self._adaptation_row(parameters, duration_s, metrics)
+        initial = None if initial_metrics is None else self._adaptation_row({"initial": True}, 0.0, initial_metrics)
 
         def fn(c, rel, digest, size):
             pid = self._pid(c, code)
@@ -109,6 +111,9 @@ class PoliciesMixin:
             if done is not None:
                 raise CacasError(f"day {day} of participant {code} is adapted already (policy version {done}, "
                                  "from another tab or server?); nothing was saved")
+            if initial is not None and c.execute("SELECT 1 FROM adaptations WHERE participant_id = ? AND day = 0 "
+                                                 "AND method = ?", (pid, method)).fetchone() is None:
+                self._insert_adaptation(c, pid, code, 0, method, initial, None)
             version = self._insert_policy(c, pid, code, day, method, rel, digest, size, activate=True)
             self._insert_adaptation(c, pid, code, day, method, run, version)
             return version
