@@ -247,4 +247,5 @@ def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys):
                  "--days", "1", "--interactions", "2", "--methods", "nn", "--quiet"])
     err = capsys.readouterr().err
     assert code == 0 and (tmp_path / "out" / "daily.csv").exists()
-    assert "note: " in err and "participant 'Anna Smith' is not a pseudonymous code" in err and "never a name" in err
+    assert "note: " in err and "participant code 'Anna Smith' is invalid; valid: a pseudonymous code" in err \
+        and "never a name" in err

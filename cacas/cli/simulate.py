@@ -96,9 +96,11 @@ def run(args) -> int:
 
     people = load_personas(args.personas)
     for person in people:  # read as it is (the researcher's file), but the study database would refuse it
-        if not v.CODE_RE.match(person.id):
-            print(f"cacas simulate: note: {args.personas}: participant {person.id!r} is not {v.CODE_HINT}; the "
-                  "study database refuses such codes", file=sys.stderr)
+        try:
+            v.code(person.id)
+        except CacasError as exc:
+            print(f"cacas simulate: note: {args.personas}: {exc}; the study database refuses such codes",
+                  file=sys.stderr)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind
