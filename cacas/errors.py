@@ -12,3 +12,8 @@ class CacasError(ValueError):
 class AlreadyRecorded(CacasError):
     """The answer was already written (a second click, or another tab answered first): nothing
     more was written."""
+
+
+class AlreadyAdapted(AlreadyRecorded):
+    """The study day was adapted already (another tab or server adapted it first): nothing more
+    was written, and the policy that adaptation saved is the one in force."""

@@ -44,6 +44,7 @@ class Job:
     log: list[str] = field(default_factory=list)
     result: Any = None
     error: str | None = None
+    exception: BaseException | None = field(default=None, repr=False)  # what ``error`` says, for its type
     started: float = field(default_factory=time.time)
     finished: float | None = None
     _done: threading.Event = field(default_factory=threading.Event, repr=False)
@@ -121,6 +122,7 @@ class JobRunner:
             except Exception as exc:  # the page shows the message; the log keeps the trace
                 with job._lock:
                     job.error = str(exc) or exc.__class__.__name__
+                    job.exception = exc
                     job.log.append(traceback.format_exc(limit=3).strip().splitlines()[-1])
                     job.status = FAILED
             else:

@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 
 from cacas import dialogue, records, spaces
-from cacas.errors import CacasError
+from cacas.errors import AlreadyAdapted, CacasError
 
 Progress = Callable[[float, str], None]
 
@@ -377,7 +377,7 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
             raise CacasError(f"day {day} of participant {participant} cannot be adapted any more: day {max(days)} "
                              "has begun")
         if day in adapted_days(store, participant):
-            raise CacasError(f"day {day} of participant {participant} is adapted already (from another tab?)")
+            raise AlreadyAdapted(f"day {day} of participant {participant} is adapted already (from another tab?)")
         if not len(store.interactions_frame(participant, method=None, day=day)):
             raise CacasError(f"day {day} of participant {participant} has no interactions; nothing to adapt from")
         say(0.0, f"closing day {day}" if days[day].is_open else f"day {day} is closed")

@@ -7,7 +7,7 @@ import streamlit as st
 
 from cacas import app_support
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
-from cacas.errors import CacasError
+from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
 from cacas.study_day import TARGET_INTERACTIONS, adapt_day, day_status
@@ -114,7 +114,10 @@ else:
         st.warning(st.session_state["adapt-note"])
 
     job = RUNNER.get(_job_key(code, day)) if day else None
-    if job is not None and job.status == FAILED:
+    if job is not None and job.status == FAILED and isinstance(job.exception, AlreadyAdapted):
+        st.info(f"Day {day} had been adapted already, in another tab or by another server: this click saved "
+                "nothing, and the policy that adaptation saved is in force.", icon=":material/info:")
+    elif job is not None and job.status == FAILED:
         st.error(f"The adaptation failed: {job.error}", icon=":material/error:")
     elif job is not None and job.status == DONE:
         res = job.result

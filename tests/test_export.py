@@ -484,9 +484,23 @@ def test_a_checkpoint_policies_csv_does_not_list_is_refused(store, tmp_path):
     assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
 
 
-def test_preferences_edited_mid_study_leave_the_closed_days_ceiling_as_it_was(tmp_path):
+@pytest.mark.parametrize("clock", ["running", "stopped"])
+def test_preferences_edited_mid_study_leave_the_closed_days_ceiling_as_it_was(tmp_path, monkeypatch, clock):
     """daily.csv's success ceiling scores each interaction against the described preferences saved
-    by then: a version saved after day 1 changed day 1's ceiling (0.67 -> 0.73 in a walkthrough)."""
+    by then: a version saved after day 1 changed day 1's ceiling (0.67 -> 0.73 in a walkthrough).
+    With the clock stopped (every write in one millisecond, which a fast disk made happen in about 3
+    runs in 100), the order of the writes still decides."""
+    from datetime import datetime, timezone
+
+    from cacas.store import validate
+
+    if clock == "stopped":
+        class Stopped(datetime):
+            @classmethod
+            def now(cls, tz=None):
+                return datetime(2026, 1, 5, 9, 0, 0, 123456, tzinfo=timezone.utc)
+        monkeypatch.setattr(validate, "datetime", Stopped)
+        monkeypatch.setattr(validate, "_last_now", datetime.min.replace(tzinfo=timezone.utc))  # restored after
     with StudyStore(tmp_path / "s.sqlite") as s:
         s.add_participant("P01")
         s.save_preferences("P01", [COUGH])

@@ -84,3 +84,19 @@ def test_a_stopped_job_ends_at_its_next_progress_report_and_keeps_nothing(tmp_pa
     assert not runner.stop("no-such-job")
     again, started_again = runner.start("train-sound", lambda progress: "ok")  # the key is free again
     assert started_again and again.wait(10) and again.status == DONE
+
+
+def test_a_failed_job_keeps_its_exception_for_the_page_to_tell_kinds_apart():
+    """The Adaptation page tells a day another tab adapted first (AlreadyAdapted: nothing wrong)
+    from a failure by the exception's type."""
+    from cacas.errors import AlreadyAdapted
+
+    runner = JobRunner()
+
+    def work(progress):
+        raise AlreadyAdapted("day 1 of participant P01 is adapted already")
+
+    job, _ = runner.start("twice", work)
+    assert job.wait(10)
+    assert job.status == FAILED and isinstance(job.exception, AlreadyAdapted)
+    assert job.error == "day 1 of participant P01 is adapted already"

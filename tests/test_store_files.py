@@ -120,3 +120,24 @@ def test_a_refused_save_keeps_the_file_another_database_names(tmp_path):
     assert b.load_policy("P01") == b"the same policy"
     a.close()
     b.close()
+
+
+def test_a_policy_file_that_cannot_be_written_names_it_and_saves_nothing(tmp_path, monkeypatch):
+    """Review: a full disk during an adaptation showed the raw "[Errno 28] No space left on
+    device". The file is named, the cause said, and nothing is saved: no version, no run, no file."""
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    store.open_day("P01")
+    store.close_day("P01", 1)
+
+    def disk_full(fd):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(files.os, "fsync", disk_full)
+    with pytest.raises(CacasError, match=r"policies/P01/day1-nn-[0-9a-f]{8}\.pt: cannot be written \(No space left "
+                                         r"on device\); nothing was saved\. Free some disk space"):
+        store.save_adapted_policy("P01", 1, "nn", b"a policy", {}, 1.0, {})
+    monkeypatch.undo()
+    assert store.policy_versions("P01") == [] and store.adaptations_frame("P01").empty
+    assert not [p for p in (tmp_path / "policies").rglob("*") if p.is_file()]  # no file, no temporary file
+    assert store.save_adapted_policy("P01", 1, "nn", b"a policy", {}, 1.0, {}) == 1  # with space again: saved
+    store.close()

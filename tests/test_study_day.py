@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from cacas import records, spaces
-from cacas.errors import CacasError
+from cacas.errors import AlreadyAdapted, CacasError
 from cacas.policy import ReshapedPolicy
 from cacas.sac import DiscreteSAC, SACConfig
 from cacas.store import StudyStore
@@ -410,7 +410,7 @@ def test_a_day_is_adapted_once(tmp_path, monkeypatch, policy):
     path = tmp_path / "s.sqlite"
     _day_one_with_a_request(path)
     adapt_day(path, "P01", 1, method="nn")
-    with pytest.raises(CacasError, match="day 1 of participant P01 is adapted already"):
+    with pytest.raises(AlreadyAdapted, match="day 1 of participant P01 is adapted already"):
         adapt_day(path, "P01", 1, method="nn")
     with StudyStore(path) as s:
         start_day(s, "P01")
@@ -423,7 +423,7 @@ def test_a_day_is_adapted_once(tmp_path, monkeypatch, policy):
             s.save_adapted_policy("P01", 1, "nn", policy.to_bytes(), {}, 1.0, {})
         s.close_day("P01", 2)
         version = s.save_adapted_policy("P01", 2, "nn", policy.to_bytes(), {"epochs": 1}, 1.0, {"x": 1})
-        with pytest.raises(CacasError, match=r"day 2 of participant P01 is adapted already \(policy version 2"):
+        with pytest.raises(AlreadyAdapted, match=r"day 2 of participant P01 is adapted already \(policy version 2"):
             s.save_adapted_policy("P01", 2, "nn", policy.to_bytes(), {}, 1.0, {})
         assert [(p.version, p.day, p.active) for p in s.policy_versions("P01")] == [(1, 1, False), (2, 2, True)]
         runs = s.adaptations_frame("P01")

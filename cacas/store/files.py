@@ -20,18 +20,25 @@ def sha256(data: bytes) -> str:
 
 
 def atomic_write(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` via tmp + fsync + rename (+ fsync of the folder)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+    """Write ``data`` to ``path`` via tmp + fsync + rename (+ fsync of the folder). A failure (disk
+    full, a folder that cannot be written) raises a CacasError naming the file, and leaves ``path``
+    as it was (no temporary file either)."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
+        path.parent.mkdir(parents=True, exist_ok=True)
         with open(tmp, "wb") as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
+    except OSError as exc:
+        raise CacasError(f"{path}: cannot be written ({exc.strerror or exc}); nothing was saved. Free some disk "
+                         "space, or check that its folder can be written, and try again") from None
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        try:
+            tmp.unlink(missing_ok=True)
+        except OSError:  # pragma: no cover - the folder went away meanwhile
+            pass
     _fsync_folder(path.parent)
 
 

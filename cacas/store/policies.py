@@ -7,7 +7,7 @@ from typing import Sequence
 
 import pandas as pd
 
-from cacas.errors import CacasError
+from cacas.errors import AlreadyAdapted, CacasError
 from cacas.store import files
 from cacas.store import validate as v
 from cacas.store.base import PolicyVersion
@@ -109,7 +109,7 @@ class PoliciesMixin:
             done = c.execute("SELECT MAX(version) FROM policies WHERE participant_id = ? AND day = ?",
                              (pid, day)).fetchone()[0]
             if done is not None:
-                raise CacasError(f"day {day} of participant {code} is adapted already (policy version {done}, "
+                raise AlreadyAdapted(f"day {day} of participant {code} is adapted already (policy version {done}, "
                                  "from another tab or server?); nothing was saved")
             if initial is not None and c.execute("SELECT 1 FROM adaptations WHERE participant_id = ? AND day = 0 "
                                                  "AND method = ?", (pid, method)).fetchone() is None:

@@ -9,7 +9,8 @@ from __future__ import annotations
 import json
 import math
 import re
-from datetime import datetime, timezone
+import threading
+from datetime import datetime, timedelta, timezone
 from typing import Any, Mapping
 
 import numpy as np
@@ -31,9 +32,25 @@ NOTES_MAX = 2000
 TYPES = (ROBOT_INITIATED, USER_INITIATED)
 
 
+_last_now = datetime.min.replace(tzinfo=timezone.utc)
+_now_lock = threading.Lock()
+
+
 def now() -> str:
-    """UTC timestamp with milliseconds, e.g. 2026-11-21T09:47:34.123Z (sorts as text)."""
-    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+    """UTC timestamp with milliseconds, e.g. 2026-11-21T09:47:34.123Z (sorts as text).
+
+    Strictly increasing within a process (a call in the same millisecond as the previous one, or
+    after the clock stepped back, gets the previous one plus 1 ms): records written one after
+    another sort in the order they were written, e.g. an interaction recorded just before a new
+    version of the described preferences is scored against the version before it (daily.csv's
+    success ceiling, which compared equal milliseconds as "saved by then")."""
+    global _last_now
+    with _now_lock:
+        t = datetime.now(timezone.utc)
+        t = t.replace(microsecond=t.microsecond // 1000 * 1000)
+        t = max(t, _last_now + timedelta(milliseconds=1))
+        _last_now = t
+    return t.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
 
 
 def code(value: Any) -> str:

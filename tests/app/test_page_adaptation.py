@@ -132,6 +132,28 @@ def test_a_comparison_run_is_not_an_adaptation_and_a_baseline_adaptation_is(app,
 
 
 
+def test_a_day_another_tab_adapted_first_is_said_so_not_called_a_failure(app, store, quick_policy):
+    """Review: a stale tab's click on 'Adapt after day 1', after another tab had adapted it, was shown
+    as 'The adaptation failed: ...' in red under the green 'closed and adapted'. Nothing is wrong:
+    the page says the other adaptation is in force and this click saved nothing."""
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    at = app(PAGE, participant="P01")  # drawn while day 1 waits for its adaptation
+    no_exception(at)
+    store.save_adapted_policy("P01", day, "cacas", quick_policy.to_bytes(), {}, 1.0, {})  # the other tab's
+    at.session_state["adapt-method"] = "nn"
+    _button(at, f"Adapt after day {day}").click().run()
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job.wait(600) and job.status == "failed"
+    at.run()
+    no_exception(at)
+    assert not at.error
+    assert [i.value for i in at.info] == [f"Day {day} had been adapted already, in another tab or by another server: "
+                                          "this click saved nothing, and the policy that adaptation saved is in force."]
+    assert f"Day {day} is closed and adapted" in texts(at)
+    assert [(v.version, v.method) for v in store.policy_versions("P01")] == [(1, "cacas")]
+
+
 def test_what_changed_and_roll_back_follow_the_newest_version(app, store, quick_policy):
     """After a new version is saved, the comparison and the roll-back start at the policy in
     force (the widgets kept the earlier choice)."""
