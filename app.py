@@ -9,6 +9,7 @@ to the researcher's pages, no preferences, no other participants.
 """
 
 
+import os
 from pathlib import Path
 
 import streamlit as st
@@ -17,6 +18,7 @@ from streamlit.runtime.scriptrunner import get_script_run_ctx
 from cacas import app_support
 from cacas.errors import CacasError
 from cacas.paths import study_data_blocked, study_data_problem
+from cacas.store import DB_ENV, DEFAULT_STUDY
 from cacas.study_day import day_status
 from pages import ui
 
@@ -144,6 +146,10 @@ def _sidebar(store, page) -> None:
             st.warning(f"Unsaved preference changes: {', '.join(unsaved)}. Save or discard them on the Participants "
                        "page.", icon=":material/edit_note:")
         st.caption(f"Database: `{ui.db_path()}`")
+        if store.created and os.environ.get(DB_ENV) and not codes and studies == [DEFAULT_STUDY]:
+            st.info(f"This server created this database, new and empty, at ${DB_ENV} = `{os.environ[DB_ENV]}`. "
+                    f"If you meant an existing study database, check the path and start the app again.",
+                    icon=":material/new_releases:")
 
 
 def main() -> None:

@@ -103,6 +103,9 @@ class StoreBase:
         self.opened_as = Path(path) if path is not None else default_db_path()
         self.path = self.opened_as.resolve()
         self.readonly = readonly
+        #: whether this opening created the database file (the app says so: a mistyped $CACAS_DB
+        #: otherwise looked like a study that had lost its participants)
+        self.created = not readonly and not self.path.exists()
         self._lock = threading.RLock()
         self._conn = db.connect(self.path, readonly=readonly)
         self._queue = None if readonly else db.WriterQueue(self.path)

@@ -146,3 +146,26 @@ def test_a_study_data_folder_without_the_shipped_files_is_said_on_every_research
     at = app()
     assert not [e for e in at.error if e.value.startswith("Set-up")] + [w for w in at.warning
                                                                         if w.value.startswith("Set-up")]
+
+
+def test_a_database_the_server_created_is_said_to_be_new(app, db):
+    """Review: a mistyped $CACAS_DB silently created a new empty database, which looked like a
+    study that had lost its participants. The sidebar says the server created it, while it is empty."""
+    assert not db.exists()
+    at = app()
+    no_exception(at)
+    assert [i.value for i in at.sidebar.info] == [
+        f"This server created this database, new and empty, at $CACAS_DB = `{db}`. If you meant an existing "
+        "study database, check the path and start the app again."]
+    from cacas.store import StudyStore
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+    at.run()
+    no_exception(at)
+    assert not at.sidebar.info  # no longer empty: nothing to say
+
+
+def test_an_existing_database_is_not_called_new(app, store):
+    at = app()
+    no_exception(at)
+    assert not at.sidebar.info
