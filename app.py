@@ -147,9 +147,8 @@ def _sidebar(store, page) -> None:
                        "page.", icon=":material/edit_note:")
         st.caption(f"Database: `{ui.db_path()}`")
         if store.created and os.environ.get(DB_ENV) and not codes and studies == [DEFAULT_STUDY]:
-            st.info(f"This server created this database, new and empty, at ${DB_ENV} = `{os.environ[DB_ENV]}`. "
-                    f"If you meant an existing study database, check the path and start the app again.",
-                    icon=":material/new_releases:")
+            st.info(f"New: this server created it, empty. If you meant an existing database, check ${DB_ENV} and "
+                    "start the app again.", icon=":material/new_releases:")
 
 
 def main() -> None:

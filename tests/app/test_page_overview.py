@@ -154,9 +154,10 @@ def test_a_database_the_server_created_is_said_to_be_new(app, db):
     assert not db.exists()
     at = app()
     no_exception(at)
+    assert f"Database: `{db}`" in [c.value for c in at.sidebar.caption]
     assert [i.value for i in at.sidebar.info] == [
-        f"This server created this database, new and empty, at $CACAS_DB = `{db}`. If you meant an existing "
-        "study database, check the path and start the app again."]
+        "New: this server created it, empty. If you meant an existing database, check $CACAS_DB and start the "
+        "app again."]
     from cacas.store import StudyStore
     with StudyStore(db) as s:
         s.add_participant("P01")
