@@ -26,6 +26,7 @@ Conventions (as ``cacas simulate`` writes them, so one set of plots serves both)
 from __future__ import annotations
 
 import hashlib
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -381,6 +382,7 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         if not len(store.interactions_frame(participant, method=None, day=day)):
             raise CacasError(f"day {day} of participant {participant} has no interactions; nothing to adapt from")
         say(0.0, f"closing day {day}" if days[day].is_open else f"day {day} is closed")
+        store.note_adaptation_started(participant, day, method)
         store.close_day(participant, day)
         data = store.interactions_frame(participant, method=None)  # read once the day is closed: all of it
         data = data[data["day"] <= day]
@@ -410,6 +412,21 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
                              accuracy, changes)
     finally:
         store.close()
+
+
+def unfinished_adaptation(store, participant: str, day: int) -> dict | None:
+    """The last adaptation of ``day`` that began (:meth:`StudyStore.note_adaptation_started`) and
+    saved nothing, as ``{"at": ..., "method": ...}``, while the day waits for its adaptation; None
+    if none began or the day is adapted. The app stopped during it (or it failed, or it still runs
+    in another server): the Adaptation page says so beside "Adapt after day N"."""
+    if day in adapted_days(store, participant):
+        return None
+    started = store.events(participant, what="adapt_start")
+    for at, details in zip(started["at"][::-1], started["details"][::-1]):
+        details = json.loads(details)
+        if details.get("day") == day:
+            return {"at": at, "method": details.get("method")}
+    return None
 
 
 def described_now(store, participant: str) -> tuple:

@@ -10,7 +10,7 @@ from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
-from cacas.study_day import TARGET_INTERACTIONS, adapt_day, day_status
+from cacas.study_day import TARGET_INTERACTIONS, adapt_day, day_status, unfinished_adaptation
 from pages import ui
 
 ui.require_app()
@@ -105,6 +105,11 @@ else:
         if status.interactions_today == 0:
             st.caption("No interactions on this day yet.")
     elif status.waiting_for_adaptation:
+        unfinished = None if RUNNER.get(_job_key(code, day)) else unfinished_adaptation(store, code, day)
+        if unfinished:  # this server knows no such run: it was stopped during it (or another server runs it)
+            st.warning(f"An adaptation of day {day} with {unfinished['method']}, begun "
+                       f"{app_support.short_time(unfinished['at'])}, saved nothing: the app was probably stopped "
+                       "during it. The day's data are all kept; adapt again.", icon=":material/restart_alt:")
         ui.button(st, f"Adapt after day {day}", _start, args=(code, day), type="primary",
                   icon=":material/model_training:")
     else:

@@ -530,3 +530,32 @@ def test_the_days_count_is_of_recorded_interactions(store):
                              user_action="pain check", **kw)
     status = day_status(store, "P01")
     assert (status.interactions_today, status.recorded_today, status.unanswered_today) == (4, 2, 2)
+
+
+def test_an_adaptation_the_app_was_stopped_during_is_known_afterwards(tmp_path, monkeypatch, policy):
+    """Review: after the server was killed mid-adaptation, the page offered 'Adapt after day 1' as if
+    nothing had happened. The start is logged; a day still waiting has an unfinished adaptation, an
+    adapted day none."""
+    import cacas.adaptation
+    from cacas.study_day import adapt_day, unfinished_adaptation
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "s.sqlite"
+    _day_one_with_a_request(path)
+    with StudyStore(path) as s:
+        assert unfinished_adaptation(s, "P01", 1) is None
+
+    def killed(*args, **kwargs):  # the process dies while training: nothing after this runs
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cacas.adaptation, "adapt_policy", killed)
+    with pytest.raises(KeyboardInterrupt):
+        adapt_day(path, "P01", 1, method="nn")
+    monkeypatch.undo()
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    with StudyStore(path) as s:
+        assert day_status(s, "P01").waiting_for_adaptation
+        unfinished = unfinished_adaptation(s, "P01", 1)
+        assert unfinished["method"] == "nn" and unfinished["at"].startswith("20")
+    adapt_day(path, "P01", 1, method="nn")
+    with StudyStore(path) as s:
+        assert unfinished_adaptation(s, "P01", 1) is None

@@ -35,6 +35,17 @@ class PoliciesMixin:
                                            self._check_version(c, pid, code, policy_version))
         return self._write(fn)
 
+    def note_adaptation_started(self, participant: str, day: int, method: str) -> None:
+        """Log (event ``adapt_start``) that an adaptation of ``day`` with ``method`` began: an
+        adaptation that saves nothing, because the app was stopped during it, leaves this note
+        (see :func:`cacas.study_day.unfinished_adaptation`)."""
+        method, day, code = v.method(method), v.integer(day, "day", 1), v.code(participant)
+
+        def fn(c):
+            self._day_row(c, self._pid(c, code), code, day)
+            self._event(c, "adapt_start", code, day=day, method=method)
+        self._write(fn)
+
     @staticmethod
     def _adaptation_row(parameters: dict, duration_s: float, metrics: dict) -> tuple:
         return (v.json_dict(parameters, "parameters"), v.number(duration_s, "duration_s", 0),

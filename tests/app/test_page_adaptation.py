@@ -154,6 +154,27 @@ def test_a_day_another_tab_adapted_first_is_said_so_not_called_a_failure(app, st
     assert [(v.version, v.method) for v in store.policy_versions("P01")] == [(1, "cacas")]
 
 
+def test_an_adaptation_the_app_was_stopped_during_is_said_so(app, store, quick_policy):
+    """Review: after a kill mid-adaptation the page offered 'Adapt after day 1' with no word of the
+    run that saved nothing. It says so (this server knows no such run), until the day is adapted."""
+    day = _day_with_interactions(store)
+    store.note_adaptation_started("P01", day, "cacas")  # what adapt_day logs before closing the day
+    store.close_day("P01", day)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    started = store.events("P01", what="adapt_start")["at"].iloc[-1]
+    assert [w.value for w in at.warning] == [
+        f"An adaptation of day {day} with cacas, begun {started[:10]} {started[11:16]} UTC, saved nothing: the app "
+        "was probably stopped during it. The day's data are all kept; adapt again."]
+    at.session_state["adapt-method"] = "nn"
+    _button(at, f"Adapt after day {day}").click().run()
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job.wait(600) and job.status == "done", job.error
+    at.run()
+    no_exception(at)
+    assert not at.warning and f"Day {day} is closed and adapted" in texts(at)
+
+
 def test_what_changed_and_roll_back_follow_the_newest_version(app, store, quick_policy):
     """After a new version is saved, the comparison and the roll-back start at the policy in
     force (the widgets kept the earlier choice)."""
