@@ -106,7 +106,10 @@ def check_methods(methods: Sequence[str]) -> tuple[str, ...]:
     if bad or not methods:
         raise CacasError(f"unknown method {bad[0]!r}; valid: {', '.join(METHODS)}" if bad
                          else f"no method given; valid: {', '.join(METHODS)}")
-    return tuple(dict.fromkeys(methods))
+    twice = next((m for i, m in enumerate(methods) if m in methods[:i]), None)
+    if twice is not None:  # a typo for another method, more likely than a wish to run one twice
+        raise CacasError(f"method {twice!r} is listed twice; valid: each of {', '.join(METHODS)} at most once")
+    return methods
 
 
 def simulated_day(policy, participant: Participant, day: int, n_interactions: int,

@@ -92,6 +92,47 @@ def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
     assert "no such sound model" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("args,says", [
+    (["sound", "generate", "--clips", "1", "--seed", "-1"], "argument --seed: '-1' is too small; valid: a whole number >= 0"),
+    (["scene", "generate", "--images", "1", "--seed", "-1"], "argument --seed: '-1' is too small; valid: a whole number >= 0"),
+    (["sound", "train", "--seed", "-1"], "argument --seed: '-1' is too small"),
+    (["scene", "train", "--seed", "-1"], "argument --seed: '-1' is too small"),
+    (["sound", "train", "--augment", "0"], "argument --augment: '0' is too small; valid: a whole number >= 1"),
+    (["sound", "train", "--patience", "-1"], "argument --patience: '-1' is too small; valid: a whole number >= 1"),
+    (["scene", "train", "--epochs", "x"], "argument --epochs: 'x' is not a whole number; valid: e.g. 7"),
+    (["sound", "generate", "--seconds", "two"], "argument --seconds: 'two' is not a number; valid: e.g. 2"),
+    (["sound", "eval", "--confusion-png", "cm.txt"], "argument --confusion-png: 'cm.txt' does not end in .png"),
+    (["scene", "eval", "--confusion-png", "folder"], "argument --confusion-png: 'folder' does not end in .png"),
+    (["sound", "generate", "--out", ""], "argument --out: an empty path; valid: a file or folder path"),
+    (["scene", "train", "--model", ""], "argument --model: an empty path"),
+    (["export", "--db", "s.sqlite", "--out", ""], "argument --out: an empty path"),
+    (["bench", "--json", ""], "argument --json: an empty path"),
+])
+def test_arguments_out_of_range_are_refused_before_any_work_in_one_line(tmp_path, capsys, monkeypatch, args, says):
+    """Review: --seed -1 ended in a 27-line traceback (after an empty library folder was made),
+    --augment 0 in a ZeroDivisionError, --confusion-png cm.txt in a ValueError after the whole
+    evaluation, --out "" wrote into the current folder."""
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err.strip() == f"cacas: error: {says}" or says in err.strip().splitlines()[0]
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []  # nothing made
+
+
+def test_a_confusion_png_that_cannot_be_written_is_refused_before_the_evaluation(tmp_path, capsys, monkeypatch):
+    import cacas.audio.training
+
+    def never(*a, **k):
+        raise AssertionError("evaluated before --confusion-png was checked")
+    monkeypatch.setattr(cacas.audio.training, "evaluate_sound_model", never)
+    (tmp_path / "a_file").write_text("not a folder")
+    assert main(["sound", "eval", "--confusion-png", str(tmp_path / "a_file" / "cm.png")]) == 2
+    err = capsys.readouterr().err
+    assert f"--confusion-png {tmp_path / 'a_file' / 'cm.png'}: cannot be written there" in err
+
+
 def test_scene_generate_and_import(tmp_path, capsys):
     assert main(["scene", "generate", "--images", "1", "--size", "48", "--out", str(tmp_path / "s")]) == 0
     assert len(list((tmp_path / "s").rglob("*.jpg"))) == 6

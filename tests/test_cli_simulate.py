@@ -43,11 +43,15 @@ def bad_pref(**change):
     (GOOD, ["--days", "366"], ["--days 366", "from 1 to 365"]),
     (GOOD, ["--interactions", "10000000000"], ["--interactions 10000000000", "from 1 to 1440"]),
     (GOOD, ["--seed", "-1"], ["--seed -1", "from 0 to 4294967295"]),
+    (GOOD, ["--methods", "cacas,nn,cacas"], ["--methods cacas,nn,cacas: method 'cacas' is listed twice",
+                                              "valid: each of cacas, cacas-no-pr"]),
+    (GOOD, ["--d4a", ""], ["argument --d4a: an empty path; valid: a file or folder path"]),
+    (GOOD, ["--plot", " "], ["argument --plot: an empty path"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):
     path = tmp_path / "missing.json" if content is None else write(tmp_path, content)
     code = main(["simulate", "--personas", str(path), "--out", str(tmp_path / "out"), "--quiet", *args]) \
-        if args[1:2] not in (["two"], ["some"]) else None
+        if args[1:2] not in (["two"], ["some"], [""], [" "]) else None
     if code is None:  # argparse's own type errors exit through SystemExit
         with pytest.raises(SystemExit) as exc:
             main(["simulate", "--personas", str(path), "--out", str(tmp_path / "out"), *args])
@@ -125,6 +129,30 @@ def test_an_output_folder_that_cannot_be_written_is_refused_before_the_simulatio
     assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert f"{flag} {folders[flag]}: cannot write in this folder" in err
     assert not (tmp_path / "out").exists()  # a refused --plot leaves no empty --out behind
+
+
+@pytest.mark.parametrize("option", ["--out", "--personas"])
+def test_an_empty_path_is_refused_not_read_as_the_current_folder(tmp_path, capsys, monkeypatch, option):
+    """Review: --out "" wrote the tables into the current folder (exit 0); --personas "" said
+    '.: cannot be read'."""
+    monkeypatch.chdir(tmp_path)
+    args = {"--personas": str(write(tmp_path, GOOD)), "--out": "out"}
+    args[option] = ""
+    with pytest.raises(SystemExit) as exc:
+        main(["simulate", "--quiet", *[a for k, v in args.items() for a in (k, v)]])
+    err = capsys.readouterr().err
+    assert exc.value.code == 2
+    assert err.strip() == f"cacas: error: argument {option}: an empty path; valid: a file or folder path"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["personas.json"]
+
+
+def test_a_refused_plot_leaves_none_of_the_folders_out_created(tmp_path, capsys):
+    """Review: --out n1/n2/n3 with a refused --plot removed n3 but left n1/n2."""
+    (tmp_path / "a_file").write_text("not a folder")
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out",
+                 str(tmp_path / "n1" / "n2" / "n3"), "--plot", str(tmp_path / "a_file")])
+    assert code == 2 and "--plot" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "personas.json"]
 
 
 def test_an_interrupted_run_leaves_no_empty_folder_behind(tmp_path, capsys, monkeypatch):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 
+from cacas.cli import types
 from cacas.export import BUNDLE_NAME, export_study, import_bundle
 from cacas.store import StudyStore
 from cacas.store.files import writable_file
@@ -24,8 +25,8 @@ def register(subparsers) -> None:
                                           f"tables needed to move the study) into DIR, and all of them as "
                                           f"DIR/{BUNDLE_NAME}. DIR may be new, empty or an earlier export's "
                                           "(its files are replaced), not a simulation's.")
-    p.add_argument("--db", required=True, help="the study database (.sqlite)")
-    p.add_argument("--out", required=True, help="output folder (created if missing)")
+    p.add_argument("--db", required=True, type=types.path, help="the study database (.sqlite)")
+    p.add_argument("--out", required=True, type=types.path, help="output folder (created if missing)")
     p.add_argument("--study", default=None, help="export one study only (default: all)")
     p.add_argument("--tables-only", action="store_true",
                    help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file; "
@@ -35,8 +36,8 @@ def register(subparsers) -> None:
     q = subparsers.add_parser("import", help="load an exported bundle into a new study database",
                               description=f"Load a {BUNDLE_NAME} written by `cacas export` into a new "
                                           "database file (an existing file is never overwritten).")
-    q.add_argument("--bundle", required=True, help=f"the {BUNDLE_NAME} to import")
-    q.add_argument("--db", required=True, help="the NEW database file to create")
+    q.add_argument("--bundle", required=True, type=types.path, help=f"the {BUNDLE_NAME} to import")
+    q.add_argument("--db", required=True, type=types.path, help="the NEW database file to create")
     q.set_defaults(func=run_import)
 
 

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
+from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import count, print_metrics, print_recognition, save_confusion
+from cacas.cli.sound import check_confusion_png, count, print_metrics, print_recognition, save_confusion
 from cacas.errors import CacasError
 
 
@@ -17,45 +16,45 @@ def register(subparsers) -> None:
     g = sub.add_parser("generate", help="write SYNTHETIC scene images into the library",
                        description="Write SYNTHETIC images of the 6 home scenes (Table I), one folder per scene, "
                                    "into the scene library.")
-    g.add_argument("--images", type=int, default=40, help="images per scene (default 40)")
-    g.add_argument("--size", type=int, default=128, help="image side in pixels (default 128)")
-    g.add_argument("--seed", type=int, default=0, help="seed; a new seed draws new images (default 0)")
-    g.add_argument("--out", type=Path, default=None, help="library folder (default study_data/scenes)")
+    g.add_argument("--images", type=types.count, default=40, help="images per scene (default 40)")
+    g.add_argument("--size", type=types.count, default=128, help="image side in pixels (default 128)")
+    g.add_argument("--seed", type=types.seed, default=0, help="seed; a new seed draws new images (default 0)")
+    g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/scenes)")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own photos (FOLDER/<scene>/<image>) into the library",
                        description="Copy your own photos (FOLDER/<scene>/<image>) into the scene library; if any "
                                    "folder or file is bad, nothing is copied.")
-    i.add_argument("folder", type=Path)
-    i.add_argument("--out", type=Path, default=None, help="library folder (default study_data/scenes)")
+    i.add_argument("folder", type=types.path)
+    i.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/scenes)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="fine-tune ResNet-18 on the scene library and save it",
                        description="Fine-tune ResNet-18 (Section IV-A) on the scene library, holding out images "
                                    "for the test, and save it. Never downloads weights.")
-    t.add_argument("--data", type=Path, default=None, help="images folder (default study_data/scenes)")
-    t.add_argument("--model", type=Path, default=None, help="where to save (default study_data/models/scene_resnet18.pt)")
+    t.add_argument("--data", type=types.path, default=None, help="images folder (default study_data/scenes)")
+    t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/scene_resnet18.pt)")
     t.add_argument("--weights", default="auto",
                    help="initial weights: 'auto' (torchvision's local cache if present), 'none', or a .pth file "
                         "(default auto)")
-    t.add_argument("--epochs", type=int, default=12, help="at most this many epochs (default 12)")
-    t.add_argument("--patience", type=int, default=4, help="early stopping: epochs without improvement (default 4)")
-    t.add_argument("--seed", type=int, default=0, help="seed of the held-out split and the training (default 0)")
+    t.add_argument("--epochs", type=types.count, default=12, help="at most this many epochs (default 12)")
+    t.add_argument("--patience", type=types.count, default=4, help="early stopping: epochs without improvement (default 4)")
+    t.add_argument("--seed", type=types.seed, default=0, help="seed of the held-out split and the training (default 0)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a scene model (default: on its held-out images)",
                        description="Test a scene model: accuracy, per-scene accuracy and confusions, by default on "
                                    "the images held out when it was trained.")
-    e.add_argument("--model", type=Path, default=None,
+    e.add_argument("--model", type=types.path, default=None,
                    help="the model (default study_data/models/scene_resnet18.pt)")
-    e.add_argument("--data", type=Path, default=None, help="images folder (default study_data/scenes)")
+    e.add_argument("--data", type=types.path, default=None, help="images folder (default study_data/scenes)")
     e.add_argument("--all", action="store_true", help="use every image under --data")
-    e.add_argument("--confusion-png", type=Path, default=None, metavar="FILE", help="also draw the confusion matrix")
+    e.add_argument("--confusion-png", type=types.png, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the scene of image files (prints label and top 3)",
                        description="Recognise the scene of image files: prints each file's label and its top 3 "
                                    "with their probabilities.")
-    r.add_argument("files", nargs="+", type=Path, metavar="FILE")
-    r.add_argument("--model", type=Path, default=None,
+    r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
+    r.add_argument("--model", type=types.path, default=None,
                    help="the model (default study_data/models/scene_resnet18.pt)")
     r.set_defaults(func=run_recognize)
 
@@ -113,6 +112,7 @@ def run_eval(args) -> int:
     from cacas.vision.training import evaluate_scene_model
 
     rec = SceneRecognizer.load(args.model)
+    check_confusion_png(args.confusion_png)  # before the evaluation, not after it
     with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_scene_model(rec, args.data, held_out=not args.all, progress=bar)
     print_metrics(metrics, "images")

@@ -20,6 +20,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from cacas.cli import types
 from cacas.errors import CacasError
 
 
@@ -27,48 +28,43 @@ from cacas.errors import CacasError
 FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html")
 
 
-def _whole(text: str) -> int:
-    try:
-        return int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number; valid: e.g. 7") from None
-
-
-def _rate(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: a share such as 0.1") from None
-
-
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--personas", required=True, metavar="FILE", help="persona JSON file (its format: docs/personas.md)")
-    p.add_argument("--days", type=_whole, default=7, help="study days (default 7)")
-    p.add_argument("--interactions", type=_whole, default=15, help="interactions a day, about (default 15)")
+    p.add_argument("--personas", required=True, type=types.path, metavar="FILE", help="persona JSON file (its format: docs/personas.md)")
+    p.add_argument("--days", type=types.integer, default=7, help="study days (default 7)")
+    p.add_argument("--interactions", type=types.integer, default=15, help="interactions a day, about (default 15)")
     p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
                    help="comma-separated methods; the first runs in closed loop, or every one with --loop each "
                         "(cacas, cacas-no-pr, orl, nn, bandit, sac-user-data; default the paper's four)")
-    p.add_argument("--seed", type=_whole, default=0, help="random seed (same seed, same daily.csv)")
-    p.add_argument("--no-response-rate", type=_rate, default=0.1,
+    p.add_argument("--seed", type=types.integer, default=0, help="random seed (same seed, same daily.csv)")
+    p.add_argument("--no-response-rate", type=types.share, default=0.1,
                    help="share of robot actions the simulated participant does not answer (default 0.1)")
-    p.add_argument("--ask-after-reject", type=_rate, default=0.0, metavar="RATE",
+    p.add_argument("--ask-after-reject", type=types.share, default=0.0, metavar="RATE",
                    help="share of wrong robot actions the simulated participant answers by asking for the "
                         "preferred action instead (as the tablet allows; default 0: only when the robot does "
                         "nothing)")
     p.add_argument("--loop", default="first", metavar="{first,each}",
                    help="first: the first method acts, every method adapts from its interactions (the paper's "
                         "Fig. 4; default); each: every method acts and adapts in a closed loop of its own")
-    p.add_argument("--d4a", metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
-    p.add_argument("--out", required=True, metavar="DIR",
+    p.add_argument("--d4a", type=types.path, metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
+    p.add_argument("--out", required=True, type=types.path, metavar="DIR",
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
-    p.add_argument("--plot", metavar="DIR",
+    p.add_argument("--plot", type=types.path, metavar="DIR",
                    help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here")
-    p.add_argument("--jobs", type=_whole, default=None,
+    p.add_argument("--jobs", type=types.integer, default=None,
                    help="worker processes (default: one per core; results do not depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
+
+
+def _missing_folders(folder) -> list[Path]:
+    """``folder`` and those above it that do not exist yet, deepest first: what creating it makes."""
+    missing, here = [], Path(folder).absolute()
+    while not here.exists() and here != here.parent:
+        missing.append(here)
+        here = here.parent
+    return missing
 
 
 def run(args) -> int:
@@ -103,8 +99,8 @@ def run(args) -> int:
                   file=sys.stderr)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
-    # leaves no --out folder behind
-    made = [Path(f) for f in (args.out, args.plot) if f and not Path(f).exists()]
+    # leaves no --out folder behind, nor the folders above it that it created
+    made = [folder for f in (args.out, args.plot) if f for folder in _missing_folders(f)]
     check_output_folder(args.out, "simulation", f"--out {args.out}")
     try:
         out = files.writable_folder(args.out, f"--out {args.out}")

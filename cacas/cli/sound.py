@@ -2,8 +2,7 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
+from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.errors import CacasError
 
@@ -45,43 +44,43 @@ def register(subparsers) -> None:
     g = sub.add_parser("generate", help="write SYNTHETIC clips into the sound library",
                        description="Write SYNTHETIC clips (one folder per activity, Table I's 33 activities) into "
                                    "the sound library; a clip already holding the same audio is left as it is.")
-    g.add_argument("--clips", type=int, default=24, help="clips per activity (default 24)")
-    g.add_argument("--seconds", type=float, default=2.0, help="clip length in seconds (default 2)")
-    g.add_argument("--seed", type=int, default=0, help="seed; a new seed adds new clips (default 0)")
+    g.add_argument("--clips", type=types.count, default=24, help="clips per activity (default 24)")
+    g.add_argument("--seconds", type=types.number, default=2.0, help="clip length in seconds (default 2)")
+    g.add_argument("--seed", type=types.seed, default=0, help="seed; a new seed adds new clips (default 0)")
     g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"], help="clip file format (default ogg)")
-    g.add_argument("--out", type=Path, default=None, help="library folder (default study_data/sounds)")
+    g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own recordings (FOLDER/<activity>/<clip>) into the library",
                        description="Copy your own recordings (FOLDER/<activity>/<clip>) into the sound library; "
                                    "if any folder or file is bad, nothing is copied.")
-    i.add_argument("folder", type=Path)
-    i.add_argument("--out", type=Path, default=None, help="library folder (default study_data/sounds)")
+    i.add_argument("folder", type=types.path)
+    i.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="train the sound CNN on the library and save it",
                        description="Train the sound CNN (MFCC of 1-s windows, Section IV-A) on the library, "
                                    "holding out recordings for the test, and save it.")
-    t.add_argument("--data", type=Path, default=None, help="library folder (default study_data/sounds)")
-    t.add_argument("--model", type=Path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
-    t.add_argument("--epochs", type=int, default=8, help="at most this many epochs (default 8)")
-    t.add_argument("--patience", type=int, default=3, help="early stopping: epochs without improvement (default 3)")
-    t.add_argument("--augment", type=int, default=1, help="augmented copies per training window (default 1)")
-    t.add_argument("--seed", type=int, default=0, help="seed of the held-out split and the training (default 0)")
+    t.add_argument("--data", type=types.path, default=None, help="library folder (default study_data/sounds)")
+    t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
+    t.add_argument("--epochs", type=types.count, default=8, help="at most this many epochs (default 8)")
+    t.add_argument("--patience", type=types.count, default=3, help="early stopping: epochs without improvement (default 3)")
+    t.add_argument("--augment", type=types.count, default=1, help="augmented copies per training window (default 1)")
+    t.add_argument("--seed", type=types.seed, default=0, help="seed of the held-out split and the training (default 0)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)",
                        description="Test a sound model: accuracy, per-activity accuracy and confusions, by "
                                    "default on the recordings held out when it was trained.")
-    e.add_argument("--model", type=Path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
-    e.add_argument("--data", type=Path, default=None, help="recordings folder (default study_data/sounds)")
+    e.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
+    e.add_argument("--data", type=types.path, default=None, help="recordings folder (default study_data/sounds)")
     e.add_argument("--all", action="store_true", help="use every recording under --data, not only the held-out ones")
-    e.add_argument("--confusion-png", type=Path, default=None, metavar="FILE", help="also draw the confusion matrix")
+    e.add_argument("--confusion-png", type=types.png, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the activity in sound files (prints label and top 3)",
                        description="Recognise the activity in sound files: prints each file's label and its "
                                    "top 3 with their probabilities.")
-    r.add_argument("files", nargs="+", type=Path, metavar="FILE")
-    r.add_argument("--model", type=Path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
+    r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
+    r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
 
 
@@ -128,11 +127,20 @@ def run_eval(args) -> int:
     from cacas.audio.training import evaluate_sound_model
 
     rec = SoundRecognizer.load(args.model)
+    check_confusion_png(args.confusion_png)  # before the evaluation, not after it
     with ProgressBar(quiet=args.quiet) as bar:
         metrics = evaluate_sound_model(rec, args.data, held_out=not args.all, progress=bar)
     print_metrics(metrics)
     save_confusion(metrics, args.confusion_png)
     return 0
+
+
+def check_confusion_png(path) -> None:
+    """--confusion-png (a .png path, :func:`cacas.cli.types.png`) can be written there."""
+    if path is not None:
+        from cacas.store.files import writable_file
+
+        writable_file(path, "--confusion-png")
 
 
 def save_confusion(metrics, path) -> None:

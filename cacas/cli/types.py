@@ -1,0 +1,64 @@
+"""argparse types of the ``cacas`` command's options: a value argparse refuses is said in one line
+naming the option and what is valid (``cacas: error: argument --seed: '-1' is not ...``), exit
+code 2, before any work begins."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def integer(text: str) -> int:
+    """Any whole number (a range the command checks itself, with its own message)."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number; valid: e.g. 7") from None
+
+
+def share(text: str) -> float:
+    """A number (a share such as 0.1; its range the command checks itself)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: a share such as 0.1") from None
+
+
+def number(text: str) -> float:
+    """A number (e.g. a clip length in seconds; its range the command checks itself)."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: e.g. 2") from None
+
+
+def at_least(minimum: int):
+    """A whole number >= ``minimum`` (a seed: 0; a count of epochs, clips, copies: 1)."""
+    def parse(text: str) -> int:
+        value = integer(text)
+        if value < minimum:
+            raise argparse.ArgumentTypeError(f"{text!r} is too small; valid: a whole number >= {minimum}")
+        return value
+    parse.__name__ = f"whole number >= {minimum}"
+    return parse
+
+
+seed = at_least(0)
+count = at_least(1)
+
+
+def path(text: str) -> Path:
+    """A file or folder path, not empty (an empty one was read as the current folder, or as not
+    given at all)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty path; valid: a file or folder path")
+    return Path(text)
+
+
+def png(text: str) -> Path:
+    """A file path ending in .png (the confusion matrix is drawn as PNG)."""
+    p = path(text)
+    if p.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"{text!r} does not end in .png; valid: a PNG file path, e.g. "
+                                         "confusion.png")
+    return p
