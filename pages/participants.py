@@ -179,16 +179,19 @@ def _import_personas() -> None:
     if upload is None:
         s["import-error"] = "choose a persona file (.json) first"
         return
+    before = {p.code for p in store.list_participants(study)}
     try:
-        codes = store.import_personas(upload.getvalue(), study=study, source=upload.name)
+        codes = store.import_personas(upload.getvalue(), study=study, source=upload.name,
+                                      replace=bool(s.get("persona-replace")))
     except CacasError as exc:
         s["import-error"] = str(exc)
         return
     s["import-error"] = None
     s["import-done"] = codes
     # the page opens the first participant's preferences, not the Import tab with its message
-    st.toast(f"Imported {len(codes)} participant{'' if len(codes) == 1 else 's'}: {', '.join(codes)}.",
-             icon=":material/check_circle:")
+    kept = [c for c in codes if c in before]
+    st.toast(f"Imported {len(codes)} participant{'' if len(codes) == 1 else 's'}: {', '.join(codes)}"
+             + (f" ({', '.join(kept)} already in the study)." if kept else "."), icon=":material/check_circle:")
     if codes:
         s[ui.PARTICIPANT_KEY] = codes[0]
         st.query_params["participant"] = codes[0]
@@ -460,10 +463,14 @@ with tabs["Import / export"]:
     with c1:
         st.markdown("**Import a persona file**")
         st.caption("The persona format (docs/personas.md in the project): `{\"participants\": [{\"id\": \"P01\", \"preferences\": [...]}]}`. "
-                   f"Missing participants are added to study '{study}'; each one's preferences are saved as a "
-                   "new version. All or nothing: one bad entry, or a participant of another study, and nothing "
-                   "is imported.")
+                   f"Missing participants are added to study '{study}' with the file's preferences. All or "
+                   "nothing: one bad entry, a participant of another study, or one of this study with other "
+                   "preferences (unless you choose to replace them), and nothing is imported.")
         st.file_uploader("Persona file", type=["json"], key="persona-upload")
+        st.checkbox("Replace the preferences of participants already in the study", key="persona-replace",
+                    help="Without this, a file naming a participant of this study with other preferences is "
+                         "refused. With it, the file's become their new version (the days already run stay "
+                         "scored on the preferences of their time).")
         ui.button(st, "Import", _import_personas, icon=":material/upload:")
         if st.session_state.get("import-error"):
             st.error(st.session_state["import-error"], icon=":material/error:")

@@ -249,6 +249,31 @@ def test_persona_json_round_trip(store, tmp_path):
     other.close()
 
 
+def test_an_import_does_not_replace_the_preferences_of_a_participant_under_way(store):
+    """Walkthrough: importing the example personas (P01-P08) into a study under way gave its P01
+    and P02 the examples' preferences, silently, mid-study (P02's accuracy fell to 0 %), and added
+    P03-P08. Refused, naming them and their day, unless the researcher chooses to replace them; the
+    same preferences, or a participant without any, import as before."""
+    store.save_preferences("P01", [COUGH])
+    store.add_participant("P02")
+    store.save_preferences("P02", [STOVE])
+    store.open_day("P02")
+    store.add_participant("P03")  # no preferences yet: nothing to lose
+    before = snapshot(store.path)
+    example = {"participants": [{"id": "P01", "preferences": [STOVE]}, {"id": "P02", "preferences": [COUGH]},
+                                {"id": "P03", "preferences": [COUGH]}, {"id": "P04", "preferences": [COUGH]}]}
+    with pytest.raises(CacasError, match=r"^example.json: P01, P02 \(day 1\) are in study 'default' already, with "
+                                         r"other preferences; nothing was imported\."):
+        store.import_personas(example, source="example.json")
+    assert snapshot(store.path) == before  # P04 not added either
+    same = {"participants": [{"id": "P01", "preferences": [COUGH]}, {"id": "P03", "preferences": [COUGH]}]}
+    assert store.import_personas(same) == ["P01", "P03"]
+    assert [len(store.preference_versions(c)) for c in ("P01", "P03")] == [1, 1]
+    assert store.import_personas(example, replace=True) == ["P01", "P02", "P03", "P04"]
+    assert store.get_preferences("P02").preferences[0].action == COUGH["action"]
+    assert [len(store.preference_versions(c)) for c in ("P01", "P02", "P03", "P04")] == [2, 2, 1, 1]
+
+
 def test_import_never_touches_another_studys_participants(store):
     store.create_study("pilot")
     store.import_personas({"participants": [{"id": "P10", "preferences": [COUGH]}]}, study="pilot")
@@ -264,7 +289,12 @@ def test_import_never_touches_another_studys_participants(store):
         store.import_personas({"participants": [{"id": "P13", "preferences": [STOVE]},
                                                 {"id": "p13", "preferences": [STOVE]}]}, source="new.json")
     assert snapshot(store.path) == before  # all or nothing: P11 was not added either
-    assert store.import_personas(clash, study="pilot") == ["P11", "P10"]  # into its own study it goes
+    with pytest.raises(CacasError, match="persona file: P10 is in study 'pilot' already, with other preferences; "
+                                         "nothing was imported. To save the file's as their new version, choose "
+                                         "to replace them"):
+        store.import_personas(clash, study="pilot")
+    assert snapshot(store.path) == before
+    assert store.import_personas(clash, study="pilot", replace=True) == ["P11", "P10"]  # into its own study it goes
     assert store.get_preferences("P10").preferences[0].action == "remind to turn off"
     # a database from before the case check may hold both P12 and p12: each imports as itself
     with sqlite3.connect(store.path) as con:

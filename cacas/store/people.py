@@ -426,12 +426,16 @@ class PeopleMixin:
         people = [p for p in (self.get_preferences(c) for c in wanted) if p is not None]
         return prefs.dumps_personas(people)
 
-    def import_personas(self, data: Any, study: str = DEFAULT_STUDY, source: str | None = None) -> list[str]:
+    def import_personas(self, data: Any, study: str = DEFAULT_STUDY, source: str | None = None,
+                        replace: bool = False) -> list[str]:
         """Import a persona document (JSON text or parsed JSON): add participants that are
         missing (to ``study``) and save each one's preferences as a new version (unless they equal
-        the latest). All or nothing: one invalid participant or preference, a participant of
-        another study, or a code that differs from one in use only in letter case raises
-        CacasError and nothing is written."""
+        the latest). A participant already in the study with other preferences gets the file's as
+        a new version only with ``replace`` (a walkthrough imported the example personas, P01-P08,
+        into a study under way: its P01 and P02 silently got the examples' preferences mid-study).
+        All or nothing: one invalid participant or preference, a participant of another study, a
+        code that differs from one in use only in letter case, or other preferences without
+        ``replace`` raises CacasError and nothing is written."""
         if isinstance(data, (str, bytes)):
             data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
@@ -451,6 +455,14 @@ class PeopleMixin:
                     raise CacasError(f"{source or 'persona file'}: participant {p.id} belongs to study {row[0]!r}, "
                                      f"not {study!r}; nothing was imported. Import into study {row[0]!r}, or give "
                                      "the new participant a code not in use")
+            if not replace:
+                others = [f"{code} (day {day})" if day else code for code, day in self._other_preferences(c, people)]
+                if others:
+                    raise CacasError(
+                        f"{source or 'persona file'}: {', '.join(others)} {'is' if len(others) == 1 else 'are'} in "
+                        f"study {study!r} already, with other preferences; nothing was imported. To save the "
+                        "file's as their new version, choose to replace them (the days already run stay scored on "
+                        "the preferences of their time), or import a file without them")
             for p in people:
                 if c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None:
                     at = v.now()
@@ -460,6 +472,19 @@ class PeopleMixin:
                 self._save_version(c, self._pid(c, p.id), p.id, p, source="personas")
         self._write(fn)
         return [p.id for p in people]
+
+    @staticmethod
+    def _other_preferences(c, people) -> list[tuple[str, int]]:
+        """(code, latest study day) of each of ``people`` already in the database whose latest
+        preferences differ from theirs (a participant without any has nothing to lose)."""
+        out = []
+        for p in people:
+            row = c.execute("SELECT f.preferences, (SELECT MAX(day) FROM days d WHERE d.participant_id = q.id) "
+                            "FROM participants q JOIN preferences f ON f.participant_id = q.id WHERE q.code = ? "
+                            "ORDER BY f.version DESC LIMIT 1", (p.id,)).fetchone()
+            if row is not None and json.loads(row[0]) != [x.to_dict() for x in p.preferences]:
+                out.append((p.id, row[1] or 0))
+        return out
 
     def preferences_frame(self, study: str | None = None) -> pd.DataFrame:
         """preferences.csv: participant, version, preferences (persona-format JSON list), created_at."""

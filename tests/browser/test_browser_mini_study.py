@@ -347,9 +347,16 @@ def test_importing_a_persona_file_says_so(server, page):
         str(study_data_dir() / "personas" / "example.json"))
     idle(page)
     click(page, "Import")
+    # the mini study's P01 (under way, with preferences of their own) is named, and nothing imported
+    shows(page, "example.json: P01 (day 1) is in study 'default' already, with other preferences; nothing was "
+                "imported.")
+    page.get_by_text("Replace the preferences of participants already in the study").click()
+    idle(page)
+    click(page, "Import")
     toast = page.locator("[data-testid='stToast']")
     toast.first.wait_for(timeout=30_000)
-    assert "Imported 8 participants: P01, P02, P03, P04, P05, P06, P07, P08." in toast.first.inner_text()
+    assert ("Imported 8 participants: P01, P02, P03, P04, P05, P06, P07, P08 (P01 already in the study)."
+            in toast.first.inner_text())
     idle(page)
     shows(page, "Preferences of P01")
     shot(page, "participants-imported")
