@@ -32,17 +32,41 @@ RESTORED = "participants-restored-intervals"
 
 def _add_participant() -> None:
     s = st.session_state
+    sent = (str(s["new-code"]).strip(), s["new-age"], s["new-notes"], study)
+    added = s.get("just-added")
+    if added is not None and added[:4] == sent and _untouched(added[0], added[4]):
+        # the same form again, e.g. a double click: the first click added them (walkthrough: the second
+        # said 'already exists' in red and stayed on this tab, so the add looked failed)
+        _open_new(added[0])
+        return
     try:
         info = store.add_participant(s["new-code"], age_range=s["new-age"], notes=s["new-notes"], study=study)
     except CacasError as exc:
         s["add-error"] = str(exc)
         return
-    s["add-error"] = None
-    s[ui.PARTICIPANT_KEY] = info.code
-    st.query_params["participant"] = info.code
-    s["new-code"], s["new-age"], s["new-notes"] = "", "", ""
-    s[OPEN_TAB] = f"Preferences of {info.code}"  # the next step: describe their preferences
+    s["just-added"] = (info.code, *sent[1:], info.created_at)
+    _open_new(info.code)
     st.toast(f"Participant {info.code} added: describe their preferences below.", icon=":material/check_circle:")
+
+
+def _untouched(code: str, created_at: str) -> bool:
+    """``code`` is the participant this session added (the same one: not removed and added again
+    since) and has no preferences and no study day yet."""
+    try:
+        info = store.get_participant(code)
+    except CacasError:
+        return False
+    return info.created_at == created_at and store.get_preferences(code) is None and not store.days(code)
+
+
+def _open_new(code: str) -> None:
+    """Clear the add form and open the new participant's preferences, the next step."""
+    s = st.session_state
+    s["add-error"] = None
+    s[ui.PARTICIPANT_KEY] = code
+    st.query_params["participant"] = code
+    s["new-code"], s["new-age"], s["new-notes"] = "", "", ""
+    s[OPEN_TAB] = f"Preferences of {code}"
 
 
 def _update_details(who: str) -> None:

@@ -40,6 +40,27 @@ def test_add_participant_valid_and_invalid(app, store):
     assert [t.label for t in at.tabs][0] == "Preferences of P01"
 
 
+def test_a_double_click_on_add_participant_adds_once_and_opens_their_preferences(app, store):
+    """Walkthrough: the second click of a double click on 'Add participant' sent the same form again
+    and said 'participant P03 already exists' in red, on the Add tab: the add looked failed. The same
+    form again, while the participant this session added has nothing yet, is the same add."""
+    at = app(PAGE)
+    for _ in range(2):  # the browser sends the typed values with each click
+        at.text_input(key="new-code").set_value("P03")
+        at.text_input(key="new-age").set_value("65+")
+        next(b for b in at.button if b.label == "Add participant").click().run()
+        no_exception(at)
+        assert not at.error
+        assert [t.label for t in at.tabs][0] == "Preferences of P03"
+    assert [p.code for p in store.list_participants()] == ["P03"]
+    # once the participant has preferences, adding the code again is the mistake it is
+    store.save_preferences("P03", [{"activity": ["cough"], "action": "pain check"}])
+    at.text_input(key="new-code").set_value("P03")
+    at.text_input(key="new-age").set_value("65+")
+    next(b for b in at.button if b.label == "Add participant").click().run()
+    assert "participant P03 already exists" in texts(at)
+
+
 def test_save_valid_preferences(app, store):
     store.add_participant("P01")
     at = app(PAGE, participant="P01")
