@@ -108,9 +108,15 @@ def policy_label(in_force: int | None, versions) -> str:
     """The policy in force in words ("initial", "version 2"), saying when a newer version was rolled
     back from ("version 1 (newest: 2)"): a roll-back shown as a plain "version 1" read as if no
     later adaptation existed."""
-    label = "initial" if in_force is None else f"version {in_force}"
+    label, newest = policy_in_force(in_force, versions)
+    return label if newest is None else f"{label} (newest: {newest})"
+
+
+def policy_in_force(in_force: int | None, versions) -> tuple[str, int | None]:
+    """:func:`policy_label` in two parts: the policy in force in words, and the newest version when
+    a roll-back put an older one in force (else None)."""
     newest = max((v.version for v in versions), default=None)
-    return label if newest is None or newest == in_force else f"{label} (newest: {newest})"
+    return ("initial" if in_force is None else f"version {in_force}"), (None if newest == in_force else newest)
 
 
 def open_days(store, study: str | None = None) -> dict[str, int]:

@@ -139,7 +139,8 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                                          for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
                                                                   s["most"])],
                              text=[_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"], s["fewest"], few)],
-                             textposition="top center", textfont=dict(size=12, color="#404040"),
+                             textposition=_label_positions(s["day"], s["mean"]), cliponaxis=False,
+                             textfont=dict(size=12, color="#404040"),
                              marker=dict(size=[11 if f else 7 for f in few],  # hollow: a rate on few answers
                                          symbol=["circle-open" if f else "circle" for f in few]),
                              hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]}, "
@@ -169,6 +170,17 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                       legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
                       template="plotly_white")
     return fig
+
+
+def _label_positions(days, means) -> list[str]:
+    """Where each point's label goes so that the plot's edges do not cut it (walkthrough: "fewest 2
+    interactions" on day 1 lost its first letter, "1 interaction" at 100 % its top): below a point
+    near the top, to the right of the first day and to the left of the last."""
+    days = list(days)
+    first, last = (min(days), max(days)) if days else (None, None)
+    return [("bottom" if pd.notna(m) and m >= 0.9 else "top") + " "
+            + ("right" if d == first and d != last else "left" if d == last and d != first else "center")
+            for d, m in zip(days, means)]
 
 
 def data_points(mean_feedback: float) -> str:

@@ -80,7 +80,10 @@ else:
     c2.metric("Interactions that day", status.recorded_today,
               help="Answered, or asked for: the interactions that give user data (Section V-B)"
                    + (f"; {status.unanswered_today} more saved without an answer." if status.unanswered_today else "."))
-    c3.metric("Policy in force", app_support.policy_label(status.policy_version, versions))
+    in_force, newest = app_support.policy_in_force(status.policy_version, versions)
+    # the roll-back in the delta line: in the value, "version 1 (newest: 2)" was cut to "version 1 (newes…"
+    c3.metric("Policy in force", in_force, delta=None if newest is None else f"rolled back; newest: version {newest}",
+              delta_color="off", delta_arrow="off")
     with st.expander("Options"):
         st.selectbox("Method", METHODS, key="adapt-method",
                      help="CACAS for the study; the others are the paper's baselines (Fig. 4), a bandit and SAC "

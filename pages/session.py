@@ -215,6 +215,13 @@ def _match_request() -> None:
     s["request-said"] = s.get("request-text", "")
 
 
+def _said_with_enter() -> None:
+    """Enter (a tablet keyboard's Go) in the request field says it, as "Say it" does (walkthrough:
+    Enter did nothing). A field emptied and left is not a request."""
+    if str(st.session_state.get("request-text") or "").strip():
+        _match_request()
+
+
 def _reject_match() -> None:
     s = st.session_state
     s.pop("request-match", None)
@@ -298,8 +305,9 @@ if not status.open:
                        icon=":material/warning:")
             ui.link("pages/participants.py", "Describe the preferences", ":material/group:")
     else:
+        routine = "your" if tablet else f"{code}'s"  # the tablet speaks to the participant, this view to the researcher
         st.markdown(f"Day **{status.day_on_screen}** of {STUDY_DAYS}: about {TARGET_INTERACTIONS} interactions "
-                    "with the robot, following your daily routine.")
+                    f"with the robot, following {routine} daily routine.")
         ui.button(st, f"Start day {status.day_on_screen}", _start_day, type="primary",
                   icon=":material/play_arrow:")
     st.stop()
@@ -456,7 +464,7 @@ else:
             ui.button(c2, "Ask", _record, args=(day, index, proposal), kwargs={"user_action": pick},
                       icon=":material/record_voice_over:", disabled=pick is None, width="stretch")
             c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
-            c3.text_input("Or type your request", key="request-text",
+            c3.text_input("Or type your request", key="request-text", on_change=_said_with_enter,
                           placeholder="e.g. remind me to turn off the stove")
             ui.button(c4, "Say it", _match_request, icon=":material/chat:", width="stretch")
             if st.session_state.get("request-error"):

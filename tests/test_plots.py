@@ -264,3 +264,18 @@ def test_a_day_at_100_percent_is_drawn_whole():
     for fig in (success_figure(d), success_methods_figure(d), methods_figure(d)):
         top = fig.layout.yaxis.range[1]
         assert fig.layout.yaxis.range[0] == 0 and top >= 1 + 8 / 400 * 2, top
+
+
+def test_fig3_labels_stay_inside_the_plot():
+    """Walkthrough: "fewest 2 interactions" on day 1 was cut on the left, and "1 interaction" at
+    100 % lost its top: labels go right of the first day, left of the last, below a point near the
+    top, and are not clipped at the axes."""
+    d = daily()
+    d["interactions"] = 1
+    d.loc[d["day"] == 3, "success_rate"] = 1.0
+    mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
+    assert list(mean.textposition) == ["top right", "top center", "bottom left"]
+    assert mean.cliponaxis is False
+    assert list(mean.text) == ["fewest 1 interaction"] * 3
+    one_day = next(t for t in success_figure(d[d["day"] == 1]).data if t.name == "success rate (mean)")
+    assert list(one_day.textposition) == ["top center"]

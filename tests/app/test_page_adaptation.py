@@ -83,7 +83,8 @@ def test_close_day_and_adapt(app, store, quick_policy):
     _button(at, "Put in force").click().run()
     no_exception(at)
     assert store.active_policy("P01") is None
-    assert next(m.value for m in at.metric if m.label == "Policy in force") == f"initial (newest: {active.version})"
+    shown = next(m for m in at.metric if m.label == "Policy in force")
+    assert (shown.value, shown.delta) == ("initial", f"rolled back; newest: version {active.version}")
     assert f"policy version {active.version} is in force" not in texts(at)
     assert "since then the initial policy was put in force" in texts(at)
     assert next(s for s in at.selectbox if s.label == "After").value == 0
