@@ -239,6 +239,8 @@ def parse_preference(obj: Any, source: str | None = None, pid: str | None = None
         action = spaces.canonical("action", obj["action"])
     except CacasError as exc:
         raise CacasError(f"{w('action')}: {exc}") from None
+    if "activity" in obj and obj["activity"] is None:  # it is there: "is missing" misled (review)
+        raise CacasError(f"{w('activity')}: is null; it must be a non-empty list of activity names")
     pref = Preference(
         activity=_names_list(obj.get("activity"), "activity", w("activity"), required=True),
         action=action,

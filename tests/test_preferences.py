@@ -71,6 +71,18 @@ def test_missing_action_and_activity():
         prefs.parse_personas(doc({"activity": ["cough"]}))
     with pytest.raises(CacasError, match="field 'activity': is missing"):
         prefs.parse_personas(doc({"action": "pain check"}))
+    # written as null, it is there: review, "is missing" misled
+    with pytest.raises(CacasError, match="field 'activity': is null; it must be a non-empty list of activity names"):
+        prefs.parse_personas(doc({"activity": None, "action": "pain check"}))
+
+
+def test_optional_fields_written_null_mean_any_as_docs_personas_says():
+    one = prefs.parse_personas(doc({"activity": ["cough"], "action": "pain check", "scene": None, "hours": None,
+                                    "interval": None, "task": None, "description": None}))[0]
+    bare = prefs.parse_personas(doc({"activity": ["cough"], "action": "pain check"}))[0]
+    assert one.preferences == bare.preferences
+    assert prefs.parse_personas(doc({"activity": ["watch TV", "Watch tv"], "action": "chitchat"}))[0] \
+        .preferences[0].activity == ("watch TV",)  # listed twice in any case: counts once
 
 
 def test_overlap_with_different_actions_names_both():
