@@ -258,9 +258,11 @@ def _on_the_tablet(shown: Shown) -> None:
         st.caption(f"{shown.activity} in the {shown.scene} · {shown.time_slot}")
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(shown.line)
-        st.caption("The participant answers on the tablet; this page follows it. Running the interaction here "
-                   "as well would record your answer in the participant's place.")
-        ui.button(st, "Run this interaction from here instead", _run_here, icon=":material/tablet:")
+        st.caption("The participant answers on the tablet; this page follows it. 'Run it from here instead' opens "
+                   "this page's own context form: you set the context and the robot proposes again (the tablet's "
+                   "proposal is not taken over). Whichever answer is saved first, here or on the tablet, is kept; "
+                   "the other is refused.")
+        ui.button(st, "Run it from here instead", _run_here, icon=":material/tablet:")
 
 
 # --- page -------------------------------------------------------------------------------------------

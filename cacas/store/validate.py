@@ -54,6 +54,8 @@ def now() -> str:
 
 
 def code(value: Any) -> str:
+    if isinstance(value, str) and not value.strip():  # "participant code '' is invalid" read oddly (walkthrough)
+        raise CacasError(f"the participant code is empty; valid: {CODE_HINT}")
     if not isinstance(value, str) or not CODE_RE.match(value.strip()):
         raise CacasError(f"participant code {value!r} is invalid; valid: {CODE_HINT}")
     return value.strip()

@@ -23,6 +23,8 @@ def test_page_opens_without_participants(app):
 
 def test_add_participant_valid_and_invalid(app, store):
     at = app(PAGE)
+    next(b for b in at.button if b.label == "Add participant").click().run()  # nothing typed
+    assert "the participant code is empty; valid: a pseudonymous code" in texts(at)  # not "code '' is invalid"
     at.text_input(key="new-code").set_value("Alice Smith")
     at.button[0].click().run()  # the form's submit button
     no_exception(at)

@@ -642,7 +642,7 @@ def test_the_researchers_view_shows_the_tablets_proposal_instead_of_a_form_of_it
     assert "On P01's tablet now" in texts(desk) and line in texts(desk)
     assert "use stove in the kitchen · 06:00-08:00" in texts(desk)
     assert not [b for b in desk.button if b.label == "Do it"]  # no form of its own for interaction 1
-    _button(desk, "Run this interaction from here instead").click().run()
+    _button(desk, "Run it from here instead").click().run()
     assert [b for b in desk.button if b.label == "Do it"]
     # the participant answers on the tablet: the researcher's view follows (a form for interaction 2)
     label = "Accept" if any(b.label == "Accept" for b in tab.button) else "Nothing needed"
