@@ -215,13 +215,6 @@ def _match_request() -> None:
     s["request-said"] = s.get("request-text", "")
 
 
-def _said_with_enter() -> None:
-    """Enter (a tablet keyboard's Go) in the request field says it, as "Say it" does (walkthrough:
-    Enter did nothing). A field emptied and left is not a request."""
-    if str(st.session_state.get("request-text") or "").strip():
-        _match_request()
-
-
 def _reject_match() -> None:
     s = st.session_state
     s.pop("request-match", None)
@@ -465,10 +458,13 @@ else:
                                 format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
             ui.button(c2, "Ask", _record, args=(day, index, proposal), kwargs={"user_action": pick},
                       icon=":material/record_voice_over:", disabled=pick is None, width="stretch")
-            c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
-            c3.text_input("Or type your request", key="request-text", on_change=_said_with_enter,
-                          placeholder="e.g. remind me to turn off the stove")
-            ui.button(c4, "Say it", _match_request, icon=":material/chat:", width="stretch")
+            # a form: Enter (a tablet keyboard's Go) says it as the button does (walkthrough: it did nothing),
+            # and leaving the field for the list above does not
+            with st.form("request-form", border=False, enter_to_submit=True):
+                c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
+                c3.text_input("Or type your request", key="request-text",
+                              placeholder="e.g. remind me to turn off the stove")
+                ui.button(c4, "Say it", _match_request, submit=True, icon=":material/chat:", width="stretch")
             if st.session_state.get("request-error"):
                 st.warning(st.session_state["request-error"], icon=":material/help:")
     ui.button(back, "Choose a different activity", _cancel, icon=":material/arrow_back:", width="stretch")

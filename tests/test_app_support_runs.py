@@ -103,7 +103,9 @@ def test_a_simulation_choice_is_checked_before_a_run(tmp_path):
         app_support.check_simulation(["P01"], [])
     with pytest.raises(CacasError, match="unknown method 'dqn'"):
         app_support.check_simulation(["P01"], ["cacas", "dqn"])
-    assert app_support.check_simulation(["P01"], ["NN", "cacas", "nn"]) == ("nn", "cacas")
+    assert app_support.check_simulation(["P01"], ["NN", "cacas"]) == ("nn", "cacas")
+    with pytest.raises(CacasError, match="method 'nn' is listed twice"):  # likely a typo for another method
+        app_support.check_simulation(["P01"], ["NN", "cacas", "nn"])
     assert not tmp_path.joinpath("runs").exists() and list(tmp_path.iterdir()) == []
 
 

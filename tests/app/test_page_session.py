@@ -59,26 +59,6 @@ def test_start_day_then_accept_is_saved_at_once(app, store, p01, quick_policy):
     assert line  # the robot said something (or stayed quiet, shown as a line)
 
 
-def test_enter_in_the_request_field_says_it(app, store, p01, quick_policy):
-    """Walkthrough: Enter (a tablet keyboard's Go) in 'Or type your request' did nothing; only the
-    button did. A field emptied and left says nothing."""
-    store.open_day("P01")
-    at = app(PAGE, participant="P01")
-    _choose(at, activity="cough", scene="bedroom")
-    at.text_input(key="request-text").set_value("something").run()
-    assert [w.value for w in at.warning] == [
-        "Sorry, the robot did not understand 'something'. Try other words, for example 'check whether I am in pain' "
-        "or 'set a timer', or pick what you would like from the list above."]
-    at.text_input(key="request-text").set_value("").run()  # emptied: not an empty request
-    no_exception(at)
-    assert not any("The request is empty" in w.value for w in at.warning)
-    at.text_input(key="request-text").set_value("please remind me to switch the stove off").run()
-    no_exception(at)
-    assert "remind you to turn the stove off. Is that right?" in texts(at)
-    _button(at, "Yes, please").click().run()
-    assert list(store.interactions_frame("P01", method=None)["user_action"]) == ["remind to turn off"]
-
-
 def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
     store.open_day("P01")
     at = app(PAGE, participant="P01")

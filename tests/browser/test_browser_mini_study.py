@@ -230,7 +230,14 @@ def test_mini_study(server, page, tmp_path):
     shows(page, "Saved (you asked: check whether I am in pain)")
 
     interact(page, "use hair dryer", "bathroom", slot="18:00-20:00")  # no described preference here
-    fill(page, "Or type your request", "please set a timer for me")
+    # Enter in the request field says it, as a tablet keyboard's Go would (walkthrough: it did nothing)
+    request = page.get_by_role("textbox", name="Or type your request", exact=True)
+    request.fill("sing me a song")
+    request.press("Enter")
+    idle(page)
+    shows(page, "Sorry, the robot did not understand 'sing me a song'")
+    fill(page, "Or type your request", "please set a timer for me")  # leaving the field says nothing yet
+    assert "Is that right?" not in text_of(page)
     click(page, "Say it")
     shows(page, "You would like me to set a timer. Is that right?")
     click(page, "Yes, please")
