@@ -166,7 +166,9 @@ def main() -> None:
     if ui.tablet_mode():
         # a tablet at 1024 x 768 shows the proposal, its answers and the request form without scrolling:
         # Streamlit's 6rem above the page was room they needed (a style only: it takes no room itself)
-        st.html("<style>[data-testid='stMainBlockContainer'] { padding-top: 1.5rem; }</style>")
+        # and a form's "Press Enter to submit form" is a developer's words: Enter says the typed request
+        st.html("<style>[data-testid='stMainBlockContainer'] { padding-top: 1.5rem; } "
+                "[data-testid='InputInstructions'] { display: none; }</style>")
         if not st.session_state.get(ui.PARTICIPANT_KEY):
             st.error("This tablet address names no known participant. Ask the researcher for your link.")
             st.stop()

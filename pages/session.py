@@ -208,6 +208,8 @@ def _match_request() -> None:
     except CacasError as exc:
         s["request-error"] = str(exc)
         s.pop("request-match", None)
+        if tablet:  # said in place, below the fold at 1024 x 768 (walkthrough): its first words are seen at once
+            st.toast(f"{str(exc).split('. ')[0].rstrip('.')}. More below the request.", icon=":material/help:")
         return
     s["request-error"] = None
     s["request-match"] = m.action
@@ -263,7 +265,7 @@ def _on_the_tablet(shown: Shown) -> None:
 status = day_status(store, code)
 if not tablet:
     _follow_the_tablet(status, board.shown(db, code))
-head, back = st.columns([3, 1], vertical_alignment="center")
+head, back = st.columns([2, 1], vertical_alignment="center")  # [3, 1] cut "Choose a different activity" at 768 px
 if tablet:
     head.markdown(f"## :material/smart_toy: Hello, {code}")
 else:

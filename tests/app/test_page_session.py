@@ -383,6 +383,21 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     assert "day" not in table.columns and "answer" in table.columns  # one day's table: no day column
 
 
+def test_a_request_the_robot_did_not_understand_is_also_a_toast_on_the_tablet(app, store, p01, quick_policy):
+    """Walkthrough: at 1024 x 768 the message under the request form was below the fold; the tablet
+    also says its first words in a toast, at once. The researcher's view keeps it in place only."""
+    store.open_day("P01")
+    for view, toasts in ((None, []),  # first: the researcher's view follows a proposal the tablet shows
+                         ("tablet", ["Sorry, the robot did not understand 'sing a song'. More below the request."])):
+        at = app(PAGE, participant="P01", **({"view": view} if view else {}))
+        _choose(at)
+        at.text_input(key="request-text").set_value("sing a song")
+        _button(at, "Say it").click().run()
+        no_exception(at)
+        assert [t.value for t in at.toast] == toasts
+        assert any("did not understand 'sing a song'. Try other words" in w.value for w in at.warning)
+
+
 def test_a_typed_request_is_confirmed_in_place_of_the_proposal(app, store, p01, quick_policy):
     """The robot's question about a typed request comes right under its proposal (in view on a tablet),
     in place of the proposal's buttons and the request form; "No" brings them back with the words kept."""
