@@ -46,6 +46,10 @@ def _job_key(who: str, day: int) -> str:
 
 def _start(who: str, day: int) -> None:
     s = st.session_state
+    done = RUNNER.get(_job_key(who, day))
+    if done is not None and done.status == DONE:  # adapted in this server: a stale tab's click keeps its result
+        s["adapt-note"] = f"Day {day} was adapted already, in another tab: this click did nothing."
+        return
     job, started = RUNNER.start(_job_key(who, day), adapt_day, db, who, day, method=s.get("adapt-method", "cacas"),
                                 seed=int(s.get("adapt-seed", 0)), label=f"Adapting {who} after day {day}")
     s["adapt-note"] = None if started else "This adaptation is already running (started in another tab?)."
@@ -112,7 +116,8 @@ else:
         if unfinished:  # this server knows no such run: it was stopped during it (or another server runs it)
             st.warning(f"An adaptation of day {day} with {unfinished['method']}, begun "
                        f"{app_support.short_time(unfinished['at'])}, saved nothing: the app was probably stopped "
-                       "during it. The day's data are all kept; adapt again.", icon=":material/restart_alt:")
+                       "during it, or it failed. The day's data are all kept; adapt again (unless another server "
+                       "is adapting it now).", icon=":material/restart_alt:")
         ui.button(st, f"Adapt after day {day}", _start, args=(code, day), type="primary",
                   icon=":material/model_training:")
     else:
@@ -124,7 +129,7 @@ else:
     job = RUNNER.get(_job_key(code, day)) if day else None
     if job is not None and job.status == FAILED and isinstance(job.exception, AlreadyAdapted):
         st.info(f"Day {day} had been adapted already, in another tab or by another server: this click saved "
-                "nothing, and the policy that adaptation saved is in force.", icon=":material/info:")
+                "nothing (the policy versions are below).", icon=":material/info:")
     elif job is not None and job.status == FAILED:
         st.error(f"The adaptation failed: {job.error}", icon=":material/error:")
     elif job is not None and job.status == DONE:

@@ -208,8 +208,10 @@ def _match_request() -> None:
     except CacasError as exc:
         s["request-error"] = str(exc)
         s.pop("request-match", None)
-        if tablet:  # said in place, below the fold at 1024 x 768 (walkthrough): its first words are seen at once
-            st.toast(f"{str(exc).split('. ')[0].rstrip('.')}. More below the request.", icon=":material/help:")
+        if tablet:  # said in place, below the fold at 1024 x 768 (walkthrough): a toast is seen at once
+            typed = str(s.get("request-text") or "").strip()
+            st.toast(("Sorry, the robot did not understand." if typed else "Type your request first.")
+                     + " More below the request.", icon=":material/help:")
         return
     s["request-error"] = None
     s["request-match"] = m.action

@@ -93,8 +93,10 @@ def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("args,says", [
-    (["sound", "generate", "--clips", "1", "--seed", "-1"], "argument --seed: '-1' is too small; valid: a whole number >= 0"),
-    (["scene", "generate", "--images", "1", "--seed", "-1"], "argument --seed: '-1' is too small; valid: a whole number >= 0"),
+    (["sound", "generate", "--clips", "1", "--seed", "-1"],
+     "argument --seed: '-1' is too small; valid: a whole number from 0 to 4294967295"),
+    (["scene", "generate", "--images", "1", "--seed", "-1"], "argument --seed: '-1' is too small"),
+    (["sound", "train", "--seed", "99999999999999999999999"], "argument --seed: '99999999999999999999999' is too large"),
     (["sound", "train", "--seed", "-1"], "argument --seed: '-1' is too small"),
     (["scene", "train", "--seed", "-1"], "argument --seed: '-1' is too small"),
     (["sound", "train", "--augment", "0"], "argument --augment: '0' is too small; valid: a whole number >= 1"),
@@ -116,7 +118,8 @@ def test_arguments_out_of_range_are_refused_before_any_work_in_one_line(tmp_path
     with pytest.raises(SystemExit) as exc:
         main(args)
     err = capsys.readouterr().err
-    assert exc.value.code == 2 and err.strip() == f"cacas: error: {says}" or says in err.strip().splitlines()[0]
+    assert exc.value.code == 2
+    assert err.strip() == f"cacas: error: {says}" or says in err.strip().splitlines()[0]
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert list(tmp_path.iterdir()) == []  # nothing made
 
@@ -131,6 +134,20 @@ def test_a_confusion_png_that_cannot_be_written_is_refused_before_the_evaluation
     assert main(["sound", "eval", "--confusion-png", str(tmp_path / "a_file" / "cm.png")]) == 2
     err = capsys.readouterr().err
     assert f"--confusion-png {tmp_path / 'a_file' / 'cm.png'}: cannot be written there" in err
+
+
+def test_a_confusion_png_in_a_new_folder_is_drawn_there(tmp_path, capsys, monkeypatch):
+    """Review: a missing folder passed the early check and failed after the whole evaluation."""
+    import cacas.audio.training
+    import cacas.cli.sound
+
+    monkeypatch.setattr(cacas.audio.training, "evaluate_sound_model", lambda *a, **k: "metrics")
+    monkeypatch.setattr(cacas.cli.sound, "print_metrics", lambda metrics: None)
+    drawn = []
+    monkeypatch.setattr("cacas.plots_recognition.confusion_png", lambda metrics, path: drawn.append(path.parent.is_dir()))
+    target = tmp_path / "new" / "deeper" / "cm.png"
+    assert main(["sound", "eval", "--quiet", "--confusion-png", str(target)]) == 0
+    assert drawn == [True] and f"confusion matrix drawn to {target}" in capsys.readouterr().out
 
 
 def test_scene_generate_and_import(tmp_path, capsys):

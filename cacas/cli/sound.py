@@ -145,7 +145,11 @@ def check_confusion_png(path) -> None:
 
 def save_confusion(metrics, path) -> None:
     if path is not None:
+        from pathlib import Path
+
         from cacas.plots_recognition import confusion_png
+
+        Path(path).parent.mkdir(parents=True, exist_ok=True)  # as --model: missing folders are made
 
         confusion_png(metrics, path)
         print(f"confusion matrix drawn to {path}")

@@ -32,18 +32,22 @@ def number(text: str) -> float:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: e.g. 2") from None
 
 
-def at_least(minimum: int):
-    """A whole number >= ``minimum`` (a seed: 0; a count of epochs, clips, copies: 1)."""
+def at_least(minimum: int, maximum: int | None = None):
+    """A whole number >= ``minimum`` (and <= ``maximum``): a count of epochs, clips, copies: 1 and up;
+    a seed: 0 to 2**32 - 1, what the random generators take."""
+    valid = f"a whole number >= {minimum}" if maximum is None else f"a whole number from {minimum} to {maximum}"
+
     def parse(text: str) -> int:
         value = integer(text)
-        if value < minimum:
-            raise argparse.ArgumentTypeError(f"{text!r} is too small; valid: a whole number >= {minimum}")
+        if value < minimum or (maximum is not None and value > maximum):
+            raise argparse.ArgumentTypeError(f"{text!r} is too {'small' if value < minimum else 'large'}; "
+                                             f"valid: {valid}")
         return value
-    parse.__name__ = f"whole number >= {minimum}"
+    parse.__name__ = valid
     return parse
 
 
-seed = at_least(0)
+seed = at_least(0, 2**32 - 1)
 count = at_least(1)
 
 

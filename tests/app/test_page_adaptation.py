@@ -150,9 +150,28 @@ def test_a_day_another_tab_adapted_first_is_said_so_not_called_a_failure(app, st
     no_exception(at)
     assert not at.error
     assert [i.value for i in at.info] == [f"Day {day} had been adapted already, in another tab or by another server: "
-                                          "this click saved nothing, and the policy that adaptation saved is in force."]
+                                          "this click saved nothing (the policy versions are below)."]
     assert f"Day {day} is closed and adapted" in texts(at)
     assert [(v.version, v.method) for v in store.policy_versions("P01")] == [(1, "cacas")]
+
+
+def test_a_stale_tabs_click_keeps_the_adaptation_this_server_finished(app, store, quick_policy):
+    """Review: a second tab's click on 'Adapt after day 1', after the first tab's adaptation finished in
+    this server, replaced the finished job (the first tab lost its 'Adapted with ...' and its log)."""
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    first, second = app(PAGE, participant="P01"), app(PAGE, participant="P01")
+    first.session_state["adapt-method"] = "nn"
+    _button(first, f"Adapt after day {day}").click().run()
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job.wait(600) and job.status == "done", job.error
+    _button(second, f"Adapt after day {day}").click().run()
+    no_exception(second)
+    assert RUNNER.get(f"adapt:{store.path}:P01:{day}") is job  # not replaced
+    assert f"Day {day} was adapted already, in another tab: this click did nothing." in [w.value for w in second.warning]
+    first.run()
+    assert any(m.value.startswith("Adapted with nn in ") for m in first.success)
+    assert len(store.policy_versions("P01")) == 1
 
 
 def test_an_adaptation_the_app_was_stopped_during_is_said_so(app, store, quick_policy):
@@ -166,7 +185,8 @@ def test_an_adaptation_the_app_was_stopped_during_is_said_so(app, store, quick_p
     started = store.events("P01", what="adapt_start")["at"].iloc[-1]
     assert [w.value for w in at.warning] == [
         f"An adaptation of day {day} with cacas, begun {started[:10]} {started[11:16]} UTC, saved nothing: the app "
-        "was probably stopped during it. The day's data are all kept; adapt again."]
+        "was probably stopped during it, or it failed. The day's data are all kept; adapt again (unless another "
+        "server is adapting it now)."]
     at.session_state["adapt-method"] = "nn"
     _button(at, f"Adapt after day {day}").click().run()
     job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
