@@ -66,7 +66,9 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
     # no bounds on the inputs: a value out of range is named by the check under the button (an input's
     # own bound showed only a red mark, and the button did nothing)
     days = c1.number_input("Days", value=7, step=1)
-    per_day = c2.number_input("Interactions a day", value=15, step=1)
+    per_day = c2.number_input("Interactions a day", value=15, step=1,
+                              help="On average: each simulated day draws its number around this (Poisson), as "
+                                   "people's days differ; the paper's ~15.")
     seed = c3.number_input("Seed", value=0, step=1, help="The same seed gives the same tables.")
     silent = c4.number_input("No-response rate", value=0.1, step=0.05)
     ask_rate = c5.number_input("Ask after a rejection", value=0.0, step=0.1,

@@ -98,7 +98,7 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
     val_x = preprocess([images[i] for i in val])
     yt = torch.from_numpy(labels).long()
     stopping, history = EarlyStopping(patience), []
-    tell(progress, 0.05, f"training on {len(train)} images ({source})")
+    tell(progress, 0.05, f"training on {len(train)} images, initial weights: {source}")
     for epoch in range(1, epochs + 1):
         model.train()
         order = rng.permutation(train)

@@ -100,6 +100,22 @@ def test_questionnaire_of_a_participant_without_a_day_is_refused(app, store):
     assert at.button_group(key="quest-score-0").value == 9  # the score stays for another pick of participant
 
 
+def test_the_change_since_day_1_rounds_halves_as_the_percentages_do(app, db):
+    """Review: 25 % on day 1 and 38 % (37.5) on day 2 said "+12 points" (Python's round to even)."""
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01", "P01", "P03", "P03"], "method": ["cacas"] * 4, "day": [1, 2, 1, 2],
+                          "success_rate": [0.5, 0.0, 0.0, 0.75], "preference_accuracy": [0.2, 0.5, 0.2, 0.5],
+                          "cumulative_feedback": [8, 15, 8, 15], "interactions": [15, 15, 15, 15]})
+    app_support.save_run(app_support.runs_dir(db), "run-h", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert (at.metric[0].value, at.metric[0].delta) == ("38%", "+13 points since day 1")
+
+
 def test_results_of_a_simulated_run(app, db):
     import pandas as pd
 
