@@ -12,12 +12,15 @@ table per participant-day) 14,000 rows took 20 s and 600,000 rows did not finish
 from __future__ import annotations
 
 import argparse
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from cacas import plots
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's cacas, not an installed one
+from cacas import plots  # noqa: E402
 
 
 def daily(participants: int, days: int, seed: int = 0) -> pd.DataFrame:
