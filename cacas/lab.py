@@ -29,7 +29,8 @@ def _safe_name(name: str, fallback: str) -> str:
 def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
     """Add recordings of ``activity`` to the sound library: ``files`` are (file name, bytes) from an
     upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
-    not silent, no NaN: :func:`cacas.audio.load_clip`); one bad file and nothing is added."""
+    not silent, no NaN, at least half a second: :func:`cacas.audio.library.library_clip`); one bad file
+    and nothing is added."""
     from cacas.audio.library import import_folder
 
     return _add_files("activity", activity, files, import_folder, root, what="recording",
@@ -39,7 +40,8 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
 def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
     """Add photos of the room ``scene`` to the scene library (what the robot's camera sees in a
     study, Section IV-A): ``files`` are (file name, bytes) from an upload or the camera. Every file
-    is checked first (a readable JPEG / PNG / BMP / WebP image: :func:`cacas.vision.library.load_image`);
+    is checked first (a readable JPEG / PNG / BMP / WebP image, at least 16 pixels a side:
+    :func:`cacas.vision.library.library_photo`);
     one bad file and nothing is added."""
     from cacas.vision.library import import_folder
 

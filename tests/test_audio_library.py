@@ -202,3 +202,19 @@ def test_files_with_extensions_lists_only_matching_files_of_the_folder(tmp_path)
     (tmp_path / "sub.wav").mkdir()
     assert [p.name for p in library.files_with_extensions(tmp_path, (".wav", ".ogg"))] == ["a.ogg", "b.WAV"]
     assert library.files_with_extensions(tmp_path / "missing", (".wav",)) == []
+
+
+def test_import_refuses_a_clip_shorter_than_half_a_second_and_copies_nothing(tmp_path):
+    """Review: a 0.2-s clip went into the library without a word (the model hears 1-s windows: it
+    would train on the padding), while 'Try a clip' flags one. Half a second or more is taken."""
+    src = _researcher_folder(tmp_path)
+    rng = np.random.default_rng(0)
+    sf.write(src / "cough" / "short.wav", 0.3 * rng.standard_normal(int(0.2 * 32000)).astype(np.float32), 32000)
+    sf.write(src / "cough" / "half.wav", 0.3 * rng.standard_normal(16000).astype(np.float32), 32000)
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match=r"short\.wav: is 0\.20 s long, mostly the silence that pads it to the "
+                                         r"model's 1-s window; valid: a recording of at least 0\.5 s"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+    (src / "cough" / "short.wav").unlink()
+    assert "half.wav" in {p.name for p in library.import_folder(src, root=lib)}

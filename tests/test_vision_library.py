@@ -65,3 +65,13 @@ def test_scan_is_strict_about_folders_and_file_types(tmp_path):
     (src / "bedroom" / "readme.md").write_text("x")
     with pytest.raises(CacasError, match=r"readme\.md: unsupported file type '\.md'"):
         library.scan(src)
+
+
+def test_import_refuses_a_photo_too_small_to_show_a_room(tmp_path):
+    """Review: a 1 x 1 pixel image was added to the scene library."""
+    src = _photos(tmp_path)
+    Image.new("RGB", (1, 1), (200, 20, 30)).save(src / "bedroom" / "tiny.png")
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match=r"tiny\.png: is 1 x 1 pixels; valid: a photo at least 16 pixels a side"):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()

@@ -41,8 +41,23 @@ def activity_of_folder(folder: str) -> str:
 
 
 #: The sound library's kind for :mod:`cacas.media_library`.
+def library_clip(path) -> np.ndarray:
+    """:func:`load_clip`, refusing a clip shorter than :data:`cacas.recognition.SHORT_CLIP_SECONDS`:
+    the model hears 1-s windows, so such a clip would train it on the silence that pads it (review:
+    a 0.2-s clip was added to the library without a word, while "Try a clip" flags one)."""
+    from cacas.recognition import SHORT_CLIP_SECONDS
+
+    y = load_clip(path)
+    if len(y) < SHORT_CLIP_SECONDS * SAMPLE_RATE:
+        raise CacasError(f"{path}: is {len(y) / SAMPLE_RATE:.2f} s long, mostly the silence that pads it to the "
+                         f"model's 1-s window; valid: a recording of at least {SHORT_CLIP_SECONDS:g} s (1 s or more "
+                         "is best)")
+    return y
+
+
 SOUNDS = media_library.MediaKind(what="sound", label="activity", item="recording", names=spaces.ACTIVITIES,
-                                 extensions=SUPPORTED_EXTENSIONS, name_of_folder=activity_of_folder, check=load_clip)
+                                 extensions=SUPPORTED_EXTENSIONS, name_of_folder=activity_of_folder,
+                                 check=library_clip)
 
 
 def _audio_files(folder: Path) -> list[Path]:
@@ -133,7 +148,8 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     """Copy a researcher's recordings (``source/<activity slug or name>/<clip>``) into the library.
 
     Sub-folders may be named by slug ("watch_tv") or Table I name ("watch TV"). Every file is
-    checked first (:func:`load_clip`: readable WAV/FLAC/OGG, not empty, not silent, no NaN);
+    checked first (:func:`library_clip`: readable WAV/FLAC/OGG, not empty, not silent, no NaN, at
+    least half a second);
     if any folder or file is bad, :class:`CacasError` names it and nothing is copied
     (:func:`cacas.media_library.import_folder`, shared with the scene library). Files keep
     their format; a name already in the library gets an ``imported_`` prefix and a number.

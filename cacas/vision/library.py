@@ -65,9 +65,24 @@ def load_image(path):
                          f"valid: {', '.join(IMAGE_EXTENSIONS)}") from None
 
 
+#: The smallest side of a photo the scene library takes: below it there is nothing of a room to see.
+MIN_PHOTO_SIDE = 16
+
+
+def library_photo(path):
+    """:func:`load_image`, refusing a photo smaller than :data:`MIN_PHOTO_SIDE` pixels a side (review:
+    a 1 x 1 pixel image was added to the library)."""
+    image = load_image(path)
+    if min(image.size) < MIN_PHOTO_SIDE:
+        raise CacasError(f"{path}: is {image.size[0]} x {image.size[1]} pixels; valid: a photo at least "
+                         f"{MIN_PHOTO_SIDE} pixels a side")
+    return image
+
+
 #: The scene library's kind for :mod:`cacas.media_library`.
 SCENE_IMAGES = media_library.MediaKind(what="scene", label="scene", item="image", names=spaces.SCENES,
-                                       extensions=IMAGE_EXTENSIONS, name_of_folder=scene_of_folder, check=load_image)
+                                       extensions=IMAGE_EXTENSIONS, name_of_folder=scene_of_folder,
+                                       check=library_photo)
 
 
 @dataclass(frozen=True)
