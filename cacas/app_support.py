@@ -548,6 +548,9 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     if "daily" not in tables:
         raise CacasError(f"{', '.join(names.values()) or 'nothing uploaded'}: upload a daily.csv as well "
                          "(the other tables are shown beside it)")
+    if tables["daily"].empty:  # the page said "Run a day on the Study session page" (review)
+        raise CacasError(f"{names['daily']}: has the daily.csv columns but no rows; valid: a daily.csv with at "
+                         "least one participant-day")
     known = set(tables["daily"]["participant"].astype(str))
     for kind in ("by_preference", "interactions"):
         if kind in tables:

@@ -74,7 +74,9 @@ fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods"
 with fig3:
     method, looped = plots.loop_method(daily), plots.closed_loop_methods(daily)
     if method is None:
-        st.info("No study day with interactions yet. Run a day on the **Study session** page.")
+        st.info("No study day with interactions yet. Run a day on the **Study session** page." if source == HUMAN
+                else "No success rate in this daily.csv: no method acted with the participants (its accuracies are "
+                     "under Fig. 4).")
     else:
         if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
             human = source == HUMAN

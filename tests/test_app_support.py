@@ -191,13 +191,16 @@ def test_uploaded_tables_are_recognised_by_their_columns():
     ([("d.csv", "daily_day_two")], r"d.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
     ([("d.csv", "daily_rate_percent")], r"d.csv, row 2: success_rate 85.0 is invalid; valid: a share from 0 to 1"),
     ([("d.csv", "daily_ceiling_percent")], r"d.csv, row 2: success_ceiling 90.0 is invalid; valid: a share from 0 "),
+    ([("d.csv", "daily_header_only")], r"d.csv: has the daily.csv columns but no rows; valid: a daily.csv with at "
+                                       r"least one participant-day"),
 ])
 def test_bad_uploads_name_the_file(files, message):
     daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
     by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
     made = {"daily": _csv(daily), "by_preference": _csv(by_pref), "stranger": _csv(by_pref.assign(participant="Q09")),
             "daily_day_two": _csv(daily.assign(day="two")), "daily_rate_percent": _csv(daily.assign(success_rate=85.0)),
-            "daily_ceiling_percent": _csv(daily.assign(success_rate=0.5, success_ceiling=90.0))}
+            "daily_ceiling_percent": _csv(daily.assign(success_rate=0.5, success_ceiling=90.0)),
+            "daily_header_only": _csv(daily.iloc[:0])}
     files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
     with pytest.raises(CacasError, match=message):
         app_support.load_uploaded_tables(files)

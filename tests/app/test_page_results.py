@@ -116,6 +116,22 @@ def test_the_change_since_day_1_rounds_halves_as_the_percentages_do(app, db):
     assert (at.metric[0].value, at.metric[0].delta) == ("38%", "+13 points since day 1")
 
 
+def test_a_run_with_no_success_rate_is_not_sent_to_the_study_session(app, db):
+    """Review: a daily.csv without a success rate said 'Run a day on the Study session page'."""
+    import pandas as pd
+
+    from cacas import app_support
+
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["nn"], "day": [1], "success_rate": [float("nan")],
+                          "preference_accuracy": [0.4], "cumulative_feedback": [8], "interactions": [15]})
+    app_support.save_run(app_support.runs_dir(db), "run-n", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert "No success rate in this daily.csv: no method acted with the participants" in texts(at)
+    assert "Study session" not in texts(at)
+
+
 def test_results_of_a_simulated_run(app, db):
     import pandas as pd
 
