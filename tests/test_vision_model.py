@@ -204,3 +204,21 @@ def test_every_scene_renders_at_the_sizes_generate_scenes_accepts(size):
         for seed in range(5):
             img = synth.render(scene, np.random.default_rng(seed), size)
             assert img.size == (size, size) and img.mode == "RGB"
+
+
+def test_a_stop_asked_for_during_an_epoch_ends_the_training_within_a_batch(tmp_path):
+    """Review: 'Stopping...' showed for 35 s, the rest of a ResNet epoch: progress is reported (so a
+    Stop can be raised) after every batch, with one message an epoch for the log."""
+    from cacas.jobs import Stopped
+
+    root = tmp_path / "scenes"
+    library.generate_scenes(6, size=64, seed=5, root=root)
+    messages = []
+
+    def progress(fraction, message):
+        messages.append(message)
+        if message == "epoch 1/3: training":  # after the first batch of epoch 1
+            raise Stopped("stopped on request")
+    with pytest.raises(Stopped):
+        train_scene_model(root, epochs=3, patience=3, weights="none", progress=progress)
+    assert not any(m.startswith("epoch 1/3: loss") for m in messages)  # epoch 1 never finished
