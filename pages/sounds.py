@@ -192,8 +192,9 @@ def _metrics_view(metrics, kind: str) -> None:
     st.metric(f"{kind} test accuracy", f"{100 * metrics.accuracy:.1f}%", help=f"on {metrics.n} held-out items")
     st.plotly_chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
     per = metrics.per_class.rename(columns={"label": "class"})
+    per = per.assign(accuracy=100 * per["accuracy"])  # whole percentages, as the rest of the page (it showed 66.67%)
     st.dataframe(per, hide_index=True, width="stretch",
-                 column_config={"accuracy": st.column_config.NumberColumn(format="percent")})
+                 column_config={"accuracy": st.column_config.NumberColumn(format="%.0f%%")})
 
 
 with train:
@@ -254,13 +255,13 @@ with tryit:
     c1, c2 = st.columns(2)
     with c1:
         st.markdown("**A sound**")
-        up = st.file_uploader("Clip", type=["wav", "flac", "ogg"], key="try-clip")
+        up = st.file_uploader("Clip", type=_KINDS["sound"]["types"], key="try-clip")
         rec = st.audio_input("Or record", key="try-record", sample_rate=32000)
         clip = up or rec
         if clip is not None:
             _recognise("sound", getattr(clip, "name", "recording.wav"), clip.getvalue())
     with c2:
         st.markdown("**A photo**")
-        photo = st.file_uploader("Photo", type=["png", "jpg", "jpeg"], key="try-photo")
+        photo = st.file_uploader("Photo", type=_KINDS["scene"]["types"], key="try-photo")  # as the library takes
         if photo is not None:
             _recognise("scene", photo.name, photo.getvalue())

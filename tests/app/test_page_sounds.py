@@ -88,6 +88,8 @@ def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, mo
     no_exception(at)
     assert any(m.label == "Sound test accuracy" and m.value == "75.0%" for m in at.metric)
     assert len(at.get("plotly_chart")) == 1
+    per_class = next(d.value for d in at.dataframe if "class" in d.value.columns)  # whole percentages (was 66.67%)
+    assert dict(zip(per_class["class"], per_class["accuracy"])) == {"cough": 100.0, "cry": 100.0, "sneeze": 50.0}
     RUNNER.forget("eval-sound")
 
 
