@@ -81,8 +81,6 @@ def run_train(args) -> int:
     from cacas.vision.training import train_scene_model
     from cacas.store.files import writable_file
 
-    if args.epochs < 1:
-        raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
     model_path = writable_file(args.model or default_model_path(), "--model")  # before minutes of training
     check_weights_file(args.weights)
     with ProgressBar(quiet=args.quiet) as bar:

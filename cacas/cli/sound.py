@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.errors import CacasError
 
 
 def count(n: int, noun: str) -> str:
@@ -110,8 +109,6 @@ def run_train(args) -> int:
     from cacas.audio.training import train_sound_model
     from cacas.store.files import writable_file
 
-    if args.epochs < 1:
-        raise CacasError(f"--epochs must be at least 1, got {args.epochs}")
     model_path = writable_file(args.model or default_model_path(), "--model")  # before minutes of training
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
