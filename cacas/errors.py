@@ -16,4 +16,5 @@ class AlreadyRecorded(CacasError):
 
 class AlreadyAdapted(AlreadyRecorded):
     """The study day was adapted already (another tab or server adapted it first): nothing more
-    was written, and the policy that adaptation saved is the one in force."""
+    was written (the policy that adaptation saved is a version of its own, in force unless rolled
+    back since)."""
