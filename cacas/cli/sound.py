@@ -44,7 +44,7 @@ def register(subparsers) -> None:
                        description="Write SYNTHETIC clips (one folder per activity, Table I's 33 activities) into "
                                    "the sound library; a clip already holding the same audio is left as it is.")
     g.add_argument("--clips", type=types.count, default=24, help="clips per activity (default 24)")
-    g.add_argument("--seconds", type=types.number, default=2.0, help="clip length in seconds (default 2)")
+    g.add_argument("--seconds", type=types.seconds, default=2.0, help="clip length in seconds (default 2)")
     g.add_argument("--seed", type=types.seed, default=0, help="seed; a new seed adds new clips (default 0)")
     g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"], help="clip file format (default ogg)")
     g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")

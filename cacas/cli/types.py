@@ -16,20 +16,19 @@ def integer(text: str) -> int:
         raise argparse.ArgumentTypeError(f"{text!r} is not a whole number; valid: e.g. 7") from None
 
 
-def share(text: str) -> float:
-    """A number (a share such as 0.1; its range the command checks itself)."""
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: a share such as 0.1") from None
+def number(example: str):
+    """A number (its range the command checks itself); ``example`` says what a valid one looks like."""
+    def parse(text: str) -> float:
+        try:
+            return float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: {example}") from None
+    parse.__name__ = "number"
+    return parse
 
 
-def number(text: str) -> float:
-    """A number (e.g. a clip length in seconds; its range the command checks itself)."""
-    try:
-        return float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number; valid: e.g. 2") from None
+share = number("a share such as 0.1")
+seconds = number("e.g. 2")
 
 
 def at_least(minimum: int, maximum: int | None = None):
