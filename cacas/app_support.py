@@ -623,17 +623,55 @@ def load_run(folder) -> Run:
         if not (folder / table).is_file():
             raise CacasError(f"{folder}: no {table}; not a complete run (valid: a folder the Simulation lab "
                              "or `cacas simulate --out` wrote)")
-    settings: dict = {}
-    if (folder / "settings.json").exists():
-        try:
-            settings = json.loads((folder / "settings.json").read_text(encoding="utf-8"))
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise CacasError(f"{folder / 'settings.json'}: not readable JSON ({exc})") from None
-        if not isinstance(settings, dict):
-            raise CacasError(f"{folder / 'settings.json'}: not a JSON object of settings")
     return Run(name=folder.name, daily=load_daily(folder / "daily.csv"),
                interactions=pd.read_csv(folder / "interactions.csv"),
-               by_preference=load_by_preference(folder), settings=settings)
+               by_preference=load_by_preference(folder), settings=run_settings(folder))
+
+
+def run_settings(folder) -> dict:
+    """A run's settings.json ({} when it has none, as ``cacas simulate --out`` writes none); one
+    that is not a readable JSON object is a CacasError naming it."""
+    path = Path(folder) / "settings.json"
+    if not path.exists():
+        return {}
+    try:
+        settings = json.loads(path.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise CacasError(f"{path}: not readable JSON ({exc})") from None
+    if not isinstance(settings, dict):
+        raise CacasError(f"{path}: not a JSON object of settings")
+    return settings
+
+
+def run_days(days) -> str:
+    """A run's length as its caption says it: "1 day", "7 days" ("? days" when not known)."""
+    return "? days" if days is None else f"{days} day{'s' if days != 1 else ''}"
+
+
+def run_label(root, name: str) -> str:
+    """How the Simulation lab's run picker names a run: when it ran and what it compared, from its
+    settings (two runs of one day differ in more than their time stamp: their participants, methods,
+    seed, who acts), e.g. "26 Nov 2026 08:15 · 8 participants · 7 days · CACAS, NN · seed 0". A
+    run without readable settings (one copied in from ``cacas simulate --out``) is its folder name."""
+    from datetime import datetime
+
+    try:
+        settings = run_settings(Path(root) / name)
+    except CacasError:
+        settings = {}
+    try:
+        when = datetime.strptime(name[:15], "%Y%m%d-%H%M%S").strftime("%d %b %Y %H:%M")
+    except ValueError:
+        when = name
+    if not settings:
+        return name
+    n = len(settings.get("participants", []))
+    methods = ", ".join(plots.METHOD_LABELS.get(m, m) for m in settings.get("methods", []))
+    parts = [when, f"{n} participant{'s' if n != 1 else ''}", run_days(settings.get("days")), methods,
+             f"seed {settings.get('seed')}"]
+    if settings.get("loop") == "each":
+        parts.append("each in its own loop")
+    return " · ".join(p for p in parts if p)
 
 
 def uploaded_personas(name: str, data: bytes) -> list:
@@ -673,14 +711,20 @@ def check_simulation(participants, methods, days: int = 7, interactions: int = 1
                      no_response_rate: float = 0.1, ask_after_reject: float = 0.0) -> tuple[str, ...]:
     """The Simulation lab's choice, checked before a run starts: at least one participant, known
     methods (:func:`cacas.experiment.check_methods`) and the study's sizes
-    (:func:`cacas.experiment.check_study_arguments`, named by the lab's labels); returns the
-    methods."""
-    from cacas.experiment import check_methods, check_study_arguments
+    (:func:`cacas.experiment.study_argument_problems`, named by the lab's labels); returns the
+    methods. One CacasError names every problem, one a line (the form is filled in at once, so
+    it is corrected at once, not one refusal at a time)."""
+    from cacas.experiment import check_methods, study_argument_problems
 
-    if not participants:
-        raise CacasError("choose at least one simulated participant")
-    methods = check_methods(methods)
-    check_study_arguments(days, interactions, no_response_rate, ask_after_reject, seed, names=SIMULATION_FIELDS)
+    problems = [] if participants else ["choose at least one simulated participant"]
+    try:
+        methods = check_methods(methods)
+    except CacasError as exc:
+        problems.append(str(exc))
+    problems += study_argument_problems(days, interactions, no_response_rate, ask_after_reject, seed,
+                                        names=SIMULATION_FIELDS)
+    if problems:
+        raise CacasError("\n".join(problems))
     return methods
 
 

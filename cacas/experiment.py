@@ -73,22 +73,34 @@ OPTION_NAMES = {"days": "--days", "interactions": "--interactions", "seed": "--s
                 "no_response_rate": "--no-response-rate", "ask_after_reject": "--ask-after-reject"}
 
 
+def study_argument_problems(days: int, interactions: int, no_response_rate: float,
+                            ask_after_reject: float = 0.0, seed: int = 0, names: dict | None = None) -> list[str]:
+    """Every problem with a study's sizes, in the order of the arguments (empty when all are
+    valid). The messages name each size as ``names`` does (default :data:`OPTION_NAMES`, the
+    command-line options; the Simulation lab passes its labels)."""
+    n = {**OPTION_NAMES, **(names or {})}
+    problems = []
+    if not 1 <= days <= MAX_DAYS:
+        problems.append(f"{n['days']} {days} is invalid; valid: a whole number of days from 1 to {MAX_DAYS}")
+    if not 1 <= interactions <= MAX_INTERACTIONS:
+        problems.append(f"{n['interactions']} {interactions} is invalid; valid: a whole number from 1 to "
+                        f"{MAX_INTERACTIONS} (one a minute)")
+    if not 0 <= seed <= MAX_SEED:
+        problems.append(f"{n['seed']} {seed} is invalid; valid: a whole number from 0 to {MAX_SEED}")
+    if not 0 <= no_response_rate < 1:
+        problems.append(f"{n['no_response_rate']} {no_response_rate} is invalid; valid: 0 <= rate < 1")
+    if not 0 <= ask_after_reject <= 1:
+        problems.append(f"{n['ask_after_reject']} {ask_after_reject} is invalid; valid: 0 <= rate <= 1")
+    return problems
+
+
 def check_study_arguments(days: int, interactions: int, no_response_rate: float,
                           ask_after_reject: float = 0.0, seed: int = 0, names: dict | None = None) -> None:
-    """A study's sizes, checked before any work. The messages name each size as ``names`` does
-    (default :data:`OPTION_NAMES`, the command-line options; the Simulation lab passes its labels)."""
-    n = {**OPTION_NAMES, **(names or {})}
-    if not 1 <= days <= MAX_DAYS:
-        raise CacasError(f"{n['days']} {days} is invalid; valid: a whole number of days from 1 to {MAX_DAYS}")
-    if not 1 <= interactions <= MAX_INTERACTIONS:
-        raise CacasError(f"{n['interactions']} {interactions} is invalid; valid: a whole number from 1 to "
-                         f"{MAX_INTERACTIONS} (one a minute)")
-    if not 0 <= seed <= MAX_SEED:
-        raise CacasError(f"{n['seed']} {seed} is invalid; valid: a whole number from 0 to {MAX_SEED}")
-    if not 0 <= no_response_rate < 1:
-        raise CacasError(f"{n['no_response_rate']} {no_response_rate} is invalid; valid: 0 <= rate < 1")
-    if not 0 <= ask_after_reject <= 1:
-        raise CacasError(f"{n['ask_after_reject']} {ask_after_reject} is invalid; valid: 0 <= rate <= 1")
+    """A study's sizes, checked before any work: a CacasError with the first problem of
+    :func:`study_argument_problems` (one line, as the command line reports a bad option)."""
+    problems = study_argument_problems(days, interactions, no_response_rate, ask_after_reject, seed, names)
+    if problems:
+        raise CacasError(problems[0])
 
 
 def check_loop(loop: str) -> str:

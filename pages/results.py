@@ -28,7 +28,8 @@ HUMAN = "Human study (this database)"
 st.title("Results")
 
 # --- which data ------------------------------------------------------------------------------------
-runs = app_support.list_runs(app_support.runs_dir(db))
+runs_root = app_support.runs_dir(db)
+runs = app_support.list_runs(runs_root)
 SIMULATED, UPLOAD = "A simulated run", "Upload CSV files"
 source = st.segmented_control("Data", [HUMAN, SIMULATED, UPLOAD], default=HUMAN, key="results-source") or HUMAN
 if source == SIMULATED:
@@ -36,6 +37,7 @@ if source == SIMULATED:
         st.info("No simulated run yet: run one in the **Simulation lab**.")
         st.stop()
     source = "Simulated run: " + st.selectbox("Run", runs, key="results-run",
+                                               format_func=lambda r: app_support.run_label(runs_root, r),
                                                help="Saved by the Simulation lab, newest first.")
 
 if source == HUMAN:

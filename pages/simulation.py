@@ -90,8 +90,9 @@ if go:
     try:
         app_support.check_simulation(chosen, methods, int(days), int(per_day), int(seed), float(silent),
                                      float(ask_rate))
-    except CacasError as exc:
-        st.error(str(exc), icon=":material/error:")
+    except CacasError as exc:  # every problem of the form, one a line
+        lines = str(exc).splitlines()
+        st.error(lines[0] if len(lines) == 1 else "\n".join(f"- {line}" for line in lines), icon=":material/error:")
     else:
         _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
                                   app_support.runs_dir(db), days=int(days), interactions=int(per_day),
@@ -110,7 +111,8 @@ if job is not None and job.status == FAILED:
     st.error(f"The simulation failed: {job.error}", icon=":material/error:")
 
 # --- results of a run ---------------------------------------------------------------------------------
-runs = app_support.list_runs(app_support.runs_dir(db))
+runs_root = app_support.runs_dir(db)
+runs = app_support.list_runs(runs_root)
 if runs:
     st.subheader("Runs")
     finished = job.result.name if job is not None and job.status == DONE and job.result.name in runs else None
@@ -118,12 +120,12 @@ if runs:
         st.session_state["sim-run"] = st.session_state["sim-shown"] = finished
     if st.session_state.get("sim-run") not in runs:
         st.session_state["sim-run"] = runs[0]
-    name = st.selectbox("Run", runs, key="sim-run")
+    name = st.selectbox("Run", runs, key="sim-run", format_func=lambda r: app_support.run_label(runs_root, r))
     run = ui.load_run(db, name)
     daily, settings = run.daily, run.settings
     if settings:
         n = len(settings.get("participants", []))
-        st.caption(f"{n} participant{'s' if n != 1 else ''} · {settings.get('days')} days · "
+        st.caption(f"{n} participant{'s' if n != 1 else ''} · {app_support.run_days(settings.get('days'))} · "
                    f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
                    f" · seed {settings.get('seed')}" + (f" · asks after {ui.percent(settings['ask_after_reject'])} of "
                                                          "rejections" if settings.get("ask_after_reject") else "")

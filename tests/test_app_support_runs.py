@@ -109,6 +109,48 @@ def test_a_simulation_choice_is_checked_before_a_run(tmp_path):
     assert not tmp_path.joinpath("runs").exists() and list(tmp_path.iterdir()) == []
 
 
+def test_every_problem_of_the_simulation_form_is_named_at_once():
+    """The form is filled in at once: one refusal names each problem, one a line, in the form's
+    order, by the lab's labels (the command line still stops at the first: one line)."""
+    with pytest.raises(CacasError) as refused:
+        app_support.check_simulation([], ["cacas", "dqn"], days=0, interactions=15, seed=-1,
+                                     no_response_rate=1.0)
+    assert str(refused.value).splitlines() == [
+        "choose at least one simulated participant",
+        "unknown method 'dqn'; valid: cacas, cacas-no-pr, orl, nn, bandit, sac-user-data",
+        "Days 0 is invalid; valid: a whole number of days from 1 to 365",
+        "Seed -1 is invalid; valid: a whole number from 0 to 4294967295",
+        "No-response rate 1.0 is invalid; valid: 0 <= rate < 1"]
+    from cacas.experiment import check_study_arguments
+    with pytest.raises(CacasError) as first:
+        check_study_arguments(0, 15, 1.0, seed=-1)
+    assert str(first.value) == "--days 0 is invalid; valid: a whole number of days from 1 to 365"
+
+
+def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
+                          "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
+    inter = pd.DataFrame({"participant": ["P01"]})
+    app_support.save_run(tmp_path, "20261126-081502-seed0-8p-7d", daily, inter,
+                         {"participants": [f"P0{i}" for i in range(1, 9)], "days": 7, "methods": ["cacas", "nn"],
+                          "seed": 0, "loop": "first"})
+    app_support.save_run(tmp_path, "20261126-081733-seed3-1p-1d", daily, inter,
+                         {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3, "loop": "each"})
+    app_support.save_run(tmp_path, "from-the-command-line", daily, inter, {})
+    (tmp_path / "from-the-command-line" / "settings.json").unlink()
+    app_support.save_run(tmp_path, "broken", daily, inter, {})
+    (tmp_path / "broken" / "settings.json").write_text("{not json")
+    assert app_support.run_label(tmp_path, "20261126-081502-seed0-8p-7d") == \
+        "26 Nov 2026 08:15 · 8 participants · 7 days · CACAS, NN · seed 0"
+    assert app_support.run_label(tmp_path, "20261126-081733-seed3-1p-1d") == \
+        "26 Nov 2026 08:17 · 1 participant · 1 day · Bandit (TS) · seed 3 · each in its own loop"
+    assert app_support.run_label(tmp_path, "from-the-command-line") == "from-the-command-line"
+    assert app_support.run_label(tmp_path, "broken") == "broken"  # the picker still lists it; opening it names the file
+    with pytest.raises(CacasError, match="settings.json: not readable JSON"):
+        app_support.load_run(tmp_path / "broken")
+    assert [app_support.run_days(d) for d in (1, 7, None)] == ["1 day", "7 days", "? days"]
+
+
 def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     from cacas.store import StudyStore
 

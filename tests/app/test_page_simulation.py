@@ -108,6 +108,20 @@ def test_a_size_out_of_range_is_named_under_the_button(app, db):
     assert RUNNER.get(f"simulate:{db}") is None  # nothing started
 
 
+def test_every_problem_of_the_form_is_listed_under_the_button(app, db):
+    at = app(PAGE)
+    next(n for n in at.number_input if n.label == "Days").set_value(0)
+    next(n for n in at.number_input if n.label == "No-response rate").set_value(1.0)
+    at.multiselect[1].set_value([])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert [e.value for e in at.error] == [
+        "- no method given; valid: cacas, cacas-no-pr, orl, nn, bandit, sac-user-data\n"
+        "- Days 0 is invalid; valid: a whole number of days from 1 to 365\n"
+        "- No-response rate 1.0 is invalid; valid: 0 <= rate < 1"]
+    assert RUNNER.get(f"simulate:{db}") is None  # nothing started
+
+
 def test_a_run_folder_without_its_interactions_is_named_not_a_crash(app, db):
     import pandas as pd
 
@@ -120,7 +134,7 @@ def test_a_run_folder_without_its_interactions_is_named_not_a_crash(app, db):
                                    "seed": 3})
     at = app(PAGE)
     no_exception(at)
-    assert "1 participant · 1 days · 15 interactions a day · methods cacas · seed 3" in texts(at)
+    assert "1 participant · 1 day · 15 interactions a day · methods cacas · seed 3" in texts(at)
     (folder / "interactions.csv").unlink()
     at.run()
     no_exception(at)
