@@ -40,7 +40,8 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
 def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
     """Add photos of the room ``scene`` to the scene library (what the robot's camera sees in a
     study, Section IV-A): ``files`` are (file name, bytes) from an upload or the camera. Every file
-    is checked first (a readable JPEG / PNG / BMP / WebP image, at least 16 pixels a side:
+    is checked first (a readable JPEG / PNG / BMP / WebP image, at least 16 pixels a side, neither
+    fully transparent nor one flat colour:
     :func:`cacas.vision.library.library_photo`);
     one bad file and nothing is added."""
     from cacas.vision.library import import_folder

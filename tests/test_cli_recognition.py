@@ -6,11 +6,11 @@ import sys
 import numpy as np
 import pytest
 import soundfile as sf
-from PIL import Image
 
 from cacas.audio import library
 from cacas.cli import COMMANDS, main
 from cacas.vision import library as scene_library
+from photos import photo
 from unwritable import unwritable_folder  # noqa: F401
 
 
@@ -155,7 +155,7 @@ def test_scene_generate_and_import(tmp_path, capsys):
     assert len(list((tmp_path / "s").rglob("*.jpg"))) == 6
     src = tmp_path / "mine" / "bedroom"
     src.mkdir(parents=True)
-    Image.new("RGB", (30, 30)).save(src / "b.png")
+    photo((30, 30), (0, 0, 0)).save(src / "b.png")
     assert main(["scene", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "s")]) == 0
     assert (tmp_path / "s" / "bedroom" / "b.png").exists()
 

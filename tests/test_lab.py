@@ -145,10 +145,10 @@ def test_train_scene_saves_the_model_evaluate_scene_tests_it(study_data, monkeyp
 def _png(colour=(200, 120, 40)) -> bytes:
     import io
 
-    from PIL import Image
+    from photos import photo
 
     buf = io.BytesIO()
-    Image.new("RGB", (40, 30), colour).save(buf, format="PNG")
+    photo((40, 30), colour).save(buf, format="PNG")
     return buf.getvalue()
 
 

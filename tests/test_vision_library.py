@@ -1,19 +1,21 @@
 """The scene library's scan and importer: the same rules as the sound library's
 (cacas.media_library), with images."""
 
+import numpy as np
 import pytest
 from PIL import Image
 
 from cacas.errors import CacasError
 from cacas.vision import library
+from photos import photo
 
 
 def _photos(tmp_path):
     src = tmp_path / "photos"
     (src / "Living Room").mkdir(parents=True)
     (src / "bedroom").mkdir()
-    Image.new("RGB", (40, 30), (10, 20, 30)).save(src / "Living Room" / "a.png")
-    Image.new("RGB", (40, 30), (90, 20, 30)).save(src / "bedroom" / "b.jpg")
+    photo((40, 30), (10, 20, 30)).save(src / "Living Room" / "a.png")
+    photo((40, 30), (90, 20, 30)).save(src / "bedroom" / "b.jpg")
     return src
 
 
@@ -25,8 +27,8 @@ def test_import_copies_checked_photos_by_scene(tmp_path):
     assert told[-1] == 1.0
     with pytest.raises(CacasError, match=r"a\.png: the same image is already in the library as living_room/a\.png"):
         library.import_folder(tmp_path / "photos", root=lib)
-    Image.new("RGB", (40, 30), (11, 20, 30)).save(tmp_path / "photos" / "Living Room" / "a.png")  # other photos
-    Image.new("RGB", (40, 30), (91, 20, 30)).save(tmp_path / "photos" / "bedroom" / "b.jpg")
+    photo((40, 30), (11, 20, 30)).save(tmp_path / "photos" / "Living Room" / "a.png")  # other photos
+    photo((40, 30), (91, 20, 30)).save(tmp_path / "photos" / "bedroom" / "b.jpg")
     again = library.import_folder(tmp_path / "photos", root=lib)  # same names: kept apart, not overwritten
     assert sorted(p.name for p in again) == ["imported_1_a.png", "imported_1_b.jpg"]
     assert [p.scene for p in library.scan(lib)] == ["bedroom", "bedroom", "living room", "living room"]
@@ -75,3 +77,32 @@ def test_import_refuses_a_photo_too_small_to_show_a_room(tmp_path):
     with pytest.raises(CacasError, match=r"tiny\.png: is 1 x 1 pixels; valid: a photo at least 16 pixels a side"):
         library.import_folder(src, root=lib)
     assert not lib.exists()
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda: Image.new("RGB", (64, 48), (12, 12, 12)),
+     r"black\.jpg: is one flat colour \(RGB \(12, 12, 12\)\), a covered lens or a blank image; valid: a photo of the room"),
+    (lambda: Image.new("RGBA", (64, 48), (0, 0, 0, 0)),
+     r"clear\.png: is fully transparent, nothing of a room shows; valid: a photo of the room"),
+    (lambda: Image.fromarray(np.dstack([np.tile(np.arange(64, dtype="uint8"), (48, 1))] * 3
+                                       + [np.zeros((48, 64), "uint8")]), "RGBA"),
+     r"hidden\.png: is fully transparent"),  # colours underneath, none of them shown
+])
+def test_import_refuses_an_image_with_nothing_of_a_room_in_it(tmp_path, make, message):
+    """Walkthrough: a blank frame went into the scene library as a photo of the bedroom; a covered
+    lens gives one."""
+    src = _photos(tmp_path)
+    name = message.split(":")[0].replace("\\", "")
+    make().save(src / "bedroom" / name)
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError, match=message):
+        library.import_folder(src, root=lib)
+    assert not lib.exists()
+
+
+def test_a_dim_room_is_still_a_photo(tmp_path):
+    """The flat-colour bound is far below a real photo's spread: a dark evening room passes."""
+    rng = np.random.default_rng(0)
+    dim = Image.fromarray(rng.integers(5, 30, (48, 64, 3), dtype="uint8"), "RGB")  # spread ~7 levels
+    dim.save(tmp_path / "dim.jpg")
+    assert library.library_photo(tmp_path / "dim.jpg").size == (64, 48)

@@ -13,6 +13,7 @@ from cacas.recognition import Recognition, model_id
 from cacas.vision import SceneRecognizer, build_resnet18, library, synth
 from cacas.vision.model import default_model_path, dequantise_state, quantise_state
 from cacas.vision.training import evaluate_scene_model, train_scene_model
+from photos import photo
 
 
 @pytest.fixture(scope="module")
@@ -165,7 +166,7 @@ def test_recognize_image_and_bad_files(tiny, tmp_path):
 def test_import_scene_folder(tmp_path):
     src = tmp_path / "photos" / "Living Room"
     src.mkdir(parents=True)
-    Image.new("RGB", (40, 30), (10, 20, 30)).save(src / "a.png")
+    photo((40, 30), (10, 20, 30)).save(src / "a.png")
     copied = library.import_folder(tmp_path / "photos", root=tmp_path / "lib")
     assert [p.relative_to(tmp_path / "lib").as_posix() for p in copied] == ["living_room/a.png"]
     (tmp_path / "photos" / "garage").mkdir()

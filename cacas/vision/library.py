@@ -68,14 +68,30 @@ def load_image(path):
 #: The smallest side of a photo the scene library takes: below it there is nothing of a room to see.
 MIN_PHOTO_SIDE = 16
 
+#: A photo whose every colour channel varies less than this (standard deviation over its pixels, in
+#: 0-255 levels) is one flat colour: a covered lens, a blank or fully transparent image, not a room.
+#: A dim room in the evening still varies by tens of levels; a JPEG of one colour by under one.
+MIN_PHOTO_SPREAD = 2.0
+
 
 def library_photo(path):
-    """:func:`load_image`, refusing a photo smaller than :data:`MIN_PHOTO_SIDE` pixels a side (review:
-    a 1 x 1 pixel image was added to the library)."""
+    """:func:`load_image`, refusing what shows no room: a photo smaller than
+    :data:`MIN_PHOTO_SIDE` pixels a side (review: a 1 x 1 pixel image was added to the library),
+    a fully transparent image, and one flat colour (:data:`MIN_PHOTO_SPREAD`; a walkthrough added
+    a blank frame). Each would be a training example of a room with nothing of the room in it."""
+    from PIL import Image, ImageStat
+
     image = load_image(path)
     if min(image.size) < MIN_PHOTO_SIDE:
         raise CacasError(f"{path}: is {image.size[0]} x {image.size[1]} pixels; valid: a photo at least "
                          f"{MIN_PHOTO_SIDE} pixels a side")
+    with Image.open(path) as raw:  # load_image has read it whole: it opens
+        if "A" in raw.getbands() and raw.getchannel("A").getextrema()[1] == 0:
+            raise CacasError(f"{path}: is fully transparent, nothing of a room shows; valid: a photo of the room")
+    if max(ImageStat.Stat(image).stddev) < MIN_PHOTO_SPREAD:
+        colour = tuple(round(c) for c in ImageStat.Stat(image).mean)
+        raise CacasError(f"{path}: is one flat colour (RGB {colour}), a covered lens or a blank image; "
+                         "valid: a photo of the room")
     return image
 
 

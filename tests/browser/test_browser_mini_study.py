@@ -395,12 +395,12 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     """The researcher adds photos of the participant's own kitchen (what the robot's camera sees in
     the study); the uploader empties, the library counts them, and the same photo again is refused
     with nothing added."""
-    from PIL import Image
+    from photos import photo as kitchen_photo
 
     from cacas.vision.library import image_paths
 
     photo = tmp_path / "our kitchen.png"
-    Image.new("RGB", (64, 48), (200, 120, 40)).save(photo)
+    kitchen_photo((64, 48), (200, 120, 40)).save(photo)
     goto(page, f"{library_server.url}/sounds")
     page.get_by_role("tab", name="Scene library").click()
     idle(page)
