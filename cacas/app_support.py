@@ -648,6 +648,29 @@ def run_days(days) -> str:
     return "? days" if days is None else f"{days} day{'s' if days != 1 else ''}"
 
 
+def run_caption(settings: dict) -> str:
+    """The Simulation lab's line under a run: every setting the run kept, e.g. "8 participants ·
+    7 days · 15 interactions a day · methods cacas, nn · seed 0 · personas: ..."; a setting the
+    run did not keep (a settings.json written by hand, or by an older version) is left out."""
+    n = len(settings.get("participants", []))
+    parts = [f"{n} participant{'s' if n != 1 else ''}"]
+    if settings.get("days") is not None:
+        parts.append(run_days(settings["days"]))
+    if settings.get("interactions") is not None:
+        parts.append(f"{settings['interactions']} interactions a day")
+    if settings.get("methods"):
+        parts.append(f"methods {', '.join(settings['methods'])}")
+    if settings.get("seed") is not None:
+        parts.append(f"seed {settings['seed']}")
+    if settings.get("ask_after_reject"):
+        parts.append(f"asks after {percent(settings['ask_after_reject'])} of rejections")
+    if settings.get("loop") == "each":
+        parts.append("each method in its own closed loop")
+    if settings.get("personas"):
+        parts.append(f"personas: {settings['personas']}")
+    return " · ".join(parts)
+
+
 def run_label(root, name: str) -> str:
     """How the Simulation lab's run picker names a run: when it ran and what it compared, from its
     settings (two runs of one day differ in more than their time stamp: their participants, methods,
@@ -667,8 +690,9 @@ def run_label(root, name: str) -> str:
         return name
     n = len(settings.get("participants", []))
     methods = ", ".join(plots.METHOD_LABELS.get(m, m) for m in settings.get("methods", []))
-    parts = [when, f"{n} participant{'s' if n != 1 else ''}", run_days(settings.get("days")), methods,
-             f"seed {settings.get('seed')}"]
+    parts = [when, f"{n} participant{'s' if n != 1 else ''}",
+             run_days(settings["days"]) if settings.get("days") is not None else "", methods,
+             f"seed {settings['seed']}" if settings.get("seed") is not None else ""]
     if settings.get("loop") == "each":
         parts.append("each in its own loop")
     return " · ".join(p for p in parts if p)

@@ -165,9 +165,12 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                      tickmode="auto", nticks=6, secondary_y=True)
     _day_axis(fig, s["day"])
     n = int(s["participants"].max()) if s["participants"].notna().any() else 0
-    fig.update_layout(title=title or f"Success rate and cumulative feedback ({METHOD_LABELS.get(method, method)}, "
-                                     f"{n} participant{'s' if n != 1 else ''})",
-                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=60, b=60),
+    # who it is about as a subtitle: on one line with the title, half the page's width cut it
+    # ("... (CACAS, 1 participa")
+    fig.update_layout(title=dict(text=title) if title else dict(
+                          text="Success rate and cumulative feedback",
+                          subtitle=dict(text=f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}")),
+                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=80 if not title else 60, b=60),
                       template="plotly_white")
     return fig
 

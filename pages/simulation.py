@@ -124,13 +124,7 @@ if runs:
     run = ui.load_run(db, name)
     daily, settings = run.daily, run.settings
     if settings:
-        n = len(settings.get("participants", []))
-        st.caption(f"{n} participant{'s' if n != 1 else ''} · {app_support.run_days(settings.get('days'))} · "
-                   f"{settings.get('interactions')} interactions a day · methods {', '.join(settings.get('methods', []))}"
-                   f" · seed {settings.get('seed')}" + (f" · asks after {ui.percent(settings['ask_after_reject'])} of "
-                                                         "rejections" if settings.get("ask_after_reject") else "")
-                   + (" · each method in its own closed loop" if settings.get("loop") == "each" else "")
-                   + (f" · personas: {settings['personas']}" if settings.get("personas") else ""))
+        st.caption(app_support.run_caption(settings))
     c1, c2 = st.columns(2)
     if len(plots.closed_loop_methods(daily)) > 1:
         c1.plotly_chart(plots.success_methods_figure(daily), width="stretch")

@@ -151,6 +151,17 @@ def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
     assert [app_support.run_days(d) for d in (1, 7, None)] == ["1 day", "7 days", "? days"]
 
 
+def test_a_runs_caption_leaves_out_what_the_run_did_not_keep():
+    full = {"participants": ["P01", "P02"], "days": 7, "interactions": 15, "methods": ["cacas", "nn"], "seed": 0,
+            "ask_after_reject": 0.25, "loop": "each", "personas": "study_data/personas/example.json"}
+    assert app_support.run_caption(full) == (
+        "2 participants · 7 days · 15 interactions a day · methods cacas, nn · seed 0 · asks after 25% of "
+        "rejections · each method in its own closed loop · personas: study_data/personas/example.json")
+    assert app_support.run_caption({"participants": ["P01"], "days": 1, "seed": 3}) == \
+        "1 participant · 1 day · seed 3"  # no "None interactions a day"
+    assert app_support.run_label("/nowhere", "x") == "x"
+
+
 def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     from cacas.store import StudyStore
 

@@ -123,8 +123,10 @@ def test_a_line_breaks_on_days_its_method_was_not_in_force():
     assert not mean.connectgaps  # a gap, not a line through day 2
     by_method = {t.name: t for t in success_methods_figure(d).data}
     assert np.isnan(by_method["NN"].y[0]) and by_method["NN"].y[1] == 0.5 and np.isnan(by_method["NN"].y[2])
-    assert "NN, 1 participant" in success_figure(d, "nn").layout.title.text
-    assert "0 participants" in success_figure(d.assign(method="cacas"), "orl").layout.title.text  # no row at all
+    assert success_figure(d, "nn").layout.title.subtitle.text == "NN, 1 participant"
+    assert success_figure(d.assign(method="cacas"), "orl").layout.title.subtitle.text == "ORL, 0 participants"  # no row
+    assert success_figure(d, "nn").layout.title.text == "Success rate and cumulative feedback"
+    assert success_figure(d, "nn", title="Mine").layout.title.text == "Mine"
 
 
 def test_accuracy_table_is_fig4_as_a_table():
