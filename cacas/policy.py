@@ -38,7 +38,15 @@ def _state_matrix(states) -> np.ndarray:
 
 def accept_pairs(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     """The "accept" user data as (policy states (n, 7) indices, accepted action indices): a
-    robot action the participant accepted, or the action the participant asked for (type_2)."""
+    robot action the participant accepted, or the action the participant asked for (type_2),
+    where the user data D (Table II) still holds that S_u as "accept" (Table III:
+    MLP_policy <- MLP_policy(D)): an accept the participant later took back (rejected the same
+    action in the same context S1-S5) is not learnt, as remove_duplicate drops it from D, and a
+    request made with no sound activity, which D does not record (IV-C.1), is not either. Each
+    accept keeps the policy state it was given in (S6-S7, which S_u lacks), so a context
+    accepted again counts again."""
+    from cacas.user_model import UserData
+
     if len(interactions) == 0:
         return np.zeros((0, 7), np.int64), np.zeros(0, np.int64)
     states = records.policy_states(interactions)
@@ -49,7 +57,9 @@ def accept_pairs(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
                         if ok else -1 for u, r, tp, ok in
                         zip(interactions["user_action"], interactions["robot_action"], interactions["type"],
                             t1 | t2)])
-    keep = t1 | t2
+    data = UserData.from_interactions(interactions)
+    keep = (t1 | t2) & np.array([ok and data.holds_accept(tuple(int(v) for v in s[:5]) + (int(a),))
+                                 for s, a, ok in zip(states, actions, t1 | t2)], dtype=bool)
     return states[keep], actions[keep]
 
 

@@ -3,7 +3,9 @@
 User data D (Section IV-C.1):
 * D_f: a robot-initiated interaction (type_1) answered by the user: (S_u, UR) with S6 = the
   robot's action. "If the user does not respond, the interaction is not recorded" (V-B.1).
-* D_i: a user-initiated interaction (type_2): S6 replaced by the requested action, "accept".
+* D_i: a user-initiated interaction (type_2): S6 replaced by the requested action, "accept";
+  only "if ... there is a sound activity" (a request with the activity "do nothing" is carried
+  out and logged, not recorded in D).
 * D_g: generate_new: the 13 other actions in that S_u, "reject" (the robot doing nothing
   included: "the robot action do nothing is regarded as rejected in the current state").
 * remove_duplicate: "For the same S_u, the latest data sample from D_f and D_i can replace the
@@ -76,6 +78,8 @@ class UserData:
                 return  # nothing proposed, or no response: not recorded (Section V-B.1)
             self._add(ctx + (int(robot_action),), int(response), "D_f")
         elif tp == records.USER_INITIATED:
+            if ctx[0] == spaces.DO_NOTHING_ACTIVITY:
+                return  # IV-C.1: a request is recorded "if ... there is a sound activity"
             su = ctx + (int(user_action),)  # S_u[-1] = UR
             for new in self.generate_new(su):  # the 13 other actions: never this S_u itself
                 self._add(new, spaces.REJECT, "D_g")
@@ -97,6 +101,11 @@ class UserData:
         for s, tp, a, r, u in zip(states, df["type"], robot, resp, users):
             data.data_collection(s, tp, a, r, u)
         return data
+
+    def holds_accept(self, su: tuple[int, ...]) -> bool:
+        """Whether D's sample for ``su`` (S1..S6 indices) is "accept" (the latest answer to it)."""
+        held = self._samples.get(tuple(su))
+        return held is not None and held.response == spaces.ACCEPT
 
     def subset(self, source: str) -> list[UserSample]:
         return [s for s in self._samples.values() if s.source == source]

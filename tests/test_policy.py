@@ -79,6 +79,23 @@ def test_accept_pairs_take_accepted_and_requested_actions_only():
     assert list(s[:, 0]) == [spaces.activity_index("use stove"), spaces.activity_index("cough")]
 
 
+def test_accept_pairs_learn_what_the_user_data_d_still_holds_as_accept():
+    """Table III trains MLP_policy on D: an accept the participant later took back (the same action
+    rejected in the same context) is not learnt, as remove_duplicate drops it from D; accepted again
+    after that, it is. A request with no sound activity is not in D (IV-C.1)."""
+    base = _interactions().iloc[[0]]
+    took_back = pd.concat([base, base.assign(index=5, response="reject")])
+    assert len(accept_pairs(took_back)[1]) == 0
+    again = pd.concat([took_back, base.assign(index=6, previous_action="chitchat")])
+    s, a = accept_pairs(again)
+    assert [spaces.ACTIONS[x] for x in a] == ["set a timer", "set a timer"]  # both accepts: D's latest is accept
+    assert [spaces.ACTIONS[x] for x in s[:, 5]] == ["do nothing", "chitchat"]
+    other_room = pd.concat([base, base.assign(index=5, scene="bedroom", response="reject")])  # another S_u
+    assert len(accept_pairs(other_room)[1]) == 1
+    idle_request = _interactions().iloc[[2]].assign(activity="do nothing")
+    assert len(accept_pairs(idle_request)[1]) == 0
+
+
 def test_bandit_learns_from_feedback_and_round_trips():
     bandit = BanditPolicy(load_d4a().table).fit(pd.concat([_interactions()] * 5))
     st = records.policy_states(_interactions())

@@ -38,6 +38,17 @@ def test_type_2_gives_d_i_accept_and_d_g_rejects():
     assert spaces.DO_NOTHING_ACTION in {s.su[5] for s in d_g}  # the robot doing nothing was wrong
 
 
+def test_a_request_with_no_sound_activity_is_not_recorded():
+    """IV-C.1: a request is recorded (D_i, and D_g's 13 rejects) "if the user intent belongs to
+    one of the Agent Actions ... except do nothing and there is a sound activity"."""
+    d = UserData()
+    idle = (spaces.DO_NOTHING_ACTIVITY,) + STATE[1:]
+    d.data_collection(idle, records.USER_INITIATED, spaces.DO_NOTHING_ACTION, spaces.ACCEPT, TIMER)
+    assert len(d) == 0 and d.interactions == 1
+    d.data_collection(STATE, records.USER_INITIATED, spaces.DO_NOTHING_ACTION, spaces.ACCEPT, TIMER)
+    assert len(d) == 14 and d.holds_accept(STATE[:5] + (TIMER,)) and not d.holds_accept(STATE[:5] + (PAIN,))
+
+
 def test_remove_duplicate_latest_sample_wins_across_sources():
     d = UserData()
     d.data_collection(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)  # D_g rejects pain check
