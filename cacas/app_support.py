@@ -535,7 +535,7 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     names: dict[str, str] = {}
     for name, data in files:
         try:
-            df = pd.read_csv(io.BytesIO(data))
+            df = records.read_csv(io.BytesIO(data))
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
             raise CacasError(f"{name}: not a readable CSV file ({str(exc).splitlines()[0] if str(exc) else exc})")
         kind = next((k for k, cols in UPLOADABLE_TABLES.items() if set(cols) <= set(df.columns)), None)
@@ -589,7 +589,7 @@ def load_by_preference(folder) -> pd.DataFrame | None:
     """A run's by_preference.csv (Fig. 4 by described preference), or None for a run saved
     before the Simulation lab wrote it."""
     path = Path(folder) / "by_preference.csv"
-    return pd.read_csv(path) if path.exists() else None
+    return records.read_csv(path) if path.exists() else None
 
 
 @dataclass(frozen=True)
@@ -624,7 +624,7 @@ def load_run(folder) -> Run:
             raise CacasError(f"{folder}: no {table}; not a complete run (valid: a folder the Simulation lab "
                              "or `cacas simulate --out` wrote)")
     return Run(name=folder.name, daily=load_daily(folder / "daily.csv"),
-               interactions=pd.read_csv(folder / "interactions.csv"),
+               interactions=records.read_csv(folder / "interactions.csv"),
                by_preference=load_by_preference(folder), settings=run_settings(folder))
 
 

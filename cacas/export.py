@@ -317,7 +317,8 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
             for name in RESTORE_COLUMNS:
                 if f"{name}.csv" not in names:
                     raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
-                tables[name] = pd.read_csv(io.BytesIO(zf.read(f"{name}.csv")), dtype=str, keep_default_na=False)
+                tables[name] = pd.read_csv(io.BytesIO(zf.read(f"{name}.csv")), dtype=str,
+                                           keep_default_na=False).map(records.unescape_formula)
             policies = {}
             for name in sorted(names):
                 if name.startswith("policies/") and not name.endswith("/"):

@@ -11,6 +11,7 @@ action, two interaction data points are recorded".
 
 from __future__ import annotations
 
+import re
 from typing import Any, Mapping
 
 import numpy as np
@@ -248,17 +249,54 @@ def _plain_number(value) -> str:
     return "" if pd.isna(value) else np.format_float_positional(float(value), trim="-")
 
 
+#: A text cell a spreadsheet would run as a formula (OWASP's CSV injection: =, +, -, @, tab, CR first).
+_FORMULA_START = ("=", "+", "-", "@", "\t", "\r")
+_NUMBER_RE = re.compile(r"^[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?$")
+
+
+def escape_formula(value):
+    """A text cell as the CSV writes it: one starting as a formula would (``=HYPERLINK(...)`` in a
+    participant's notes, ``-2+3``, ``@SUM``) gets a leading ``'``, so a spreadsheet shows the text
+    and runs nothing; a cell that starts with ``'`` gets one more, so :func:`unescape_formula`
+    gives every text back exactly. A number written as text ("-3") is left as it is."""
+    if isinstance(value, str) and value and (value[0] == "'" or (value.startswith(_FORMULA_START)
+                                                                 and not _NUMBER_RE.match(value))):
+        return "'" + value
+    return value
+
+
+def unescape_formula(value):
+    """The text :func:`escape_formula` wrote the cell for (reading a bundle or an exported table)."""
+    return value[1:] if isinstance(value, str) and value.startswith("'") else value
+
+
+def _is_text(column: pd.Series) -> bool:
+    """A column that may hold text: object (mixed) or a string dtype."""
+    return column.dtype == object or pd.api.types.is_string_dtype(column.dtype)
+
+
+def read_csv(source, **options) -> pd.DataFrame:
+    """A CSV this module wrote (or one like it), its text cells as they were before
+    :func:`escape_formula`: ``pandas.read_csv`` with ``options``, then :func:`unescape_formula` on
+    every text column."""
+    df = pd.read_csv(source, **options)
+    text = {col: df[col].map(unescape_formula) for col in df.columns if _is_text(df[col])}
+    return df.assign(**text) if text else df
+
+
 def _csv_ready(df: pd.DataFrame) -> pd.DataFrame:
     df = whole_counts(df)
     plain = {col: df[col].map(_plain_number) for col in PLAIN_NUMBER_COLUMNS
              if col in df.columns and pd.api.types.is_float_dtype(df[col])}
-    return df.assign(**plain) if plain else df
+    text = {col: df[col].map(escape_formula) for col in df.columns if col not in plain and _is_text(df[col])}
+    return df.assign(**plain, **text) if plain or text else df
 
 
 def write_csv(df: pd.DataFrame, path) -> None:
     """CSV with fixed formatting, so the same data gives the same bytes: rates and other floats
     to 6 decimals, counts (:data:`COUNT_COLUMNS`) as whole numbers, measured hours and minutes
-    (:data:`PLAIN_NUMBER_COLUMNS`) in their shortest form, empty cells for missing values."""
+    (:data:`PLAIN_NUMBER_COLUMNS`) in their shortest form, empty cells for missing values, and
+    text that would start a spreadsheet formula escaped (:func:`escape_formula`)."""
     _csv_ready(df).to_csv(path, **_CSV_FORMAT)
 
 

