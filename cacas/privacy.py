@@ -6,15 +6,24 @@ from __future__ import annotations
 import re
 
 #: Contact details a note must not hold: an e-mail address, or a phone number (7 or more digits,
-#: with spaces, dots, dashes, brackets or a leading +; a date such as 2026-11-21 or 21.11.2026 is not one).
+#: with spaces, dots, dashes, slashes, brackets or a leading +; a date such as 2026-11-21 or 21.11.2026 is not one).
 _EMAIL_RE = re.compile(r"[\w.+-]+@[\w-]+\.[\w.-]+")
-_PHONE_RE = re.compile(r"(?<![\w-])\+?\(?\d[\d\s().-]{5,}\d(?![\w-])")
+_PHONE_RE = re.compile(r"(?<![\w-])\+?\(?\d[\d\s()./-]{5,}\d(?![\w-])")
 _DATE_TIME_RE = re.compile(r"\b(\d{4}-\d{1,2}-\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{4}|\d{1,2}:\d{2}(:\d{2})?)\b")
+
+
+#: Characters that show nothing and would split an address or a number for the check ("jo\u200b@x.org").
+_INVISIBLE_RE = re.compile("[\u00ad\u200b-\u200f\u2060\ufeff]")
 
 
 def contact_details(value: str) -> str | None:
     """The first e-mail address or phone number in ``value``, or None (study data hold
-    pseudonymous codes, never contact details)."""
+    pseudonymous codes, never contact details). The text is read as it shows: full-width and
+    other compatibility forms as their plain letters and digits (NFKC: "anna\uff20example.com"
+    is an address) and invisible characters left out."""
+    import unicodedata
+
+    value = _INVISIBLE_RE.sub("", unicodedata.normalize("NFKC", value))
     email = _EMAIL_RE.search(value)
     if email:
         return email.group(0)
@@ -32,4 +41,8 @@ def _looks_like_a_phone_number(text: str) -> bool:
     if sum(map(len, groups)) < 7:
         return False
     lead = text.lstrip(" (")
-    return max(map(len, groups)) >= 3 or (lead[:1] in ("0", "+") and all(len(g) == 2 for g in groups))
+    if max(map(len, groups)) >= 3:
+        return True
+    # after a leading 0 or +, in pairs ("06 12 34 56 78"), or in groups of one or two digits that
+    # make a whole number ("+33 6 12 34 56 78", "0 30 / 12 34 56 78": 9 digits or more)
+    return lead[:1] in ("0", "+") and (all(len(g) == 2 for g in groups) or sum(map(len, groups)) >= 9)

@@ -144,7 +144,12 @@ def test_bad_participant_code_is_refused(store, code):
 @pytest.mark.parametrize("notes, found", [("Call John at 555-1234", "555-1234"), ("mail: jo.doe@uni.edu", "jo.doe@uni.edu"),
                                           ("+44 20 7946 0958 (home)", "+44 20 7946 0958"),
                                           ("office (405) 744-5000", "(405) 744-5000"),
-                                          ("her daughter: 06 12 34 56 78", "06 12 34 56 78")])
+                                          ("her daughter: 06 12 34 56 78", "06 12 34 56 78"),
+                                          # data steward's audit: forms the check missed
+                                          ("mobile +33 6 12 34 56 78", "+33 6 12 34 56 78"),
+                                          ("Tel.: 0 30 / 12 34 56 78", "0 30 / 12 34 56 78"),
+                                          ("anna\uff20example.com", "anna@example.com"),  # full-width @
+                                          ("john\u200b@example.com", "john@example.com")])  # zero-width space
 def test_contact_details_in_free_text_are_refused(store, notes, found):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match=f"notes contain what looks like contact details \\({re.escape(repr(found))}\\)"):
