@@ -10,6 +10,7 @@ to the researcher's pages, no preferences, no other participants.
 
 
 import os
+import sqlite3
 from pathlib import Path
 
 import streamlit as st
@@ -181,7 +182,11 @@ def main() -> None:
         if problem:  # said on every researcher page, before a participant meets it on the tablet
             (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
     _write_address(store)
-    page.run()
+    try:
+        page.run()
+    except sqlite3.DatabaseError as exc:  # damage quick_check did not see on opening: a message, not a traceback
+        st.error(f"The study database {ui.db_path()} cannot be read ({exc}). Restore it from a backup or an "
+                 "export (`cacas import`).", icon=":material/error:")
 
 
 # A Simulation lab worker process imports this script, the server's __main__, when it starts

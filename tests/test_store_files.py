@@ -105,6 +105,26 @@ def test_a_damaged_study_database_is_called_damaged(tmp_path):
     assert damaged.read_bytes() == before
 
 
+@pytest.mark.parametrize("offset", [4096, 8192, 16384])
+def test_damage_past_the_first_pages_is_found_on_opening(tmp_path, offset):
+    """Data steward's audit: 2 KB overwritten at 4096 or 8192 opened, and then every page (the
+    tablet too) showed "database disk image is malformed" as a traceback. quick_check on opening
+    names it, and the file is left as it was."""
+    intact = tmp_path / "intact.sqlite"
+    with StudyStore(intact) as s:
+        for i in range(300):
+            s.add_participant(f"P{i:03d}", notes="x" * 200)
+    damaged = tmp_path / "study.sqlite"
+    data = bytearray(intact.read_bytes())
+    data[offset:offset + 2048] = bytes(range(256)) * 8
+    damaged.write_bytes(bytes(data))
+    before = damaged.read_bytes()
+    with pytest.raises(CacasError, match=r"study.sqlite: the database file is damaged \(.*malformed.*\); nothing "
+                                         r"was changed\. Restore it from a backup or an export"):
+        StudyStore(damaged)
+    assert damaged.read_bytes() == before
+
+
 def test_a_refused_save_keeps_the_file_another_database_names(tmp_path):
     """Review: a save refused after its file was written deleted it, though a database beside this
     one (a bundle imported twice) named the same file (the same bytes give the same name)."""

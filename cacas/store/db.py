@@ -84,6 +84,16 @@ def open_study_file(path: Path) -> sqlite3.Connection:
     return conn
 
 
+def _check_whole(conn: sqlite3.Connection) -> None:
+    """SQLite's quick_check before anything is written: a file damaged past its first pages opened,
+    and then every page showed "database disk image is malformed" (data steward's audit). A damage
+    it finds is the same message as one found on opening (a DatabaseError with "malformed")."""
+    problems = [r[0] for r in conn.execute("PRAGMA quick_check(3)").fetchall()]
+    if problems != ["ok"]:
+        said = " ".join("; ".join(problems).split())  # one line: quick_check's lines and indents joined
+        raise sqlite3.DatabaseError(f"database disk image is malformed: {said[:200]}")
+
+
 def _not_sqlite(exc: sqlite3.Error) -> bool:
     return "not a database" in str(exc).lower()
 
@@ -289,6 +299,7 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
         raise CacasError(f"{path}: cannot open the study database ({exc})") from None
     try:
         _configure(conn, readonly=False)
+        _check_whole(conn)
         _init_schema(conn, path)
         mode = conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if str(mode).lower() != "wal":

@@ -170,3 +170,20 @@ def test_an_existing_database_is_not_called_new(app, store):
     at = app()
     no_exception(at)
     assert not at.sidebar.info
+
+
+def test_a_database_that_fails_while_a_page_reads_it_is_a_message_not_a_traceback(app, store, monkeypatch):
+    """Data steward's audit: damage found only when a page read it showed every page (the tablet
+    too) as a Python traceback."""
+    import sqlite3
+
+    from cacas import app_support
+
+    def damaged(*args, **kwargs):
+        raise sqlite3.DatabaseError("database disk image is malformed")
+
+    monkeypatch.setattr(app_support, "overview_frame", damaged)
+    at = app()
+    no_exception(at)
+    assert any("cannot be read (database disk image is malformed). Restore it from a backup or an export" in e.value
+               for e in at.error)
