@@ -18,6 +18,25 @@ def test_write_all_replaces_every_file(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["daily.csv", "interactions.csv"]  # nothing left over
 
 
+def test_what_a_killed_write_left_is_removed_by_the_next(tmp_path):
+    """Data steward's audit: `kill -9` during an export left .interactions.csv.<pid>.tmp (a full,
+    hidden copy of the data) that no later export removed. The next write removes what a process
+    no longer running left of the same files; a running writer's and other files stay."""
+    import subprocess
+
+    gone = subprocess.Popen(["true"])
+    gone.wait()
+    left = [tmp_path / f".a.csv.{gone.pid}.tmp", tmp_path / f".a.csv.{gone.pid}.old"]
+    running = tmp_path / f".a.csv.{os.getppid()}.tmp"  # a writer still at work (our parent process)
+    other = tmp_path / f".b.csv.{gone.pid}.tmp"  # another write's file: not this write's to judge
+    for path in [*left, running, other]:
+        path.write_text("old participant data")
+    files.write_all(tmp_path, {"a.csv": b"new"})
+    assert not any(p.exists() for p in left)
+    assert running.exists() and other.exists()
+    assert (tmp_path / "a.csv").read_bytes() == b"new"
+
+
 def test_a_refused_rename_puts_back_what_was_already_replaced(tmp_path, monkeypatch, fail_on_call):
     (tmp_path / "a.csv").write_bytes(b"old a")
     (tmp_path / "b.csv").write_bytes(b"old b")
