@@ -286,8 +286,11 @@ def _removal_section(who: str) -> None:
                 f"{n(left.policy_versions, 'policy version')} ({n(left.policy_files, 'file')}), "
                 f"{n(left.adaptation_runs, 'adaptation run')}, {n(left.questionnaire_answers, 'questionnaire answer')} "
                 f"and their {n(left.events, 'event')} in the log, which keeps one entry: '{who} removed'.")
-    st.caption("Exports and persona files downloaded before keep their copy: delete those by hand. "
-               "Simulation lab runs are not participant data and stay. " + _kept_note(left))
+    st.caption("Not linked to the participant, so not removed here (delete by hand what holds them): exports and "
+               "persona files downloaded before; Simulation lab runs of this study's participants (their code and "
+               "the contexts and actions of their preferences, not their words; runs/ beside the database); photos "
+               "and recordings added to the scene and sound libraries, and the models trained on them. "
+               + _kept_note(left))
     if left.open_day is not None:
         st.warning(f"Day {left.open_day} is open ({n(left.open_day_interactions, 'interaction')} so far): removing "
                    f"{who} ends it and deletes it with the rest; their tablet then says its address names no "

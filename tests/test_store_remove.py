@@ -219,7 +219,9 @@ def test_another_database_in_the_folder_keeps_its_policy_files(store):
     pilot = _beside(store, "pilot.sqlite")
     footprint = store.participant_footprint("P01")
     assert footprint.policy_files == 2  # its own two files, not the pilot's
-    assert (footprint.kept_files, footprint.kept_because) == (1, "another study database beside this one names these files")
+    assert (footprint.kept_files, footprint.kept_because) == (  # named, so that a copy of the same person can go too
+        1, "the study database pilot.sqlite beside this one names these files and holds a participant P01 of its "
+           "own: if that is the same person (a copy imported there), remove them there too")
     store.remove_participant("P01", "P01")
     assert pilot.load_policy("P01") == b"pilot.sqlite's own P01"
     assert [p.name for p in (store.policy_dir / "P01").iterdir()] == [pilot.active_policy("P01").path.name]

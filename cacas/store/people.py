@@ -130,16 +130,18 @@ class PeopleMixin:
         (they share ``policies/``: a pilot database beside the main one, a bundle imported twice),
         as policy paths; None when one of them cannot be read (then no file is certain to be
         unused: :meth:`_beside` names it)."""
-        named, unreadable = self._beside(code)
+        named, unreadable, _ = self._beside(code)
         return None if unreadable else named
 
-    def _beside(self, code: str) -> tuple[set[str], str]:
-        """The policy paths the readable study databases beside this one name, and the name of one
-        that cannot be read ("" if none)."""
+    def _beside(self, code: str) -> tuple[set[str], str, list[str]]:
+        """The policy paths the readable study databases beside this one name, the name of one
+        that cannot be read ("" if none), and the names of those that name a file of ``code``'s
+        (each holds a participant ``code`` of its own, maybe the same person: an imported copy)."""
         from cacas.store import db
 
         named: set[str] = set()
         unreadable = ""
+        namers: list[str] = []
         for other in sorted(self.path.parent.iterdir()):
             # never opened: this database, and the files SQLite keeps beside a database (opened and
             # closed here, they would drop SQLite's locks on them: see db.open_study_file)
@@ -153,12 +155,16 @@ class PeopleMixin:
                 unreadable = unreadable or other.name  # busy, damaged: it may name any file
                 continue
             try:
-                named.update(r[0] for r in conn.execute("SELECT path FROM policies").fetchall())
+                paths = {r[0] for r in conn.execute("SELECT path FROM policies").fetchall()}
             except Exception:  # noqa: BLE001 - unreadable, busy, damaged: it may name any file
                 unreadable = unreadable or other.name
+            else:
+                named |= paths
+                if any(path.startswith(f"{code}/") for path in paths):
+                    namers.append(other.name)
             finally:
                 conn.close()
-        return named, unreadable
+        return named, unreadable, namers
 
     def _files_to_remove(self, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
@@ -169,7 +175,7 @@ class PeopleMixin:
         if not folder.is_dir():
             return [], 0, ""
         every = [f for f in sorted(folder.rglob("*")) if f.is_file()]
-        named, unreadable = self._beside(code)
+        named, unreadable, namers = self._beside(code)
         unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
         if unreadable:
             listed = ", ".join(f"policies/{f.relative_to(self.policy_dir).as_posix()}" for f in unused[:3]) + (
@@ -177,7 +183,10 @@ class PeopleMixin:
             why = f"the study database {unreadable} beside this one cannot be read, and may name these files"
             return [], len(every), why + (f": once you know it does not, delete {listed} by hand" if unused else "")
         kept = len(every) - len(unused)
-        return unused, kept, "another study database beside this one names these files" if kept else ""
+        which = f"the study database{'s' if len(namers) > 1 else ''} {', '.join(namers)} beside this one"
+        return unused, kept, (f"{which} name{'' if len(namers) > 1 else 's'} these files and hold{'' if len(namers) > 1 else 's'} "
+                              f"a participant {code} of {'their' if len(namers) > 1 else 'its'} own: if that is the same "
+                              "person (a copy imported there), remove them there too") if kept else ""
 
     def _footprint(self, c, pid: int, code: str, files: tuple | None = None) -> Footprint:
         """``files``: :meth:`_files_to_remove`'s answer, if the caller has it (else found here)."""
