@@ -202,13 +202,17 @@ def waiting_for_preferences(store, participant: str, status: DayStatus) -> bool:
 def start_day(store, participant: str) -> int:
     """Open the participant's next study day (or return the open one).
 
-    Refused while the previous day has not been adapted (Section V-B.1: "After adaptation, the
+    Refused after the study's :data:`STUDY_DAYS` days, while the previous day has not been adapted
+    (Section V-B.1: "After adaptation, the
     participant can interact with the robot in the next day"), before day 1 while the participant
     has no described preferences (the study's scores, Fig. 4 and the success ceiling, need them),
     and while the study data folder has no readable D4A pairs (nothing is opened)."""
     status = day_status(store, participant)
     if status.open:
         return status.day
+    if status.finished:  # the tablet said "All 7 days are done", while the library opened day 8 (review)
+        raise CacasError(f"participant {participant} has done all {STUDY_DAYS} study days; the study has "
+                         f"{STUDY_DAYS} (Section V-B.1): there is no day {status.day + 1}")
     if waiting_for_preferences(store, participant, status):
         raise CacasError(f"participant {participant} has no described preferences; describe them before day 1 "
                          "(Participants page)")

@@ -10,7 +10,7 @@ from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
-from cacas.study_day import TARGET_INTERACTIONS, adapt_day, day_status, unfinished_adaptation
+from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, unfinished_adaptation
 from pages import ui
 
 ui.require_app()
@@ -120,6 +120,9 @@ else:
                        "is adapting it now).", icon=":material/restart_alt:")
         ui.button(st, f"Adapt after day {day}", _start, args=(code, day), type="primary",
                   icon=":material/model_training:")
+    elif status.finished:  # there is no day 8 (it said "day 8 can start on the tablet")
+        st.success(f"Day {day} is closed and adapted: all {STUDY_DAYS} study days are done. Next: the satisfaction "
+                   "questionnaire (Results page).", icon=":material/check_circle:")
     else:
         st.success(f"Day {day} is closed and adapted; day {day + 1} can start on the tablet.",
                    icon=":material/check_circle:")

@@ -151,6 +151,20 @@ def test_next_day_waits_for_the_adaptation(store):
     assert finished.day_on_screen == STUDY_DAYS
 
 
+def test_there_is_no_day_after_the_studys_last(store):
+    """Review: the library opened day 8 after the 7 days (the tablet said "All 7 days are done",
+    the Overview "day 8 of 7")."""
+    for day in range(1, STUDY_DAYS + 1):
+        assert start_day(store, "P01") == day
+        store.close_day("P01", day)
+        store.save_policy("P01", day, "nn", f"policy after day {day}".encode())
+    assert day_status(store, "P01").finished
+    with pytest.raises(CacasError, match=f"participant P01 has done all {STUDY_DAYS} study days; the study has "
+                                         f"{STUDY_DAYS} \\(Section V-B.1\\): there is no day {STUDY_DAYS + 1}"):
+        start_day(store, "P01")
+    assert [d.day for d in store.days("P01")] == list(range(1, STUDY_DAYS + 1))
+
+
 def test_clip_choice_is_stable():
     ctx = Context.from_choices(3, 7, "cough", "kitchen")
     clips = [f"c{i}.ogg" for i in range(10)]

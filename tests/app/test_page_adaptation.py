@@ -273,3 +273,20 @@ def test_closing_a_day_while_the_tablet_shows_a_proposal_is_warned(app, store, q
     label = "Accept" if any(b.label == "Accept" for b in tab.button) else "Nothing needed"
     next(b for b in tab.button if b.label == label).click().run()  # answered: nothing to warn about
     assert not [w for w in app(PAGE, participant="P01").warning if "tablet shows a proposal" in w.value]
+
+
+def test_after_the_last_day_the_page_says_the_study_is_done_not_that_day_8_can_start(app, store, quick_policy):
+    """Review: after day 7's adaptation the page said "day 8 can start on the tablet", while the
+    tablet said all 7 days were done."""
+    from cacas.study_day import STUDY_DAYS
+
+    _day_with_interactions(store)
+    for day in range(1, STUDY_DAYS + 1):
+        if day > 1:
+            store.open_day("P01")
+        store.close_day("P01", day)
+        store.save_policy("P01", day, "cacas", f"policy after day {day}".encode())
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert f"Day {STUDY_DAYS} is closed and adapted: all {STUDY_DAYS} study days are done" in texts(at)
+    assert f"day {STUDY_DAYS + 1} can start" not in texts(at)
