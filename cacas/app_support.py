@@ -122,12 +122,12 @@ def policy_in_force(in_force: int | None, versions) -> tuple[str, int | None]:
 def open_days(store, study: str | None = None) -> dict[str, int]:
     """The participants whose study day is open (in progress), with that day: their figures for
     it are so far, not final (Fig. 3 of a study under way)."""
-    out = {}
-    for p in store.list_participants(study):
-        status = day_status(store, p.code)
-        if status.open:
-            out[p.code] = status.day
-    return out
+    days = store.days_frame(study)  # one query, not a day_status (and its interactions) per participant
+    if not len(days):
+        return {}
+    latest = days.assign(day=days["day"].astype(int)).sort_values("day").drop_duplicates("participant", keep="last")
+    return {str(who): int(day) for who, day, closed in zip(latest["participant"], latest["day"], latest["closed_at"])
+            if not (isinstance(closed, str) and closed)}
 
 
 def last_participant(store, study: str | None = None) -> str | None:

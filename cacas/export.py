@@ -85,13 +85,19 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
                                            at=np.arange(len(interactions)))
                  .groupby(keys + ["version"]).agg(n=("at", "size"), last=("at", "max")).reset_index())
         most = tally.sort_values(["n", "last"], kind="stable").drop_duplicates(keys, keep="last")
+        # the latest run of each policy version, and of each method's initial policy (day 0): looked up,
+        # not searched for per participant-day (that scan was most of the Results page's time)
+        by_version = {(who, int(v)): i for who, v, i in zip(linked["participant"], linked["policy_version"], linked.index)}
+        first = runs[runs["day"].astype(int) == 0]
+        initial = {(who, m): i for who, m, i in zip(first["participant"], first["method"], first.index)}
+        used = {}
         for who, method, day, version in zip(most["participant"], most["method"], most["day"], most["version"]):
-            if version == -1:  # the initial policy (no version)
-                hit = runs[(runs["participant"] == who) & (runs["method"] == method) & (runs["day"] == 0)]
-            else:
-                hit = linked[(linked["participant"] == who) & (linked["policy_version"] == version)]
-            if len(hit):
-                run.loc[(who, method, int(day))] = hit.index[-1]
+            hit = initial.get((who, method)) if version == -1 else by_version.get((who, int(version)))
+            if hit is not None:
+                used[(who, method, int(day))] = hit
+        if used:
+            run = pd.concat([run[~run.index.isin(list(used))],
+                             pd.Series(used, name="run").rename_axis(["participant", "method", "day"])])
     run = run.reset_index()
     have = set(zip(days["participant"], days["day"].astype(int)))
     keep = [(p, int(d)) in have for p, d in zip(run["participant"], run["day"])]
@@ -99,25 +105,27 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
     return records.sort_by_method(run, ["participant", "method", "day"]).reset_index(drop=True)[cols]
 
 
-def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
+def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
+                   found: pd.DataFrame | None = None) -> pd.DataFrame:
     """participant, method, day, preference_accuracy: Fig. 4's metric of the policy in force
-    (the run of :func:`runs_in_force`): its ``metrics["preference_accuracy"]``, NaN if absent.
-    Only days the participant has are listed."""
+    (the run of :func:`runs_in_force`, or ``found``, its answer if the caller has it): its
+    ``metrics["preference_accuracy"]``, NaN if absent. Only days the participant has are listed."""
     cols = ["participant", "method", "day", "preference_accuracy"]
-    found = runs_in_force(interactions, adaptations, days)
+    found = runs_in_force(interactions, adaptations, days) if found is None else found
     if not len(found):
         return pd.DataFrame(columns=cols)
     value = adaptations["preference_accuracy"].astype(float).to_numpy()[found["run"].to_numpy()]
     return found.assign(preference_accuracy=value)[cols]
 
 
-def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
+def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
+                        found: pd.DataFrame | None = None) -> pd.DataFrame:
     """by_preference.csv of a human study (:data:`cacas.records.BY_PREFERENCE_COLUMNS`, as
     ``cacas simulate`` writes it): Fig. 4 by described preference for the policy in force each
-    day (the run of :func:`runs_in_force`), from its
+    day (the run of :func:`runs_in_force`, or ``found``), from its
     ``metrics["by_preference"]``; runs recorded without it (or for participants without
     described preferences) give no rows."""
-    found = runs_in_force(interactions, adaptations, days)
+    found = runs_in_force(interactions, adaptations, days) if found is None else found
     metrics = adaptations["metrics"].to_numpy()
     rows = []
     for who, method, day, run in found.itertuples(index=False):
@@ -201,11 +209,12 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     interactions = store.interactions_frame(method=None, study=study, extra=True)
     adaptations, days = store.adaptations_frame(study=study), store.days_frame(study)
     preferences = store.preferences_frame(study)
+    found = runs_in_force(interactions, adaptations, days)  # once, for daily.csv and by_preference.csv
     return {
         "interactions": interactions,
-        "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days),
+        "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days, found),
                              described_preferences(preferences)),
-        "by_preference": by_preference_frame(interactions, adaptations, days),
+        "by_preference": by_preference_frame(interactions, adaptations, days, found),
         "participants": participants,
         "questionnaire": store.questionnaire_frame(study),
         "adaptations": adaptations,
