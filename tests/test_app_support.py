@@ -316,3 +316,22 @@ def test_a_preferences_hours_read_as_the_tablet_writes_a_time_of_day():
     assert app_support.hours_label([(6, 12), (20, 24)]) == "06:00-12:00, 20:00-24:00"
     assert app_support.hours_label([(6, 8)]) == spaces.time_slot_label(3)
     assert app_support.hours_label(None) == "any time"
+
+
+def test_open_days_names_each_participant_whose_latest_day_is_open(tmp_path):
+    """From the days table (it asked each participant's status): the open day of each participant
+    whose latest day is open, of the study asked for."""
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.create_study("pilot")
+    for code in ("P01", "P02", "P03"):
+        store.add_participant(code)
+    store.add_participant("Q01", study="pilot")
+    store.close_day("P01", store.open_day("P01"))
+    store.save_policy("P01", 1, "nn", b"adapted")
+    assert store.open_day("P01") == 2  # P01: day 1 closed, day 2 open
+    store.close_day("P02", store.open_day("P02"))  # P02: day 1 closed; P03: not started
+    store.open_day("Q01")
+    assert app_support.open_days(store, "default") == {"P01": 2}
+    assert app_support.open_days(store) == {"P01": 2, "Q01": 1}
+    assert app_support.open_days(store, "nobody") == {}
+    store.close()
