@@ -796,11 +796,20 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
     ``again``: a human study, where comparing the methods again adds them."""
     if not len(left):
         return ""
-    parts = []
+    # each participant's days by what they lack (days lacking different methods are said apart: "P06
+    # days 1-7 (no ORL, NN, CACAS w/o PR)" lumped days 1-2, which had w/o PR, with days 3-7), and the
+    # participants whose days read the same named together (19 participants were listed one by one)
+    said: dict[str, list[str]] = {}
     for who, g in left.groupby("participant", sort=True):
-        missing = list(dict.fromkeys(m for ms in g["missing"] for m in ms))
-        parts.append(f"{who} day{'s' if len(g) > 1 else ''} {day_ranges(g['day'])} "
-                     f"(no {', '.join(plots.METHOD_LABELS.get(m, m) for m in missing)})")
+        by_missing: dict[tuple, list[int]] = {}
+        for day, missing in zip(g["day"], g["missing"]):
+            by_missing.setdefault(tuple(missing), []).append(int(day))
+        segments = sorted(by_missing.items(), key=lambda kv: min(kv[1]))
+        words = ", ".join(f"day{'s' if len(days) > 1 else ''} {day_ranges(days)} "
+                          f"(no {', '.join(plots.METHOD_LABELS.get(m, m) for m in missing)})"
+                          for missing, days in segments)
+        said.setdefault(words, []).append(str(who))
+    parts = [f"{', '.join(people)} {words}" for words, people in said.items()]
     return (" Methods are compared on the same participants, so these are left out: " + "; ".join(parts)
             + ("; compare methods again to add them." if again else "."))
 

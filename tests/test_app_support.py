@@ -259,6 +259,16 @@ def test_day_ranges_and_the_fig4_left_out_note():
         "ORL, NN); W03 day 4 (no NN); compare methods again to add them.")
     assert left_out_note(left.iloc[2:]).endswith("W03 day 4 (no NN).")
     assert left_out_note(left.iloc[:0]) == ""
+    # large-study walkthrough: days lacking different methods were lumped under one list (P06 had w/o PR
+    # on days 1-2), and 19 participants lacking the same were named one by one
+    every = ["cacas-no-pr", "orl", "nn"]
+    left = pd.DataFrame([{"participant": "P06", "day": d, "missing": ["orl", "nn"] if d <= 2 else every}
+                         for d in range(1, 8)]
+                        + [{"participant": who, "day": d, "missing": every} for who in ("P07", "P08", "R01")
+                           for d in range(1, 8)])
+    assert left_out_note(left) == (
+        " Methods are compared on the same participants, so these are left out: P06 days 1-2 (no ORL, NN), "
+        "days 3-7 (no CACAS w/o PR, ORL, NN); P07, P08, R01 days 1-7 (no CACAS w/o PR, ORL, NN).")
 
 
 def test_days_recorded_since_the_last_comparison_are_named():
