@@ -28,18 +28,13 @@ performing as an agent policy" has only the "accept" data its own proposals earn
 
 from __future__ import annotations
 
-import multiprocessing as mp
-import os
-import signal
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
-from multiprocessing.managers import SyncManager
 from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
-from cacas import records, spaces
+from cacas import parallel, records, spaces
 from cacas.adaptation import CACAAConfig, METHODS, accuracy_by_preference, adapt_policy, evaluation_states, \
     load_initial_policy, preference_accuracy
 from cacas.d4a import D4A, load_d4a
@@ -223,7 +218,8 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     if jobs == 1:
         results = [simulate_participant(initial, *a, report=tick) for a in args]
     else:
-        results = _run_parallel(initial, args, jobs, tick)
+        results = parallel.run_parallel(_worker, initial.to_bytes(), args, jobs, tick,
+                                        what="participants' studies")
     inter = pd.DataFrame([r for rows, _, _ in results for r in rows], columns=records.INTERACTION_COLUMNS)
     accuracy = pd.DataFrame([r for _, acc, _ in results for r in acc])
     by_preference = pd.concat([b for _, _, b in results], ignore_index=True)
@@ -231,9 +227,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     return StudyResult(combine_daily(inter, accuracy, methods, preferred, loop), inter, by_preference)
 
 
-def default_jobs() -> int:
-    """Worker processes for a study: one per core (participants are independent)."""
-    return max(1, os.cpu_count() or 1)
+default_jobs = parallel.default_jobs
 
 
 def participant_test_states(person: Participant, p_i: int, seed: int, n: int) -> np.ndarray:
@@ -331,55 +325,14 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
 
 
 def _worker(initial_bytes: bytes, args: tuple, queue, stop) -> tuple[list[dict], list[dict], pd.DataFrame]:
+    """One participant's simulated study in a worker process (:func:`cacas.parallel.run_parallel`)."""
     import torch
 
     torch.set_num_threads(1)
-
-    def report(p_i: int, days_done: float, message: str) -> None:
-        if stop.is_set():  # the study was stopped (or failed) in the main process: end here
-            raise Stopped("stopped on request")
-        queue.put((p_i, days_done, message))
+    report = parallel.reporter(queue, stop)
     if stop.is_set():  # a participant queued before a stop never starts
         raise Stopped("stopped on request")
     return simulate_participant(policy_from_bytes(initial_bytes), *args, report=report)
-
-
-def _ignore_interrupt() -> None:
-    """Worker and manager processes leave Ctrl-C to the main process, which stops them through
-    the stop event: interrupted themselves, the pool's workers went on to the next participant."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-
-
-def _run_parallel(initial, args: list[tuple], jobs: int, tick: Callable[[int, float, str], None]):
-    """Participants in ``jobs`` worker processes (spawned: safe with torch's thread pools);
-    progress comes back through a queue, as each method adapts. If ``tick`` raises (a stop
-    request, jobs.Stopped) every worker ends at its next report, within an adaptation, and the
-    participants not started never start; the exception then goes on, with a note of how many
-    studies were ended early. Ctrl-C (KeyboardInterrupt) stops them the same way."""
-    ctx = mp.get_context("spawn")
-    blob = initial.to_bytes()
-    manager = SyncManager(ctx=ctx)
-    manager.start(_ignore_interrupt)
-    with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=_ignore_interrupt) as pool:
-        queue, stop = manager.Queue(), manager.Event()
-        futures = [pool.submit(_worker, blob, a, queue, stop) for a in args]
-        try:
-            pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
-                while not queue.empty():
-                    tick(*queue.get())
-            while not queue.empty():
-                tick(*queue.get())
-        except BaseException as exc:  # a stop request, or Ctrl-C
-            stop.set()
-            never = sum(f.cancel() for f in futures)
-            wait(futures)
-            ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
-            exc.add_note(f"{ended} of {len(futures)} participants' studies ended early in their worker "
-                         f"process, {never} never started")
-            raise
-        return [f.result() for f in futures]
 
 
 def combine_daily(interactions: pd.DataFrame, accuracy: pd.DataFrame, methods: Sequence[str],

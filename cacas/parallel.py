@@ -1,0 +1,75 @@
+"""Independent pieces of long work (one participant each) in worker processes, one per core.
+
+:func:`run_parallel` serves the simulated study (``cacas simulate``, the Simulation lab) and the
+human study's method comparison (Results): each piece runs in a spawned process (safe with
+torch's thread pools), reports through a queue that the main process drains into ``tick``, and
+ends at its next report once the main process asks it to stop (``tick`` raised: a Stop button,
+:class:`cacas.jobs.Stopped`, or Ctrl-C). Work kept by the main process as the reports arrive
+(a comparison's runs) stays; pieces not started never start.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import signal
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from multiprocessing.managers import SyncManager
+from typing import Any, Callable, Sequence
+
+from cacas.jobs import Stopped
+
+
+def default_jobs() -> int:
+    """Worker processes for work of independent participants: one per core."""
+    return max(1, os.cpu_count() or 1)
+
+
+def ignore_interrupt() -> None:
+    """Worker and manager processes leave Ctrl-C to the main process, which stops them through
+    the stop event: interrupted themselves, the pool's workers went on to the next piece."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+def reporter(queue, stop) -> Callable[..., None]:
+    """A worker's ``report(*item)``: puts ``item`` on the queue for the main process's ``tick``,
+    or raises :class:`Stopped` once the main process asked every worker to stop."""
+    def report(*item) -> None:
+        if stop.is_set():  # stopped (or failed) in the main process: end here
+            raise Stopped("stopped on request")
+        queue.put(item)
+    return report
+
+
+def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: int,
+                 tick: Callable[..., None], what: str = "pieces of work") -> list:
+    """``worker(shared, piece, queue, stop)`` for every piece in ``jobs`` spawned worker processes
+    (``worker`` a module-level function; ``shared`` bytes every piece needs, e.g. a policy);
+    every item a worker puts on ``queue`` (:func:`reporter`) comes to ``tick(*item)`` in the main
+    process as it runs. If ``tick`` raises, every worker ends at its next report and the pieces
+    not started never start; the exception goes on with a note of how many pieces (``what``)
+    ended early.
+    Returns the workers' results in the order of ``pieces``."""
+    ctx = mp.get_context("spawn")
+    manager = SyncManager(ctx=ctx)
+    manager.start(ignore_interrupt)
+    with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=ignore_interrupt) as pool:
+        queue, stop = manager.Queue(), manager.Event()
+        futures = [pool.submit(worker, shared, piece, queue, stop) for piece in pieces]
+        try:
+            pending = set(futures)
+            while pending:
+                finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                while not queue.empty():
+                    tick(*queue.get())
+            while not queue.empty():
+                tick(*queue.get())
+        except BaseException as exc:  # a stop request, or Ctrl-C
+            stop.set()
+            never = sum(f.cancel() for f in futures)
+            wait(futures)
+            ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
+            exc.add_note(f"{ended} of {len(futures)} {what} ended early in their worker process, "
+                         f"{never} never started")
+            raise
+        return [f.result() for f in futures]
