@@ -452,8 +452,73 @@ def scored_on_preferences(policy, described, version: int) -> dict:
     return dict(fig4_metrics(policy, described, seed=EVALUATION_SEED), preferences_version=version)
 
 
+@dataclass(frozen=True)
+class ComparisonPiece:
+    """One participant's share of :func:`compare_methods`: their interactions, described
+    preferences (and version), the (method, day) runs they have, and each method's closed days to
+    adapt through. Picklable: it goes to a worker process as it is."""
+
+    code: str
+    described: object
+    version: int
+    have: frozenset
+    chains: dict
+    data: pd.DataFrame
+    seed: int
+
+    @property
+    def units(self) -> int:
+        """Progress units: one for each method's initial policy, one per adaptation."""
+        return sum(1 + len(days) for days in self.chains.values())
+
+
+def compare_participant(initial, piece: ComparisonPiece, report: Callable, record: Callable) -> None:
+    """The comparison runs of one participant: for each method, the initial policy scored (day 0)
+    and its chain adapted day by day (seeded ``seed + day``), every run not yet recorded handed to
+    ``record(code, day, method, parameters, duration_s, metrics)``; ``report(units_done, message)``
+    as it goes (within an adaptation too, so a stop acts there)."""
+    from cacas.adaptation import adapt_policy
+
+    done = 0
+    for method, days in piece.chains.items():
+        policy = initial
+        if (method, 0) not in piece.have:
+            record(piece.code, 0, method, {"initial": True}, 0.0,
+                   scored_on_preferences(initial, piece.described, piece.version))
+        done += 1
+        for day in days:
+            what = f"{piece.code}: {method} after day {day}"
+            report(done, what)
+            result = adapt_policy(policy, piece.data[piece.data["day"] <= day], method=method, seed=piece.seed + day,
+                                  progress=lambda f, _, at=done, what=what: report(at + f, what))
+            policy = result.policy
+            if (method, day) not in piece.have:
+                record(piece.code, day, method, dict(result.parameters, comparison=True), float(result.duration_s),
+                       scored_on_preferences(policy, piece.described, piece.version))
+            done += 1
+
+
+def _comparison_worker(initial_bytes: bytes, piece: ComparisonPiece, queue, stop) -> None:
+    """:func:`compare_participant` in a worker process: progress and runs go to the main
+    process, which records them (one writer: the study database's own process)."""
+    import torch
+
+    from cacas import parallel
+    from cacas.jobs import Stopped
+    from cacas.policy import policy_from_bytes
+
+    torch.set_num_threads(1)
+    report = parallel.reporter(queue, stop)
+    if stop.is_set():
+        raise Stopped("stopped on request")
+    compare_participant(policy_from_bytes(initial_bytes), piece,
+                        lambda units, message: report("progress", piece.code, units, message),
+                        lambda *run: report("run", *run))
+
+
 def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
-                    study: str | None = None, seed: int = 0, progress: Progress | None = None) -> int:
+                    study: str | None = None, seed: int = 0, progress: Progress | None = None,
+                    jobs: int = 1) -> int:
     """Fig. 4 on the human study (Section V-B.1): "we used the interaction data each day to adapt
     those models and tested them by generating data using the described preferences".
 
@@ -464,8 +529,11 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
     by_preference.csv have each method's. Runs already recorded are kept: the method the study
     adapted with (CACAS, or another a researcher chose) has its days already, and a method is
     adapted only as far as its last day without a run. Returns the number of runs recorded.
+    Participants run side by side in ``jobs`` worker processes (the Results page: one per core;
+    the runs are the same whatever ``jobs``, and each is recorded as soon as it is made, so a
+    stopped comparison keeps them).
     """
-    from cacas.adaptation import adapt_policy, load_initial_policy
+    from cacas.adaptation import load_initial_policy
     from cacas.experiment import PAPER_METHODS
     from cacas.store import StudyStore
 
@@ -474,7 +542,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
     store = StudyStore(db_path)
     try:
         initial = load_initial_policy()
-        work = []  # (participant, preferences, their version, {method: the closed days to adapt through})
+        pieces = []
         for p in store.list_participants(study):
             person, version = described_now(store, p.code)
             closed = [d.day for d in store.days(p.code) if not d.is_open]
@@ -494,30 +562,37 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                 if missing:
                     chains[method] = [d for d in closed if d <= max(missing)]
             if chains:
-                work.append((p.code, person, version, have, chains))
-        total = max(1, sum(1 + len(days) for *_, chains in work for days in chains.values()))
-        done = recorded = 0
-        for code, person, version, have, chains in work:
-            data = store.interactions_frame(code, method=None)
-            for method, days in chains.items():
-                policy = initial
-                if (method, 0) not in have:
-                    store.record_adaptation(code, 0, method, {"initial": True}, 0.0,
-                                            scored_on_preferences(initial, person, version))
-                    recorded += 1
-                done += 1
-                for day in days:
-                    what = f"{code}: {method} after day {day}"
-                    say(done / total, what)
-                    result = adapt_policy(policy, data[data["day"] <= day], method=method, seed=seed + day,
-                                          progress=lambda f, _, at=done, what=what: say((at + f) / total, what))
-                    policy = result.policy
-                    if (method, day) not in have:
-                        store.record_adaptation(code, day, method, dict(result.parameters, comparison=True),
-                                                float(result.duration_s),
-                                                scored_on_preferences(policy, person, version))
-                        recorded += 1
-                    done += 1
+                pieces.append(ComparisonPiece(p.code, person, version, frozenset(have), chains,
+                                              store.interactions_frame(p.code, method=None), seed))
+        total = max(1, sum(piece.units for piece in pieces))
+        recorded = 0
+
+        def record(code, day, method, parameters, duration_s, metrics) -> None:
+            nonlocal recorded
+            store.record_adaptation(code, day, method, parameters, duration_s, metrics)
+            recorded += 1
+
+        jobs = max(1, min(jobs, len(pieces)))
+        if jobs == 1:
+            before = 0
+            for piece in pieces:
+                compare_participant(initial, piece, lambda units, m, at=before: say((at + units) / total, m), record)
+                before += piece.units
+        else:
+            from cacas import parallel
+
+            done = {piece.code: 0.0 for piece in pieces}
+
+            def tick(kind, *item) -> None:
+                if kind == "run":
+                    record(*item)
+                    return
+                code, units, message = item
+                done[code] = units
+                say(sum(done.values()) / total, message)
+            say(0.0, f"{len(pieces)} participants side by side in {jobs} worker processes")
+            parallel.run_parallel(_comparison_worker, initial.to_bytes(), pieces, jobs, tick,
+                                  what="participants' comparisons")
         say(1.0, f"{recorded} comparison runs recorded")
         return recorded
     finally:

@@ -15,6 +15,7 @@ from cacas import app_support, plots, records
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables, next_day_accuracy
 from cacas.jobs import FAILED, RUNNER
+from cacas.parallel import default_jobs
 from cacas.study_day import STUDY_DAYS, compare_methods, day_status, questionnaire_timing
 from pages import ui
 
@@ -142,8 +143,9 @@ with fig4:
             if st.button("Compare methods on this study's data", icon=":material/compare_arrows:",
                          help="Adapts CACAS w/o PR, ORL and NN (and CACAS, for a participant adapted with "
                               "another method) day by day from each participant's interactions, where a day has no "
-                              "run yet (in the background; a few seconds per participant, method and day)."):
-                RUNNER.start(key, compare_methods, db, study=study, label="Comparing methods")
+                              "run yet (in the background, participants side by side, one worker process per "
+                              "core; a few seconds per participant, method and day)."):
+                RUNNER.start(key, compare_methods, db, study=study, jobs=default_jobs(), label="Comparing methods")
                 st.rerun()
             if job is not None and job.status == FAILED:
                 st.error(f"The comparison failed: {job.error}")

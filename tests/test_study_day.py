@@ -293,6 +293,58 @@ def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, mon
         assert not ((s.adaptations_frame("E05")["method"] == "nn") & (s.adaptations_frame("E05")["day"] == 3)).any()
 
 
+def test_compare_methods_in_worker_processes_records_the_same_runs(tmp_path, monkeypatch, policy):
+    """Large-study walkthrough: the comparison ran in the server's own thread (24 participants x 7
+    days: about 10 minutes, and the pages slowed to 15-23 s meanwhile). Participants now run side
+    by side in worker processes; the main process records each run as it comes, the same runs as
+    one process makes."""
+    import cacas.adaptation
+    from cacas.study_day import compare_methods
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)  # sent to the workers
+    paths = [tmp_path / "one.sqlite", tmp_path / "two.sqlite"]
+    for path in paths:
+        for code in ("P01", "P02", "P03"):
+            two_adapted_days(path, code, "cacas", policy, robot_action="do nothing", response="accept",
+                             type="type_2", user_action="pain check")
+    seen = []
+    assert compare_methods(paths[0], methods=("nn", "cacas-no-pr")) == 18  # 3 x 2 methods x days 0-2
+    assert compare_methods(paths[1], methods=("nn", "cacas-no-pr"), jobs=2,
+                           progress=lambda f, m: seen.append((f, m))) == 18
+    assert seen[-1] == (1.0, "18 comparison runs recorded") and all(0 <= f <= 1 for f, _ in seen)
+    assert any(m.startswith("P02: cacas-no-pr after day") for _, m in seen)  # the workers' progress came through
+    frames = []
+    for path in paths:
+        with StudyStore(path) as s:
+            runs = s.adaptations_frame()
+            frames.append(runs[runs["method"] != "cacas"].sort_values(["participant", "method", "day"])
+                          [["participant", "method", "day", "preference_accuracy", "metrics"]].reset_index(drop=True))
+    assert frames[0].equals(frames[1])
+
+
+def test_a_stopped_comparison_in_worker_processes_keeps_the_runs_recorded(tmp_path, monkeypatch, policy):
+    import cacas.adaptation
+    from cacas.jobs import Stopped
+    from cacas.study_day import compare_methods
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "c.sqlite"
+    for code in ("P01", "P02"):
+        two_adapted_days(path, code, "cacas", policy, robot_action="pain check", response="accept")
+
+    def stop_after_a_run(f, m):
+        with StudyStore(path) as s:
+            if (s.adaptations_frame()["method"] == "nn").sum() >= 2:
+                raise Stopped("stopped on request")
+    with pytest.raises(Stopped) as stopped:
+        compare_methods(path, methods=("nn",), jobs=2, progress=stop_after_a_run)
+    assert "participants' comparisons ended early in their worker process" in stopped.value.__notes__[0]
+    with StudyStore(path) as s:
+        kept = int((s.adaptations_frame()["method"] == "nn").sum())
+    assert 2 <= kept < 6  # what was recorded stays; the rest is made by comparing again
+    assert compare_methods(path, methods=("nn",)) == 6 - kept
+
+
 def test_the_robot_acts_on_the_room_it_saw(store, policy):
     day = start_day(store, "P01")
     ctx = Context.from_choices(4, 6, "cough", "bedroom")

@@ -283,11 +283,15 @@ def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, s
 
     import cacas.study_day
     from cacas.jobs import RUNNER
+    from cacas.parallel import default_jobs
 
     _study_with_a_day(store)
     reported = threading.Event()
 
-    def compare(db, study=None, progress=None):
+    asked = {}
+
+    def compare(db, study=None, progress=None, jobs=1):
+        asked["jobs"] = jobs
         for run in range(100_000):
             progress(run / 100_000, f"run {run}")
             reported.set()
@@ -298,6 +302,7 @@ def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, s
     next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
     job = RUNNER.get(f"compare:{db}:default")
     assert job is not None and reported.wait(30)
+    assert asked["jobs"] == default_jobs()  # participants side by side, one worker process per core
     at.run()
     next(b for b in at.button if b.label == "Stop").click().run()
     assert job.wait(30) and job.status == "stopped"
