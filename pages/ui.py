@@ -267,11 +267,26 @@ def _job_fragment(key: str, stoppable: bool = False, when_stopped: str = NOTHING
         st.rerun(scope="app")
 
 
+#: Participants whose preferences the heatmap shows at first (more are chosen in a list).
+HEATMAP_PARTICIPANTS = 8
+
+
 def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
     """Fig. 4 by described preference (``by_preference.csv``): every method side by side on one
     day, or one method day by day; then the table's download."""
     st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
                "learnt, and when. A row that stays pale is a preference the method never learnt.")
+    whole = by_preference  # the download is the whole table, whoever is shown
+    people = sorted(by_preference["participant"].astype(str).unique())
+    if len(people) > HEATMAP_PARTICIPANTS:  # a row per preference: 24 participants made 120 rows, 3,300 px
+        chosen = st.multiselect("Participants", people, default=people[:HEATMAP_PARTICIPANTS], key=f"{key}-who",
+                                help=f"{len(people)} participants have rows here; the first "
+                                     f"{HEATMAP_PARTICIPANTS} are shown at first.")
+        if not chosen:
+            st.info("Choose at least one participant.")
+            download_csv(whole, "by_preference.csv", key=f"{key}-dl")
+            return
+        by_preference = by_preference[by_preference["participant"].astype(str).isin(chosen)]
     methods = plots.in_method_order(by_preference["method"])
     days = sorted(int(d) for d in by_preference["day"].unique())
     by_method, by_day = "Methods on one day", "One method, day by day"
@@ -284,4 +299,4 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
                               format_func=lambda m: plots.METHOD_LABELS.get(m, m))
         fig = plots.preference_days_figure(by_preference, method)
     st.plotly_chart(fig, width="stretch", key=f"{key}-chart")
-    download_csv(by_preference, "by_preference.csv", key=f"{key}-dl")
+    download_csv(whole, "by_preference.csv", key=f"{key}-dl")

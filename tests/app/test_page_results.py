@@ -426,3 +426,40 @@ def test_a_day_begun_with_only_unanswered_proposals_is_on_fig3(app, store):
     assert values["Day 2 mean success rate so far"] == "–"
     assert values["Participants on day 2"] == "1"
     assert values["Mean cumulative feedback, day 2"] == "3 data points"  # day 1's, carried over
+
+
+def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, db):
+    """Large-study walkthrough: 24 participants gave 120 heatmap rows, 3,300 px, the header gone after
+    one screen. More than 8: the first 8 are shown and a list chooses others; the download stays whole."""
+    import json
+
+    import pandas as pd
+
+    from cacas import app_support
+
+    people = [f"P{i:02d}" for i in range(1, 11)]
+    daily = pd.DataFrame({"participant": people, "method": ["cacas"] * 10, "day": [1] * 10,
+                          "success_rate": [0.5] * 10, "preference_accuracy": [0.5] * 10,
+                          "cumulative_feedback": [8] * 10, "interactions": [15] * 10})
+    by_pref = pd.DataFrame({"participant": people, "method": ["cacas"] * 10, "day": [1] * 10, "preference": [1] * 10,
+                            "label": ["Cough: pain check"] * 10, "activity": ["cough"] * 10,
+                            "action": ["pain check"] * 10, "states": [40] * 10, "correct": [20] * 10,
+                            "accuracy": [0.5] * 10})
+    app_support.save_run(app_support.runs_dir(db), "run-many", daily, pd.DataFrame({"participant": people}), {},
+                         by_pref)
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    who = at.multiselect(key="results-prefs:Simulated run: run-many-who")
+    assert who.value == people[:8]
+
+    def heatmap_rows():
+        spec = json.loads(at.get("plotly_chart")[-1].proto.spec)
+        return [y for trace in spec["data"] for y in trace.get("y", [])]
+    assert any("P08" in str(y) for y in heatmap_rows()) and not any("P09" in str(y) for y in heatmap_rows())
+    who.set_value(people).run()
+    assert any("P10" in str(y) for y in heatmap_rows())
+    who.set_value([]).run()
+    no_exception(at)
+    assert "Choose at least one participant." in [i.value for i in at.info]
+    assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
