@@ -121,10 +121,10 @@ def _running(pid: int) -> bool:
     """Whether a process with this id runs (on this machine)."""
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, OverflowError):  # none, or an id no process can have
         return False
-    except (PermissionError, OverflowError):  # someone else's process; an id no process can have
-        return pid <= 2**22
+    except PermissionError:  # another user's process
+        return True
     return True
 
 
