@@ -10,11 +10,12 @@ Methods (Fig. 4; every method adapts from the same day-by-day interactions):
 * ``cacas``: the above, deployed as Eq. 5 with beta = 0.7;
 * ``cacas-no-pr``: the same without policy reshaping (pi_theta acts and is deployed);
 * ``orl``: the original SAC adapted with the user data: the agent of step 1 goes on learning as
-  online SAC does, from its replay memory (its step-1 experience, kept with the initial policy)
+  online SAC does, from its replay memory (what its buffer holds when step 1 ends: the last round
+  of simulated days, as Table III empties the buffer every training day; kept with the initial policy)
   with the recorded transitions added, with as many gradient updates after each day as CACAS's
-  SAC makes (``adapt_updates``); no user model, no simulator. A few hundred real transitions
-  among tens of thousands remembered from the generic simulator is the paper's "forgetting user
-  feedback data" (Section IV-C.2);
+  SAC makes (``adapt_updates``); no user model, no simulator. The recorded transitions among
+  the 1,144 remembered from the generic simulator (with the default settings) are our reading of
+  the paper's "forgetting user feedback data" (Section IV-C.2);
 * ``nn``: MLP_policy alone;
 * ``bandit``: a contextual Thompson-sampling bandit (not in the paper);
 * ``sac-user-data`` (not in the paper): SAC from the policy in force, its memory emptied, learning
@@ -108,7 +109,9 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
                      source: ContextSource, days: int, cfg: CACAAConfig, rng: np.random.Generator,
                      progress: Progress | None = None, label: str = "training") -> dict:
     """The inner loops of Table III: simulated days of generate_state -> act -> respond ->
-    store (s, a, r, s') -> SAC update (Eq. 1, 3). ``behaviour(x)`` gives action probabilities
+    store (s, a, r, s') -> SAC update (Eq. 1, 3), the replay buffer emptied at the start of every
+    round (Table III's "buffer b = ∅" each training day), so it ends holding the last round's
+    transitions. ``behaviour(x)`` gives action probabilities
     for one-hot states x; ``responder.respond(states, actions)`` the responses."""
     gen = StateGenerator(source, cfg.parallel_days, cfg.k_minutes, rng)
     rewards = np.array([spaces.REWARDS[r] for r in spaces.RESPONSES])
@@ -116,6 +119,7 @@ def run_sac_training(sac: DiscreteSAC, behaviour: Callable[[np.ndarray], np.ndar
     info: dict = {}
     accepted = n = updates = 0
     for day in range(days):
+        sac.buffer.clear()  # Table III: "h = ∅; buffer b = ∅" at the start of every training day
         gen.reset()
         s = gen.generate_state()
         x = spaces.encode_states(s)
@@ -155,7 +159,9 @@ def train_initial_policy(d4a: D4A | None = None, config: CACAAConfig | None = No
     sac = DiscreteSAC(cfg.sac, seed=seed)
     run_sac_training(sac, sac.action_probabilities, ResponseModel(d4a.table), ContextSource.generic(),
                      cfg.initial_train_days, cfg, rng, progress, "initial policy")
-    sac.memory = sac.replay_memory()  # the original SAC's experience, which ORL goes on learning from
+    # the original SAC's experience, which ORL goes on learning from: what Table III's buffer holds
+    # when step 1 ends (its last round, emptied at the start of each)
+    sac.memory = sac.replay_memory()
     return ReshapedPolicy(sac, None, beta=1.0, method="initial")
 
 

@@ -119,6 +119,12 @@ class ReplayBuffer:
         self.pos = int((self.pos + n) % self.capacity)
         self.size = int(min(self.size + n, self.capacity))
 
+    def clear(self) -> None:
+        """Empty the buffer (Table III: "buffer b = ∅" at the start of every training day).
+        The preallocated tensors stay; what they still hold is never sampled again."""
+        self.size = 0
+        self.pos = 0
+
     def sample(self, batch_size: int, generator: torch.Generator):
         idx = torch.randint(0, self.size, (batch_size,), generator=generator)
         take = torch.index_select  # the same rows as self.s[idx], without advanced-indexing overhead

@@ -11,6 +11,7 @@ from cacas.adaptation import METHODS, accuracy_by_preference, adapt_policy, eval
 from cacas.errors import CacasError
 from cacas.policy import ReshapedPolicy, policy_from_bytes
 from cacas.preferences import parse_personas
+from cacas.simulator import steps_per_day
 
 PERSON = parse_personas({"participants": [{"id": "P01", "preferences": [
     {"activity": ["use stove"], "scene": ["kitchen"], "action": "set a timer"},
@@ -146,7 +147,8 @@ def test_preferences_learnt_compares_two_policies_on_the_same_states():
 
 def test_orl_goes_on_learning_from_its_step_1_memory(small_config, small_initial):
     memory = small_initial.sac.memory
-    assert memory is not None and len(memory["a"]) > 100  # the step-1 experience, kept with the policy
+    # the step-1 experience kept with the policy: its last round (Table III empties the buffer each day)
+    assert memory is not None and len(memory["a"]) == small_config.parallel_days * 23
     result = adapt_policy(small_initial, stove_days(3, per_day=8), "orl", seed=0, config=small_config)
     # as many updates as CACAS's SAC makes in one adaptation
     assert result.parameters["updates"] == small_config.adapt_updates == 1 * 23 * 6
@@ -155,6 +157,30 @@ def test_orl_goes_on_learning_from_its_step_1_memory(small_config, small_initial
     # the adapted ORL keeps the memory (not grown: the recorded transitions are re-read from D)
     again = policy_from_bytes(result.policy.to_bytes())
     assert again.sac.memory is not None and len(again.sac.memory["a"]) == len(memory["a"])
+
+
+def test_sac_training_empties_the_replay_buffer_every_round(small_config):
+    # Table III: "h = ∅; buffer b = ∅" at the start of every training day, so after 3 rounds the
+    # buffer holds the last round's transitions (a round: parallel_days days of steps - 1 each)
+    from cacas.d4a import load_d4a
+    from cacas.sac import DiscreteSAC
+    from cacas.simulator import ContextSource, ResponseModel, steps_per_day
+
+    one_round = small_config.parallel_days * (steps_per_day(small_config.k_minutes) - 1)
+    sac = DiscreteSAC(small_config.sac, seed=0)
+    sizes = []
+    info = adaptation.run_sac_training(sac, sac.action_probabilities, ResponseModel(load_d4a().table),
+                                       ContextSource.generic(), 3, small_config, np.random.default_rng(0),
+                                       progress=lambda f, m: sizes.append(sac.buffer.size))
+    assert sizes == [one_round] * 3 and sac.buffer.size == one_round
+    assert info["updates"] == 3 * (steps_per_day(small_config.k_minutes) - 1) * small_config.updates_per_step
+
+
+def test_initial_policy_remembers_what_its_buffer_holds_when_step_1_ends(small_config, small_initial):
+    # ORL's memory: the last round of step 1, not every round's transitions
+    one_round = small_config.parallel_days * (steps_per_day(small_config.k_minutes) - 1)
+    assert small_config.initial_train_days > 1
+    assert len(small_initial.sac.memory["a"]) == one_round == small_initial.sac.buffer.size
 
 
 def test_orl_without_a_remembered_experience_is_a_clear_error(small_config, small_initial, monkeypatch):

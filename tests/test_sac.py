@@ -111,3 +111,18 @@ def test_initial_weights_come_from_the_seed_alone_and_leave_the_global_stream_al
         assert all(torch.equal(x, y) for x, y in zip(a.parameters(), b.parameters()))
     other = DiscreteSAC(SACConfig(hidden=16), seed=4)
     assert not torch.equal(other.actor[0].weight, first.actor[0].weight)
+
+
+def test_replay_buffer_clear_empties_it_and_later_samples_are_only_new_transitions():
+    # Table III starts every training day with "buffer b = ∅" (run_sac_training clears it per round)
+    agent = DiscreteSAC(SACConfig(state_dim=8, n_actions=4, hidden=16), seed=0)
+    toy_buffer(agent)
+    assert agent.buffer.size == 2000
+    agent.buffer.clear()
+    assert agent.buffer.size == 0 and agent.buffer.pos == 0
+    eye = np.eye(8, dtype=np.float32)
+    agent.buffer.add_batch(eye[[5, 6, 7]], np.array([3, 3, 3]), np.array([0.5, 0.5, 0.5]), eye[[0, 1, 2]])
+    assert agent.buffer.size == 3 and agent.buffer.pos == 3
+    s, a, r, _ = agent.buffer.sample(500, torch.Generator().manual_seed(0))
+    assert set(a.tolist()) == {3} and set(r.tolist()) == {0.5}  # nothing from before the clear
+    assert set(s.argmax(1).tolist()) == {5, 6, 7}
