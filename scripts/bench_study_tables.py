@@ -32,7 +32,8 @@ ANSWERS = [("cough", "bedroom", "pain check", "accept"), ("cough", "bedroom", "c
            ("use stove", "kitchen", "remind to turn off", "accept"), ("use stove", "kitchen", "set a timer", "reject")]
 
 
-def build(path: Path, participants: int, days: int, seed: int = 0) -> StudyStore:
+def build(path: Path, participants: int, days: int, seed: int = 0, comparison: bool = True) -> StudyStore:
+    """The study database (``comparison``: with the baselines' runs of a method comparison)."""
     rng = np.random.default_rng(seed)
     store = StudyStore(path)
     for p in range(participants):
@@ -55,7 +56,7 @@ def build(path: Path, participants: int, days: int, seed: int = 0) -> StudyStore
                  "activity": pref["activity"][0], "action": pref["action"], "states": 400,
                  "correct": int(rng.integers(400))} for k, pref in enumerate(PREFERENCES)]}
             store.record_adaptation(code, day, "cacas", {}, 1.0, metrics, policy_version=version)
-            for method in ("cacas-no-pr", "orl", "nn"):  # a method comparison: runs without a policy version
+            for method in ("cacas-no-pr", "orl", "nn") if comparison else ():  # runs without a policy version
                 store.record_adaptation(code, day, method, {"comparison": True}, 1.0,
                                         {"preference_accuracy": float(rng.random())})
     return store
