@@ -161,6 +161,24 @@ def main() -> None:
         st.error(f"The study database cannot be opened: {exc}")
         st.stop()
 
+    try:
+        _route(store)
+    except sqlite3.DatabaseError as exc:
+        if not _damaged(exc):  # a locked database, a constraint: not the file's fault, not to be restored
+            raise
+        # damage quick_check did not see on opening, met by the sidebar or a page: a message, not a traceback
+        st.error(f"The study database {ui.db_path()} cannot be read ({exc}). Restore it from a backup or an "
+                 "export (`cacas import`).", icon=":material/error:")
+
+
+def _damaged(exc: sqlite3.DatabaseError) -> bool:
+    """Whether SQLite's error says the file itself is damaged (and a backup is the remedy)."""
+    said = str(exc).lower()
+    return any(words in said for words in ("malformed", "not a database", "disk i/o error", "database corrupt"))
+
+
+def _route(store) -> None:
+    """The participant from the address, the page, the sidebar; then the page itself."""
     ui.run_missed_click()  # where Streamlit runs a button's callback: before anything is drawn
     _sync_participant(store)
     ui.keep_preference_forms()
@@ -182,11 +200,7 @@ def main() -> None:
         if problem:  # said on every researcher page, before a participant meets it on the tablet
             (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
     _write_address(store)
-    try:
-        page.run()
-    except sqlite3.DatabaseError as exc:  # damage quick_check did not see on opening: a message, not a traceback
-        st.error(f"The study database {ui.db_path()} cannot be read ({exc}). Restore it from a backup or an "
-                 "export (`cacas import`).", icon=":material/error:")
+    page.run()
 
 
 # A Simulation lab worker process imports this script, the server's __main__, when it starts

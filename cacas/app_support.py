@@ -683,19 +683,37 @@ def run_label(root, name: str) -> str:
     except CacasError:
         settings = {}
     try:
-        when = datetime.strptime(name[:15], "%Y%m%d-%H%M%S").strftime("%d %b %Y %H:%M")
+        when = datetime.strptime(name[:15], "%Y%m%d-%H%M%S").strftime("%d %b %Y %H:%M:%S")
     except ValueError:
         when = name
     if not settings:
         return name
     n = len(settings.get("participants", []))
     methods = ", ".join(plots.METHOD_LABELS.get(m, m) for m in settings.get("methods", []))
-    parts = [when, f"{n} participant{'s' if n != 1 else ''}",
-             run_days(settings["days"]) if settings.get("days") is not None else "", methods,
+    parts = [when, f"{n} participant{'s' if n != 1 else ''}" + _personas_short(settings.get("personas")),
+             run_days(settings["days"]) if settings.get("days") is not None else "",
+             f"{settings['interactions']} a day" if settings.get("interactions") is not None else "", methods,
              f"seed {settings['seed']}" if settings.get("seed") is not None else ""]
+    if settings.get("ask_after_reject"):
+        parts.append(f"asks after {percent(settings['ask_after_reject'])} of rejections")
     if settings.get("loop") == "each":
         parts.append("each in its own loop")
     return " · ".join(p for p in parts if p)
+
+
+def _personas_short(source) -> str:
+    """Where a run's personas came from, briefly, for its label: " (example.json)", " (study
+    pilot)", or "" when the run did not keep it (:func:`persona_source` has the long form)."""
+    import re
+
+    if not source:
+        return ""
+    source = str(source)
+    found = (re.fullmatch(r"study_data/personas/(.+)", source) or re.fullmatch(r"uploaded file (.+) \(sha256 \w+\)", source)
+             or re.fullmatch(r"the described preferences of the participants of study '(.+)'", source))
+    if found and source.startswith("the described"):
+        return f" (study {found.group(1)})"
+    return f" ({found.group(1) if found else source})"
 
 
 def uploaded_personas(name: str, data: bytes) -> list:

@@ -42,13 +42,15 @@ def reporter(queue, stop) -> Callable[..., None]:
 
 
 def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: int,
-                 tick: Callable[..., None], what: str = "pieces of work") -> list:
+                 tick: Callable[..., None], what: str = "pieces of work",
+                 keep: Callable[..., None] | None = None) -> list:
     """``worker(shared, piece, queue, stop)`` for every piece in ``jobs`` spawned worker processes
     (``worker`` a module-level function; ``shared`` bytes every piece needs, e.g. a policy);
     every item a worker puts on ``queue`` (:func:`reporter`) comes to ``tick(*item)`` in the main
-    process as it runs. If ``tick`` raises, every worker ends at its next report and the pieces
-    not started never start; the exception goes on with a note of how many pieces (``what``)
-    ended early.
+    process as it runs. If ``tick`` raises, or a worker fails, every worker ends at its next
+    report and the pieces not started never start; the items still on the queue then go to
+    ``keep(*item)`` (work already made, e.g. a comparison's runs, is kept); the exception goes on
+    with a note of how many pieces (``what``) ended early.
     Returns the workers' results in the order of ``pieces``."""
     ctx = mp.get_context("spawn")
     manager = SyncManager(ctx=ctx)
@@ -62,12 +64,17 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
                 finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                 while not queue.empty():
                     tick(*queue.get())
+                failed = next((f.exception() for f in finished if f.exception() is not None), None)
+                if failed is not None:  # one piece failed: the others stop now, not at their end
+                    raise failed
             while not queue.empty():
                 tick(*queue.get())
-        except BaseException as exc:  # a stop request, or Ctrl-C
+        except BaseException as exc:  # a stop request, Ctrl-C, or a worker's failure
             stop.set()
             never = sum(f.cancel() for f in futures)
             wait(futures)
+            while keep is not None and not queue.empty():  # made before the stop, not yet taken
+                keep(*queue.get())
             ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
             exc.add_note(f"{ended} of {len(futures)} {what} ended early in their worker process, "
                          f"{never} never started")

@@ -9,7 +9,7 @@ import re
 #: with spaces, dots, dashes, slashes, brackets or a leading +; a date such as 2026-11-21 or 21.11.2026 is not one).
 _EMAIL_RE = re.compile(r"[\w.+-]+@[\w-]+\.[\w.-]+")
 _PHONE_RE = re.compile(r"(?<![\w-])\+?\(?\d[\d\s()./-]{5,}\d(?![\w-])")
-_DATE_TIME_RE = re.compile(r"\b(\d{4}-\d{1,2}-\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{4}|\d{1,2}:\d{2}(:\d{2})?)\b")
+_DATE_TIME_RE = re.compile(r"\b(\d{4}[./-]\d{1,2}[./-]\d{1,2}|\d{1,2}[./-]\d{1,2}[./-]\d{4}|\d{1,2}:\d{2}(:\d{2})?)\b")
 
 
 #: Characters that show nothing and would split an address or a number for the check ("jo\u200b@x.org").
@@ -35,14 +35,19 @@ def contact_details(value: str) -> str | None:
 
 def _looks_like_a_phone_number(text: str) -> bool:
     """7 or more digits in groups of which one has 3 or more ("555-1234", "+44 20 7946 0958"), or in pairs
-    after a leading 0 or + ("06 12 34 56 78"). Runs of small numbers are not ("6-10 16-20" hours, "rated
-    8 9 10 8 7 9 10")."""
+    after a leading 0 or + ("06 12 34 56 78", also after a code of one or two digits: "+33 6 12 34 56
+    78"). Runs of small numbers are not ("6-10 16-20" hours, "rated 8 9 10 8 7 9 10", "0-2 2-4 4-6 6-8"),
+    nor lists with slashes ("0/10 3/10 4/10")."""
     groups = re.findall(r"\d+", text)
     if sum(map(len, groups)) < 7:
+        return False
+    if text.count("/") > 1:  # "06/08 08/10", "0.91/0.85/0.73", "01/02/03": lists, not a number
         return False
     lead = text.lstrip(" (")
     if max(map(len, groups)) >= 3:
         return True
-    # after a leading 0 or +, in pairs ("06 12 34 56 78"), or in groups of one or two digits that
-    # make a whole number ("+33 6 12 34 56 78", "0 30 / 12 34 56 78": 9 digits or more)
-    return lead[:1] in ("0", "+") and (all(len(g) == 2 for g in groups) or sum(map(len, groups)) >= 9)
+    # after a leading 0 or +: in pairs ("06 12 34 56 78"), or a country or area code of one or two
+    # digits and then pairs ("+33 6 12 34 56 78", "0 30 / 12 34 56 78"); hour ranges, scores and
+    # decimals have single digits among the rest ("0-2 2-4 4-6", "0.25 0.5 0.75")
+    return lead[:1] in ("0", "+") and (all(len(g) == 2 for g in groups)
+                                       or (len(groups) >= 5 and all(len(g) == 2 for g in groups[2:])))

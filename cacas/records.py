@@ -266,8 +266,12 @@ def escape_formula(value):
 
 
 def unescape_formula(value):
-    """The text :func:`escape_formula` wrote the cell for (reading a bundle or an exported table)."""
-    return value[1:] if isinstance(value, str) and value.startswith("'") else value
+    """The text :func:`escape_formula` wrote the cell for (reading a bundle or an exported table):
+    its ``'`` taken off only where :func:`escape_formula` would have put it, so a cell written
+    before the escaping ("'twas fine", in an older bundle or another tool's CSV) stays as it is."""
+    if isinstance(value, str) and value.startswith("'") and escape_formula(value[1:]) == value:
+        return value[1:]
+    return value
 
 
 def _is_text(column: pd.Series) -> bool:

@@ -592,7 +592,8 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                 say(sum(done.values()) / total, message)
             say(0.0, f"{len(pieces)} participants side by side in {jobs} worker processes")
             parallel.run_parallel(_comparison_worker, initial.to_bytes(), pieces, jobs, tick,
-                                  what="participants' comparisons")
+                                  what="participants' comparisons",
+                                  keep=lambda kind, *item: record(*item) if kind == "run" else None)
         say(1.0, f"{recorded} comparison runs recorded")
         return recorded
     finally:

@@ -132,18 +132,26 @@ def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
                           "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
     inter = pd.DataFrame({"participant": ["P01"]})
     app_support.save_run(tmp_path, "20261126-081502-seed0-8p-7d", daily, inter,
-                         {"participants": [f"P0{i}" for i in range(1, 9)], "days": 7, "methods": ["cacas", "nn"],
-                          "seed": 0, "loop": "first"})
+                         {"participants": [f"P0{i}" for i in range(1, 9)], "days": 7, "interactions": 15,
+                          "methods": ["cacas", "nn"], "seed": 0, "loop": "first",
+                          "personas": "study_data/personas/example.json"})
     app_support.save_run(tmp_path, "20261126-081733-seed3-1p-1d", daily, inter,
-                         {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3, "loop": "each"})
+                         {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3, "loop": "each",
+                          "ask_after_reject": 0.5, "personas": "uploaded file mine.json (sha256 0123456789ab)"})
+    app_support.save_run(tmp_path, "20261126-081734-seed3-1p-1d", daily, inter,
+                         {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3,
+                          "personas": "the described preferences of the participants of study 'pilot'"})
     app_support.save_run(tmp_path, "from-the-command-line", daily, inter, {})
     (tmp_path / "from-the-command-line" / "settings.json").unlink()
     app_support.save_run(tmp_path, "broken", daily, inter, {})
     (tmp_path / "broken" / "settings.json").write_text("{not json")
     assert app_support.run_label(tmp_path, "20261126-081502-seed0-8p-7d") == \
-        "26 Nov 2026 08:15 · 8 participants · 7 days · CACAS, NN · seed 0"
-    assert app_support.run_label(tmp_path, "20261126-081733-seed3-1p-1d") == \
-        "26 Nov 2026 08:17 · 1 participant · 1 day · Bandit (TS) · seed 3 · each in its own loop"
+        "26 Nov 2026 08:15:02 · 8 participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0"
+    assert app_support.run_label(tmp_path, "20261126-081733-seed3-1p-1d") == (
+        "26 Nov 2026 08:17:33 · 1 participant (mine.json) · 1 day · Bandit (TS) · seed 3 · asks after 50% of "
+        "rejections · each in its own loop")
+    assert app_support.run_label(tmp_path, "20261126-081734-seed3-1p-1d") == \
+        "26 Nov 2026 08:17:34 · 1 participant (study pilot) · 1 day · Bandit (TS) · seed 3"
     assert app_support.run_label(tmp_path, "from-the-command-line") == "from-the-command-line"
     assert app_support.run_label(tmp_path, "broken") == "broken"  # the picker still lists it; opening it names the file
     with pytest.raises(CacasError, match="settings.json: not readable JSON"):

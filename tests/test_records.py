@@ -208,3 +208,6 @@ def test_text_that_would_start_a_spreadsheet_formula_is_escaped_and_read_back_ex
     back = read_csv(io.BytesIO(data), dtype=str, keep_default_na=False)["notes"].tolist()
     assert back == texts + numbers
     assert [escape_formula(x) for x in (3, None, 2.5)] == [3, None, 2.5]
+    from cacas.records import unescape_formula
+    assert unescape_formula("'twas fine") == "'twas fine"  # not written by escape_formula: left as it is
+    assert unescape_formula("''twas fine") == "'twas fine" and unescape_formula("'=1+1") == "=1+1"

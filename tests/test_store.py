@@ -177,6 +177,14 @@ def test_preferences_saved_before_the_contact_details_check_still_read(store):
     assert "555-1234" in store.export_personas()
 
 
+@pytest.mark.parametrize("notes", ["visit 2026/11/21 at 10:00", "slots 0-2 2-4 4-6 6-8 8-10", "pain 0/10 3/10 4/10",
+                                   "0.25 0.5 0.75 1.0", "accuracy 0.91/0.85/0.73", "0 1 2 3 4 5 6 7 8",
+                                   "06/08 08/10 10/12", "01/02/03/04/05"])
+def test_dates_hours_scores_and_lists_are_not_phone_numbers(store, notes):
+    """Review: the check's forms for '+33 6 12 34 56 78' and slashes refused these ordinary notes."""
+    assert store.add_participant("P03", notes=notes).notes == notes
+
+
 def test_dates_times_and_counts_in_free_text_are_not_contact_details(store):
     notes = ("first session 2026-11-21 10:00-12:00, again on 21.11.2026; 3 kids, rated 8 9 10; age 65+; "
              "awake 6-10 16-20 daily; ratings 8 9 10 8 7 9 10")  # runs of small numbers were taken for phones

@@ -187,3 +187,32 @@ def test_a_database_that_fails_while_a_page_reads_it_is_a_message_not_a_tracebac
     no_exception(at)
     assert any("cannot be read (database disk image is malformed). Restore it from a backup or an export" in e.value
                for e in at.error)
+
+
+def test_damage_the_sidebar_meets_is_a_message_too_and_a_locked_database_is_not_called_damaged(app, store,
+                                                                                                monkeypatch):
+    """Review: the message covered the page only (the sidebar and the address's participant read
+    the database before it), and it told the researcher to restore a healthy database after any
+    SQLite error ("database is locked" is one)."""
+    import sqlite3
+
+    from cacas import app_support
+    from cacas.store import StudyStore
+
+    store.add_participant("P01")
+    real = StudyStore.list_participants
+
+    def damaged(self, *args, **kwargs):
+        raise sqlite3.DatabaseError("database disk image is malformed")
+    monkeypatch.setattr(StudyStore, "list_participants", damaged)
+    at = app()
+    no_exception(at)
+    assert any("cannot be read (database disk image is malformed)" in e.value for e in at.error)
+    monkeypatch.setattr(StudyStore, "list_participants", real)
+
+    def locked(*args, **kwargs):
+        raise sqlite3.OperationalError("database is locked")
+    monkeypatch.setattr(app_support, "overview_frame", locked)
+    at = app()
+    assert not any("Restore it from a backup" in e.value for e in at.error)
+    assert at.exception and "database is locked" in at.exception[0].message
