@@ -867,6 +867,24 @@ def next_day_view(ahead: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows).fillna("–")
 
 
+#: A study zip above this many bytes is better written to disk by ``cacas export`` than built in
+#: the server's memory for a download (the large-study walkthrough: 200 MB for 24 participants x 14
+#: days, the server grew by 400 MB while it was built).
+LARGE_BUNDLE_BYTES = 50_000_000
+
+
+def bundle_note(policies: pd.DataFrame, db_path, study: str | None = None) -> str:
+    """The Results page's line under "Download everything" for a study whose policy files make the
+    zip large (:data:`LARGE_BUNDLE_BYTES`): its size and the command that writes it to disk; ""
+    otherwise. ``policies``: the study's policies.csv frame (its ``size`` column)."""
+    total = int(pd.to_numeric(policies["size"], errors="coerce").fillna(0).sum()) if len(policies) else 0
+    if total < LARGE_BUNDLE_BYTES:
+        return ""
+    return (f"The zip holds {total / 1e6:.0f} MB of policy files ({len(policies)} versions), built in the app's "
+            f"memory on the click; `cacas export --db {db_path}{f' --study {study}' if study else ''} --out export/` "
+            "writes the same zip (and the tables) straight to disk.")
+
+
 def percent(x: float | None) -> str:
     """A share as a whole percentage, halves rounded up as the tables' "%.0f%%" columns show them
     (72.5 -> "73%" in both; Python's format rounds halves to even); "–" for none."""

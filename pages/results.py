@@ -253,6 +253,9 @@ with data:
                        "one to be imported. Restore them from a backup; the tables above download one by one.",
                        icon=":material/warning:")
         else:
+            note = app_support.bundle_note(tables["policies"], db, study)
+            if note:
+                st.caption(note)
             st.download_button("Download everything (zip of every table and policy file)", _bundle,
                                file_name=app_support.study_file_name("cacas-study", study, ".zip"),
                                mime="application/zip", icon=":material/folder_zip:",
