@@ -880,8 +880,11 @@ def bundle_note(policies: pd.DataFrame, db_path, study: str | None = None) -> st
     total = int(pd.to_numeric(policies["size"], errors="coerce").fillna(0).sum()) if len(policies) else 0
     if total < LARGE_BUNDLE_BYTES:
         return ""
+    from shlex import quote
+
+    study_option = f" --study {quote(study)}" if study else ""
     return (f"The zip holds {total / 1e6:.0f} MB of policy files ({len(policies)} versions), built in the app's "
-            f"memory on the click; `cacas export --db {db_path}{f' --study {study}' if study else ''} --out export/` "
+            f"memory on the click; `cacas export --db {quote(str(db_path))}{study_option} --out export/` "
             "writes the same zip (and the tables) straight to disk.")
 
 

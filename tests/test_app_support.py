@@ -357,3 +357,5 @@ def test_a_large_studys_zip_points_to_cacas_export():
         "The zip holds 111 MB of policy files (168 versions), built in the app's memory on the click; "
         "`cacas export --db study_data/cacas.sqlite --study pilot --out export/` writes the same zip (and the "
         "tables) straight to disk.")
+    assert "`cacas export --db '/data/my study.sqlite' --study 'pilot 2' --out export/`" in app_support.bundle_note(
+        large, "/data/my study.sqlite", "pilot 2")  # a path as a shell takes it
