@@ -888,6 +888,17 @@ def bundle_note(policies: pd.DataFrame, db_path, study: str | None = None) -> st
             "writes the same zip (and the tables) straight to disk.")
 
 
+def time_left(elapsed_s: float, fraction: float) -> str:
+    """A long job's progress line's estimate of the time left, from the time so far and the share
+    done (work of even pace: a simulation's participant-days, a comparison's adaptations): ", about
+    40 s left", ", about 3 min left"; "" while too little is done to tell (under 5 % or 5 s) or when
+    it is done."""
+    if not 0.05 <= fraction < 1 or elapsed_s < 5:
+        return ""
+    left = elapsed_s * (1 - fraction) / fraction
+    return f", about {left:.0f} s left" if left < 90 else f", about {left / 60:.0f} min left"
+
+
 def percent(x: float | None) -> str:
     """A share as a whole percentage, halves rounded up as the tables' "%.0f%%" columns show them
     (72.5 -> "73%" in both; Python's format rounds halves to even); "–" for none."""

@@ -359,3 +359,12 @@ def test_a_large_studys_zip_points_to_cacas_export():
         "tables) straight to disk.")
     assert "`cacas export --db '/data/my study.sqlite' --study 'pilot 2' --out export/`" in app_support.bundle_note(
         large, "/data/my study.sqlite", "pilot 2")  # a path as a shell takes it
+
+
+def test_a_long_jobs_time_left_is_estimated_once_there_is_enough_to_tell():
+    """Large-study walkthrough: a comparison of 10 minutes and more showed no time remaining."""
+    assert app_support.time_left(3, 0.5) == ""  # too soon
+    assert app_support.time_left(60, 0.01) == ""  # too little done
+    assert app_support.time_left(60, 1.0) == ""  # done
+    assert app_support.time_left(20, 0.5) == ", about 20 s left"
+    assert app_support.time_left(60, 0.25) == ", about 3 min left"
