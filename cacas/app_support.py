@@ -891,9 +891,10 @@ def bundle_note(policies: pd.DataFrame, db_path, study: str | None = None) -> st
 def time_left(elapsed_s: float, fraction: float) -> str:
     """A long job's progress line's estimate of the time left, from the time so far and the share
     done (work of even pace: a simulation's participant-days, a comparison's adaptations): ", about
-    40 s left", ", about 3 min left"; "" while too little is done to tell (under 5 % or 5 s) or when
-    it is done."""
-    if not 0.05 <= fraction < 1 or elapsed_s < 5:
+    40 s left", ", about 3 min left"; "" while too little is done to tell (under a fifth, or 10 s:
+    starting the worker processes is a cost of the first seconds alone, and a simulation of about
+    2.5 minutes was said to have 6 minutes left at 12 %) or when it is done."""
+    if not 0.2 <= fraction < 1 or elapsed_s < 10:
         return ""
     left = elapsed_s * (1 - fraction) / fraction
     return f", about {left:.0f} s left" if left < 90 else f", about {left / 60:.0f} min left"
