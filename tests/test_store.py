@@ -191,6 +191,16 @@ def test_dates_times_and_counts_in_free_text_are_not_contact_details(store):
     assert store.add_participant("P03", notes=notes).notes == notes
 
 
+def test_a_study_name_with_a_phone_number_is_refused(store):
+    """A study's name is in every export (data steward's audit: 'pilot 0151 12345678' was taken)."""
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match=r"study name 'pilot 0151 12345678' holds what looks like a phone number "
+                                         r"\('0151 12345678'\)"):
+        store.create_study("pilot 0151 12345678")
+    assert snapshot(store.path) == before
+    assert store.create_study("pilot 2026-11 wave 2") is not None  # dates and numbers of waves are names
+
+
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="P01 already exists"):

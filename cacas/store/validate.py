@@ -75,6 +75,10 @@ def study(value: Any) -> str:
     if not isinstance(value, str) or not STUDY_RE.match(value.strip()):
         raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
                          f"'.', '-' or '_'")
+    found = contact_details(value)  # a study's name is in every export, as a participant's notes are
+    if found:
+        raise CacasError(f"study name {value!r} holds what looks like a phone number ({found!r}); valid: a name "
+                         "without contact details (study data are pseudonymous)")
     return value.strip()
 
 
