@@ -648,57 +648,51 @@ def run_days(days) -> str:
     return "? days" if days is None else f"{days} day{'s' if days != 1 else ''}"
 
 
+def _settings_words(settings: dict, short: bool) -> list[str]:
+    """A run's settings in words, each it kept (a settings.json written by hand, or by an older
+    version, lacks some): in full for the line under the run, ``short`` for the run picker."""
+    n = len(settings.get("participants", []))
+    methods = settings.get("methods") or []
+    words = [f"{n} participant{'s' if n != 1 else ''}" + (_personas_short(settings.get("personas")) if short else ""),
+             run_days(settings["days"]) if settings.get("days") is not None else "",
+             (f"{settings['interactions']} a day" if short else f"{settings['interactions']} interactions a day")
+             if settings.get("interactions") is not None else "",
+             (", ".join(plots.METHOD_LABELS.get(m, m) for m in methods) if short else f"methods {', '.join(methods)}")
+             if methods else "",
+             f"seed {settings['seed']}" if settings.get("seed") is not None else "",
+             f"asks after {percent(settings['ask_after_reject'])} of rejections"
+             if settings.get("ask_after_reject") else "",
+             ("each in its own loop" if short else "each method in its own closed loop")
+             if settings.get("loop") == "each" else "",
+             f"personas: {settings['personas']}" if settings.get("personas") and not short else ""]
+    return [w for w in words if w]
+
+
 def run_caption(settings: dict) -> str:
     """The Simulation lab's line under a run: every setting the run kept, e.g. "8 participants ·
     7 days · 15 interactions a day · methods cacas, nn · seed 0 · personas: ..."; a setting the
-    run did not keep (a settings.json written by hand, or by an older version) is left out."""
-    n = len(settings.get("participants", []))
-    parts = [f"{n} participant{'s' if n != 1 else ''}"]
-    if settings.get("days") is not None:
-        parts.append(run_days(settings["days"]))
-    if settings.get("interactions") is not None:
-        parts.append(f"{settings['interactions']} interactions a day")
-    if settings.get("methods"):
-        parts.append(f"methods {', '.join(settings['methods'])}")
-    if settings.get("seed") is not None:
-        parts.append(f"seed {settings['seed']}")
-    if settings.get("ask_after_reject"):
-        parts.append(f"asks after {percent(settings['ask_after_reject'])} of rejections")
-    if settings.get("loop") == "each":
-        parts.append("each method in its own closed loop")
-    if settings.get("personas"):
-        parts.append(f"personas: {settings['personas']}")
-    return " · ".join(parts)
+    run did not keep is left out."""
+    return " · ".join(_settings_words(settings, short=False))
 
 
 def run_label(root, name: str) -> str:
-    """How the Simulation lab's run picker names a run: when it ran and what it compared, from its
-    settings (two runs of one day differ in more than their time stamp: their participants, methods,
-    seed, who acts), e.g. "26 Nov 2026 08:15 · 8 participants · 7 days · CACAS, NN · seed 0". A
-    run without readable settings (one copied in from ``cacas simulate --out``) is its folder name."""
+    """How the run pickers name a run: when it ran and what it compared, from its settings (two
+    runs of one day differ in more than their time stamp), e.g. "26 Nov 2026 08:15:02 · 8
+    participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0". A run without readable
+    settings (one copied in from ``cacas simulate --out``) is its folder name."""
     from datetime import datetime
 
     try:
         settings = run_settings(Path(root) / name)
     except CacasError:
         settings = {}
+    if not settings:
+        return name
     try:
         when = datetime.strptime(name[:15], "%Y%m%d-%H%M%S").strftime("%d %b %Y %H:%M:%S")
     except ValueError:
         when = name
-    if not settings:
-        return name
-    n = len(settings.get("participants", []))
-    methods = ", ".join(plots.METHOD_LABELS.get(m, m) for m in settings.get("methods", []))
-    parts = [when, f"{n} participant{'s' if n != 1 else ''}" + _personas_short(settings.get("personas")),
-             run_days(settings["days"]) if settings.get("days") is not None else "",
-             f"{settings['interactions']} a day" if settings.get("interactions") is not None else "", methods,
-             f"seed {settings['seed']}" if settings.get("seed") is not None else ""]
-    if settings.get("ask_after_reject"):
-        parts.append(f"asks after {percent(settings['ask_after_reject'])} of rejections")
-    if settings.get("loop") == "each":
-        parts.append("each in its own loop")
-    return " · ".join(p for p in parts if p)
+    return " · ".join([when, *_settings_words(settings, short=True)])
 
 
 def _personas_short(source) -> str:
