@@ -9,8 +9,9 @@ D4A marks accept" (:meth:`D4A.accepted_actions`, :meth:`D4A.generic_actions`).
 
 The file is a CSV: header ``activity,<the 14 action names>``, one row per activity, each cell
 ``accept``, ``reject`` or ``others``. Names match case-insensitively (:func:`cacas.spaces.canonical`);
-rows and columns may come in any order. The "do nothing" column is ``others`` in the shipped
-file: the robot doing nothing gets no response from the user (see ``study_data/d4a.md``).
+rows and columns may come in any order. The "do nothing" column is ``others`` in every file
+(:data:`DO_NOTHING_RULE`): the robot doing nothing gets no response from the user (see
+``study_data/d4a.md``); a table answering it is refused.
 Any problem with a researcher's own file is one :class:`CacasError` naming the file, the line
 and the column at fault.
 """
@@ -28,6 +29,12 @@ import pandas as pd
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
+
+#: Why the "do nothing" column is ``others`` everywhere (Section IV-B: the robot doing nothing
+#: initiates nothing, so the user has nothing to accept or reject; reward 0). A table answering it
+#: would reward or punish silence in step 1's training, which no response of the paper does.
+DO_NOTHING_RULE = ("'others' only: the robot doing nothing gets no response from the user "
+                   "(see study_data/d4a.md)")
 
 #: File name of the shipped D4A table inside :func:`cacas.paths.study_data_dir`.
 D4A_FILE = "d4a.csv"
@@ -52,6 +59,11 @@ class D4A:
                              f"({spaces.N_ACTIVITIES}, {spaces.N_ACTIONS}) activities x actions")
         if not np.isin(t, (spaces.ACCEPT, spaces.REJECT, spaces.OTHERS)).all():
             raise CacasError("a D4A table holds a value other than ACCEPT, REJECT or OTHERS (0, 1, 2)")
+        answered = np.flatnonzero(t[:, spaces.DO_NOTHING_ACTION] != spaces.OTHERS)
+        if len(answered):
+            raise CacasError(f"a D4A table's 'do nothing' column holds "
+                             f"{spaces.RESPONSES[int(t[answered[0], spaces.DO_NOTHING_ACTION])]!r} for "
+                             f"{spaces.ACTIVITIES[int(answered[0])]!r}; valid: {DO_NOTHING_RULE}")
         t = t.astype(np.int8, copy=True)
         t.setflags(write=False)
         object.__setattr__(self, "table", t)
@@ -181,6 +193,9 @@ def parse_d4a(text: str, source: str = "D4A file") -> D4A:
             if value not in spaces.RESPONSES:
                 raise CacasError(f"{source}, line {line}, column {col} ({name} / {spaces.ACTIONS[action]}): "
                                  f"{cell.strip()!r} is not a response; valid: {valid_cells}")
+            if action == spaces.DO_NOTHING_ACTION and value != spaces.RESPONSES[spaces.OTHERS]:
+                raise CacasError(f"{source}, line {line}, column {col} ({name} / do nothing): {value!r}; "
+                                 f"valid: {DO_NOTHING_RULE}")
             table[act, action] = spaces.RESPONSES.index(value)
     missing_rows = [spaces.ACTIVITIES[a] for a in range(spaces.N_ACTIVITIES) if a not in seen]
     if missing_rows:

@@ -329,8 +329,9 @@ def test_a_d4a_table_of_ones_own_trains_an_initial_policy_of_its_own(monkeypatch
     shutil.copy(default_d4a_path(), tmp_path / "d4a.csv")
     monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path))
     shipped = load_d4a()
-    own = D4A(np.where(np.arange(spaces.N_ACTIONS) == spaces.action_index("pain check"), spaces.ACCEPT,
-                       spaces.REJECT)[None, :].repeat(spaces.N_ACTIVITIES, axis=0), source="pain.csv")
+    row = np.where(np.arange(spaces.N_ACTIONS) == spaces.action_index("pain check"), spaces.ACCEPT, spaces.REJECT)
+    row[spaces.DO_NOTHING_ACTION] = spaces.OTHERS  # the robot doing nothing gets no answer (d4a.DO_NOTHING_RULE)
+    own = D4A(row[None, :].repeat(spaces.N_ACTIVITIES, axis=0), source="pain.csv")
     assert adaptation.initial_policy_path(shipped) == adaptation.initial_policy_path() == \
         tmp_path / "models" / "initial_policy.pt"
     mine = adaptation.initial_policy_path(own)

@@ -203,6 +203,24 @@ def test_empty_cell(tmp_path):
     assert "line 3, column 15 (cry / remind to unplug)" in msg and "'' is not a response" in msg
 
 
+def test_do_nothing_cell_other_than_others_is_refused(tmp_path):
+    lines = shipped_lines()
+    cells = lines[6].split(",")  # fall down; column 2 (1-based) is "do nothing"
+    assert cells[0] == "fall down" and lines[0].split(",")[1] == "do nothing"
+    cells[1] = "Accept"
+    lines[6] = ",".join(cells)
+    msg = error_of(write(tmp_path, lines))
+    assert "line 7, column 2 (fall down / do nothing): 'accept'" in msg
+    assert "valid: 'others' only: the robot doing nothing gets no response" in msg
+
+
+def test_table_object_refuses_an_answered_do_nothing(d4a):
+    table = d4a.table.copy()
+    table[act("snore"), acts("do nothing")] = spaces.REJECT
+    with pytest.raises(CacasError, match=r"'do nothing' column holds 'reject' for 'snore'; valid: 'others' only"):
+        D4A(table)
+
+
 def test_table_object_validates_shape_and_values():
     with pytest.raises(CacasError, match=r"has shape \(33, 13\); valid: \(33, 14\)"):
         D4A(np.zeros((33, 13), dtype=np.int8))
