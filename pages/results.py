@@ -11,7 +11,7 @@ from pathlib import Path
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, plots, records
+from cacas import app_support, plots, records, saved_runs
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables, next_day_accuracy
 from cacas.jobs import FAILED, RUNNER
@@ -29,8 +29,8 @@ HUMAN = "Human study (this database)"
 st.title("Results")
 
 # --- which data ------------------------------------------------------------------------------------
-runs_root = app_support.runs_dir(db)
-runs = app_support.list_runs(runs_root)
+runs_root = saved_runs.runs_dir(db)
+runs = saved_runs.list_runs(runs_root)
 SIMULATED, UPLOAD = "A simulated run", "Upload CSV files"
 source = st.segmented_control("Data", [HUMAN, SIMULATED, UPLOAD], default=HUMAN, key="results-source") or HUMAN
 if source == SIMULATED:
@@ -38,7 +38,7 @@ if source == SIMULATED:
         st.info("No simulated run yet: run one in the **Simulation lab**.")
         st.stop()
     source = "Simulated run: " + st.selectbox("Run", runs, key="results-run",
-                                               format_func=lambda r: app_support.run_label(runs_root, r),
+                                               format_func=lambda r: saved_runs.run_label(runs_root, r),
                                                help="Saved by the Simulation lab, newest first.")
 
 if source == HUMAN:
@@ -65,7 +65,7 @@ else:
     if not ups:
         st.stop()
     try:
-        tables = app_support.load_uploaded_tables([(up.name, up.getvalue()) for up in ups])
+        tables = saved_runs.load_uploaded_tables([(up.name, up.getvalue()) for up in ups])
     except CacasError as exc:
         st.error(str(exc), icon=":material/error:")
         st.stop()

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import streamlit as st
 
-from cacas import app_support, plots
+from cacas import plots, saved_runs
 from cacas.errors import CacasError
 from cacas.experiment import LOOPS, METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -36,17 +36,17 @@ people, problem, source = [], None, None
 try:
     if choice in EXAMPLES:
         people = load_personas(study_data_dir() / "personas" / EXAMPLES[choice])
-        source = app_support.persona_source(choice, EXAMPLES[choice])
+        source = saved_runs.persona_source(choice, EXAMPLES[choice])
     elif choice.startswith("Upload"):
         up = st.file_uploader("Persona file (.json, the format of docs/personas.md)", type=["json"], key="sim-upload")
         if up is not None:
-            people = app_support.uploaded_personas(up.name, up.getvalue())
-            source = app_support.persona_source(choice, up.name, up.getvalue())
+            people = saved_runs.uploaded_personas(up.name, up.getvalue())
+            source = saved_runs.persona_source(choice, up.name, up.getvalue())
     else:
         # without their own words: the run's files (by_preference.csv's labels) stay after a participant's removal
         people = [p.without_words() for p in (store.get_preferences(c.code) for c in store.list_participants(study))
                   if p is not None]
-        source = app_support.persona_source(choice, study=study)
+        source = saved_runs.persona_source(choice, study=study)
         if not people:
             problem = "No participant of this study has described preferences yet."
 except CacasError as exc:
@@ -88,14 +88,14 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
 if go:
     try:
-        app_support.check_simulation(chosen, methods, int(days), int(per_day), int(seed), float(silent),
+        saved_runs.check_simulation(chosen, methods, int(days), int(per_day), int(seed), float(silent),
                                      float(ask_rate))
     except CacasError as exc:  # every problem of the form, one a line
         lines = str(exc).splitlines()
         st.error(lines[0] if len(lines) == 1 else "\n".join(f"- {line}" for line in lines), icon=":material/error:")
     else:
-        _, started = RUNNER.start(JOB, app_support.run_simulation, [by_id[c] for c in chosen],
-                                  app_support.runs_dir(db), days=int(days), interactions=int(per_day),
+        _, started = RUNNER.start(JOB, saved_runs.run_simulation, [by_id[c] for c in chosen],
+                                  saved_runs.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source,
                                   # the form forgets its values when the researcher opens another page: the
@@ -111,8 +111,8 @@ if job is not None and job.status == FAILED:
     st.error(f"The simulation failed: {job.error}", icon=":material/error:")
 
 # --- results of a run ---------------------------------------------------------------------------------
-runs_root = app_support.runs_dir(db)
-runs = app_support.list_runs(runs_root)
+runs_root = saved_runs.runs_dir(db)
+runs = saved_runs.list_runs(runs_root)
 if runs:
     st.subheader("Runs")
     finished = job.result.name if job is not None and job.status == DONE and job.result.name in runs else None
@@ -120,11 +120,11 @@ if runs:
         st.session_state["sim-run"] = st.session_state["sim-shown"] = finished
     if st.session_state.get("sim-run") not in runs:
         st.session_state["sim-run"] = runs[0]
-    name = st.selectbox("Run", runs, key="sim-run", format_func=lambda r: app_support.run_label(runs_root, r))
+    name = st.selectbox("Run", runs, key="sim-run", format_func=lambda r: saved_runs.run_label(runs_root, r))
     run = ui.load_run(db, name)
     daily, settings = run.daily, run.settings
     if settings:
-        st.caption(app_support.run_caption(settings))
+        st.caption(saved_runs.run_caption(settings))
     c1, c2 = st.columns(2)
     if len(plots.closed_loop_methods(daily)) > 1:
         c1.plotly_chart(plots.success_methods_figure(daily), width="stretch")

@@ -8,7 +8,7 @@ import time
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, lab, plots, records
+from cacas import app_support, lab, plots, records, saved_runs
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER, STOPPED, Job
 from cacas.on_tablet import TabletBoard
@@ -207,10 +207,10 @@ def recognizer(kind: str):
         return None
 
 
-def load_run(db: str, name: str) -> app_support.Run:
+def load_run(db: str, name: str) -> saved_runs.Run:
     """A saved simulated run of the Simulation lab, or its error shown and the page stopped."""
     try:
-        return app_support.load_run(app_support.runs_dir(db) / name)
+        return saved_runs.load_run(saved_runs.runs_dir(db) / name)
     except CacasError as exc:
         st.error(str(exc), icon=":material/error:")
         st.stop()

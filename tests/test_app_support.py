@@ -5,6 +5,7 @@ import pytest
 
 from cacas import app_support, records
 from cacas.errors import CacasError
+from cacas.preferences import Preference
 from cacas.store import StudyStore
 from cacas.study_day import STUDY_DAYS
 
@@ -133,77 +134,6 @@ def test_overview_and_events(tmp_path):
     assert app_support.overview_frame(store, "default").iloc[0]["last recorded"] == last
     assert app_support.overview_frame(store, "pilot").iloc[0]["last recorded"] == ""  # Q01: none yet
     store.close()
-
-
-def test_runs_round_trip_and_bad_daily(tmp_path):
-    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
-                          "preference_accuracy": [0.2], "cumulative_feedback": [10], "interactions": [15]})
-    root = app_support.runs_dir(tmp_path / "s.sqlite")
-    app_support.save_run(root, "run1", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0})
-    assert app_support.list_runs(root) == ["run1"]
-    assert app_support.load_daily(root / "run1" / "daily.csv").equals(daily)
-    assert app_support.load_by_preference(root / "run1") is None  # a run saved without it
-    by_pref = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "preference": [1],
-                            "accuracy": [0.25]})
-    app_support.save_run(root, "run2", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0}, by_pref)
-    assert app_support.load_by_preference(root / "run2").equals(by_pref)
-    (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
-    with pytest.raises(CacasError, match="not a daily.csv; missing columns: participant"):
-        app_support.load_daily(tmp_path / "bad.csv")
-
-
-def _csv(df: pd.DataFrame) -> bytes:
-    return df.to_csv(index=False).encode()
-
-
-def test_uploaded_tables_are_recognised_by_their_columns():
-    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas")
-    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
-    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(
-        participant="P01", method="cacas", day=1, type=records.ROBOT_INITIATED, robot_action="chitchat",
-        response="accept")
-    tables = app_support.load_uploaded_tables([("b.csv", _csv(by_pref)), ("i.csv", _csv(inter)),
-                                               ("d.csv", _csv(daily))])
-    assert list(tables) == ["daily", "by_preference", "interactions"]
-    assert list(tables["daily"].columns) == records.DAILY_COLUMNS
-    assert tables["by_preference"]["participant"].tolist() == ["P01"]
-    assert list(app_support.load_uploaded_tables([("d.csv", _csv(daily))])) == ["daily"]
-    # an interactions.csv of another run with the same codes: named, not shown beside it
-    more = pd.concat([inter, inter.assign(response="reject")])
-    with pytest.raises(CacasError, match=r"i\.csv: P01 day 1 \(cacas\) has 2 recorded interactions, d\.csv says 1; "
-                                         r"upload the tables of one study or run"):
-        app_support.load_uploaded_tables([("i.csv", _csv(more)), ("d.csv", _csv(daily))])
-    with pytest.raises(CacasError, match=r"i\.csv: P01 day 3 \(cacas\) is not in d\.csv"):
-        app_support.load_uploaded_tables([("i.csv", _csv(inter.assign(day=3))), ("d.csv", _csv(daily))])
-    unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
-    loaded = app_support.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily))])
-    assert len(loaded["interactions"]) == 2
-
-
-@pytest.mark.parametrize("files, message", [
-    ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
-                                     r"a daily.csv needs the columns participant, method, day"),
-    ([("d1.csv", "daily"), ("d2.csv", "daily")], r"d2.csv and d1.csv are both a daily.csv; upload one of each kind"),
-    ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
-    ([], r"nothing uploaded: upload a daily.csv as well"),
-    ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),
-    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: not a readable CSV file"),
-    ([("d.csv", "daily_day_two")], r"d.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
-    ([("d.csv", "daily_rate_percent")], r"d.csv, row 2: success_rate 85.0 is invalid; valid: a share from 0 to 1"),
-    ([("d.csv", "daily_ceiling_percent")], r"d.csv, row 2: success_ceiling 90.0 is invalid; valid: a share from 0 "),
-    ([("d.csv", "daily_header_only")], r"d.csv: has the daily.csv columns but no rows; valid: a daily.csv with at "
-                                       r"least one participant-day"),
-])
-def test_bad_uploads_name_the_file(files, message):
-    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
-    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
-    made = {"daily": _csv(daily), "by_preference": _csv(by_pref), "stranger": _csv(by_pref.assign(participant="Q09")),
-            "daily_day_two": _csv(daily.assign(day="two")), "daily_rate_percent": _csv(daily.assign(success_rate=85.0)),
-            "daily_ceiling_percent": _csv(daily.assign(success_rate=0.5, success_ceiling=90.0)),
-            "daily_header_only": _csv(daily.iloc[:0])}
-    files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
-    with pytest.raises(CacasError, match=message):
-        app_support.load_uploaded_tables(files)
 
 
 def test_interactions_view_shows_what_the_robot_heard_and_a_request(tmp_path):
@@ -368,3 +298,80 @@ def test_a_long_jobs_time_left_is_estimated_once_there_is_enough_to_tell():
     assert app_support.time_left(60, 1.0) == ""  # done
     assert app_support.time_left(20, 0.5) == ", about 20 s left"
     assert app_support.time_left(60, 0.25) == ", about 3 min left"
+
+
+@pytest.mark.parametrize("hours", [[[6, 10], [16, 20]], [[7, 11]], [[0, 24]], [[22, 24], [0, 2]], [[9, 10]]])
+def test_hours_to_slots_counts_slots_as_a_preference_does(hours):
+    expected = Preference(activity=("cough",), action="pain check", hours=tuple(map(tuple, hours))).slot_indices()
+    assert app_support.hours_to_slots(hours) == expected
+    assert app_support.hours_to_slots([[7, 11]]) == [4]  # only the slots wholly inside: 08-10
+    assert app_support.hours_to_slots(None) == [] and app_support.hours_to_slots([]) == []  # any time
+
+
+
+def test_a_studys_download_names_have_no_spaces():
+    assert app_support.study_file_name("cacas-study", "pilot walkB", ".zip") == "cacas-study-pilot_walkb.zip"
+    assert app_support.study_file_name("personas", "default", ".json") == "personas-default.json"
+    assert app_support.study_file_name("personas", "?? ", ".json") == "personas-study.json"
+
+
+
+def test_short_time_and_answers_in_words():
+    assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
+    assert app_support.short_time("?") == "?"
+    assert records.RESPONSE_WORDS == {"accept": "accepted", "reject": "rejected", "others": "no response"}
+    inter = pd.DataFrame({"day": [1, 1], "index": [0, 1], "time_slot": [3, 3], "interval": [5, 200],
+                          "activity": ["cough"] * 2,
+                          "scene": ["bedroom"] * 2, "type": [records.ROBOT_INITIATED] * 2,
+                          "robot_action": ["pain check", "chitchat"], "response": ["others", "reject"],
+                          "user_action": ["", ""]})
+    assert list(app_support.interactions_view(inter)["answer"]) == ["no response", "rejected"]
+    assert list(app_support.interactions_view(inter)["since last activity"]) == ["5-10 min", "200+ min"]
+
+
+
+def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
+    from cacas.store import StudyStore
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    for day in (1, 2):
+        store.close_day("P01", store.open_day("P01"))
+        version = store.save_policy("P01", day, "cacas", f"policy {day}".encode())
+        store.record_adaptation("P01", day, "cacas", {}, 1.0, {"preference_accuracy": 0.5 + 0.25 * day,
+                                                               "preferences_version": day}, version)
+    store.record_adaptation("P01", 2, "nn", {"comparison": True}, 1.0, {"preference_accuracy": 0.1})  # no version
+    table = app_support.versions_table(store.policy_versions("P01"), store.adaptations_frame("P01"))
+    assert list(table["version"]) == [1, 2] and list(table["adapted from"]) == ["day 1", "days 1-2"]
+    assert list(table["preference accuracy"]) == [75.0, 100.0]  # the comparison run is no version's
+    assert list(table["in force"]) == ["", "yes"] and all(len(h) == 12 for h in table["sha256"])
+    assert list(table["scored on"]) == ["version 1", "version 2"]  # the described preferences' versions
+    assert list(app_support.versions_table([], store.adaptations_frame("P01")).columns)[0] == "version"
+    store.record_adaptation("P01", 0, "cacas", {"initial": True}, 0.0, {"preference_accuracy": 0.25})
+    runs = app_support.runs_table(store.adaptations_frame("P01"))
+    assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "scored on",
+                                  "policy version", "saved"]
+    assert list(runs["scored on"]) == ["version 1", "version 2", "", ""]  # older runs name none
+    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4"]
+    assert list(runs["preference accuracy"]) == [75.0, 100.0, 10.0, 25.0]
+    assert list(runs["policy version"]) == ["1", "2", "", ""]  # a comparison run saves no policy (read "None")
+    assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
+    store.close()
+
+
+
+def test_the_results_page_says_what_a_roll_back_changes(tmp_path):
+    from cacas.store import StudyStore
+
+    with StudyStore(tmp_path / "s.sqlite") as store:
+        for code in ("P01", "P02"):
+            store.add_participant(code)
+            store.close_day(code, store.open_day(code))
+            store.save_policy(code, 1, "cacas", b"policy after day 1")
+        assert app_support.rolled_back_note(store.events()) == ""
+        store.set_active_policy("P02", None)  # back to the initial policy
+        assert app_support.rolled_back_note(store.events()) == (
+            " After a roll-back (P02), a day uses the version put in force instead (a day rolled back in its middle, "
+            "the version most of its interactions had): Fig. 4 scores that version for CACAS, while the baselines "
+            "keep their runs adapted from days 1..d-1.")
+

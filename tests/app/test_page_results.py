@@ -104,12 +104,12 @@ def test_the_change_since_day_1_rounds_halves_as_the_percentages_do(app, db):
     """Review: 25 % on day 1 and 38 % (37.5) on day 2 said "+12 points" (Python's round to even)."""
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01", "P01", "P03", "P03"], "method": ["cacas"] * 4, "day": [1, 2, 1, 2],
                           "success_rate": [0.5, 0.0, 0.0, 0.75], "preference_accuracy": [0.2, 0.5, 0.2, 0.5],
                           "cumulative_feedback": [8, 15, 8, 15], "interactions": [15, 15, 15, 15]})
-    app_support.save_run(app_support.runs_dir(db), "run-h", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-h", daily, pd.DataFrame({"participant": ["P01"]}), {})
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
@@ -120,11 +120,11 @@ def test_a_run_with_no_success_rate_is_not_sent_to_the_study_session(app, db):
     """Review: a daily.csv without a success rate said 'Run a day on the Study session page'."""
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01"], "method": ["nn"], "day": [1], "success_rate": [float("nan")],
                           "preference_accuracy": [0.4], "cumulative_feedback": [8], "interactions": [15]})
-    app_support.save_run(app_support.runs_dir(db), "run-n", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-n", daily, pd.DataFrame({"participant": ["P01"]}), {})
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
@@ -135,7 +135,7 @@ def test_a_run_with_no_success_rate_is_not_sent_to_the_study_session(app, db):
 def test_results_of_a_simulated_run(app, db):
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01", "P01"], "method": ["cacas", "cacas"], "day": [1, 2],
                           "success_rate": [0.3, 0.6], "preference_accuracy": [0.2, 0.5],
@@ -144,7 +144,7 @@ def test_results_of_a_simulated_run(app, db):
                             "label": ["Cough: pain check"] * 2, "activity": ["cough"] * 2,
                             "action": ["pain check"] * 2, "states": [40, 40], "correct": [8, 20],
                             "accuracy": [0.2, 0.5]})
-    app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {},
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {},
                          by_pref)
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
@@ -169,7 +169,7 @@ def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
     """A day picked for one run's heatmap was kept for the next run shown (or the human study)."""
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     for name, days in (("run-a", 2), ("run-c", 3)):
         daily = pd.DataFrame({"participant": ["P01"] * days, "method": ["cacas"] * days, "day": range(1, days + 1),
@@ -178,7 +178,7 @@ def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
         by_pref = daily[["participant", "method", "day"]].assign(
             preference=1, label="Cough: pain check", activity="cough", action="pain check", states=40, correct=20,
             accuracy=0.5)
-        app_support.save_run(app_support.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
+        saved_runs.save_run(saved_runs.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
                              by_pref)
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
@@ -194,12 +194,12 @@ def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
 def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01"] * 4, "method": ["cacas", "cacas", "nn", "nn"], "day": [1, 2, 1, 2],
                           "success_rate": [0.3, 0.6, 0.3, 0.4], "preference_accuracy": [0.2, 0.5, 0.2, 0.3],
                           "cumulative_feedback": [8, 15, 8, 14], "interactions": [15, 15, 15, 14]})
-    app_support.save_run(app_support.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
                          {"loop": "each"})
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
@@ -264,11 +264,11 @@ def test_no_zip_offered_while_a_policy_file_is_missing(app, store):
 def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
                           "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
-    folder = app_support.save_run(app_support.runs_dir(db), "run-b", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    folder = saved_runs.save_run(saved_runs.runs_dir(db), "run-b", daily, pd.DataFrame({"participant": ["P01"]}), {})
     (folder / "interactions.csv").unlink()
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
@@ -375,12 +375,12 @@ def test_tables_show_empty_cells_empty(app, db):
     as CSV text: left-aligned, six decimals, sorted as text)."""
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01", "P01"], "method": ["cacas", "nn"], "day": [1, 1],
                           "success_rate": [0.3, float("nan")], "preference_accuracy": [0.2, 0.1],
                           "cumulative_feedback": [8, 8], "interactions": [15, 15]})
-    app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}), {})
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
@@ -391,7 +391,7 @@ def test_tables_show_empty_cells_empty(app, db):
     assert shown["success_rate"].dtype.kind == "f" and list(shown["day"]) == [1, 1]  # numbers sort as numbers
     # Fig. 4's table: a method without a score that day shows a dash
     two = pd.concat([daily, daily.assign(day=2, preference_accuracy=[0.4, float("nan")])])
-    app_support.save_run(app_support.runs_dir(db), "run-b", two, pd.DataFrame({"participant": ["P01"]}), {})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-b", two, pd.DataFrame({"participant": ["P01"]}), {})
     at.run()
     at.selectbox(key="results-run").set_value("run-b").run()
     element = next(d for d in at.dataframe if "day 2" in d.value.columns)
@@ -435,7 +435,7 @@ def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, d
 
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     people = [f"P{i:02d}" for i in range(1, 11)]
     daily = pd.DataFrame({"participant": people, "method": ["cacas"] * 10, "day": [1] * 10,
@@ -445,7 +445,7 @@ def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, d
                             "label": ["Cough: pain check"] * 10, "activity": ["cough"] * 10,
                             "action": ["pain check"] * 10, "states": [40] * 10, "correct": [20] * 10,
                             "accuracy": [0.5] * 10})
-    app_support.save_run(app_support.runs_dir(db), "run-many", daily, pd.DataFrame({"participant": people}), {},
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-many", daily, pd.DataFrame({"participant": people}), {},
                          by_pref)
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()

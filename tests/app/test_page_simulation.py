@@ -80,7 +80,7 @@ def test_simulation_refuses_an_empty_choice_with_the_library_message(app, db):
     at.multiselect[1].set_value([])
     next(b for b in at.button if b.label == "Run simulation").click().run()
     no_exception(at)
-    assert "no method given; valid: cacas, cacas-no-pr" in texts(at)  # app_support.check_simulation's words
+    assert "no method given; valid: cacas, cacas-no-pr" in texts(at)  # saved_runs.check_simulation's words
     at.multiselect[0].set_value([])
     at.multiselect[1].set_value(["nn"])
     next(b for b in at.button if b.label == "Run simulation").click().run()
@@ -125,11 +125,11 @@ def test_every_problem_of_the_form_is_listed_under_the_button(app, db):
 def test_a_run_folder_without_its_interactions_is_named_not_a_crash(app, db):
     import pandas as pd
 
-    from cacas import app_support
+    from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
                           "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
-    folder = app_support.save_run(app_support.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}),
+    folder = saved_runs.save_run(saved_runs.runs_dir(db), "run-a", daily, pd.DataFrame({"participant": ["P01"]}),
                                   {"participants": ["P01"], "days": 1, "interactions": 15, "methods": ["cacas"],
                                    "seed": 3})
     at = app(PAGE)

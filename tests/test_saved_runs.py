@@ -1,0 +1,269 @@
+"""saved_runs: simulated runs saved all or nothing and read back in one call, named in words, made
+for a background job; uploaded result tables recognised and checked."""
+
+
+import pandas as pd
+import pytest
+
+from cacas import records, saved_runs
+from cacas.errors import CacasError
+from cacas.store import files
+
+
+def _daily(rate=0.3):
+    return pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [rate],
+                         "preference_accuracy": [0.2], "cumulative_feedback": [10], "interactions": [15]})
+
+
+def _by_pref():
+    return pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "preference": [1],
+                         "accuracy": [0.25]})
+
+
+def test_load_run_reads_what_save_run_wrote(tmp_path):
+    root = tmp_path / "runs"
+    inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    folder = saved_runs.save_run(root, "run1", _daily(), inter, {"seed": 4, "methods": ["cacas"]}, _by_pref())
+    run = saved_runs.load_run(folder)
+    assert run.name == "run1" and run.settings == {"seed": 4, "methods": ["cacas"]}
+    assert run.daily.equals(_daily()) and run.interactions.equals(inter) and run.by_preference.equals(_by_pref())
+    assert list(run.tables) == ["daily", "interactions", "by_preference"]
+    assert sorted(p.name for p in folder.iterdir()) == ["by_preference.csv", "daily.csv", "interactions.csv",
+                                                        "settings.json"]  # no temporary file left
+    # the same name saved again without by_preference: the earlier one is not left behind as this run's
+    saved_runs.save_run(root, "run1", _daily(0.6), inter, {})
+    run = saved_runs.load_run(folder)
+    assert run.by_preference is None and "by_preference" not in run.tables and run.settings == {}
+    assert run.daily["success_rate"].tolist() == [0.6]
+
+
+def test_load_run_names_what_is_missing_or_unreadable(tmp_path):
+    with pytest.raises(CacasError, match="no such run folder"):
+        saved_runs.load_run(tmp_path / "absent")
+    folder = saved_runs.save_run(tmp_path, "r", _daily(), pd.DataFrame({"participant": ["P01"]}), {})
+    (folder / "settings.json").write_text("{not json")
+    with pytest.raises(CacasError, match=r"settings\.json: not readable JSON"):
+        saved_runs.load_run(folder)
+    (folder / "settings.json").write_text("[1, 2]")
+    with pytest.raises(CacasError, match="not a JSON object"):
+        saved_runs.load_run(folder)
+    (folder / "interactions.csv").unlink()
+    with pytest.raises(CacasError, match="no interactions.csv; not a complete run"):
+        saved_runs.load_run(folder)
+
+
+def test_a_failure_part_way_leaves_the_earlier_run_whole(tmp_path, monkeypatch, fail_on_call):
+    root = tmp_path / "runs"
+    inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    folder = saved_runs.save_run(root, "run1", _daily(0.3), inter, {"seed": 1}, _by_pref())
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    opened = fail_on_call(open, 2)
+    monkeypatch.setattr(files, "open", opened, raising=False)
+    with pytest.raises(CacasError, match="No space left on device"):
+        saved_runs.save_run(root, "run1", _daily(0.9), inter.assign(day=2), {"seed": 2}, _by_pref())
+    monkeypatch.undo()
+    assert len(opened.calls) == 2  # the failure came part-way through the files
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before  # old run whole, no temporary file
+    assert saved_runs.load_run(folder).settings == {"seed": 1}
+    assert saved_runs.list_runs(root) == ["run1"]
+
+
+def test_a_simulation_choice_is_checked_before_a_run(tmp_path):
+    with pytest.raises(CacasError, match="choose at least one simulated participant"):
+        saved_runs.run_simulation([], tmp_path, methods=("cacas",))
+    with pytest.raises(CacasError, match="no method given"):
+        saved_runs.check_simulation(["P01"], [])
+    with pytest.raises(CacasError, match="unknown method 'dqn'"):
+        saved_runs.check_simulation(["P01"], ["cacas", "dqn"])
+    assert saved_runs.check_simulation(["P01"], ["NN", "cacas"]) == ("nn", "cacas")
+    with pytest.raises(CacasError, match="method 'nn' is listed twice"):  # likely a typo for another method
+        saved_runs.check_simulation(["P01"], ["NN", "cacas", "nn"])
+    assert not tmp_path.joinpath("runs").exists() and list(tmp_path.iterdir()) == []
+
+
+def test_every_problem_of_the_simulation_form_is_named_at_once():
+    """The form is filled in at once: one refusal names each problem, one a line, in the form's
+    order, by the lab's labels (the command line still stops at the first: one line)."""
+    with pytest.raises(CacasError) as refused:
+        saved_runs.check_simulation([], ["cacas", "dqn"], days=0, interactions=15, seed=-1,
+                                     no_response_rate=1.0)
+    assert str(refused.value).splitlines() == [
+        "choose at least one simulated participant",
+        "unknown method 'dqn'; valid: cacas, cacas-no-pr, orl, nn, bandit, sac-user-data",
+        "Days 0 is invalid; valid: a whole number of days from 1 to 365",
+        "Seed -1 is invalid; valid: a whole number from 0 to 4294967295",
+        "No-response rate 1.0 is invalid; valid: 0 <= rate < 1"]
+    from cacas.experiment import check_study_arguments
+    with pytest.raises(CacasError) as first:
+        check_study_arguments(0, 15, 1.0, seed=-1)
+    assert str(first.value) == "--days 0 is invalid; valid: a whole number of days from 1 to 365"
+
+
+def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
+                          "preference_accuracy": [0.2], "cumulative_feedback": [8], "interactions": [15]})
+    inter = pd.DataFrame({"participant": ["P01"]})
+    saved_runs.save_run(tmp_path, "20261126-081502-seed0-8p-7d", daily, inter,
+                         {"participants": [f"P0{i}" for i in range(1, 9)], "days": 7, "interactions": 15,
+                          "methods": ["cacas", "nn"], "seed": 0, "loop": "first",
+                          "personas": "study_data/personas/example.json"})
+    saved_runs.save_run(tmp_path, "20261126-081733-seed3-1p-1d", daily, inter,
+                         {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3, "loop": "each",
+                          "ask_after_reject": 0.5, "personas": "uploaded file mine.json (sha256 0123456789ab)"})
+    saved_runs.save_run(tmp_path, "20261126-081734-seed3-1p-1d", daily, inter,
+                         {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3,
+                          "personas": "the described preferences of the participants of study 'pilot'"})
+    saved_runs.save_run(tmp_path, "from-the-command-line", daily, inter, {})
+    (tmp_path / "from-the-command-line" / "settings.json").unlink()
+    saved_runs.save_run(tmp_path, "broken", daily, inter, {})
+    (tmp_path / "broken" / "settings.json").write_text("{not json")
+    assert saved_runs.run_label(tmp_path, "20261126-081502-seed0-8p-7d") == \
+        "26 Nov 2026 08:15:02 · 8 participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0"
+    assert saved_runs.run_label(tmp_path, "20261126-081733-seed3-1p-1d") == (
+        "26 Nov 2026 08:17:33 · 1 participant (mine.json) · 1 day · Bandit (TS) · seed 3 · asks after 50% of "
+        "rejections · each in its own loop")
+    assert saved_runs.run_label(tmp_path, "20261126-081734-seed3-1p-1d") == \
+        "26 Nov 2026 08:17:34 · 1 participant (study pilot) · 1 day · Bandit (TS) · seed 3"
+    assert saved_runs.run_label(tmp_path, "from-the-command-line") == "from-the-command-line"
+    assert saved_runs.run_label(tmp_path, "broken") == "broken"  # the picker still lists it; opening it names the file
+    with pytest.raises(CacasError, match="settings.json: not readable JSON"):
+        saved_runs.load_run(tmp_path / "broken")
+    assert [saved_runs.run_days(d) for d in (1, 7, None)] == ["1 day", "7 days", "? days"]
+
+
+def test_a_runs_caption_leaves_out_what_the_run_did_not_keep():
+    full = {"participants": ["P01", "P02"], "days": 7, "interactions": 15, "methods": ["cacas", "nn"], "seed": 0,
+            "ask_after_reject": 0.25, "loop": "each", "personas": "study_data/personas/example.json"}
+    assert saved_runs.run_caption(full) == (
+        "2 participants · 7 days · 15 interactions a day · methods cacas, nn · seed 0 · asks after 25% of "
+        "rejections · each method in its own closed loop · personas: study_data/personas/example.json")
+    assert saved_runs.run_caption({"participants": ["P01"], "days": 1, "seed": 3}) == \
+        "1 participant · 1 day · seed 3"  # no "None interactions a day"
+    assert saved_runs.run_label("/nowhere", "x") == "x"
+
+
+def test_the_lab_runs_participants_side_by_side_with_the_same_tables(tmp_path, monkeypatch):
+    """run_simulation (the Simulation lab) uses a worker process per core by default, as `cacas
+    simulate`; the saved tables are those of one process."""
+    import cacas.experiment
+    from cacas.preferences import load_personas
+    from cacas.paths import study_data_dir
+
+    people = load_personas(study_data_dir() / "personas" / "example.json")[:2]
+    used = []
+    real = cacas.experiment.simulate_study
+    monkeypatch.setattr(cacas.experiment, "simulate_study", lambda *a, **k: used.append(k["jobs"]) or real(*a, **k))
+    monkeypatch.setattr(cacas.experiment, "default_jobs", lambda: 2)
+    side_by_side = saved_runs.run_simulation(people, tmp_path / "a", days=2, interactions=4, methods=("nn",))
+    one = saved_runs.run_simulation(people, tmp_path / "b", days=2, interactions=4, methods=("nn",), jobs=1)
+    assert used == [2, 1]
+    for name in ("daily.csv", "interactions.csv", "by_preference.csv"):
+        assert (side_by_side / name).read_bytes() == (one / name).read_bytes()
+
+
+def test_a_loaded_daily_csv_keeps_its_counts_whole(tmp_path):
+    # the Fig. 4 protocol: a baseline's row has no successes of its own (an empty cell)
+    path = tmp_path / "daily.csv"
+    path.write_text("participant,method,day,success_rate,preference_accuracy,cumulative_feedback,interactions,"
+                    "successes\nP01,cacas,1,0.25,0.5,4,4,1\nP01,nn,1,,0.4,4,4,\n")
+    daily = saved_runs.load_daily(path)
+    assert str(daily["successes"].dtype) == "Int64" and daily["successes"].tolist()[0] == 1
+    assert records.csv_bytes(daily).splitlines()[1].endswith(b",4,4,1")
+
+
+def test_an_uploaded_persona_file_is_checked_as_an_import_is_and_its_source_kept():
+    import json
+
+    good = {"participants": [{"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check"}]}]}
+    data = json.dumps(good).encode()
+    assert [p.id for p in saved_runs.uploaded_personas("mine.json", data)] == ["P01"]
+    named = json.loads(data)
+    named["participants"][0]["id"] = "John Smith"
+    with pytest.raises(CacasError, match=r"mine\.json: participant code 'John Smith' is invalid; valid: a "
+                                         r"pseudonymous code"):
+        saved_runs.uploaded_personas("mine.json", json.dumps(named).encode())
+    mailed = json.loads(data)
+    mailed["participants"][0]["preferences"][0]["description"] = "if I cough, mail john.smith@example.org"
+    with pytest.raises(CacasError, match=r"mine\.json, participant P01, preference 1 .*field 'description': holds what looks "
+                                         r"like contact details \('john\.smith@example\.org'\)"):
+        saved_runs.uploaded_personas("mine.json", json.dumps(mailed).encode())
+    source = saved_runs.persona_source("Upload a persona file", "mine.json", data)
+    assert source.startswith("uploaded file mine.json (sha256 ") and len(source.split("sha256 ")[1]) == 13
+    assert source != saved_runs.persona_source("Upload a persona file", "mine.json", json.dumps(named).encode())
+    assert saved_runs.persona_source("x", "example.json") == "study_data/personas/example.json"
+    assert saved_runs.persona_source("x", study="pilot") == "the described preferences of the participants of study 'pilot'"
+
+
+def test_runs_round_trip_and_bad_daily(tmp_path):
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.3],
+                          "preference_accuracy": [0.2], "cumulative_feedback": [10], "interactions": [15]})
+    root = saved_runs.runs_dir(tmp_path / "s.sqlite")
+    saved_runs.save_run(root, "run1", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0})
+    assert saved_runs.list_runs(root) == ["run1"]
+    assert saved_runs.load_daily(root / "run1" / "daily.csv").equals(daily)
+    assert saved_runs.load_by_preference(root / "run1") is None  # a run saved without it
+    by_pref = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "preference": [1],
+                            "accuracy": [0.25]})
+    saved_runs.save_run(root, "run2", daily, pd.DataFrame({"participant": ["P01"]}), {"seed": 0}, by_pref)
+    assert saved_runs.load_by_preference(root / "run2").equals(by_pref)
+    (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
+    with pytest.raises(CacasError, match="not a daily.csv; missing columns: participant"):
+        saved_runs.load_daily(tmp_path / "bad.csv")
+
+
+
+def _csv(df: pd.DataFrame) -> bytes:
+    return df.to_csv(index=False).encode()
+
+
+
+def test_uploaded_tables_are_recognised_by_their_columns():
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
+    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(
+        participant="P01", method="cacas", day=1, type=records.ROBOT_INITIATED, robot_action="chitchat",
+        response="accept")
+    tables = saved_runs.load_uploaded_tables([("b.csv", _csv(by_pref)), ("i.csv", _csv(inter)),
+                                               ("d.csv", _csv(daily))])
+    assert list(tables) == ["daily", "by_preference", "interactions"]
+    assert list(tables["daily"].columns) == records.DAILY_COLUMNS
+    assert tables["by_preference"]["participant"].tolist() == ["P01"]
+    assert list(saved_runs.load_uploaded_tables([("d.csv", _csv(daily))])) == ["daily"]
+    # an interactions.csv of another run with the same codes: named, not shown beside it
+    more = pd.concat([inter, inter.assign(response="reject")])
+    with pytest.raises(CacasError, match=r"i\.csv: P01 day 1 \(cacas\) has 2 recorded interactions, d\.csv says 1; "
+                                         r"upload the tables of one study or run"):
+        saved_runs.load_uploaded_tables([("i.csv", _csv(more)), ("d.csv", _csv(daily))])
+    with pytest.raises(CacasError, match=r"i\.csv: P01 day 3 \(cacas\) is not in d\.csv"):
+        saved_runs.load_uploaded_tables([("i.csv", _csv(inter.assign(day=3))), ("d.csv", _csv(daily))])
+    unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
+    loaded = saved_runs.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily))])
+    assert len(loaded["interactions"]) == 2
+
+
+
+@pytest.mark.parametrize("files, message", [
+    ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
+                                     r"a daily.csv needs the columns participant, method, day"),
+    ([("d1.csv", "daily"), ("d2.csv", "daily")], r"d2.csv and d1.csv are both a daily.csv; upload one of each kind"),
+    ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
+    ([], r"nothing uploaded: upload a daily.csv as well"),
+    ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),
+    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: not a readable CSV file"),
+    ([("d.csv", "daily_day_two")], r"d.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
+    ([("d.csv", "daily_rate_percent")], r"d.csv, row 2: success_rate 85.0 is invalid; valid: a share from 0 to 1"),
+    ([("d.csv", "daily_ceiling_percent")], r"d.csv, row 2: success_ceiling 90.0 is invalid; valid: a share from 0 "),
+    ([("d.csv", "daily_header_only")], r"d.csv: has the daily.csv columns but no rows; valid: a daily.csv with at "
+                                       r"least one participant-day"),
+])
+def test_bad_uploads_name_the_file(files, message):
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
+    made = {"daily": _csv(daily), "by_preference": _csv(by_pref), "stranger": _csv(by_pref.assign(participant="Q09")),
+            "daily_day_two": _csv(daily.assign(day="two")), "daily_rate_percent": _csv(daily.assign(success_rate=85.0)),
+            "daily_ceiling_percent": _csv(daily.assign(success_rate=0.5, success_ceiling=90.0)),
+            "daily_header_only": _csv(daily.iloc[:0])}
+    files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
+    with pytest.raises(CacasError, match=message):
+        saved_runs.load_uploaded_tables(files)
+
