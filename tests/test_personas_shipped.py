@@ -22,6 +22,9 @@ INDEPENDENT_S = Path(__file__).parent / "data" / "independent_personas_s.json"
 #: could glance at one example file for the format): T01-T08 and U01-U08.
 INDEPENDENT_T = Path(__file__).parent / "data" / "independent_personas_t.json"
 INDEPENDENT_U = Path(__file__).parent / "data" / "independent_personas_u.json"
+#: One more in session 22 (V01-V08), by a helper told the format, the paper and the issue, to check
+#: the issue's targets on personas nobody had tuned for; four "do nothing" preferences.
+INDEPENDENT_V = Path(__file__).parent / "data" / "independent_personas_v.json"
 FILES = {"example": (EXAMPLE, 8, "P"), "holdout": (HOLDOUT, 6, "H")}
 
 
@@ -81,7 +84,8 @@ def test_variety_and_no_do_nothing(kind):
 @pytest.mark.parametrize("path,letter,quiet_ones", [(INDEPENDENT, "R", ["R02", "R03", "R05", "R08"]),
                                                      (INDEPENDENT_S, "S", ["S02", "S04", "S06", "S07", "S08"]),
                                                      (INDEPENDENT_T, "T", ["T02", "T04", "T05"]),
-                                                     (INDEPENDENT_U, "U", ["U02", "U04", "U06"])])
+                                                     (INDEPENDENT_U, "U", ["U02", "U04", "U06"]),
+                                                     (INDEPENDENT_V, "V", ["V03", "V04", "V06", "V08"])])
 def test_independent_personas_load_and_include_leave_me_alone_preferences(path, letter, quiet_ones):
     people = load_personas(path)
     assert [p.id for p in people] == [f"{letter}{i:02d}" for i in range(1, 9)]
