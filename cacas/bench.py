@@ -153,7 +153,8 @@ class BenchConfig:
 
     @classmethod
     def quick(cls) -> "BenchConfig":
-        """The smoke-test settings: one repeat, a tiny study and short training."""
+        """The smoke-test settings: one repeat of the long measurements (at least 3 of the short
+        ones, 5 of recognize_ms), a tiny study and short training."""
         return cls(repeats=1, train_repeats=1, simulate_participants=1, simulate_days=2, sac_rounds=1,
                    sac_block=20, mfcc_clips=4, initial_train_days=1, short_training=True)
 

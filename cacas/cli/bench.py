@@ -25,7 +25,8 @@ def register(sub) -> None:
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", type=types.path, metavar="FILE", help="also write the figures and the machine as JSON")
     p.add_argument("--quick", action="store_true",
-                   help="smoke run: one repeat, a 1 x 2-day study, 1 simulated day of initial training")
+                   help="smoke run: fewer repeats (one of the long measurements, at least 3 of the short ones), "
+                        "a 1 x 2-day study, 1 simulated day of initial training")
     p.add_argument("--repeats", type=types.integer, default=None, help="timed repeats of the short measurements (default 5)")
     p.add_argument("--threads", type=types.integer, default=1, help="torch threads (default 1: best for these small networks)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
