@@ -28,7 +28,7 @@ RUNNING, DONE, FAILED, STOPPED = "running", "done", "failed", "stopped"
 class Stopped(Exception):
     """Raised inside the work by its ``progress`` callback once someone asked the job to stop.
     Work that writes its results only at its end (training, simulation, adaptation) then writes
-    nothing; work that records as it goes (``study_day.compare_methods``) keeps what it recorded,
+    nothing; work that records as it goes (``method_comparison.compare_methods``) keeps what it recorded,
     so what a stopped job left is for its page to say."""
 
 

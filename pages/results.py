@@ -16,7 +16,8 @@ from cacas.errors import CacasError
 from cacas.export import export_study, export_tables, next_day_accuracy
 from cacas.jobs import FAILED, RUNNER
 from cacas.parallel import default_jobs
-from cacas.study_day import STUDY_DAYS, compare_methods, day_status, questionnaire_timing
+from cacas.method_comparison import compare_methods
+from cacas.study_day import STUDY_DAYS, day_status, questionnaire_timing
 from pages import ui
 
 ui.require_app()

@@ -1,4 +1,4 @@
-"""Benchmark of the Results page's "Compare methods" (``study_day.compare_methods``) in one process
+"""Benchmark of the Results page's "Compare methods" (``method_comparison.compare_methods``) in one process
 and in worker processes.
 
     python3 scripts/bench_compare.py [--participants 4] [--days 3] [--jobs 1,2]
@@ -6,7 +6,7 @@ and in worker processes.
 Builds a study database as ``bench_study_tables.py`` does (PARTICIPANTS x DAYS, CACAS adapted
 after every day) without the baselines' runs, then compares CACAS w/o PR, ORL and NN on it once
 for each number of worker processes (each on its own copy), and prints a Markdown table:
-runs recorded and seconds. The runs are the same whatever the number (tests/test_study_day.py).
+runs recorded and seconds. The runs are the same whatever the number (tests/test_method_comparison.py).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's cacas, not an installed one
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_study_tables import build  # noqa: E402
-from cacas.study_day import compare_methods  # noqa: E402
+from cacas.method_comparison import compare_methods  # noqa: E402
 
 BASELINES = ("cacas-no-pr", "orl", "nn")
 

@@ -281,7 +281,7 @@ def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, s
     so a stopped comparison keeps its runs: the page says so, not "nothing was saved"."""
     import threading
 
-    import cacas.study_day
+    import cacas.method_comparison
     from cacas.jobs import RUNNER
     from cacas.parallel import default_jobs
 
@@ -297,7 +297,7 @@ def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, s
             reported.set()
             threading.Event().wait(0.01)
 
-    monkeypatch.setattr(cacas.study_day, "compare_methods", compare)
+    monkeypatch.setattr(cacas.method_comparison, "compare_methods", compare)
     at = app(PAGE, participant="P01")
     next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
     job = RUNNER.get(f"compare:{db}:default")
