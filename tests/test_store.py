@@ -201,6 +201,18 @@ def test_a_study_name_with_a_phone_number_is_refused(store):
     assert store.create_study("pilot 2026-11 wave 2") is not None  # dates and numbers of waves are names
 
 
+def test_notes_that_are_too_long_or_not_text_are_refused(store):
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match="^notes is 2001 characters long; valid: at most 2000$"):
+        store.add_participant("P03", notes="x" * 2001)
+    with pytest.raises(CacasError, match="^notes must be text, got int$"):
+        store.update_participant("P01", notes=5)
+    with pytest.raises(CacasError, match=r"^study name ' ' is invalid; valid: 1-64 letters, digits, spaces"):
+        store.create_study(" ")
+    assert snapshot(store.path) == before
+    assert store.add_participant("P03", notes="x" * 2000).notes == "x" * 2000
+
+
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="P01 already exists"):
@@ -391,6 +403,11 @@ BAD_INTERACTIONS = [
     (dict(time="yesterday"), "time 'yesterday'"),
     (dict(method="Bad Method"), "method"),
     (dict(policy_version=3), "no policy version 3"),
+    (dict(interval_minutes=None), r"repeat interval is missing; give interval_minutes \(>= 0\) or interval_bin"),
+    (dict(interval_bin=5), "interval 12 minutes is in bin 4, not 5; give one of them"),
+    (dict(probabilities={"pain check": 0.9, "dance": 0.1}), "probabilities: unknown action 'dance'"),
+    (dict(probabilities=["high"] * 14), "probabilities must be 14 numbers, one per action"),
+    (dict(time=1763718454), "time 1763718454 is invalid; valid: a datetime or an ISO 8601 timestamp"),
 ]
 
 
@@ -402,6 +419,27 @@ def test_bad_interaction_is_refused_with_nothing_written(store, change, message)
     with pytest.raises(CacasError, match=message):
         store.record_interaction("P01", day, **{**GOOD, **change})
     assert snapshot(store.path) == before
+
+
+def test_probabilities_by_action_name_are_kept_in_table_one_order(store):
+    """A dict by action name (record_interaction's docstring) is stored as the 14 numbers in Table
+    I's order, an action it leaves out at 0."""
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, **GOOD, probabilities={"chitchat": 0.25, "pain check": 0.75})
+    stored = json.loads(store.interactions_frame("P01", extra=True).iloc[0]["probabilities"])
+    expected = [0.0] * spaces.N_ACTIONS
+    expected[spaces.action_index("chitchat")], expected[spaces.action_index("pain check")] = 0.25, 0.75
+    assert stored == expected
+
+
+def test_an_interaction_time_given_as_a_datetime(store):
+    """A time with a zone is kept in UTC ("Z", as the app's own times); one without a zone as given."""
+    from datetime import datetime, timedelta, timezone
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, **GOOD, time=datetime(2026, 11, 21, 10, 0, 5, 123456,
+                                                               tzinfo=timezone(timedelta(hours=1))))
+    store.record_interaction("P01", day, **GOOD, time=datetime(2026, 11, 21, 10, 0, 5, 123456))
+    assert list(store.interactions_frame("P01")["time"]) == ["2026-11-21T09:00:05.123Z", "2026-11-21T10:00:05.123"]
 
 
 def test_interaction_for_missing_participant_or_day_or_closed_day(store):
@@ -474,7 +512,12 @@ def test_adaptation_runs(store):
         store.record_adaptation("P01", 1, "cacas", {}, -1.0, {})
     with pytest.raises(CacasError, match="parameters must be a dict"):
         store.record_adaptation("P01", 1, "cacas", [1], 1.0, {})
+    with pytest.raises(CacasError, match=r"^metrics cannot be stored as JSON \(set\)$"):
+        store.record_adaptation("P01", 1, "cacas", {}, 1.0, {"by_preference": {1, 2}})
     assert snapshot(store.path) == before
+    store.record_adaptation("P01", 1, "nn", None, 1.0, {"curve": np.array([0.5, 0.75])})  # arrays as lists
+    assert json.loads(store.adaptations_frame("P01").iloc[1]["parameters"]) == {}
+    assert json.loads(store.adaptations_frame("P01").iloc[1]["metrics"]) == {"curve": [0.5, 0.75]}
 
 
 @pytest.mark.parametrize("score", [11, 0, -3, 7.5, "8", True, None])
