@@ -107,6 +107,42 @@ def test_newer_schema_is_refused(tmp_path):
         StudyStore(path)
 
 
+@pytest.mark.parametrize("change, remedy", [
+    (f"PRAGMA user_version = {SCHEMA_VERSION + 1}", "it was written by a newer CACAS Studio: update this one"),
+    ("DROP TABLE questionnaires", "it is incomplete"),
+])
+def test_a_study_database_that_cannot_be_read_here_is_refused_read_only(tmp_path, change, remedy):
+    """``cacas export`` of a database a newer CACAS Studio wrote (or one missing a table): the
+    message says which versions this one reads and what to do; the file is left as it was."""
+    path = tmp_path / "s.sqlite"
+    StudyStore(path).close()
+    con = sqlite3.connect(path, isolation_level=None)
+    con.execute(change)
+    con.close()
+    before = path.read_bytes()
+    version = SCHEMA_VERSION + 1 if "user_version" in change else SCHEMA_VERSION
+    with pytest.raises(CacasError, match=re.escape(
+            f"s.sqlite: study database schema version {version} cannot be read here (this CACAS Studio reads "
+            f"versions 1 to {SCHEMA_VERSION}; {remedy})")):
+        StudyStore(path, readonly=True)
+    assert path.read_bytes() == before
+
+
+def test_a_folder_or_a_file_sqlite_keeps_beside_is_not_opened(tmp_path):
+    (tmp_path / "folder.sqlite").mkdir()
+    with pytest.raises(CacasError, match=r"folder.sqlite: is not a file; expected a CACAS study database \(.sqlite\)"):
+        StudyStore(tmp_path / "folder.sqlite")
+    (tmp_path / "afile").write_text("notes")
+    with pytest.raises(CacasError, match=r"afile/s.sqlite: cannot create its folder \("):
+        StudyStore(tmp_path / "afile" / "s.sqlite")
+    StudyStore(tmp_path / "s.sqlite").close()
+    (tmp_path / "s.sqlite-wal").write_bytes(b"")
+    with pytest.raises(CacasError, match="s.sqlite-wal: is a file SQLite keeps beside a database, not a study database"):
+        StudyStore(tmp_path / "s.sqlite-wal", readonly=True)
+    assert (tmp_path / "afile").read_text() == "notes" and sorted(p.name for p in tmp_path.iterdir()) == [
+        "afile", "folder.sqlite", "s.sqlite", "s.sqlite-wal", "s.sqlite-writer.lock"]
+
+
 def test_readonly_store_creates_nothing_and_refuses_writes(tmp_path):
     path = tmp_path / "missing.sqlite"
     with pytest.raises(CacasError, match="no such study database"):

@@ -9,6 +9,9 @@ import sys
 import threading
 from pathlib import Path
 
+import pytest
+
+from cacas.errors import CacasError
 from cacas.store import StudyStore
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -189,3 +192,87 @@ def test_opening_the_database_again_in_a_process_keeps_its_locks(tmp_path):
     assert _in_another_process(COUNT, path) == "2"
     app.close()
     assert _in_another_process(COUNT, path) == "2"
+
+
+# --- one write transaction meeting a busy database (store.db.transact) ------------------------------
+
+def _tries(conn):
+    return [n for (n,) in conn.execute("SELECT name FROM studies WHERE name LIKE 'try%' ORDER BY name")]
+
+
+def test_a_transaction_that_meets_a_busy_database_is_retried_whole(tmp_path, monkeypatch):
+    """SQLITE_BUSY inside a transaction: what it wrote is rolled back and the whole transaction
+    runs again (another writer between two attempts sees neither half)."""
+    from cacas.store import db
+    monkeypatch.setattr(db.time, "sleep", lambda s: None)
+    conn = db.connect(tmp_path / "study.sqlite")
+    attempts = []
+
+    def fn(c):
+        attempts.append(len(attempts))
+        c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, '', '')", (f"try{len(attempts)}",))
+        if len(attempts) < 3:
+            raise sqlite3.OperationalError("database is locked")
+        return "committed"
+
+    assert db.transact(conn, fn) == "committed"
+    assert _tries(conn) == ["try3"] and not conn.in_transaction
+    conn.close()
+
+
+def test_a_database_busy_beyond_the_retries_is_one_message_and_writes_nothing(tmp_path, monkeypatch):
+    from cacas.store import db
+    monkeypatch.setattr(db.time, "sleep", lambda s: None)
+    conn = db.connect(tmp_path / "study.sqlite")
+    attempts = []
+
+    def fn(c):
+        attempts.append(1)
+        c.execute("INSERT INTO studies (name, description, created_at) VALUES ('try', '', '')")
+        raise sqlite3.OperationalError("database is locked")
+
+    with pytest.raises(CacasError, match=r"^the study database is busy \(database is locked\); try again$"):
+        db.transact(conn, fn)
+    assert len(attempts) == db.WRITE_RETRIES + 1 and _tries(conn) == []
+
+    def disk_full(c):
+        attempts.append(1)
+        c.execute("INSERT INTO studies (name, description, created_at) VALUES ('try', '', '')")
+        raise sqlite3.OperationalError("database or disk is full")
+
+    attempts.clear()
+    with pytest.raises(CacasError, match=r"^the study database cannot be written \(database or disk is full\); "
+                                         r"nothing was saved"):
+        db.transact(conn, disk_full)
+    assert len(attempts) == 1 and _tries(conn) == []  # not retried: waiting does not free a disk
+    conn.close()
+
+
+def test_a_write_waits_for_another_writers_transaction(tmp_path, monkeypatch):
+    """BEGIN IMMEDIATE refused while another connection writes: retried after a pause, and
+    written once the other has committed."""
+    from cacas.store import db
+    path = tmp_path / "study.sqlite"
+    conn = db.connect(path)
+    conn.execute("PRAGMA busy_timeout = 0")  # SQLite's own wait off: the retry is what is tested
+    other = sqlite3.connect(path, isolation_level=None)
+    other.execute("BEGIN IMMEDIATE")
+    pauses = []
+
+    def pause(seconds):
+        pauses.append(seconds)
+        if len(pauses) == 2:
+            other.execute("COMMIT")
+
+    monkeypatch.setattr(db.time, "sleep", pause)
+    db.transact(conn, lambda c: c.execute("INSERT INTO studies (name, description, created_at) VALUES ('try', '', '')"))
+    assert len(pauses) == 2 and _tries(conn) == ["try"]
+    other.execute("BEGIN IMMEDIATE")
+    monkeypatch.setattr(db.time, "sleep", lambda s: None)
+    with pytest.raises(CacasError, match=r"^the study database is busy \(database is locked\); try again$"):
+        db.transact(conn, lambda c: c.execute("INSERT INTO studies (name, description, created_at) "
+                                              "VALUES ('try2', '', '')"))
+    other.execute("ROLLBACK")
+    assert _tries(conn) == ["try"]
+    other.close()
+    conn.close()
