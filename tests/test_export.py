@@ -357,6 +357,10 @@ def _rewrite(bundle, out, table, change):
     ("preferences", lambda df: df.assign(preferences=df["preferences"].str.replace(
         '"action": "pain check"', '"action": "pain check", "description": "mail anna@example.com"')),
      r"preferences.csv, row 2: .*holds what looks like contact details \('anna@example.com'\)"),
+    ("days", lambda df: df.assign(day="two"), "days.csv, row 2: 'two' is not a whole number"),
+    ("interactions", lambda df: df.assign(hour="7h15"), "interactions.csv, row 2: '7h15' is not a number"),
+    ("adaptations", lambda df: df.assign(parameters="{epochs: 3}"),
+     r"adaptations.csv, row 2: not valid JSON \(Expecting property name enclosed in double quotes\)"),
 ])
 def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change, message):
     bundle = export.export_study(store, tmp_path / "out").bundle
@@ -498,6 +502,55 @@ def test_restore_refuses_tables_that_do_not_fit_and_writes_nothing(bundle_tables
             restore(fresh, {**tables, table: change(tables[table])}, policies)
         assert _counts(fresh.path) == before
         assert restore(fresh, tables, policies) == 20  # the same tables, unchanged, restore
+
+
+def test_restore_refuses_a_missing_table_or_policy_file_and_writes_nothing(bundle_tables, tmp_path):
+    tables, policies = bundle_tables
+    first = sorted(policies)[0]
+    with StudyStore(tmp_path / "fresh.sqlite") as fresh:
+        before = _counts(fresh.path)
+        with pytest.raises(CacasError, match="^events.csv is missing from the bundle$"):
+            restore(fresh, {n: t for n, t in tables.items() if n != "events"}, policies)
+        with pytest.raises(CacasError, match=f"^policies.csv, row 2: policy file '{first}' is missing from the "
+                                             f"bundle$"):
+            restore(fresh, tables, {rel: data for rel, data in policies.items() if rel != first})
+        assert _counts(fresh.path) == before
+
+
+def test_import_beside_a_policy_file_with_other_content_is_refused_and_leaves_it(store, tmp_path):
+    """A checkpoint of the same name already in the target's policies/ folder (another study's,
+    edited by hand) is never overwritten: the import is refused, and the checkpoints it had
+    written before meeting it are removed again."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    last = sorted(export.read_bundle(bundle)[1])[-1]
+    target = tmp_path / "new" / "study.sqlite"
+    clash = target.parent / "policies" / last
+    clash.parent.mkdir(parents=True)
+    clash.write_bytes(b"another study's policy")
+    with pytest.raises(CacasError, match=f"^{re.escape(str(clash))}: exists with other content; move it away and "
+                                         f"import again$"):
+        export.import_bundle(bundle, target)
+    assert [p for p in target.parent.rglob("*") if p.is_file()] == [clash]
+    assert clash.read_bytes() == b"another study's policy"
+
+
+def test_a_database_created_meanwhile_at_the_target_is_kept(store, tmp_path, monkeypatch):
+    """Two imports into one new file at once: the one that finishes second finds the file there
+    when it links its database into place; it refuses, and leaves the other's file and nothing
+    of its own."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    target = tmp_path / "new" / "study.sqlite"
+
+    def restore_while_another_import_finishes(*args):
+        target.write_bytes(b"the other import's database")
+        return restore(*args)
+
+    monkeypatch.setattr(export, "restore", restore_while_another_import_finishes)
+    with pytest.raises(CacasError, match=f"^{re.escape(str(target))}: already exists; import only into a new "
+                                         f"database file$"):
+        export.import_bundle(bundle, target)
+    assert [p for p in target.parent.rglob("*") if p.is_file()] == [target]
+    assert target.read_bytes() == b"the other import's database"
 
 
 def test_restore_refuses_a_database_that_has_participants(store, bundle_tables):
