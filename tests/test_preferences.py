@@ -56,6 +56,9 @@ def test_preferred_action_table():
     ({"task": ["bake"]}, "task", "'bake'"),
     ({"colour": "red"}, "colour", "unknown field"),
     ({"hours": [[6.0, 10]]}, "hours", "hours are whole numbers, written without a decimal point: 6, not 6.0"),
+    ({"hours": []}, "hours", "must be a list of [start, end) pairs in whole even hours 0-24 with start < end"),
+    ({"description": 7}, "description", "must be text (the participant's own words)"),
+    ({"action": ["remind to turn off"]}, "action", "must be one action name; valid: do nothing, "),
 ])
 def test_bad_preference_names_participant_preference_field(change, field, needle):
     bad = dict(STOVE, **change)
@@ -136,6 +139,25 @@ def test_duplicate_ids_and_bad_documents():
         prefs.parse_personas({"participants": [{"preferences": [STOVE]}]})
 
 
+COUGH = {"activity": ["cough"], "action": "pain check"}
+
+
+@pytest.mark.parametrize("data, message", [
+    ({"participants": []}, "people.json: 'participants' is empty; add at least one participant"),
+    ({"participants": ["P01"]}, "people.json: participant 1 must be an object with 'id' and 'preferences'"),
+    ({"participants": [{"id": "P01", "name": "Anna", "preferences": [COUGH]}]},
+     "people.json, participant P01, field 'name': unknown field; valid fields: id, preferences"),
+    ({"participants": [{"id": "P01", "preferences": []}]},
+     "people.json, participant P01, field 'preferences': must be a non-empty list of preferences"),
+    ({"participants": [{"id": "P01", "preferences": [COUGH, "cough -> pain check"]}]},
+     "people.json, participant P01, preference 2: must be an object with fields description, activity, "),
+])
+def test_a_bad_participant_entry_is_named(data, message):
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(data, "people.json")
+    assert str(err.value).startswith(message)
+
+
 def test_load_file_errors(tmp_path):
     with pytest.raises(CacasError, match="no such persona file"):
         prefs.load_personas(tmp_path / "missing.json")
@@ -143,14 +165,18 @@ def test_load_file_errors(tmp_path):
     bad.write_text("{not json")
     with pytest.raises(CacasError, match="not valid JSON"):
         prefs.load_personas(bad)
+    with pytest.raises(CacasError, match=r"^.*: cannot be read \(Is a directory\)$"):
+        prefs.load_personas(tmp_path)
 
 
 def test_save_load_round_trip(tmp_path):
-    people = prefs.parse_personas(doc(STOVE, {"activity": ["cough"], "action": "pain check"}))
+    chat = {"activity": ["watch TV"], "task": ["chitchat", "do nothing"], "action": "show compassion"}
+    people = prefs.parse_personas(doc(STOVE, {"activity": ["cough"], "action": "pain check"}, chat))
     path = tmp_path / "p.json"
     prefs.save_personas(people, path)
     assert prefs.load_personas(path) == people
     assert json.loads(path.read_text())["participants"][0]["preferences"][0] == STOVE
+    assert json.loads(path.read_text())["participants"][0]["preferences"][2] == chat  # the task (S5) kept
 
 
 @pytest.mark.parametrize("data, message", [
