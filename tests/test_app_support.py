@@ -48,6 +48,9 @@ def test_preference_form_and_checks():
     assert stove == {"description": "Turn it off", "activity": ["use stove"], "scene": ["kitchen"],
                      "hours": [[6, 8]], "interval": [0, 30], "action": "remind to turn off"}
     assert app_support.preference_from_form("", [], [], [], (0, 200), None) is None
+    # an imported preference's task (S5; the form has no field for it) is kept when the form saves it
+    assert app_support.preference_from_form("", ["cough"], [], [], (0, 200), "pain check", ["chitchat"]) == {
+        "activity": ["cough"], "task": ["chitchat"], "action": "pain check"}
     chat = app_support.preference_from_form("", ["use stove"], [], [], (0, 200), "chitchat")
     person, errors, overall = app_support.check_preferences("P01", [stove, chat], numbers=[1, 4])
     assert person is None and not errors and overall.startswith("preferences 1 and 4 both cover")
