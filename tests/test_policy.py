@@ -1,6 +1,9 @@
+import io
+
 import numpy as np
 import pandas as pd
 import pytest
+import torch
 
 from cacas import records, spaces
 from cacas.d4a import load_d4a
@@ -59,6 +62,11 @@ def test_policy_bytes_round_trip_and_bad_bytes():
     assert np.allclose(back.action_probabilities(s), pi.action_probabilities(s))
     with pytest.raises(CacasError, match="not a CACAS policy"):
         policy_from_bytes(b"hello")
+    for other in ({"state_dict": {}}, {"kind": "sound model"}, [1, 2]):  # torch files that are not a policy
+        buf = io.BytesIO()
+        torch.save(other, buf)
+        with pytest.raises(CacasError, match=r"^not a CACAS policy file \(no policy kind recorded\)$"):
+            policy_from_bytes(buf.getvalue())
 
 
 def _interactions():

@@ -83,6 +83,8 @@ def test_context_token_round_trip_and_bad_input():
     assert Context.from_token(ctx.to_token()) == ctx
     with pytest.raises(CacasError, match="time of day 12 is invalid"):
         Context.from_choices(12, 0, "cough", "bedroom")
+    with pytest.raises(CacasError, match=r"^time since the last activity 12 is invalid; valid: bin 0..11$"):
+        Context.from_choices(1, 12, "cough", "bedroom")
     with pytest.raises(CacasError, match="unknown activity"):
         Context.from_choices(1, 0, "dance", "bedroom")
     with pytest.raises(CacasError, match="in the address is invalid"):
@@ -336,6 +338,21 @@ def test_a_day_is_adapted_once(tmp_path, monkeypatch, policy):
         runs = s.adaptations_frame("P01")
         assert [(d, None if pd.isna(v) else int(v)) for d, v in zip(runs["day"], runs["policy_version"])] == \
             [(0, None), (1, 1), (2, version)]
+
+
+def test_a_day_without_interactions_or_that_does_not_exist_is_not_adapted(store, monkeypatch, policy):
+    """Refused before anything is written: the day stays open, no adaptation is noted as begun."""
+    import cacas.adaptation
+    from cacas.study_day import adapt_day
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    store.open_day("P01")
+    with pytest.raises(CacasError, match="^participant P01 has no day 2$"):
+        adapt_day(store.path, "P01", 2, method="nn")
+    with pytest.raises(CacasError, match="^day 1 of participant P01 has no interactions; nothing to adapt from$"):
+        adapt_day(store.path, "P01", 1, method="nn")
+    assert [(d.day, d.is_open) for d in store.days("P01")] == [(1, True)]
+    assert store.events(what="adapt_start").empty and store.policy_versions("P01") == []
 
 
 def test_the_adapted_policy_and_its_run_are_saved_together(tmp_path, monkeypatch, policy):
