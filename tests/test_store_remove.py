@@ -267,3 +267,50 @@ def test_an_unreadable_database_beside_keeps_every_file(store):
     removed = store.remove_participant("P01", "P01")
     assert (removed.kept_files, removed.kept_because) == (before.kept_files, before.kept_because)
     assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files
+
+
+def test_files_beside_that_are_not_study_databases_do_not_keep_the_policy_files(store):
+    """A CSV, a notes file or another application's SQLite file in the folder names no policy:
+    the participant's files are deleted as if they were not there."""
+    (store.path.parent / "participants.csv").write_text("participant,notes\nP01,x\n")
+    con = sqlite3.connect(store.path.parent / "calendar.db")  # another application's database
+    con.execute("CREATE TABLE policies (path TEXT)")
+    con.execute("INSERT INTO policies VALUES ('P01/day1-cacas-00000000.pt')")
+    con.commit()
+    con.close()
+    footprint = store.participant_footprint("P01")
+    assert (footprint.policy_files, footprint.kept_files) == (2, 0)
+    store.remove_participant("P01", "P01")
+    assert not (store.policy_dir / "P01").exists()
+
+
+def test_a_study_database_beside_whose_policies_cannot_be_read_keeps_every_file(store):
+    """A neighbour recognised as a study database but whose policies table cannot be read (damaged,
+    or an incomplete copy) may name any file: none is deleted, and the footprint says why."""
+    broken = _beside(store, "broken.sqlite", code="P09")
+    broken.close()
+    con = sqlite3.connect(store.path.parent / "broken.sqlite")
+    con.execute("DROP TABLE policies")
+    con.commit()
+    con.close()
+    files = sorted(p.name for p in (store.policy_dir / "P01").iterdir())
+    footprint = store.participant_footprint("P01")
+    assert (footprint.policy_files, footprint.kept_files) == (0, 2)
+    assert footprint.kept_because.startswith("the study database broken.sqlite beside this one cannot be read")
+    store.remove_participant("P01", "P01")
+    assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files
+
+
+def test_policy_files_that_cannot_be_deleted_after_the_removal_are_named(store, monkeypatch):
+    """The rows are gone (committed); the files moved aside could not be deleted (a permission
+    changed meanwhile): the message says so and where they are, rather than nothing."""
+    from cacas.store import people
+    monkeypatch.setattr(people.shutil, "rmtree", lambda *a, **k: None)
+    with pytest.raises(CacasError) as err:
+        store.remove_participant("P01", "P01")
+    monkeypatch.undo()
+    (trash,) = store.policy_dir.glob(".removed-P01-*")
+    assert str(err.value) == (f"participant P01 was removed from the study database, but their policy files in "
+                              f"{trash} could not be deleted: delete that folder by hand")
+    assert rows(store.path, "P01")["participants"] == 0
+    assert len([p for p in trash.rglob("*.pt")]) == 2
