@@ -533,6 +533,18 @@ def test_policy_versions_atomic_files_hash_and_rollback(store):
     assert [p.version for p in store.policy_versions("P01")] == [1, 2]
 
 
+def test_a_policy_that_is_not_bytes_or_a_read_only_store_writes_no_file(store):
+    store.open_day("P01")
+    before = snapshot(store.path)
+    for data in (b"", "a policy as text", None):
+        with pytest.raises(CacasError, match=r"^policy data must be non-empty bytes \(ReshapedPolicy.to_bytes\(\)\)$"):
+            store.save_policy("P01", 1, "cacas", data)
+    with StudyStore(store.path, readonly=True) as ro:
+        with pytest.raises(CacasError, match=f"^{re.escape(str(store.path))}: opened read-only; nothing was written$"):
+            ro.save_policy("P01", 1, "cacas", b"a policy")
+    assert snapshot(store.path) == before and not store.policy_dir.exists()
+
+
 def test_adaptation_runs(store):
     store.open_day("P01")
     v = store.save_policy("P01", 1, "cacas", b"p")

@@ -1,6 +1,7 @@
 """store.files: atomic single files and all-or-nothing folder writes."""
 
 import os
+import re
 
 import pytest
 
@@ -35,6 +36,25 @@ def test_what_a_killed_write_left_is_removed_by_the_next(tmp_path):
     assert not any(p.exists() for p in left)
     assert running.exists() and other.exists()
     assert (tmp_path / "a.csv").read_bytes() == b"new"
+
+
+def test_a_left_over_of_another_users_running_process_is_kept(tmp_path, monkeypatch):
+    """A process we may not signal (another user's) is running: its temporary file is its write
+    in progress, not a left-over."""
+    def another_users(pid, sig):
+        raise PermissionError(1, "Operation not permitted")
+    theirs = tmp_path / ".a.csv.4242.tmp"
+    theirs.write_text("their write in progress")
+    monkeypatch.setattr(files.os, "kill", another_users)
+    files.write_all(tmp_path, {"a.csv": b"new"})
+    monkeypatch.undo()
+    assert theirs.read_text() == "their write in progress" and (tmp_path / "a.csv").read_bytes() == b"new"
+
+
+def test_write_all_creates_a_missing_folder(tmp_path):
+    folder = tmp_path / "results" / "run1"
+    assert files.write_all(folder, {"daily.csv": b"rows"}) == {"daily.csv": folder / "daily.csv"}
+    assert [p.name for p in folder.iterdir()] == ["daily.csv"]
 
 
 def test_a_refused_rename_puts_back_what_was_already_replaced(tmp_path, monkeypatch, fail_on_call):
@@ -85,6 +105,10 @@ def test_writable_file_refuses_a_folder_it_cannot_write_in(unwritable_folder):
 def test_writable_file_without_creating_folders_wants_the_folder(tmp_path):
     with pytest.raises(CacasError, match="the folder .*absent does not exist"):
         files.writable_file(tmp_path / "absent" / "b.json", "--json", create_folders=False)
+    (tmp_path / "notes").write_text("x")
+    with pytest.raises(CacasError, match=f"^--json {re.escape(str(tmp_path / 'notes' / 'b.json'))}: cannot be written "
+                                         f"there: {re.escape(str(tmp_path / 'notes'))} is a file, not a folder; "):
+        files.writable_file(tmp_path / "notes" / "b.json", "--json", create_folders=False)
     assert files.writable_file(tmp_path / "b.json", "--json", create_folders=False) == tmp_path / "b.json"
 
 
