@@ -136,3 +136,36 @@ def test_policies_kept_beside_a_link_move_beside_the_file(tmp_path):
     with StudyStore(link) as s:
         assert s.load_policy("P03") == b"P03's policy"
     assert not (link.parent / "policies" / rel).exists()
+
+
+def test_a_killed_removal_beside_an_unreadable_database_is_left_until_it_can_be_read(tmp_path):
+    """A study database beside that cannot be read may name the moved-aside files: they are
+    neither deleted nor put back until it can be read (or is gone)."""
+    path = tmp_path / "study.sqlite"
+    rel = _participant_with_a_policy(path)
+    kept = (tmp_path / "policies" / rel).read_bytes()
+    with StudyStore(path) as s:
+        s.remove_participant("P03", confirm="P03")
+    home, trash = _left_aside(tmp_path, rel, content=kept)
+    intact = tmp_path / "other" / "intact.sqlite"
+    StudyStore(intact).close()
+    damaged = tmp_path / "damaged.sqlite"  # a study database's header, damaged further on
+    damaged.write_bytes(intact.read_bytes()[:100] + b"\0" * 4000)
+    StudyStore(path).close()
+    assert (trash / home.name).read_bytes() == kept and not home.exists()
+    damaged.unlink()
+    StudyStore(path).close()
+    assert not trash.exists() and not home.exists()
+
+
+def test_a_tidy_that_fails_does_not_stop_the_database_opening(tmp_path, monkeypatch):
+    """Putting right what a killed removal left is best effort: a failure (a folder that cannot be
+    read now) is left for the next opening, and the database opens."""
+    path = tmp_path / "study.sqlite"
+    _participant_with_a_policy(path)
+
+    def unreadable(store):
+        raise PermissionError(13, "Permission denied")
+    monkeypatch.setattr(recovery, "finish_interrupted_removals", unreadable)
+    with StudyStore(path) as s:
+        assert s.load_policy("P03") == b"P03's policy"
