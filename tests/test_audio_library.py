@@ -65,6 +65,9 @@ def test_generate_refuses_bad_arguments(tmp_path):
         library.generate_library(0, root=tmp_path)
     with pytest.raises(CacasError):
         library.generate_library(1, seconds=0.2, root=tmp_path)
+    with pytest.raises(CacasError, match="^unknown clip format 'mp3'; valid: ogg, flac, wav$"):
+        library.generate_library(1, fmt="MP3", root=tmp_path)
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_shipped_library_covers_every_activity_and_stays_small():

@@ -119,6 +119,15 @@ def test_training_refuses_thin_or_missing_data(tmp_path):
         train_sound_model(tmp_path, epochs=1)
 
 
+def test_a_folder_without_recordings_is_refused_for_training_and_evaluation(tiny, tmp_path):
+    _, result, _ = tiny
+    (tmp_path / "cough").mkdir()
+    with pytest.raises(CacasError, match=f"^{tmp_path}: no recordings; generate the library with `cacas sound generate`$"):
+        train_sound_model(tmp_path, epochs=1)
+    with pytest.raises(CacasError, match=f"^{tmp_path}: no recordings to evaluate$"):
+        evaluate_sound_model(result.recognizer, tmp_path)
+
+
 def test_load_refuses_missing_or_wrong_model(tmp_path):
     with pytest.raises(CacasError, match="no such sound model"):
         SoundRecognizer.load(tmp_path / "none.pt")

@@ -47,6 +47,7 @@ def bad_pref(**change):
                                               "valid: each of cacas, cacas-no-pr"]),
     (GOOD, ["--d4a", ""], ["argument --d4a: an empty path; valid: a file or folder path"]),
     (GOOD, ["--plot", " "], ["argument --plot: an empty path"]),
+    (GOOD, ["--jobs", "0"], ["--jobs 0 is invalid; valid: a whole number >= 1"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):
     path = tmp_path / "missing.json" if content is None else write(tmp_path, content)

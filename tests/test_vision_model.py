@@ -33,6 +33,12 @@ def test_scene_slugs_and_generator(tmp_path):
         assert img.size == (64, 64) and img.mode == "RGB"
     paths = library.generate_scenes(1, size=48, root=tmp_path)
     assert len(paths) == 6 and library.image_paths("kitchen", tmp_path)[0].suffix == ".jpg"
+    with pytest.raises(CacasError, match="^images per scene must be at least 1, got 0$"):
+        library.generate_scenes(0, root=tmp_path / "none")
+    for size in (31, 1025):
+        with pytest.raises(CacasError, match=f"^image size must be between 32 and 1024 pixels, got {size}$"):
+            library.generate_scenes(1, size=size, root=tmp_path / "none")
+    assert not (tmp_path / "none").exists()
 
 
 @pytest.fixture
@@ -161,6 +167,17 @@ def test_recognize_image_and_bad_files(tiny, tmp_path):
         result.recognizer.recognize(text)
     with pytest.raises(CacasError, match="no such file"):
         result.recognizer.recognize(tmp_path / "absent.jpg")
+
+
+def test_a_folder_without_images_is_refused_for_training_and_evaluation(tiny, tmp_path):
+    _, result, _ = tiny
+    (tmp_path / "kitchen").mkdir()
+    with pytest.raises(CacasError, match=f"^{tmp_path}: no images; generate them with `cacas scene generate`$"):
+        train_scene_model(tmp_path, epochs=1, weights="none")
+    with pytest.raises(CacasError, match=f"^{tmp_path}: no images to evaluate$"):
+        evaluate_scene_model(result.recognizer, tmp_path)
+    with pytest.raises(CacasError, match=f"^{tmp_path}: is a folder, not an image$"):
+        result.recognizer.recognize(tmp_path)
 
 
 def test_import_scene_folder(tmp_path):
