@@ -128,6 +128,24 @@ def test_a_folder_without_recordings_is_refused_for_training_and_evaluation(tiny
         evaluate_sound_model(result.recognizer, tmp_path)
 
 
+@pytest.mark.parametrize("change, message", [
+    (lambda m: {**m, "classes": []}, "metadata lists no classes"),
+    (lambda m: {**m, "features": {**m["features"], "shape": [40, 32]}}, "trained on features {"),
+    (lambda m: {**m, "classes": m["classes"] + ["snore"]},
+     "weights do not fit the sound CNN (Error(s) in loading state_dict for SoundCNN:"),
+])
+def test_a_model_whose_metadata_does_not_fit_its_weights_is_refused(tiny, tmp_path, change, message):
+    """A model's .json edited by hand, or from another model: said, not a traceback or a model
+    that answers with the wrong activity names."""
+    _, result, _ = tiny
+    path = result.recognizer.save(tmp_path / "m.pt")
+    meta = path.with_suffix(".json")
+    meta.write_text(json.dumps(change(json.loads(meta.read_text()))))
+    with pytest.raises(CacasError) as err:
+        SoundRecognizer.load(path)
+    assert str(err.value).startswith(f"{path}: {message}")
+
+
 def test_load_refuses_missing_or_wrong_model(tmp_path):
     with pytest.raises(CacasError, match="no such sound model"):
         SoundRecognizer.load(tmp_path / "none.pt")
@@ -135,6 +153,10 @@ def test_load_refuses_missing_or_wrong_model(tmp_path):
     (tmp_path / "bad.json").write_text(json.dumps({"kind": "sound", "classes": ["a"], "features": {"shape": [64, 32]}}))
     with pytest.raises(CacasError, match="bad.pt"):
         SoundRecognizer.load(tmp_path / "bad.pt")
+    (tmp_path / "notes.json").write_text("{}")  # no model beside it
+    with pytest.raises(CacasError, match=r"notes.json: a JSON file, not a sound model; expected a model saved by "
+                                         r"`cacas sound train` \(.pt, with its .json beside it\)$"):
+        SoundRecognizer.load(tmp_path / "notes.json")
 
 
 def test_shipped_model_recognises_its_held_out_recordings():

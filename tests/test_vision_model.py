@@ -152,6 +152,20 @@ def test_training_metrics_and_save_load(tiny, tmp_path):
     assert evaluate_scene_model(loaded, root).accuracy == pytest.approx(m.accuracy)
 
 
+@pytest.mark.parametrize("change, message", [
+    (lambda m: {**m, "classes": []}, "metadata lists no classes"),
+    (lambda m: {**m, "classes": m["classes"] + ["garage"]}, "weights do not fit ResNet-18 (Error(s) in loading"),
+])
+def test_a_model_whose_metadata_does_not_fit_its_weights_is_refused(tiny, tmp_path, change, message):
+    _, result, _ = tiny
+    path = result.recognizer.save(tmp_path / "scene.pt")
+    meta = path.with_suffix(".json")
+    meta.write_text(json.dumps(change(json.loads(meta.read_text()))))
+    with pytest.raises(CacasError) as err:
+        SceneRecognizer.load(path)
+    assert str(err.value).startswith(f"{path}: {message}")
+
+
 def test_recognize_image_and_bad_files(tiny, tmp_path):
     _, result, _ = tiny
     r = result.recognizer.recognize(Image.new("RGB", (80, 60), (200, 200, 200)))
