@@ -143,6 +143,17 @@ def test_integer_pcm_arrays_are_scaled():
         features.check_signal(np.full(1000, 128, dtype=np.uint8))
 
 
+def test_integer_pcm_with_several_channels_is_scaled_as_mono_is():
+    """A 2-D integer array (scipy.io.wavfile.read of a stereo file) was mixed down to floats before
+    the PCM scaling, so it reached the model 32768 times too loud (the shipped model heard a cough
+    given as int16 stereo as "pour water into glass")."""
+    y = (_tone(0.5, SAMPLE_RATE) * 32767).astype(np.int16)
+    mono = features.check_signal(y)
+    for stereo in (np.stack([y, y], axis=1), np.stack([y, y])):  # (samples, channels), (channels, samples)
+        out = features.check_signal(stereo)
+        assert out.dtype == np.float32 and np.allclose(out, mono, atol=1e-6)
+
+
 def test_a_clips_features_do_not_depend_on_the_clips_beside_it():
     """The robot hears one clip at a time; training and evaluation take many at once. A clip's
     MFCC must be the same both ways (power_to_db's 80 dB floor is per window, not per batch)."""

@@ -54,17 +54,17 @@ def check_signal(signal: np.ndarray, name: str = "signal") -> np.ndarray:
     """Mono float32 copy of ``signal`` (integer PCM scaled to [-1, 1]); refuse an empty, non-finite
     or all-silent one."""
     y = np.asarray(signal)
-    if y.ndim == 2:  # (samples, channels) or (channels, samples): mix down the short axis
-        y = y.mean(axis=1 if y.shape[0] >= y.shape[1] else 0)
-    if y.ndim != 1:
+    if y.ndim not in (1, 2):
         raise _refuse(name, f"expected a 1-D (mono) or 2-D (multi-channel) signal, got shape {y.shape}")
     if y.size == 0:
         raise _refuse(name, "contains no samples")
     if not np.issubdtype(y.dtype, np.number):
         raise _refuse(name, f"is not numeric audio (dtype {y.dtype})")
-    if np.issubdtype(y.dtype, np.integer):  # PCM samples: scale to [-1, 1]
+    if np.issubdtype(y.dtype, np.integer):  # PCM samples: scale to [-1, 1] (before a mix-down makes them floats)
         info = np.iinfo(y.dtype)
         y = (y.astype(np.float64) - (info.max + info.min + 1) / 2) / (info.max - info.min + 1) * 2
+    if y.ndim == 2:  # (samples, channels) or (channels, samples): mix down the short axis
+        y = y.mean(axis=1 if y.shape[0] >= y.shape[1] else 0)
     y = y.astype(np.float32, copy=True)
     if not np.all(np.isfinite(y)):
         raise _refuse(name, "contains NaN or infinite samples; not usable audio")
