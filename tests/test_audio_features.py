@@ -106,6 +106,29 @@ def test_unsupported_extension(tmp_path):
     _refused(p, "unsupported", ".wav")
 
 
+def test_a_folder_and_a_wav_with_no_samples(tmp_path):
+    (tmp_path / "cough.wav").mkdir()
+    with pytest.raises(CacasError, match=f"^{tmp_path / 'cough.wav'}: is a folder, not an audio file$"):
+        load_clip(tmp_path / "cough.wav")
+    p = tmp_path / "nothing.wav"
+    sf.write(p, np.zeros(0), SAMPLE_RATE)
+    with pytest.raises(CacasError, match=f"^{p}: contains no audio samples$"):
+        load_clip(p)
+
+
+@pytest.mark.parametrize("signal, problem", [
+    (np.zeros((2, 2, 800)), "expected a 1-D (mono) or 2-D (multi-channel) signal, got shape (2, 2, 800)"),
+    (np.zeros(0), "contains no samples"),
+    (np.zeros((2, 0), np.int16), "contains no samples"),
+    (np.array(list("noise")), "is not numeric audio (dtype <U1)"),
+    (np.array([[True, False]] * 800), "is not numeric audio (dtype bool)"),
+])
+def test_arrays_that_are_not_a_signal_are_refused(signal, problem):
+    with pytest.raises(CacasError) as err:
+        features.check_signal(signal, "array")
+    assert str(err.value) == f"array: {problem}"
+
+
 def test_silence(tmp_path):
     p = tmp_path / "silence.wav"
     sf.write(p, np.zeros(SAMPLE_RATE), SAMPLE_RATE)
