@@ -114,6 +114,12 @@ def test_binary_file_is_not_csv(tmp_path):
     assert "not a CSV text file" in error_of(path)
 
 
+def test_text_with_nul_bytes_is_not_csv(tmp_path):
+    path = tmp_path / "x.csv"
+    path.write_bytes("\n".join(shipped_lines()).replace("accept", "acc\x00ept", 1).encode())
+    assert error_of(path) == f"{path}: is not a CSV text file (it contains NUL bytes)"
+
+
 def test_json_file_is_not_csv(tmp_path):
     path = tmp_path / "d4a.json"
     path.write_text('{"cough": {"pain check": "accept"}}', encoding="utf-8")

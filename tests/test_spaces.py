@@ -69,6 +69,24 @@ def test_vector_that_is_not_one_hot_is_refused_naming_the_part():
         spaces.decode_states(v)
 
 
+@pytest.mark.parametrize("row, message", [
+    ([3, 6, 4, 2, 0, 5, 1], "state part scene has index 6; valid: 0..5"),  # would be S3's first slot
+    ([3, 1, 4, 12, 0, 5, 1], "state part interval has index 12; valid: 0..11"),
+    ([3, 1, 4, 2, 0, 5, -1], "state part response has index -1; valid: 0..2"),
+])
+def test_an_index_outside_its_part_is_refused_not_encoded_into_the_next(row, message):
+    with pytest.raises(CacasError) as err:
+        spaces.encode_states(np.array([row]))
+    assert str(err.value) == message
+
+
+def test_one_state_or_one_row_encodes_as_one_row():
+    row = [3, 1, 4, 2, 0, 5, 1]
+    one = spaces.encode_states(np.array([row]))
+    assert np.array_equal(spaces.encode_states(spaces.State(*row)), one)
+    assert np.array_equal(spaces.encode_states(np.array(row)), one)
+
+
 def test_indices_from_onehot_inverts_encoding():
     rows = np.array([[3, 1, 4, 2, 0, 5, 1], [32, 5, 11, 11, 13, 13, 2]])
     assert np.array_equal(spaces.indices_from_onehot(spaces.encode_states(rows)), rows)
