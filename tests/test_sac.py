@@ -126,3 +126,37 @@ def test_replay_buffer_clear_empties_it_and_later_samples_are_only_new_transitio
     s, a, r, _ = agent.buffer.sample(500, torch.Generator().manual_seed(0))
     assert set(a.tolist()) == {3} and set(r.tolist()) == {0.5}  # nothing from before the clear
     assert set(s.argmax(1).tolist()) == {5, 6, 7}
+
+
+def _adam_trajectory(monkeypatch, fused: bool):
+    """Three FlatAdam steps over two parameter groups with their own learning rates."""
+    from cacas import sac
+
+    if not fused:
+        monkeypatch.setattr(sac, "_FUSED_ADAM", None)
+    gen = torch.Generator().manual_seed(0)
+    a, b, c = torch.randn(3, 4, generator=gen), torch.randn(5, generator=gen), torch.randn(2, 2, generator=gen)
+    opt = sac.FlatAdam([([a, b], 0.01), ([c], 0.3)])
+    for _ in range(3):
+        for p, g in zip((a, b, c), opt.grads):
+            g.copy_(torch.randn(p.shape, generator=gen))
+        opt.step()
+    monkeypatch.undo()
+    return torch.cat([a.reshape(-1), b, c.reshape(-1)])
+
+
+def test_flat_adam_without_torchs_fused_kernel_makes_torchs_adam_updates(monkeypatch):
+    """FlatAdam falls back to its own update where torch has no ``_fused_adam_`` (a private API):
+    the same steps as torch.optim.Adam, group by group (untested, a wrong fallback would change
+    every training on such a torch without a word)."""
+    gen = torch.Generator().manual_seed(0)
+    a, b, c = (torch.randn(3, 4, generator=gen).requires_grad_(), torch.randn(5, generator=gen).requires_grad_(),
+               torch.randn(2, 2, generator=gen).requires_grad_())
+    ref = torch.optim.Adam([{"params": [a, b], "lr": 0.01}, {"params": [c], "lr": 0.3}])
+    for _ in range(3):
+        for p in (a, b, c):
+            p.grad = torch.randn(p.shape, generator=gen)
+        ref.step()
+    expected = torch.cat([a.detach().reshape(-1), b.detach(), c.detach().reshape(-1)])
+    assert torch.allclose(_adam_trajectory(monkeypatch, fused=False), expected, atol=1e-6)
+    assert torch.allclose(_adam_trajectory(monkeypatch, fused=True), expected, atol=1e-6)
