@@ -71,6 +71,26 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
     assert nn.loc[2, "accuracy"] == 1.0 and nn.loc[2, "correct"] == 400
 
 
+def test_compare_methods_leaves_out_who_has_no_described_preferences_or_closed_day(tmp_path, monkeypatch, policy):
+    """Fig. 4's accuracy needs described preferences, and a comparison needs a closed day: a
+    participant without either gets no comparison run (not a run scored on nothing)."""
+    import cacas.adaptation
+    from cacas.method_comparison import compare_methods
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "c.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P02")  # described preferences, their first day still open
+        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+        start_day(s, "P02")
+        s.add_participant("P03")  # a closed day, no described preferences
+        s.open_day("P03")
+        s.close_day("P03", 1)
+    assert compare_methods(path, methods=("nn",)) == 0
+    with StudyStore(path) as s:
+        assert s.adaptations_frame("P02").empty and s.adaptations_frame("P03").empty
+
+
 def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, monkeypatch, policy):
     """By default the paper's four methods: a participant whose study adapted with NN gets CACAS,
     CACAS w/o PR and ORL (Fig. 4 left them out for good: the comparison never ran CACAS, and the
