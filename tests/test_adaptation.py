@@ -208,6 +208,24 @@ def test_orl_transitions_reject_the_robots_own_action_of_a_request():
         ("pain check", 1.0), ("do nothing", -1.0), ("pain check", 1.0), ("chitchat", -1.0)]
 
 
+def test_orl_transitions_of_days_without_an_answer_are_empty_batches():
+    """A proposal left unanswered or the robot quiet with nothing asked is no data point: days of
+    only those (or no interaction) give empty arrays of the transitions' shapes, which the
+    replay buffer takes (not 1-D empties that break it)."""
+    from cacas.adaptation import orl_transitions
+
+    base = {"participant": "P01", "method": "cacas", "day": 1, "time": "08:00", "activity": "cough",
+            "scene": "bedroom", "time_slot": 4, "interval": 10, "task": "do nothing",
+            "previous_action": "do nothing", "previous_response": "others", "type": "type_1", "user_action": ""}
+    unanswered = pd.DataFrame([dict(base, index=0, robot_action="chitchat", response="others"),
+                               dict(base, index=1, robot_action="do nothing", response="accept")],
+                              columns=records.INTERACTION_COLUMNS)
+    for rows in (unanswered, unanswered.iloc[:0]):
+        s, a, r, s2, days = orl_transitions(rows)
+        assert [x.shape for x in (s, a, r, s2, days)] == [(0, spaces.STATE_DIM), (0,), (0,), (0, spaces.STATE_DIM), (0,)]
+        assert (s.dtype, a.dtype, r.dtype) == (np.float32, np.int64, np.float32)
+
+
 def test_sac_user_data_is_online_sac_one_update_per_new_transition(small_config, small_initial):
     result = adapt_policy(small_initial, stove_days(3, per_day=8), "sac-user-data", seed=0, config=small_config)
     # each user-initiated interaction gives two transitions (the request +1, "do nothing" -1)
