@@ -53,6 +53,18 @@ def test_a_bad_upload_is_named_as_uploaded_not_by_its_temporary_file():
         lab.recognize_scene_bytes(Hears(), "photo.jpg", b"")
 
 
+def test_an_upload_without_a_file_type_is_read_as_the_default_type():
+    """A recording or picture named without an extension ("recording", "camera") is written under
+    the kind's default type, which the recognisers read (else: "unsupported file type '(none)'")."""
+    class Named:
+        def recognize(self, path):
+            return path.name
+
+    assert lab.recognize_sound_bytes(Named(), "recording", b"RIFF") == "recording.wav"
+    assert lab.recognize_scene_bytes(Named(), "camera", b"\x89PNG") == "camera.jpg"
+    assert lab.recognize_scene_bytes(Named(), "our sofa.png", b"\x89PNG") == "our_sofa.png"
+
+
 # --- the saved models: stamp, loading by kind, training and evaluating in the app --------------------
 
 import pytest  # noqa: E402
@@ -168,6 +180,9 @@ def test_add_photos_adds_checked_photos_all_or_nothing(tmp_path):
         with pytest.raises(CacasError, match=message):
             lab.add_photos("living room", new, root)
     assert image_paths("living room", root) == sorted(added)  # nothing half-added
+    # a name without a file type (a camera's "IMG_1234") gets the default one: the library takes it
+    (camera,) = lab.add_photos("living room", [("IMG_1234", _png((40, 50, 60)))], root)
+    assert (camera.parent.name, camera.name) == ("living_room", "IMG_1234.jpg")
     with pytest.raises(CacasError, match=r"attic.*valid.*kitchen"):
         lab.add_photos("attic", [("a.png", _png())], root)
 
