@@ -60,6 +60,36 @@ def test_an_unwritable_json_path_is_refused_before_measuring(unwritable_folder, 
     assert ".tmp" not in err
 
 
+def test_a_json_file_that_cannot_be_written_after_measuring_is_named_and_leaves_nothing(tmp_path, monkeypatch, capsys,
+                                                                                        fail_on_call):
+    """The disk fills up during the minutes of measuring: the message names the user's file (not
+    the temporary one), no temporary file stays, and --repeats reaches the benchmark."""
+    import pathlib
+
+    import cacas.bench
+
+    seen = []
+
+    class Result:
+        def table(self):
+            return "| the table |"
+
+        def to_json(self):
+            return {"sac_updates_per_s": 1.0}
+
+    def run_bench(cfg, progress):
+        seen.append(cfg.repeats)
+        return Result()
+
+    monkeypatch.setattr(cacas.bench, "run_bench", run_bench)
+    monkeypatch.setattr(pathlib.Path, "replace", fail_on_call(pathlib.Path.replace, 1))
+    target = tmp_path / "b.json"
+    assert main(["bench", "--quick", "--quiet", "--repeats", "3", "--json", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err == f"cacas: error: --json {target}: cannot be written (No space left on device)\n"
+    assert seen == [3] and list(tmp_path.iterdir()) == []
+
+
 def _same_weights(ours: DiscreteSAC) -> ReferenceSAC:
     ref = ReferenceSAC(ours.config, seed=0)
     with torch.no_grad():
