@@ -234,6 +234,20 @@ def test_overview_names_the_newest_policy_after_a_roll_back(tmp_path):
     assert app_support.overview_frame(store).iloc[0]["policy"] == "initial (newest: 2)"
 
 
+def test_the_next_step_once_a_day_has_its_interactions_is_to_close_and_adapt():
+    """The paper's ~15 recorded interactions a day (answered or asked for; unanswered moments do
+    not count): then the overview says to close the day and adapt."""
+    from cacas.study_day import DayStatus
+
+    def status(saved, recorded):
+        return DayStatus(day=2, open=True, interactions_today=saved, total_interactions=20 + saved,
+                         policy_version=1, waiting_for_adaptation=False, finished=False, recorded_today=recorded)
+
+    assert app_support.next_step(True, status(16, 14)) == "Day 2: 1 more interactions on the tablet"
+    assert app_support.next_step(True, status(17, 15)) == "Close day 2 and adapt (Adaptation)"
+    assert app_support.next_step(True, status(20, 20)) == "Close day 2 and adapt (Adaptation)"
+
+
 def test_the_sidebar_starts_at_the_participant_last_worked_with(tmp_path):
     with StudyStore(tmp_path / "s.sqlite") as store:
         assert app_support.last_participant(store) is None
