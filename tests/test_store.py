@@ -533,6 +533,17 @@ def test_policy_versions_atomic_files_hash_and_rollback(store):
     assert [p.version for p in store.policy_versions("P01")] == [1, 2]
 
 
+def test_a_policy_saved_without_activating_it_leaves_the_one_in_force(store):
+    store.open_day("P01")
+    store.save_policy("P01", 0, "cacas", b"initial policy")
+    v2 = store.save_policy("P01", 1, "nn", b"a comparison policy", activate=False)
+    assert store.active_policy("P01").version == 1 and store.load_policy("P01") == b"initial policy"
+    assert [(p.version, p.active) for p in store.policy_versions("P01")] == [(1, True), (v2, False)]
+    assert store.load_policy("P01", version=v2) == b"a comparison policy"
+    saved = store.events(participant="P01", what="save_policy")["details"].map(json.loads).tolist()
+    assert [(d["version"], d["active"]) for d in saved] == [(1, True), (2, False)]
+
+
 def test_a_policy_that_is_not_bytes_or_a_read_only_store_writes_no_file(store):
     store.open_day("P01")
     before = snapshot(store.path)
