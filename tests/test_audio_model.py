@@ -126,6 +126,11 @@ def test_a_folder_without_recordings_is_refused_for_training_and_evaluation(tiny
         train_sound_model(tmp_path, epochs=1)
     with pytest.raises(CacasError, match=f"^{tmp_path}: no recordings to evaluate$"):
         evaluate_sound_model(result.recognizer, tmp_path)
+    # a model of fewer classes than the library's activities (one trained on a subset, or older)
+    unknown = [a for a in spaces.ACTIVITIES if a not in TINY][:2]
+    library.generate_library(1, seconds=1.0, root=tmp_path, activities=unknown)
+    with pytest.raises(CacasError, match=f"^the model does not know the activities {', '.join(sorted(unknown))}$"):
+        evaluate_sound_model(SoundRecognizer(SoundCNN(len(TINY)), TINY), tmp_path)
 
 
 @pytest.mark.parametrize("change, message", [
