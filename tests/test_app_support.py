@@ -325,12 +325,10 @@ def test_hours_to_slots_counts_slots_as_a_preference_does(hours):
     assert app_support.hours_to_slots(None) == [] and app_support.hours_to_slots([]) == []  # any time
 
 
-
 def test_a_studys_download_names_have_no_spaces():
     assert app_support.study_file_name("cacas-study", "pilot walkB", ".zip") == "cacas-study-pilot_walkb.zip"
     assert app_support.study_file_name("personas", "default", ".json") == "personas-default.json"
     assert app_support.study_file_name("personas", "?? ", ".json") == "personas-study.json"
-
 
 
 def test_short_time_and_answers_in_words():
@@ -344,7 +342,6 @@ def test_short_time_and_answers_in_words():
                           "user_action": ["", ""]})
     assert list(app_support.interactions_view(inter)["answer"]) == ["no response", "rejected"]
     assert list(app_support.interactions_view(inter)["since last activity"]) == ["5-10 min", "200+ min"]
-
 
 
 def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
@@ -374,7 +371,6 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(runs["policy version"]) == ["1", "2", "", ""]  # a comparison run saves no policy (read "None")
     assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
     store.close()
-
 
 
 def test_the_results_page_says_what_a_roll_back_changes(tmp_path):

@@ -211,10 +211,8 @@ def test_runs_round_trip_and_bad_daily(tmp_path):
         saved_runs.load_daily(tmp_path / "bad.csv")
 
 
-
 def _csv(df: pd.DataFrame) -> bytes:
     return df.to_csv(index=False).encode()
-
 
 
 def test_uploaded_tables_are_recognised_by_their_columns():
@@ -239,7 +237,6 @@ def test_uploaded_tables_are_recognised_by_their_columns():
     unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
     loaded = saved_runs.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily))])
     assert len(loaded["interactions"]) == 2
-
 
 
 @pytest.mark.parametrize("files, message", [
