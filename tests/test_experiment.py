@@ -347,7 +347,9 @@ def test_a_study_with_its_own_d4a_table_or_config_starts_from_an_initial_policy_
     import cacas.experiment
     from cacas.d4a import D4A, load_d4a
 
-    own = D4A(load_d4a().table[:, ::-1].copy(), source="mine.csv") if what == "d4a" else small_config
+    table = load_d4a().table.copy()
+    table[:, 1:] = table[:, :0:-1]  # the spoken actions' answers reversed; "do nothing" stays unanswered
+    own = D4A(table, source="mine.csv") if what == "d4a" else small_config
     seen = []
 
     class Stop(Exception):
