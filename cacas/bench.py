@@ -8,7 +8,8 @@ Every figure is a median over repeats, taken after one warm-up call:
 * ``decide_ms``: one robot decision, context names to action through the reshaped policy (Eq. 5,
   Eq. 4), as the tablet page does it (``dialog_state`` then ``policy.decide``);
 * ``recognize_ms``: one 1-s WAV clip from file to activity (load, MFCC, CNN; Section IV-A);
-* ``simulate_study_s``: 8 participants x 7 days x the paper's 4 methods (``cacas simulate``);
+* ``simulate_study_s``: 8 participants x 7 days x the paper's 4 methods, one worker process per
+  core (as ``cacas simulate`` runs it);
 * ``sac_updates_per_s`` / ``reference_updates_per_s``: SAC gradient updates per second of
   :class:`cacas.sac.DiscreteSAC` and of :class:`ReferenceSAC` (a plain PyTorch implementation of
   the same Eq. 1-3 with the same sizes), timed in interleaved blocks in the same run;
@@ -325,6 +326,7 @@ def run_bench(cfg: BenchConfig | None = None, progress: Progress | None = None) 
     from cacas.adaptation import CACAAConfig, adapt_policy, load_initial_policy, train_initial_policy
     from cacas.d4a import load_d4a
     from cacas.experiment import PAPER_METHODS, simulate_study
+    from cacas.parallel import default_jobs
     from cacas.simulator import dialog_state
 
     d4a = load_d4a()
@@ -393,9 +395,10 @@ def run_bench(cfg: BenchConfig | None = None, progress: Progress | None = None) 
         notes.append(f"note: simulate_study_s for {cfg.simulate_participants} participant(s) x "
                      f"{cfg.simulate_days} day(s), not 8 x 7 (quick run)")
 
-    def study():
+    def study():  # as `cacas simulate` runs it: one worker process per core (the library's default is 1)
         simulate_study(people, days=cfg.simulate_days, methods=PAPER_METHODS, seed=0, d4a=d4a,
-                       initial_policy=initial, config=None if cacaa == CACAAConfig() else cacaa)
+                       initial_policy=initial, config=None if cacaa == CACAAConfig() else cacaa,
+                       jobs=default_jobs())
 
     not_target_size = []
     if cfg.short_training:  # adaptations shortened: not the adaptation the target is about

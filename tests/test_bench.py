@@ -16,9 +16,19 @@ from cacas.sac import DiscreteSAC
 from unwritable import unwritable_folder  # noqa: F401
 
 
-def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys):
+def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys, monkeypatch):
+    import cacas.experiment
+    from cacas.parallel import default_jobs
+
+    jobs, real = [], cacas.experiment.simulate_study
+
+    def simulate_study(*args, **kwargs):  # simulate_study_s is timed as `cacas simulate` runs: a worker per core
+        jobs.append(kwargs.get("jobs"))
+        return real(*args, **kwargs)
+    monkeypatch.setattr(cacas.experiment, "simulate_study", simulate_study)
     out = tmp_path / "bench.json"
     assert main(["bench", "--quick", "--quiet", "--json", str(out)]) == 0
+    assert jobs and set(jobs) == {default_jobs()}  # it was 1, the library's default, since commit 0413037
     printed = capsys.readouterr().out
     data = json.loads(out.read_text())
     for key, _, _ in METRICS:
