@@ -61,9 +61,12 @@ class D4A:
             raise CacasError("a D4A table holds a value other than ACCEPT, REJECT or OTHERS (0, 1, 2)")
         answered = np.flatnonzero(t[:, spaces.DO_NOTHING_ACTION] != spaces.OTHERS)
         if len(answered):
-            raise CacasError(f"a D4A table's 'do nothing' column holds "
-                             f"{spaces.RESPONSES[int(t[answered[0], spaces.DO_NOTHING_ACTION])]!r} for "
-                             f"{spaces.ACTIVITIES[int(answered[0])]!r}; valid: {DO_NOTHING_RULE}")
+            where = f"{self.source}: " if self.source else ""
+            first = int(answered[0])
+            more = f" (and {len(answered) - 1} more activities)" if len(answered) > 1 else ""
+            raise CacasError(f"{where}a D4A table's 'do nothing' column holds "
+                             f"{spaces.RESPONSES[int(t[first, spaces.DO_NOTHING_ACTION])]!r} for "
+                             f"{spaces.ACTIVITIES[first]!r}{more}; valid: {DO_NOTHING_RULE}")
         t = t.astype(np.int8, copy=True)
         t.setflags(write=False)
         object.__setattr__(self, "table", t)
@@ -194,7 +197,7 @@ def parse_d4a(text: str, source: str = "D4A file") -> D4A:
                 raise CacasError(f"{source}, line {line}, column {col} ({name} / {spaces.ACTIONS[action]}): "
                                  f"{cell.strip()!r} is not a response; valid: {valid_cells}")
             if action == spaces.DO_NOTHING_ACTION and value != spaces.RESPONSES[spaces.OTHERS]:
-                raise CacasError(f"{source}, line {line}, column {col} ({name} / do nothing): {value!r}; "
+                raise CacasError(f"{source}, line {line}, column {col} ({name} / do nothing): {cell.strip()!r}; "
                                  f"valid: {DO_NOTHING_RULE}")
             table[act, action] = spaces.RESPONSES.index(value)
     missing_rows = [spaces.ACTIVITIES[a] for a in range(spaces.N_ACTIVITIES) if a not in seen]

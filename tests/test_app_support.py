@@ -4,7 +4,6 @@ import pandas as pd
 import pytest
 
 from cacas import app_support, records
-from cacas.errors import CacasError
 from cacas.preferences import Preference
 from cacas.store import StudyStore
 from cacas.study_day import STUDY_DAYS

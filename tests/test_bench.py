@@ -18,9 +18,10 @@ from unwritable import unwritable_folder  # noqa: F401
 
 def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys, monkeypatch):
     import cacas.experiment
-    from cacas.parallel import default_jobs
+    import cacas.parallel
 
     jobs, real = [], cacas.experiment.simulate_study
+    monkeypatch.setattr(cacas.parallel, "default_jobs", lambda: 3)  # not 1 even on a one-core machine
 
     def simulate_study(*args, **kwargs):  # simulate_study_s is timed as `cacas simulate` runs: a worker per core
         jobs.append(kwargs.get("jobs"))
@@ -28,7 +29,7 @@ def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys, mon
     monkeypatch.setattr(cacas.experiment, "simulate_study", simulate_study)
     out = tmp_path / "bench.json"
     assert main(["bench", "--quick", "--quiet", "--json", str(out)]) == 0
-    assert jobs and set(jobs) == {default_jobs()}  # it was 1, the library's default, since commit 0413037
+    assert jobs and set(jobs) == {3}  # one per core (default_jobs); it was 1, the library's default, since commit 0413037
     printed = capsys.readouterr().out
     data = json.loads(out.read_text())
     for key, _, _ in METRICS:

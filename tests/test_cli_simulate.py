@@ -66,6 +66,26 @@ def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needle
     assert not (tmp_path / "out").exists()  # nothing written
 
 
+def test_a_d4a_file_answering_do_nothing_exits_2_naming_the_cell(tmp_path, capsys):
+    """design.md: a bad file is exit code 2 and one line naming it; the robot doing nothing gets no
+    response, so a D4A file answering its column is refused before any work."""
+    from cacas.d4a import default_d4a_path
+
+    lines = default_d4a_path().read_text().splitlines()
+    cells = lines[6].split(",")  # fall down; column 2 is "do nothing"
+    assert cells[0] == "fall down" and cells[1] == "others"
+    cells[1] = "Accept"
+    lines[6] = ",".join(cells)
+    (tmp_path / "mine.csv").write_text("\n".join(lines) + "\n")
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--d4a", str(tmp_path / "mine.csv"),
+                 "--out", str(tmp_path / "out"), "--quiet"])
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1 and "Traceback" not in err
+    assert "mine.csv, line 7, column 2 (fall down / do nothing): 'Accept'; valid: 'others' only" in lines[0]
+    assert not (tmp_path / "out").exists()
+
+
 def test_no_traceback_from_the_installed_command(tmp_path):
     bad = write(tmp_path, bad_pref(scene=["garage"]))
     proc = subprocess.run([sys.executable, "-m", "cacas", "simulate", "--personas", str(bad), "--out",

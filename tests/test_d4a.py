@@ -216,7 +216,7 @@ def test_do_nothing_cell_other_than_others_is_refused(tmp_path):
     cells[1] = "Accept"
     lines[6] = ",".join(cells)
     msg = error_of(write(tmp_path, lines))
-    assert "line 7, column 2 (fall down / do nothing): 'accept'" in msg
+    assert "line 7, column 2 (fall down / do nothing): 'Accept'" in msg  # as written, as other cells' messages
     assert "valid: 'others' only: the robot doing nothing gets no response" in msg
 
 
@@ -225,6 +225,9 @@ def test_table_object_refuses_an_answered_do_nothing(d4a):
     table[act("snore"), acts("do nothing")] = spaces.REJECT
     with pytest.raises(CacasError, match=r"'do nothing' column holds 'reject' for 'snore'; valid: 'others' only"):
         D4A(table)
+    table[act("cough"), acts("do nothing")] = spaces.ACCEPT
+    with pytest.raises(CacasError, match=r"^mine\.csv: a D4A table's 'do nothing' column holds .* \(and 1 more activities\)"):
+        D4A(table, source="mine.csv")
 
 
 def test_table_object_validates_shape_and_values():

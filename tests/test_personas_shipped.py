@@ -22,7 +22,7 @@ INDEPENDENT_S = Path(__file__).parent / "data" / "independent_personas_s.json"
 #: could glance at one example file for the format): T01-T08 and U01-U08.
 INDEPENDENT_T = Path(__file__).parent / "data" / "independent_personas_t.json"
 INDEPENDENT_U = Path(__file__).parent / "data" / "independent_personas_u.json"
-#: One more in session 22 (V01-V08), by a helper told the format, the paper and the issue, to check
+#: One more (V01-V08, commit 9a2206d), by a helper told the format, the paper and the issue, to check
 #: the issue's targets on personas nobody had tuned for; four "do nothing" preferences.
 INDEPENDENT_V = Path(__file__).parent / "data" / "independent_personas_v.json"
 FILES = {"example": (EXAMPLE, 8, "P"), "holdout": (HOLDOUT, 6, "H")}
