@@ -19,6 +19,7 @@ import pandas as pd
 import torch
 
 from cacas import nets, records, spaces
+from cacas.checkpoints import load_checkpoint
 from cacas.errors import CacasError
 from cacas.sac import DiscreteSAC
 
@@ -222,7 +223,7 @@ class BanditPolicy:
 def policy_from_bytes(data: bytes):
     """Load any policy written by ``to_bytes``; bytes that are not a policy raise CacasError."""
     try:
-        d = torch.load(io.BytesIO(data), weights_only=False)
+        d = load_checkpoint(data)  # weights only: a file from a bundle cannot run code
     except Exception as exc:  # noqa: BLE001 - any unpickling failure means "not a policy file"
         raise CacasError(f"not a CACAS policy file ({exc.__class__.__name__})") from None
     kinds = {ReshapedPolicy.kind: ReshapedPolicy, BanditPolicy.kind: BanditPolicy}

@@ -410,7 +410,9 @@ class DiscreteSAC:
 
     @classmethod
     def load(cls, path) -> "DiscreteSAC":
-        return cls.from_state_dict(torch.load(path, weights_only=False))
+        from cacas.checkpoints import load_checkpoint
+
+        return cls.from_state_dict(load_checkpoint(path))
 
     def to_bytes(self) -> bytes:
         buf = io.BytesIO()
