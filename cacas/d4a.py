@@ -63,7 +63,8 @@ class D4A:
         if len(answered):
             where = f"{self.source}: " if self.source else ""
             first = int(answered[0])
-            more = f" (and {len(answered) - 1} more activities)" if len(answered) > 1 else ""
+            n = len(answered) - 1
+            more = f" (and {n} more {'activity' if n == 1 else 'activities'})" if n else ""
             raise CacasError(f"{where}a D4A table's 'do nothing' column holds "
                              f"{spaces.RESPONSES[int(t[first, spaces.DO_NOTHING_ACTION])]!r} for "
                              f"{spaces.ACTIVITIES[first]!r}{more}; valid: {DO_NOTHING_RULE}")

@@ -226,8 +226,12 @@ def test_table_object_refuses_an_answered_do_nothing(d4a):
     with pytest.raises(CacasError, match=r"'do nothing' column holds 'reject' for 'snore'; valid: 'others' only"):
         D4A(table)
     table[act("cough"), acts("do nothing")] = spaces.ACCEPT
-    with pytest.raises(CacasError, match=r"^mine\.csv: a D4A table's 'do nothing' column holds .* \(and 1 more activities\)"):
+    with pytest.raises(CacasError, match=r"^mine\.csv: a D4A table's 'do nothing' column holds 'accept' for 'cough' "
+                                          r"\(and 1 more activity\); valid"):
         D4A(table, source="mine.csv")
+    table[act("yawn"), acts("do nothing")] = spaces.ACCEPT
+    with pytest.raises(CacasError, match=r"\(and 2 more activities\); valid"):
+        D4A(table)
 
 
 def test_table_object_validates_shape_and_values():
