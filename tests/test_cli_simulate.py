@@ -288,13 +288,15 @@ def test_an_error_after_sigterm_is_said_as_the_termination(tmp_path, capsys, mon
     assert not (tmp_path / "new").exists()
 
 
-def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys):
+@pytest.mark.parametrize("name, said", [("Anna Smith", "participant code 'Anna Smith' is invalid"),
+                                        ("0612345678", "participant code '0612345678' looks like a phone number")])
+def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys, name, said):
     """Walkthrough: "Anna Smith" ran without a word, though the study database refuses names as
-    codes (design.md: pseudonymous codes only). The file is the researcher's: it runs, with a note."""
-    people = {"participants": [dict(GOOD["participants"][0], id="Anna Smith")]}
+    codes (design.md: pseudonymous codes only), and phone numbers too. The file is the
+    researcher's: it runs, with a note."""
+    people = {"participants": [dict(GOOD["participants"][0], id=name)]}
     code = main(["simulate", "--personas", str(write(tmp_path, people)), "--out", str(tmp_path / "out"),
                  "--days", "1", "--interactions", "2", "--methods", "nn", "--quiet"])
     err = capsys.readouterr().err
     assert code == 0 and (tmp_path / "out" / "daily.csv").exists()
-    assert "note: " in err and "participant code 'Anna Smith' is invalid; valid: a pseudonymous code" in err \
-        and "never a name" in err
+    assert "note: " in err and said in err and "valid: a pseudonymous code" in err and "never a name" in err

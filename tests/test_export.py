@@ -358,6 +358,8 @@ def _rewrite(bundle, out, table, change):
         '"action": "pain check"', '"action": "pain check", "description": "mail anna@example.com"')),
      r"preferences.csv, row 2: .*holds what looks like contact details \('anna@example.com'\)"),
     ("days", lambda df: df.assign(day="two"), "days.csv, row 2: 'two' is not a whole number"),
+    ("participants", lambda df: df.assign(participant=df["participant"].where(df.index > 0, "0612345678")),
+     r"participants.csv, row 2: participant code '0612345678' looks like a phone number or a date"),
     ("interactions", lambda df: df.assign(hour="7h15"), "interactions.csv, row 2: '7h15' is not a number"),
     ("adaptations", lambda df: df.assign(parameters="{epochs: 3}"),
      r"adaptations.csv, row 2: not valid JSON \(Expecting property name enclosed in double quotes\)"),

@@ -237,6 +237,21 @@ def test_a_study_name_with_a_phone_number_is_refused(store):
     assert store.create_study("pilot 2026-11 wave 2") is not None  # dates and numbers of waves are names
 
 
+@pytest.mark.parametrize("code", ["0612345678", "20261121", "06-12-34-56-78"])
+def test_a_new_participant_code_that_looks_like_a_phone_number_or_a_date_is_refused(store, code):
+    """A code is in every export: one that is a phone number or a birth date is not pseudonymous.
+    Refused where a participant is added (form, persona import); codes of the example kind pass."""
+    before = snapshot(store.path)
+    message = rf"participant code '{code}' looks like a phone number or a date, which could identify the participant"
+    with pytest.raises(CacasError, match=message):
+        store.add_participant(code)
+    with pytest.raises(CacasError, match=rf"^persona file: {message}"):
+        store.import_personas({"participants": [{"id": code, "preferences": [COUGH]}]})
+    assert snapshot(store.path) == before
+    for fine in ("P09", "S20261121", "PILOT-0001", "T1234567"):
+        assert store.add_participant(fine).code == fine
+
+
 def test_notes_that_are_too_long_or_not_text_are_refused(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="^notes is 2001 characters long; valid: at most 2000$"):

@@ -93,7 +93,7 @@ def run(args) -> int:
     people = load_personas(args.personas)
     for person in people:  # read as it is (the researcher's file), but the study database would refuse it
         try:
-            v.code(person.id)
+            v.new_code(person.id)
         except CacasError as exc:
             print(f"cacas simulate: note: {args.personas}: {exc}; the study database refuses such codes",
                   file=sys.stderr)

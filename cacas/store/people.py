@@ -90,7 +90,7 @@ class PeopleMixin:
                         study: str = DEFAULT_STUDY) -> ParticipantInfo:
         """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
         names). ``age_range`` like "25-34" or "65+"; a code already in use raises CacasError."""
-        code, age_range = v.code(code), v.age_range(age_range)
+        code, age_range = v.new_code(code), v.age_range(age_range)
         notes, study = v.text(notes, "notes"), v.study(study)
 
         def fn(c):

@@ -132,7 +132,7 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     studies = _rows(tables, "studies", lambda r: (v.study(r["name"]), v.text(r["description"], "description"),
                                                   r["created_at"]))
     people = _rows(tables, "participants", lambda r: (
-        v.code(r["participant"]), r["study"], v.age_range(r["age_range"]), v.text(r["notes"], "notes"),
+        v.new_code(r["participant"]), r["study"], v.age_range(r["age_range"]), v.text(r["notes"], "notes"),
         _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]))
 
     def pref_row(r):

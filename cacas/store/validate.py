@@ -61,12 +61,25 @@ def code(value: Any) -> str:
     return value.strip()
 
 
+def new_code(value: Any) -> str:
+    """A code for a participant being added (a form, a persona import, a bundle): :func:`code`,
+    and not a phone number or a date a contact check finds (:func:`contact_details`:
+    "0612345678", "20261121"), which the code would carry into every export. Codes already in a
+    study keep working through :func:`code`."""
+    checked = code(value)
+    found = contact_details(checked)
+    if found:
+        raise CacasError(f"participant code {checked!r} looks like a phone number or a date, which could identify "
+                         f"the participant; valid: {CODE_HINT}")
+    return checked
+
+
 def persona_codes(people, source: str | None = None) -> None:
-    """Every participant of a persona file has a pseudonymous code (:func:`code`); the error
+    """Every participant of a persona file has a pseudonymous code (:func:`new_code`); the error
     names the file."""
     for p in people:
         try:
-            code(p.id)
+            new_code(p.id)
         except CacasError as exc:
             raise CacasError(f"{source or 'persona file'}: {exc}") from None
 
