@@ -45,6 +45,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from cacas import nets, spaces
+from cacas.checkpoints import load_checkpoint
 from cacas.errors import CacasError
 
 
@@ -410,9 +411,7 @@ class DiscreteSAC:
 
     @classmethod
     def load(cls, path) -> "DiscreteSAC":
-        from cacas.checkpoints import load_checkpoint
-
-        return cls.from_state_dict(load_checkpoint(path))
+        return cls.from_state_dict(load_checkpoint(path))  # weights only: runs no code
 
     def to_bytes(self) -> bytes:
         buf = io.BytesIO()

@@ -89,7 +89,8 @@ class PeopleMixin:
     def add_participant(self, code: str, age_range: str = "", notes: str = "",
                         study: str = DEFAULT_STUDY) -> ParticipantInfo:
         """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
-        names). ``age_range`` like "25-34" or "65+"; a code already in use raises CacasError."""
+        names, no phone number or date: :func:`validate.new_code`). ``age_range`` like "25-34" or
+        "65+"; a code already in use raises CacasError."""
         code, age_range = v.new_code(code), v.age_range(age_range)
         notes, study = v.text(notes, "notes"), v.study(study)
 
