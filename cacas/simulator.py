@@ -58,8 +58,10 @@ class ResponseModel:
         a = np.asarray(actions)
         d4a = self.d4a[s[:, 0], a]
         pref = self.preferred_actions(s)
-        by_pref = np.where(a == pref, spaces.ACCEPT,
-                           np.where(a == spaces.DO_NOTHING_ACTION, spaces.OTHERS, spaces.REJECT))
+        # the robot doing nothing gets no response, also where the participant wants quiet (as a
+        # simulated study day answers it: experiment.simulated_day)
+        by_pref = np.where(a == spaces.DO_NOTHING_ACTION, spaces.OTHERS,
+                           np.where(a == pref, spaces.ACCEPT, spaces.REJECT))
         return np.where(pref >= 0, by_pref, d4a)
 
 

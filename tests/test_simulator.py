@@ -135,3 +135,16 @@ def test_preference_states_without_tasks_keep_the_same_random_stream():
         expected[idx] = c[rng.integers(len(c), size=len(idx))]
     ctx = preference_states(P, 50, np.random.default_rng(7))
     assert (ctx[:, :4] == expected).all() and (ctx[:, 4] == spaces.DO_NOTHING_ACTION).all()
+
+
+def test_generate_response_gives_no_response_to_doing_nothing_where_quiet_is_preferred():
+    """Doing nothing gets "others" (no response) also where the participant's preference is "do
+    nothing", as a simulated study day answers it (it was "accept": a reward for silence that the
+    participant never gives)."""
+    quiet = parse_personas({"participants": [{"id": "P01", "preferences": [
+        {"activity": ["snore"], "action": "do nothing"}]}]})[0]
+    rm = ResponseModel(load_d4a().table, quiet)
+    snore = [spaces.activity_index("snore"), spaces.scene_index("bedroom"), 1, 0, 0, 0, 2]
+    chat = spaces.action_index("chitchat")
+    out = rm.respond(np.array([snore, snore]), np.array([spaces.DO_NOTHING_ACTION, chat]))
+    assert list(out) == [spaces.OTHERS, spaces.REJECT]
