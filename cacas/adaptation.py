@@ -215,7 +215,8 @@ def load_initial_policy(progress: Progress | None = None, path: str | Path | Non
 
 
 def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
-    """The recorded data points as SAC transitions (s, a, r, s'): a robot action answered with
+    """The recorded data points (:func:`cacas.records.is_recorded`, the data every method adapts
+    from) as SAC transitions (s, a, r, s'): a robot action answered with
     accept / reject; for a user-initiated one the request (+1) and the robot's own action (-1):
     "do nothing" when it stayed quiet (Section V-B), the proposal the participant answered with
     a request instead otherwise. s' is the
@@ -231,13 +232,14 @@ def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
     same_day = np.append(df["day"].to_numpy()[1:] == df["day"].to_numpy()[:-1], False)
     nxt = np.where(same_day, nxt, np.arange(len(df)))
     s, a, r, s2, days = [], [], [], [], []
+    recorded = records.is_recorded(df).to_numpy()  # the data every method adapts from
     for i, row in df.iterrows():
+        if not recorded[i]:
+            continue
         if row["type"] == records.USER_INITIATED:
             pairs = [(spaces.action_index(row["user_action"]), 1.0), (spaces.action_index(row["robot_action"]), -1.0)]
-        elif row["robot_action"] != "do nothing" and row["response"] in ("accept", "reject"):
-            pairs = [(spaces.action_index(row["robot_action"]), spaces.REWARDS[row["response"]])]
         else:
-            continue
+            pairs = [(spaces.action_index(row["robot_action"]), spaces.REWARDS[row["response"]])]
         for act, rew in pairs:
             s.append(x[i]); a.append(act); r.append(rew); s2.append(x[nxt[i]]); days.append(row["day"])  # noqa: E702
     if not s:

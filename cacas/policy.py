@@ -160,7 +160,8 @@ class BanditPolicy:
         self.rng = np.random.default_rng(seed)
 
     def fit(self, interactions: pd.DataFrame) -> "BanditPolicy":
-        """Counts from the user data: accepted actions win; rejected ones lose, and so does the
+        """Counts from the recorded user data (:func:`cacas.records.is_recorded`, as every method
+        adapts from): accepted actions win; rejected ones lose, and so does the
         robot's own action when the participant asked for something ("do nothing" when it stayed
         quiet, the proposal they answered with a request otherwise)."""
         self.wins[:] = 0
@@ -168,12 +169,16 @@ class BanditPolicy:
         if len(interactions) == 0:
             return self
         s = records.policy_states(interactions)
-        for (act, _, slot, *_), tp, ra, resp, ua in zip(s, interactions["type"], interactions["robot_action"],
-                                                         interactions["response"], interactions["user_action"]):
+        recorded = records.is_recorded(interactions)  # the data every method adapts from
+        for (act, _, slot, *_), tp, ra, resp, ua, ok in zip(s, interactions["type"], interactions["robot_action"],
+                                                             interactions["response"], interactions["user_action"],
+                                                             recorded):
+            if not ok:
+                continue
             if tp == records.USER_INITIATED:
                 self.wins[act, slot, spaces.action_index(ua)] += 1
                 self.losses[act, slot, spaces.action_index(ra)] += 1
-            elif resp in ("accept", "reject") and ra != "do nothing":
+            else:
                 (self.wins if resp == "accept" else self.losses)[act, slot, spaces.action_index(ra)] += 1
         return self
 

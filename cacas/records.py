@@ -59,9 +59,10 @@ INTERACTION_COLUMNS = [
 #: Columns of daily.csv, in order: design.md's contract first. ``interactions`` counts the day's
 #: recorded interactions, as the paper does (Section V-B: "If the user does not respond, the
 #: interaction is not recorded"): a robot action answered with accept or reject, or a
-#: user-initiated action. ``success_rate`` is of those (Fig. 3). ``unanswered`` counts the day's
-#: other moments: a proposal left unanswered, or the robot quiet and nothing asked (where the
-#: participant wants to be left alone, that is the right outcome, and not an interaction).
+#: user-initiated action (during a sound activity: IV-C.1). ``success_rate`` is of those (Fig. 3).
+#: ``unanswered`` counts the day's other moments: a proposal left unanswered, or the robot quiet
+#: and nothing asked (where the participant wants to be left alone, that is the right outcome, and
+#: not an interaction), or a request made with no sound activity (activity "do nothing").
 #: ``success_ceiling`` (closed-loop rows, like ``success_rate``): of the day's recorded
 #: interactions, the share in whose context a described preference names an action other than
 #: "do nothing", i.e. the success rate a robot proposing the described preference could have had
@@ -87,20 +88,30 @@ BY_PREFERENCE_COLUMNS = [
 ]
 
 
+def is_recorded_request(interactions: pd.DataFrame) -> pd.Series:
+    """A user-initiated action the paper records (IV-C.1: the request is confirmed and recorded
+    "if the user intent belongs to one of the Agent Actions ... except do nothing and there is a
+    sound activity"): a type_2 row whose activity is not "do nothing". A request made with no
+    sound activity is carried out and saved, but is no user data point, for any method."""
+    return (interactions["type"] == USER_INITIATED) & (interactions["activity"] != "do nothing")
+
+
 def feedback_points(interactions: pd.DataFrame) -> pd.Series:
     """User data points each interaction gives (Section V-B): a robot action answered with
     accept or reject gives 1; a user-initiated action gives 2 (the request accepted, "do
-    nothing" rejected); no response, or the robot doing nothing unanswered, gives 0."""
+    nothing" rejected); no response, the robot doing nothing unanswered, or a request made with
+    no sound activity (:func:`is_recorded_request`), gives 0."""
     t1 = (interactions["type"] == ROBOT_INITIATED) & (interactions["robot_action"] != "do nothing") \
         & interactions["response"].isin(["accept", "reject"])
-    t2 = interactions["type"] == USER_INITIATED
-    return t1.astype(int) + 2 * t2.astype(int)
+    return t1.astype(int) + 2 * is_recorded_request(interactions).astype(int)
 
 
 def is_recorded(interactions: pd.DataFrame) -> pd.Series:
     """The interaction is one the paper records (Section V-B): the participant answered the
-    robot's action (accept or reject) or initiated one. A proposal left unanswered, or the robot
-    doing nothing with nothing asked, is not recorded: it gives no user data point."""
+    robot's action (accept or reject) or initiated one during a sound activity. A proposal left
+    unanswered, the robot doing nothing with nothing asked, or a request made with no sound
+    activity, is not recorded: it gives no user data point. Every method adapts from the
+    recorded interactions only."""
     return feedback_points(interactions) > 0
 
 
@@ -177,7 +188,7 @@ def daily_table(interactions: pd.DataFrame, accuracy: pd.DataFrame | None = None
         ceiling = preferred_action_contexts(interactions, preferred or {})
         df = interactions.assign(_success=is_success(interactions).astype(int),
                                  _points=feedback_points(interactions),
-                                 _t2=(interactions["type"] == USER_INITIATED).astype(int),
+                                 _t2=is_recorded_request(interactions).astype(int),
                                  _recorded=recorded.astype(int), _unanswered=(~recorded).astype(int),
                                  _ceiling=np.where(recorded, ceiling, np.nan))
         g = df.groupby(keys, sort=True)

@@ -160,8 +160,9 @@ class DayStatus:
 
     @property
     def unanswered_today(self) -> int:
-        """Saved on ``day`` without a data point: a proposal left unanswered, or the robot quiet
-        with nothing asked (saved, but not recorded: Section V-B)."""
+        """Saved on ``day`` without a data point: a proposal left unanswered, the robot quiet
+        with nothing asked, or a request made with no sound activity (saved, but not recorded:
+        Section V-B, IV-C.1)."""
         return self.interactions_today - self.recorded_today
 
     @property

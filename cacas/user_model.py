@@ -83,6 +83,11 @@ class UserData:
             su = ctx + (int(user_action),)  # S_u[-1] = UR
             for new in self.generate_new(su):  # the 13 other actions: never this S_u itself
                 self._add(new, spaces.REJECT, "D_g")
+            if robot_action not in (spaces.DO_NOTHING_ACTION, int(user_action)):
+                # the participant answered the robot's proposal by asking for something else (the
+                # tablet's "Or ask the robot yourself"): an observed answer to it, which replaces an
+                # earlier one in this S_u as any D_f sample does (a D_g reject would not)
+                self._add(ctx + (int(robot_action),), spaces.REJECT, "D_f")
             self._add(su, spaces.ACCEPT, "D_i")
         else:
             raise ValueError(f"unknown conversation type {tp!r}; valid: type_1, type_2")

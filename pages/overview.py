@@ -47,7 +47,8 @@ st.dataframe(
         "success rate so far": st.column_config.ProgressColumn(
             "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
             "interactions so far that count: proposals answered and requests (Fig. 3; as in the paper, an "
-            "unanswered proposal, or the robot quiet with nothing asked, is saved but not counted)",
+            "unanswered proposal, the robot quiet with nothing asked, or a request while doing nothing (no sound "
+            "activity, IV-C.1), is saved but not counted)",
             min_value=0.0, max_value=100.0, format="%.0f%%"),
         "interactions today": st.column_config.NumberColumn(
             "today", help=f"Interactions on the open day that count (answered, or asked for; 0 once the day is "

@@ -319,8 +319,8 @@ done = status.interactions_today  # saved today: the next interaction's number i
 unanswered = status.unanswered_today
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
             text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
-                 "today" + (f" (and {unanswered} not counted: no response, or nothing needed while the robot was "
-                            "quiet)" if unanswered and not tablet else ""))
+                 "today" + (f" (and {unanswered} not counted: no response, nothing needed while the robot was "
+                            "quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
 if status.recorded_today >= TARGET_INTERACTIONS:
     st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
 

@@ -208,6 +208,30 @@ def test_orl_transitions_reject_the_robots_own_action_of_a_request():
         ("pain check", 1.0), ("do nothing", -1.0), ("pain check", 1.0), ("chitchat", -1.0)]
 
 
+def test_orl_and_the_bandit_do_not_learn_a_request_made_with_no_sound_activity():
+    """Every method adapts from the same data: a request made while doing nothing (no sound
+    activity) is not in D (IV-C.1), and ORL's transitions and the bandit's counts leave it out too
+    (ORL made two transitions of it and the bandit counted it)."""
+    from cacas.adaptation import orl_transitions
+    from cacas.d4a import load_d4a
+    from cacas.policy import BanditPolicy
+    from cacas.user_model import UserData
+
+    base = {"participant": "P01", "method": "cacas", "day": 1, "time": "08:00", "activity": "do nothing",
+            "scene": "bedroom", "time_slot": 4, "interval": 10, "task": "do nothing",
+            "previous_action": "do nothing", "previous_response": "others", "type": "type_2",
+            "response": "accept", "user_action": "chitchat"}
+    idle = pd.DataFrame([dict(base, index=1, robot_action="do nothing"), dict(base, index=2, robot_action="pain check")],
+                        columns=records.INTERACTION_COLUMNS)
+    assert len(UserData.from_interactions(idle)) == 0
+    assert len(orl_transitions(idle)[1]) == 0
+    bandit = BanditPolicy(load_d4a().table).fit(idle)
+    assert bandit.wins.sum() == 0 and bandit.losses.sum() == 0
+    during_a_cough = idle.assign(activity="cough")  # the same requests during a sound activity are learnt
+    assert len(orl_transitions(during_a_cough)[1]) == 4
+    assert BanditPolicy(load_d4a().table).fit(during_a_cough).wins.sum() == 2
+
+
 def test_orl_transitions_of_days_without_an_answer_are_empty_batches():
     """A proposal left unanswered or the robot quiet with nothing asked is no data point: days of
     only those (or no interaction) give empty arrays of the transitions' shapes, which the

@@ -14,11 +14,11 @@ from cacas.records import (DAILY_COLUMNS, ROBOT_INITIATED, USER_INITIATED, csv_b
 T1, T2 = ROBOT_INITIATED, USER_INITIATED
 
 
-def frame(rows):
+def frame(rows, activity="cough"):
     """Interactions with the columns the metrics read: participant, method, day, type,
-    robot_action, response, user_action."""
+    robot_action, response, user_action, and the activity (``activity`` on every row)."""
     return pd.DataFrame(rows, columns=["participant", "method", "day", "type", "robot_action", "response",
-                                       "user_action"])
+                                       "user_action"]).assign(activity=activity)
 
 
 # P01 day 1 under CACAS; day 2 under a baseline's policy (nn) put in force; P02 day 1 under CACAS
@@ -48,6 +48,18 @@ def test_an_interaction_is_recorded_only_when_the_participant_answered_or_asked(
     """Section V-B: "If the user does not respond, the interaction is not recorded"; the robot
     doing nothing with nothing asked gives no answer either."""
     assert is_recorded(STUDY).tolist() == [True, True, False, False, True, True, True, True]
+
+
+def test_a_request_made_with_no_sound_activity_is_no_data_point():
+    """IV-C.1: a request is recorded "if ... there is a sound activity": asked while doing nothing
+    (activity "do nothing"), it is saved but gives no point, is not an interaction of the day and
+    counts among the unanswered, for every method (UMA does not record it either)."""
+    idle = frame([("P01", "cacas", 1, T2, "do nothing", "accept", "chitchat"),
+                  ("P01", "cacas", 1, T2, "pain check", "accept", "chitchat")], activity="do nothing")
+    assert feedback_points(idle).tolist() == [0, 0] and not is_recorded(idle).any()
+    day = daily_table(pd.concat([STUDY.iloc[:2], idle]))
+    assert day[["interactions", "user_initiated", "feedback", "unanswered"]].iloc[0].tolist() == [2, 0, 2, 2]
+    assert day["success_rate"].iloc[0] == 1 / 2
 
 
 def test_success_rate_is_of_the_recorded_interactions():

@@ -74,6 +74,22 @@ def test_an_observed_answer_is_not_replaced_by_a_generated_reject():
     assert len(d.subset("D_g")) == 12 and len(d) == 14
 
 
+def test_a_proposal_answered_by_a_request_is_an_observed_reject_that_replaces_an_earlier_accept():
+    """A request made in answer to the robot's proposal (the tablet's "Or ask the robot yourself")
+    rejects the proposal as observed (D_f), so it replaces what the participant answered before in
+    that S_u: an accept taken back is no longer held (as a D_g reject it was kept, and MLP_policy
+    still learnt the accept)."""
+    d = UserData()
+    d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)  # day 1: pain check accepted
+    d.data_collection(STATE, records.USER_INITIATED, PAIN, spaces.ACCEPT, TIMER)  # later: a timer instead
+    assert not d.holds_accept(STATE[:5] + (PAIN,)) and d.holds_accept(STATE[:5] + (TIMER,))
+    assert [(s.su[5], s.response) for s in d.subset("D_f")] == [(PAIN, spaces.REJECT)]
+    assert len(d.subset("D_g")) == 12 and len(d) == 14  # one sample per S_u still
+    quiet = UserData()  # the robot quiet: only D_g's assumed rejects, as before
+    quiet.data_collection(STATE, records.USER_INITIATED, spaces.DO_NOTHING_ACTION, spaces.ACCEPT, TIMER)
+    assert not quiet.subset("D_f") and len(quiet.subset("D_g")) == 13
+
+
 def test_a_different_context_is_a_different_s_u():
     d = UserData()
     d.data_collection(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)

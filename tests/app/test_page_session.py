@@ -434,7 +434,8 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
     kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
     store.record_interaction("P01", day, robot_action="pain check", response="accept", **kw)
     store.record_interaction("P01", day, robot_action="chitchat", response="others", **kw)
-    for view, apart in (({}, " (and 1 not counted: no response, or nothing needed while the robot was quiet)"),
+    for view, apart in (({}, " (and 1 not counted: no response, nothing needed while the robot was quiet, "
+                             "or a request while doing nothing)"),
                         ({"view": "tablet"}, "")):  # the participant is not told their tap did not count
         at = app(PAGE, participant="P01", **view)
         no_exception(at)
