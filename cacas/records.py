@@ -293,17 +293,27 @@ def _is_text(column: pd.Series) -> bool:
 def read_csv(source, **options) -> pd.DataFrame:
     """A CSV this module wrote (or one like it), its text cells as they were before
     :func:`escape_formula`: ``pandas.read_csv`` with ``options``, then :func:`unescape_formula` on
-    every text column."""
-    df = pd.read_csv(source, **options)
+    every text column. A ``participant`` column is read as text: codes such as "007" kept their
+    digits only (7) when pandas took them for numbers."""
+    df = pd.read_csv(source, **{"dtype": {"participant": str}, **options})
     text = {col: df[col].map(unescape_formula) for col in df.columns if _is_text(df[col])}
     return df.assign(**text) if text else df
+
+
+def line_feeds(value):
+    """A text cell's line breaks as line feeds: the CSV writer (lines end in "\\n") quotes a cell
+    holding one, but not a cell holding a carriage return alone, which a reader then took for the
+    end of the row (notes saved through the library before :func:`cacas.store.validate.text` made
+    the same change: their bundle could not be imported)."""
+    return value.replace("\r\n", "\n").replace("\r", "\n") if isinstance(value, str) and "\r" in value else value
 
 
 def _csv_ready(df: pd.DataFrame) -> pd.DataFrame:
     df = whole_counts(df)
     plain = {col: df[col].map(_plain_number) for col in PLAIN_NUMBER_COLUMNS
              if col in df.columns and pd.api.types.is_float_dtype(df[col])}
-    text = {col: df[col].map(escape_formula) for col in df.columns if col not in plain and _is_text(df[col])}
+    text = {col: df[col].map(lambda x: escape_formula(line_feeds(x))) for col in df.columns
+            if col not in plain and _is_text(df[col])}
     return df.assign(**plain, **text) if plain or text else df
 
 

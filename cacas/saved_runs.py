@@ -61,7 +61,7 @@ def list_runs(root) -> list[str]:
 
 def load_daily(path) -> pd.DataFrame:
     """A daily.csv (of a run, or uploaded): checked for design.md's columns."""
-    df = pd.read_csv(path)
+    df = records.read_csv(path)
     name = getattr(path, "name", path)
     missing = [c for c in records.DAILY_CONTRACT_COLUMNS if c not in df.columns]
     if missing:

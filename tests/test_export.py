@@ -286,6 +286,26 @@ def test_text_a_spreadsheet_would_run_is_exported_escaped_and_imported_as_it_was
     s.close()
 
 
+def test_notes_with_a_lone_carriage_return_export_to_a_bundle_that_imports(tmp_path):
+    """A carriage return alone in a text cell (saved through the library before validate.text made
+    line breaks line feeds) was written unquoted: a reader took it for the row's end, and the
+    bundle could not be imported ("age range ... is invalid"). It is written as a line feed."""
+    db = tmp_path / "a.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01", "25-34")
+        s.add_participant("P02", "35-44", "second")
+    with sqlite3.connect(db) as c:  # as an older version of the library stored it
+        c.execute("UPDATE participants SET notes = ? WHERE code = 'P01'", ("line one\rline two",))
+    c.close()
+    with StudyStore(db) as s:
+        first = export.export_study(s, tmp_path / "first")
+    rows = pd.read_csv(first.tables["participants"], dtype=str, keep_default_na=False)
+    assert rows["notes"].tolist() == ["line one\nline two", "second"] and rows["age_range"].tolist() == ["25-34", "35-44"]
+    export.import_bundle(first.bundle, tmp_path / "b.sqlite")
+    with StudyStore(tmp_path / "b.sqlite") as moved:
+        assert moved.participants_frame()["notes"].tolist() == ["line one\nline two", "second"]
+
+
 def test_a_bundle_from_before_the_model_ids_imports_with_them_empty(store, tmp_path):
     """Bundles exported before schema version 2 have no sound_model / scene_model columns."""
     bundle = export.export_study(store, tmp_path / "out").bundle

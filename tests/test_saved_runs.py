@@ -171,6 +171,18 @@ def test_a_loaded_daily_csv_keeps_its_counts_whole(tmp_path):
     assert records.csv_bytes(daily).splitlines()[1].endswith(b",4,4,1")
 
 
+def test_participant_codes_of_digits_keep_their_leading_zeros(tmp_path):
+    """Codes such as 007 and 012 were read as the numbers 7 and 12 from a run's or an uploaded
+    daily.csv, by_preference.csv and interactions.csv."""
+    daily = pd.DataFrame({c: [1, 1] for c in records.DAILY_COLUMNS}).assign(participant=["007", "012"], method="cacas")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="007")
+    tables = saved_runs.load_uploaded_tables([("d.csv", _csv(daily)), ("b.csv", _csv(by_pref))])
+    assert tables["daily"]["participant"].tolist() == ["007", "012"]
+    assert tables["by_preference"]["participant"].tolist() == ["007"]
+    (tmp_path / "daily.csv").write_bytes(_csv(daily))
+    assert saved_runs.load_daily(tmp_path / "daily.csv")["participant"].tolist() == ["007", "012"]
+
+
 def test_an_uploaded_persona_file_is_checked_as_an_import_is_and_its_source_kept():
     import json
 

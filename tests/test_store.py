@@ -252,6 +252,20 @@ def test_a_new_participant_code_that_looks_like_a_phone_number_or_a_date_is_refu
         assert store.add_participant(fine).code == fine
 
 
+def test_line_breaks_in_free_text_are_kept_as_line_feeds_and_text_that_is_not_unicode_is_refused(store):
+    """A lone carriage return broke the exported CSV's rows; a lone surrogate raised
+    UnicodeEncodeError from SQLite instead of one clear message."""
+    assert store.add_participant("P02", notes="first\rsecond\r\nthird").notes == "first\nsecond\nthird"
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match=r"^notes holds a character that is not valid Unicode text \(at position 3\)"):
+        store.update_participant("P01", notes="abc\ud800")
+    with pytest.raises(CacasError, match="comments holds a character that is not valid Unicode"):
+        store.record_questionnaire("P01", 7, "\udfff")
+    with pytest.raises(CacasError, match=r"^method 'cacas\\n' is invalid"):  # was taken, and named a policy file
+        store.save_policy("P01", 0, "cacas\n", b"policy")
+    assert snapshot(store.path) == before
+
+
 def test_notes_that_are_too_long_or_not_text_are_refused(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match="^notes is 2001 characters long; valid: at most 2000$"):
@@ -405,6 +419,18 @@ def test_days_open_close_and_current(store):
     assert [(d.day, d.is_open) for d in store.days("P01")] == [(1, False), (2, True)]
     with pytest.raises(CacasError, match="no day 5"):
         store.close_day("P01", 5)
+
+
+def test_a_day_given_as_a_numpy_integer_is_closed(store):
+    """A day number read from a frame is numpy's: close_day closed nothing with it (SQLite stored no
+    match) yet logged the day closed, and an adapted day stayed open for more interactions."""
+    store.open_day("P01")
+    store.close_day("P01", np.int64(1))
+    assert [(d.day, d.is_open) for d in store.days("P01")] == [(1, False)]
+    with pytest.raises(CacasError, match="day 1 of participant P01 is closed"):
+        store.record_interaction("P01", 1, **GOOD)
+    with pytest.raises(CacasError, match="day"):
+        store.close_day("P01", 1.5)
 
 
 def test_record_interaction_all_fields(store):

@@ -53,7 +53,10 @@ class SessionsMixin:
 
     def close_day(self, participant: str, day: int) -> None:
         """Close a study day (then adapt the policy). Closing a closed day changes nothing;
-        a day that does not exist raises CacasError."""
+        a day that does not exist raises CacasError. ``day`` may be any integer, e.g. numpy's
+        from a frame (given to SQLite as it was, it matched no row: the day stayed open)."""
+        day = v.integer(day, "day", 1)
+
         def fn(c):
             pid = self._pid(c, participant)
             row = self._day_row(c, pid, participant, day)

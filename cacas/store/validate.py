@@ -18,7 +18,7 @@ import numpy as np
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.privacy import contact_details
-from cacas.records import ROBOT_INITIATED, USER_INITIATED
+from cacas.records import ROBOT_INITIATED, USER_INITIATED, line_feeds
 
 #: Pseudonymous participant codes: a letter or digit, then letters, digits, "-" or "_"; at most 16.
 CODE_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}$")
@@ -56,7 +56,7 @@ def now() -> str:
 def code(value: Any) -> str:
     if isinstance(value, str) and not value.strip():  # "participant code '' is invalid" read oddly (walkthrough)
         raise CacasError(f"the participant code is empty; valid: {CODE_HINT}")
-    if not isinstance(value, str) or not CODE_RE.match(value.strip()):
+    if not isinstance(value, str) or not CODE_RE.fullmatch(value.strip()):
         raise CacasError(f"participant code {value!r} is invalid; valid: {CODE_HINT}")
     return value.strip()
 
@@ -85,7 +85,7 @@ def persona_codes(people, source: str | None = None) -> None:
 
 
 def study(value: Any) -> str:
-    if not isinstance(value, str) or not STUDY_RE.match(value.strip()):
+    if not isinstance(value, str) or not STUDY_RE.fullmatch(value.strip()):
         raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
                          f"'.', '-' or '_'")
     found = contact_details(value)  # a study's name is in every export, as a participant's notes are
@@ -101,7 +101,7 @@ def age_range(value: Any) -> str:
     text = str(value).strip().replace(" ", "")
     if not text:
         return ""
-    m = AGE_RE.match(text)
+    m = AGE_RE.fullmatch(text)
     if not m or (m.group(2) is not None and int(m.group(1)) > int(m.group(2))):
         raise CacasError(f"age range {value!r} is invalid; valid: e.g. \"25-34\", \"65+\" or empty")
     return text
@@ -109,11 +109,19 @@ def age_range(value: Any) -> str:
 
 def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
     """Free text (notes, comments, descriptions): at most ``limit`` characters, and no contact
-    details (:func:`contact_details`)."""
+    details (:func:`contact_details`). Line breaks are kept as line feeds (a browser's text area
+    sends them so; a lone carriage return broke the exported CSV's rows), and text that is not Unicode (a lone
+    surrogate, which no file can hold) is refused."""
     if value is None:
         return ""
     if not isinstance(value, str):
         raise CacasError(f"{field} must be text, got {type(value).__name__}")
+    try:
+        value.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise CacasError(f"{field} holds a character that is not valid Unicode text (at position {exc.start}); "
+                         "valid: text as typed") from None
+    value = line_feeds(value)
     if len(value) > limit:
         raise CacasError(f"{field} is {len(value)} characters long; valid: at most {limit}")
     found = contact_details(value)
@@ -125,7 +133,7 @@ def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
 
 
 def method(value: Any) -> str:
-    if not isinstance(value, str) or not METHOD_RE.match(value):
+    if not isinstance(value, str) or not METHOD_RE.fullmatch(value):
         raise CacasError(f"method {value!r} is invalid; valid: a short lower-case name such as "
                          f"\"cacas\", \"cacas-no-pr\", \"orl\" or \"nn\"")
     return value
