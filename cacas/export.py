@@ -38,7 +38,7 @@ from cacas.errors import CacasError
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
-from cacas.store.restore import RESTORE_COLUMNS, restore
+from cacas.store.restore import RESTORE_COLUMNS, Restored, restore
 from cacas.study_day import STUDY_DAYS
 
 #: Name of the zip of all tables inside the output folder.
@@ -348,9 +348,10 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     return tables, policies
 
 
-def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
+def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     """Load a bundle written by :func:`export_study` into a NEW database at ``db_path`` and
-    return the number of interactions imported.
+    return the number of interactions imported, with notes on what was kept as the study held it
+    although the forms refuse it in new data (:func:`cacas.store.restore.restore`).
 
     Refuses (CacasError, nothing changed) if ``db_path`` exists. The database is built under a
     temporary name beside it and linked into place only when complete, so a bad bundle leaves
@@ -366,13 +367,13 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
         return _import_into(tmp, db_path, tables, policies)
 
 
-def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
+def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> Restored:
     """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``."""
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
         try:
-            count = restore(store, tables, policies)
+            restored = restore(store, tables, policies)
             for rel, data in sorted(policies.items()):
                 target = store.policy_dir / rel
                 if target.exists():
@@ -389,7 +390,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
         except FileExistsError:
             raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
         created.clear()
-        return count
+        return restored
     except BaseException:
         for p in created:
             p.unlink(missing_ok=True)
@@ -400,5 +401,5 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "next_day_accuracy",
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "by_preference_frame", "next_day_accuracy",
            "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]

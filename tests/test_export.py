@@ -243,7 +243,7 @@ def test_a_day_rolled_back_in_its_middle_is_scored_by_the_version_most_of_it_had
 def test_export_import_export_gives_the_same_tables(store, tmp_path):
     first = export.export_study(store, tmp_path / "first")
     target = tmp_path / "b" / "moved.sqlite"
-    assert export.import_bundle(first.bundle, target) == 20
+    assert export.import_bundle(first.bundle, target) == export.Restored(20, ())
     assert not [p for p in target.parent.iterdir() if p.name.startswith(".")]  # no temporary left
     with StudyStore(target) as moved:
         second = export.export_study(moved, tmp_path / "second")
@@ -292,7 +292,7 @@ def test_a_bundle_from_before_the_model_ids_imports_with_them_empty(store, tmp_p
     old = _rewrite(bundle, tmp_path / "old.zip", "interactions", lambda df: df.drop(columns=["sound_model",
                                                                                            "scene_model"]))
     target = tmp_path / "b" / "moved.sqlite"
-    assert export.import_bundle(old, target) == 20
+    assert export.import_bundle(old, target).interactions == 20
     with StudyStore(target) as moved:
         frame = moved.interactions_frame(extra=True, method=None)
     assert set(frame["sound_model"]) == {""} and set(frame["scene_model"]) == {""}
@@ -347,19 +347,11 @@ def _rewrite(bundle, out, table, change):
     # walkthrough: imported, then every tablet answer failed with a TypeError
     ("participants", lambda df: df.assign(active_policy=df["active_policy"].where(df["active_policy"] == "", "7")),
      "participant P01's policy in force is version 7, which policies.csv does not have"),
-    # data steward's audit: an edited bundle brought in contact details the forms refuse
-    ("participants", lambda df: df.assign(notes="Anna, anna.schmidt@example.com"),
-     r"participants.csv, row 2: notes contain what looks like contact details \('anna.schmidt@example.com'\)"),
-    ("questionnaire", lambda df: df.assign(comments="call me on 0612345678"),
-     r"questionnaire.csv, row 2: comments contain what looks like contact details \('0612345678'\)"),
-    ("studies", lambda df: df.assign(description="lead: +44 20 7946 0958"),
-     r"studies.csv, row 2: description contains what looks like contact details"),
-    ("preferences", lambda df: df.assign(preferences=df["preferences"].str.replace(
-        '"action": "pain check"', '"action": "pain check", "description": "mail anna@example.com"')),
-     r"preferences.csv, row 2: .*holds what looks like contact details \('anna@example.com'\)"),
     ("days", lambda df: df.assign(day="two"), "days.csv, row 2: 'two' is not a whole number"),
-    ("participants", lambda df: df.assign(participant=df["participant"].where(df.index > 0, "0612345678")),
-     r"participants.csv, row 2: participant code '0612345678' looks like a phone number or a date"),
+    ("participants", lambda df: df.assign(participant=df["participant"].where(df.index > 0, "P 01")),
+     r"participants.csv, row 2: participant code 'P 01' is invalid"),
+    ("participants", lambda df: df.assign(notes="x" * 2001),
+     r"participants.csv, row 2: notes is 2001 characters long; valid: at most 2000"),
     ("interactions", lambda df: df.assign(hour="7h15"), "interactions.csv, row 2: '7h15' is not a number"),
     ("adaptations", lambda df: df.assign(parameters="{epochs: 3}"),
      r"adaptations.csv, row 2: not valid JSON \(Expecting property name enclosed in double quotes\)"),
@@ -372,6 +364,56 @@ def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change
         export.import_bundle(bad, target)
     assert not target.exists()
     assert not target.parent.exists() or not [p for p in target.parent.rglob("*") if p.is_file()]
+
+
+def _before_the_contact_checks(monkeypatch):
+    """Let the store take what a study may hold from before the contact checks (codes that look like
+    a phone number or a date, contact details in free text), which the forms refuse now."""
+    from cacas import preferences
+    from cacas.store import validate
+
+    for module in (validate, preferences):
+        monkeypatch.setattr(module, "contact_details", lambda value: None)
+
+
+def test_a_study_holding_what_the_forms_refuse_now_is_restored_as_it_was_with_notes(tmp_path, monkeypatch):
+    """A bundle import is the restore of a backup: a code added before phone-number and date codes
+    were refused for new participants (README: such codes "keep working"), and free text saved
+    before the contact check, were refused, so the study's own export could not be imported."""
+    path = tmp_path / "a" / "study.sqlite"
+    with monkeypatch.context() as m:
+        _before_the_contact_checks(m)
+        with StudyStore(path) as s:
+            s.create_study("ward 0612345678", "lead: +44 20 7946 0958")
+            s.add_participant("P01")
+            s.add_participant("20261121", notes="Anna, anna.schmidt@example.com", study="ward 0612345678")
+            s.save_preferences("20261121", [dict(COUGH, description="mail anna@example.com")])
+            s.close_day("20261121", s.open_day("20261121"))
+            s.record_questionnaire("20261121", 7, "call me on 0612345678")
+    with StudyStore(path) as s:  # the codes keep working where the study has them
+        day = s.open_day("20261121")
+        s.record_interaction("20261121", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
+                             robot_action="pain check", response="accept")
+        first = export.export_study(s, tmp_path / "first")
+    target = tmp_path / "b" / "moved.sqlite"
+    restored = export.import_bundle(first.bundle, target)
+    assert restored.interactions == 1
+    kept = ("looks like contact details (a phone number or an e-mail address); imported as it was, as the study "
+            "held it (the forms refuse it in new data)")
+    assert restored.notes == (
+        f"studies.csv, row 3, column name: '0612345678' {kept}",
+        f"studies.csv, row 3, column description: '+44 20 7946 0958' {kept}",
+        f"participants.csv, row 2, column participant: '20261121' {kept}",
+        f"participants.csv, row 2, column notes: 'anna.schmidt@example.com' {kept}",
+        f"preferences.csv, row 2, column preferences (preference 1's description): 'anna@example.com' {kept}",
+        f"questionnaire.csv, row 2, column comments: '0612345678' {kept}")
+    with StudyStore(target) as moved:
+        assert moved.resume("20261121").total_interactions == 1
+        second = export.export_study(moved, tmp_path / "second")
+        with pytest.raises(CacasError, match="looks like a phone number or a date"):  # not for new participants
+            moved.add_participant("0612345678")
+    for name in ROUND_TRIP:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
 
 
 def test_not_a_bundle(tmp_path):
@@ -414,7 +456,7 @@ def test_times_survive_export_and_import_to_the_last_decimal(tmp_path):
         row = s.interactions_frame("P01", extra=True).iloc[0]
         assert (row["hour"], row["interval_minutes"], row["time_slot"], row["interval"]) == (23.999999, 4.999999, 11, 2)
         bundle = export.export_study(s, tmp_path / "out").bundle
-    assert export.import_bundle(bundle, tmp_path / "b" / "s.sqlite") == 1
+    assert export.import_bundle(bundle, tmp_path / "b" / "s.sqlite").interactions == 1
 
 
 # --- what read_bundle lets through: only the tables and policies/<participant>/<checkpoint>.pt ------
@@ -463,7 +505,7 @@ def test_other_files_in_the_zip_are_never_written(store, tmp_path):
     bundle = export.export_study(store, tmp_path / "out").bundle
     odd = _with_entries(bundle, tmp_path / "odd.zip", add=[("../outside.txt", b"x"), ("readme.txt", b"y")])
     target = tmp_path / "new" / "study.sqlite"
-    assert export.import_bundle(odd, target) == 20
+    assert export.import_bundle(odd, target).interactions == 20
     written = {p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*") if p.is_file()}
     assert not {"outside.txt", "new/readme.txt", "readme.txt"} & written
     assert sorted(p.name for p in (target.parent / "policies").rglob("*") if p.is_file()) == sorted(
@@ -503,7 +545,7 @@ def test_restore_refuses_tables_that_do_not_fit_and_writes_nothing(bundle_tables
         with pytest.raises(CacasError, match=re.escape(message)):
             restore(fresh, {**tables, table: change(tables[table])}, policies)
         assert _counts(fresh.path) == before
-        assert restore(fresh, tables, policies) == 20  # the same tables, unchanged, restore
+        assert restore(fresh, tables, policies).interactions == 20  # the same tables, unchanged, restore
 
 
 def test_restore_refuses_a_missing_table_or_policy_file_and_writes_nothing(bundle_tables, tmp_path):

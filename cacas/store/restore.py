@@ -4,12 +4,18 @@
 the policy checkpoint files, checks every name through :mod:`cacas.spaces` and every checkpoint
 against its sha256, and inserts everything in one transaction: a bad bundle raises CacasError
 naming the table, row and column, and nothing is written.
+
+A restore gives back the study a bundle holds, as it was: what the forms refuse only in new data
+(a participant code that looks like a phone number or a date, free text holding what looks like
+contact details; a study may hold them from before the check) is imported, with a note naming
+the table, row and column (:class:`Restored`), not refused.
 """
 
 from __future__ import annotations
 
 import json
 import sqlite3
+from dataclasses import dataclass
 from typing import Any, Callable
 
 import pandas as pd
@@ -17,6 +23,7 @@ import pandas as pd
 from cacas import preferences as prefs
 from cacas import spaces
 from cacas.errors import CacasError
+from cacas.privacy import contact_details
 from cacas.store import files
 from cacas.store import validate as v
 
@@ -79,7 +86,33 @@ def _json_text(cell: str) -> str:
     return cell
 
 
-def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], tuple]) -> list[tuple]:
+@dataclass(frozen=True)
+class Restored:
+    """What :func:`restore` did: the number of interactions restored, and one note per cell it
+    kept as it was although the forms refuse it in new data (each names the table, row and column)."""
+
+    interactions: int
+    notes: tuple[str, ...] = ()
+
+
+class _Notes(list):
+    """The notes of one restore; :func:`_rows` sets ``where`` (table and row) before each row."""
+
+    where = ""
+
+    def private(self, value: str, column: str) -> str:
+        """``value``, noted if it holds what looks like contact details (:func:`contact_details`:
+        an e-mail address, a phone number; a participant code that is a date), which the forms
+        refuse in new data but a study may hold from before the check."""
+        found = contact_details(value)
+        if found:
+            self.append(f"{self.where}, column {column}: {found!r} looks like contact details (a phone number or "
+                        "an e-mail address); imported as it was, as the study held it (the forms refuse it in new data)")
+        return value
+
+
+def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], tuple],
+          notes: _Notes | None = None) -> list[tuple]:
     df = tables.get(name)
     if df is None:
         raise CacasError(f"{name}.csv is missing from the bundle")
@@ -90,6 +123,8 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
         raise CacasError(f"{name}.csv has no column {missing[0]!r}; expected {', '.join(RESTORE_COLUMNS[name])}")
     out = []
     for i, row in enumerate(df[RESTORE_COLUMNS[name]].to_dict("records")):
+        if notes is not None:
+            notes.where = f"{name}.csv, row {i + 2}"
         try:
             out.append(convert(row))
         except CacasError as exc:
@@ -125,22 +160,29 @@ def _interaction(r: dict[str, Any]) -> tuple:
             _opt_int(r["policy_version"]), r["created_at"])
 
 
-def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> int:
+def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
     """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
-    number of interactions restored. ``policy_files`` maps each policies.csv path to its bytes."""
-    # free text is checked as the forms check it (no contact details: study data are pseudonymous)
-    studies = _rows(tables, "studies", lambda r: (v.study(r["name"]), v.text(r["description"], "description"),
-                                                  r["created_at"]))
+    number of interactions restored and the notes on what was kept as it was. ``policy_files``
+    maps each policies.csv path to its bytes."""
+    # codes and free text as the study held them: what looks like contact details is noted, not refused
+    noted = _Notes()
+    studies = _rows(tables, "studies", lambda r: (
+        noted.private(v.study(r["name"], check_contacts=False), "name"),
+        noted.private(v.text(r["description"], "description", check_contacts=False), "description"),
+        r["created_at"]), noted)
     people = _rows(tables, "participants", lambda r: (
-        v.new_code(r["participant"]), r["study"], v.age_range(r["age_range"]), v.text(r["notes"], "notes"),
-        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]))
+        noted.private(v.code(r["participant"]), "participant"), r["study"], v.age_range(r["age_range"]),
+        noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
+        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]), noted)
 
     def pref_row(r):
         items = json.loads(_json_text(r["preferences"]))
-        prefs.check_private_words(prefs.parse_participant({"id": r["participant"], "preferences": items}))
+        person = prefs.parse_participant({"id": r["participant"], "preferences": items})
+        for k, pref in enumerate(person.preferences):
+            noted.private(pref.description, f"preferences (preference {k + 1}'s description)")
         return r["participant"], _int(r["version"], 1), r["preferences"], r["created_at"]
 
-    preferences = _rows(tables, "preferences", pref_row)
+    preferences = _rows(tables, "preferences", pref_row, noted)
     days = _rows(tables, "days", lambda r: (r["participant"], _int(r["day"], 1), r["opened_at"],
                                             _opt(r["closed_at"])))
 
@@ -160,7 +202,8 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         v.number(_opt_float(r["duration_s"]) or 0.0, "duration_s", 0), _json_text(r["metrics"]),
         _opt_int(r["policy_version"]), r["created_at"]))
     answers = _rows(tables, "questionnaire", lambda r: (
-        r["participant"], v.satisfaction(_int(r["satisfaction"])), v.text(r["comments"], "comments"), r["created_at"]))
+        r["participant"], v.satisfaction(_int(r["satisfaction"])),
+        noted.private(v.text(r["comments"], "comments", check_contacts=False), "comments"), r["created_at"]), noted)
     events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
                                                 _json_text(r["details"] or "{}")))
 
@@ -218,7 +261,8 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         bad = c.execute("PRAGMA foreign_key_check").fetchone()
         if bad:
             raise CacasError(f"the bundle's {bad[0]} table refers to a missing {bad[2]} row")
-        store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions))
-        return len(interactions)
+        store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions),
+                     notes=len(noted))
+        return Restored(len(interactions), tuple(noted))
 
     return store._write(fn)

@@ -62,10 +62,10 @@ def code(value: Any) -> str:
 
 
 def new_code(value: Any) -> str:
-    """A code for a participant being added (a form, a persona import, a bundle): :func:`code`,
+    """A code for a participant being added (a form, a persona import): :func:`code`,
     and not a phone number or a date a contact check finds (:func:`contact_details`:
     "0612345678", "20261121"), which the code would carry into every export. Codes already in a
-    study keep working through :func:`code`."""
+    study keep working through :func:`code`, and a restored backup keeps them (with a note)."""
     checked = code(value)
     found = contact_details(checked)
     if found:
@@ -84,11 +84,13 @@ def persona_codes(people, source: str | None = None) -> None:
             raise CacasError(f"{source or 'persona file'}: {exc}") from None
 
 
-def study(value: Any) -> str:
+def study(value: Any, check_contacts: bool = True) -> str:
+    """A study's name: 1-64 letters, digits, spaces, ".", "-" or "_", and (``check_contacts``) no
+    contact details (:func:`contact_details`)."""
     if not isinstance(value, str) or not STUDY_RE.match(value.strip()):
         raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
                          f"'.', '-' or '_'")
-    found = contact_details(value)  # a study's name is in every export, as a participant's notes are
+    found = check_contacts and contact_details(value)  # a study's name is in every export, as notes are
     if found:
         raise CacasError(f"study name {value!r} holds what looks like a phone number ({found!r}); valid: a name "
                          "without contact details (study data are pseudonymous)")
@@ -107,16 +109,16 @@ def age_range(value: Any) -> str:
     return text
 
 
-def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
-    """Free text (notes, comments, descriptions): at most ``limit`` characters, and no contact
-    details (:func:`contact_details`)."""
+def text(value: Any, field: str, limit: int = NOTES_MAX, check_contacts: bool = True) -> str:
+    """Free text (notes, comments, descriptions): at most ``limit`` characters, and (``check_contacts``)
+    no contact details (:func:`contact_details`)."""
     if value is None:
         return ""
     if not isinstance(value, str):
         raise CacasError(f"{field} must be text, got {type(value).__name__}")
     if len(value) > limit:
         raise CacasError(f"{field} is {len(value)} characters long; valid: at most {limit}")
-    found = contact_details(value)
+    found = check_contacts and contact_details(value)
     if found:
         raise CacasError(f"{field} contain{'' if field.endswith('s') else 's'} what looks like contact details "
                          f"({found!r}); valid: no names, e-mail addresses or phone numbers (study data "
