@@ -28,6 +28,7 @@ import json
 import os
 import re
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -314,6 +315,16 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
 
 
+def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
+    """The bytes of the bundle's member ``name``; a damaged one (bytes changed in its compressed
+    data: zlib.error; a bad CRC; cut short: EOFError) is a CacasError naming the bundle and it."""
+    try:
+        return zf.read(name)
+    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
+        raise CacasError(f"{path}: {name} in the bundle is damaged ({exc}); valid: "
+                         f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)") from None
+
+
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
     """The tables (every cell as text, "" for empty) and policy files of a bundle zip."""
     path = Path(path)
@@ -326,7 +337,7 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
             for name in RESTORE_COLUMNS:
                 if f"{name}.csv" not in names:
                     raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
-                tables[name] = pd.read_csv(io.BytesIO(zf.read(f"{name}.csv")), dtype=str,
+                tables[name] = pd.read_csv(io.BytesIO(_member(path, zf, f"{name}.csv")), dtype=str,
                                            keep_default_na=False).map(records.unescape_formula)
             policies = {}
             for name in sorted(names):
@@ -334,7 +345,7 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
                     rel = name[len("policies/"):]
                     if not _POLICY_PATH.match(rel):
                         raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
-                    policies[rel] = zf.read(name)
+                    policies[rel] = _member(path, zf, name)
     except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
     listed = list(tables["policies"].get("path", []))

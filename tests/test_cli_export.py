@@ -219,3 +219,37 @@ def test_import_of_a_study_with_a_code_like_a_date_restores_it_and_prints_a_note
                             "as the study held it (the forms refuse it in new data)\n")
     with StudyStore(tmp_path / "moved" / "study.sqlite") as s:
         assert [p.code for p in s.list_participants()] == ["20261121"]
+
+
+def _damaged(bundle, member, out):
+    """A copy of ``bundle`` with bytes inverted in the middle third of ``member``'s compressed data."""
+    import zipfile
+
+    data = bytearray(bundle.read_bytes())
+    with zipfile.ZipFile(bundle) as zf:
+        info = zf.getinfo(member)
+    start = info.header_offset + 30 + len(info.filename) + len(info.extra)  # after the local header
+    for k in range(info.compress_size // 3, 2 * info.compress_size // 3):
+        data[start + k] ^= 0xFF
+    out.write_bytes(bytes(data))
+    return out
+
+
+@pytest.mark.parametrize("member", ["interactions.csv", "policies/P01/"])
+def test_import_of_a_bundle_damaged_inside_a_member_exits_2_naming_it(run, study, tmp_path, capsys, member):
+    """Bytes changed inside a compressed member ended the import with zlib.error, a traceback and
+    exit 1; a truncated zip or a bad CRC were already one line and exit 2."""
+    import zipfile
+
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    bundle = tmp_path / "out" / "cacas-study.zip"
+    with zipfile.ZipFile(bundle) as zf:
+        member = next(n for n in zf.namelist() if n.startswith(member))
+    bad = _damaged(bundle, member, tmp_path / "bad.zip")
+    target = tmp_path / "new" / "study.sqlite"
+    code = run("import", "--bundle", bad, "--db", target)
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"cacas: error: {bad}: {member} in the bundle is damaged (")
+    assert not target.parent.exists()
