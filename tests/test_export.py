@@ -649,3 +649,25 @@ def test_preferences_edited_mid_study_leave_the_closed_days_ceiling_as_it_was(tm
         daily = export.export_tables(s)["daily"].set_index(["participant", "method", "day"])
     assert daily.loc[("P01", "cacas", 1), "success_ceiling"] == 0.5   # cough only, as on day 1
     assert daily.loc[("P01", "cacas", 2), "success_ceiling"] == 1.0   # cough and the stove
+
+
+def test_a_time_given_with_an_offset_is_scored_against_the_preferences_saved_by_that_moment(tmp_path):
+    """daily.csv's success ceiling compares an interaction's time with each preference version's
+    created_at as text: a time stored with its offset ("...+01:00") sorted after a version saved
+    half an hour later, and was scored against it."""
+    from datetime import datetime, timedelta, timezone
+
+    with StudyStore(tmp_path / "s.sqlite") as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [COUGH])
+        day = s.open_day("P01")
+        s.save_preferences("P01", [COUGH, {"activity": ["use stove"], "action": "remind to turn off"}])
+        saved = datetime.fromisoformat(s.preference_versions("P01")[-1]["created_at"].replace("Z", "+00:00"))
+        when = saved - timedelta(minutes=30)  # before the stove was described
+        s.record_interaction("P01", day, activity="use stove", scene="kitchen", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept",
+                             time=when.astimezone(timezone(timedelta(hours=1))).isoformat())
+        daily = export.export_tables(s)["daily"]
+        stored = s.interactions_frame("P01")["time"].iloc[0]
+    assert daily["success_ceiling"].tolist() == [0.0]  # the version in force then: cough only
+    assert stored == when.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"

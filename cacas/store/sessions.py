@@ -111,7 +111,9 @@ class SessionsMixin:
         policy's 14 ``probabilities`` (Eq. 4; a list in Table I's order or a dict by action name),
         ``response`` accept / reject / others. ``policy_version``: default the participant's
         active policy; ``method``: default the method of that policy, else "cacas". ``time``:
-        when it happened (default now). Any bad name or value raises CacasError and nothing is
+        when it happened (default now), an aware datetime or an ISO 8601 text with a time zone,
+        stored in UTC as the app's own times (:func:`validate.timestamp`; a time without a zone,
+        or a date alone, is refused). Any bad name or value raises CacasError and nothing is
         written; so does a participant or day that does not exist, or a closed day. ``index``:
         the day's interaction number (1..) this answer is for; if it is taken already (a second
         click, another tab), nothing is written and :class:`~cacas.errors.AlreadyRecorded` is

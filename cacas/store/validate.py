@@ -50,7 +50,12 @@ def now() -> str:
         t = t.replace(microsecond=t.microsecond // 1000 * 1000)
         t = max(t, _last_now + timedelta(milliseconds=1))
         _last_now = t
-    return t.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+    return _utc_text(t)
+
+
+def _utc_text(t: datetime) -> str:
+    """An aware datetime as the store writes times: UTC, milliseconds (cut), "Z"."""
+    return t.astimezone(timezone.utc).replace(tzinfo=None).isoformat(timespec="milliseconds") + "Z"
 
 
 def code(value: Any) -> str:
@@ -230,23 +235,39 @@ def probabilities(value: Any) -> str | None:
     return json.dumps([float(p) for p in arr])
 
 
+#: What :func:`timestamp` takes, for its messages.
+TIME_HINT = ('an ISO 8601 time with a time zone, such as "2026-11-21T10:00:00Z" (UTC) or '
+             '"2026-11-21T11:00:00+01:00"')
+
+
 def timestamp(value: Any) -> str:
-    """An interaction's time: now if None; a datetime or an ISO 8601 text otherwise."""
+    """An interaction's time in the store's format, UTC as :func:`now` writes it
+    ("2026-11-21T09:47:34.123Z"): now if None; an aware datetime, or an ISO 8601 text with a time
+    zone ("Z" or an offset such as "+01:00"), converted to UTC. A time without a zone, a date alone
+    or anything else raises CacasError: which moment it names is not known, and times are compared
+    as text (daily.csv's success ceiling picks the preference version saved by then)."""
     if value is None:
         return now()
-    if isinstance(value, datetime):
-        if value.tzinfo is not None:
-            value = value.astimezone(timezone.utc).replace(tzinfo=None)
-            return value.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
-        return value.isoformat(timespec="milliseconds")
+    given = value
     if isinstance(value, str):
+        text = value.strip()
+        if text[-1:] in ("Z", "z"):  # Python 3.10's fromisoformat does not read "Z"
+            text = text[:-1] + "+00:00"
         try:
-            datetime.fromisoformat(value.strip())
+            value = datetime.fromisoformat(text)
         except ValueError:
-            raise CacasError(f"time {value!r} is invalid; valid: an ISO 8601 timestamp such as "
-                             f"2026-11-21T09:47:34Z") from None
-        return value.strip()
-    raise CacasError(f"time {value!r} is invalid; valid: a datetime or an ISO 8601 timestamp")
+            raise CacasError(f"time {given!r} is invalid; valid: {TIME_HINT}") from None
+        if "T" not in text.upper() and " " not in text:
+            raise CacasError(f"time {given!r} is a date alone; valid: {TIME_HINT}")
+    if not isinstance(value, datetime):
+        raise CacasError(f"time {given!r} is invalid; valid: a datetime with a time zone (tzinfo), or {TIME_HINT}")
+    if value.utcoffset() is None:
+        raise CacasError(f"time {given!r} has no time zone, so which moment it names is not known; valid: "
+                         f"{TIME_HINT}{'' if isinstance(given, str) else ', or a datetime with tzinfo'}")
+    try:
+        return _utc_text(value)
+    except OverflowError:  # 0001-01-01T00:30+01:00 is before the first moment a datetime holds
+        raise CacasError(f"time {given!r} is out of range; valid: {TIME_HINT}") from None
 
 
 def json_dict(value: Any, field: str) -> str:
