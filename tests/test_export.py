@@ -339,7 +339,8 @@ def _rewrite(bundle, out, table, change):
     ("interactions", lambda df: df.assign(response="maybe"), "unknown response 'maybe'"),
     ("interactions", lambda df: df.assign(interval="7"), "interval 7 is not an S4 bin value"),
     ("questionnaire", lambda df: df.assign(satisfaction="11"), "satisfaction"),
-    ("days", lambda df: df.iloc[1:], "do not fit together"),
+    ("days", lambda df: df.iloc[1:],
+     r"days.csv, row 2: day 2 of participant P01 is their first; valid: days numbered 1, 2, 3, ..."),
     ("policies", lambda df: df.assign(sha256="0" * 64), "does not match its sha256"),
     ("participants", lambda df: df.drop(columns=["study"]), "no column 'study'"),
     ("interactions", lambda df: df.assign(scene_model="resnet"),
@@ -353,6 +354,21 @@ def _rewrite(bundle, out, table, change):
     ("participants", lambda df: df.assign(notes="x" * 2001),
      r"participants.csv, row 2: notes is 2001 characters long; valid: at most 2000"),
     ("interactions", lambda df: df.assign(hour="7h15"), "interactions.csv, row 2: '7h15' is not a number"),
+    # review: tables the API would refuse were imported
+    ("days", lambda df: df.assign(closed_at=""),
+     r"days.csv, row 2: day 1 of participant P01 is open \(closed_at is empty\) but day 2 follows it; valid: a "
+     r"closed_at time on every day but a participant's latest"),
+    ("interactions", lambda df: df.assign(user_action=df["user_action"].where(df["type"] == "type_2", "chitchat")),
+     r"interactions.csv, row 2: user_action 'chitchat' given for a robot-initiated \(type_1\) interaction; only "
+     r"type_2 interactions have one"),
+    ("interactions", lambda df: df.assign(user_action=""), "interactions.csv, row 6: user_action is missing"),
+    ("interactions", lambda df: df.assign(time="garbage"),
+     r'interactions.csv, row 2: time \'garbage\' is invalid; valid: an ISO 8601 time with a time zone, such as '
+     r'"2026-11-21T10:00:00Z" \(UTC\)'),
+    ("days", lambda df: df.assign(day=df["day"].replace("2", "5")),
+     r"days.csv, row 3: day 5 of participant P01 follows day 1; valid: days numbered 1, 2, 3, ..."),
+    ("days", lambda df: df.assign(day=df["day"].replace("2", "1")),
+     r"days.csv, row 3: day 1 of participant P01 is listed twice \(rows 2 and 3\)"),
     ("adaptations", lambda df: df.assign(parameters="{epochs: 3}"),
      r"adaptations.csv, row 2: not valid JSON \(Expecting property name enclosed in double quotes\)"),
 ])
@@ -414,6 +430,27 @@ def test_a_study_holding_what_the_forms_refuse_now_is_restored_as_it_was_with_no
             moved.add_participant("0612345678")
     for name in ROUND_TRIP:
         assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+
+
+def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with_notes(store, tmp_path):
+    """Before record_interaction converted times to UTC it stored them as given: such a study's
+    export imports as it was (a note each); a time that is no ISO 8601 time at all is refused."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    old = _rewrite(bundle, tmp_path / "old.zip", "interactions", lambda df: df.assign(
+        time=["2026-11-21T10:00:00", "2026-11-21T11:00:00+01:00", "2026-11-21"] + list(df["time"][3:])))
+    target = tmp_path / "b" / "moved.sqlite"
+    restored = export.import_bundle(old, target)
+    assert restored.notes == (
+        "interactions.csv, row 2, column time: '2026-11-21T10:00:00' has no time zone; imported as it was, as the "
+        "study held it (record_interaction stored such times before it refused them)",
+        "interactions.csv, row 3, column time: '2026-11-21T11:00:00+01:00' is not in UTC as the app writes times "
+        "('2026-11-21T10:00:00.000Z'); imported as it was, as the study held it (record_interaction stored such "
+        "times before it converted them to UTC)",
+        "interactions.csv, row 4, column time: '2026-11-21' has no time zone; imported as it was, as the study "
+        "held it (record_interaction stored such times before it refused them)")
+    with StudyStore(target) as moved:
+        assert moved.interactions_frame()["time"].tolist()[:3] == ["2026-11-21T10:00:00", "2026-11-21T11:00:00+01:00",
+                                                                   "2026-11-21"]
 
 
 def test_not_a_bundle(tmp_path):

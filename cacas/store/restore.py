@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import sqlite3
 from dataclasses import dataclass
+from datetime import datetime
 from typing import Any, Callable
 
 import pandas as pd
@@ -100,15 +101,40 @@ class _Notes(list):
 
     where = ""
 
+    def kept(self, column: str, problem: str, why: str) -> None:
+        """Note that the cell of ``column`` in this row has ``problem`` and was imported as it was."""
+        self.append(f"{self.where}, column {column}: {problem}; imported as it was, as the study held it ({why})")
+
     def private(self, value: str, column: str) -> str:
         """``value``, noted if it holds what looks like contact details (:func:`contact_details`:
         an e-mail address, a phone number; a participant code that is a date), which the forms
         refuse in new data but a study may hold from before the check."""
         found = contact_details(value)
         if found:
-            self.append(f"{self.where}, column {column}: {found!r} looks like contact details (a phone number or "
-                        "an e-mail address); imported as it was, as the study held it (the forms refuse it in new data)")
+            self.kept(column, f"{found!r} looks like contact details (a phone number or an e-mail address)",
+                      "the forms refuse it in new data")
         return value
+
+    def time(self, cell: str) -> str:
+        """An interaction's time, checked as ``record_interaction`` checks one
+        (:func:`validate.timestamp`: ISO 8601 with a time zone) and kept as it was. A time that
+        ``record_interaction`` stored as given before it converted times to UTC (with an offset,
+        without a zone, a date alone: what ``datetime.fromisoformat`` reads) is noted; anything
+        else is refused."""
+        try:
+            utc = v.timestamp(cell)
+        except CacasError:
+            try:
+                datetime.fromisoformat(cell.strip())
+            except ValueError:
+                raise CacasError(f"time {cell!r} is invalid; valid: {v.TIME_HINT}") from None
+            self.kept("time", f"{cell!r} has no time zone", "record_interaction stored such times before it "
+                      "refused them")
+            return cell
+        if utc != cell:
+            self.kept("time", f"{cell!r} is not in UTC as the app writes times ({utc!r})",
+                      "record_interaction stored such times before it converted them to UTC")
+        return cell
 
 
 def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], tuple],
@@ -132,7 +158,7 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
     return out
 
 
-def _interaction(r: dict[str, Any]) -> tuple:
+def _interaction(r: dict[str, Any], noted: _Notes) -> tuple:
     slot, iv = _int(r["time_slot"]), _int(r["interval"])
     if iv not in spaces.INTERVAL_BINS:
         raise CacasError(f"interval {iv} is not an S4 bin value; valid: {list(spaces.INTERVAL_BINS)}")
@@ -141,11 +167,11 @@ def _interaction(r: dict[str, Any]) -> tuple:
     v.time_slot(hour, slot)
     v.interval(minutes, iv)
     kind = v.conversation_type(r["type"])
-    user = _opt(r["user_action"])
+    user = v.user_action(kind, r["user_action"])  # the rule record_interaction keeps
     probs = _opt(r["probabilities"])
     if probs is not None:
         v.probabilities(json.loads(_json_text(probs)))
-    return (r["participant"], _int(r["day"], 1), _int(r["index"], 1), r["time"], v.method(r["method"]),
+    return (r["participant"], _int(r["day"], 1), _int(r["index"], 1), noted.time(r["time"]), v.method(r["method"]),
             v.name("activity", r["activity"], "activity"), v.name("scene", r["scene"], "scene"), hour, slot,
             minutes, iv, v.name("action", r["task"], "task"),
             v.name("action", r["previous_action"], "previous_action"),
@@ -156,8 +182,28 @@ def _interaction(r: dict[str, Any]) -> tuple:
             v.model_id(r["sound_model"], "sound_model"), v.model_id(r["scene_model"], "scene_model"),
             kind, v.name("action", r["robot_action"], "robot_action"), probs,
             v.name("response", r["response"], "response"),
-            None if user is None else v.name("action", user, "user_action"),
-            _opt_int(r["policy_version"]), r["created_at"])
+            user, _opt_int(r["policy_version"]), r["created_at"])
+
+
+def _check_days(days: list[tuple]) -> None:
+    """Each participant's days as ``open_day`` and ``close_day`` leave them: numbered 1, 2, 3, ...
+    (no gap, none twice), and every one closed but the latest (at most one open day, the latest).
+    ``days`` are days.csv's rows in order (participant, day, opened_at, closed_at)."""
+    by_participant: dict[str, list[tuple[int, int, str | None]]] = {}
+    for i, (code, day, _opened, closed) in enumerate(days):
+        by_participant.setdefault(code, []).append((day, i + 2, closed))
+    for code, rows in by_participant.items():
+        rows.sort()
+        for n, (day, row, closed) in enumerate(rows, start=1):
+            if day != n:
+                what = f"is listed twice (rows {rows[n - 2][1]} and {row})" if day == n - 1 else \
+                    f"follows day {n - 1}" if n > 1 else "is their first"
+                raise CacasError(f"days.csv, row {row}: day {day} of participant {code} {what}; valid: days "
+                                 "numbered 1, 2, 3, ... as the app opens them")
+            if closed is None and n < len(rows):
+                raise CacasError(f"days.csv, row {row}: day {day} of participant {code} is open (closed_at is "
+                                 f"empty) but day {day + 1} follows it; valid: a closed_at time on every day "
+                                 "but a participant's latest (the app opens a day after closing the one before)")
 
 
 def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
@@ -185,6 +231,7 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     preferences = _rows(tables, "preferences", pref_row, noted)
     days = _rows(tables, "days", lambda r: (r["participant"], _int(r["day"], 1), r["opened_at"],
                                             _opt(r["closed_at"])))
+    _check_days(days)
 
     def policy_row(r):
         data = policy_files.get(r["path"])
@@ -196,7 +243,7 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
                 r["sha256"], len(data), r["created_at"])
 
     policies = _rows(tables, "policies", policy_row)
-    interactions = _rows(tables, "interactions", _interaction)
+    interactions = _rows(tables, "interactions", lambda r: _interaction(r, noted), noted)
     adaptations = _rows(tables, "adaptations", lambda r: (
         r["participant"], _int(r["day"]), v.method(r["method"]), _json_text(r["parameters"]),
         v.number(_opt_float(r["duration_s"]) or 0.0, "duration_s", 0), _json_text(r["metrics"]),

@@ -8,7 +8,7 @@ import pandas as pd
 
 from cacas import spaces
 from cacas.errors import AlreadyRecorded, CacasError
-from cacas.records import INTERACTION_COLUMNS, ROBOT_INITIATED, USER_INITIATED
+from cacas.records import INTERACTION_COLUMNS, ROBOT_INITIATED
 from cacas.store import validate as v
 from cacas.store.base import DayInfo, ResumeInfo
 
@@ -139,18 +139,7 @@ class SessionsMixin:
         )
         values["hour"], values["time_slot"] = v.time_slot(hour, time_slot)
         values["interval_minutes"], values["interval_bin"] = v.interval(interval_minutes, interval_bin)
-        if values["type"] == USER_INITIATED:
-            if user_action is None:
-                raise CacasError("user_action is missing: a user-initiated (type_2) interaction names the "
-                                 "action the participant asked for")
-            values["user_action"] = v.name("action", user_action, "user_action")
-            if values["user_action"] == "do nothing":
-                raise CacasError("user_action 'do nothing' is not a request; valid: one of the 13 other actions")
-        else:
-            if user_action not in (None, ""):
-                raise CacasError(f"user_action {user_action!r} given for a robot-initiated (type_1) "
-                                 f"interaction; only type_2 interactions have one")
-            values["user_action"] = None
+        values["user_action"] = v.user_action(values["type"], user_action)
         if method is not None:
             method = v.method(method)
         code, day = str(participant).strip(), v.integer(day, "day", 1)

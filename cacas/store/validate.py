@@ -185,6 +185,24 @@ def conversation_type(value: Any) -> str:
     return value
 
 
+def user_action(kind: str, value: Any) -> str | None:
+    """The action the participant asked for, by the interaction's ``kind`` (Table II): a
+    user-initiated (type_2) interaction names one other than "do nothing"; a robot-initiated
+    (type_1) one has none (None; "" as an export writes it)."""
+    if kind == USER_INITIATED:
+        if value is None or value == "":
+            raise CacasError("user_action is missing: a user-initiated (type_2) interaction names the "
+                             "action the participant asked for")
+        action = name("action", value, "user_action")
+        if action == "do nothing":
+            raise CacasError("user_action 'do nothing' is not a request; valid: one of the 13 other actions")
+        return action
+    if value not in (None, ""):
+        raise CacasError(f"user_action {value!r} given for a robot-initiated (type_1) "
+                         f"interaction; only type_2 interactions have one")
+    return None
+
+
 def _as_exported(x: float | None) -> float | None:
     """A time kept to the 6 decimals that CSV export writes (cut, not rounded, so that it stays in
     its slot or bin: 23.9999999 h would be written as 24.000000, which no import accepts)."""
