@@ -367,6 +367,14 @@ def _rewrite(bundle, out, table, change):
      r'"2026-11-21T10:00:00Z" \(UTC\)'),
     ("days", lambda df: df.assign(day=df["day"].replace("2", "5")),
      r"days.csv, row 3: day 5 of participant P01 follows day 1; valid: days numbered 1, 2, 3, ..."),
+    # "the bundle's tables do not fit together (FOREIGN KEY constraint failed)": no table or row named
+    ("interactions", lambda df: df.assign(day=df["day"].where(df.index != 6, "3")),
+     r"interactions.csv, row 8: day 3 of participant P01 is not in days.csv; valid: one that days.csv lists for them"),
+    ("interactions", lambda df: df.assign(policy_version=df["policy_version"].where(df.index != 12, "9")),
+     r"interactions.csv, row 14: policy_version 9 of participant P02 is not in policies.csv; valid: one that "
+     r"policies.csv lists for them"),
+    ("adaptations", lambda df: df.assign(policy_version=df["policy_version"].where(df.index != 1, "7")),
+     r"adaptations.csv, row 3: policy_version 7 of participant P01 is not in policies.csv"),
     ("days", lambda df: df.assign(day=df["day"].replace("2", "1")),
      r"days.csv, row 3: day 1 of participant P01 is listed twice \(rows 2 and 3\)"),
     ("adaptations", lambda df: df.assign(parameters="{epochs: 3}"),
@@ -573,6 +581,8 @@ def bundle_tables(store, tmp_path):
      "days.csv names participant 'P09', which participants.csv does not have"),
     ("questionnaire", lambda df: df.assign(participant=df["participant"].replace("P01", "P07")),
      "questionnaire.csv names participant 'P07', which participants.csv does not have"),
+    ("interactions", lambda df: df.assign(day=df["day"].where(df.index != 6, "3")),
+     "interactions.csv, row 8: day 3 of participant P01 is not in days.csv; valid: one that days.csv lists for them"),
 ])
 def test_restore_refuses_tables_that_do_not_fit_and_writes_nothing(bundle_tables, tmp_path, table, change,
                                                                    message):

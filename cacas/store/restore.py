@@ -25,7 +25,7 @@ from cacas import preferences as prefs
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.privacy import contact_details
-from cacas.store import files
+from cacas.store import files, schema
 from cacas.store import validate as v
 
 #: Tables a bundle must have to be restored, with the columns read from each.
@@ -206,6 +206,30 @@ def _check_days(days: list[tuple]) -> None:
                                  "but a participant's latest (the app opens a day after closing the one before)")
 
 
+#: The CSV file of a study database's table, where its name differs.
+_CSV_NAMES = {"questionnaires": "questionnaire"}
+
+
+def _check_foreign_keys(c: sqlite3.Connection, before: dict[str, int]) -> None:
+    """Refuse (CacasError) the first row ``PRAGMA foreign_key_check`` finds naming a row its parent
+    table lacks (an interaction's day or policy version, an adaptation's policy version), naming
+    the CSV file, its row, the columns and values. Each table's rows were inserted in the file's
+    order after the ids ``before`` holds, so a row's id gives its line in the file."""
+    bad = c.execute("PRAGMA foreign_key_check").fetchone()
+    if bad is None:
+        return
+    table, rowid, parent, fk = bad
+    columns = [r[3] for r in c.execute(f"PRAGMA foreign_key_list({table})") if r[0] == fk]
+    values = dict(zip(columns, c.execute(f"SELECT {', '.join(columns)} FROM {table} WHERE id = ?", (rowid,)).fetchone()))
+    code = c.execute("SELECT code FROM participants WHERE id = ?", (values.pop("participant_id", None),)).fetchone()
+    name, parent_name = (f"{_CSV_NAMES.get(t, t)}.csv" for t in (table, parent))
+    who = f" of participant {code[0]}" if code else ""
+    what = ", ".join(f"{column} {value}" for column, value in values.items())
+    raise CacasError(f"{name}, row {rowid - before[table] + 1}: {what}{who} is not in {parent_name}; valid: one that "
+                     f"{parent_name} lists{' for them' if code else ''}")
+
+
+
 def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
     """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
     number of interactions restored and the notes on what was kept as it was. ``policy_files``
@@ -263,6 +287,10 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     def insert(c):
         if c.execute("SELECT COUNT(*) FROM participants").fetchone()[0]:
             raise CacasError(f"{store.path}: already holds participants; import into a new database")
+        # a row naming a missing one (a day, a policy version) is found once all are in, and named
+        # below; checked at each INSERT, the first such row failed there, with no table or row named
+        c.execute("PRAGMA defer_foreign_keys = ON")  # until this transaction ends
+        before = {t: c.execute(f"SELECT COALESCE(MAX(id), 0) FROM {t}").fetchone()[0] for t in schema.TABLES}
         for name, desc, at in studies:
             c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, ?, ?) ON CONFLICT(name) "
                       "DO UPDATE SET description = excluded.description, created_at = excluded.created_at",
@@ -305,9 +333,7 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         c.executemany("INSERT INTO questionnaires (participant_id, satisfaction, comments, created_at) "
                       "VALUES (?, ?, ?, ?)", [(p(r[0], "questionnaire"), *r[1:]) for r in answers])
         c.executemany("INSERT INTO events (at, what, participant, details) VALUES (?, ?, ?, ?)", events)
-        bad = c.execute("PRAGMA foreign_key_check").fetchone()
-        if bad:
-            raise CacasError(f"the bundle's {bad[0]} table refers to a missing {bad[2]} row")
+        _check_foreign_keys(c, before)
         store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions),
                      notes=len(noted))
         return Restored(len(interactions), tuple(noted))
