@@ -372,14 +372,20 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     if db_path.exists() or Path(f"{db_path}-wal").exists():
         raise CacasError(f"{db_path}: already exists; import only into a new database file")
     tables, policies = read_bundle(bundle)
+    made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
     db_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
-    with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
-        return _import_into(tmp, db_path, tables, policies)
+    try:
+        with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
+            return _import_into(tmp, db_path, tables, policies, made)
+    except BaseException:
+        files.remove_empty(made)
+        raise
 
 
-def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> Restored:
-    """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``."""
+def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path]) -> Restored:
+    """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``;
+    the folders it creates for policy files are added to ``made``."""
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
@@ -391,6 +397,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> Rest
                     if files.sha256(target.read_bytes()) != files.sha256(data):
                         raise CacasError(f"{target}: exists with other content; move it away and import again")
                     continue
+                made.extend(files.missing_folders(target.parent))
                 files.atomic_write(target, data)
                 created.append(target)
             store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
