@@ -419,5 +419,5 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "by_preference_frame", "next_day_accuracy",
-           "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "by_preference_frame",
+           "next_day_accuracy", "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]

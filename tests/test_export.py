@@ -449,13 +449,14 @@ def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with
     target = tmp_path / "b" / "moved.sqlite"
     restored = export.import_bundle(old, target)
     assert restored.notes == (
-        "interactions.csv, row 2, column time: '2026-11-21T10:00:00' has no time zone; imported as it was, as the "
-        "study held it (record_interaction stored such times before it refused them)",
+        "interactions.csv, row 2, column time: time '2026-11-21T10:00:00' has no time zone, so which moment it "
+        "names is not known; imported as it was, as the study held it (record_interaction stored such times "
+        "before it refused them)",
         "interactions.csv, row 3, column time: '2026-11-21T11:00:00+01:00' is not in UTC as the app writes times "
         "('2026-11-21T10:00:00.000Z'); imported as it was, as the study held it (record_interaction stored such "
         "times before it converted them to UTC)",
-        "interactions.csv, row 4, column time: '2026-11-21' has no time zone; imported as it was, as the study "
-        "held it (record_interaction stored such times before it refused them)")
+        "interactions.csv, row 4, column time: time '2026-11-21' is a date alone; imported as it was, as the "
+        "study held it (record_interaction stored such times before it refused them)")
     with StudyStore(target) as moved:
         assert moved.interactions_frame()["time"].tolist()[:3] == ["2026-11-21T10:00:00", "2026-11-21T11:00:00+01:00",
                                                                    "2026-11-21"]

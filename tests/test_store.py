@@ -499,10 +499,11 @@ def test_an_interaction_time_is_stored_in_utc_as_the_app_writes_it(store):
                  "2026-11-21T09:00:05.123Z", " 2026-11-21T09:00:05.123+00:00 "):
         store.record_interaction("P01", day, **GOOD, time=time)
     store.record_interaction("P01", day, **GOOD, time="2026-11-21T09:00:05Z")
-    assert list(store.interactions_frame("P01")["time"]) == ["2026-11-21T09:00:05.123Z"] * 4 + ["2026-11-21T09:00:05.000Z"]
+    assert list(store.interactions_frame("P01")["time"]) == ["2026-11-21T09:00:05.123Z"] * 4 + [
+        "2026-11-21T09:00:05.000Z"]
     before = snapshot(store.path)
     for naive in (datetime(2026, 11, 21, 10, 0, 5), "2026-11-21T10:00:00.000", "2026-11-21"):
-        with pytest.raises(CacasError, match=r'valid: an ISO 8601 time with a time zone, such as "2026-11-21T10:00:00Z"'):
+        with pytest.raises(CacasError, match=r'valid: an ISO 8601 time with a time zone, such as "2026-11-21T10:0'):
             store.record_interaction("P01", day, **GOOD, time=naive)
     assert snapshot(store.path) == before
 

@@ -123,12 +123,12 @@ class _Notes(list):
         else is refused."""
         try:
             utc = v.timestamp(cell)
-        except CacasError:
+        except CacasError as exc:
             try:
                 datetime.fromisoformat(cell.strip())
             except ValueError:
-                raise CacasError(f"time {cell!r} is invalid; valid: {v.TIME_HINT}") from None
-            self.kept("time", f"{cell!r} has no time zone", "record_interaction stored such times before it "
+                raise exc from None
+            self.kept("time", str(exc).partition("; valid:")[0], "record_interaction stored such times before it "
                       "refused them")
             return cell
         if utc != cell:
@@ -220,14 +220,14 @@ def _check_foreign_keys(c: sqlite3.Connection, before: dict[str, int]) -> None:
         return
     table, rowid, parent, fk = bad
     columns = [r[3] for r in c.execute(f"PRAGMA foreign_key_list({table})") if r[0] == fk]
-    values = dict(zip(columns, c.execute(f"SELECT {', '.join(columns)} FROM {table} WHERE id = ?", (rowid,)).fetchone()))
+    row = c.execute(f"SELECT {', '.join(columns)} FROM {table} WHERE id = ?", (rowid,)).fetchone()
+    values = dict(zip(columns, row))
     code = c.execute("SELECT code FROM participants WHERE id = ?", (values.pop("participant_id", None),)).fetchone()
     name, parent_name = (f"{_CSV_NAMES.get(t, t)}.csv" for t in (table, parent))
     who = f" of participant {code[0]}" if code else ""
     what = ", ".join(f"{column} {value}" for column, value in values.items())
     raise CacasError(f"{name}, row {rowid - before[table] + 1}: {what}{who} is not in {parent_name}; valid: one that "
                      f"{parent_name} lists{' for them' if code else ''}")
-
 
 
 def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
