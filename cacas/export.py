@@ -28,6 +28,7 @@ import json
 import os
 import re
 import zipfile
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,7 +39,7 @@ from cacas.errors import CacasError
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
-from cacas.store.restore import RESTORE_COLUMNS, restore
+from cacas.store.restore import RESTORE_COLUMNS, Restored, restore
 from cacas.study_day import STUDY_DAYS
 
 #: Name of the zip of all tables inside the output folder.
@@ -314,6 +315,16 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
 
 
+def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
+    """The bytes of the bundle's member ``name``; a damaged one (bytes changed in its compressed
+    data: zlib.error; a bad CRC; cut short: EOFError) is a CacasError naming the bundle and it."""
+    try:
+        return zf.read(name)
+    except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
+        raise CacasError(f"{path}: {name} in the bundle is damaged ({exc}); valid: "
+                         f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)") from None
+
+
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
     """The tables (every cell as text, "" for empty) and policy files of a bundle zip."""
     path = Path(path)
@@ -326,7 +337,7 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
             for name in RESTORE_COLUMNS:
                 if f"{name}.csv" not in names:
                     raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
-                tables[name] = pd.read_csv(io.BytesIO(zf.read(f"{name}.csv")), dtype=str,
+                tables[name] = pd.read_csv(io.BytesIO(_member(path, zf, f"{name}.csv")), dtype=str,
                                            keep_default_na=False).map(records.unescape_formula)
             policies = {}
             for name in sorted(names):
@@ -334,7 +345,7 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
                     rel = name[len("policies/"):]
                     if not _POLICY_PATH.match(rel):
                         raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
-                    policies[rel] = zf.read(name)
+                    policies[rel] = _member(path, zf, name)
     except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
     listed = list(tables["policies"].get("path", []))
@@ -348,9 +359,10 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     return tables, policies
 
 
-def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
+def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     """Load a bundle written by :func:`export_study` into a NEW database at ``db_path`` and
-    return the number of interactions imported.
+    return the number of interactions imported, with notes on what was kept as the study held it
+    although the forms refuse it in new data (:func:`cacas.store.restore.restore`).
 
     Refuses (CacasError, nothing changed) if ``db_path`` exists. The database is built under a
     temporary name beside it and linked into place only when complete, so a bad bundle leaves
@@ -360,25 +372,32 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> int:
     if db_path.exists() or Path(f"{db_path}-wal").exists():
         raise CacasError(f"{db_path}: already exists; import only into a new database file")
     tables, policies = read_bundle(bundle)
+    made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
     db_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
-    with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
-        return _import_into(tmp, db_path, tables, policies)
+    try:
+        with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
+            return _import_into(tmp, db_path, tables, policies, made)
+    except BaseException:
+        files.remove_empty(made)
+        raise
 
 
-def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
-    """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``."""
+def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path]) -> Restored:
+    """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``;
+    the folders it creates for policy files are added to ``made``."""
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
         try:
-            count = restore(store, tables, policies)
+            restored = restore(store, tables, policies)
             for rel, data in sorted(policies.items()):
                 target = store.policy_dir / rel
                 if target.exists():
                     if files.sha256(target.read_bytes()) != files.sha256(data):
                         raise CacasError(f"{target}: exists with other content; move it away and import again")
                     continue
+                made.extend(files.missing_folders(target.parent))
                 files.atomic_write(target, data)
                 created.append(target)
             store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
@@ -389,7 +408,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
         except FileExistsError:
             raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
         created.clear()
-        return count
+        return restored
     except BaseException:
         for p in created:
             p.unlink(missing_ok=True)
@@ -400,5 +419,5 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict) -> int:
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "accuracy_frame", "by_preference_frame", "next_day_accuracy",
-           "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "by_preference_frame",
+           "next_day_accuracy", "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]

@@ -196,3 +196,60 @@ def test_tables_only_removes_an_earlier_exports_zip(run, study, tmp_path, capsys
     assert not (tmp_path / "out" / "cacas-study.zip").exists()
     assert f"removed an earlier export's {tmp_path / 'out' / 'cacas-study.zip'}" in capsys.readouterr().out
     assert (tmp_path / "out" / "questionnaire.csv").read_text().count("\n") == 3  # header and both answers
+
+
+def test_import_of_a_study_with_a_code_like_a_date_restores_it_and_prints_a_note(run, tmp_path, capsys, monkeypatch):
+    """A code added before such codes were refused for new participants is the study's own: its
+    backup imports (it was refused, exit 2), with a note on stderr naming the table, row and column."""
+    from cacas.store import validate
+
+    path = tmp_path / "db" / "study.sqlite"
+    with monkeypatch.context() as m:
+        m.setattr(validate, "contact_details", lambda value: None)  # as before the check
+        with StudyStore(path) as s:
+            s.add_participant("20261121")
+    assert run("export", "--db", path, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    bundle = tmp_path / "out" / "cacas-study.zip"
+    assert run("import", "--bundle", bundle, "--db", tmp_path / "moved" / "study.sqlite") == 0
+    captured = capsys.readouterr()
+    assert "imported 1 participants and 0 interactions" in captured.out
+    assert captured.err == (f"cacas import: note: {bundle}: participants.csv, row 2, column participant: '20261121' "
+                            "looks like contact details (a phone number or an e-mail address); imported as it was, "
+                            "as the study held it (the forms refuse it in new data)\n")
+    with StudyStore(tmp_path / "moved" / "study.sqlite") as s:
+        assert [p.code for p in s.list_participants()] == ["20261121"]
+
+
+def _damaged(bundle, member, out):
+    """A copy of ``bundle`` with bytes inverted in the middle third of ``member``'s compressed data."""
+    import zipfile
+
+    data = bytearray(bundle.read_bytes())
+    with zipfile.ZipFile(bundle) as zf:
+        info = zf.getinfo(member)
+    start = info.header_offset + 30 + len(info.filename) + len(info.extra)  # after the local header
+    for k in range(info.compress_size // 3, 2 * info.compress_size // 3):
+        data[start + k] ^= 0xFF
+    out.write_bytes(bytes(data))
+    return out
+
+
+@pytest.mark.parametrize("member", ["interactions.csv", "policies/P01/"])
+def test_import_of_a_bundle_damaged_inside_a_member_exits_2_naming_it(run, study, tmp_path, capsys, member):
+    """Bytes changed inside a compressed member ended the import with zlib.error, a traceback and
+    exit 1; a truncated zip or a bad CRC were already one line and exit 2."""
+    import zipfile
+
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    bundle = tmp_path / "out" / "cacas-study.zip"
+    with zipfile.ZipFile(bundle) as zf:
+        member = next(n for n in zf.namelist() if n.startswith(member))
+    bad = _damaged(bundle, member, tmp_path / "bad.zip")
+    target = tmp_path / "new" / "study.sqlite"
+    code = run("import", "--bundle", bad, "--db", target)
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert err.startswith(f"cacas: error: {bad}: {member} in the bundle is damaged (")
+    assert not target.parent.exists()

@@ -448,7 +448,7 @@ def test_record_interaction_all_fields(store):
     first, second = df.iloc[0], df.iloc[1]
     assert (first.activity, first.time_slot, first.interval, first.task, first.method) == \
         ("cough", 3, 10, "chitchat", "cacas")  # S4: 12 minutes is in the bin of 10
-    assert first.user_action == "" and first.time == "2026-11-21T10:00:00Z"
+    assert first.user_action == "" and first.time == "2026-11-21T10:00:00.000Z"
     assert (second.activity, second.type, second.user_action, second.previous_action) == \
         ("use stove", "type_2", "remind to turn off", "pain check")
     extra = store.interactions_frame("P01", extra=True)
@@ -484,7 +484,12 @@ BAD_INTERACTIONS = [
     (dict(interval_bin=5), "interval 12 minutes is in bin 4, not 5; give one of them"),
     (dict(probabilities={"pain check": 0.9, "dance": 0.1}), "probabilities: unknown action 'dance'"),
     (dict(probabilities=["high"] * 14), "probabilities must be 14 numbers, one per action"),
-    (dict(time=1763718454), "time 1763718454 is invalid; valid: a datetime or an ISO 8601 timestamp"),
+    (dict(time=1763718454), "time 1763718454 is invalid; valid: a datetime with a time zone"),
+    # a time without a zone was stored as given, and compared as text with the app's UTC times
+    (dict(time="2026-11-21T10:00:00"), r"time '2026-11-21T10:00:00' has no time zone, so which moment it names "
+                                       r"is not known; valid: an ISO 8601 time with a time zone, such as "
+                                       r'"2026-11-21T10:00:00Z" \(UTC\)'),
+    (dict(time="2026-11-21"), r"time '2026-11-21' is a date alone; valid: an ISO 8601 time with a time zone"),
 ]
 
 
@@ -509,14 +514,24 @@ def test_probabilities_by_action_name_are_kept_in_table_one_order(store):
     assert stored == expected
 
 
-def test_an_interaction_time_given_as_a_datetime(store):
-    """A time with a zone is kept in UTC ("Z", as the app's own times); one without a zone as given."""
+def test_an_interaction_time_is_stored_in_utc_as_the_app_writes_it(store):
+    """A time with a zone, as a datetime or as text, is stored in UTC with milliseconds and "Z", as
+    the app's own times (the docs promise UTC, ISO 8601): text was stored as given (with its
+    offset), a datetime or text without a zone as given, and a date alone was taken."""
     from datetime import datetime, timedelta, timezone
     day = store.open_day("P01")
-    store.record_interaction("P01", day, **GOOD, time=datetime(2026, 11, 21, 10, 0, 5, 123456,
-                                                               tzinfo=timezone(timedelta(hours=1))))
-    store.record_interaction("P01", day, **GOOD, time=datetime(2026, 11, 21, 10, 0, 5, 123456))
-    assert list(store.interactions_frame("P01")["time"]) == ["2026-11-21T09:00:05.123Z", "2026-11-21T10:00:05.123"]
+    plus_one = timezone(timedelta(hours=1))
+    for time in (datetime(2026, 11, 21, 10, 0, 5, 123456, tzinfo=plus_one), "2026-11-21T10:00:05.123456+01:00",
+                 "2026-11-21T09:00:05.123Z", " 2026-11-21T09:00:05.123+00:00 "):
+        store.record_interaction("P01", day, **GOOD, time=time)
+    store.record_interaction("P01", day, **GOOD, time="2026-11-21T09:00:05Z")
+    assert list(store.interactions_frame("P01")["time"]) == ["2026-11-21T09:00:05.123Z"] * 4 + [
+        "2026-11-21T09:00:05.000Z"]
+    before = snapshot(store.path)
+    for naive in (datetime(2026, 11, 21, 10, 0, 5), "2026-11-21T10:00:00.000", "2026-11-21"):
+        with pytest.raises(CacasError, match=r'valid: an ISO 8601 time with a time zone, such as "2026-11-21T10:0'):
+            store.record_interaction("P01", day, **GOOD, time=naive)
+    assert snapshot(store.path) == before
 
 
 def test_interaction_for_missing_participant_or_day_or_closed_day(store):

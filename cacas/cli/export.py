@@ -5,12 +5,15 @@
 
 ``export`` opens the database read-only after checking it is a study database, so a missing
 file or any other file exits 2 with one line and creates nothing (not even DIR). ``import``
-refuses an existing NEWPATH. See :mod:`cacas.export`.
+refuses an existing NEWPATH, and prints a note for each cell it kept as the study held it although
+the forms refuse it in new data (a code like a phone number or a date, contact details in text).
+See :mod:`cacas.export`.
 """
 
 from __future__ import annotations
 
 import argparse
+import sys
 
 from cacas.cli import types
 from cacas.export import BUNDLE_NAME, export_study, import_bundle
@@ -54,8 +57,10 @@ def run_export(args: argparse.Namespace) -> int:
 
 def run_import(args: argparse.Namespace) -> int:
     writable_file(args.db, "--db")  # named as the user gave it, not the temporary file built beside it
-    count = import_bundle(args.bundle, args.db)
+    restored = import_bundle(args.bundle, args.db)
+    for note in restored.notes:
+        print(f"cacas import: note: {args.bundle}: {note}", file=sys.stderr)
     with StudyStore(args.db, readonly=True) as store:
         people = len(store.list_participants())
-    print(f"imported {people} participants and {count} interactions into {args.db}")
+    print(f"imported {people} participants and {restored.interactions} interactions into {args.db}")
     return 0

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
 from cacas.cli import types
 from cacas.errors import CacasError
@@ -58,15 +57,6 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _missing_folders(folder) -> list[Path]:
-    """``folder`` and those above it that do not exist yet, deepest first: what creating it makes."""
-    missing, here = [], Path(folder).absolute()
-    while not here.exists() and here != here.parent:
-        missing.append(here)
-        here = here.parent
-    return missing
-
-
 def run(args) -> int:
     from cacas.experiment import check_loop, check_methods, check_study_arguments
 
@@ -100,7 +90,7 @@ def run(args) -> int:
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind, nor the folders above it that it created
-    made = [folder for f in (args.out, args.plot) if f for folder in _missing_folders(f)]
+    made = [folder for f in (args.out, args.plot) if f for folder in files.missing_folders(f)]
     check_output_folder(args.out, "simulation", f"--out {args.out}")
     try:
         out = files.writable_folder(args.out, f"--out {args.out}")
@@ -111,9 +101,7 @@ def run(args) -> int:
                                 jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
                                 loop=args.loop)
     except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
-        for folder in made:
-            if folder.is_dir() and not any(folder.iterdir()):
-                folder.rmdir()
+        files.remove_empty(made)
         raise
     # the three tables replace an earlier run's together, or not at all
     written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),

@@ -54,6 +54,25 @@ def _fsync_folder(folder: Path) -> None:
         os.close(fd)
 
 
+def missing_folders(folder) -> list[Path]:
+    """``folder`` and those above it that do not exist yet, deepest first: what creating it makes."""
+    missing, here = [], Path(folder).absolute()
+    while not here.exists() and here != here.parent:
+        missing.append(here)
+        here = here.parent
+    return missing
+
+
+def remove_empty(folders) -> None:
+    """Remove those of ``folders`` that are empty, deepest first (a folder emptied by removing the
+    one inside it goes too): the folders a command created, when it fails or is stopped."""
+    for folder in sorted(map(Path, folders), key=lambda f: len(f.parts), reverse=True):
+        try:
+            folder.rmdir()
+        except OSError:  # not empty, or gone
+            pass
+
+
 def writable_folder(folder, what: str) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
     CacasError naming it (``what``: how the user named it, e.g. "--out results")."""

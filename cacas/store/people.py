@@ -14,20 +14,13 @@ import pandas as pd
 
 from cacas import preferences as prefs
 from cacas.errors import CacasError
-from cacas.store import recovery
+from cacas.store import files, recovery
 from cacas.store import validate as v
 from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
 
 
 class PreferencesChanged(CacasError):
     """Preferences edited from a version that is no longer the latest (``save_preferences``)."""
-
-
-def _remove_if_empty(folder) -> None:
-    try:
-        folder.rmdir()
-    except OSError:  # not empty, or gone
-        pass
 
 
 #: Tables holding rows about one participant (a ``participant_id`` column referencing
@@ -288,9 +281,8 @@ class PeopleMixin:
                 self._conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # old pages leave the log (if no reader)
         except Exception:  # noqa: BLE001 - best effort: the next checkpoint does it
             pass
-        for sub in sorted((d for d in folder.rglob("*") if d.is_dir()), reverse=True) if folder.is_dir() else []:
-            _remove_if_empty(sub)
-        _remove_if_empty(folder)  # the folder goes with the last file; another database's files keep it
+        # the folder goes with the last file; another database's files keep it
+        files.remove_empty([*(d for d in folder.rglob("*") if d.is_dir()), folder] if folder.is_dir() else [])
         if trash.exists():
             shutil.rmtree(trash, ignore_errors=True)
             if trash.exists():

@@ -4,12 +4,19 @@
 the policy checkpoint files, checks every name through :mod:`cacas.spaces` and every checkpoint
 against its sha256, and inserts everything in one transaction: a bad bundle raises CacasError
 naming the table, row and column, and nothing is written.
+
+A restore gives back the study a bundle holds, as it was: what the forms refuse only in new data
+(a participant code that looks like a phone number or a date, free text holding what looks like
+contact details; a study may hold them from before the check) is imported, with a note naming
+the table, row and column (:class:`Restored`), not refused.
 """
 
 from __future__ import annotations
 
 import json
 import sqlite3
+from dataclasses import dataclass
+from datetime import datetime
 from typing import Any, Callable
 
 import pandas as pd
@@ -17,7 +24,8 @@ import pandas as pd
 from cacas import preferences as prefs
 from cacas import spaces
 from cacas.errors import CacasError
-from cacas.store import files
+from cacas.privacy import contact_details
+from cacas.store import files, schema
 from cacas.store import validate as v
 
 #: Tables a bundle must have to be restored, with the columns read from each.
@@ -79,7 +87,58 @@ def _json_text(cell: str) -> str:
     return cell
 
 
-def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], tuple]) -> list[tuple]:
+@dataclass(frozen=True)
+class Restored:
+    """What :func:`restore` did: the number of interactions restored, and one note per cell it
+    kept as it was although the forms refuse it in new data (each names the table, row and column)."""
+
+    interactions: int
+    notes: tuple[str, ...] = ()
+
+
+class _Notes(list):
+    """The notes of one restore; :func:`_rows` sets ``where`` (table and row) before each row."""
+
+    where = ""
+
+    def kept(self, column: str, problem: str, why: str) -> None:
+        """Note that the cell of ``column`` in this row has ``problem`` and was imported as it was."""
+        self.append(f"{self.where}, column {column}: {problem}; imported as it was, as the study held it ({why})")
+
+    def private(self, value: str, column: str) -> str:
+        """``value``, noted if it holds what looks like contact details (:func:`contact_details`:
+        an e-mail address, a phone number; a participant code that is a date), which the forms
+        refuse in new data but a study may hold from before the check."""
+        found = contact_details(value)
+        if found:
+            self.kept(column, f"{found!r} looks like contact details (a phone number or an e-mail address)",
+                      "the forms refuse it in new data")
+        return value
+
+    def time(self, cell: str) -> str:
+        """An interaction's time, checked as ``record_interaction`` checks one
+        (:func:`validate.timestamp`: ISO 8601 with a time zone) and kept as it was. A time that
+        ``record_interaction`` stored as given before it converted times to UTC (with an offset,
+        without a zone, a date alone: what ``datetime.fromisoformat`` reads) is noted; anything
+        else is refused."""
+        try:
+            utc = v.timestamp(cell)
+        except CacasError as exc:
+            try:
+                datetime.fromisoformat(cell.strip())
+            except ValueError:
+                raise exc from None
+            self.kept("time", str(exc).partition("; valid:")[0], "record_interaction stored such times before it "
+                      "refused them")
+            return cell
+        if utc != cell:
+            self.kept("time", f"{cell!r} is not in UTC as the app writes times ({utc!r})",
+                      "record_interaction stored such times before it converted them to UTC")
+        return cell
+
+
+def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], tuple],
+          notes: _Notes | None = None) -> list[tuple]:
     df = tables.get(name)
     if df is None:
         raise CacasError(f"{name}.csv is missing from the bundle")
@@ -90,6 +149,8 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
         raise CacasError(f"{name}.csv has no column {missing[0]!r}; expected {', '.join(RESTORE_COLUMNS[name])}")
     out = []
     for i, row in enumerate(df[RESTORE_COLUMNS[name]].to_dict("records")):
+        if notes is not None:
+            notes.where = f"{name}.csv, row {i + 2}"
         try:
             out.append(convert(row))
         except CacasError as exc:
@@ -97,7 +158,7 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
     return out
 
 
-def _interaction(r: dict[str, Any]) -> tuple:
+def _interaction(r: dict[str, Any], noted: _Notes) -> tuple:
     slot, iv = _int(r["time_slot"]), _int(r["interval"])
     if iv not in spaces.INTERVAL_BINS:
         raise CacasError(f"interval {iv} is not an S4 bin value; valid: {list(spaces.INTERVAL_BINS)}")
@@ -106,11 +167,11 @@ def _interaction(r: dict[str, Any]) -> tuple:
     v.time_slot(hour, slot)
     v.interval(minutes, iv)
     kind = v.conversation_type(r["type"])
-    user = _opt(r["user_action"])
+    user = v.user_action(kind, r["user_action"])  # the rule record_interaction keeps
     probs = _opt(r["probabilities"])
     if probs is not None:
         v.probabilities(json.loads(_json_text(probs)))
-    return (r["participant"], _int(r["day"], 1), _int(r["index"], 1), r["time"], v.method(r["method"]),
+    return (r["participant"], _int(r["day"], 1), _int(r["index"], 1), noted.time(r["time"]), v.method(r["method"]),
             v.name("activity", r["activity"], "activity"), v.name("scene", r["scene"], "scene"), hour, slot,
             minutes, iv, v.name("action", r["task"], "task"),
             v.name("action", r["previous_action"], "previous_action"),
@@ -121,28 +182,80 @@ def _interaction(r: dict[str, Any]) -> tuple:
             v.model_id(r["sound_model"], "sound_model"), v.model_id(r["scene_model"], "scene_model"),
             kind, v.name("action", r["robot_action"], "robot_action"), probs,
             v.name("response", r["response"], "response"),
-            None if user is None else v.name("action", user, "user_action"),
-            _opt_int(r["policy_version"]), r["created_at"])
+            user, _opt_int(r["policy_version"]), r["created_at"])
 
 
-def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> int:
+def _check_days(days: list[tuple]) -> None:
+    """Each participant's days as ``open_day`` and ``close_day`` leave them: numbered 1, 2, 3, ...
+    (no gap, none twice), and every one closed but the latest (at most one open day, the latest).
+    ``days`` are days.csv's rows in order (participant, day, opened_at, closed_at)."""
+    by_participant: dict[str, list[tuple[int, int, str | None]]] = {}
+    for i, (code, day, _opened, closed) in enumerate(days):
+        by_participant.setdefault(code, []).append((day, i + 2, closed))
+    for code, rows in by_participant.items():
+        rows.sort()
+        for n, (day, row, closed) in enumerate(rows, start=1):
+            if day != n:
+                what = f"is listed twice (rows {rows[n - 2][1]} and {row})" if day == n - 1 else \
+                    f"follows day {n - 1}" if n > 1 else "is their first"
+                raise CacasError(f"days.csv, row {row}: day {day} of participant {code} {what}; valid: days "
+                                 "numbered 1, 2, 3, ... as the app opens them")
+            if closed is None and n < len(rows):
+                raise CacasError(f"days.csv, row {row}: day {day} of participant {code} is open (closed_at is "
+                                 f"empty) but day {day + 1} follows it; valid: a closed_at time on every day "
+                                 "but a participant's latest (the app opens a day after closing the one before)")
+
+
+#: The CSV file of a study database's table, where its name differs.
+_CSV_NAMES = {"questionnaires": "questionnaire"}
+
+
+def _check_foreign_keys(c: sqlite3.Connection, before: dict[str, int]) -> None:
+    """Refuse (CacasError) the first row ``PRAGMA foreign_key_check`` finds naming a row its parent
+    table lacks (an interaction's day or policy version, an adaptation's policy version), naming
+    the CSV file, its row, the columns and values. Each table's rows were inserted in the file's
+    order after the ids ``before`` holds, so a row's id gives its line in the file."""
+    bad = c.execute("PRAGMA foreign_key_check").fetchone()
+    if bad is None:
+        return
+    table, rowid, parent, fk = bad
+    columns = [r[3] for r in c.execute(f"PRAGMA foreign_key_list({table})") if r[0] == fk]
+    row = c.execute(f"SELECT {', '.join(columns)} FROM {table} WHERE id = ?", (rowid,)).fetchone()
+    values = dict(zip(columns, row))
+    code = c.execute("SELECT code FROM participants WHERE id = ?", (values.pop("participant_id", None),)).fetchone()
+    name, parent_name = (f"{_CSV_NAMES.get(t, t)}.csv" for t in (table, parent))
+    who = f" of participant {code[0]}" if code else ""
+    what = ", ".join(f"{column} {value}" for column, value in values.items())
+    raise CacasError(f"{name}, row {rowid - before[table] + 1}: {what}{who} is not in {parent_name}; valid: one that "
+                     f"{parent_name} lists{' for them' if code else ''}")
+
+
+def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
     """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
-    number of interactions restored. ``policy_files`` maps each policies.csv path to its bytes."""
-    # free text is checked as the forms check it (no contact details: study data are pseudonymous)
-    studies = _rows(tables, "studies", lambda r: (v.study(r["name"]), v.text(r["description"], "description"),
-                                                  r["created_at"]))
+    number of interactions restored and the notes on what was kept as it was. ``policy_files``
+    maps each policies.csv path to its bytes."""
+    # codes and free text as the study held them: what looks like contact details is noted, not refused
+    noted = _Notes()
+    studies = _rows(tables, "studies", lambda r: (
+        noted.private(v.study(r["name"], check_contacts=False), "name"),
+        noted.private(v.text(r["description"], "description", check_contacts=False), "description"),
+        r["created_at"]), noted)
     people = _rows(tables, "participants", lambda r: (
-        v.new_code(r["participant"]), r["study"], v.age_range(r["age_range"]), v.text(r["notes"], "notes"),
-        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]))
+        noted.private(v.code(r["participant"]), "participant"), r["study"], v.age_range(r["age_range"]),
+        noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
+        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]), noted)
 
     def pref_row(r):
         items = json.loads(_json_text(r["preferences"]))
-        prefs.check_private_words(prefs.parse_participant({"id": r["participant"], "preferences": items}))
+        person = prefs.parse_participant({"id": r["participant"], "preferences": items})
+        for k, pref in enumerate(person.preferences):
+            noted.private(pref.description, f"preferences (preference {k + 1}'s description)")
         return r["participant"], _int(r["version"], 1), r["preferences"], r["created_at"]
 
-    preferences = _rows(tables, "preferences", pref_row)
+    preferences = _rows(tables, "preferences", pref_row, noted)
     days = _rows(tables, "days", lambda r: (r["participant"], _int(r["day"], 1), r["opened_at"],
                                             _opt(r["closed_at"])))
+    _check_days(days)
 
     def policy_row(r):
         data = policy_files.get(r["path"])
@@ -154,13 +267,14 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
                 r["sha256"], len(data), r["created_at"])
 
     policies = _rows(tables, "policies", policy_row)
-    interactions = _rows(tables, "interactions", _interaction)
+    interactions = _rows(tables, "interactions", lambda r: _interaction(r, noted), noted)
     adaptations = _rows(tables, "adaptations", lambda r: (
         r["participant"], _int(r["day"]), v.method(r["method"]), _json_text(r["parameters"]),
         v.number(_opt_float(r["duration_s"]) or 0.0, "duration_s", 0), _json_text(r["metrics"]),
         _opt_int(r["policy_version"]), r["created_at"]))
     answers = _rows(tables, "questionnaire", lambda r: (
-        r["participant"], v.satisfaction(_int(r["satisfaction"])), v.text(r["comments"], "comments"), r["created_at"]))
+        r["participant"], v.satisfaction(_int(r["satisfaction"])),
+        noted.private(v.text(r["comments"], "comments", check_contacts=False), "comments"), r["created_at"]), noted)
     events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
                                                 _json_text(r["details"] or "{}")))
 
@@ -173,6 +287,10 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     def insert(c):
         if c.execute("SELECT COUNT(*) FROM participants").fetchone()[0]:
             raise CacasError(f"{store.path}: already holds participants; import into a new database")
+        # a row naming a missing one (a day, a policy version) is found once all are in, and named
+        # below; checked at each INSERT, the first such row failed there, with no table or row named
+        c.execute("PRAGMA defer_foreign_keys = ON")  # until this transaction ends
+        before = {t: c.execute(f"SELECT COALESCE(MAX(id), 0) FROM {t}").fetchone()[0] for t in schema.TABLES}
         for name, desc, at in studies:
             c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, ?, ?) ON CONFLICT(name) "
                       "DO UPDATE SET description = excluded.description, created_at = excluded.created_at",
@@ -215,10 +333,9 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         c.executemany("INSERT INTO questionnaires (participant_id, satisfaction, comments, created_at) "
                       "VALUES (?, ?, ?, ?)", [(p(r[0], "questionnaire"), *r[1:]) for r in answers])
         c.executemany("INSERT INTO events (at, what, participant, details) VALUES (?, ?, ?, ?)", events)
-        bad = c.execute("PRAGMA foreign_key_check").fetchone()
-        if bad:
-            raise CacasError(f"the bundle's {bad[0]} table refers to a missing {bad[2]} row")
-        store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions))
-        return len(interactions)
+        _check_foreign_keys(c, before)
+        store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions),
+                     notes=len(noted))
+        return Restored(len(interactions), tuple(noted))
 
     return store._write(fn)

@@ -8,7 +8,7 @@ import pandas as pd
 
 from cacas import spaces
 from cacas.errors import AlreadyRecorded, CacasError
-from cacas.records import INTERACTION_COLUMNS, ROBOT_INITIATED, USER_INITIATED
+from cacas.records import INTERACTION_COLUMNS, ROBOT_INITIATED
 from cacas.store import validate as v
 from cacas.store.base import DayInfo, ResumeInfo
 
@@ -114,7 +114,9 @@ class SessionsMixin:
         policy's 14 ``probabilities`` (Eq. 4; a list in Table I's order or a dict by action name),
         ``response`` accept / reject / others. ``policy_version``: default the participant's
         active policy; ``method``: default the method of that policy, else "cacas". ``time``:
-        when it happened (default now). Any bad name or value raises CacasError and nothing is
+        when it happened (default now), an aware datetime or an ISO 8601 text with a time zone,
+        stored in UTC as the app's own times (:func:`validate.timestamp`; a time without a zone,
+        or a date alone, is refused). Any bad name or value raises CacasError and nothing is
         written; so does a participant or day that does not exist, or a closed day. ``index``:
         the day's interaction number (1..) this answer is for; if it is taken already (a second
         click, another tab), nothing is written and :class:`~cacas.errors.AlreadyRecorded` is
@@ -140,18 +142,7 @@ class SessionsMixin:
         )
         values["hour"], values["time_slot"] = v.time_slot(hour, time_slot)
         values["interval_minutes"], values["interval_bin"] = v.interval(interval_minutes, interval_bin)
-        if values["type"] == USER_INITIATED:
-            if user_action is None:
-                raise CacasError("user_action is missing: a user-initiated (type_2) interaction names the "
-                                 "action the participant asked for")
-            values["user_action"] = v.name("action", user_action, "user_action")
-            if values["user_action"] == "do nothing":
-                raise CacasError("user_action 'do nothing' is not a request; valid: one of the 13 other actions")
-        else:
-            if user_action not in (None, ""):
-                raise CacasError(f"user_action {user_action!r} given for a robot-initiated (type_1) "
-                                 f"interaction; only type_2 interactions have one")
-            values["user_action"] = None
+        values["user_action"] = v.user_action(values["type"], user_action)
         if method is not None:
             method = v.method(method)
         code, day = str(participant).strip(), v.integer(day, "day", 1)

@@ -50,7 +50,12 @@ def now() -> str:
         t = t.replace(microsecond=t.microsecond // 1000 * 1000)
         t = max(t, _last_now + timedelta(milliseconds=1))
         _last_now = t
-    return t.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+    return _utc_text(t)
+
+
+def _utc_text(t: datetime) -> str:
+    """An aware datetime as the store writes times: UTC, milliseconds (cut), "Z"."""
+    return t.astimezone(timezone.utc).replace(tzinfo=None).isoformat(timespec="milliseconds") + "Z"
 
 
 def code(value: Any) -> str:
@@ -62,10 +67,10 @@ def code(value: Any) -> str:
 
 
 def new_code(value: Any) -> str:
-    """A code for a participant being added (a form, a persona import, a bundle): :func:`code`,
+    """A code for a participant being added (a form, a persona import): :func:`code`,
     and not a phone number or a date a contact check finds (:func:`contact_details`:
     "0612345678", "20261121"), which the code would carry into every export. Codes already in a
-    study keep working through :func:`code`."""
+    study keep working through :func:`code`, and a restored backup keeps them (with a note)."""
     checked = code(value)
     found = contact_details(checked)
     if found:
@@ -84,11 +89,13 @@ def persona_codes(people, source: str | None = None) -> None:
             raise CacasError(f"{source or 'persona file'}: {exc}") from None
 
 
-def study(value: Any) -> str:
+def study(value: Any, check_contacts: bool = True) -> str:
+    """A study's name: 1-64 letters, digits, spaces, ".", "-" or "_", and (``check_contacts``) no
+    contact details (:func:`contact_details`)."""
     if not isinstance(value, str) or not STUDY_RE.fullmatch(value.strip()):
         raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
                          f"'.', '-' or '_'")
-    found = contact_details(value)  # a study's name is in every export, as a participant's notes are
+    found = check_contacts and contact_details(value)  # a study's name is in every export, as notes are
     if found:
         raise CacasError(f"study name {value!r} holds what looks like a phone number ({found!r}); valid: a name "
                          "without contact details (study data are pseudonymous)")
@@ -107,11 +114,11 @@ def age_range(value: Any) -> str:
     return text
 
 
-def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
-    """Free text (notes, comments, descriptions): at most ``limit`` characters, and no contact
-    details (:func:`contact_details`). Line breaks are kept as line feeds (a browser's text area
-    sends them so; a lone carriage return broke the exported CSV's rows), and text that is not Unicode (a lone
-    surrogate, which no file can hold) is refused."""
+def text(value: Any, field: str, limit: int = NOTES_MAX, check_contacts: bool = True) -> str:
+    """Free text (notes, comments, descriptions): at most ``limit`` characters, and (``check_contacts``)
+    no contact details (:func:`contact_details`). Line breaks are kept as line feeds (a browser's
+    text area sends them so; a lone carriage return broke the exported CSV's rows), and text that
+    is not Unicode (a lone surrogate, which no file can hold) is refused."""
     if value is None:
         return ""
     if not isinstance(value, str):
@@ -124,7 +131,7 @@ def text(value: Any, field: str, limit: int = NOTES_MAX) -> str:
     value = line_feeds(value)
     if len(value) > limit:
         raise CacasError(f"{field} is {len(value)} characters long; valid: at most {limit}")
-    found = contact_details(value)
+    found = check_contacts and contact_details(value)
     if found:
         raise CacasError(f"{field} contain{'' if field.endswith('s') else 's'} what looks like contact details "
                          f"({found!r}); valid: no names, e-mail addresses or phone numbers (study data "
@@ -186,6 +193,24 @@ def conversation_type(value: Any) -> str:
     return value
 
 
+def user_action(kind: str, value: Any) -> str | None:
+    """The action the participant asked for, by the interaction's ``kind`` (Table II): a
+    user-initiated (type_2) interaction names one other than "do nothing"; a robot-initiated
+    (type_1) one has none (None; "" as an export writes it)."""
+    if kind == USER_INITIATED:
+        if value is None or value == "":
+            raise CacasError("user_action is missing: a user-initiated (type_2) interaction names the "
+                             "action the participant asked for")
+        action = name("action", value, "user_action")
+        if action == "do nothing":
+            raise CacasError("user_action 'do nothing' is not a request; valid: one of the 13 other actions")
+        return action
+    if value not in (None, ""):
+        raise CacasError(f"user_action {value!r} given for a robot-initiated (type_1) "
+                         f"interaction; only type_2 interactions have one")
+    return None
+
+
 def _as_exported(x: float | None) -> float | None:
     """A time kept to the 6 decimals that CSV export writes (cut, not rounded, so that it stays in
     its slot or bin: 23.9999999 h would be written as 24.000000, which no import accepts)."""
@@ -236,23 +261,39 @@ def probabilities(value: Any) -> str | None:
     return json.dumps([float(p) for p in arr])
 
 
+#: What :func:`timestamp` takes, for its messages.
+TIME_HINT = ('an ISO 8601 time with a time zone, such as "2026-11-21T10:00:00Z" (UTC) or '
+             '"2026-11-21T11:00:00+01:00"')
+
+
 def timestamp(value: Any) -> str:
-    """An interaction's time: now if None; a datetime or an ISO 8601 text otherwise."""
+    """An interaction's time in the store's format, UTC as :func:`now` writes it
+    ("2026-11-21T09:47:34.123Z"): now if None; an aware datetime, or an ISO 8601 text with a time
+    zone ("Z" or an offset such as "+01:00"), converted to UTC. A time without a zone, a date alone
+    or anything else raises CacasError: which moment it names is not known, and times are compared
+    as text (daily.csv's success ceiling picks the preference version saved by then)."""
     if value is None:
         return now()
-    if isinstance(value, datetime):
-        if value.tzinfo is not None:
-            value = value.astimezone(timezone.utc).replace(tzinfo=None)
-            return value.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
-        return value.isoformat(timespec="milliseconds")
+    given = value
     if isinstance(value, str):
+        text = value.strip()
+        if text[-1:] in ("Z", "z"):  # Python 3.10's fromisoformat does not read "Z"
+            text = text[:-1] + "+00:00"
         try:
-            datetime.fromisoformat(value.strip())
+            value = datetime.fromisoformat(text)
         except ValueError:
-            raise CacasError(f"time {value!r} is invalid; valid: an ISO 8601 timestamp such as "
-                             f"2026-11-21T09:47:34Z") from None
-        return value.strip()
-    raise CacasError(f"time {value!r} is invalid; valid: a datetime or an ISO 8601 timestamp")
+            raise CacasError(f"time {given!r} is invalid; valid: {TIME_HINT}") from None
+        if "T" not in text.upper() and " " not in text:
+            raise CacasError(f"time {given!r} is a date alone; valid: {TIME_HINT}")
+    if not isinstance(value, datetime):
+        raise CacasError(f"time {given!r} is invalid; valid: a datetime with a time zone (tzinfo), or {TIME_HINT}")
+    if value.utcoffset() is None:
+        raise CacasError(f"time {given!r} has no time zone, so which moment it names is not known; valid: "
+                         f"{TIME_HINT}{'' if isinstance(given, str) else ', or a datetime with tzinfo'}")
+    try:
+        return _utc_text(value)
+    except OverflowError:  # 0001-01-01T00:30+01:00 is before the first moment a datetime holds
+        raise CacasError(f"time {given!r} is out of range; valid: {TIME_HINT}") from None
 
 
 def json_dict(value: Any, field: str) -> str:
