@@ -13,6 +13,7 @@ records each run as it comes.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -24,13 +25,13 @@ from cacas.study_day import Progress, day_status, described_now, scored_on_prefe
 
 @dataclass(frozen=True)
 class ComparisonPiece:
-    """One participant's share of :func:`compare_methods`: their interactions, described
-    preferences (and version), the (method, day) runs they have, and each method's closed days to
-    adapt through. Picklable: it goes to a worker process as it is."""
+    """One participant's share of :func:`compare_methods`: their interactions, the described
+    preferences (and version) each day's runs are scored on (``scoring``: day -> (preferences,
+    version)), the (method, day) runs they have, and each method's closed days to adapt through.
+    Picklable: it goes to a worker process as it is."""
 
     code: str
-    described: object
-    version: int
+    scoring: dict
     have: frozenset
     chains: dict
     data: pd.DataFrame
@@ -53,8 +54,7 @@ def compare_participant(initial, piece: ComparisonPiece, report: Callable, recor
     for method, days in piece.chains.items():
         policy = initial
         if (method, 0) not in piece.have:
-            record(piece.code, 0, method, {"initial": True}, 0.0,
-                   scored_on_preferences(initial, piece.described, piece.version))
+            record(piece.code, 0, method, {"initial": True}, 0.0, scored_on_preferences(initial, *piece.scoring[0]))
         done += 1
         for day in days:
             what = f"{piece.code}: {method} after day {day}"
@@ -64,7 +64,7 @@ def compare_participant(initial, piece: ComparisonPiece, report: Callable, recor
             policy = result.policy
             if (method, day) not in piece.have:
                 record(piece.code, day, method, dict(result.parameters, comparison=True), float(result.duration_s),
-                       scored_on_preferences(policy, piece.described, piece.version))
+                       scored_on_preferences(policy, *piece.scoring[day]))
             done += 1
 
 
@@ -84,6 +84,28 @@ def _comparison_worker(initial_bytes: bytes, piece: ComparisonPiece, queue, stop
     compare_participant(policy_from_bytes(initial_bytes), piece,
                         lambda units, message: report("progress", piece.code, units, message),
                         lambda *run: report("run", *run))
+
+
+def scoring_versions(store, code: str, runs: pd.DataFrame, days: list[int], latest: tuple) -> dict:
+    """Per day, the described preferences (and version) its comparison runs are scored on: the
+    version the day's first recorded run was scored on (normally the study's own adaptation), so
+    that every method's run of a day is scored on the same preferences, those of the day's time
+    (a baseline's run made after the preferences were edited was scored on the new version while
+    the study's own run of the same day kept the old one: on day 1, the same initial policy got two
+    accuracies); ``latest`` ((preferences, version) now) for a day no run has yet."""
+    first: dict[int, int] = {}
+    for day, metrics in zip(runs["day"].astype(int), runs["metrics"]):  # in the order recorded
+        version = json.loads(metrics or "{}").get("preferences_version")
+        if version is not None:
+            first.setdefault(day, int(version))
+    described = {latest[1]: latest[0]}
+    scoring = {}
+    for day in days:
+        version = first.get(day, latest[1])
+        if version not in described:
+            described[version] = store.get_preferences(code, version)
+        scoring[day] = (described[version], version)
+    return scoring
 
 
 def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
@@ -132,7 +154,8 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                 if missing:
                     chains[method] = [d for d in closed if d <= max(missing)]
             if chains:
-                pieces.append(ComparisonPiece(p.code, person, version, frozenset(have), chains,
+                scoring = scoring_versions(store, p.code, runs, [0] + closed, (person, version))
+                pieces.append(ComparisonPiece(p.code, scoring, frozenset(have), chains,
                                               store.interactions_frame(p.code, method=None), seed))
         total = max(1, sum(piece.units for piece in pieces))
         recorded = 0

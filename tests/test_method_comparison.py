@@ -71,6 +71,44 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
     assert nn.loc[2, "accuracy"] == 1.0 and nn.loc[2, "correct"] == 400
 
 
+def test_every_methods_run_of_a_day_is_scored_on_the_preferences_of_its_time(tmp_path, monkeypatch, policy):
+    """Preferences edited mid-study (walkthrough): the study's own runs of days 0-2 were scored on
+    version 1, and the baselines' runs of the same days, made after version 2 was saved, on version
+    2: on day 1 the same initial policy had two accuracies. Each day's runs now share the version
+    of the day's first run; a day adapted after the edit is scored on the new version."""
+    import cacas.adaptation
+    from cacas.export import export_tables
+    from cacas.method_comparison import compare_methods
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "c.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        s.record_adaptation("P01", 0, "cacas", {"initial": True}, 0.0, {"preference_accuracy": 0.1,
+                                                                       "preferences_version": 1})
+        for day in (1, 2, 3):
+            if day == 3:  # the participant describes coughs differently before day 3 is adapted
+                s.save_preferences("P01", [{"activity": ["cough"], "action": "show compassion"}])
+            start_day(s, "P01")
+            s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+            s.close_day("P01", day)
+            s.record_adaptation("P01", day, "cacas", {}, 1.0, {"preference_accuracy": 0.5,
+                                                                "preferences_version": 1 if day < 3 else 2},
+                                s.save_policy("P01", day, "cacas", policy.to_bytes(), activate=True))
+    assert compare_methods(path, methods=("nn",)) == 4
+    with StudyStore(path) as s:
+        runs = s.adaptations_frame("P01")
+        nn = runs[runs["method"] == "nn"]
+        assert list(nn["day"]) == [0, 1, 2, 3]
+        assert [json.loads(m)["preferences_version"] for m in nn["metrics"]] == [1, 1, 1, 2]
+        by_pref = export_tables(s)["by_preference"]
+    # the baseline's rows of days 1-3 (the policies of days 0-2 in force) name the preference of their time
+    nn = by_pref[by_pref["method"] == "nn"]
+    assert list(nn["day"]) == [1, 2, 3] and (nn["action"] == "pain check").all()
+
+
 def test_compare_methods_leaves_out_who_has_no_described_preferences_or_closed_day(tmp_path, monkeypatch, policy):
     """Fig. 4's accuracy needs described preferences, and a comparison needs a closed day: a
     participant without either gets no comparison run (not a run scored on nothing)."""
