@@ -1,6 +1,7 @@
 """CSV export of the study database, the zip bundle, and import into a new database (issue 4, item 4)."""
 
 import io
+import json
 import math
 import re
 import sqlite3
@@ -502,6 +503,49 @@ def test_export_of_one_study(store, tmp_path):
     assert set(tables["interactions"]["participant"]) == {"P02"}
     assert tables["studies"]["name"].tolist() == ["pilot"]
     assert set(tables["events"]["participant"]) == {"P02"}
+
+
+def test_the_export_of_a_study_keeps_the_removal_of_its_participants(tmp_path):
+    """Walkthrough: the Results page's zip (one study) lacked the "remove_participant" event that
+    `cacas export` (the whole database) has: it is stored with no participant, and the study's
+    events were its participants' only. A withdrawal's audit entry is the study's."""
+    with StudyStore(tmp_path / "a" / "study.sqlite") as s:
+        for code in ("P01", "P02"):
+            s.add_participant(code)
+        s.save_preferences("P02", [COUGH])
+        s.remove_participant("P01", confirm="P01")
+        study = export.export_study(s, tmp_path / "study", study="default")
+        whole = export.export_study(s, tmp_path / "whole")
+    for name in export.TABLES:  # one study in the database: its export is the whole database's
+        assert study.tables[name].read_bytes() == whole.tables[name].read_bytes(), name
+    events = pd.read_csv(study.tables["events"], keep_default_na=False)
+    assert events["what"].tolist() == ["add_participant", "save_preferences", "remove_participant"]
+    assert events["participant"].iloc[-1] == "" and events["details"].iloc[-1] == '{"code": "P01", "study": "default"}'
+
+
+def test_a_removal_stored_before_is_in_its_own_studys_events_only(store, tmp_path):
+    """A database already holds its removals as remove_participant stores them (no participant; the
+    code and the study in the details, written by older code, keys in any order): each is one of
+    its study's events, and details that are not JSON leave the event out rather than fail."""
+    store.add_participant("P03", study="pilot")
+    store.remove_participant("P03", confirm="P03")
+    con = sqlite3.connect(store.path)
+    with con:
+        con.executemany("INSERT INTO events (at, what, participant, details) VALUES (?, 'remove_participant', NULL, ?)",
+                        [("2026-01-05T10:00:00.000Z", '{"study":"default","code":"P09"}'),
+                         ("2026-01-06T10:00:00.000Z", '{"code": "P08", "study": "pilot"}'),
+                         ("2026-01-07T10:00:00.000Z", "not JSON: study pilot")])
+    con.close()
+
+    def removed(study):
+        ev = export.export_tables(store, study)["events"]
+        return ev.loc[ev["what"] == "remove_participant", "details"].tolist()
+
+    assert [json.loads(d)["code"] for d in removed("default")] == ["P09"]
+    assert [json.loads(d)["code"] for d in removed("pilot")] == ["P03", "P08"]
+    assert len(removed(None)) == 4  # the whole database: every removal, the unreadable one too
+    assert store.events(study="pilot", limit=1)["details"].tolist() == ['{"code": "P08", "study": "pilot"}']
+    assert set(export.export_tables(store, "pilot")["events"]["participant"].dropna()) == {"P02"}
 
 
 def test_interaction_names_survive_in_paper_spelling(store):
