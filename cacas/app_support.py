@@ -192,6 +192,8 @@ def _event_words(what: str, details: str) -> str:
         return f"preferences saved (version {d.get('version')}, {n} preference{'' if n == 1 else 's'})"
     if what == "record_questionnaire":
         return f"questionnaire: satisfaction {d.get('satisfaction')}"
+    if what == "remove_participant":  # stored with no participant: the code is in the details
+        return f"participant {d.get('code')} removed, with everything recorded about them"
     return {"add_participant": "participant added", "update_participant": "details edited",
             "create_study": f"study {d.get('study', '')} created"}.get(what, what.replace("_", " "))
 
