@@ -461,6 +461,33 @@ def test_a_study_holding_what_the_forms_refuse_now_is_restored_as_it_was_with_no
         assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
 
 
+def test_studies_whose_names_differ_only_in_letter_case_are_restored_as_they_were_with_a_note(tmp_path):
+    """create_study refuses a case twin of a study's name ("Default" beside "default"); a database
+    from before holds them, and its backup restores them as they were, with a note, also a study's
+    own export of "Default" into a new database, which has its own "default"."""
+    path = tmp_path / "a" / "study.sqlite"
+    with StudyStore(path) as s:
+        with s._conn:  # as create_study wrote it before the check
+            s._conn.execute("INSERT INTO studies (name, description, created_at) VALUES "
+                            "('Default', '', '2026-01-05T10:00:00.000Z')")
+        s.add_participant("P01")
+        s.add_participant("W01", study="Default")
+        first = export.export_study(s, tmp_path / "first")
+        alone = export.export_study(s, tmp_path / "alone", study="Default")
+    note = ("studies.csv, row 2, column name: 'Default' differs from study 'default' only in letter case; imported "
+            "as it was, as the study held it (the forms refuse it in new data)")
+    assert export.import_bundle(first.bundle, tmp_path / "b" / "moved.sqlite").notes == (note,)
+    assert export.import_bundle(alone.bundle, tmp_path / "c" / "alone.sqlite").notes == (note,)
+    with StudyStore(tmp_path / "b" / "moved.sqlite") as moved:
+        assert [(p.code, p.study) for p in moved.list_participants()] == [("P01", "default"), ("W01", "Default")]
+        second = export.export_study(moved, tmp_path / "second")
+    for name in ROUND_TRIP:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+    with StudyStore(tmp_path / "c" / "alone.sqlite") as moved:
+        assert [s.name for s in moved.studies()] == ["Default", "default"]
+        assert moved.get_participant("W01").study == "Default"
+
+
 def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with_notes(store, tmp_path):
     """Before record_interaction converted times to UTC it stored them as given: such a study's
     export imports as it was (a note each); a time that is no ISO 8601 time at all is refused."""

@@ -237,6 +237,21 @@ def test_a_study_name_with_a_phone_number_is_refused(store):
     assert store.create_study("pilot 2026-11 wave 2") is not None  # dates and numbers of waves are names
 
 
+def test_a_study_name_that_differs_from_one_only_in_letter_case_is_refused(store):
+    """Walkthrough: "Default" was created beside "default"; the sidebar listed both, and
+    participants were added to the one not meant. Codes refuse their case twins the same way."""
+    store.create_study("pilot walk")
+    before = snapshot(store.path)
+    for name, existing in (("Default", "default"), ("DEFAULT ", "default"), ("Pilot Walk", "pilot walk")):
+        with pytest.raises(CacasError, match=f"^study {name.strip()!r} differs from study {existing!r} only in "
+                                             "letter case; study names must be unique, also in letter case$"):
+            store.create_study(name)
+    with pytest.raises(CacasError, match="^study 'pilot walk' already exists; study names must be unique"):
+        store.create_study("pilot walk")
+    assert snapshot(store.path) == before
+    assert [s.name for s in store.studies()] == ["default", "pilot walk"]
+
+
 @pytest.mark.parametrize("code", ["0612345678", "20261121", "06-12-34-56-78"])
 def test_a_new_participant_code_that_looks_like_a_phone_number_or_a_date_is_refused(store, code):
     """A code is in every export: one that is a phone number or a birth date is not pseudonymous.

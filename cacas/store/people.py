@@ -55,19 +55,28 @@ class PeopleMixin:
 
     # --- studies -------------------------------------------------------------------------------
     def create_study(self, name: str, description: str = "") -> Study:
-        """Add a study (a name unique in this database)."""
+        """Add a study (a name unique in this database, also in letter case: :meth:`_check_new_study`)."""
         name = v.study(name)
         description = v.text(description, "study description")
         at = v.now()
 
         def fn(c):
-            if c.execute("SELECT 1 FROM studies WHERE name = ?", (name,)).fetchone():
-                raise CacasError(f"study {name!r} already exists")
+            self._check_new_study(c, name)
             c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, ?, ?)",
                       (name, description, at))
             self._event(c, "create_study", None, study=name)
         self._write(fn)
         return Study(name, description, at)
+
+    @staticmethod
+    def _check_new_study(c, name: str) -> None:
+        """A new study's name must differ from every study's, also in letter case ("Default" beside
+        "default": the sidebar listed both, and participants were added to the one not meant). A
+        restored study keeps the name it has (:func:`cacas.store.restore.restore` notes it)."""
+        row = c.execute("SELECT name FROM studies WHERE name = ? COLLATE NOCASE", (name,)).fetchone()
+        if row is not None:
+            same = "already exists" if row[0] == name else f"differs from study {row[0]!r} only in letter case"
+            raise CacasError(f"study {name!r} {same}; study names must be unique, also in letter case")
 
     def studies(self) -> list[Study]:
         """All studies, by name ("default" always exists)."""

@@ -239,6 +239,13 @@ def test_a_new_study_is_created_and_selected(app, store):
     at.text_input(key="new-study-name").set_value("pilot-2026")
     next(b for b in at.button if b.label == "Create study").click().run()
     assert "study 'pilot-2026' already exists" in texts(at)
+    # walkthrough: "Default" was created beside "default", and the sidebar listed both
+    at.text_input(key="new-study-name").set_value("Default")
+    next(b for b in at.button if b.label == "Create study").click().run()
+    no_exception(at)
+    assert ("study 'Default' differs from study 'default' only in letter case; study names must be unique, also "
+            "in letter case") in texts(at)
+    assert at.selectbox(key="study").options == ["default", "pilot-2026"]
 
 
 
