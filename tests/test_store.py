@@ -295,9 +295,11 @@ def test_notes_that_are_too_long_or_not_text_are_refused(store):
 
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
-    with pytest.raises(CacasError, match="P01 already exists"):
+    with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\); codes must be "
+                                         "unique across all studies$"):
         store.add_participant("P01")
-    with pytest.raises(CacasError, match="participant p01 differs from participant P01 only in letter case"):
+    with pytest.raises(CacasError, match=r"^participant p01 differs from participant P01 \(in study 'default'\) "
+                                         "only in letter case; codes must be unique across all studies$"):
         store.add_participant("p01")
     with pytest.raises(CacasError, match="age range"):
         store.add_participant("P03", age_range="old")
@@ -308,6 +310,10 @@ def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     with pytest.raises(CacasError, match="unknown participant 'P09'"):
         store.update_participant("P09", notes="x")
     assert snapshot(store.path) == before
+    # walkthrough: P01 added in study "Pilot" said "already exists" beside "0 participant(s) in study 'Pilot'"
+    store.create_study("Pilot")
+    with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\)"):
+        store.add_participant("P01", study="Pilot")
 
 
 def test_preferences_may_be_given_as_the_participants_persona_object(store):
@@ -397,7 +403,8 @@ def test_import_never_touches_another_studys_participants(store):
     with pytest.raises(CacasError, match="new.json: participant P10 belongs to study 'pilot', not 'default'; "
                                          "nothing was imported"):
         store.import_personas(clash, source="new.json")
-    with pytest.raises(CacasError, match="participant p10 differs from participant P10 only in letter case"):
+    with pytest.raises(CacasError, match=r"participant p10 differs from participant P10 \(in study 'pilot'\) only "
+                                         "in letter case"):
         store.import_personas({"participants": [{"id": "p10", "preferences": [STOVE]}]}, study="pilot")
     with pytest.raises(CacasError, match="new.json, participant p13, field .id.: differs from participant P13 "
                                          "only in letter case"):

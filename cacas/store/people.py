@@ -384,12 +384,16 @@ class PeopleMixin:
 
     @staticmethod
     def _check_new_code(c, code: str) -> None:
-        """A new code must differ from every code in use, also in letter case (P01 and p01 would
-        be two participants a reader takes for one)."""
-        row = c.execute("SELECT code FROM participants WHERE code = ? COLLATE NOCASE", (code,)).fetchone()
+        """A new code must differ from every code in use, in any study, also in letter case (P01
+        and p01 would be two participants a reader takes for one). The message names the study of
+        the code in use: "already exists" beside "0 participant(s) in study 'Default'" read as wrong."""
+        row = c.execute("SELECT p.code, s.name FROM participants p JOIN studies s ON s.id = p.study_id "
+                        "WHERE p.code = ? COLLATE NOCASE", (code,)).fetchone()
         if row is not None:
-            same = "already exists" if row[0] == code else f"differs from participant {row[0]} only in letter case"
-            raise CacasError(f"participant {code} {same}; codes must be unique")
+            where = f"(in study {row[1]!r})"
+            same = f"already exists {where}" if row[0] == code else \
+                f"differs from participant {row[0]} {where} only in letter case"
+            raise CacasError(f"participant {code} {same}; codes must be unique across all studies")
 
     def _save_version(self, c, pid: int, code: str, person: prefs.Participant, **event: Any) -> int:
         """Write ``person``'s preferences as the participant's next version, unless they equal the
