@@ -130,10 +130,12 @@ def open_days(store, study: str | None = None) -> dict[str, int]:
 def last_participant(store, study: str | None = None) -> str | None:
     """The participant of ``study`` whom the latest event is about (the one the researcher or the
     tablet last worked with: a recorded answer, an adaptation, a preference saved), else the
-    first by code, else None: the app's sidebar starts there rather than at the first code."""
-    recent = store.events(study=study, limit=1)
-    if len(recent) and recent["participant"].iloc[0]:
-        return str(recent["participant"].iloc[0])
+    first by code, else None: the app's sidebar starts there rather than at the first code. A
+    removal, the study's latest event about no participant, is passed over."""
+    recent = store.events(study=study, limit=20)["participant"].dropna()
+    recent = recent[recent != ""]
+    if len(recent):
+        return str(recent.iloc[-1])
     people = store.list_participants(study)
     return people[0].code if people else None
 
@@ -190,6 +192,8 @@ def _event_words(what: str, details: str) -> str:
         return f"preferences saved (version {d.get('version')}, {n} preference{'' if n == 1 else 's'})"
     if what == "record_questionnaire":
         return f"questionnaire: satisfaction {d.get('satisfaction')}"
+    if what == "remove_participant":  # stored with no participant: the code is in the details
+        return f"participant {d.get('code')} removed, with everything recorded about them"
     return {"add_participant": "participant added", "update_participant": "details edited",
             "create_study": f"study {d.get('study', '')} created"}.get(what, what.replace("_", " "))
 

@@ -8,6 +8,19 @@ from pages import ui
 
 ui.require_app()
 
+
+def recent_activity(events) -> None:
+    """The study's latest events in words (``app_support.recent_events``)."""
+    st.subheader("Recent activity")
+    if events.empty:
+        st.caption("Nothing recorded yet.")
+        return
+    st.dataframe(events, hide_index=True, width="stretch",
+                 column_config={"when": st.column_config.TextColumn("when", width=165),
+                                "participant": st.column_config.TextColumn("participant", width=85),
+                                "what": st.column_config.TextColumn("what", width=640)})
+
+
 store = ui.store()
 study = ui.study()
 
@@ -16,10 +29,13 @@ st.caption(f"Study **{study}** · each participant runs {STUDY_DAYS} days of abo
            "interactions with the robot; the robot is adapted after each day (Su & Sheng, Section V-B).")
 
 table = app_support.overview_frame(store, study)
+events = app_support.recent_events(store, limit=10, study=study)
 if table.empty:
-    st.info("No participants yet. Start on the **Participants** page: add a participant with a "
-            "pseudonymous code and the 5 preferences they describe, or import a persona file.")
+    st.info(f"No participants {'yet' if events.empty else 'now'}. Start on the **Participants** page: add a "
+            "participant with a pseudonymous code and the 5 preferences they describe, or import a persona file.")
     ui.link("pages/participants.py", "Go to Participants", ":material/group:")
+    if not events.empty:  # its last participant removed: the removal is said here too
+        recent_activity(events)
     st.stop()
 
 started = table["day"] != "not started"
@@ -68,12 +84,4 @@ if code:
         ui.link("pages/adaptation.py", "Adaptation", ":material/model_training:", cols[1])
         ui.link("pages/results.py", "Results", ":material/monitoring:", cols[2])
 
-st.subheader("Recent activity")
-events = app_support.recent_events(store, limit=10, study=study)
-if events.empty:
-    st.caption("Nothing recorded yet.")
-else:
-    st.dataframe(events, hide_index=True, width="stretch",
-                 column_config={"when": st.column_config.TextColumn("when", width=165),
-                                "participant": st.column_config.TextColumn("participant", width=85),
-                                "what": st.column_config.TextColumn("what", width=640)})
+recent_activity(events)

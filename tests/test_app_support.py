@@ -263,6 +263,12 @@ def test_the_sidebar_starts_at_the_participant_last_worked_with(tmp_path):
         assert app_support.last_participant(store, "default") == "P01"  # a removed code is not offered
         store.create_study("empty")
         assert app_support.last_participant(store, "empty") is None
+        # a removal, the latest of the study's events (about no participant), does not move it to the first code
+        store.add_participant("P03")
+        store.add_participant("P04")
+        store.remove_participant("P04", confirm="P04")
+        assert store.events(study="default", limit=1)["what"].tolist() == ["remove_participant"]
+        assert app_support.last_participant(store, "default") == "P03"
 
 
 def test_a_preferences_hours_read_as_the_tablet_writes_a_time_of_day():

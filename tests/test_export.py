@@ -1,6 +1,7 @@
 """CSV export of the study database, the zip bundle, and import into a new database (issue 4, item 4)."""
 
 import io
+import json
 import math
 import re
 import sqlite3
@@ -460,6 +461,33 @@ def test_a_study_holding_what_the_forms_refuse_now_is_restored_as_it_was_with_no
         assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
 
 
+def test_studies_whose_names_differ_only_in_letter_case_are_restored_as_they_were_with_a_note(tmp_path):
+    """create_study refuses a case twin of a study's name ("Default" beside "default"); a database
+    from before holds them, and its backup restores them as they were, with a note, also a study's
+    own export of "Default" into a new database, which has its own "default"."""
+    path = tmp_path / "a" / "study.sqlite"
+    with StudyStore(path) as s:
+        with s._conn:  # as create_study wrote it before the check
+            s._conn.execute("INSERT INTO studies (name, description, created_at) VALUES "
+                            "('Default', '', '2026-01-05T10:00:00.000Z')")
+        s.add_participant("P01")
+        s.add_participant("W01", study="Default")
+        first = export.export_study(s, tmp_path / "first")
+        alone = export.export_study(s, tmp_path / "alone", study="Default")
+    note = ("studies.csv, row 2, column name: 'Default' differs from study 'default' only in letter case; imported "
+            "as it was, as the study held it (the forms refuse it in new data)")
+    assert export.import_bundle(first.bundle, tmp_path / "b" / "moved.sqlite").notes == (note,)
+    assert export.import_bundle(alone.bundle, tmp_path / "c" / "alone.sqlite").notes == (note,)
+    with StudyStore(tmp_path / "b" / "moved.sqlite") as moved:
+        assert [(p.code, p.study) for p in moved.list_participants()] == [("P01", "default"), ("W01", "Default")]
+        second = export.export_study(moved, tmp_path / "second")
+    for name in ROUND_TRIP:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+    with StudyStore(tmp_path / "c" / "alone.sqlite") as moved:
+        assert [s.name for s in moved.studies()] == ["Default", "default"]
+        assert moved.get_participant("W01").study == "Default"
+
+
 def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with_notes(store, tmp_path):
     """Before record_interaction converted times to UTC it stored them as given: such a study's
     export imports as it was (a note each); a time that is no ISO 8601 time at all is refused."""
@@ -502,6 +530,49 @@ def test_export_of_one_study(store, tmp_path):
     assert set(tables["interactions"]["participant"]) == {"P02"}
     assert tables["studies"]["name"].tolist() == ["pilot"]
     assert set(tables["events"]["participant"]) == {"P02"}
+
+
+def test_the_export_of_a_study_keeps_the_removal_of_its_participants(tmp_path):
+    """Walkthrough: the Results page's zip (one study) lacked the "remove_participant" event that
+    `cacas export` (the whole database) has: it is stored with no participant, and the study's
+    events were its participants' only. A withdrawal's audit entry is the study's."""
+    with StudyStore(tmp_path / "a" / "study.sqlite") as s:
+        for code in ("P01", "P02"):
+            s.add_participant(code)
+        s.save_preferences("P02", [COUGH])
+        s.remove_participant("P01", confirm="P01")
+        study = export.export_study(s, tmp_path / "study", study="default")
+        whole = export.export_study(s, tmp_path / "whole")
+    for name in export.TABLES:  # one study in the database: its export is the whole database's
+        assert study.tables[name].read_bytes() == whole.tables[name].read_bytes(), name
+    events = pd.read_csv(study.tables["events"], keep_default_na=False)
+    assert events["what"].tolist() == ["add_participant", "save_preferences", "remove_participant"]
+    assert events["participant"].iloc[-1] == "" and events["details"].iloc[-1] == '{"code": "P01", "study": "default"}'
+
+
+def test_a_removal_stored_before_is_in_its_own_studys_events_only(store, tmp_path):
+    """A database already holds its removals as remove_participant stores them (no participant; the
+    code and the study in the details, written by older code, keys in any order): each is one of
+    its study's events, and details that are not JSON leave the event out rather than fail."""
+    store.add_participant("P03", study="pilot")
+    store.remove_participant("P03", confirm="P03")
+    con = sqlite3.connect(store.path)
+    with con:
+        con.executemany("INSERT INTO events (at, what, participant, details) VALUES (?, 'remove_participant', NULL, ?)",
+                        [("2026-01-05T10:00:00.000Z", '{"study":"default","code":"P09"}'),
+                         ("2026-01-06T10:00:00.000Z", '{"code": "P08", "study": "pilot"}'),
+                         ("2026-01-07T10:00:00.000Z", "not JSON: study pilot")])
+    con.close()
+
+    def removed(study):
+        ev = export.export_tables(store, study)["events"]
+        return ev.loc[ev["what"] == "remove_participant", "details"].tolist()
+
+    assert [json.loads(d)["code"] for d in removed("default")] == ["P09"]
+    assert [json.loads(d)["code"] for d in removed("pilot")] == ["P03", "P08"]
+    assert len(removed(None)) == 4  # the whole database: every removal, the unreadable one too
+    assert store.events(study="pilot", limit=1)["details"].tolist() == ['{"code": "P08", "study": "pilot"}']
+    assert set(export.export_tables(store, "pilot")["events"]["participant"].dropna()) == {"P02"}
 
 
 def test_interaction_names_survive_in_paper_spelling(store):

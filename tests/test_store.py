@@ -237,6 +237,21 @@ def test_a_study_name_with_a_phone_number_is_refused(store):
     assert store.create_study("pilot 2026-11 wave 2") is not None  # dates and numbers of waves are names
 
 
+def test_a_study_name_that_differs_from_one_only_in_letter_case_is_refused(store):
+    """Walkthrough: "Default" was created beside "default"; the sidebar listed both, and
+    participants were added to the one not meant. Codes refuse their case twins the same way."""
+    store.create_study("pilot walk")
+    before = snapshot(store.path)
+    for name, existing in (("Default", "default"), ("DEFAULT ", "default"), ("Pilot Walk", "pilot walk")):
+        with pytest.raises(CacasError, match=f"^study {name.strip()!r} differs from study {existing!r} only in "
+                                             "letter case; study names must be unique, also in letter case$"):
+            store.create_study(name)
+    with pytest.raises(CacasError, match="^study 'pilot walk' already exists; study names must be unique"):
+        store.create_study("pilot walk")
+    assert snapshot(store.path) == before
+    assert [s.name for s in store.studies()] == ["default", "pilot walk"]
+
+
 @pytest.mark.parametrize("code", ["0612345678", "20261121", "06-12-34-56-78"])
 def test_a_new_participant_code_that_looks_like_a_phone_number_or_a_date_is_refused(store, code):
     """A code is in every export: one that is a phone number or a birth date is not pseudonymous.
@@ -280,9 +295,11 @@ def test_notes_that_are_too_long_or_not_text_are_refused(store):
 
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
-    with pytest.raises(CacasError, match="P01 already exists"):
+    with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\); codes must be "
+                                         "unique across all studies$"):
         store.add_participant("P01")
-    with pytest.raises(CacasError, match="participant p01 differs from participant P01 only in letter case"):
+    with pytest.raises(CacasError, match=r"^participant p01 differs from participant P01 \(in study 'default'\) "
+                                         "only in letter case; codes must be unique across all studies$"):
         store.add_participant("p01")
     with pytest.raises(CacasError, match="age range"):
         store.add_participant("P03", age_range="old")
@@ -293,6 +310,10 @@ def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     with pytest.raises(CacasError, match="unknown participant 'P09'"):
         store.update_participant("P09", notes="x")
     assert snapshot(store.path) == before
+    # walkthrough: P01 added in study "Pilot" said "already exists" beside "0 participant(s) in study 'Pilot'"
+    store.create_study("Pilot")
+    with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\)"):
+        store.add_participant("P01", study="Pilot")
 
 
 def test_preferences_may_be_given_as_the_participants_persona_object(store):
@@ -382,7 +403,8 @@ def test_import_never_touches_another_studys_participants(store):
     with pytest.raises(CacasError, match="new.json: participant P10 belongs to study 'pilot', not 'default'; "
                                          "nothing was imported"):
         store.import_personas(clash, source="new.json")
-    with pytest.raises(CacasError, match="participant p10 differs from participant P10 only in letter case"):
+    with pytest.raises(CacasError, match=r"participant p10 differs from participant P10 \(in study 'pilot'\) only "
+                                         "in letter case"):
         store.import_personas({"participants": [{"id": "p10", "preferences": [STOVE]}]}, study="pilot")
     with pytest.raises(CacasError, match="new.json, participant p13, field .id.: differs from participant P13 "
                                          "only in letter case"):

@@ -55,19 +55,28 @@ class PeopleMixin:
 
     # --- studies -------------------------------------------------------------------------------
     def create_study(self, name: str, description: str = "") -> Study:
-        """Add a study (a name unique in this database)."""
+        """Add a study (a name unique in this database, also in letter case: :meth:`_check_new_study`)."""
         name = v.study(name)
         description = v.text(description, "study description")
         at = v.now()
 
         def fn(c):
-            if c.execute("SELECT 1 FROM studies WHERE name = ?", (name,)).fetchone():
-                raise CacasError(f"study {name!r} already exists")
+            self._check_new_study(c, name)
             c.execute("INSERT INTO studies (name, description, created_at) VALUES (?, ?, ?)",
                       (name, description, at))
             self._event(c, "create_study", None, study=name)
         self._write(fn)
         return Study(name, description, at)
+
+    @staticmethod
+    def _check_new_study(c, name: str) -> None:
+        """A new study's name must differ from every study's, also in letter case ("Default" beside
+        "default": the sidebar listed both, and participants were added to the one not meant). A
+        restored study keeps the name it has (:func:`cacas.store.restore.restore` notes it)."""
+        row = c.execute("SELECT name FROM studies WHERE name = ? COLLATE NOCASE", (name,)).fetchone()
+        if row is not None:
+            same = "already exists" if row[0] == name else f"differs from study {row[0]!r} only in letter case"
+            raise CacasError(f"study {name!r} {same}; study names must be unique, also in letter case")
 
     def studies(self) -> list[Study]:
         """All studies, by name ("default" always exists)."""
@@ -375,12 +384,16 @@ class PeopleMixin:
 
     @staticmethod
     def _check_new_code(c, code: str) -> None:
-        """A new code must differ from every code in use, also in letter case (P01 and p01 would
-        be two participants a reader takes for one)."""
-        row = c.execute("SELECT code FROM participants WHERE code = ? COLLATE NOCASE", (code,)).fetchone()
+        """A new code must differ from every code in use, in any study, also in letter case (P01
+        and p01 would be two participants a reader takes for one). The message names the study of
+        the code in use: "already exists" beside "0 participant(s) in study 'Default'" read as wrong."""
+        row = c.execute("SELECT p.code, s.name FROM participants p JOIN studies s ON s.id = p.study_id "
+                        "WHERE p.code = ? COLLATE NOCASE", (code,)).fetchone()
         if row is not None:
-            same = "already exists" if row[0] == code else f"differs from participant {row[0]} only in letter case"
-            raise CacasError(f"participant {code} {same}; codes must be unique")
+            where = f"(in study {row[1]!r})"
+            same = f"already exists {where}" if row[0] == code else \
+                f"differs from participant {row[0]} {where} only in letter case"
+            raise CacasError(f"participant {code} {same}; codes must be unique across all studies")
 
     def _save_version(self, c, pid: int, code: str, person: prefs.Participant, **event: Any) -> int:
         """Write ``person``'s preferences as the participant's next version, unless they equal the

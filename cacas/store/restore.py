@@ -7,8 +7,9 @@ naming the table, row and column, and nothing is written.
 
 A restore gives back the study a bundle holds, as it was: what the forms refuse only in new data
 (a participant code that looks like a phone number or a date, free text holding what looks like
-contact details; a study may hold them from before the check) is imported, with a note naming
-the table, row and column (:class:`Restored`), not refused.
+contact details, a study's name that differs from another's only in letter case; a study may
+hold them from before the check) is imported, with a note naming the table, row and column
+(:class:`Restored`), not refused.
 """
 
 from __future__ import annotations
@@ -236,10 +237,19 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     maps each policies.csv path to its bytes."""
     # codes and free text as the study held them: what looks like contact details is noted, not refused
     noted = _Notes()
-    studies = _rows(tables, "studies", lambda r: (
-        noted.private(v.study(r["name"], check_contacts=False), "name"),
-        noted.private(v.text(r["description"], "description", check_contacts=False), "description"),
-        r["created_at"]), noted)
+    names = [s.name for s in store.studies()]  # the new database's "default", then the bundle's
+
+    def study_row(r):
+        name = noted.private(v.study(r["name"], check_contacts=False), "name")
+        twin = next((n for n in names if n.lower() == name.lower()), name)
+        if twin != name and name not in names:  # a new study beside a case twin, which create_study refuses
+            noted.kept("name", f"{name!r} differs from study {twin!r} only in letter case",
+                       "the forms refuse it in new data")
+        names.append(name)
+        return (name, noted.private(v.text(r["description"], "description", check_contacts=False), "description"),
+                r["created_at"])
+
+    studies = _rows(tables, "studies", study_row, noted)
     people = _rows(tables, "participants", lambda r: (
         noted.private(v.code(r["participant"]), "participant"), r["study"], v.age_range(r["age_range"]),
         noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),

@@ -90,16 +90,23 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
     def events(self, participant: str | None = None, what: str | None = None,
                limit: int | None = None, study: str | None = None) -> pd.DataFrame:
         """The event log (newest last): id, at, what, participant, details (JSON); optionally of
-        one participant, of the participants of one ``study`` (events about no participant,
-        such as an import, are left out then), or of one kind; the last ``limit`` only."""
+        one participant, of one ``study``, or of one kind; the last ``limit`` only.
+
+        A study's events are those of its participants and the removals of its participants
+        (:meth:`remove_participant` keeps that event with no participant, its details naming the
+        code and the study, as it has since removals exist); other events about no participant,
+        such as an import, are left out then."""
         where, params = [], []
         if participant is not None:
             where.append("participant = ?")
             params.append(str(participant).strip())
         if study is not None:
-            where.append("participant IN (SELECT p.code FROM participants p JOIN studies s ON s.id = p.study_id "
-                         "WHERE s.name = ?)")
-            params.append(study)
+            # CASE: details are read as JSON only where a removal holds them (a malformed cell elsewhere
+            # would fail the whole query)
+            where.append("(participant IN (SELECT p.code FROM participants p JOIN studies s ON s.id = p.study_id "
+                         "WHERE s.name = ?) OR CASE WHEN participant IS NULL AND what = 'remove_participant' "
+                         "AND json_valid(details) THEN json_extract(details, '$.study') END = ?)")
+            params += [study, study]
         if what is not None:
             where.append("what = ?")
             params.append(what)

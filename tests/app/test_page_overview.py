@@ -123,6 +123,30 @@ def test_a_new_visit_opens_the_study_being_run(app, store):
     assert app(study="pilot-walk").selectbox(key="study").value == "pilot-walk"  # the address wins
 
 
+def test_recent_activity_shows_a_removal_also_of_the_studys_last_participant(app, store):
+    """Walkthrough: a participant's removal never appeared under "Recent activity" (its event is
+    stored with no participant, and the study's events were its participants' only); and once the
+    study's last participant was removed, the page stopped before the list."""
+    removed = "participant P02 removed, with everything recorded about them"
+    for code in ("P01", "P02"):
+        store.add_participant(code)
+    store.create_study("pilot")
+    store.add_participant("Q01", study="pilot")
+    store.remove_participant("Q01", confirm="Q01")  # another study's removal is not this one's
+    store.remove_participant("P02", confirm="P02")
+    at = app()
+    no_exception(at)
+    recent = at.dataframe[-1].value
+    assert recent["what"].tolist() == [removed, "participant added"]
+    assert recent["participant"].tolist() == ["", "P01"]
+    store.remove_participant("P01", confirm="P01")
+    at = app()
+    no_exception(at)
+    assert "No participants now" in texts(at) and "Recent activity" in texts(at)
+    assert at.dataframe[-1].value["what"].tolist() == [removed.replace("P02", "P01"), removed]
+    assert app(study="pilot").dataframe[-1].value["what"].tolist() == [removed.replace("P02", "Q01")]
+
+
 def test_a_study_data_folder_without_the_shipped_files_is_said_on_every_researcher_page(app, tmp_path, monkeypatch):
     monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path / "empty"))
     for page in (None, "pages/participants.py", "pages/results.py"):

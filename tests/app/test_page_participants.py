@@ -63,6 +63,22 @@ def test_a_double_click_on_add_participant_adds_once_and_opens_their_preferences
     assert "participant P03 already exists" in texts(at)
 
 
+def test_adding_a_code_in_use_in_another_study_names_that_study(app, store):
+    """Walkthrough: adding P01 in study "Default" said "participant P01 already exists" while the
+    page showed "0 participant(s) in study 'Default'": P01 was in study "default"."""
+    store.add_participant("P01")
+    with store._conn:  # a study created before case twins were refused
+        store._conn.execute("INSERT INTO studies (name, description, created_at) VALUES "
+                            "('Default', '', '2026-01-05T10:00:00.000Z')")
+    at = app(PAGE, study="Default")
+    at.text_input(key="new-code").set_value("P01")
+    next(b for b in at.button if b.label == "Add participant").click().run()
+    no_exception(at)
+    assert [e.value for e in at.error] == ["participant P01 already exists (in study 'default'); codes must be "
+                                           "unique across all studies"]
+    assert "0 participant(s) in study 'Default'." in texts(at)
+
+
 def test_save_valid_preferences(app, store):
     store.add_participant("P01")
     at = app(PAGE, participant="P01")
@@ -239,6 +255,13 @@ def test_a_new_study_is_created_and_selected(app, store):
     at.text_input(key="new-study-name").set_value("pilot-2026")
     next(b for b in at.button if b.label == "Create study").click().run()
     assert "study 'pilot-2026' already exists" in texts(at)
+    # walkthrough: "Default" was created beside "default", and the sidebar listed both
+    at.text_input(key="new-study-name").set_value("Default")
+    next(b for b in at.button if b.label == "Create study").click().run()
+    no_exception(at)
+    assert ("study 'Default' differs from study 'default' only in letter case; study names must be unique, also "
+            "in letter case") in texts(at)
+    assert at.selectbox(key="study").options == ["default", "pilot-2026"]
 
 
 
