@@ -46,7 +46,7 @@ def test_export_and_import(run, study, tmp_path, capsys):
     assert (tmp_path / "out" / "daily.csv").exists()
     new = tmp_path / "moved" / "study.sqlite"
     assert run("import", "--bundle", tmp_path / "out" / "cacas-study.zip", "--db", new) == 0
-    assert "imported 1 participants and 1 interactions" in capsys.readouterr().out
+    assert "imported 1 participant and 1 interaction into" in capsys.readouterr().out
     with StudyStore(new) as s:
         assert s.resume("P01").total_interactions == 1
         assert s.load_policy("P01") == b"policy bytes"
@@ -213,7 +213,7 @@ def test_import_of_a_study_with_a_code_like_a_date_restores_it_and_prints_a_note
     bundle = tmp_path / "out" / "cacas-study.zip"
     assert run("import", "--bundle", bundle, "--db", tmp_path / "moved" / "study.sqlite") == 0
     captured = capsys.readouterr()
-    assert "imported 1 participants and 0 interactions" in captured.out
+    assert "imported 1 participant and 0 interactions into" in captured.out
     assert captured.err == (f"cacas import: note: {bundle}: participants.csv, row 2, column participant: '20261121' "
                             "looks like contact details (a phone number or an e-mail address); imported as it was, "
                             "as the study held it (the forms refuse it in new data)\n")

@@ -62,5 +62,7 @@ def run_import(args: argparse.Namespace) -> int:
         print(f"cacas import: note: {args.bundle}: {note}", file=sys.stderr)
     with StudyStore(args.db, readonly=True) as store:
         people = len(store.list_participants())
-    print(f"imported {people} participants and {restored.interactions} interactions into {args.db}")
+    n = restored.interactions
+    print(f"imported {people} participant{'' if people == 1 else 's'} and {n} interaction{'' if n == 1 else 's'} "
+          f"into {args.db}")
     return 0
