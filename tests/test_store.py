@@ -288,6 +288,12 @@ def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
         store.add_participant("P03", age_range="old")
     with pytest.raises(CacasError, match="age range"):
         store.add_participant("P03", age_range="35-25")
+    for age in ("200", "65-200", "121+"):  # walkthrough: "200" was taken
+        with pytest.raises(CacasError, match=rf"^age range '{re.escape(age)}' is invalid; valid: e\.g\. \"25-34\", "
+                                             r'"65\+" or empty, ages up to 120$'):
+            store.add_participant("P03", age_range=age)
+    with pytest.raises(CacasError, match="^age range '130' is invalid"):
+        store.update_participant("P01", age_range="130")
     with pytest.raises(CacasError, match="unknown study 'nope'"):
         store.add_participant("P03", study="nope")
     with pytest.raises(CacasError, match="unknown participant 'P09'"):
@@ -881,3 +887,18 @@ def test_the_store_refuses_preferences_edited_from_an_older_version(store):
     with pytest.raises(PreferencesChanged, match=r"P09's preferences are not the ones this form was drawn from "
                                                  r"\(version 5; the latest is version 2 now\); nothing was saved"):
         store.save_preferences("P09", [{"activity": ["cough"], "action": "pain check"}], edited_version=5)
+
+
+def test_an_age_range_the_store_took_before_its_bound_stays_when_the_details_are_saved(store):
+    """Ages above 120 were taken before they were refused: a participant holding one keeps it when the
+    Participants page saves their details (it sends the age range with the notes); a new one is checked."""
+    import sqlite3
+
+    with sqlite3.connect(store.path) as c:  # as the store took it before
+        c.execute("UPDATE participants SET age_range = '200' WHERE code = 'P01'")
+    c.close()
+    assert store.update_participant("P01", age_range="200", notes="new notes").age_range == "200"
+    with pytest.raises(CacasError, match="^age range '201' is invalid"):
+        store.update_participant("P01", age_range="201")
+    assert store.update_participant("P01", age_range="65+").age_range == "65+"
+    assert store.add_participant("P09", age_range="120").age_range == "120"

@@ -99,13 +99,17 @@ class PeopleMixin:
 
     def update_participant(self, code: str, age_range: str | None = None,
                            notes: str | None = None) -> ParticipantInfo:
-        """Change a participant's age range and/or notes (None: unchanged)."""
-        age = None if age_range is None else v.age_range(age_range)
+        """Change a participant's age range and/or notes (None: unchanged). The age range they hold
+        stays as it is, also one the store took before it refused ages above ``validate.AGE_MAX``
+        (the Participants page sends it with the notes); a new one is checked in full."""
+        age = None if age_range is None else v.age_range(age_range, bounded=False)
         notes = None if notes is None else v.text(notes, "notes")
 
         def fn(c):
             pid = self._pid(c, code)
             row = c.execute("SELECT age_range, notes FROM participants WHERE id = ?", (pid,)).fetchone()
+            if age is not None and age != row[0]:
+                v.age_range(age_range)
             new = (row[0] if age is None else age, row[1] if notes is None else notes)
             c.execute("UPDATE participants SET age_range = ?, notes = ?, updated_at = ? WHERE id = ?",
                       (*new, v.now(), pid))
