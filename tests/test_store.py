@@ -11,7 +11,7 @@ import pytest
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.records import INTERACTION_COLUMNS, USER_INITIATED
-from cacas.store import SCHEMA_VERSION, StudyStore, default_db_path
+from cacas.store import SCHEMA_VERSION, PersonasImport, StudyStore, default_db_path
 from cacas.store.schema import APPLICATION_ID, TABLES
 
 STOVE = {"description": "When I use the stove in the kitchen, remind me to turn it off.",
@@ -340,7 +340,7 @@ def test_persona_json_round_trip(store, tmp_path):
     text = store.export_personas()
     assert json.loads(text)["participants"][0]["id"] == "P01"
     other = StudyStore(tmp_path / "other.sqlite")
-    assert other.import_personas(text) == ["P01"]
+    assert other.import_personas(text).added == ("P01",)
     assert other.get_preferences("P01") == store.get_preferences("P01")
     before = snapshot(other.path)
     bad = {"participants": [{"id": "P05", "preferences": [COUGH]},
@@ -350,7 +350,8 @@ def test_persona_json_round_trip(store, tmp_path):
     with pytest.raises(CacasError, match="participant code"):
         other.import_personas({"participants": [{"id": "Jane Doe", "preferences": [COUGH]}]})
     assert snapshot(other.path) == before
-    assert other.import_personas(text) == ["P01"]  # the same file again: no new version
+    again = other.import_personas(text)  # the same file again: no new version
+    assert (again.codes, again.added, again.unchanged) == (("P01",), (), ("P01",))
     assert len(other.preference_versions("P01")) == 1
     other.close()
 
@@ -373,9 +374,12 @@ def test_an_import_does_not_replace_the_preferences_of_a_participant_under_way(s
         store.import_personas(example, source="example.json")
     assert snapshot(store.path) == before  # P04 not added either
     same = {"participants": [{"id": "P01", "preferences": [COUGH]}, {"id": "P03", "preferences": [COUGH]}]}
-    assert store.import_personas(same) == ["P01", "P03"]
+    done = store.import_personas(same)
+    assert (done.codes, done.unchanged, done.first) == (("P01", "P03"), ("P01",), ("P03",))
     assert [len(store.preference_versions(c)) for c in ("P01", "P03")] == [1, 1]
-    assert store.import_personas(example, replace=True) == ["P01", "P02", "P03", "P04"]
+    done = store.import_personas(example, replace=True)  # what happened to each, for the page to say
+    assert done == PersonasImport(codes=("P01", "P02", "P03", "P04"), added=("P04",), replaced=("P01", "P02"),
+                                  unchanged=("P03",))
     assert store.get_preferences("P02").preferences[0].action == COUGH["action"]
     assert [len(store.preference_versions(c)) for c in ("P01", "P02", "P03", "P04")] == [2, 2, 1, 1]
 
@@ -400,7 +404,7 @@ def test_import_never_touches_another_studys_participants(store):
                                          "to replace them"):
         store.import_personas(clash, study="pilot")
     assert snapshot(store.path) == before
-    assert store.import_personas(clash, study="pilot", replace=True) == ["P11", "P10"]  # into its own study it goes
+    assert store.import_personas(clash, study="pilot", replace=True).codes == ("P11", "P10")  # into its own study
     assert store.get_preferences("P10").preferences[0].action == "remind to turn off"
     # a database from before the case check may hold both P12 and p12: each imports as itself
     with sqlite3.connect(store.path) as con:
@@ -408,7 +412,7 @@ def test_import_never_touches_another_studys_participants(store):
         for code in ("P12", "p12"):
             con.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES (?, ?, '', '')",
                         (sid, code))
-    assert store.import_personas({"participants": [{"id": "p12", "preferences": [COUGH]}]}) == ["p12"]
+    assert store.import_personas({"participants": [{"id": "p12", "preferences": [COUGH]}]}).codes == ("p12",)
     assert store.get_preferences("P12") is None and store.get_preferences("p12") is not None
 
 

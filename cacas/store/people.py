@@ -16,7 +16,7 @@ from cacas import preferences as prefs
 from cacas.errors import CacasError
 from cacas.store import files, recovery
 from cacas.store import validate as v
-from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
+from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, PersonasImport, Study
 
 
 class PreferencesChanged(CacasError):
@@ -433,7 +433,7 @@ class PeopleMixin:
         return prefs.dumps_personas(people)
 
     def import_personas(self, data: Any, study: str = DEFAULT_STUDY, source: str | None = None,
-                        replace: bool = False) -> list[str]:
+                        replace: bool = False) -> PersonasImport:
         """Import a persona document (JSON text or parsed JSON): add participants that are
         missing (to ``study``) and save each one's preferences as a new version (unless they equal
         the latest). A participant already in the study with other preferences gets the file's as
@@ -441,7 +441,8 @@ class PeopleMixin:
         into a study under way: its P01 and P02 silently got the examples' preferences mid-study).
         All or nothing: one invalid participant or preference, a participant of another study, a
         code that differs from one in use only in letter case, or other preferences without
-        ``replace`` raises CacasError and nothing is written."""
+        ``replace`` raises CacasError and nothing is written. Returns what was done with each
+        participant: added, preferences replaced, first preferences saved, or unchanged."""
         if isinstance(data, (str, bytes)):
             data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
@@ -469,15 +470,21 @@ class PeopleMixin:
                         f"study {study!r} already, with other preferences; nothing was imported. To save the "
                         "file's as their new version, choose to replace them (the days already run stay scored on "
                         "the preferences of their time), or import a file without them")
+            done: dict[str, list[str]] = {"added": [], "replaced": [], "first": [], "unchanged": []}
             for p in people:
-                if c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None:
+                new = c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None
+                if new:
                     at = v.now()
                     c.execute("INSERT INTO participants (study_id, code, created_at, updated_at) "
                               "VALUES (?, ?, ?, ?)", (sid, p.id, at, at))
                     self._event(c, "add_participant", p.id, study=study, source="personas")
-                self._save_version(c, self._pid(c, p.id), p.id, p, source="personas")
-        self._write(fn)
-        return [p.id for p in people]
+                pid = self._pid(c, p.id)
+                latest = c.execute("SELECT MAX(version) FROM preferences WHERE participant_id = ?", (pid,)).fetchone()
+                version = self._save_version(c, pid, p.id, p, source="personas")
+                done["added" if new else "first" if latest[0] is None else
+                     "unchanged" if version == latest[0] else "replaced"].append(p.id)
+            return PersonasImport(tuple(p.id for p in people), **{k: tuple(codes) for k, codes in done.items()})
+        return self._write(fn)
 
     @staticmethod
     def _other_preferences(c, people) -> list[tuple[str, int]]:
