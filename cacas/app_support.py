@@ -140,6 +140,16 @@ def last_participant(store, study: str | None = None) -> str | None:
     return people[0].code if people else None
 
 
+def personas_imported(done, source: str) -> str:
+    """What an import of the persona file ``source`` did (a :class:`cacas.store.PersonasImport`),
+    group by group: it said "Imported 3 participants: P01, P02, P03" of one unchanged and one whose
+    preferences were replaced."""
+    groups = [("added", done.added), ("preferences replaced for", done.replaced),
+              ("first preferences for", done.first), ("unchanged", done.unchanged)]
+    # short: a toast shows about 100 characters before its "view more"
+    return f"Imported {source}: " + " · ".join(f"{what} {', '.join(codes)}" for what, codes in groups if codes) + "."
+
+
 def study_file_name(prefix: str, study: str, suffix: str) -> str:
     """A download's file name for a study: no spaces or other characters a shell or a file
     system trips on ("pilot walkB" -> "cacas-study-pilot_walkb.zip"; "study" if nothing is left)."""

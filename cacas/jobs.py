@@ -38,6 +38,9 @@ class Job:
 
     key: str
     label: str
+    #: what the page that started it keeps of it for the pages that show it while it runs (the Simulation
+    #: lab's form shows the running study's choices), never handed to the work
+    details: Any = None
     status: str = RUNNING
     fraction: float = 0.0
     message: str = ""
@@ -98,9 +101,10 @@ class JobRunner:
         self._jobs: dict[str, Job] = {}
         self._lock = threading.Lock()
 
-    def start(self, key: str, work: Callable[..., Any], *args: Any, label: str = "",
+    def start(self, key: str, work: Callable[..., Any], *args: Any, label: str = "", details: Any = None,
               **kwargs: Any) -> tuple[Job, bool]:
-        """Start ``work(*args, progress=job.progress, **kwargs)`` under ``key``.
+        """Start ``work(*args, progress=job.progress, **kwargs)`` under ``key``, with ``label`` and
+        ``details`` (:attr:`Job.details`) for the pages that show it.
 
         Returns ``(job, started)``: if a job with this key is still running, that job and False
         (a second click does not start the work twice); otherwise a new job and True.
@@ -109,7 +113,7 @@ class JobRunner:
             current = self._jobs.get(key)
             if current is not None and current.running:
                 return current, False
-            job = Job(key=key, label=label or key)
+            job = Job(key=key, label=label or key, details=details)
             self._jobs[key] = job
 
         def body() -> None:

@@ -412,11 +412,19 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
                                             dict(result.parameters, log=result.log), float(result.duration_s), metrics,
                                             initial_metrics=initial)
         changes = policy_changes(before, result.policy, data)
-        say(1.0, f"policy version {version} saved; in force from day {day + 1}")
+        say(1.0, f"policy version {version} saved; {in_force_words(day)}")
         return DayAdaptation(participant, day, method, version, float(result.duration_s), list(result.log),
                              accuracy, changes)
     finally:
         store.close()
+
+
+def in_force_words(day: int) -> str:
+    """When the policy adapted after ``day`` acts, in words: from the next day, or, after the study's
+    last day (:data:`STUDY_DAYS`), as its final policy (it said "in force from day 8")."""
+    if day >= STUDY_DAYS:
+        return f"the study's final policy (day {day} was its last day)"
+    return f"in force from day {day + 1}"
 
 
 def unfinished_adaptation(store, participant: str, day: int) -> dict | None:

@@ -10,7 +10,8 @@ from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.policy import policy_from_bytes
-from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, unfinished_adaptation
+from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, in_force_words,
+                             unfinished_adaptation)
 from pages import ui
 
 ui.require_app()
@@ -138,8 +139,8 @@ else:
     elif job is not None and job.status == DONE:
         res = job.result
         now = "initial" if status.policy_version is None else f"version {status.policy_version}"
-        msg = (f"Adapted with {res.method} in {res.duration_s:.1f} s; policy version {res.policy_version} is in "
-               f"force from day {res.day + 1}." if status.policy_version == res.policy_version else
+        msg = (f"Adapted with {res.method} in {res.duration_s:.1f} s; policy version {res.policy_version} is "
+               f"{in_force_words(res.day)}." if status.policy_version == res.policy_version else
                f"Adapted with {res.method} in {res.duration_s:.1f} s into policy version {res.policy_version}; "
                f"since then the {now} policy was put in force (Roll back, below).")
         if res.preference_accuracy is not None:

@@ -203,19 +203,17 @@ def _import_personas() -> None:
     if upload is None:
         s["import-error"] = "choose a persona file (.json) first"
         return
-    before = {p.code for p in store.list_participants(study)}
     try:
-        codes = store.import_personas(upload.getvalue(), study=study, source=upload.name,
-                                      replace=bool(s.get("persona-replace")))
+        done = store.import_personas(upload.getvalue(), study=study, source=upload.name,
+                                     replace=bool(s.get("persona-replace")))
     except CacasError as exc:
         s["import-error"] = str(exc)
         return
     s["import-error"] = None
-    s["import-done"] = codes
+    s["import-done"] = app_support.personas_imported(done, upload.name)
     # the page opens the first participant's preferences, not the Import tab with its message
-    kept = [c for c in codes if c in before]
-    st.toast(f"Imported {len(codes)} participant{'' if len(codes) == 1 else 's'}: {', '.join(codes)}"
-             + (f" ({', '.join(kept)} already in the study)." if kept else "."), icon=":material/check_circle:")
+    st.toast(s["import-done"], icon=":material/check_circle:")
+    codes = done.codes
     if codes:
         s[ui.PARTICIPANT_KEY] = codes[0]
         st.query_params["participant"] = codes[0]
@@ -503,7 +501,7 @@ with tabs["Import / export"]:
             st.error(st.session_state["import-error"], icon=":material/error:")
         done = st.session_state.pop("import-done", None)
         if done:
-            st.success(f"Imported {len(done)} participant(s): {', '.join(done)}.", icon=":material/check_circle:")
+            st.success(done, icon=":material/check_circle:")
     with c2:
         st.markdown("**Export the study's preferences**")
         text = store.export_personas(study=study)

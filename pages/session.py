@@ -182,9 +182,9 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         other = recorded_answer(store, code, day, index)
         if other is not None and not is_same_answer(other, proposal, response, user_action):
             said = app_support.interactions_view(pd.DataFrame([other]))["answer"].iloc[0]  # as the day's table says it
-            s["session-error"] = (f"This answer was not saved: interaction {index} was answered meanwhile on "
-                                  f"another screen ({other['activity']}, {said}). Set what you are doing again "
-                                  "for the next one.")
+            which = "this proposal" if tablet else f"interaction {index}"  # the tablet's count has no such number
+            s["session-error"] = (f"This answer was not saved: {which} was answered meanwhile on another screen "
+                                  f"({other['activity']}, {said}). Set what you are doing again for the next one.")
         return
     except CacasError as exc:
         s["session-error"] = str(exc)
@@ -335,8 +335,9 @@ if token_ctx:
         if st.query_params.get("at") != _interaction_mark(day, done + 1):  # answered already (Back), or stale
             context = None
             _cancel()
-            st.info(f"That proposal was answered already. Set what you are doing now for interaction {done + 1}.",
-                    icon=":material/info:")
+            # numbered for the researcher only: the tablet's count leaves out unanswered interactions (see _record)
+            st.info("That proposal was answered already. Set what you are doing now"
+                    + ("." if tablet else f" for interaction {done + 1}."), icon=":material/info:")
 
 on_tablet = None if tablet else board.shown(db, code, day, done + 1)
 if context is None and on_tablet is not None and not st.session_state.get("run-here"):

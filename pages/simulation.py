@@ -26,11 +26,34 @@ st.caption("Simulated participants act in the contexts their preferences cover, 
            "nothing. Day 1 uses the initial policy; after each day every method adapts from the same "
            "interactions (Fig. 4), or, if you choose, each method acts and adapts in a study of its own.")
 
-# --- personas -----------------------------------------------------------------------------------------
+# --- the researcher's choices, kept for the session ----------------------------------------------------
+# Streamlit drops a widget's state while its page is not drawn: after a visit to another page the form showed
+# its defaults again (8 participants x 7 days x 4 methods), and a second click on Run started that long study.
+# The choices are kept under a key of the page's own and given back to the widgets (by their keys) when
+# Streamlit has dropped them; a run's choices are what the form shows while it runs, also in another tab.
+s = st.session_state
+KEPT = "sim-kept"  # widget key -> the value the researcher chose; "sim-upload": the persona file uploaded
+kept = s.setdefault(KEPT, {})
 EXAMPLES = {"Example personas (P01-P08)": "example.json",
             "The same, each with a 'leave me alone' preference (Q01-Q08)": "example_leave_me_alone.json"}
-choice = st.radio("Personas", [*EXAMPLES, "Upload a persona file", "This study's participants"],
-                  horizontal=True, key="sim-source",
+SOURCES = [*EXAMPLES, "Upload a persona file", "This study's participants"]
+LOOP_LABELS = {"first": "the first method; all adapt from its interactions (Fig. 4)",
+               "each": "each method, in a study of its own"}
+DEFAULTS = {"sim-source": SOURCES[0], "sim-days": 7, "sim-per-day": 15, "sim-seed": 0, "sim-silent": 0.1,
+            "sim-ask": 0.0, "sim-methods": list(PAPER_METHODS), "sim-loop": LOOPS[0]}
+
+job = RUNNER.get(JOB)
+running = job is not None and job.running
+if running and job.details and s.get("sim-form-run") != job.started:  # once: then the form is the researcher's
+    s["sim-form-run"] = job.started
+    kept.update(job.details)
+    s.update(job.details)
+for key, default in DEFAULTS.items():
+    if key not in s:
+        s[key] = kept.get(key, default)
+
+# --- personas -----------------------------------------------------------------------------------------
+choice = st.radio("Personas", SOURCES, horizontal=True, key="sim-source",
                   help="Q01-Q08 are P01-P08 with one more preference: a context where the robot should do nothing.")
 people, problem, source = [], None, None
 try:
@@ -38,10 +61,20 @@ try:
         people = load_personas(study_data_dir() / "personas" / EXAMPLES[choice])
         source = saved_runs.persona_source(choice, EXAMPLES[choice])
     elif choice.startswith("Upload"):
+        drawn_before = "sim-upload" in s  # else it was not drawn (another page or source) and forgot its file
         up = st.file_uploader("Persona file (.json, the format of docs/personas.md)", type=["json"], key="sim-upload")
         if up is not None:
-            people = saved_runs.uploaded_personas(up.name, up.getvalue())
-            source = saved_runs.persona_source(choice, up.name, up.getvalue())
+            kept["sim-upload"] = (up.name, up.getvalue())
+        elif drawn_before and s.get("sim-upload-held"):  # it held a file in the last run: the researcher removed it
+            kept.pop("sim-upload", None)
+        s["sim-upload-held"] = up is not None
+        if up is None and kept.get("sim-upload"):
+            st.caption(f":material/attach_file: {kept['sim-upload'][0]}, uploaded before in this browser tab. "
+                       "Upload another file to replace it.")
+        if kept.get("sim-upload"):
+            name, data = kept["sim-upload"]
+            people = saved_runs.uploaded_personas(name, data)
+            source = saved_runs.persona_source(choice, name, data)
     else:
         # without their own words: the run's files (by_preference.csv's labels) stay after a participant's removal
         people = [p.without_words() for p in (store.get_preferences(c.code) for c in store.list_participants(study))
@@ -54,31 +87,33 @@ except CacasError as exc:
 if problem:
     st.error(problem, icon=":material/error:")
 
-LOOP_LABELS = {"first": "the first method; all adapt from its interactions (Fig. 4)",
-               "each": "each method, in a study of its own"}
 by_id = {p.id: p for p in people}
-job = RUNNER.get(JOB)
-running = job is not None and job.running
+who = f"sim-who:{choice}"  # one choice of participants per persona source
+wanted = s.get(who, kept.get(who, list(by_id)))
+valid = [c for c in wanted if c in by_id] or ([] if not wanted else list(by_id))  # none left: another file
+if s.get(who) != valid:
+    s[who] = valid
 with st.form("simulation", border=True, enter_to_submit=False):  # a run starts only on its button
-    chosen = st.multiselect("Simulated participants", list(by_id), default=list(by_id),
+    chosen = st.multiselect("Simulated participants", list(by_id), key=who,
                             help="Each follows their described preferences.")
     c1, c2, c3, c4, c5 = st.columns(5)
     # no bounds on the inputs: a value out of range is named by the check under the button (an input's
     # own bound showed only a red mark, and the button did nothing)
-    days = c1.number_input("Days", value=7, step=1)
-    per_day = c2.number_input("Interactions a day", value=15, step=1,
+    days = c1.number_input("Days", step=1, key="sim-days")
+    per_day = c2.number_input("Interactions a day", step=1, key="sim-per-day",
                               help="On average: each simulated day draws its number around this (Poisson), as "
                                    "people's days differ; the paper's ~15.")
-    seed = c3.number_input("Seed", value=0, step=1, help="The same seed gives the same tables.")
-    silent = c4.number_input("No-response rate", value=0.1, step=0.05)
-    ask_rate = c5.number_input("Ask after a rejection", value=0.0, step=0.1,
-                              help="Share of wrong proposals the simulated participant answers by asking for what "
-                                   "they want instead, as the tablet allows. 0: they ask only when the robot does "
-                                   "nothing (design.md).")
-    methods = st.multiselect("Methods", METHODS, default=list(PAPER_METHODS),
+    seed = c3.number_input("Seed", step=1, key="sim-seed", help="The same seed gives the same tables.")
+    silent = c4.number_input("No-response rate", step=0.05, key="sim-silent")
+    ask_rate = c5.number_input("Ask after a rejection", step=0.1, key="sim-ask",
+                               help="Share of wrong proposals the simulated participant answers by asking for what "
+                                    "they want instead, as the tablet allows. 0: they ask only when the robot does "
+                                    "nothing (design.md).")
+    methods = st.multiselect("Methods", METHODS, key="sim-methods",
                              help="By default the first method runs in closed loop (its success rate is Fig. 3) "
                                   "and all of them adapt from the same interactions (Fig. 4); see 'Who acts'.")
     loop = st.radio("Who acts with the participants", LOOPS, horizontal=True, format_func=LOOP_LABELS.get,
+                    key="sim-loop",
                     help="The paper adapted its baselines from the day-by-day interactions with CACAS (Fig. 4). "
                          "With 'each method', every method runs a study of its own and has its own success rate: "
                          "how it would do as the robot's policy.")
@@ -86,6 +121,8 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                "(8 participants x 7 days x 4 methods: about three minutes on two cores; participants run side by "
                "side, one process per core, as in `cacas simulate`).")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
+choices = {key: s[key] for key in (*DEFAULTS, who)}
+kept.update(choices)
 if go:
     try:
         saved_runs.check_simulation(chosen, methods, int(days), int(per_day), int(seed), float(silent),
@@ -97,9 +134,7 @@ if go:
         _, started = RUNNER.start(JOB, saved_runs.run_simulation, [by_id[c] for c in chosen],
                                   saved_runs.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
-                                  ask_after_reject=float(ask_rate), loop=loop, personas=source,
-                                  # the form forgets its values when the researcher opens another page: the
-                                  # progress bar keeps the running settings
+                                  ask_after_reject=float(ask_rate), loop=loop, personas=source, details=choices,
                                   label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
                                         f"{', '.join(methods)} · seed {int(seed)}")
         if not started:

@@ -393,3 +393,15 @@ def test_the_results_page_says_what_a_roll_back_changes(tmp_path):
             "the version most of its interactions had): Fig. 4 scores that version for CACAS, while the baselines "
             "keep their runs adapted from days 1..d-1.")
 
+
+
+def test_an_import_of_personas_is_said_group_by_group():
+    """It said "Imported 3 participants: P01, P02, P03" of one unchanged and one whose preferences were replaced."""
+    from cacas.store import PersonasImport
+
+    done = PersonasImport(codes=("P01", "P02", "P03", "P04"), added=("P03", "P04"), replaced=("P02",),
+                          unchanged=("P01",))
+    assert app_support.personas_imported(done, "example.json") == (
+        "Imported example.json: added P03, P04 · preferences replaced for P02 · unchanged P01.")
+    assert app_support.personas_imported(PersonasImport(codes=("P05",), first=("P05",)), "mine.json") == (
+        "Imported mine.json: first preferences for P05.")

@@ -488,6 +488,29 @@ def test_studies_whose_names_differ_only_in_letter_case_are_restored_as_they_wer
         assert moved.get_participant("W01").study == "Default"
 
 
+def test_an_age_range_the_forms_took_before_their_bound_is_restored_as_it_was_with_a_note(tmp_path):
+    """The forms took "200" as an age range before they refused ages above 120: such a study's export
+    imports as it was, with a note; a range the forms never took is refused."""
+    db = tmp_path / "a.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01", "25-34")
+        s.add_participant("P02", "35-44")
+    with sqlite3.connect(db) as c:  # as the store took it before
+        c.execute("UPDATE participants SET age_range = '200' WHERE code = 'P02'")
+    c.close()
+    with StudyStore(db) as s:
+        bundle = export.export_study(s, tmp_path / "first").bundle
+    restored = export.import_bundle(bundle, tmp_path / "b" / "moved.sqlite")
+    assert restored.notes == (
+        "participants.csv, row 3, column age_range: age range '200' names an age above 120; imported as it was, "
+        "as the study held it (the forms took such ages before they refused them)",)
+    with StudyStore(tmp_path / "b" / "moved.sqlite") as moved:
+        assert moved.get_participant("P02").age_range == "200"
+    bad = _rewrite(bundle, tmp_path / "bad.zip", "participants", lambda df: df.assign(age_range="1000"))
+    with pytest.raises(CacasError, match=r"^participants.csv, row 2: age range '1000' is invalid; valid: e\.g\. "):
+        export.import_bundle(bad, tmp_path / "c" / "moved.sqlite")
+
+
 def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with_notes(store, tmp_path):
     """Before record_interaction converted times to UTC it stored them as given: such a study's
     export imports as it was (a note each); a time that is no ISO 8601 time at all is refused."""

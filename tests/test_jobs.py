@@ -100,3 +100,17 @@ def test_a_failed_job_keeps_its_exception_for_the_page_to_tell_kinds_apart():
     assert job.wait(10)
     assert job.status == FAILED and isinstance(job.exception, AlreadyAdapted)
     assert job.error == "day 1 of participant P01 is adapted already"
+
+
+def test_details_are_kept_for_the_pages_and_not_handed_to_the_work():
+    runner = JobRunner()
+    seen = {}
+
+    def work(progress, **kwargs):
+        seen.update(kwargs)
+        return "ok"
+
+    job, _ = runner.start("sim", work, label="Simulating", details={"sim-days": 3}, seed=1)
+    assert job.wait(10) and job.status == DONE
+    assert job.details == {"sim-days": 3} and seen == {"seed": 1}
+    assert runner.start("other", work)[0].details is None

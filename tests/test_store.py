@@ -11,7 +11,7 @@ import pytest
 from cacas import spaces
 from cacas.errors import CacasError
 from cacas.records import INTERACTION_COLUMNS, USER_INITIATED
-from cacas.store import SCHEMA_VERSION, StudyStore, default_db_path
+from cacas.store import SCHEMA_VERSION, PersonasImport, StudyStore, default_db_path
 from cacas.store.schema import APPLICATION_ID, TABLES
 
 STOVE = {"description": "When I use the stove in the kitchen, remind me to turn it off.",
@@ -305,6 +305,12 @@ def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
         store.add_participant("P03", age_range="old")
     with pytest.raises(CacasError, match="age range"):
         store.add_participant("P03", age_range="35-25")
+    for age in ("200", "65-200", "121+"):  # walkthrough: "200" was taken
+        with pytest.raises(CacasError, match=rf"^age range '{re.escape(age)}' is invalid; valid: e\.g\. \"25-34\", "
+                                             r'"65\+" or empty, ages up to 120$'):
+            store.add_participant("P03", age_range=age)
+    with pytest.raises(CacasError, match="^age range '130' is invalid"):
+        store.update_participant("P01", age_range="130")
     with pytest.raises(CacasError, match="unknown study 'nope'"):
         store.add_participant("P03", study="nope")
     with pytest.raises(CacasError, match="unknown participant 'P09'"):
@@ -355,7 +361,7 @@ def test_persona_json_round_trip(store, tmp_path):
     text = store.export_personas()
     assert json.loads(text)["participants"][0]["id"] == "P01"
     other = StudyStore(tmp_path / "other.sqlite")
-    assert other.import_personas(text) == ["P01"]
+    assert other.import_personas(text).added == ("P01",)
     assert other.get_preferences("P01") == store.get_preferences("P01")
     before = snapshot(other.path)
     bad = {"participants": [{"id": "P05", "preferences": [COUGH]},
@@ -365,7 +371,8 @@ def test_persona_json_round_trip(store, tmp_path):
     with pytest.raises(CacasError, match="participant code"):
         other.import_personas({"participants": [{"id": "Jane Doe", "preferences": [COUGH]}]})
     assert snapshot(other.path) == before
-    assert other.import_personas(text) == ["P01"]  # the same file again: no new version
+    again = other.import_personas(text)  # the same file again: no new version
+    assert (again.codes, again.added, again.unchanged) == (("P01",), (), ("P01",))
     assert len(other.preference_versions("P01")) == 1
     other.close()
 
@@ -388,9 +395,12 @@ def test_an_import_does_not_replace_the_preferences_of_a_participant_under_way(s
         store.import_personas(example, source="example.json")
     assert snapshot(store.path) == before  # P04 not added either
     same = {"participants": [{"id": "P01", "preferences": [COUGH]}, {"id": "P03", "preferences": [COUGH]}]}
-    assert store.import_personas(same) == ["P01", "P03"]
+    done = store.import_personas(same)
+    assert (done.codes, done.unchanged, done.first) == (("P01", "P03"), ("P01",), ("P03",))
     assert [len(store.preference_versions(c)) for c in ("P01", "P03")] == [1, 1]
-    assert store.import_personas(example, replace=True) == ["P01", "P02", "P03", "P04"]
+    done = store.import_personas(example, replace=True)  # what happened to each, for the page to say
+    assert done == PersonasImport(codes=("P01", "P02", "P03", "P04"), added=("P04",), replaced=("P01", "P02"),
+                                  unchanged=("P03",))
     assert store.get_preferences("P02").preferences[0].action == COUGH["action"]
     assert [len(store.preference_versions(c)) for c in ("P01", "P02", "P03", "P04")] == [2, 2, 1, 1]
 
@@ -416,7 +426,7 @@ def test_import_never_touches_another_studys_participants(store):
                                          "to replace them"):
         store.import_personas(clash, study="pilot")
     assert snapshot(store.path) == before
-    assert store.import_personas(clash, study="pilot", replace=True) == ["P11", "P10"]  # into its own study it goes
+    assert store.import_personas(clash, study="pilot", replace=True).codes == ("P11", "P10")  # into its own study
     assert store.get_preferences("P10").preferences[0].action == "remind to turn off"
     # a database from before the case check may hold both P12 and p12: each imports as itself
     with sqlite3.connect(store.path) as con:
@@ -424,7 +434,7 @@ def test_import_never_touches_another_studys_participants(store):
         for code in ("P12", "p12"):
             con.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES (?, ?, '', '')",
                         (sid, code))
-    assert store.import_personas({"participants": [{"id": "p12", "preferences": [COUGH]}]}) == ["p12"]
+    assert store.import_personas({"participants": [{"id": "p12", "preferences": [COUGH]}]}).codes == ("p12",)
     assert store.get_preferences("P12") is None and store.get_preferences("p12") is not None
 
 
@@ -903,3 +913,18 @@ def test_the_store_refuses_preferences_edited_from_an_older_version(store):
     with pytest.raises(PreferencesChanged, match=r"P09's preferences are not the ones this form was drawn from "
                                                  r"\(version 5; the latest is version 2 now\); nothing was saved"):
         store.save_preferences("P09", [{"activity": ["cough"], "action": "pain check"}], edited_version=5)
+
+
+def test_an_age_range_the_store_took_before_its_bound_stays_when_the_details_are_saved(store):
+    """Ages above 120 were taken before they were refused: a participant holding one keeps it when the
+    Participants page saves their details (it sends the age range with the notes); a new one is checked."""
+    import sqlite3
+
+    with sqlite3.connect(store.path) as c:  # as the store took it before
+        c.execute("UPDATE participants SET age_range = '200' WHERE code = 'P01'")
+    c.close()
+    assert store.update_participant("P01", age_range="200", notes="new notes").age_range == "200"
+    with pytest.raises(CacasError, match="^age range '201' is invalid"):
+        store.update_participant("P01", age_range="201")
+    assert store.update_participant("P01", age_range="65+").age_range == "65+"
+    assert store.add_participant("P09", age_range="120").age_range == "120"

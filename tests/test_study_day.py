@@ -483,3 +483,13 @@ def test_an_adaptation_the_app_was_stopped_during_is_known_afterwards(tmp_path, 
     adapt_day(path, "P01", 1, method="nn")
     with StudyStore(path) as s:
         assert unfinished_adaptation(s, "P01", 1) is None
+
+
+def test_a_policy_adapted_after_the_last_day_is_the_final_one_not_one_for_day_8():
+    """Walkthrough: after day 7 the Adaptation page said "policy version 7 is in force from day 8"; the
+    study has 7 days."""
+    from cacas.study_day import STUDY_DAYS, in_force_words
+
+    assert in_force_words(1) == "in force from day 2"
+    assert in_force_words(STUDY_DAYS - 1) == f"in force from day {STUDY_DAYS}"
+    assert in_force_words(STUDY_DAYS) == f"the study's final policy (day {STUDY_DAYS} was its last day)"

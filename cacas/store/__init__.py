@@ -7,7 +7,7 @@ adaptation runs, policy versions, questionnaires and an event log, in SQLite.
 
 from cacas.store.schema import SCHEMA_VERSION
 from cacas.store.store import (DB_ENV, DEFAULT_STUDY, INTERACTION_EXTRA_COLUMNS, DayInfo, ParticipantInfo,
-                               PolicyVersion, ResumeInfo, Study, StudyStore, default_db_path)
+                               PersonasImport, PolicyVersion, ResumeInfo, Study, StudyStore, default_db_path)
 
-__all__ = ["StudyStore", "ResumeInfo", "ParticipantInfo", "DayInfo", "PolicyVersion", "Study",
+__all__ = ["StudyStore", "ResumeInfo", "ParticipantInfo", "PersonasImport", "DayInfo", "PolicyVersion", "Study",
            "DEFAULT_STUDY", "DB_ENV", "INTERACTION_EXTRA_COLUMNS", "SCHEMA_VERSION", "default_db_path"]

@@ -54,6 +54,18 @@ class ParticipantInfo:
 
 
 @dataclass(frozen=True)
+class PersonasImport:
+    """What :meth:`StudyStore.import_personas` did with each participant of a persona file (each
+    group in the file's order)."""
+
+    codes: tuple[str, ...]             # every participant of the file, in its order
+    added: tuple[str, ...] = ()        # new to the study, with the file's preferences
+    replaced: tuple[str, ...] = ()     # in the study with other preferences: the file's are their new version
+    first: tuple[str, ...] = ()        # in the study without preferences: the file's are their first version
+    unchanged: tuple[str, ...] = ()    # the file's preferences are their latest version already: nothing written
+
+
+@dataclass(frozen=True)
 class DayInfo:
     day: int
     opened_at: str

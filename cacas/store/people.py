@@ -16,7 +16,7 @@ from cacas import preferences as prefs
 from cacas.errors import CacasError
 from cacas.store import files, recovery
 from cacas.store import validate as v
-from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, Study
+from cacas.store.base import DEFAULT_STUDY, ParticipantInfo, PersonasImport, Study
 
 
 class PreferencesChanged(CacasError):
@@ -108,13 +108,17 @@ class PeopleMixin:
 
     def update_participant(self, code: str, age_range: str | None = None,
                            notes: str | None = None) -> ParticipantInfo:
-        """Change a participant's age range and/or notes (None: unchanged)."""
-        age = None if age_range is None else v.age_range(age_range)
+        """Change a participant's age range and/or notes (None: unchanged). The age range they hold
+        stays as it is, also one the store took before it refused ages above ``validate.AGE_MAX``
+        (the Participants page sends it with the notes); a new one is checked in full."""
+        age = None if age_range is None else v.age_range(age_range, bounded=False)
         notes = None if notes is None else v.text(notes, "notes")
 
         def fn(c):
             pid = self._pid(c, code)
             row = c.execute("SELECT age_range, notes FROM participants WHERE id = ?", (pid,)).fetchone()
+            if age is not None and age != row[0]:
+                v.age_range(age_range)
             new = (row[0] if age is None else age, row[1] if notes is None else notes)
             c.execute("UPDATE participants SET age_range = ?, notes = ?, updated_at = ? WHERE id = ?",
                       (*new, v.now(), pid))
@@ -442,7 +446,7 @@ class PeopleMixin:
         return prefs.dumps_personas(people)
 
     def import_personas(self, data: Any, study: str = DEFAULT_STUDY, source: str | None = None,
-                        replace: bool = False) -> list[str]:
+                        replace: bool = False) -> PersonasImport:
         """Import a persona document (JSON text or parsed JSON): add participants that are
         missing (to ``study``) and save each one's preferences as a new version (unless they equal
         the latest). A participant already in the study with other preferences gets the file's as
@@ -450,7 +454,8 @@ class PeopleMixin:
         into a study under way: its P01 and P02 silently got the examples' preferences mid-study).
         All or nothing: one invalid participant or preference, a participant of another study, a
         code that differs from one in use only in letter case, or other preferences without
-        ``replace`` raises CacasError and nothing is written."""
+        ``replace`` raises CacasError and nothing is written. Returns what was done with each
+        participant: added, preferences replaced, first preferences saved, or unchanged."""
         if isinstance(data, (str, bytes)):
             data = prefs.persona_json(data, source or "persona file")
         people = prefs.parse_personas(data, source)
@@ -478,15 +483,21 @@ class PeopleMixin:
                         f"study {study!r} already, with other preferences; nothing was imported. To save the "
                         "file's as their new version, choose to replace them (the days already run stay scored on "
                         "the preferences of their time), or import a file without them")
+            done: dict[str, list[str]] = {"added": [], "replaced": [], "first": [], "unchanged": []}
             for p in people:
-                if c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None:
+                new = c.execute("SELECT 1 FROM participants WHERE code = ?", (p.id,)).fetchone() is None
+                if new:
                     at = v.now()
                     c.execute("INSERT INTO participants (study_id, code, created_at, updated_at) "
                               "VALUES (?, ?, ?, ?)", (sid, p.id, at, at))
                     self._event(c, "add_participant", p.id, study=study, source="personas")
-                self._save_version(c, self._pid(c, p.id), p.id, p, source="personas")
-        self._write(fn)
-        return [p.id for p in people]
+                pid = self._pid(c, p.id)
+                latest = c.execute("SELECT MAX(version) FROM preferences WHERE participant_id = ?", (pid,)).fetchone()
+                version = self._save_version(c, pid, p.id, p, source="personas")
+                done["added" if new else "first" if latest[0] is None else
+                     "unchanged" if version == latest[0] else "replaced"].append(p.id)
+            return PersonasImport(tuple(p.id for p in people), **{k: tuple(codes) for k, codes in done.items()})
+        return self._write(fn)
 
     @staticmethod
     def _other_preferences(c, people) -> list[tuple[str, int]]:

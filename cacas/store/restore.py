@@ -7,9 +7,9 @@ naming the table, row and column, and nothing is written.
 
 A restore gives back the study a bundle holds, as it was: what the forms refuse only in new data
 (a participant code that looks like a phone number or a date, free text holding what looks like
-contact details, a study's name that differs from another's only in letter case; a study may
-hold them from before the check) is imported, with a note naming the table, row and column
-(:class:`Restored`), not refused.
+contact details, a study's name that differs from another's only in letter case, an age range
+above 120; a study may hold them from before the check) is imported, with a note naming the
+table, row and column (:class:`Restored`), not refused.
 """
 
 from __future__ import annotations
@@ -115,6 +115,17 @@ class _Notes(list):
             self.kept(column, f"{found!r} looks like contact details (a phone number or an e-mail address)",
                       "the forms refuse it in new data")
         return value
+
+    def age(self, cell: str) -> str:
+        """An age range, checked as the forms check one (:func:`validate.age_range`); one naming an
+        age above ``validate.AGE_MAX``, which the forms took before they refused it, is noted."""
+        try:
+            return v.age_range(cell)
+        except CacasError:
+            text = v.age_range(cell, bounded=False)  # what the forms never took is refused
+            self.kept("age_range", f"age range {cell!r} names an age above {v.AGE_MAX}",
+                      "the forms took such ages before they refused them")
+            return text
 
     def time(self, cell: str) -> str:
         """An interaction's time, checked as ``record_interaction`` checks one
@@ -251,7 +262,7 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
 
     studies = _rows(tables, "studies", study_row, noted)
     people = _rows(tables, "participants", lambda r: (
-        noted.private(v.code(r["participant"]), "participant"), r["study"], v.age_range(r["age_range"]),
+        noted.private(v.code(r["participant"]), "participant"), r["study"], noted.age(r["age_range"]),
         noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
         _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]), noted)
 

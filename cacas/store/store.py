@@ -26,14 +26,14 @@ import pandas as pd
 from cacas.errors import CacasError
 from cacas.store import recovery
 from cacas.store import validate as v
-from cacas.store.base import (DB_ENV, DEFAULT_STUDY, DayInfo, ParticipantInfo, PolicyVersion, ResumeInfo,
-                              StoreBase, Study, default_db_path)
+from cacas.store.base import (DB_ENV, DEFAULT_STUDY, DayInfo, ParticipantInfo, PersonasImport, PolicyVersion,
+                              ResumeInfo, StoreBase, Study, default_db_path)
 from cacas.store.people import Footprint, PeopleMixin
 from cacas.store.policies import PoliciesMixin
 from cacas.store.sessions import INTERACTION_EXTRA_COLUMNS, SessionsMixin
 
-__all__ = ["StudyStore", "Study", "Footprint", "ParticipantInfo", "DayInfo", "PolicyVersion", "ResumeInfo", "DB_ENV",
-           "DEFAULT_STUDY", "INTERACTION_EXTRA_COLUMNS", "default_db_path"]
+__all__ = ["StudyStore", "Study", "Footprint", "ParticipantInfo", "PersonasImport", "DayInfo", "PolicyVersion",
+           "ResumeInfo", "DB_ENV", "DEFAULT_STUDY", "INTERACTION_EXTRA_COLUMNS", "default_db_path"]
 
 
 class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):

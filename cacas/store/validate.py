@@ -102,15 +102,24 @@ def study(value: Any, check_contacts: bool = True) -> str:
     return value.strip()
 
 
-def age_range(value: Any) -> str:
+#: The oldest age an age range may name, in years (it took "200").
+AGE_MAX = 120
+
+
+def age_range(value: Any, bounded: bool = True) -> str:
+    """An age range as the forms take it: "25-34", "65+", one age, or empty; ages up to
+    :data:`AGE_MAX`. ``bounded=False`` takes older ages too, as the store did before it refused them
+    (a study may hold such a range: its restore and its participant's details keep it)."""
     if value is None:
         return ""
     text = str(value).strip().replace(" ", "")
     if not text:
         return ""
     m = AGE_RE.fullmatch(text)
-    if not m or (m.group(2) is not None and int(m.group(1)) > int(m.group(2))):
-        raise CacasError(f"age range {value!r} is invalid; valid: e.g. \"25-34\", \"65+\" or empty")
+    ages = [int(a) for a in m.groups() if a is not None] if m else []
+    if not m or ages != sorted(ages) or (bounded and max(ages) > AGE_MAX):
+        raise CacasError(f"age range {value!r} is invalid; valid: e.g. \"25-34\", \"65+\" or empty, ages up to "
+                         f"{AGE_MAX}")
     return text
 
 

@@ -290,3 +290,25 @@ def test_after_the_last_day_the_page_says_the_study_is_done_not_that_day_8_can_s
     no_exception(at)
     assert f"Day {STUDY_DAYS} is closed and adapted: all {STUDY_DAYS} study days are done" in texts(at)
     assert f"day {STUDY_DAYS + 1} can start" not in texts(at)
+
+
+def test_the_adaptation_after_the_last_day_says_the_final_policy_not_day_8(app, store, quick_policy):
+    """Walkthrough: after day 7's adaptation the page said "policy version 7 is in force from day 8"."""
+    import pandas as pd
+
+    from cacas.study_day import STUDY_DAYS, DayAdaptation
+
+    _day_with_interactions(store)
+    for day in range(1, STUDY_DAYS + 1):
+        if day > 1:
+            store.open_day("P01")
+        store.close_day("P01", day)
+        store.save_adapted_policy("P01", day, "cacas", quick_policy.to_bytes(), {}, 1.0, {})
+    done = DayAdaptation("P01", STUDY_DAYS, "cacas", STUDY_DAYS, 1.5, [], None, pd.DataFrame())
+    job, _ = RUNNER.start(f"adapt:{store.path}:P01:{STUDY_DAYS}", lambda progress: done)  # the page's adaptation
+    assert job.wait(10) and job.status == "done"
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert (f"Adapted with cacas in 1.5 s; policy version {STUDY_DAYS} is the study's final policy (day {STUDY_DAYS} "
+            "was its last day).") in [m.value for m in at.success]
+    assert f"day {STUDY_DAYS + 1}" not in texts(at)

@@ -604,3 +604,50 @@ def test_no_widget_has_both_a_default_and_a_session_value(app, store, monkeypatc
         no_exception(at)
     assert warned == []
     assert at.select_slider(key="pf-P01-v2-1-interval").value == (0, 30)
+
+
+def test_an_age_above_120_is_refused_and_one_a_participant_holds_stays(app, store):
+    """Walkthrough: the age range "200" was taken. The add form refuses it with the library's message;
+    a participant who holds one from before keeps it when their notes are saved."""
+    import sqlite3
+
+    at = app(PAGE)
+    at.text_input(key="new-code").set_value("P01")
+    at.text_input(key="new-age").set_value("200")
+    next(b for b in at.button if b.label == "Add participant").click().run()
+    no_exception(at)
+    assert 'age range \'200\' is invalid; valid: e.g. "25-34", "65+" or empty, ages up to 120' in texts(at)
+    assert store.list_participants() == []
+    store.add_participant("P02")
+    with sqlite3.connect(store.path) as c:  # as the store took it before
+        c.execute("UPDATE participants SET age_range = '200' WHERE code = 'P02'")
+    c.close()
+    at = app(PAGE, participant="P02")
+    at.text_area(key="notes-P02").set_value("uses a walking frame")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    no_exception(at)
+    assert not at.error
+    info = store.get_participant("P02")
+    assert (info.age_range, info.notes) == ("200", "uses a walking frame")
+
+
+def test_the_import_says_what_happened_to_each_participant(app, store):
+    """Walkthrough: the toast read "Imported 3 participants: P01, P02, P03" when P01 was unchanged
+    and P02's preferences were replaced. It names each group: added, preferences replaced, unchanged
+    (and a participant without preferences who got the file's as their first)."""
+    cough = {"activity": ["cough"], "action": "pain check"}
+    stove = {"activity": ["use stove"], "action": "remind to turn off"}
+    for code, prefs in (("P01", [cough]), ("P02", [stove]), ("P04", None)):
+        store.add_participant(code)
+        if prefs:
+            store.save_preferences(code, prefs)
+    data = json.dumps({"participants": [{"id": c, "preferences": [cough]} for c in ("P01", "P02", "P03", "P04")]})
+    at = app(PAGE)
+    at.file_uploader(key="persona-upload").upload("mine.json", data.encode(), "application/json")
+    at.checkbox(key="persona-replace").check()
+    next(b for b in at.button if b.label == "Import").click().run()
+    no_exception(at)
+    said = "Imported mine.json: added P03 · preferences replaced for P02 · first preferences for P04 · unchanged P01."
+    assert [t.value for t in at.toast] == [said]
+    assert [len(store.preference_versions(c)) for c in ("P01", "P02", "P03", "P04")] == [1, 2, 1, 1]
+    assert said in [s.value for s in at.success]  # and the Import / export tab, beside its button

@@ -646,3 +646,38 @@ def test_the_researchers_view_shows_the_tablets_proposal_instead_of_a_form_of_it
     desk = app(PAGE, participant="P01")
     assert "On P01's tablet now" not in texts(desk) and [b for b in desk.button if b.label == "Do it"]
     assert len(store.interactions_frame("P01", method=None)) == 1
+
+
+def test_the_tablet_says_an_answered_proposal_without_a_number_of_its_own(app, store, p01, quick_policy):
+    """Walkthrough: under "4 of about 15 interactions today" (recorded ones) the tablet said "Set what
+    you are doing now for interaction 6" (a number counting the unanswered ones too). The researcher's
+    view keeps the number, the day's table's index."""
+    day = store.open_day("P01")
+    kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
+    for robot, response in (("pain check", "accept"), ("chitchat", "others"), ("pain check", "accept")):
+        store.record_interaction("P01", day, robot_action=robot, response=response, **kw)
+    old = dict(ctx="3.6.20.2", at="1.1")  # an old proposal's address, answered already
+    tablet = app(participant="P01", view="tablet", **old)
+    no_exception(tablet)
+    assert tablet.get("progress")[0].proto.text == "Day 1 of 7 · 2 of about 15 interactions today"
+    assert [i.value for i in tablet.info] == ["That proposal was answered already. Set what you are doing now."]
+    researcher = app(PAGE, participant="P01", **old)
+    assert "That proposal was answered already. Set what you are doing now for interaction 4." in texts(researcher)
+
+
+def test_the_tablet_says_an_answer_given_first_on_another_screen_without_a_number(app, store, p01, quick_policy):
+    """The same two counts in the message about an answer another screen gave first: the tablet names the
+    activity and the answer, not "interaction 2" under "1 of about 15"."""
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="chitchat", response="others")  # unanswered: not counted
+    tablet = app(participant="P01", view="tablet", ctx="3.6.20.2", at="1.2")
+    no_exception(tablet)
+    label = next(b.label for b in tablet.button if b.label in ("Accept", "Nothing needed"))
+    store.record_interaction("P01", day, activity="use stove", scene="kitchen", hour=7, interval_minutes=20,
+                             robot_action="set a timer", response="reject", index=2)  # the researcher's screen
+    _button(tablet, label).click().run()
+    no_exception(tablet)
+    assert [e.value for e in tablet.error] == [
+        "This answer was not saved: this proposal was answered meanwhile on another screen (use stove, rejected). "
+        "Set what you are doing again for the next one."]

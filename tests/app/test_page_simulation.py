@@ -1,5 +1,7 @@
 import json
 
+import pytest
+
 from apphelpers import no_exception, texts
 
 from cacas.jobs import RUNNER
@@ -34,7 +36,7 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at = app(PAGE)
     job = run_small_study(at, db, ["nn"], lambda at: at.number_input[4].set_value(0.5))  # ask after half
     assert (job.result / "daily.csv").exists()
-    # the progress bar names the running settings (the form shows its defaults again on a return to the page)
+    # the progress bar names the running settings
     assert job.label == "Simulating P01 · 2 days · nn · seed 0"
     assert ("1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections"
             " · personas: study_data/personas/example.json") in texts(at)
@@ -196,3 +198,126 @@ def test_a_run_of_this_studys_participants_keeps_none_of_their_words(app, db, st
     assert set(labels) == {"cough -> pain check"}
     assert not [f.name for f in job.result.iterdir() if f.suffix in (".csv", ".json", ".html")
                 and "ask whether I am in pain" in f.read_text()]
+
+
+@pytest.fixture
+def held_run(monkeypatch):
+    """The page's simulation, held running until the test lets it go (``release``); the page's
+    settings of it are recorded in ``calls``."""
+    import threading
+
+    from cacas import saved_runs
+
+    gate, calls = threading.Event(), []
+
+    def run(participants, out_root, progress=None, **settings):
+        calls.append(dict(settings, participants=[p.id for p in participants]))
+        progress(0.1, "simulating")
+        gate.wait(60)
+        raise RuntimeError("released by the test")
+
+    monkeypatch.setattr(saved_runs, "run_simulation", run)
+    yield gate.set, calls
+    gate.set()
+
+
+def _form(at):
+    """What the form shows: the persona source, the participants, the sizes, methods and who acts."""
+    sizes = {n.label: n.value for n in at.number_input}
+    loop = next(r for r in at.radio if r.label == "Who acts with the participants")
+    return (at.radio(key="sim-source").value, at.multiselect[0].value, sizes, at.multiselect[1].value, loop.value)
+
+
+def test_the_form_keeps_the_researchers_choices_while_other_pages_are_open(app, db, held_run):
+    """Walkthrough: a 2-participant, 3-day, 2-method run was started; after a visit to the Overview
+    the form showed its defaults again (8 participants x 7 days x 4 methods), so a second click on
+    Run would have started the long default study."""
+    release, calls = held_run
+    at = app(PAGE)
+    at.radio(key="sim-source").set_value("The same, each with a 'leave me alone' preference (Q01-Q08)").run()
+    at.multiselect[0].set_value(["Q01", "Q02"])
+    fields = {n.label: n for n in at.number_input}
+    for label, value in (("Days", 3), ("Interactions a day", 5), ("Seed", 4), ("No-response rate", 0.2),
+                         ("Ask after a rejection", 0.3)):
+        fields[label].set_value(value)
+    at.multiselect[1].set_value(["nn", "bandit"])
+    next(r for r in at.radio if r.label == "Who acts with the participants").set_value("each")
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert calls == [dict(days=3, interactions=5, methods=("nn", "bandit"), seed=4, no_response_rate=0.2,
+                          ask_after_reject=0.3, loop="each", personas="study_data/personas/example_leave_me_alone.json",
+                          participants=["Q01", "Q02"])]
+    chosen = ("The same, each with a 'leave me alone' preference (Q01-Q08)", ["Q01", "Q02"],
+              {"Days": 3, "Interactions a day": 5, "Seed": 4, "No-response rate": 0.2, "Ask after a rejection": 0.3},
+              ["nn", "bandit"], "each")
+    assert _form(at) == chosen
+    at.switch_page("pages/overview.py")
+    at.run()
+    no_exception(at)
+    at.switch_page(PAGE)
+    at.run()
+    no_exception(at)
+    assert _form(at) == chosen  # it showed the defaults: P01-P08, 7 days, 4 methods
+    assert next(b for b in at.button if b.label == "Run simulation").disabled  # the run is going
+    release()
+    assert RUNNER.get(f"simulate:{db}").wait(60)
+    at.switch_page("pages/overview.py")
+    at.run()
+    at.switch_page(PAGE)
+    at.run()
+    no_exception(at)
+    assert _form(at) == chosen  # after the run too: a second click runs the same study again
+
+
+def test_while_a_run_is_going_the_form_shows_its_choices(app, db, held_run):
+    """A second browser tab (another session) opened during a run showed the defaults in the form
+    while the progress bar named the running settings."""
+    release, calls = held_run
+    first = app(PAGE)
+    first.multiselect[0].set_value(["P03"])
+    next(n for n in first.number_input if n.label == "Days").set_value(2)
+    first.multiselect[1].set_value(["orl"])
+    next(b for b in first.button if b.label == "Run simulation").click().run()
+    assert len(calls) == 1
+    second = app(PAGE)
+    no_exception(second)
+    source, who, sizes, methods, loop = _form(second)
+    assert (source, who, sizes["Days"], sizes["Interactions a day"], methods, loop) == (
+        "Example personas (P01-P08)", ["P03"], 2, 15, ["orl"], "first")
+    # once shown, the choices are the researcher's again: another persona source is not put back by the rerun
+    other = "The same, each with a 'leave me alone' preference (Q01-Q08)"
+    second.radio(key="sim-source").set_value(other).run()
+    no_exception(second)
+    assert (second.radio(key="sim-source").value, second.multiselect[0].value[0]) == (other, "Q01")
+    release()
+    assert RUNNER.get(f"simulate:{db}").wait(60)
+
+
+def test_an_uploaded_persona_file_is_kept_while_other_pages_are_open(app, db):
+    """The uploader, not drawn on another page, forgot the file: back on the page the form had no
+    participants. The file stays in use, said under the uploader, until another one is uploaded."""
+    from cacas.paths import study_data_dir
+
+    data = (study_data_dir() / "personas" / "example.json").read_bytes()
+    at = app(PAGE)
+    at.radio(key="sim-source").set_value("Upload a persona file").run()
+    at.file_uploader(key="sim-upload").upload("mine.json", data, "application/json").run()
+    no_exception(at)
+    at.multiselect[0].set_value(["P02", "P05"])
+    next(n for n in at.number_input if n.label == "Days").set_value(0)  # refused: the form is submitted, no run
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    at.switch_page("pages/overview.py")
+    at.run()
+    at.switch_page(PAGE)
+    at.run()
+    no_exception(at)
+    assert (at.radio(key="sim-source").value, at.multiselect[0].value) == ("Upload a persona file", ["P02", "P05"])
+    assert next(n for n in at.number_input if n.label == "Days").value == 0
+    assert "mine.json, uploaded before in this browser tab. Upload another file to replace it." in texts(at)
+    at.run()  # a rerun on the page keeps it
+    assert at.multiselect[0].value == ["P02", "P05"]
+    at.file_uploader(key="sim-upload").upload("mine.json", data, "application/json").run()  # again, then removed
+    assert "uploaded before" not in texts(at)
+    at.file_uploader(key="sim-upload").set_value(None).run()  # by the researcher: gone
+    no_exception(at)
+    assert at.multiselect[0].value == [] and "uploaded before" not in texts(at)

@@ -362,7 +362,7 @@ def test_importing_a_persona_file_says_so(server, page):
     click(page, "Import")
     toast = page.locator("[data-testid='stToast']")
     toast.first.wait_for(timeout=30_000)
-    assert ("Imported 8 participants: P01, P02, P03, P04, P05, P06, P07, P08 (P01 already in the study)."
+    assert ("Imported example.json: added P02, P03, P04, P05, P06, P07, P08 · preferences replaced for P01."
             in toast.first.inner_text())
     idle(page)
     shows(page, "Preferences of P01")
