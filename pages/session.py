@@ -411,8 +411,10 @@ else:
         if heard:
             mark = ":material/check:" if heard.label == context.activity else ":material/help:"
             st.markdown(f"### {heard.label} {mark}")
-            if heard.unsure:
-                st.caption(":material/help: The robot is not sure it heard that right.")
+            if heard.unsure:  # under a check mark, "not sure it heard that right" read as a contradiction
+                st.caption(":material/help: " + ("The robot was not sure, but it heard that right."
+                                                 if heard.label == context.activity else
+                                                 "The robot is not sure it heard that right."))
             if not tablet:  # the participant sees plain labels; the researcher the numbers
                 st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard.top3[1:]) +
                            f" · confidence {100 * heard.confidence:.0f}%")

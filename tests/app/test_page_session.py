@@ -255,9 +255,13 @@ def test_the_robot_says_when_it_is_not_sure_what_it_heard(app, store, p01, quick
     monkeypatch.setattr(cacas.audio.SoundRecognizer, "load", classmethod(lambda cls, path=None: FixedRecognizer()))
     store.open_day("P01")
     for view in ({}, {"view": "tablet"}):
-        at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", **view)
+        at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", **view)  # a cough chosen, and heard
         no_exception(at)
-        assert "### cough" in texts(at)
+        assert "### cough :material/check:" in texts(at)
+        assert ("The robot was not sure, but it heard that right." in texts(at)) == unsure
+        assert "The robot is not sure it heard that right." not in texts(at)  # not under a check mark
+        at = app(PAGE, participant="P01", ctx="4.6.1.0", at="1.1", **view)  # crying chosen, a cough heard
+        assert "### cough :material/help:" in texts(at)
         assert ("The robot is not sure it heard that right." in texts(at)) == unsure
 
 
