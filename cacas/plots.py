@@ -233,7 +233,8 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title or "Success rate by method, each in its own closed loop", template="plotly_white",
-                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
+                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60),
+                      showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
 
@@ -305,7 +306,8 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, a["day"])
     fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
-                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60))
+                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60),
+                      showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
 

@@ -111,6 +111,16 @@ def test_fig3_for_every_method_in_its_own_closed_loop():
     assert [t.name for t in success_methods_figure(daily()).data] == ["CACAS"]
 
 
+def test_a_figure_of_methods_names_its_method_also_when_it_has_one():
+    """Plotly hides the legend of a one-trace figure: Fig. 4 of CACAS alone said nothing of which
+    method its dots are (walkthrough)."""
+    from cacas.plots import methods_figure, success_methods_figure
+
+    alone = daily()[daily()["method"] == "cacas"]
+    for fig in (methods_figure(alone), success_methods_figure(alone)):
+        assert [t.name for t in fig.data] == ["CACAS"] and fig.layout.showlegend is True
+
+
 def test_a_line_breaks_on_days_its_method_was_not_in_force():
     from cacas.plots import success_methods_figure
 
