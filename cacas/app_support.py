@@ -495,6 +495,16 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
             + ("; compare methods again to add them." if again else "."))
 
 
+def comparison_done(runs: int, elapsed: float) -> str:
+    """What the Results page says when "Compare methods" has ended: the runs it recorded (0: every
+    closed day had every method's run already), and how long it took."""
+    took = f"{elapsed:.0f} s" if elapsed < 120 else f"{elapsed / 60:.0f} min"
+    if not runs:
+        return (f"Methods compared ({took}): no new run; each method has one for every closed day of the participants "
+                "with described preferences already (a day is compared once it is closed).")
+    return f"Methods compared ({took}): {runs} run{'' if runs == 1 else 's'} recorded, in Fig. 4 and the tables below."
+
+
 def uncompared_note(daily: pd.DataFrame, closed_loop: str = "cacas") -> str:
     """The Fig. 4 caption's sentence on a human study's days whose baselines have not been
     compared yet: the comparison adapts them from the days recorded when it runs, so days

@@ -14,7 +14,7 @@ import streamlit as st
 from cacas import app_support, plots, records, saved_runs
 from cacas.errors import CacasError
 from cacas.export import export_study, export_tables, next_day_accuracy
-from cacas.jobs import FAILED, RUNNER
+from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.parallel import default_jobs
 from cacas.method_comparison import compare_methods
 from cacas.study_day import STUDY_DAYS, day_status, questionnaire_timing
@@ -150,6 +150,8 @@ with fig4:
                 st.rerun()
             if job is not None and job.status == FAILED:
                 st.error(f"The comparison failed: {job.error}")
+            elif job is not None and job.status == DONE:  # said, not only drawn: a figure may change little
+                st.success(app_support.comparison_done(job.result, job.elapsed), icon=":material/check_circle:")
     # Fig. 4 is daily.csv's, whatever the source: the day a policy was in force (re-plotting the export
     # draws the same figure); policies adapted for a day not started yet are listed below it
     accuracy, by_pref = daily, tables.get("by_preference")

@@ -230,8 +230,7 @@ percent = app_support.percent
 NOTHING_SAVED = "nothing was saved."
 
 
-def job_progress(key: str, done_message: str = "Done.", stoppable: bool = False,
-                 when_stopped: str = NOTHING_SAVED) -> Job | None:
+def job_progress(key: str, stoppable: bool = False, when_stopped: str = NOTHING_SAVED) -> Job | None:
     """Show a background job's progress bar and log (and, if ``stoppable``, a Stop button);
     rerun the page when it ends. A stopped job shows ``when_stopped``: what it left behind.
 

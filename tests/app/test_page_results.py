@@ -314,6 +314,25 @@ def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, s
     RUNNER.forget(f"compare:{db}:default")
 
 
+def test_a_finished_comparison_says_what_it_recorded(app, db, store, monkeypatch):
+    """The comparison ended without a word (walkthrough): the page says how many runs it recorded,
+    or that every day had them already."""
+    import cacas.method_comparison
+    from cacas.jobs import RUNNER
+
+    _study_with_a_day(store)
+    for runs, said in ((12, "12 runs recorded, in Fig. 4 and the tables below"),
+                       (0, "no new run; each method has one for every closed day")):
+        monkeypatch.setattr(cacas.method_comparison, "compare_methods", lambda *a, runs=runs, **k: runs)
+        at = app(PAGE, participant="P01")
+        next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
+        assert RUNNER.get(f"compare:{db}:default").wait(30)
+        at.run()
+        no_exception(at)
+        assert any(said in s.value and s.value.startswith("Methods compared (") for s in at.success)
+        RUNNER.forget(f"compare:{db}:default")
+
+
 def test_right_after_an_adaptation_the_policies_for_the_next_day_are_listed_apart(app, store):
     _study_with_a_day(store)
     store.record_adaptation("P01", 1, "cacas", {}, 1.0, {"preference_accuracy": 0.75})  # after day 1
