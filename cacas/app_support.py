@@ -16,7 +16,7 @@ import pandas as pd
 from cacas import preferences as prefs
 from cacas import plots, records, spaces
 from cacas.errors import CacasError
-from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status
+from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status, scored_version
 
 
 def adapted_from(day: int) -> str:
@@ -211,7 +211,7 @@ def _event_words(what: str, details: str) -> str:
 def _scored_on(metrics: str | None) -> str:
     """The described preferences' version a run's Fig. 4 metrics were scored against, in words
     ("version 2"); "" for a run not scored, or recorded before runs named it."""
-    version = json.loads(metrics or "{}").get("preferences_version")
+    version = scored_version(metrics)
     return "" if version is None else f"version {version}"
 
 

@@ -358,9 +358,10 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
 
 
 def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
-    """Load a bundle written by :func:`export_study` into a NEW database at ``db_path`` and
-    return the number of interactions imported, with notes on what was kept as the study held it
-    although the forms refuse it in new data (:func:`cacas.store.restore.restore`).
+    """Load a bundle written by :func:`export_study` into a NEW database at ``db_path``; returns a
+    :class:`~cacas.store.restore.Restored`: the number of interactions imported, and notes on what
+    was kept as the study held it although the forms refuse it in new data
+    (:func:`cacas.store.restore.restore`).
 
     Refuses (CacasError, nothing changed) if ``db_path`` exists. The database is built under a
     temporary name beside it and linked into place only when complete, so a bad bundle leaves

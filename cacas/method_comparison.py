@@ -13,14 +13,13 @@ records each run as it comes.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
 
 import pandas as pd
 
-from cacas.study_day import Progress, day_status, described_now, scored_on_preferences
+from cacas.study_day import Progress, day_status, described_now, scored_on_preferences, scored_version
 
 
 @dataclass(frozen=True)
@@ -95,9 +94,9 @@ def scoring_versions(store, code: str, runs: pd.DataFrame, days: list[int], late
     accuracies); ``latest`` ((preferences, version) now) for a day no run has yet."""
     first: dict[int, int] = {}
     for day, metrics in zip(runs["day"].astype(int), runs["metrics"]):  # in the order recorded
-        version = json.loads(metrics or "{}").get("preferences_version")
+        version = scored_version(metrics)
         if version is not None:
-            first.setdefault(day, int(version))
+            first.setdefault(day, version)
     described = {latest[1]: latest[0]}
     scoring = {}
     for day in days:

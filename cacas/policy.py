@@ -53,7 +53,7 @@ def accept_pairs(interactions: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
     states = records.policy_states(interactions)
     t1 = ((interactions["type"] == records.ROBOT_INITIATED) & (interactions["response"] == "accept")
           & (interactions["robot_action"] != "do nothing")).to_numpy()
-    t2 = (interactions["type"] == records.USER_INITIATED).to_numpy()
+    t2 = records.is_recorded_request(interactions).to_numpy()  # not a request made with no sound activity
     actions = np.array([spaces.action_index(u if tp == records.USER_INITIATED else r)
                         if ok else -1 for u, r, tp, ok in
                         zip(interactions["user_action"], interactions["robot_action"], interactions["type"],

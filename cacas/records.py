@@ -295,7 +295,10 @@ def read_csv(source, **options) -> pd.DataFrame:
     :func:`escape_formula`: ``pandas.read_csv`` with ``options``, then :func:`unescape_formula` on
     every text column. A ``participant`` column is read as text: codes such as "007" kept their
     digits only (7) when pandas took them for numbers."""
-    df = pd.read_csv(source, **{"dtype": {"participant": str}, **options})
+    dtype = options.pop("dtype", None)
+    if dtype is None or isinstance(dtype, dict):  # a caller's own column types keep the participant's as text
+        dtype = {"participant": str, **(dtype or {})}
+    df = pd.read_csv(source, dtype=dtype, **options)
     text = {col: df[col].map(unescape_formula) for col in df.columns if _is_text(df[col])}
     return df.assign(**text) if text else df
 

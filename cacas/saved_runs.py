@@ -140,21 +140,25 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
 def _check_same_run(daily: pd.DataFrame, interactions: pd.DataFrame, daily_name: str, inter_name: str) -> None:
     """An interactions.csv belongs to the daily.csv beside it: each of its participant-method-days
     is a row of daily.csv with as many recorded interactions (:func:`cacas.records.is_recorded`,
-    as daily.csv counts them). Another run's file with the same participant codes was shown
-    beside it unchecked."""
+    as daily.csv counts them, or as it counted them before a request made with no sound activity
+    was left out). Another run's file with the same participant codes was shown beside it
+    unchecked."""
     key = ["participant", "method", "day"]
+    recorded = records.is_recorded(interactions)
+    # tables written before commit 1c1999b counted a request made with no sound activity too
+    before = recorded | (interactions["type"] == records.USER_INITIATED)
     rows = interactions.assign(day=interactions["day"].astype(int),
                                participant=interactions["participant"].astype(str),
-                               _recorded=records.is_recorded(interactions).astype(int))
-    counts = rows.groupby(key)["_recorded"].sum()
+                               _recorded=recorded.astype(int), _before=before.astype(int))
+    counts = rows.groupby(key)[["_recorded", "_before"]].sum()
     listed = daily.assign(day=daily["day"].astype(int), participant=daily["participant"].astype(str)).set_index(key)
-    for (who, method, day), n in counts.items():
+    for (who, method, day), (n, n_before) in counts.iterrows():
         if (who, method, day) not in listed.index:
             raise CacasError(f"{inter_name}: {who} day {day} ({method}) is not in {daily_name}; upload the tables "
                              "of one study or run")
         said = listed.loc[(who, method, day), "interactions"]
         said = said.iloc[0] if isinstance(said, pd.Series) else said
-        if int(said) != int(n):
+        if int(said) not in (int(n), int(n_before)):
             raise CacasError(f"{inter_name}: {who} day {day} ({method}) has {int(n)} recorded interactions, "
                              f"{daily_name} says {int(said)}; upload the tables of one study or run")
 

@@ -395,7 +395,7 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
         recorded = int(records.is_recorded(data).sum())
         say(0.02, f"adapting with {method} from {recorded} recorded interaction{'' if recorded == 1 else 's'} of "
                   f"{'day 1' if day == 1 else f'days 1-{day}'}"
-                  + (f" ({len(data) - recorded} more saved unanswered, which give no user data)"
+                  + (f" ({len(data) - recorded} more saved, unanswered or asked for while doing nothing, which give no user data)"
                      if recorded < len(data) else ""))
         result = adapt_policy(before, data, method=method, seed=seed,
                               progress=lambda f, m: say(0.02 + 0.9 * f, m))
@@ -450,6 +450,14 @@ def described_now(store, participant: str) -> tuple:
         return None, None
     version = versions[-1]["version"]
     return store.get_preferences(participant, version), version
+
+
+def scored_version(metrics: str | None) -> int | None:
+    """The described preferences' version an adaptation run's metrics (its JSON, as
+    ``adaptations_frame`` gives it) were scored against; None for a run not scored, or recorded
+    before runs named it."""
+    version = json.loads(metrics or "{}").get("preferences_version")
+    return None if version is None else int(version)
 
 
 def scored_on_preferences(policy, described, version: int) -> dict:

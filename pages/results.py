@@ -49,7 +49,8 @@ if source == HUMAN:
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''} "
                f"({n_started} with a study day), {len(tables['interactions'])} "
                f"interaction{'' if len(tables['interactions']) == 1 else 's'} logged, "
-               f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered or asked for), "
+               f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered, or asked for during an "
+               "activity), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
                "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"]))
 elif source.startswith("Simulated run: "):
@@ -125,8 +126,8 @@ with fig3:
         st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
         st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
                    "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
-                   "and requests, which are not successes); as in the paper, a proposal left unanswered, or the robot "
-                   "quiet with nothing asked, is not recorded."
+                   "and requests, which are not successes); as in the paper, a proposal left unanswered, the robot "
+                   "quiet with nothing asked, or a request while doing nothing (no sound activity), is not recorded."
                    + (" The dashed line (daily.csv's success_ceiling) is the share of the interactions where a "
                       "described preference names an action: the success rate proposing the described preferences "
                       "reaches there. It is not a bound: where no preference names an action (or the participant "

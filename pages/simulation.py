@@ -89,7 +89,9 @@ if problem:
 
 by_id = {p.id: p for p in people}
 who = f"sim-who:{choice}"  # one choice of participants per persona source
-wanted = s.get(who, kept.get(who, list(by_id)))
+wanted = list(s.get(who, kept.get(who, list(by_id))))
+offered = f"{who}:offered"  # the participants the choice was made among: one added to the study since is chosen,
+wanted += [c for c in by_id if c not in kept.get(offered, by_id) and c not in wanted]  # as all are at first
 valid = [c for c in wanted if c in by_id] or ([] if not wanted else list(by_id))  # none left: another file
 if s.get(who) != valid:
     s[who] = valid
@@ -122,7 +124,7 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                "side, one process per core, as in `cacas simulate`).")
     go = st.form_submit_button("Run simulation", type="primary", icon=":material/play_arrow:", disabled=running)
 choices = {key: s[key] for key in (*DEFAULTS, who)}
-kept.update(choices)
+kept.update(choices, **{offered: list(by_id)})
 if go:
     try:
         saved_runs.check_simulation(chosen, methods, int(days), int(per_day), int(seed), float(silent),

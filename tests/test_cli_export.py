@@ -215,7 +215,7 @@ def test_import_of_a_study_with_a_code_like_a_date_restores_it_and_prints_a_note
     captured = capsys.readouterr()
     assert "imported 1 participant and 0 interactions into" in captured.out
     assert captured.err == (f"cacas import: note: {bundle}: participants.csv, row 2, column participant: '20261121' "
-                            "looks like contact details (a phone number or an e-mail address); imported as it was, "
+                            "looks like a phone number or a date; imported as it was, "
                             "as the study held it (the forms refuse it in new data)\n")
     with StudyStore(tmp_path / "moved" / "study.sqlite") as s:
         assert [p.code for p in s.list_participants()] == ["20261121"]

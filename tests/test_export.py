@@ -448,7 +448,8 @@ def test_a_study_holding_what_the_forms_refuse_now_is_restored_as_it_was_with_no
     assert restored.notes == (
         f"studies.csv, row 3, column name: '0612345678' {kept}",
         f"studies.csv, row 3, column description: '+44 20 7946 0958' {kept}",
-        f"participants.csv, row 2, column participant: '20261121' {kept}",
+        f"participants.csv, row 2, column participant: '20261121' looks like a phone number or a date; imported as it "
+        "was, as the study held it (the forms refuse it in new data)",
         f"participants.csv, row 2, column notes: 'anna.schmidt@example.com' {kept}",
         f"preferences.csv, row 2, column preferences (preference 1's description): 'anna@example.com' {kept}",
         f"questionnaire.csv, row 2, column comments: '0612345678' {kept}")
@@ -516,7 +517,8 @@ def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with
     export imports as it was (a note each); a time that is no ISO 8601 time at all is refused."""
     bundle = export.export_study(store, tmp_path / "out").bundle
     old = _rewrite(bundle, tmp_path / "old.zip", "interactions", lambda df: df.assign(
-        time=["2026-11-21T10:00:00", "2026-11-21T11:00:00+01:00", "2026-11-21"] + list(df["time"][3:])))
+        time=["2026-11-21T10:00:00", "2026-11-21T11:00:00+01:00", "2026-11-21", "2026-11-21T12:00:00Z"]
+        + list(df["time"][4:])))
     target = tmp_path / "b" / "moved.sqlite"
     restored = export.import_bundle(old, target)
     assert restored.notes == (
@@ -527,7 +529,10 @@ def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with
         "('2026-11-21T10:00:00.000Z'); imported as it was, as the study held it (record_interaction stored such "
         "times before it converted them to UTC)",
         "interactions.csv, row 4, column time: time '2026-11-21' is a date alone; imported as it was, as the "
-        "study held it (record_interaction stored such times before it refused them)")
+        "study held it (record_interaction stored such times before it refused them)",
+        "interactions.csv, row 5, column time: '2026-11-21T12:00:00Z' is in UTC, but not written as the app writes "
+        "times ('2026-11-21T12:00:00.000Z'); imported as it was, as the study held it (record_interaction stored "
+        "such times before it converted them to UTC)")
     with StudyStore(target) as moved:
         assert moved.interactions_frame()["time"].tolist()[:3] == ["2026-11-21T10:00:00", "2026-11-21T11:00:00+01:00",
                                                                    "2026-11-21"]
@@ -698,6 +703,11 @@ def bundle_tables(store, tmp_path):
      "questionnaire.csv names participant 'P07', which participants.csv does not have"),
     ("interactions", lambda df: df.assign(day=df["day"].where(df.index != 6, "3")),
      "interactions.csv, row 8: day 3 of participant P01 is not in days.csv; valid: one that days.csv lists for them"),
+    # record_adaptation and save_policy refuse a day the participant does not have; the foreign keys do not
+    ("adaptations", lambda df: df.assign(day=df["day"].where(df.index != 0, "9")),
+     "adaptations.csv, row 2: participant P01 has no day 9 in days.csv"),
+    ("policies", lambda df: df.assign(day=df["day"].where(df.index != 0, "9")),
+     "policies.csv, row 2: participant P01 has no day 9 in days.csv"),
 ])
 def test_restore_refuses_tables_that_do_not_fit_and_writes_nothing(bundle_tables, tmp_path, table, change,
                                                                    message):

@@ -102,6 +102,9 @@ def test_accept_pairs_learn_what_the_user_data_d_still_holds_as_accept():
     assert len(accept_pairs(other_room)[1]) == 1
     idle_request = _interactions().iloc[[2]].assign(activity="do nothing")
     assert len(accept_pairs(idle_request)[1]) == 0
+    # nor when the same action was accepted in that idle context before (D holds that accept): learnt once
+    idle_accept = idle_request.assign(index=1, type="type_1", robot_action="pain check", user_action="")
+    assert len(accept_pairs(pd.concat([idle_accept, idle_request]))[1]) == 1
     # taken back by asking for something else when the robot proposed it again: the request is learnt
     asked_instead = pd.concat([base, base.assign(index=5, type="type_2", user_action="remind to turn off")])
     assert [spaces.ACTIONS[x] for x in accept_pairs(asked_instead)[1]] == ["remind to turn off"]

@@ -181,6 +181,8 @@ def test_participant_codes_of_digits_keep_their_leading_zeros(tmp_path):
     assert tables["by_preference"]["participant"].tolist() == ["007"]
     (tmp_path / "daily.csv").write_bytes(_csv(daily))
     assert saved_runs.load_daily(tmp_path / "daily.csv")["participant"].tolist() == ["007", "012"]
+    # a caller's own column types keep it too
+    assert records.read_csv(tmp_path / "daily.csv", dtype={"day": int})["participant"].tolist() == ["007", "012"]
 
 
 def test_an_uploaded_persona_file_is_checked_as_an_import_is_and_its_source_kept():
@@ -249,6 +251,14 @@ def test_uploaded_tables_are_recognised_by_their_columns():
     unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
     loaded = saved_runs.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily))])
     assert len(loaded["interactions"]) == 2
+    # a request made while doing nothing is not recorded now; tables exported before counted it: both upload
+    idle = inter.assign(activity="do nothing", type=records.USER_INITIATED, user_action="chitchat")
+    for said in (0, 1):
+        said_so = _csv(daily.assign(interactions=said))
+        tables = saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", said_so)])
+        assert len(tables["interactions"]) == 1
+    with pytest.raises(CacasError, match=r"has 0 recorded interactions, d\.csv says 2"):
+        saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(daily.assign(interactions=2)))])
 
 
 @pytest.mark.parametrize("files, message", [

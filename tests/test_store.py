@@ -522,6 +522,7 @@ BAD_INTERACTIONS = [
                                        r"is not known; valid: an ISO 8601 time with a time zone, such as "
                                        r'"2026-11-21T10:00:00Z" \(UTC\)'),
     (dict(time="2026-11-21"), r"time '2026-11-21' is a date alone; valid: an ISO 8601 time with a time zone"),
+    (dict(time=pd.NaT), r"^time NaT is missing; valid: an ISO 8601 time"),  # a frame's missing time (ValueError)
 ]
 
 

@@ -112,8 +112,9 @@ class _Notes(list):
         refuse in new data but a study may hold from before the check."""
         found = contact_details(value)
         if found:
-            self.kept(column, f"{found!r} looks like contact details (a phone number or an e-mail address)",
-                      "the forms refuse it in new data")
+            what = ("a phone number or a date" if column == "participant" else
+                    "contact details (a phone number or an e-mail address)")
+            self.kept(column, f"{found!r} looks like {what}", "the forms refuse it in new data")
         return value
 
     def age(self, cell: str) -> str:
@@ -144,7 +145,9 @@ class _Notes(list):
                       "refused them")
             return cell
         if utc != cell:
-            self.kept("time", f"{cell!r} is not in UTC as the app writes times ({utc!r})",
+            in_utc = datetime.fromisoformat(cell.strip()).utcoffset().total_seconds() == 0
+            self.kept("time", f"{cell!r} is " + ("in UTC, but not written as the app writes times" if in_utc
+                                                 else "not in UTC as the app writes times") + f" ({utc!r})",
                       "record_interaction stored such times before it converted them to UTC")
         return cell
 
@@ -216,6 +219,23 @@ def _check_days(days: list[tuple]) -> None:
                 raise CacasError(f"days.csv, row {row}: day {day} of participant {code} is open (closed_at is "
                                  f"empty) but day {day + 1} follows it; valid: a closed_at time on every day "
                                  "but a participant's latest (the app opens a day after closing the one before)")
+
+
+def _check_days_named(name: str, rows: list[tuple], at: int, days: list[tuple]) -> None:
+    """Each row of ``name`` (policies or adaptations: the participant first, the day at ``at``)
+    names day 0 (the initial policy) or one of the participant's days in days.csv, as
+    ``save_policy`` and ``record_adaptation`` refuse a day the participant does not have (the
+    schema's foreign keys do not cover it)."""
+    have: dict[str, set[int]] = {}
+    for code, day, *_ in days:
+        have.setdefault(code, set()).add(day)
+    for i, row in enumerate(rows):
+        code, day = row[0], row[at]
+        if day and day not in have.get(code, set()):
+            last = max(have.get(code, {0}))
+            theirs = f"1..{last}" if last else "none yet"
+            raise CacasError(f"{name}.csv, row {i + 2}: participant {code} has no day {day} in days.csv (their days: "
+                             f"{theirs}); valid: 0 (the initial policy) or one of their days")
 
 
 #: The CSV file of a study database's table, where its name differs.
@@ -354,6 +374,8 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         c.executemany("INSERT INTO questionnaires (participant_id, satisfaction, comments, created_at) "
                       "VALUES (?, ?, ?, ?)", [(p(r[0], "questionnaire"), *r[1:]) for r in answers])
         c.executemany("INSERT INTO events (at, what, participant, details) VALUES (?, ?, ?, ?)", events)
+        _check_days_named("policies", policies, 2, days)  # each table's participants are known by now
+        _check_days_named("adaptations", adaptations, 1, days)
         _check_foreign_keys(c, before)
         store._event(c, "import_bundle", None, participants=len(people), interactions=len(interactions),
                      notes=len(noted))

@@ -296,7 +296,11 @@ def timestamp(value: Any) -> str:
             raise CacasError(f"time {given!r} is a date alone; valid: {TIME_HINT}")
     if not isinstance(value, datetime):
         raise CacasError(f"time {given!r} is invalid; valid: a datetime with a time zone (tzinfo), or {TIME_HINT}")
-    if value.utcoffset() is None:
+    try:
+        offset = value.utcoffset()
+    except ValueError:  # pandas' NaT (a missing time in a frame) is a datetime that has none
+        raise CacasError(f"time {given!r} is missing; valid: {TIME_HINT}, or None for now") from None
+    if offset is None:
         raise CacasError(f"time {given!r} has no time zone, so which moment it names is not known; valid: "
                          f"{TIME_HINT}{'' if isinstance(given, str) else ', or a datetime with tzinfo'}")
     try:

@@ -221,6 +221,30 @@ def held_run(monkeypatch):
     gate.set()
 
 
+def test_a_participant_added_to_the_study_since_is_chosen_with_the_others(app, db, store, held_run):
+    """The form keeps the participants chosen among the study's; one added to the study later was
+    left out (review): it is chosen, as every participant is at first, and one left out stays so."""
+    release, calls = held_run
+    for code in ("P01", "P02", "P03"):
+        store.add_participant(code)
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE)
+    at.radio(key="sim-source").set_value("This study's participants").run()
+    at.multiselect[0].set_value(["P01", "P02"])  # P03 left out on purpose
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    assert calls[0]["participants"] == ["P01", "P02"]
+    release()
+    assert RUNNER.get(f"simulate:{db}").wait(60)
+    store.add_participant("P04")
+    store.save_preferences("P04", [{"activity": ["cough"], "action": "pain check"}])
+    at.switch_page("pages/overview.py")
+    at.run()
+    at.switch_page(PAGE)
+    at.run()
+    no_exception(at)
+    assert at.multiselect[0].value == ["P01", "P02", "P04"]
+
+
 def _form(at):
     """What the form shows: the persona source, the participants, the sizes, methods and who acts."""
     sizes = {n.label: n.value for n in at.number_input}
