@@ -708,6 +708,16 @@ def bundle_tables(store, tmp_path):
      "adaptations.csv, row 2: participant P01 has no day 9 in days.csv"),
     ("policies", lambda df: df.assign(day=df["day"].where(df.index != 0, "9")),
      "policies.csv, row 2: participant P01 has no day 9 in days.csv"),
+    # a row twice: the database said only "UNIQUE constraint failed: interactions.participant_id, ..."
+    ("interactions", lambda df: pd.concat([df, df.iloc[[1]]], ignore_index=True),
+     "interactions.csv, row 22: participant P01, day 1, index 2 is listed twice (rows 3 and 22); valid: one row "
+     "for each participant and day and index"),
+    ("policies", lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True),
+     "is listed twice (rows 2 and"),
+    ("preferences", lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True),
+     "participant P01, version 1 is listed twice (rows 2 and"),
+    ("participants", lambda df: pd.concat([df, df.iloc[[0]]], ignore_index=True),
+     "participant P01 is listed twice (rows 2 and"),
 ])
 def test_restore_refuses_tables_that_do_not_fit_and_writes_nothing(bundle_tables, tmp_path, table, change,
                                                                    message):

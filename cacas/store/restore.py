@@ -221,6 +221,20 @@ def _check_days(days: list[tuple]) -> None:
                                  "but a participant's latest (the app opens a day after closing the one before)")
 
 
+def _check_unique(name: str, rows: list[tuple], columns: list[str]) -> None:
+    """No two rows of ``name`` share the values of ``columns`` (the first ones of each row), which
+    the schema holds unique: the second is named with the row it repeats (the database said only
+    "UNIQUE constraint failed", naming the table)."""
+    seen: dict[tuple, int] = {}
+    for i, row in enumerate(rows):
+        key = tuple(row[:len(columns)])
+        if key in seen:
+            said = ", ".join(f"{c} {k}" for c, k in zip(columns, key))
+            raise CacasError(f"{name}.csv, row {i + 2}: {said} is listed twice (rows {seen[key]} and {i + 2}); "
+                             f"valid: one row for each {' and '.join(columns)}")
+        seen[key] = i + 2
+
+
 def _check_days_named(name: str, rows: list[tuple], at: int, days: list[tuple]) -> None:
     """Each row of ``name`` (policies or adaptations: the participant first, the day at ``at``)
     names day 0 (the initial policy) or one of the participant's days in days.csv, as
@@ -318,6 +332,10 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         noted.private(v.text(r["comments"], "comments", check_contacts=False), "comments"), r["created_at"]), noted)
     events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
                                                 _json_text(r["details"] or "{}")))
+    _check_unique("participants", people, ["participant"])
+    _check_unique("preferences", preferences, ["participant", "version"])
+    _check_unique("policies", policies, ["participant", "version"])
+    _check_unique("interactions", interactions, ["participant", "day", "index"])
 
     def fn(c):
         try:
