@@ -696,7 +696,10 @@ def bundle_tables(store, tmp_path):
 
 @pytest.mark.parametrize("table,change,message", [
     ("participants", lambda df: df.assign(study=df["study"].replace("pilot", "ghost")),
-     "participants.csv: participant P02 is in study 'ghost', which studies.csv does not have"),
+     "participants.csv, row 3: participant P02 is in study 'ghost', which studies.csv does not have; valid: a "
+     "study studies.csv lists"),
+    ("participants", lambda df: df.assign(active_policy=df["active_policy"].where(df.index != 0, "9")),
+     "participants.csv, row 2: participant P01's policy in force is version 9, which policies.csv does not have"),
     ("days", lambda df: df.assign(participant=df["participant"].replace("P02", "P09")),
      "days.csv names participant 'P09', which participants.csv does not have"),
     ("questionnaire", lambda df: df.assign(participant=df["participant"].replace("P01", "P07")),

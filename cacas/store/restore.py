@@ -355,10 +355,10 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
                       "DO UPDATE SET description = excluded.description, created_at = excluded.created_at",
                       (name, desc, at))
         sid = {n: i for i, n in c.execute("SELECT id, name FROM studies")}
-        for code, study, age, notes, _active, at, upd in people:
+        for row, (code, study, age, notes, _active, at, upd) in enumerate(people, start=2):
             if study not in sid:
-                raise CacasError(f"participants.csv: participant {code} is in study {study!r}, "
-                                 f"which studies.csv does not have")
+                raise CacasError(f"participants.csv, row {row}: participant {code} is in study {study!r}, "
+                                 f"which studies.csv does not have; valid: a study studies.csv lists")
             c.execute("INSERT INTO participants (study_id, code, age_range, notes, created_at, updated_at) "
                       "VALUES (?, ?, ?, ?, ?, ?)", (sid[study], code, age, notes, at, upd))
         pid = {code: i for i, code in c.execute("SELECT id, code FROM participants")}
@@ -375,10 +375,11 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         c.executemany("INSERT INTO policies (participant_id, version, day, method, path, sha256, size, "
                       "created_at) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", [(p(r[0], "policies"), *r[1:]) for r in policies])
         saved = {(r[0], r[1]) for r in policies}
-        for code, _s, _a, _n, active, _c, _u in people:
+        for row, (code, _s, _a, _n, active, _c, _u) in enumerate(people, start=2):
             if active is not None and (code, active) not in saved:  # the column has no foreign key
-                raise CacasError(f"participants.csv: participant {code}'s policy in force is version {active}, "
-                                 "which policies.csv does not have")
+                raise CacasError(f"participants.csv, row {row}: participant {code}'s policy in force is version "
+                                 f"{active}, which policies.csv does not have; valid: one of their versions in "
+                                 "policies.csv, or empty")
             c.execute("UPDATE participants SET active_policy = ? WHERE id = ?", (active, pid[code]))
         c.executemany(
             "INSERT INTO interactions (participant_id, day, idx, time, method, activity, scene, hour, time_slot, "
