@@ -44,11 +44,21 @@ class TabletBoard:
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._shown: dict[tuple[str, str], Shown] = {}
+        self._heard: set[tuple[str, str]] = set()  # tablets drawn (a proposal or a form) since this board began
+        self.started = time.time()  # when this board (this server process) began
+
+    def heard(self, db: str, participant: str) -> bool:
+        """Whether the participant's tablet has been drawn since this board began: a server started
+        afresh knows nothing of a proposal its predecessor showed until the tablet is used again (a
+        page left open reconnects without being drawn), so its "nothing shown" means "not known"."""
+        with self._lock:
+            return (str(db), participant) in self._heard
 
     def show(self, db: str, participant: str, shown: Shown) -> None:
         """The tablet draws ``shown``: kept with the time it was first shown."""
         key = (str(db), participant)
         with self._lock:
+            self._heard.add(key)
             held = self._shown.get(key)
             since = held.since if held == shown else time.time()
             self._shown[key] = replace(shown, since=since)
@@ -56,6 +66,7 @@ class TabletBoard:
     def clear(self, db: str, participant: str) -> None:
         """The tablet shows no proposal (it was answered, or the participant went back to the form)."""
         with self._lock:
+            self._heard.add((str(db), participant))
             self._shown.pop((str(db), participant), None)
 
     def shown(self, db: str, participant: str, day: int | None = None, index: int | None = None) -> Shown | None:

@@ -8,6 +8,8 @@ Every answer is written to the study database the moment it is given.
 
 from __future__ import annotations
 
+import time
+
 import pandas as pd
 import streamlit as st
 
@@ -347,6 +349,11 @@ elif context is None:
         board.clear(db, code)
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
+    if not tablet and not board.heard(db, code):
+        # after a restart a tablet left open shows its proposal without being drawn: this page cannot know
+        st.caption(f":material/info: This page has not heard from {code}'s tablet since the app started "
+                   f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a proposal, let "
+                   f"{code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
         st.markdown("#### What are you doing?")
         c1, c2 = st.columns(2)

@@ -21,6 +21,19 @@ def test_a_proposal_shown_is_read_back_for_its_interaction_only():
     board.clear("a.sqlite", "P01")  # clearing nothing is fine
 
 
+def test_a_board_knows_which_tablets_it_has_heard_from():
+    """A server started afresh has heard from no tablet: its "nothing shown" is "not known" until the
+    tablet draws a proposal or its form."""
+    board = TabletBoard()
+    assert not board.heard("a.sqlite", "P01") and board.started > 0
+    board.show("a.sqlite", "P01", _shown())
+    board.clear("a.sqlite", "P02")  # P02's tablet drew its form
+    assert board.heard("a.sqlite", "P01") and board.heard("a.sqlite", "P02")
+    assert not board.heard("b.sqlite", "P01")
+    board.clear("a.sqlite", "P01")
+    assert board.heard("a.sqlite", "P01")  # answered: still heard from
+
+
 def test_drawing_the_same_proposal_again_keeps_when_it_was_first_shown():
     board = TabletBoard()
     board.show("a.sqlite", "P01", _shown())

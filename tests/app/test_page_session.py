@@ -652,6 +652,20 @@ def test_the_researchers_view_shows_the_tablets_proposal_instead_of_a_form_of_it
     assert len(store.interactions_frame("P01", method=None)) == 1
 
 
+def test_the_researchers_view_says_when_it_has_not_heard_from_the_tablet(app, store, p01, quick_policy):
+    """After a server restart, a tablet left open showing a proposal is not drawn again until its next
+    tap, so the researcher's view offered its own form as if the tablet showed nothing (a note of
+    earlier sessions): it says it has not heard from the tablet, until the tablet is drawn."""
+    store.open_day("P01")
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert "This page has not heard from P01's tablet since the app started" in texts(desk)
+    tab = app(PAGE, participant="P01", view="tablet")  # the tablet draws its form
+    assert "has not heard from" not in texts(tab)  # never on the tablet itself
+    desk = app(PAGE, participant="P01")
+    assert "has not heard from" not in texts(desk)
+
+
 def test_the_tablet_says_an_answered_proposal_without_a_number_of_its_own(app, store, p01, quick_policy):
     """Walkthrough: under "4 of about 15 interactions today" (recorded ones) the tablet said "Set what
     you are doing now for interaction 6" (a number counting the unanswered ones too). The researcher's
