@@ -31,10 +31,12 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
     upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
     not silent, no NaN, at least half a second: :func:`cacas.audio.library.library_clip`); one bad file
     and nothing is added."""
+    from cacas.audio.features import SUPPORTED_EXTENSIONS
     from cacas.audio.library import import_folder
 
     return _add_files("activity", activity, files, import_folder, root, what="recording",
-                      how="upload a WAV, FLAC or OGG file or record one", default_name="recording_{}.wav")
+                      how="upload a WAV, FLAC or OGG file or record one", default_name="recording_{}.wav",
+                      extensions=SUPPORTED_EXTENSIONS)
 
 
 def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
@@ -44,17 +46,22 @@ def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str 
     fully transparent nor one flat colour:
     :func:`cacas.vision.library.library_photo`);
     one bad file and nothing is added."""
-    from cacas.vision.library import import_folder
+    from cacas.vision.library import IMAGE_EXTENSIONS, import_folder
 
     return _add_files("scene", scene, files, import_folder, root, what="photo",
-                      how="upload a JPEG or PNG photo or take one", default_name="photo_{}.jpg")
+                      how="upload a JPEG or PNG photo or take one", default_name="photo_{}.jpg",
+                      extensions=IMAGE_EXTENSIONS)
 
 
 def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_folder, root, what: str,
-               how: str, default_name: str) -> list[Path]:
+               how: str, default_name: str, extensions: Sequence[str]) -> list[Path]:
     """Write ``files`` into a temporary ``<slug>/`` folder and import it into the library, all or
     nothing (the library's ``import_folder`` checks every file and refuses copies of files already
-    there); an error names each file as the researcher gave it, never our temporary copy."""
+    there); an error names each file as the researcher gave it, never our temporary copy. A file
+    whose type the library does not take is refused, not left out (the folder's import skipped it,
+    and the others were added as if it had not been given); files of the same name (from two
+    folders, or names that differ only in letters a file name cannot hold) are all kept, numbered
+    (one overwrote the other: "Added 1")."""
     from cacas.media_library import slug
 
     name = spaces.canonical(kind, name)
@@ -69,6 +76,13 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
             target = folder / _safe_name(fname, default_name.format(i + 1))
             if target.suffix == "":
                 target = target.with_suffix(Path(default_name).suffix)
+            if target.suffix.lower() not in extensions:
+                raise CacasError(f"{fname}: a {target.suffix} file is not taken; valid: {', '.join(extensions)} "
+                                 f"({how}); nothing was added")
+            base, n = target, 1
+            while target.exists():  # another file of the same name in this upload: take-2.wav, take-3.wav
+                n += 1
+                target = base.with_name(f"{base.stem}-{n}{base.suffix}")
             target.write_bytes(data)
         try:
             return import_folder(tmp, root)
@@ -123,9 +137,24 @@ def recognize_scene_bytes(recognizer, name: str, data: bytes):
     return _recognize_bytes(recognizer, name, data, "photo.jpg")
 
 
+def photo_to_show(name: str, data: bytes):
+    """An uploaded photo as the RGB image the scene model sees (:func:`cacas.vision.library.load_image`),
+    to show on a page: the upload's own bytes could not be drawn for every image the model reads (a
+    16-bit PNG stopped the page with a traceback)."""
+    from cacas.vision.library import load_image
+
+    return _on_upload(name, data, "photo.jpg", load_image)
+
+
 def _recognize_bytes(recognizer, name: str, data: bytes, default_name: str):
     """The recognizer on ``data`` written to a temporary file named like the upload; its
     messages name the upload, not the temporary file."""
+    return _on_upload(name, data, default_name, recognizer.recognize)
+
+
+def _on_upload(name: str, data: bytes, default_name: str, read):
+    """``read(path)`` of ``data`` written to a temporary file named like the upload; its messages
+    name the upload, not the temporary file."""
     if not data:
         raise CacasError(f"{name}: is empty (0 bytes)")
     with tempfile.TemporaryDirectory() as tmp:
@@ -134,7 +163,7 @@ def _recognize_bytes(recognizer, name: str, data: bytes, default_name: str):
             path = path.with_suffix(Path(default_name).suffix)
         path.write_bytes(data)
         try:
-            return recognizer.recognize(path)
+            return read(path)
         except CacasError as exc:
             raise CacasError(str(exc).replace(str(path), name)) from None
 

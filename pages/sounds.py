@@ -39,7 +39,7 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
         st.error(str(exc), icon=":material/error:")
         return
     if kind == "scene":
-        st.image(data, width=280)
+        st.image(lab.photo_to_show(name, data), width=280)  # as the model sees it (a 16-bit PNG could not be drawn)
     else:  # hear what the model heard
         st.audio(data, format=lab.audio_mime(name))
     st.markdown(f"### {r.label}")
@@ -161,9 +161,12 @@ with sound_library:
     _library_grid("sound", "activities", lambda path: st.audio(str(path), format=lab.audio_mime(path)))
     with st.expander("Every clip of one activity"):
         act = st.selectbox("Activity", spaces.ACTIVITIES, key="lib-activity")
-        for p in clip_paths(act)[:40]:
+        every = clip_paths(act)
+        for p in every[:40]:
             st.caption(p.name)
             st.audio(str(p), format=lab.audio_mime(p))
+        if len(every) > 40:  # said, as for the photos (clips past the 40th were left out without a word)
+            st.caption(f"The first 40 of {len(every)} clips, by file name.")
 
 with add_clip:
     _add_tab("sound", "Add recordings of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, "
@@ -183,7 +186,7 @@ with scene_library:
             st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
 
 with add_photo:
-    _add_tab("scene", "Add photos of one room: JPEG, PNG, BMP or WebP, any size (each is resized for the "
+    _add_tab("scene", "Add photos of one room: JPEG, PNG, BMP or WebP, up to 89 megapixels (each is resized for the "
                       "model). Every file is checked before anything is added; a photo already in the library is "
                       "refused.")
 

@@ -187,6 +187,25 @@ def test_add_photos_adds_checked_photos_all_or_nothing(tmp_path):
         lab.add_photos("attic", [("a.png", _png())], root)
 
 
+def test_files_of_the_same_name_are_all_added_and_a_type_not_taken_is_refused(tmp_path):
+    """Walkthrough: two photos called image.jpg (or Küche.jpg and Kuche.jpg, the same file name once
+    made safe) gave "Added 1": one overwrote the other; an MP3 among recordings was left out and the
+    others added as if it had not been given."""
+    from cacas.audio.library import clip_paths
+    from cacas.vision.library import image_paths
+
+    root = tmp_path / "scenes"
+    added = lab.add_photos("kitchen", [("image.png", _png((1, 2, 3))), ("image.png", _png((90, 80, 70))),
+                                       ("Küche.png", _png((5, 50, 5))), ("K_che.png", _png((50, 5, 50)))], root)
+    assert [p.name for p in added] == sorted(["image.png", "image-2.png", "K_che.png", "K_che-2.png"])
+    assert len(image_paths("kitchen", root)) == 4
+    sounds = tmp_path / "sounds"
+    with pytest.raises(CacasError, match=r"^clip\.mp3: a \.mp3 file is not taken; valid: \.wav, \.flac, \.ogg "
+                                         r"\(upload a WAV, FLAC or OGG file or record one\); nothing was added$"):
+        lab.add_clips("cough", [("take.wav", b"RIFF...."), ("clip.mp3", b"ID3....")], sounds)
+    assert clip_paths("cough", sounds) == []
+
+
 def test_library_stamp_changes_when_a_folder_gains_a_file(study_data):
     (study_data / "sounds" / "cough").mkdir(parents=True)
     whole, cough, sneeze = lab.library_stamp("sound"), lab.library_stamp("sound", "cough"), \
@@ -199,3 +218,19 @@ def test_library_stamp_changes_when_a_folder_gains_a_file(study_data):
     assert lab.library_stamp("scene", "kitchen")[-1] == ("kitchen", None)  # no folder yet
     with pytest.raises(CacasError, match=r"^unknown library kind 'speech'; valid: sound, scene$"):
         lab.library_stamp("speech")
+
+
+def test_a_photo_is_shown_as_the_model_sees_it():
+    """Try a photo drew the upload's own bytes: a 16-bit grey PNG stopped the page with a traceback
+    (Streamlit could not draw mode I;16); it is shown as the RGB image the model reads."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    buf = io.BytesIO()
+    Image.fromarray(np.tile(np.linspace(0, 65535, 64).astype(np.uint16), (48, 1))).save(buf, format="PNG")
+    shown = lab.photo_to_show("deep.png", buf.getvalue())
+    assert shown.mode == "RGB" and shown.size == (64, 48) and shown.getpixel((32, 10))[0] < 200
+    with pytest.raises(CacasError, match=r"^notes\.png: not a readable image"):
+        lab.photo_to_show("notes.png", b"text")

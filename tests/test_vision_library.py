@@ -106,3 +106,27 @@ def test_a_dim_room_is_still_a_photo(tmp_path):
     dim = Image.fromarray(rng.integers(5, 30, (48, 64, 3), dtype="uint8"), "RGB")  # spread ~7 levels
     dim.save(tmp_path / "dim.jpg")
     assert library.library_photo(tmp_path / "dim.jpg").size == (64, 48)
+
+
+def test_a_16_bit_grey_photo_is_read_as_its_levels_and_refused_by_the_library(tmp_path):
+    """Walkthrough: a 16-bit grey PNG reached the model 99.97 % white (Pillow clips every level above
+    255), and in the library it stopped the Sounds and scenes page with a traceback (a page cannot
+    draw it): it is read scaled to 8 bits, and the library refuses it with a message."""
+    levels = np.tile(np.linspace(0, 65535, 64).astype(np.uint16), (48, 1))
+    Image.fromarray(levels).save(tmp_path / "deep.png")  # mode I;16 (or I), 16 bits a pixel
+    seen = np.asarray(library.load_image(tmp_path / "deep.png"))
+    assert seen.shape == (48, 64, 3) and seen[0, 0, 0] == 0 and seen[0, -1, 0] == 255
+    assert 120 <= seen[0, 32, 0] <= 135  # the middle level is mid-grey, not white
+    with pytest.raises(CacasError, match=r"deep\.png: is a 16-bit grey image \(mode I;?1?6?.*\), which the pages "
+                                         r"cannot show; valid: a photo of 8 bits a channel"):
+        library.library_photo(tmp_path / "deep.png")
+
+
+def test_an_image_too_large_to_read_safely_is_one_clear_message(tmp_path, monkeypatch):
+    """Walkthrough: a 15000 x 15000 PNG gave Pillow's DecompressionBombError traceback (not an
+    OSError), on the page and from `cacas scene recognize`."""
+    photo((64, 48), (10, 20, 30)).save(tmp_path / "big.png")
+    monkeypatch.setattr(Image, "MAX_IMAGE_PIXELS", 1000)  # 64 x 48 = 3072 pixels: over twice the limit
+    with pytest.raises(CacasError, match=r"big\.png: is too large to read safely \(more than 2,000 pixels\); "
+                                         r"valid: a photo of at most 1,000 pixels"):
+        library.load_image(tmp_path / "big.png")

@@ -59,10 +59,31 @@ def load_image(path):
     try:
         with Image.open(path) as im:
             im.load()
-            return im.convert("RGB")
+            return _eight_bit(im).convert("RGB")
+    except Image.DecompressionBombError:  # not an OSError: it ended the page with a traceback
+        raise CacasError(f"{path}: is too large to read safely (more than {2 * Image.MAX_IMAGE_PIXELS:,} pixels); "
+                         f"valid: a photo of at most {Image.MAX_IMAGE_PIXELS:,} pixels, e.g. 6000 x 4000") from None
     except (UnidentifiedImageError, OSError, ValueError) as exc:
         raise CacasError(f"{path}: not a readable image ({' '.join(str(exc).split())[:160]}); "
                          f"valid: {', '.join(IMAGE_EXTENSIONS)}") from None
+
+
+#: Pillow's modes of one channel of more than 8 bits (a 16-bit grey PNG is "I;16" or "I").
+_DEEP_GREY = ("I", "I;16", "I;16B", "I;16L", "I;16N", "F")
+
+
+def _eight_bit(im):
+    """``im`` with 8 bits a channel: a 16-bit (or 32-bit, or float) grey image scaled to 0-255.
+    Pillow's own conversion clips every level above 255 to white: a 16-bit grey photo reached the
+    scene model 99.97 % white (walkthrough)."""
+    if im.mode not in _DEEP_GREY:
+        return im
+    from PIL import Image
+
+    levels = np.asarray(im, dtype=np.float64)
+    if im.mode.startswith("I;16") or (im.mode == "I" and levels.max(initial=0) > 255):
+        levels = levels / 257.0  # 0-65535 onto 0-255
+    return Image.fromarray(np.clip(np.rint(levels), 0, 255).astype(np.uint8), "L")
 
 
 #: The smallest side of a photo the scene library takes: below it there is nothing of a room to see.
@@ -75,7 +96,8 @@ MIN_PHOTO_SPREAD = 2.0
 
 
 def library_photo(path):
-    """:func:`load_image`, refusing what shows no room: a photo smaller than
+    """:func:`load_image`, refusing what shows no room, or what a page cannot show (a grey image of
+    more than 8 bits): a photo smaller than
     :data:`MIN_PHOTO_SIDE` pixels a side (review: a 1 x 1 pixel image was added to the library),
     a fully transparent image, and one flat colour (:data:`MIN_PHOTO_SPREAD`; a walkthrough added
     a blank frame). Each would be a training example of a room with nothing of the room in it."""
@@ -86,6 +108,11 @@ def library_photo(path):
         raise CacasError(f"{path}: is {image.size[0]} x {image.size[1]} pixels; valid: a photo at least "
                          f"{MIN_PHOTO_SIDE} pixels a side")
     with Image.open(path) as raw:  # load_image has read it whole: it opens
+        if raw.mode in _DEEP_GREY:  # the model reads it (load_image), but a page cannot draw it: the Sounds
+            # and scenes page stopped with a traceback at the library's grid, its other tabs gone (walkthrough)
+            raise CacasError(f"{path}: is a {'16' if raw.mode.startswith('I;16') else 'more than 8'}-bit grey image "
+                             f"(mode {raw.mode}), which the pages cannot show; valid: a photo of 8 bits a channel "
+                             "(a camera's JPEG, or a PNG saved at 8 bits)")
         if "A" in raw.getbands() and raw.getchannel("A").getextrema()[1] == 0:
             raise CacasError(f"{path}: is fully transparent, nothing of a room shows; valid: a photo of the room")
     if max(ImageStat.Stat(image).stddev) < MIN_PHOTO_SPREAD:

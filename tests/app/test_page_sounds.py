@@ -215,3 +215,22 @@ def test_clips_added_outside_the_page_are_counted_without_a_restart(app, tmp_pat
     (data / "sounds" / "sneeze" / "c.wav").write_bytes(_wav())
     at.run()
     assert summary() == ["**3 clips** for **2 of 33** activities."]
+
+
+def test_every_clip_of_an_activity_says_when_it_shows_the_first_40(app, tmp_path, monkeypatch):
+    """Walkthrough: "Every clip of one activity" showed 40 of cry's 41 clips without a word (the photos
+    said "The first 48 of N")."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds" / "cough").mkdir(parents=True)
+    for i in range(41):
+        (data / "sounds" / "cough" / f"c{i:02d}.wav").write_bytes(_wav())
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    at = app(PAGE)
+    no_exception(at)
+    assert "The first 40 of 41 clips, by file name." in [c.value for c in at.caption]
+    assert len(at.get("audio")) >= 40
