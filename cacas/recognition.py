@@ -143,6 +143,17 @@ def stratified_group_split(labels: Sequence[int], fraction: float, seed: int) ->
     return keep, held
 
 
+def model_weights_path(path: Path | str, what: str = "model file") -> Path:
+    """``path`` as a model's weights file: a .json name is refused, as the metadata written beside
+    the weights (``path.with_suffix('.json')``) is that same file: `--model m.json` left the
+    metadata alone, the trained weights overwritten, and said "saved" (CLI review)."""
+    path = Path(path)
+    if path.suffix.lower() == ".json":
+        raise CacasError(f"{what} {path}: a .json file is where a model's metadata goes, beside its weights; valid: "
+                         f"a .pt file, e.g. {path.with_suffix('.pt')}")
+    return path
+
+
 def save_model(path: Path | str, tensors: dict, metadata: dict) -> Path:
     """Write ``path`` (.pt, tensors only) and ``path.with_suffix('.json')`` (metadata).
 
@@ -150,7 +161,7 @@ def save_model(path: Path | str, tensors: dict, metadata: dict) -> Path:
     """
     import torch
 
-    path = Path(path)
+    path = model_weights_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp_pt, tmp_js = path.with_suffix(".pt.tmp"), path.with_suffix(".json.tmp")
     torch.save(tensors, tmp_pt)

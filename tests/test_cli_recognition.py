@@ -216,6 +216,23 @@ def test_train_checks_the_model_path_before_training(command, tmp_path, unwritab
         assert err.startswith(f"cacas: error: --model {model}: cannot be written there") and problem in err, err
 
 
+@pytest.mark.parametrize("command", ["sound", "scene"])
+def test_a_model_named_json_is_refused_before_training(command, tmp_path, capsys):
+    """CLI review: `--model m.json` trained, wrote the weights there, then the metadata over them (the
+    metadata file is the .pt's name with .json), and said "saved": the model was lost."""
+    model = tmp_path / "m.json"
+    code = main([command, "train", "--data", str(tmp_path / "absent"), "--model", str(model), "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 2 and err == (f"cacas: error: --model {model}: a .json file is where a model's metadata goes, "
+                                 f"beside its weights; valid: a .pt file, e.g. {tmp_path / 'm.pt'}\n")
+    assert not model.exists()
+    from cacas.errors import CacasError
+    from cacas.recognition import save_model
+    with pytest.raises(CacasError, match=r"a \.json file is where a model's metadata goes"):  # the library too
+        save_model(model, {}, {})
+    assert not model.exists()
+
+
 def test_count_says_one_epoch_and_two_epochs():
     from cacas.cli.sound import count
 

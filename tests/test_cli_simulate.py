@@ -288,6 +288,29 @@ def test_an_error_after_sigterm_is_said_as_the_termination(tmp_path, capsys, mon
     assert not (tmp_path / "new").exists()
 
 
+@pytest.mark.parametrize("after", [BrokenPipeError(32, "Broken pipe"), EOFError()])
+def test_a_broken_pipe_or_eof_after_sigterm_is_the_termination(tmp_path, capsys, monkeypatch, after):
+    """CLI review: SIGTERM as the workers start: the stop handler's call to the ended manager raised
+    BrokenPipeError, taken for a reader of stdout that left (exit 0, nothing said, no tables: a script
+    took it for a success), or EOFError (a traceback, exit 1)."""
+    import os
+    import signal
+
+    import cacas.experiment
+
+    def terminated_then(*a, **k):
+        try:
+            os.kill(os.getpid(), signal.SIGTERM)
+        finally:
+            raise after
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", terminated_then)
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out", str(tmp_path / "new")]) \
+        == 143
+    assert capsys.readouterr().err == "cacas: terminated\n"
+    assert not (tmp_path / "new").exists()
+
+
 @pytest.mark.parametrize("name, said", [("Anna Smith", "participant code 'Anna Smith' is invalid"),
                                         ("0612345678", "participant code '0612345678' looks like a phone number")])
 def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys, name, said):

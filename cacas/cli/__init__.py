@@ -110,6 +110,8 @@ def _run(args) -> int:
     except CacasError as exc:
         return _failed(str(exc))
     except BrokenPipeError:  # e.g. `cacas sound eval | head`: the reader left; not an error of ours
+        if _SIGNALLED["term"]:  # or the workers' manager, ended by SIGTERM: that run exited 0, saying nothing
+            return _terminated()
         import os
 
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
@@ -117,6 +119,10 @@ def _run(args) -> int:
     except OSError as exc:  # a file or folder the command could not read or write
         where = f"{exc.filename}: " if exc.filename else ""
         return _failed(f"{where}{exc.strerror or exc}")
+    except EOFError:  # a pipe to a worker's manager closed under us: after SIGTERM, its doing (a traceback, exit 1)
+        if _SIGNALLED["term"]:
+            return _terminated()
+        raise
     except sqlite3.DatabaseError as exc:  # e.g. a damaged page found while reading the tables
         return _failed(f"the study database cannot be read ({exc}); restore it from a backup or an export")
     except KeyboardInterrupt:  # Ctrl-C, or SIGTERM (Terminated)
