@@ -145,7 +145,9 @@ class _Notes(list):
                       "refused them")
             return cell
         if utc != cell:
-            in_utc = datetime.fromisoformat(cell.strip()).utcoffset().total_seconds() == 0
+            text = cell.strip()
+            text = text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text  # Python 3.10 reads no "Z"
+            in_utc = datetime.fromisoformat(text).utcoffset().total_seconds() == 0
             self.kept("time", f"{cell!r} is " + ("in UTC, but not written as the app writes times" if in_utc
                                                  else "not in UTC as the app writes times") + f" ({utc!r})",
                       "record_interaction stored such times before it converted them to UTC")
