@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 import sqlite3
 from dataclasses import dataclass
-from datetime import datetime
 from typing import Any, Callable
 
 import pandas as pd
@@ -132,22 +131,20 @@ class _Notes(list):
         """An interaction's time, checked as ``record_interaction`` checks one
         (:func:`validate.timestamp`: ISO 8601 with a time zone) and kept as it was. A time that
         ``record_interaction`` stored as given before it converted times to UTC (with an offset,
-        without a zone, a date alone: what ``datetime.fromisoformat`` reads) is noted; anything
+        without a zone, a date alone: what :func:`validate.iso_time` reads) is noted; anything
         else is refused."""
         try:
             utc = v.timestamp(cell)
         except CacasError as exc:
             try:
-                datetime.fromisoformat(cell.strip())
+                v.iso_time(cell)
             except ValueError:
                 raise exc from None
             self.kept("time", str(exc).partition("; valid:")[0], "record_interaction stored such times before it "
                       "refused them")
             return cell
         if utc != cell:
-            text = cell.strip()
-            text = text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text  # Python 3.10 reads no "Z"
-            in_utc = datetime.fromisoformat(text).utcoffset().total_seconds() == 0
+            in_utc = v.iso_time(cell).utcoffset().total_seconds() == 0
             self.kept("time", f"{cell!r} is " + ("in UTC, but not written as the app writes times" if in_utc
                                                  else "not in UTC as the app writes times") + f" ({utc!r})",
                       "record_interaction stored such times before it converted them to UTC")

@@ -275,6 +275,13 @@ TIME_HINT = ('an ISO 8601 time with a time zone, such as "2026-11-21T10:00:00Z" 
              '"2026-11-21T11:00:00+01:00"')
 
 
+def iso_time(text: str) -> datetime:
+    """``datetime.fromisoformat`` of ``text``, a trailing "Z" read as UTC (Python 3.10's does not
+    read it); ValueError if it is no ISO 8601 date or time."""
+    text = text.strip()
+    return datetime.fromisoformat(text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text)
+
+
 def timestamp(value: Any) -> str:
     """An interaction's time in the store's format, UTC as :func:`now` writes it
     ("2026-11-21T09:47:34.123Z"): now if None; an aware datetime, or an ISO 8601 text with a time
@@ -286,10 +293,8 @@ def timestamp(value: Any) -> str:
     given = value
     if isinstance(value, str):
         text = value.strip()
-        if text[-1:] in ("Z", "z"):  # Python 3.10's fromisoformat does not read "Z"
-            text = text[:-1] + "+00:00"
         try:
-            value = datetime.fromisoformat(text)
+            value = iso_time(text)
         except ValueError:
             raise CacasError(f"time {given!r} is invalid; valid: {TIME_HINT}") from None
         if "T" not in text.upper() and " " not in text:
