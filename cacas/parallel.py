@@ -13,6 +13,7 @@ from __future__ import annotations
 import multiprocessing as mp
 import os
 import signal
+import threading
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing.managers import SyncManager
 from typing import Any, Callable, Sequence
@@ -29,6 +30,51 @@ def ignore_interrupt() -> None:
     """Worker and manager processes leave Ctrl-C to the main process, which stops them through
     the stop event: interrupted themselves, the pool's workers went on to the next piece."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+
+class InterruptHeld:
+    """Ctrl-C (SIGINT) held back while worker processes start, until :meth:`release`.
+
+    The signal is blocked in this thread, and a process started meanwhile inherits the block, so
+    Ctrl-C (sent to the whole process group) cannot end it while it imports, before
+    :func:`ignore_interrupt` runs: it died with a traceback, and the pool's feeder could hang
+    writing to it (the standard library starts its resource tracker the same way). In this
+    process, on the main thread, a Ctrl-C that another thread takes (torch's, which do not block
+    it) is noted rather than raised mid-spawn, and raised at :meth:`release`: held, not lost."""
+
+    def __init__(self) -> None:
+        self.mask = None
+        if hasattr(signal, "pthread_sigmask"):
+            from multiprocessing import resource_tracker
+
+            resource_tracker.ensure_running()  # started by the first spawn, it unblocks Ctrl-C here
+            self.mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        self.pressed: list[int] = []
+        self.handler = None
+        if threading.current_thread() is threading.main_thread():
+            self.handler = signal.signal(signal.SIGINT, lambda signum, frame: self.pressed.append(signum))
+        self.held = True
+
+    def release(self) -> None:
+        """The mask and handler as they were; a Ctrl-C pressed meanwhile arrives now. Once only."""
+        if not self.held:
+            return
+        self.held = False
+        if self.handler is not None:
+            signal.signal(signal.SIGINT, self.handler)
+        if self.mask is not None:
+            signal.pthread_sigmask(signal.SIG_SETMASK, self.mask)  # a blocked, pending one arrives
+        if self.pressed:
+            signal.raise_signal(signal.SIGINT)
+
+
+def add_note(exc: BaseException, note: str) -> None:
+    """``exc.add_note(note)`` (Python 3.11), or its ``__notes__`` list on Python 3.10, which has no
+    ``add_note`` (the call raised AttributeError in place of the stop or Ctrl-C being handled)."""
+    if hasattr(exc, "add_note"):
+        exc.add_note(note)
+    else:
+        exc.__notes__ = [*getattr(exc, "__notes__", []), note]
 
 
 def reporter(queue, stop) -> Callable[..., None]:
@@ -54,29 +100,36 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
     Returns the workers' results in the order of ``pieces``."""
     ctx = mp.get_context("spawn")
     manager = SyncManager(ctx=ctx)
-    manager.start(ignore_interrupt)
-    with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=ignore_interrupt) as pool:
-        queue, stop = manager.Queue(), manager.Event()
-        futures = [pool.submit(worker, shared, piece, queue, stop) for piece in pieces]
-        try:
-            pending = set(futures)
-            while pending:
-                finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+    held = InterruptHeld()
+    try:
+        manager.start(ignore_interrupt)
+        with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=ignore_interrupt) as pool:
+            queue, stop = manager.Queue(), manager.Event()
+            futures = []
+            try:
+                for piece in pieces:  # one by one: a Ctrl-C meanwhile stops those submitted (below)
+                    futures.append(pool.submit(worker, shared, piece, queue, stop))
+                held.release()  # the workers have started: a Ctrl-C meanwhile arrives here
+                pending = set(futures)
+                while pending:
+                    finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                    while not queue.empty():
+                        tick(*queue.get())
+                    failed = next((f.exception() for f in finished if f.exception() is not None), None)
+                    if failed is not None:  # one piece failed: the others stop now, not at their end
+                        raise failed
                 while not queue.empty():
                     tick(*queue.get())
-                failed = next((f.exception() for f in finished if f.exception() is not None), None)
-                if failed is not None:  # one piece failed: the others stop now, not at their end
-                    raise failed
-            while not queue.empty():
-                tick(*queue.get())
-        except BaseException as exc:  # a stop request, Ctrl-C, or a worker's failure
-            stop.set()
-            never = sum(f.cancel() for f in futures)
-            wait(futures)
-            while keep is not None and not queue.empty():  # made before the stop, not yet taken
-                keep(*queue.get())
-            ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
-            exc.add_note(f"{ended} of {len(futures)} {what} ended early in their worker process, "
-                         f"{never} never started")
-            raise
-        return [f.result() for f in futures]
+            except BaseException as exc:  # a stop request, Ctrl-C, or a worker's failure
+                stop.set()
+                never = sum(f.cancel() for f in futures)
+                wait(futures)
+                while keep is not None and not queue.empty():  # made before the stop, not yet taken
+                    keep(*queue.get())
+                ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
+                add_note(exc, f"{ended} of {len(futures)} {what} ended early in their worker process, "
+                              f"{never} never started")
+                raise
+            return [f.result() for f in futures]
+    finally:
+        held.release()

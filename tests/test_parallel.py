@@ -1,6 +1,12 @@
 """cacas.parallel: pieces of work in worker processes, reports through a queue, stop at the next report."""
 
+import os
+import re
+import signal
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import pytest
 
@@ -14,6 +20,15 @@ def _report_until_stopped(shared: bytes, piece: int, queue, stop) -> int:
     if shared == b"fail" and piece == 0:
         raise ValueError("piece 0 failed")
     for n in range(100_000):
+        report("made", piece, n)
+        time.sleep(0.01)
+    return piece
+
+
+def _report_for_a_while(shared: bytes, piece: int, queue, stop) -> int:
+    """A piece that reports for about 5 s, unless stopped."""
+    report = parallel.reporter(queue, stop)
+    for n in range(500):
         report("made", piece, n)
         time.sleep(0.01)
     return piece
@@ -53,3 +68,75 @@ def test_what_was_made_before_a_stop_is_kept():
     with pytest.raises(Stopped):
         parallel.run_parallel(_report_until_stopped, b"", [0, 1], 2, tick, keep=lambda *item: kept.append(item))
     assert len(ticked) == 5 and kept and not set(ticked) & set(kept)  # each item once, to tick or to keep
+
+
+def _ctrl_c_blocked_here(shared: bytes, piece: int, queue, stop) -> bool:
+    """Whether this worker process has Ctrl-C blocked: inherited from its start (nothing in the worker
+    blocks it), so it was blocked while the process imported, before its initializer ran."""
+    import signal
+    return signal.SIGINT in signal.pthread_sigmask(signal.SIG_BLOCK, [])
+
+
+FIRST_RUN = """
+import signal, sys
+from cacas import parallel
+from tests.test_parallel import _ctrl_c_blocked_here
+
+if __name__ == "__main__":
+    before = signal.pthread_sigmask(signal.SIG_BLOCK, [])
+    print(parallel.run_parallel(_ctrl_c_blocked_here, b"", [0, 1], 2, lambda *item: None),
+          signal.SIGINT in before, signal.pthread_sigmask(signal.SIG_BLOCK, []) == before)
+"""
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="no signal masks on this platform")
+def test_workers_start_with_ctrl_c_held_and_the_caller_gets_it_back(tmp_path):
+    """Ctrl-C within ~0.1 s of the workers starting killed them mid-import (tracebacks) and could hang
+    `cacas simulate`: a worker process starts with Ctrl-C blocked, and the caller's mask is restored.
+    In a fresh process, as `cacas simulate` is: there the first spawn starts multiprocessing's resource
+    tracker, which unblocked Ctrl-C in the caller before the workers started."""
+    script = tmp_path / "first_run.py"
+    script.write_text(FIRST_RUN)
+    root = Path(__file__).parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, env=env, cwd=root,
+                          timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["[True,", "True]", "False", "True"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="no signal masks on this platform")
+def test_a_ctrl_c_pressed_while_the_workers_start_arrives_once_they_have_started(monkeypatch):
+    """A Ctrl-C while the pieces are being submitted is held until all are (not raised mid-spawn,
+    which left a process without its start-up data), then stops the workers as at any other moment."""
+    submit = parallel.ProcessPoolExecutor.submit
+    pressed = []
+
+    def submit_and_press(self, *args, **kwargs):
+        future = submit(self, *args, **kwargs)
+        if not pressed:  # Ctrl-C as the first worker starts
+            pressed.append(True)
+            os.kill(os.getpid(), signal.SIGINT)
+        return future
+    monkeypatch.setattr(parallel.ProcessPoolExecutor, "submit", submit_and_press)
+    with pytest.raises(KeyboardInterrupt) as interrupted:
+        parallel.run_parallel(_report_for_a_while, b"", [0, 1, 2], 2, lambda *item: None)
+    assert pressed
+    # stopped by run_parallel once the 3 were submitted (before: raised as the first was, outside the
+    # stop's reach, and the pool waited for every piece's end, with no note)
+    assert re.fullmatch(r"[0-3] of 3 pieces of work ended early in their worker process, [0-2] never started",
+                        interrupted.value.__notes__[0])
+
+
+def test_a_note_is_added_on_python_3_10_too():
+    """Python 3.10 (pyproject allows it) has no BaseException.add_note: the stop's note raised
+    AttributeError in place of the stop."""
+    class Python310Error:  # like 3.10's exceptions: no add_note
+        pass
+    old = Python310Error()
+    parallel.add_note(old, "first")
+    parallel.add_note(old, "second")
+    assert old.__notes__ == ["first", "second"]
+    new = ValueError("x")
+    parallel.add_note(new, "third")
+    assert new.__notes__ == ["third"]
