@@ -282,10 +282,11 @@ def test_quiet_activities_are_exactly_the_documented_ones(d4a):
     quiet = {spaces.ACTIVITIES[i] for i in range(33) if not d4a.accepted_actions(i)}
     assert quiet == {"clear throat", "burp", "yawn", "snore", "wash hands", "type keyboard",
                      "pour water into glass", "flush toilet", "do nothing"}
-    # there doing nothing (0) is the best response: nothing is accepted
-    for i in range(33):
-        if spaces.ACTIVITIES[i] in quiet:
-            assert d4a.table[i].min() >= R and A not in d4a.table[i]
+    # there doing nothing is the best response: nothing is accepted (above), and doing nothing is
+    # not rejected
+    nothing = spaces.ACTIONS.index("do nothing")
+    assert {spaces.ACTIVITIES[i]: int(d4a.table[i, nothing]) for i in range(33) if spaces.ACTIVITIES[i] in quiet} \
+        == {activity: O for activity in quiet}
 
 
 def test_snore_rejects_every_spoken_action(d4a):

@@ -39,10 +39,12 @@ def store(tmp_path):
 
 
 def snapshot(path):
-    """Row counts of every table (including the event log) read through a separate connection."""
+    """Every row of every table (including the event log), sorted, read through a separate
+    connection: "nothing written" means no row added, removed or changed (row counts alone
+    missed a change in place)."""
     con = sqlite3.connect(path)
     try:
-        return {t: con.execute(f"SELECT COUNT(*) FROM {t}").fetchone()[0] for t in TABLES}
+        return {t: sorted(con.execute(f"SELECT * FROM {t}").fetchall(), key=repr) for t in TABLES}
     finally:
         con.close()
 
@@ -152,7 +154,7 @@ def test_readonly_store_creates_nothing_and_refuses_writes(tmp_path):
     with StudyStore(path, readonly=True) as s:
         with pytest.raises(CacasError, match="read-only"):
             s.add_participant("P02")
-    assert snapshot(path)["participants"] == 0
+    assert snapshot(path)["participants"] == []
 
 
 # --- participants and preferences -----------------------------------------------------------------

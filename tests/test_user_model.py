@@ -118,12 +118,20 @@ def test_from_interactions_matches_data_collection():
 
 
 def test_uma_retrains_every_n_interactions():
+    """Table II: the user model is retrained at every N-th interaction (3rd, 6th, ...), not once."""
     uma = UMA(update_interval=3)
-    for i in range(2):
-        uma.step(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)
-        assert not uma.is_new and uma.model.trained_on == 0
-    uma.step(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)
-    assert uma.is_new and uma.model.trained_on == len(uma.data)
+    retrained = []
+    for n in range(1, 8):
+        if n % 3:
+            uma.step(STATE, records.ROBOT_INITIATED, PAIN, spaces.ACCEPT)
+        else:
+            uma.step(STATE, records.USER_INITIATED, 0, spaces.ACCEPT, TIMER)
+        if uma.is_new:
+            retrained.append(n)
+            assert uma.model.trained_on == len(uma.data)
+        elif n < 3:
+            assert uma.model.trained_on == 0
+    assert retrained == [3, 6]
 
 
 class _Fixed:

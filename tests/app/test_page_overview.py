@@ -37,7 +37,8 @@ def test_unknown_participant_in_address_is_reported(app, store):
     store.add_participant("P01")
     at = app(participant="P77")
     no_exception(at)
-    assert "P77" in texts(at)
+    assert "Participant 'P77' is not in this study database: choose one below." in texts(at)
+    assert at.sidebar.selectbox(key="participant").value is None  # P01 does not stand in for P77
 
 
 def test_a_fresh_load_starts_at_the_participant_last_worked_with(app, store):

@@ -115,7 +115,7 @@ def test_tablet_view_shows_the_session_page_only(app, store, p01, quick_policy):
     assert "with the robot, following your daily routine." in texts(at)
     assert not at.sidebar.selectbox  # no participant or study pickers
     assert "P02" not in texts(at) and "remind to turn off" not in texts(at)  # no others, no preferences
-    with pytest.raises(ValueError):
+    with pytest.raises(ValueError, match="Could not find a navigation page"):  # not registered in this view
         at.switch_page("pages/participants.py")
 
 
