@@ -300,3 +300,26 @@ def test_sound_generate_reports_the_size_of_the_clips_only(tmp_path, capsys):
     found = re.search(r"library now (\d+) clips, ([\d.]+) MB", out)
     assert found, out
     assert int(found.group(1)) == len(clips) == 33 and float(found.group(2)) == round(size, 1)
+
+
+@pytest.mark.parametrize("command", [["sound", "generate", "--clips", "1", "--seconds", "1"],
+                                     ["scene", "generate", "--images", "1", "--size", "32"],
+                                     ["sound", "import", "MINE"], ["scene", "import", "MINE"]])
+def test_an_out_folder_that_cannot_be_written_is_one_line_naming_it(command, tmp_path, capsys):
+    """Review: --out afile said the OS's 'afile/cough: Not a directory', --out /proc/x 'No such file
+    or directory', after reading nothing of what was wrong; now one line naming --out, the path
+    and the problem, exit 2, nothing made."""
+    (tmp_path / "afile").write_text("x")
+    mine = tmp_path / "mine" / "bedroom"
+    mine.mkdir(parents=True)
+    photo((30, 30), (0, 0, 0)).save(mine / "b.png")
+    command = [str(tmp_path / "mine") if a == "MINE" else a for a in command]
+    cases = [(tmp_path / "afile", "is a file; valid: a folder (created if missing)"),
+             (tmp_path / "afile" / "sub" / "lib", f"cannot write in this folder: {tmp_path / 'afile'} is a file, "
+                                                  "not a folder; valid: a folder you can write to"),
+             ("/proc/cacas-lib", "cannot write in this folder: it cannot be created (No such file or directory)")]
+    for out, problem in cases:
+        code = main([*command, "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and err.count("\n") == 1 and err.startswith(f"cacas: error: --out {out}: {problem}"), err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "mine"]

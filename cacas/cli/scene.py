@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import check_confusion_png, count, print_metrics, print_recognition, save_confusion
+from cacas.cli.sound import (check_confusion_png, count, library_out, print_metrics, print_recognition,
+                             save_confusion)
 from cacas.errors import CacasError
 
 
@@ -62,17 +63,18 @@ def register(subparsers) -> None:
 def run_generate(args) -> int:
     from cacas.vision.library import generate_scenes, scenes_dir
 
-    with ProgressBar() as bar:
-        paths = generate_scenes(args.images, args.size, args.seed, args.out, progress=bar)
-    print(f"wrote {len(paths)} synthetic scene images to {args.out or scenes_dir()}")
+    with library_out(args.out, scenes_dir()) as root, ProgressBar() as bar:
+        paths = generate_scenes(args.images, args.size, args.seed, root, progress=bar)
+    print(f"wrote {len(paths)} synthetic scene images to {root}")
     return 0
 
 
 def run_import(args) -> int:
     from cacas.vision.library import import_folder, scenes_dir
 
-    paths = import_folder(args.folder, args.out)
-    print(f"imported {len(paths)} images into {args.out or scenes_dir()}")
+    with library_out(args.out, scenes_dir()) as root:
+        paths = import_folder(args.folder, root)
+    print(f"imported {len(paths)} images into {root}")
     return 0
 
 

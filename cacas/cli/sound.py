@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
+from pathlib import Path
+
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 
@@ -33,6 +36,23 @@ def print_recognition(path, rec) -> None:
     print(f"{path}: {rec.label}")
     for label, p in rec.top3:
         print(f"  {label:24s} {p:.3f}")
+
+
+@contextlib.contextmanager
+def library_out(out, default: Path):
+    """The library folder a ``generate`` or ``import`` writes into (``--out``, else ``default``),
+    checked before any work (:func:`cacas.store.files.writable_folder`: one line naming the path
+    and what is wrong, not the OS's "afile/cough: Not a directory"); created if missing, and the
+    folders it created removed again if the command fails or is stopped."""
+    from cacas.store import files
+
+    root = Path(out) if out is not None else default
+    made = files.missing_folders(root)
+    try:
+        yield files.writable_folder(root, f"--out {root}" if out is not None else f"the library folder {root}")
+    except BaseException:
+        files.remove_empty(made)
+        raise
 
 
 def register(subparsers) -> None:
@@ -86,9 +106,8 @@ def register(subparsers) -> None:
 def run_generate(args) -> int:
     from cacas.audio.library import generate_library, library_clips, sounds_dir
 
-    with ProgressBar() as bar:
-        paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
-    root = args.out or sounds_dir()
+    with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
+        paths = generate_library(args.clips, args.seconds, args.seed, root, progress=bar, fmt=args.format)
     n, size = library_clips(root)
     print(f"{len(paths)} synthetic clips of seed {args.seed} in {root} (a clip already holding the same audio "
           f"is left as it is; library now {n} clips, {size / 1e6:.1f} MB)")
@@ -98,9 +117,9 @@ def run_generate(args) -> int:
 def run_import(args) -> int:
     from cacas.audio.library import import_folder, sounds_dir
 
-    with ProgressBar() as bar:
-        paths = import_folder(args.folder, args.out, progress=bar)
-    print(f"imported {len(paths)} recordings into {args.out or sounds_dir()}")
+    with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
+        paths = import_folder(args.folder, root, progress=bar)
+    print(f"imported {len(paths)} recordings into {root}")
     return 0
 
 
