@@ -27,6 +27,13 @@ from cacas.errors import CacasError
 
 Progress = Callable[[float, str], None] | None
 
+#: What the SYNTHETIC generators take, from..to (both valid): a clip's length in seconds
+#: (:func:`cacas.audio.library.generate_library`) and an image's side in pixels
+#: (:func:`cacas.vision.library.generate_scenes`); here, where the command line's help reads them
+#: without loading torch.
+SYNTHETIC_CLIP_SECONDS = (1.0, 10.0)
+SYNTHETIC_IMAGE_SIDE = (32, 1024)
+
 
 def slug(name: str) -> str:
     """Filesystem-safe folder name of a Table I name: "watch TV" -> "watch_tv"."""

@@ -102,7 +102,11 @@ def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
     (["sound", "train", "--augment", "0"], "argument --augment: '0' is too small; valid: a whole number >= 1"),
     (["sound", "train", "--patience", "-1"], "argument --patience: '-1' is too small; valid: a whole number >= 1"),
     (["scene", "train", "--epochs", "x"], "argument --epochs: 'x' is not a whole number; valid: e.g. 7"),
-    (["sound", "generate", "--seconds", "two"], "argument --seconds: 'two' is not a number; valid: e.g. 2"),
+    (["sound", "generate", "--seconds", "two"], "argument --seconds: 'two' is not a number; valid: a number from 1 to 10"),
+    # review: the library's own ranges, said after the parse without naming the option
+    (["sound", "generate", "--seconds", "11"], "argument --seconds: '11' is too large; valid: a number from 1 to 10"),
+    (["sound", "generate", "--seconds", "nan"], "argument --seconds: 'nan' is not a number; valid: a number from 1 to 10"),
+    (["scene", "generate", "--size", "16"], "argument --size: '16' is too small; valid: a whole number from 32 to 1024"),
     (["sound", "eval", "--confusion-png", "cm.txt"], "argument --confusion-png: 'cm.txt' does not end in .png"),
     (["scene", "eval", "--confusion-png", "folder"], "argument --confusion-png: 'folder' does not end in .png"),
     (["sound", "generate", "--out", ""], "argument --out: an empty path; valid: a file or folder path"),
@@ -199,6 +203,34 @@ def test_sound_and_scene_help_has_a_description_and_every_default():
                 if action.default is None and action.dest not in ("model", "data", "out"):
                     continue  # e.g. --confusion-png FILE: nothing unless given
                 assert action.help and "(default " in action.help, f"{command} {name} {action.option_strings[0]}"
+
+
+def test_help_says_the_valid_values_of_every_range_checked_option():
+    """Review: `cacas sound generate --help` did not say that --seconds takes 1 to 10, nor `scene
+    generate --help` that --size takes 32 to 1024 (nor any count's or seed's range). The help says
+    what the option's type checks, and for --seconds and --size that is the library's own range."""
+    from cacas.cli import types
+    from cacas.media_library import SYNTHETIC_CLIP_SECONDS, SYNTHETIC_IMAGE_SIDE
+
+    ranged = {("sound", "generate", "--seconds"): "a number from %g to %g" % SYNTHETIC_CLIP_SECONDS,
+              ("scene", "generate", "--size"): "a whole number from %d to %d" % SYNTHETIC_IMAGE_SIDE}
+    seen = set()
+    for command in ("sound", "scene"):
+        for name, parser in _actions(command).items():
+            for action in parser._actions:
+                valid = getattr(action.type, "valid", None)
+                if valid is None:
+                    continue
+                key = (command, name, action.option_strings[0])
+                seen.add(key)
+                assert valid == ranged.get(key, valid), key
+                assert f"; valid: {valid} (default " in " ".join(action.help.split()), key
+    assert set(ranged) <= seen and len(seen) >= 10  # --clips, --seed, --images, --epochs, --patience, --augment ...
+    from cacas.audio.library import generate_library
+    from cacas.errors import CacasError
+    with pytest.raises(CacasError, match="between 1 and 10 seconds"):  # the library checks the same range
+        generate_library(1, SYNTHETIC_CLIP_SECONDS[1] + 0.5, root="/nonexistent")
+    assert types.count.valid == "a whole number >= 1"
 
 
 @pytest.mark.parametrize("command", ["sound", "scene"])

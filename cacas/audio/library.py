@@ -102,8 +102,9 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
 
     if clips_per_activity < 1:
         raise CacasError(f"clips per activity must be at least 1, got {clips_per_activity}")
-    if not 1.0 <= seconds <= 10.0:
-        raise CacasError(f"clip length must be between 1 and 10 seconds, got {seconds}")
+    low, high = media_library.SYNTHETIC_CLIP_SECONDS
+    if not low <= seconds <= high:
+        raise CacasError(f"clip length must be between {low:g} and {high:g} seconds, got {seconds}")
     fmt = fmt.lower()
     subtypes = {"ogg": "VORBIS", "flac": "PCM_16", "wav": "PCM_16"}
     if fmt not in subtypes:

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
+from cacas.media_library import SYNTHETIC_CLIP_SECONDS
 
 
 def count(n: int, noun: str) -> str:
@@ -63,9 +64,11 @@ def register(subparsers) -> None:
     g = sub.add_parser("generate", help="write SYNTHETIC clips into the sound library",
                        description="Write SYNTHETIC clips (one folder per activity, Table I's 33 activities) into "
                                    "the sound library; a clip already holding the same audio is left as it is.")
-    g.add_argument("--clips", type=types.count, default=24, help="clips per activity (default 24)")
-    g.add_argument("--seconds", type=types.seconds, default=2.0, help="clip length in seconds (default 2)")
-    g.add_argument("--seed", type=types.seed, default=0, help="seed; a new seed adds new clips (default 0)")
+    g.add_argument("--clips", type=types.count, default=24, help=types.described("clips per activity", types.count, 24))
+    seconds = types.between(*SYNTHETIC_CLIP_SECONDS)
+    g.add_argument("--seconds", type=seconds, default=2.0, help=types.described("clip length in seconds", seconds, 2))
+    g.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed (a new seed adds new clips)", types.seed, 0))
     g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"], help="clip file format (default ogg)")
     g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
     g.set_defaults(func=run_generate)
@@ -80,10 +83,13 @@ def register(subparsers) -> None:
                                    "holding out recordings for the test, and save it.")
     t.add_argument("--data", type=types.path, default=None, help="library folder (default study_data/sounds)")
     t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
-    t.add_argument("--epochs", type=types.count, default=8, help="at most this many epochs (default 8)")
-    t.add_argument("--patience", type=types.count, default=3, help="early stopping: epochs without improvement (default 3)")
-    t.add_argument("--augment", type=types.count, default=1, help="augmented copies per training window (default 1)")
-    t.add_argument("--seed", type=types.seed, default=0, help="seed of the held-out split and the training (default 0)")
+    t.add_argument("--epochs", type=types.count, default=8, help=types.described("at most this many epochs", types.count, 8))
+    t.add_argument("--patience", type=types.count, default=3,
+                   help=types.described("early stopping: epochs without improvement", types.count, 3))
+    t.add_argument("--augment", type=types.count, default=1,
+                   help=types.described("augmented copies per training window", types.count, 1))
+    t.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed of the held-out split and the training", types.seed, 0))
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)",

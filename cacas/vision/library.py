@@ -149,8 +149,9 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
 
     if images_per_scene < 1:
         raise CacasError(f"images per scene must be at least 1, got {images_per_scene}")
-    if not 32 <= size <= 1024:
-        raise CacasError(f"image size must be between 32 and 1024 pixels, got {size}")
+    low, high = media_library.SYNTHETIC_IMAGE_SIDE
+    if not low <= size <= high:
+        raise CacasError(f"image size must be between {low} and {high} pixels, got {size}")
     root = Path(root) if root is not None else scenes_dir()
     written = []
     total = len(spaces.SCENES) * images_per_scene
