@@ -326,6 +326,10 @@ def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
     """The tables (every cell as text, "" for empty) and policy files of a bundle zip."""
     path = Path(path)
+    if path.is_dir():  # an export's folder, say: "no such bundle" read as if it were not there
+        inside = path / BUNDLE_NAME
+        hint = f", such as {inside} in this folder" if inside.is_file() else ""
+        raise CacasError(f"{path}: is a folder; valid: the {BUNDLE_NAME} file written by cacas export{hint}")
     if not path.is_file():
         raise CacasError(f"{path}: no such bundle (expected the {BUNDLE_NAME} written by cacas export)")
     try:

@@ -107,6 +107,22 @@ def test_import_of_a_missing_bundle_exits_2(run, tmp_path, capsys):
     assert not (tmp_path / "new.sqlite").exists()
 
 
+def test_import_of_a_folder_says_it_is_a_folder_and_which_file_is_meant(run, study, tmp_path, capsys):
+    """Review: --bundle <the export's folder> said "no such bundle", as if it were not there."""
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    code = run("import", "--bundle", empty, "--db", tmp_path / "new.sqlite")
+    assert code == 2 and capsys.readouterr().err == (f"cacas: error: {empty}: is a folder; valid: the cacas-study.zip "
+                                                     "file written by cacas export\n")
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    code = run("import", "--bundle", tmp_path / "out", "--db", tmp_path / "new.sqlite")
+    assert code == 2 and capsys.readouterr().err == (
+        f"cacas: error: {tmp_path / 'out'}: is a folder; valid: the cacas-study.zip file written by cacas export, "
+        f"such as {tmp_path / 'out' / 'cacas-study.zip'} in this folder\n")
+    assert not (tmp_path / "new.sqlite").exists()
+
+
 def test_export_is_a_registered_sub_command():
     assert "export" in cli.COMMANDS
 
