@@ -380,20 +380,24 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
     try:
         with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
-            return _import_into(tmp, db_path, tables, policies, made)
+            return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
     except BaseException:
         files.remove_empty(made)
         raise
 
 
-def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path]) -> Restored:
+def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path], bundle: Path) -> Restored:
     """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``;
-    the folders it creates for policy files are added to ``made``."""
+    the folders it creates for policy files are added to ``made``. A table :func:`restore`
+    refuses is named with the ``bundle`` it is in, as :func:`read_bundle` names its refusals."""
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
         try:
-            restored = restore(store, tables, policies)
+            try:
+                restored = restore(store, tables, policies)
+            except CacasError as exc:
+                raise CacasError(f"{bundle}: {exc}") from None
             for rel, data in sorted(policies.items()):
                 target = store.policy_dir / rel
                 if target.exists():

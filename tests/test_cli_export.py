@@ -269,3 +269,28 @@ def test_import_of_a_bundle_damaged_inside_a_member_exits_2_naming_it(run, study
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
     assert err.startswith(f"cacas: error: {bad}: {member} in the bundle is damaged (")
     assert not target.parent.exists()
+
+
+def test_import_of_a_bundle_with_a_bad_number_names_bundle_file_row_and_column(run, study, tmp_path, capsys):
+    """Review: 'x' in a numeric column said "days.csv, row 2: 'x' is not a whole number": neither
+    the bundle nor the column, nor what is valid."""
+    import io
+    import zipfile
+
+    import pandas as pd
+
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    bad = tmp_path / "bad.zip"
+    with zipfile.ZipFile(tmp_path / "out" / "cacas-study.zip") as zin, zipfile.ZipFile(bad, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "interactions.csv":
+                df = pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False).assign(hour="x")
+                data = df.to_csv(index=False).encode()
+            zout.writestr(name, data)
+    target = tmp_path / "new" / "study.sqlite"
+    assert run("import", "--bundle", bad, "--db", target) == 2
+    assert capsys.readouterr().err == (f"cacas: error: {bad}: interactions.csv, row 2, column hour: 'x' is not a "
+                                       "number; valid: a number, or empty\n")
+    assert not target.parent.exists()
