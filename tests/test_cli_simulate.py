@@ -323,3 +323,26 @@ def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys, name, 
     err = capsys.readouterr().err
     assert code == 0 and (tmp_path / "out" / "daily.csv").exists()
     assert "note: " in err and said in err and "valid: a pseudonymous code" in err and "never a name" in err
+
+
+def test_an_interrupted_runs_progress_line_is_ended_before_cacas_interrupted(tmp_path, monkeypatch):
+    """Review: on Ctrl-C the progress line was left open, so "cacas: interrupted" (and the shell's
+    next prompt) began on the same line as the bar."""
+    import io
+
+    import cacas.experiment
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    def interrupted(*a, progress=None, **k):
+        progress(0.4, "simulating P01, day 1 of 2")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", interrupted)
+    monkeypatch.setattr(sys, "stderr", Tty())
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--out", str(tmp_path / "o")]) == 130
+    err = sys.stderr.getvalue()
+    assert "simulate [" in err and "simulating P01, day 1 of 2" in err
+    assert err.endswith("simulating P01, day 1 of 2\ncacas: interrupted\n"), repr(err)

@@ -91,6 +91,7 @@ def run(args) -> int:
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind, nor the folders above it that it created
     made = [folder for f in (args.out, args.plot) if f for folder in files.missing_folders(f)]
+    progress = None
     check_output_folder(args.out, "simulation", f"--out {args.out}")
     try:
         out = files.writable_folder(args.out, f"--out {args.out}")
@@ -103,6 +104,9 @@ def run(args) -> int:
     except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
         files.remove_empty(made)
         raise
+    finally:  # the bar's line ended however the run stopped: "cacas: interrupted" starts a line of its own
+        if progress is not None:
+            progress.done()
     # the three tables replace an earlier run's together, or not at all
     written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),
                                     "interactions.csv": records.csv_bytes(result.interactions),
