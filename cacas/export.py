@@ -235,11 +235,23 @@ def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
     """Refuse (CacasError naming ``what``, the folder as the user gave it) to write a study export
     (``writing="export"``) or a simulation's tables (``"simulation"``) into a folder that holds the
     other's: the three tables they share would be replaced and the rest left beside them, one
-    folder mixing two studies. An empty folder, a missing one, or one of the same kind is fine."""
+    folder mixing two studies. An empty folder, a missing one, or one of the same kind is fine.
+    A simulation's figures (``"figures"``: ``cacas simulate --plot`` into a folder other than its
+    ``--out``) go into no folder holding tables, a study's export or another run's: they would sit
+    beside results they do not show (and a later export into that folder would keep them)."""
     folder = Path(folder)
     if not folder.is_dir():
         return
     present = {p.name for p in folder.iterdir()}
+    if writing == "figures":
+        found = [n for n in EXPORT_ONLY if n in present]
+        tables = [n for n in SIMULATION_TABLES if n in present]
+        if found or tables:
+            held = (f"an export of a study database ({', '.join(found[:3])}{', ...' if len(found) > 3 else ''})"
+                    if found else f"another simulation's tables ({', '.join(tables)})")
+            raise CacasError(f"{what}: holds {held}; this run's figures would sit beside results they do not show; "
+                             "valid: the --out folder, an empty folder, a new one, or one holding figures only")
+        return
     if writing == "simulation":
         found = [n for n in EXPORT_ONLY if n in present]
         if found:

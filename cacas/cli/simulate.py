@@ -50,7 +50,8 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, type=types.path, metavar="DIR",
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
     p.add_argument("--plot", type=types.path, metavar="DIR",
-                   help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here")
+                   help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here: the "
+                        "--out folder, or one holding no tables (not a study's export, nor another run's)")
     p.add_argument("--jobs", type=types.integer, default=None,
                    help="worker processes (default: one per core; results do not depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -93,6 +94,8 @@ def run(args) -> int:
     made = [folder for f in (args.out, args.plot) if f for folder in files.missing_folders(f)]
     progress = None
     check_output_folder(args.out, "simulation", f"--out {args.out}")
+    if args.plot and args.plot.resolve() != args.out.resolve():  # figures beside their own tables are fine
+        check_output_folder(args.plot, "figures", f"--plot {args.plot}")
     try:
         out = files.writable_folder(args.out, f"--out {args.out}")
         plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
