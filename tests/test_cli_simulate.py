@@ -389,3 +389,25 @@ def test_figures_beside_their_own_tables_and_in_a_figures_folder_are_written(tmp
     assert main(run + ["--out", str(tmp_path / "o2"), "--plot", str(tmp_path / "figures")]) == 0
     assert main(run + ["--out", str(tmp_path / "o3"), "--plot", str(tmp_path / "figures")]) == 0
     assert (tmp_path / "figures" / "fig4_methods.html").is_file()
+
+
+def test_the_plotly_js_the_figures_load_is_written_said_and_a_leftover_one_replaced(tmp_path, capsys):
+    """Review: a plotly.min.js left in the --plot folder (an older plotly's, a truncated copy) was
+    kept, and the new figures loaded it; the message named the figures only, not the file they need."""
+    from plotly.offline import get_plotlyjs
+
+    plots = tmp_path / "plots"
+    plots.mkdir()
+    (plots / "plotly.min.js").write_text("/* plotly.js of another version */")
+    run = ["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "3", "--methods",
+           "nn", "--jobs", "1", "--quiet", "--out", str(tmp_path / "o"), "--plot", str(plots)]
+    assert main(run) == 0
+    out = capsys.readouterr().out
+    assert (plots / "plotly.min.js").read_text() == get_plotlyjs()
+    assert '<script charset="utf-8" src="plotly.min.js">' in (plots / "fig4_methods.html").read_text()
+    assert (f"{plots / 'fig4_by_preference.html'} and {plots / 'plotly.min.js'}, the plotly.js they load (keep it "
+            "beside them)\n") in out
+    assert f"replaced an earlier {plots / 'plotly.min.js'}: it was not the plotly.js these figures need\n" in out
+    assert main(run) == 0  # the same one again: written, not said to be replaced
+    out = capsys.readouterr().out
+    assert "the plotly.js they load" in out and "replaced an earlier" not in out
