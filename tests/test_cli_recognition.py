@@ -355,3 +355,21 @@ def test_an_out_folder_that_cannot_be_written_is_one_line_naming_it(command, tmp
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1 and err.startswith(f"cacas: error: --out {out}: {problem}"), err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["afile", "mine"]
+
+
+def test_a_clip_shorter_than_half_a_second_is_recognised_with_a_warning_naming_it(tmp_path, capsys):
+    """Review: a 3-ms WAV was recognised ("do nothing") without a word, while the app's "Try a clip"
+    flags a clip under recognition.SHORT_CLIP_SECONDS; the command says it too, in the same words
+    (recognition.short_clip_warning), on stderr, and still prints the label (exit 0)."""
+    from cacas.recognition import SHORT_CLIP_SECONDS
+
+    click = tmp_path / "click.wav"
+    t = np.arange(96) / 32_000  # 3 ms
+    sf.write(click, (0.5 * np.sin(2 * np.pi * 440 * t)).astype(np.float32), 32_000)
+    whole = library.clip_paths("use blender")[0]
+    assert main(["sound", "recognize", str(click), str(whole)]) == 0
+    cap = capsys.readouterr()
+    assert len(cap.out.splitlines()) == 8 and cap.out.startswith(f"{click}: ")
+    assert cap.err == (f"cacas sound recognize: warning: {click}: is 3 ms long: the model hears 1-s windows, so it "
+                       "heard mostly the silence that pads it, and the result says little; record at least "
+                       f"{SHORT_CLIP_SECONDS:g} s (1 s or more is best)\n")

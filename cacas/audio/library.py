@@ -45,11 +45,11 @@ def library_clip(path) -> np.ndarray:
     """:func:`load_clip`, refusing a clip shorter than :data:`cacas.recognition.SHORT_CLIP_SECONDS`:
     the model hears 1-s windows, so such a clip would train it on the silence that pads it (review:
     a 0.2-s clip was added to the library without a word, while "Try a clip" flags one)."""
-    from cacas.recognition import SHORT_CLIP_SECONDS
+    from cacas.recognition import SHORT_CLIP_SECONDS, clip_length
 
     y = load_clip(path)
     if len(y) < SHORT_CLIP_SECONDS * SAMPLE_RATE:
-        raise CacasError(f"{path}: is {len(y) / SAMPLE_RATE:.2f} s long, mostly the silence that pads it to the "
+        raise CacasError(f"{path}: is {clip_length(len(y) / SAMPLE_RATE)} long, mostly the silence that pads it to the "
                          f"model's 1-s window; valid: a recording of at least {SHORT_CLIP_SECONDS:g} s (1 s or more "
                          "is best)")
     return y

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import sys
 from pathlib import Path
 
 from cacas.cli import types
@@ -180,8 +181,12 @@ def save_confusion(metrics, path) -> None:
 
 def run_recognize(args) -> int:
     from cacas.audio.model import SoundRecognizer
+    from cacas.recognition import short_clip_warning
 
     rec = SoundRecognizer.load(args.model)
     for f in args.files:
-        print_recognition(f, rec.recognize(f))
+        result = rec.recognize(f)
+        print_recognition(f, result)
+        if result.short:  # the app's "Try a clip" warns of it too, in the same words
+            print(f"cacas sound recognize: warning: {f}: {short_clip_warning(result.seconds)}", file=sys.stderr)
     return 0
