@@ -373,3 +373,60 @@ def test_a_clip_shorter_than_half_a_second_is_recognised_with_a_warning_naming_i
     assert cap.err == (f"cacas sound recognize: warning: {click}: is 3 ms long: the model hears 1-s windows, so it "
                        "heard mostly the silence that pads it, and the result says little; record at least "
                        f"{SHORT_CLIP_SECONDS:g} s (1 s or more is best)\n")
+
+
+@pytest.mark.parametrize("command,synth_module", [
+    (["sound", "generate", "--clips", "2", "--seconds", "1"], "cacas.audio.synth"),
+    (["scene", "generate", "--images", "2", "--size", "32"], "cacas.vision.synth")])
+def test_an_interrupted_generate_adds_nothing(command, synth_module, tmp_path, capsys, monkeypatch):
+    """Review: Ctrl-C in `cacas sound generate` left the clips written so far (some activities with
+    clips, the rest without) in the library. The clips are now renamed into place when all are
+    written: stopped before, the library is as it was, and a new --out folder is not left behind."""
+    import importlib
+
+    synth = importlib.import_module(synth_module)
+    render, calls = synth.render, []
+
+    def interrupted_at_the_fifth(*a, **k):
+        calls.append(1)
+        if len(calls) == 5:
+            raise KeyboardInterrupt
+        return render(*a, **k)
+
+    monkeypatch.setattr(synth, "render", interrupted_at_the_fifth)
+    lib = tmp_path / "lib"
+    (lib / "kitchen").mkdir(parents=True)
+    (lib / "kitchen" / "mine.jpg").write_bytes(b"a file of the library")
+    for out in (lib, tmp_path / "new" / "lib"):
+        calls.clear()
+        assert main([*command, "--out", str(out)]) == 130
+        assert capsys.readouterr().err.endswith("cacas: interrupted\n") and len(calls) == 5
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["lib", "lib/kitchen",
+                                                                                  "lib/kitchen/mine.jpg"]
+    monkeypatch.setattr(synth, "render", render)
+    assert main([*command, "--out", str(lib)]) == 0  # run again, it writes them all
+    assert len([p for p in lib.rglob("synthetic_*") if p.is_file()]) == 2 * (33 if command[0] == "sound" else 6)
+
+
+def test_an_interrupted_import_leaves_no_temporary_copy(tmp_path, capsys, monkeypatch):
+    """Ctrl-C while the recordings were copied left their hidden .tmp copies in the library."""
+    import shutil
+
+    src = tmp_path / "mine" / "cough"
+    src.mkdir(parents=True)
+    t = np.arange(16000) / 16000
+    for k in range(3):
+        sf.write(src / f"c{k}.wav", 0.3 * np.sin(2 * np.pi * (200 + 50 * k) * t), 16000)
+    copy, calls = shutil.copy2, []
+
+    def interrupted_at_the_third(*a, **k):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return copy(*a, **k)
+
+    monkeypatch.setattr(shutil, "copy2", interrupted_at_the_third)
+    lib = tmp_path / "lib"
+    lib.mkdir()
+    assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(lib)]) == 130
+    assert list(lib.rglob("*")) == []

@@ -94,7 +94,9 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     Existing files with the same name are overwritten, unless they already hold the same audio:
     an OGG encoder stamps each file with a random stream serial number, so rewriting the shipped
     clips with their own seed would change their bytes (and show them modified in git) for
-    nothing. Other files are left alone, so a new seed adds clips. Returns the clips' paths.
+    nothing. Other files are left alone, so a new seed adds clips. The clips are written under
+    temporary names and renamed into place when all are written (:class:`cacas.media_library.Staging`):
+    a run stopped before (Ctrl-C) adds none. Returns the clips' paths.
     """
     import soundfile as sf
 
@@ -113,21 +115,22 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     names = [spaces.canonical("activity", a) for a in (activities or spaces.ACTIVITIES)]
     written = []
     total = len(names) * clips_per_activity
-    for i, name in enumerate(names):
-        folder = root / slug(name)
-        folder.mkdir(parents=True, exist_ok=True)
-        # one independent stream per (seed, activity, clip): adding activities changes nothing else
-        for k in range(clips_per_activity):
-            rng = np.random.default_rng([seed, spaces.activity_index(name), k])
-            y = synth.render(name, rng, seconds)
-            path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
-            encoded = io.BytesIO()
-            sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
-            if not _same_audio(path, encoded.getvalue()):
-                path.write_bytes(encoded.getvalue())
-            written.append(path)
-            if progress:
-                progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
+    with media_library.Staging() as staging:  # all placed at the end: stopped before, nothing is added
+        for i, name in enumerate(names):
+            folder = root / slug(name)
+            # one independent stream per (seed, activity, clip): adding activities changes nothing else
+            for k in range(clips_per_activity):
+                rng = np.random.default_rng([seed, spaces.activity_index(name), k])
+                y = synth.render(name, rng, seconds)
+                path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
+                encoded = io.BytesIO()
+                sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
+                if not _same_audio(path, encoded.getvalue()):
+                    staging.path(path).write_bytes(encoded.getvalue())
+                written.append(path)
+                if progress:
+                    progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
+        staging.place()
     return written
 
 

@@ -17,7 +17,8 @@ def register(subparsers) -> None:
     sub.required = True
     g = sub.add_parser("generate", help="write SYNTHETIC scene images into the library",
                        description="Write SYNTHETIC images of the 6 home scenes (Table I), one folder per scene, "
-                                   "into the scene library.")
+                                   "into the scene library. The images are placed when all are written: stopped "
+                                   "before, none is added.")
     g.add_argument("--images", type=types.count, default=40, help=types.described("images per scene", types.count, 40))
     size = types.at_least(*SYNTHETIC_IMAGE_SIDE)
     g.add_argument("--size", type=size, default=128, help=types.described("image side in pixels", size, 128))

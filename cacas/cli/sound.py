@@ -64,7 +64,8 @@ def register(subparsers) -> None:
     sub.required = True
     g = sub.add_parser("generate", help="write SYNTHETIC clips into the sound library",
                        description="Write SYNTHETIC clips (one folder per activity, Table I's 33 activities) into "
-                                   "the sound library; a clip already holding the same audio is left as it is.")
+                                   "the sound library; a clip already holding the same audio is left as it is. "
+                                   "The clips are placed when all are written: stopped before, none is added.")
     g.add_argument("--clips", type=types.count, default=24, help=types.described("clips per activity", types.count, 24))
     seconds = types.between(*SYNTHETIC_CLIP_SECONDS)
     g.add_argument("--seconds", type=seconds, default=2.0, help=types.described("clip length in seconds", seconds, 2))
