@@ -9,6 +9,7 @@ from pathlib import Path
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.media_library import SYNTHETIC_CLIP_SECONDS
+from cacas.recognition import SHORT_CLIP_SECONDS
 
 
 def count(n: int, noun: str) -> str:
@@ -105,7 +106,9 @@ def register(subparsers) -> None:
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the activity in sound files (prints label and top 3)",
                        description="Recognise the activity in sound files: prints each file's label and its "
-                                   "top 3 with their probabilities.")
+                                   "top 3 with their probabilities, and warns of a clip shorter than "
+                                   f"{SHORT_CLIP_SECONDS:g} s (mostly the silence that pads it to the model's 1-s "
+                                   "window).")
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
     r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
