@@ -40,7 +40,8 @@ def register(subparsers) -> None:
     t.add_argument("--weights", default="auto",
                    help="initial weights: 'auto' (torchvision's local cache if present), 'none', or a .pth file "
                         "(default auto)")
-    t.add_argument("--epochs", type=types.count, default=12, help=types.described("at most this many epochs", types.count, 12))
+    t.add_argument("--epochs", type=types.count, default=12,
+                   help=types.described("at most this many epochs", types.count, 12))
     t.add_argument("--patience", type=types.count, default=4,
                    help=types.described("early stopping: epochs without improvement", types.count, 4))
     t.add_argument("--seed", type=types.seed, default=0,

@@ -86,7 +86,8 @@ def register(subparsers) -> None:
                                    "holding out recordings for the test, and save it.")
     t.add_argument("--data", type=types.path, default=None, help="library folder (default study_data/sounds)")
     t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
-    t.add_argument("--epochs", type=types.count, default=8, help=types.described("at most this many epochs", types.count, 8))
+    t.add_argument("--epochs", type=types.count, default=8,
+                   help=types.described("at most this many epochs", types.count, 8))
     t.add_argument("--patience", type=types.count, default=3,
                    help=types.described("early stopping: epochs without improvement", types.count, 3))
     t.add_argument("--augment", type=types.count, default=1,
