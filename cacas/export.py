@@ -235,11 +235,23 @@ def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
     """Refuse (CacasError naming ``what``, the folder as the user gave it) to write a study export
     (``writing="export"``) or a simulation's tables (``"simulation"``) into a folder that holds the
     other's: the three tables they share would be replaced and the rest left beside them, one
-    folder mixing two studies. An empty folder, a missing one, or one of the same kind is fine."""
+    folder mixing two studies. An empty folder, a missing one, or one of the same kind is fine.
+    A simulation's figures (``"figures"``: ``cacas simulate --plot`` into a folder other than its
+    ``--out``) go into no folder holding tables, a study's export or another run's: they would sit
+    beside results they do not show (and a later export into that folder would keep them)."""
     folder = Path(folder)
     if not folder.is_dir():
         return
     present = {p.name for p in folder.iterdir()}
+    if writing == "figures":
+        found = [n for n in EXPORT_ONLY if n in present]
+        tables = [n for n in SIMULATION_TABLES if n in present]
+        if found or tables:
+            held = (f"an export of a study database ({', '.join(found[:3])}{', ...' if len(found) > 3 else ''})"
+                    if found else f"another simulation's tables ({', '.join(tables)})")
+            raise CacasError(f"{what}: holds {held}; this run's figures would sit beside results they do not show; "
+                             "valid: the --out folder, an empty folder, a new one, or one holding figures only")
+        return
     if writing == "simulation":
         found = [n for n in EXPORT_ONLY if n in present]
         if found:
@@ -326,6 +338,10 @@ def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
     """The tables (every cell as text, "" for empty) and policy files of a bundle zip."""
     path = Path(path)
+    if path.is_dir():  # an export's folder, say: "no such bundle" read as if it were not there
+        inside = path / BUNDLE_NAME
+        hint = f", such as {inside} in this folder" if inside.is_file() else ""
+        raise CacasError(f"{path}: is a folder; valid: the {BUNDLE_NAME} file written by cacas export{hint}")
     if not path.is_file():
         raise CacasError(f"{path}: no such bundle (expected the {BUNDLE_NAME} written by cacas export)")
     try:
@@ -376,20 +392,24 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
     try:
         with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
-            return _import_into(tmp, db_path, tables, policies, made)
+            return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
     except BaseException:
         files.remove_empty(made)
         raise
 
 
-def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path]) -> Restored:
+def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path], bundle: Path) -> Restored:
     """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``;
-    the folders it creates for policy files are added to ``made``."""
+    the folders it creates for policy files are added to ``made``. A table :func:`restore`
+    refuses is named with the ``bundle`` it is in, as :func:`read_bundle` names its refusals."""
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
         try:
-            restored = restore(store, tables, policies)
+            try:
+                restored = restore(store, tables, policies)
+            except CacasError as exc:
+                raise CacasError(f"{bundle}: {exc}") from None
             for rel, data in sorted(policies.items()):
                 target = store.policy_dir / rel
                 if target.exists():

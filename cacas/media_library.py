@@ -10,7 +10,8 @@ types and checker), and the same two functions serve both libraries:
 * :func:`import_folder`: a researcher's folder of the same layout copied into a library. Every
   file is checked first (type, then readable by the kind's checker); one bad folder or file and
   nothing is copied. The copies are staged under temporary names and renamed into place only
-  when all are written.
+  when all are written (:class:`Staging`, which the synthetic generators use too): stopped
+  before, the library is as it was.
 """
 
 from __future__ import annotations
@@ -26,6 +27,13 @@ from typing import Callable, Sequence
 from cacas.errors import CacasError
 
 Progress = Callable[[float, str], None] | None
+
+#: What the SYNTHETIC generators take, from..to (both valid): a clip's length in seconds
+#: (:func:`cacas.audio.library.generate_library`) and an image's side in pixels
+#: (:func:`cacas.vision.library.generate_scenes`); here, where the command line's help reads them
+#: without loading torch.
+SYNTHETIC_CLIP_SECONDS = (1.0, 10.0)
+SYNTHETIC_IMAGE_SIDE = (32, 1024)
 
 
 def slug(name: str) -> str:
@@ -119,6 +127,55 @@ def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind) ->
         seen[digest] = f
 
 
+class Staging:
+    """Files written to temporary names beside their targets (``.<name>.<pid>.tmp``, which no
+    scan reads) and renamed into place together by :meth:`place`: until then the library is as it
+    was. As a context manager: if the work fails or is stopped (Ctrl-C, SIGTERM) before
+    :meth:`place` is done, the temporary files, the new files already placed and the folders made
+    for them are removed (a file it replaced with other content stays replaced)."""
+
+    def __init__(self):
+        self.staged: list[tuple[Path, Path, bool]] = []  # (temporary, target, target existed)
+        self.made: list[Path] = []
+        self.placed: list[Path] = []  # new files renamed into place so far
+        self.done = False
+
+    def path(self, target: Path) -> Path:
+        """Where to write ``target``'s content (a temporary name beside it; its folder is made)."""
+        from cacas.store import files
+
+        self.made += files.missing_folders(target.parent)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp")
+        self.staged.append((tmp, target, target.exists()))
+        return tmp
+
+    def place(self) -> None:
+        """Rename every staged file into place."""
+        for tmp, target, existed in self.staged:
+            os.replace(tmp, target)
+            if not existed:
+                self.placed.append(target)
+        self.done = True
+
+    def discard(self) -> None:
+        from cacas.store import files
+
+        for path in [tmp for tmp, _, _ in self.staged] + self.placed:
+            try:
+                path.unlink(missing_ok=True)
+            except OSError:  # pragma: no cover - the folder went away meanwhile
+                pass
+        files.remove_empty(self.made)
+
+    def __enter__(self) -> "Staging":
+        return self
+
+    def __exit__(self, kind, exc, tb) -> None:
+        if kind is not None and not self.done:
+            self.discard()
+
+
 def scan(root: Path, kind: MediaKind) -> list[tuple[Path, str]]:
     """Every file of the library at ``root`` as (path, Table I name), by Table I order then file
     name; [] for a library with none. A missing ``root``, a sub-folder that is not a name or a
@@ -159,21 +216,14 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
             target, k = folder / f"imported_{k}_{f.name}", k + 1
         taken.add(target)
         targets.append(target)
-    staged: list[Path] = []
-    placed: list[Path] = []  # new names only (taken ones get a prefix), so removing them undoes the import
-    try:
-        for i, ((f, _), target) in enumerate(zip(plan, targets)):
-            target.parent.mkdir(parents=True, exist_ok=True)
-            staged.append(target.with_name(f".{target.name}.{os.getpid()}.tmp"))
-            shutil.copy2(f, staged[-1])
-            if progress:
-                progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
-        for tmp, target in zip(staged, targets):
-            os.replace(tmp, target)
-            placed.append(target)
+    try:  # new names only (taken ones get a prefix), so removing them undoes the import
+        with Staging() as staging:
+            for i, ((f, _), target) in enumerate(zip(plan, targets)):
+                shutil.copy2(f, staging.path(target))
+                if progress:
+                    progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
+            staging.place()
     except OSError as exc:
-        for path in staged + placed:
-            path.unlink(missing_ok=True)
         raise CacasError(f"{root}: cannot copy into the {kind.what} library ({exc.strerror or exc}); "
                          "nothing was imported") from None
     return targets

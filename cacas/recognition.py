@@ -32,6 +32,21 @@ UNSURE_BELOW = 0.5
 SHORT_CLIP_SECONDS = 0.5
 
 
+def clip_length(seconds: float) -> str:
+    """A clip's length for a person: "25 ms" under a tenth of a second (a 3-ms clip read "0.00 s"),
+    else "0.45 s"."""
+    return f"{seconds * 1000:.0f} ms" if seconds < 0.1 else f"{seconds:.2f} s"
+
+
+def short_clip_warning(seconds: float) -> str:
+    """What the app's "Try a clip" and ``cacas sound recognize`` say of a clip shorter than
+    :data:`SHORT_CLIP_SECONDS` (:attr:`Recognition.short`), after the subject ("The clip", the
+    file): one rule and one wording for both. The sound library refuses such a clip
+    (:func:`cacas.audio.library.library_clip`)."""
+    return (f"is {clip_length(seconds)} long: the model hears 1-s windows, so it heard mostly the silence that pads "
+            f"it, and the result says little; record at least {SHORT_CLIP_SECONDS:g} s (1 s or more is best)")
+
+
 @dataclass(frozen=True)
 class Recognition:
     """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``;

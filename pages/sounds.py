@@ -13,6 +13,7 @@ from cacas.vision.library import image_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.plots_recognition import confusion_figure
+from cacas.recognition import short_clip_warning
 from pages import ui
 
 ui.require_app()
@@ -44,9 +45,7 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
         st.audio(data, format=lab.audio_mime(name))
     st.markdown(f"### {r.label}")
     if r.short:
-        st.warning(f"The clip is {r.seconds:.2f} s long: the model hears 1-s windows, so it heard mostly the "
-                   "silence that pads it, and the result says little. Record at least a second.",
-                   icon=":material/timer:")
+        st.warning(f"The clip {short_clip_warning(r.seconds)}.", icon=":material/timer:")
     if r.unsure:
         what = "sound activities" if kind == "sound" else "home scenes"
         st.warning(f"Unsure: {100 * r.confidence:.0f}% for {r.label}. It may be none of the "

@@ -107,6 +107,22 @@ def test_import_of_a_missing_bundle_exits_2(run, tmp_path, capsys):
     assert not (tmp_path / "new.sqlite").exists()
 
 
+def test_import_of_a_folder_says_it_is_a_folder_and_which_file_is_meant(run, study, tmp_path, capsys):
+    """Review: --bundle <the export's folder> said "no such bundle", as if it were not there."""
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    code = run("import", "--bundle", empty, "--db", tmp_path / "new.sqlite")
+    assert code == 2 and capsys.readouterr().err == (f"cacas: error: {empty}: is a folder; valid: the cacas-study.zip "
+                                                     "file written by cacas export\n")
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    code = run("import", "--bundle", tmp_path / "out", "--db", tmp_path / "new.sqlite")
+    assert code == 2 and capsys.readouterr().err == (
+        f"cacas: error: {tmp_path / 'out'}: is a folder; valid: the cacas-study.zip file written by cacas export, "
+        f"such as {tmp_path / 'out' / 'cacas-study.zip'} in this folder\n")
+    assert not (tmp_path / "new.sqlite").exists()
+
+
 def test_export_is_a_registered_sub_command():
     assert "export" in cli.COMMANDS
 
@@ -252,4 +268,29 @@ def test_import_of_a_bundle_damaged_inside_a_member_exits_2_naming_it(run, study
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
     assert err.startswith(f"cacas: error: {bad}: {member} in the bundle is damaged (")
+    assert not target.parent.exists()
+
+
+def test_import_of_a_bundle_with_a_bad_number_names_bundle_file_row_and_column(run, study, tmp_path, capsys):
+    """Review: 'x' in a numeric column said "days.csv, row 2: 'x' is not a whole number": neither
+    the bundle nor the column, nor what is valid."""
+    import io
+    import zipfile
+
+    import pandas as pd
+
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    capsys.readouterr()
+    bad = tmp_path / "bad.zip"
+    with zipfile.ZipFile(tmp_path / "out" / "cacas-study.zip") as zin, zipfile.ZipFile(bad, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "interactions.csv":
+                df = pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False).assign(hour="x")
+                data = df.to_csv(index=False).encode()
+            zout.writestr(name, data)
+    target = tmp_path / "new" / "study.sqlite"
+    assert run("import", "--bundle", bad, "--db", target) == 2
+    assert capsys.readouterr().err == (f"cacas: error: {bad}: interactions.csv, row 2, column hour: 'x' is not a "
+                                       "number; valid: a number, or empty\n")
     assert not target.parent.exists()

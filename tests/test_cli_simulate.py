@@ -323,3 +323,91 @@ def test_a_name_for_a_participant_code_is_noted_and_run(tmp_path, capsys, name, 
     err = capsys.readouterr().err
     assert code == 0 and (tmp_path / "out" / "daily.csv").exists()
     assert "note: " in err and said in err and "valid: a pseudonymous code" in err and "never a name" in err
+
+
+def test_an_interrupted_runs_progress_line_is_ended_before_cacas_interrupted(tmp_path, monkeypatch):
+    """Review: on Ctrl-C the progress line was left open, so "cacas: interrupted" (and the shell's
+    next prompt) began on the same line as the bar."""
+    import io
+
+    import cacas.experiment
+
+    class Tty(io.StringIO):
+        def isatty(self):
+            return True
+
+    def interrupted(*a, progress=None, **k):
+        progress(0.4, "simulating P01, day 1 of 2")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", interrupted)
+    monkeypatch.setattr(sys, "stderr", Tty())
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--out", str(tmp_path / "o")]) == 130
+    err = sys.stderr.getvalue()
+    assert "simulate [" in err and "simulating P01, day 1 of 2" in err
+    assert err.endswith("simulating P01, day 1 of 2\ncacas: interrupted\n"), repr(err)
+
+
+@pytest.mark.parametrize("held,names,says", [
+    ("export", ("daily.csv", "participants.csv", "questionnaire.csv", "cacas-study.zip"),
+     "holds an export of a study database (participants.csv, questionnaire.csv, cacas-study.zip)"),
+    ("earlier-run", ("daily.csv", "interactions.csv", "by_preference.csv", "fig3_success.html"),
+     "holds another simulation's tables (daily.csv, interactions.csv, by_preference.csv)")])
+def test_figures_into_a_folder_of_other_tables_are_refused_before_the_run(tmp_path, capsys, monkeypatch, held,
+                                                                          names, says):
+    """Review: --plot <a study's export folder> was taken: the run's figures and plotly.min.js went
+    in beside the study's tables (nothing overwritten, but the folder then mixed a real study with a
+    simulation, and a later export into it kept the figures); so did --plot <another run's --out>,
+    its tables beside this run's figures."""
+    import cacas.experiment
+
+    def never(*a, **k):
+        raise AssertionError("the simulation ran before --plot was checked")
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", never)
+    folder = tmp_path / held
+    folder.mkdir()
+    for name in names:
+        (folder / name).write_text(f"the {held}'s {name}")
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out", str(tmp_path / "new"),
+                 "--plot", str(folder)])
+    err = capsys.readouterr().err
+    assert code == 2 and err == (f"cacas: error: --plot {folder}: {says}; this run's figures would sit beside "
+                                 "results they do not show; valid: the --out folder, an empty folder, a new one, or "
+                                 "one holding figures only\n")
+    assert {p.name: p.read_text() for p in folder.iterdir()} == {n: f"the {held}'s {n}" for n in names}
+    assert not (tmp_path / "new").exists()
+
+
+def test_figures_beside_their_own_tables_and_in_a_figures_folder_are_written(tmp_path, capsys):
+    """--plot as --out (the README's example; written another way) and a folder of figures only."""
+    personas = write(tmp_path, GOOD)
+    run = ["simulate", "--personas", str(personas), "--days", "1", "--interactions", "3", "--methods", "nn",
+           "--jobs", "1", "--quiet"]
+    assert main(run + ["--out", str(tmp_path / "o"), "--plot", str(tmp_path / "o")]) == 0
+    assert main(run + ["--out", str(tmp_path / "o"), "--plot", str(tmp_path / "x" / ".." / "o")]) == 0
+    assert main(run + ["--out", str(tmp_path / "o2"), "--plot", str(tmp_path / "figures")]) == 0
+    assert main(run + ["--out", str(tmp_path / "o3"), "--plot", str(tmp_path / "figures")]) == 0
+    assert (tmp_path / "figures" / "fig4_methods.html").is_file()
+
+
+def test_the_plotly_js_the_figures_load_is_written_said_and_a_leftover_one_replaced(tmp_path, capsys):
+    """Review: a plotly.min.js left in the --plot folder (an older plotly's, a truncated copy) was
+    kept, and the new figures loaded it; the message named the figures only, not the file they need."""
+    from plotly.offline import get_plotlyjs
+
+    plots = tmp_path / "plots"
+    plots.mkdir()
+    (plots / "plotly.min.js").write_text("/* plotly.js of another version */")
+    run = ["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "3", "--methods",
+           "nn", "--jobs", "1", "--quiet", "--out", str(tmp_path / "o"), "--plot", str(plots)]
+    assert main(run) == 0
+    out = capsys.readouterr().out
+    assert (plots / "plotly.min.js").read_text() == get_plotlyjs()
+    assert '<script charset="utf-8" src="plotly.min.js">' in (plots / "fig4_methods.html").read_text()
+    assert (f"{plots / 'fig4_by_preference.html'} and {plots / 'plotly.min.js'}, the plotly.js they load (keep it "
+            "beside them)\n") in out
+    assert f"replaced an earlier {plots / 'plotly.min.js'}: it was not the plotly.js these figures need\n" in out
+    assert main(run) == 0  # the same one again: written, not said to be replaced
+    out = capsys.readouterr().out
+    assert "the plotly.js they load" in out and "replaced an earlier" not in out

@@ -356,7 +356,8 @@ def _rewrite(bundle, out, table, change):
 @pytest.mark.parametrize("table,change,message", [
     ("interactions", lambda df: df.assign(activity="juggle"), "interactions.csv, row 2: activity"),
     ("days", lambda df: df.assign(day="100000000000000000000"),
-     r"days.csv, row 2: value 100000000000000000000 is invalid; valid: a whole number 1..9223372036854775807"),
+     r"days.csv, row 2, column day: value 100000000000000000000 is invalid; valid: a whole number "
+     r"1..9223372036854775807"),
     ("interactions", lambda df: df.assign(response="maybe"), "unknown response 'maybe'"),
     ("interactions", lambda df: df.assign(interval="7"), "interval 7 is not an S4 bin value"),
     ("questionnaire", lambda df: df.assign(satisfaction="11"), "satisfaction"),
@@ -369,12 +370,24 @@ def _rewrite(bundle, out, table, change):
     # walkthrough: imported, then every tablet answer failed with a TypeError
     ("participants", lambda df: df.assign(active_policy=df["active_policy"].where(df["active_policy"] == "", "7")),
      "participant P01's policy in force is version 7, which policies.csv does not have"),
-    ("days", lambda df: df.assign(day="two"), "days.csv, row 2: 'two' is not a whole number"),
+    # review: a bad number named the file and row, not the column
+    ("days", lambda df: df.assign(day="two"),
+     "days.csv, row 2, column day: 'two' is not a whole number; valid: a whole number >= 1"),
+    ("questionnaire", lambda df: df.assign(satisfaction="x"),
+     r"questionnaire.csv, row 2, column satisfaction: 'x' is not a whole number; valid: a whole number 1..10"),
+    ("interactions", lambda df: df.assign(policy_version="x"),
+     r"interactions.csv, row 2, column policy_version: 'x' is not a whole number; valid: a whole number >= 1, or "
+     r"empty"),
+    ("adaptations", lambda df: df.assign(duration_s="1,5"),
+     r"adaptations.csv, row 2, column duration_s: '1,5' is not a number; valid: a number, or empty"),
+    ("interactions", lambda df: df.assign(probabilities="[0.5,"),
+     r"interactions.csv, row 2, column probabilities: not valid JSON"),
     ("participants", lambda df: df.assign(participant=df["participant"].where(df.index > 0, "P 01")),
      r"participants.csv, row 2: participant code 'P 01' is invalid"),
     ("participants", lambda df: df.assign(notes="x" * 2001),
      r"participants.csv, row 2: notes is 2001 characters long; valid: at most 2000"),
-    ("interactions", lambda df: df.assign(hour="7h15"), "interactions.csv, row 2: '7h15' is not a number"),
+    ("interactions", lambda df: df.assign(hour="7h15"),
+     "interactions.csv, row 2, column hour: '7h15' is not a number; valid: a number, or empty"),
     # review: tables the API would refuse were imported
     ("days", lambda df: df.assign(closed_at=""),
      r"days.csv, row 2: day 1 of participant P01 is open \(closed_at is empty\) but day 2 follows it; valid: a "
@@ -399,14 +412,16 @@ def _rewrite(bundle, out, table, change):
     ("days", lambda df: df.assign(day=df["day"].replace("2", "1")),
      r"days.csv, row 3: day 1 of participant P01 is listed twice \(rows 2 and 3\)"),
     ("adaptations", lambda df: df.assign(parameters="{epochs: 3}"),
-     r"adaptations.csv, row 2: not valid JSON \(Expecting property name enclosed in double quotes\)"),
+     r"adaptations.csv, row 2, column parameters: not valid JSON \(Expecting property name enclosed in double "
+     r"quotes\)"),
 ])
 def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change, message):
     bundle = export.export_study(store, tmp_path / "out").bundle
     bad = _rewrite(bundle, tmp_path / "bad.zip", table, change)
     target = tmp_path / "new" / "study.sqlite"
-    with pytest.raises(CacasError, match=message):
+    with pytest.raises(CacasError, match=message) as refused:
         export.import_bundle(bad, target)
+    assert str(refused.value).startswith(f"{bad}: ")  # the bundle named, as read_bundle names it
     assert not target.exists()
     assert not target.parent.exists()  # nor an empty folder
 
@@ -508,7 +523,8 @@ def test_an_age_range_the_forms_took_before_their_bound_is_restored_as_it_was_wi
     with StudyStore(tmp_path / "b" / "moved.sqlite") as moved:
         assert moved.get_participant("P02").age_range == "200"
     bad = _rewrite(bundle, tmp_path / "bad.zip", "participants", lambda df: df.assign(age_range="1000"))
-    with pytest.raises(CacasError, match=r"^participants.csv, row 2: age range '1000' is invalid; valid: e\.g\. "):
+    with pytest.raises(CacasError, match=rf"^{re.escape(str(bad))}: participants.csv, row 2: age range '1000' is "
+                                         r"invalid; valid: e\.g\. "):
         export.import_bundle(bad, tmp_path / "c" / "moved.sqlite")
 
 

@@ -146,3 +146,11 @@ def test_a_sound_shorter_than_half_a_second_is_short():
     assert make_recognition([0.9, 0.1], ["a", "b"], seconds=0.025).short
     assert not make_recognition([0.9, 0.1], ["a", "b"], seconds=0.5).short
     assert not make_recognition([0.9, 0.1], ["a", "b"]).short  # a photo has no length
+
+
+def test_a_short_clips_length_is_said_in_ms_under_a_tenth_of_a_second():
+    """A 3-ms clip read "0.00 s long"."""
+    from cacas.recognition import clip_length, short_clip_warning
+
+    assert [clip_length(s) for s in (0.003, 0.025, 0.2, 0.456)] == ["3 ms", "25 ms", "0.20 s", "0.46 s"]
+    assert short_clip_warning(0.003).startswith("is 3 ms long: the model hears 1-s windows")

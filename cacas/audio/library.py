@@ -45,11 +45,11 @@ def library_clip(path) -> np.ndarray:
     """:func:`load_clip`, refusing a clip shorter than :data:`cacas.recognition.SHORT_CLIP_SECONDS`:
     the model hears 1-s windows, so such a clip would train it on the silence that pads it (review:
     a 0.2-s clip was added to the library without a word, while "Try a clip" flags one)."""
-    from cacas.recognition import SHORT_CLIP_SECONDS
+    from cacas.recognition import SHORT_CLIP_SECONDS, clip_length
 
     y = load_clip(path)
     if len(y) < SHORT_CLIP_SECONDS * SAMPLE_RATE:
-        raise CacasError(f"{path}: is {len(y) / SAMPLE_RATE:.2f} s long, mostly the silence that pads it to the "
+        raise CacasError(f"{path}: is {clip_length(len(y) / SAMPLE_RATE)} long, mostly the silence that pads it to the "
                          f"model's 1-s window; valid: a recording of at least {SHORT_CLIP_SECONDS:g} s (1 s or more "
                          "is best)")
     return y
@@ -94,7 +94,9 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     Existing files with the same name are overwritten, unless they already hold the same audio:
     an OGG encoder stamps each file with a random stream serial number, so rewriting the shipped
     clips with their own seed would change their bytes (and show them modified in git) for
-    nothing. Other files are left alone, so a new seed adds clips. Returns the clips' paths.
+    nothing. Other files are left alone, so a new seed adds clips. The clips are written under
+    temporary names and renamed into place when all are written (:class:`cacas.media_library.Staging`):
+    a run stopped before (Ctrl-C) adds none. Returns the clips' paths.
     """
     import soundfile as sf
 
@@ -102,8 +104,9 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
 
     if clips_per_activity < 1:
         raise CacasError(f"clips per activity must be at least 1, got {clips_per_activity}")
-    if not 1.0 <= seconds <= 10.0:
-        raise CacasError(f"clip length must be between 1 and 10 seconds, got {seconds}")
+    low, high = media_library.SYNTHETIC_CLIP_SECONDS
+    if not low <= seconds <= high:
+        raise CacasError(f"clip length must be between {low:g} and {high:g} seconds, got {seconds}")
     fmt = fmt.lower()
     subtypes = {"ogg": "VORBIS", "flac": "PCM_16", "wav": "PCM_16"}
     if fmt not in subtypes:
@@ -112,21 +115,22 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     names = [spaces.canonical("activity", a) for a in (activities or spaces.ACTIVITIES)]
     written = []
     total = len(names) * clips_per_activity
-    for i, name in enumerate(names):
-        folder = root / slug(name)
-        folder.mkdir(parents=True, exist_ok=True)
-        # one independent stream per (seed, activity, clip): adding activities changes nothing else
-        for k in range(clips_per_activity):
-            rng = np.random.default_rng([seed, spaces.activity_index(name), k])
-            y = synth.render(name, rng, seconds)
-            path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
-            encoded = io.BytesIO()
-            sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
-            if not _same_audio(path, encoded.getvalue()):
-                path.write_bytes(encoded.getvalue())
-            written.append(path)
-            if progress:
-                progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
+    with media_library.Staging() as staging:  # all placed at the end: stopped before, nothing is added
+        for i, name in enumerate(names):
+            folder = root / slug(name)
+            # one independent stream per (seed, activity, clip): adding activities changes nothing else
+            for k in range(clips_per_activity):
+                rng = np.random.default_rng([seed, spaces.activity_index(name), k])
+                y = synth.render(name, rng, seconds)
+                path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
+                encoded = io.BytesIO()
+                sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
+                if not _same_audio(path, encoded.getvalue()):
+                    staging.path(path).write_bytes(encoded.getvalue())
+                written.append(path)
+                if progress:
+                    progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
+        staging.place()
     return written
 
 

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import check_confusion_png, count, print_metrics, print_recognition, save_confusion
+from cacas.cli.sound import (check_confusion_png, count, library_out, print_metrics, print_recognition,
+                             save_confusion)
 from cacas.errors import CacasError
+from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 
 
 def register(subparsers) -> None:
@@ -15,10 +17,13 @@ def register(subparsers) -> None:
     sub.required = True
     g = sub.add_parser("generate", help="write SYNTHETIC scene images into the library",
                        description="Write SYNTHETIC images of the 6 home scenes (Table I), one folder per scene, "
-                                   "into the scene library.")
-    g.add_argument("--images", type=types.count, default=40, help="images per scene (default 40)")
-    g.add_argument("--size", type=types.count, default=128, help="image side in pixels (default 128)")
-    g.add_argument("--seed", type=types.seed, default=0, help="seed; a new seed draws new images (default 0)")
+                                   "into the scene library. The images are placed when all are written: stopped "
+                                   "before, none is added.")
+    g.add_argument("--images", type=types.count, default=40, help=types.described("images per scene", types.count, 40))
+    size = types.at_least(*SYNTHETIC_IMAGE_SIDE)
+    g.add_argument("--size", type=size, default=128, help=types.described("image side in pixels", size, 128))
+    g.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed (a new seed draws new images)", types.seed, 0))
     g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/scenes)")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own photos (FOLDER/<scene>/<image>) into the library",
@@ -35,9 +40,12 @@ def register(subparsers) -> None:
     t.add_argument("--weights", default="auto",
                    help="initial weights: 'auto' (torchvision's local cache if present), 'none', or a .pth file "
                         "(default auto)")
-    t.add_argument("--epochs", type=types.count, default=12, help="at most this many epochs (default 12)")
-    t.add_argument("--patience", type=types.count, default=4, help="early stopping: epochs without improvement (default 4)")
-    t.add_argument("--seed", type=types.seed, default=0, help="seed of the held-out split and the training (default 0)")
+    t.add_argument("--epochs", type=types.count, default=12,
+                   help=types.described("at most this many epochs", types.count, 12))
+    t.add_argument("--patience", type=types.count, default=4,
+                   help=types.described("early stopping: epochs without improvement", types.count, 4))
+    t.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed of the held-out split and the training", types.seed, 0))
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a scene model (default: on its held-out images)",
@@ -62,17 +70,18 @@ def register(subparsers) -> None:
 def run_generate(args) -> int:
     from cacas.vision.library import generate_scenes, scenes_dir
 
-    with ProgressBar() as bar:
-        paths = generate_scenes(args.images, args.size, args.seed, args.out, progress=bar)
-    print(f"wrote {len(paths)} synthetic scene images to {args.out or scenes_dir()}")
+    with library_out(args.out, scenes_dir()) as root, ProgressBar() as bar:
+        paths = generate_scenes(args.images, args.size, args.seed, root, progress=bar)
+    print(f"wrote {len(paths)} synthetic scene images to {root}")
     return 0
 
 
 def run_import(args) -> int:
     from cacas.vision.library import import_folder, scenes_dir
 
-    paths = import_folder(args.folder, args.out)
-    print(f"imported {len(paths)} images into {args.out or scenes_dir()}")
+    with library_out(args.out, scenes_dir()) as root:
+        paths = import_folder(args.folder, root)
+    print(f"imported {len(paths)} images into {root}")
     return 0
 
 

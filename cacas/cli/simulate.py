@@ -27,6 +27,28 @@ from cacas.errors import CacasError
 FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html")
 
 
+#: The plotly.js the figures load from their folder (``include_plotlyjs="directory"``).
+PLOTLY_JS = "plotly.min.js"
+
+
+def write_figures(folder, figures: dict) -> bool:
+    """Write ``figures`` (file name -> Plotly figure) as HTML into ``folder`` with the plotly.js
+    they load, as one change (:func:`cacas.store.files.write_all`). Plotly's own ``write_html``
+    keeps any plotly.min.js already there, whatever it holds (an older plotly's, a truncated
+    copy), and the figures then load it; here it is replaced by this plotly's. Returns whether
+    an earlier, different plotly.min.js was replaced."""
+    from plotly.offline import get_plotlyjs
+
+    from cacas.store import files
+
+    script = get_plotlyjs().encode("utf-8")
+    earlier = folder / PLOTLY_JS
+    replaced = earlier.is_file() and earlier.read_bytes() != script
+    files.write_all(folder, {**{name: fig.to_html(include_plotlyjs="directory").encode("utf-8")
+                                for name, fig in figures.items()}, PLOTLY_JS: script})
+    return replaced
+
+
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -50,7 +72,8 @@ def register(sub) -> None:
     p.add_argument("--out", required=True, type=types.path, metavar="DIR",
                    help="folder for daily.csv, interactions.csv and by_preference.csv")
     p.add_argument("--plot", type=types.path, metavar="DIR",
-                   help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here")
+                   help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here: the "
+                        "--out folder, or one holding no tables (not a study's export, nor another run's)")
     p.add_argument("--jobs", type=types.integer, default=None,
                    help="worker processes (default: one per core; results do not depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -91,7 +114,10 @@ def run(args) -> int:
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind, nor the folders above it that it created
     made = [folder for f in (args.out, args.plot) if f for folder in files.missing_folders(f)]
+    progress = None
     check_output_folder(args.out, "simulation", f"--out {args.out}")
+    if args.plot and args.plot.resolve() != args.out.resolve():  # figures beside their own tables are fine
+        check_output_folder(args.plot, "figures", f"--plot {args.plot}")
     try:
         out = files.writable_folder(args.out, f"--out {args.out}")
         plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
@@ -103,6 +129,9 @@ def run(args) -> int:
     except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
         files.remove_empty(made)
         raise
+    finally:  # the bar's line ended however the run stopped: "cacas: interrupted" starts a line of its own
+        if progress is not None:
+            progress.done()
     # the three tables replace an earlier run's together, or not at all
     written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),
                                     "interactions.csv": records.csv_bytes(result.interactions),
@@ -119,9 +148,11 @@ def run(args) -> int:
                    "fig4_by_preference.html": preference_methods_figure(result.by_preference)}
         if args.loop == "each" and len(methods) > 1:
             figures["fig3_methods.html"] = success_methods_figure(result.daily)
-        for name, fig in figures.items():
-            fig.write_html(plot_dir / name, include_plotlyjs="directory")
-        print("wrote " + ", ".join(str(plot_dir / name) for name in figures))
+        replaced = write_figures(plot_dir, figures)
+        print("wrote " + ", ".join(str(plot_dir / name) for name in figures) + f" and {plot_dir / PLOTLY_JS}, "
+              "the plotly.js they load (keep it beside them)")
+        if replaced:
+            print(f"replaced an earlier {plot_dir / PLOTLY_JS}: it was not the plotly.js these figures need")
     # an earlier run's figures beside these tables would show other results: removed, and said
     stale = [d / name for d in dict.fromkeys(filter(None, (plot_dir, out))) for name in FIGURES
              if (d / name).is_file() and not (d == plot_dir and name in figures)]

@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import contextlib
+import sys
+from pathlib import Path
+
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
+from cacas.media_library import SYNTHETIC_CLIP_SECONDS
+from cacas.recognition import SHORT_CLIP_SECONDS
 
 
 def count(n: int, noun: str) -> str:
@@ -35,6 +41,23 @@ def print_recognition(path, rec) -> None:
         print(f"  {label:24s} {p:.3f}")
 
 
+@contextlib.contextmanager
+def library_out(out, default: Path):
+    """The library folder a ``generate`` or ``import`` writes into (``--out``, else ``default``),
+    checked before any work (:func:`cacas.store.files.writable_folder`: one line naming the path
+    and what is wrong, not the OS's "afile/cough: Not a directory"); created if missing, and the
+    folders it created removed again if the command fails or is stopped."""
+    from cacas.store import files
+
+    root = Path(out) if out is not None else default
+    made = files.missing_folders(root)
+    try:
+        yield files.writable_folder(root, f"--out {root}" if out is not None else f"the library folder {root}")
+    except BaseException:
+        files.remove_empty(made)
+        raise
+
+
 def register(subparsers) -> None:
     p = subparsers.add_parser("sound", help="sound library and sound-activity CNN (generate, import, train, eval, recognize)",
                               description="Sound-based activity recognition (paper Section IV-A).")
@@ -42,10 +65,13 @@ def register(subparsers) -> None:
     sub.required = True
     g = sub.add_parser("generate", help="write SYNTHETIC clips into the sound library",
                        description="Write SYNTHETIC clips (one folder per activity, Table I's 33 activities) into "
-                                   "the sound library; a clip already holding the same audio is left as it is.")
-    g.add_argument("--clips", type=types.count, default=24, help="clips per activity (default 24)")
-    g.add_argument("--seconds", type=types.seconds, default=2.0, help="clip length in seconds (default 2)")
-    g.add_argument("--seed", type=types.seed, default=0, help="seed; a new seed adds new clips (default 0)")
+                                   "the sound library; a clip already holding the same audio is left as it is. "
+                                   "The clips are placed when all are written: stopped before, none is added.")
+    g.add_argument("--clips", type=types.count, default=24, help=types.described("clips per activity", types.count, 24))
+    seconds = types.between(*SYNTHETIC_CLIP_SECONDS)
+    g.add_argument("--seconds", type=seconds, default=2.0, help=types.described("clip length in seconds", seconds, 2))
+    g.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed (a new seed adds new clips)", types.seed, 0))
     g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"], help="clip file format (default ogg)")
     g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
     g.set_defaults(func=run_generate)
@@ -60,10 +86,14 @@ def register(subparsers) -> None:
                                    "holding out recordings for the test, and save it.")
     t.add_argument("--data", type=types.path, default=None, help="library folder (default study_data/sounds)")
     t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
-    t.add_argument("--epochs", type=types.count, default=8, help="at most this many epochs (default 8)")
-    t.add_argument("--patience", type=types.count, default=3, help="early stopping: epochs without improvement (default 3)")
-    t.add_argument("--augment", type=types.count, default=1, help="augmented copies per training window (default 1)")
-    t.add_argument("--seed", type=types.seed, default=0, help="seed of the held-out split and the training (default 0)")
+    t.add_argument("--epochs", type=types.count, default=8,
+                   help=types.described("at most this many epochs", types.count, 8))
+    t.add_argument("--patience", type=types.count, default=3,
+                   help=types.described("early stopping: epochs without improvement", types.count, 3))
+    t.add_argument("--augment", type=types.count, default=1,
+                   help=types.described("augmented copies per training window", types.count, 1))
+    t.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed of the held-out split and the training", types.seed, 0))
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)",
@@ -77,7 +107,9 @@ def register(subparsers) -> None:
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the activity in sound files (prints label and top 3)",
                        description="Recognise the activity in sound files: prints each file's label and its "
-                                   "top 3 with their probabilities.")
+                                   "top 3 with their probabilities, and warns of a clip shorter than "
+                                   f"{SHORT_CLIP_SECONDS:g} s (mostly the silence that pads it to the model's 1-s "
+                                   "window).")
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
     r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
@@ -86,9 +118,8 @@ def register(subparsers) -> None:
 def run_generate(args) -> int:
     from cacas.audio.library import generate_library, library_clips, sounds_dir
 
-    with ProgressBar() as bar:
-        paths = generate_library(args.clips, args.seconds, args.seed, args.out, progress=bar, fmt=args.format)
-    root = args.out or sounds_dir()
+    with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
+        paths = generate_library(args.clips, args.seconds, args.seed, root, progress=bar, fmt=args.format)
     n, size = library_clips(root)
     print(f"{len(paths)} synthetic clips of seed {args.seed} in {root} (a clip already holding the same audio "
           f"is left as it is; library now {n} clips, {size / 1e6:.1f} MB)")
@@ -98,9 +129,9 @@ def run_generate(args) -> int:
 def run_import(args) -> int:
     from cacas.audio.library import import_folder, sounds_dir
 
-    with ProgressBar() as bar:
-        paths = import_folder(args.folder, args.out, progress=bar)
-    print(f"imported {len(paths)} recordings into {args.out or sounds_dir()}")
+    with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
+        paths = import_folder(args.folder, root, progress=bar)
+    print(f"imported {len(paths)} recordings into {root}")
     return 0
 
 
@@ -155,8 +186,12 @@ def save_confusion(metrics, path) -> None:
 
 def run_recognize(args) -> int:
     from cacas.audio.model import SoundRecognizer
+    from cacas.recognition import short_clip_warning
 
     rec = SoundRecognizer.load(args.model)
     for f in args.files:
-        print_recognition(f, rec.recognize(f))
+        result = rec.recognize(f)
+        print_recognition(f, result)
+        if result.short:  # the app's "Try a clip" warns of it too, in the same words
+            print(f"cacas sound recognize: warning: {f}: {short_clip_warning(result.seconds)}", file=sys.stderr)
     return 0

@@ -28,12 +28,27 @@ def number(example: str):
 
 
 share = number("a share such as 0.1")
-seconds = number("e.g. 2")
+
+
+def between(minimum: float, maximum: float):
+    """A number from ``minimum`` to ``maximum`` (both valid); its ``valid`` says so, for the
+    option's help and its messages (the library's own range, e.g. a synthetic clip's seconds)."""
+    valid = f"a number from {minimum:g} to {maximum:g}"
+
+    def parse(text: str) -> float:
+        value = number(valid)(text)
+        if not minimum <= value <= maximum:  # NaN too
+            problem = "not a number" if value != value else f"too {'small' if value < minimum else 'large'}"
+            raise argparse.ArgumentTypeError(f"{text!r} is {problem}; valid: {valid}")
+        return value
+    parse.__name__ = parse.valid = valid
+    return parse
 
 
 def at_least(minimum: int, maximum: int | None = None):
     """A whole number >= ``minimum`` (and <= ``maximum``): a count of epochs, clips, copies: 1 and up;
-    a seed: 0 to 2**32 - 1, what the random generators take."""
+    a seed: 0 to 2**32 - 1, what the random generators take. Its ``valid`` says so, for the
+    option's help (:func:`described`) and its messages."""
     valid = f"a whole number >= {minimum}" if maximum is None else f"a whole number from {minimum} to {maximum}"
 
     def parse(text: str) -> int:
@@ -42,12 +57,18 @@ def at_least(minimum: int, maximum: int | None = None):
             raise argparse.ArgumentTypeError(f"{text!r} is too {'small' if value < minimum else 'large'}; "
                                              f"valid: {valid}")
         return value
-    parse.__name__ = valid
+    parse.__name__ = parse.valid = valid
     return parse
 
 
 seed = at_least(0, 2**32 - 1)
 count = at_least(1)
+
+
+def described(what: str, kind, default) -> str:
+    """An option's help naming its valid values as its type checks them: ``described("clips per
+    activity", count, 24)`` -> "clips per activity; valid: a whole number >= 1 (default 24)"."""
+    return f"{what}; valid: {kind.valid} (default {default})"
 
 
 def path(text: str) -> Path:

@@ -73,18 +73,35 @@ def remove_empty(folders) -> None:
             pass
 
 
+def _nearest_existing(path: Path) -> Path:
+    """``path`` or the nearest folder above it that exists."""
+    while not path.exists() and path != path.parent:
+        path = path.parent
+    return path
+
+
 def writable_folder(folder, what: str) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
-    CacasError naming it (``what``: how the user named it, e.g. "--out results")."""
+    CacasError naming it (``what``: how the user named it, e.g. "--out results") and the problem:
+    it is a file, a file stands where a folder above it would be, it cannot be created (under
+    /proc, say) or files cannot be created in it."""
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise CacasError(f"{what}: is a file; valid: a folder (created if missing)")
+    valid = "valid: a folder you can write to (created if missing)"
+    existing = _nearest_existing(folder)
+    if not existing.is_dir():
+        raise CacasError(f"{what}: cannot write in this folder: {existing} is a file, not a folder; {valid}")
     try:
         folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CacasError(f"{what}: cannot write in this folder: it cannot be created ({exc.strerror or exc}); "
+                         f"{valid}") from None
+    try:
         with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as exc:
-        raise CacasError(f"{what}: cannot write in this folder ({exc.strerror or exc})") from None
+        raise CacasError(f"{what}: cannot write in this folder ({exc.strerror or exc}); {valid}") from None
     return folder
 
 
@@ -106,9 +123,7 @@ def writable_file(path, what: str, create_folders: bool = True) -> Path:
         if folder.exists():
             raise refuse(f"{folder} is a file, not a folder")
         raise refuse(f"the folder {folder} does not exist")
-    existing = folder
-    while not existing.exists() and existing != existing.parent:  # the nearest folder there is
-        existing = existing.parent
+    existing = _nearest_existing(folder)  # the nearest folder there is
     if not existing.is_dir():
         raise refuse(f"{existing} is a file, not a folder")
     try:

@@ -54,36 +54,61 @@ OPTIONAL_COLUMNS: dict[str, list[str]] = {"interactions": ["sound_model", "scene
 _MAX_INT = 2**63 - 1
 
 
-def _int(cell: str, low: int = 0) -> int:
+class _CellError(CacasError):
+    """What is wrong with one cell: :func:`_rows` names its file, row and column, as a note does
+    (``interactions.csv, row 2, column hour: 'x' is not a number; valid: ...``)."""
+
+    def __init__(self, column: str, problem: str):
+        super().__init__(problem)
+        self.column = column
+
+
+def _int(r: dict, column: str, low: int = 0, high: int = _MAX_INT) -> int:
+    """The whole number in ``r[column]``, from ``low`` to ``high``."""
+    cell = r[column]
     try:
         value = int(cell)
     except ValueError:
-        raise CacasError(f"{cell!r} is not a whole number") from None
-    return v.integer(value, "value", low, _MAX_INT)
+        valid = f"a whole number >= {low}" if high == _MAX_INT else f"a whole number {low}..{high}"
+        raise _CellError(column, f"{cell!r} is not a whole number; valid: {valid}") from None
+    try:
+        return v.integer(value, "value", low, high)
+    except CacasError as exc:
+        raise _CellError(column, str(exc)) from None
 
 
-def _opt_int(cell: str) -> int | None:
-    return None if cell == "" else _int(cell, 1)
+def _opt_int(r: dict, column: str) -> int | None:
+    """The whole number (from 1) in ``r[column]``, or None for an empty cell."""
+    if r[column] == "":
+        return None
+    try:
+        return _int(r, column, 1)
+    except _CellError as exc:
+        raise _CellError(column, f"{exc}, or empty") from None
 
 
-def _opt_float(cell: str) -> float | None:
+def _opt_float(r: dict, column: str) -> float | None:
+    """The number in ``r[column]``, or None for an empty cell."""
+    cell = r[column]
     if cell == "":
         return None
     try:
         return float(cell)
     except ValueError:
-        raise CacasError(f"{cell!r} is not a number") from None
+        raise _CellError(column, f"{cell!r} is not a number; valid: a number, or empty") from None
 
 
 def _opt(cell: str) -> str | None:
     return None if cell == "" else cell
 
 
-def _json_text(cell: str) -> str:
+def _json_text(r: dict, column: str, empty: str | None = None) -> str:
+    """The JSON text in ``r[column]`` (``empty`` for an empty cell, if given), checked."""
+    cell = r[column] if r[column] != "" or empty is None else empty
     try:
         json.loads(cell)
     except json.JSONDecodeError as exc:
-        raise CacasError(f"not valid JSON ({exc.msg})") from None
+        raise _CellError(column, f"not valid JSON ({exc.msg})") from None
     return cell
 
 
@@ -167,25 +192,27 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
             notes.where = f"{name}.csv, row {i + 2}"
         try:
             out.append(convert(row))
+        except _CellError as exc:
+            raise CacasError(f"{name}.csv, row {i + 2}, column {exc.column}: {exc}") from None
         except CacasError as exc:
             raise CacasError(f"{name}.csv, row {i + 2}: {exc}") from None
     return out
 
 
 def _interaction(r: dict[str, Any], noted: _Notes) -> tuple:
-    slot, iv = _int(r["time_slot"]), _int(r["interval"])
+    slot, iv = _int(r, "time_slot", 0, spaces.N_SLOTS - 1), _int(r, "interval")
     if iv not in spaces.INTERVAL_BINS:
         raise CacasError(f"interval {iv} is not an S4 bin value; valid: {list(spaces.INTERVAL_BINS)}")
     iv = spaces.INTERVAL_BINS.index(iv)
-    hour, minutes = _opt_float(r["hour"]), _opt_float(r["interval_minutes"])
+    hour, minutes = _opt_float(r, "hour"), _opt_float(r, "interval_minutes")
     v.time_slot(hour, slot)
     v.interval(minutes, iv)
     kind = v.conversation_type(r["type"])
     user = v.user_action(kind, r["user_action"])  # the rule record_interaction keeps
     probs = _opt(r["probabilities"])
     if probs is not None:
-        v.probabilities(json.loads(_json_text(probs)))
-    return (r["participant"], _int(r["day"], 1), _int(r["index"], 1), noted.time(r["time"]), v.method(r["method"]),
+        v.probabilities(json.loads(_json_text(r, "probabilities")))
+    return (r["participant"], _int(r, "day", 1), _int(r, "index", 1), noted.time(r["time"]), v.method(r["method"]),
             v.name("activity", r["activity"], "activity"), v.name("scene", r["scene"], "scene"), hour, slot,
             minutes, iv, v.name("action", r["task"], "task"),
             v.name("action", r["previous_action"], "previous_action"),
@@ -196,7 +223,7 @@ def _interaction(r: dict[str, Any], noted: _Notes) -> tuple:
             v.model_id(r["sound_model"], "sound_model"), v.model_id(r["scene_model"], "scene_model"),
             kind, v.name("action", r["robot_action"], "robot_action"), probs,
             v.name("response", r["response"], "response"),
-            user, _opt_int(r["policy_version"]), r["created_at"])
+            user, _opt_int(r, "policy_version"), r["created_at"])
 
 
 def _check_days(days: list[tuple]) -> None:
@@ -297,17 +324,17 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     people = _rows(tables, "participants", lambda r: (
         noted.private(v.code(r["participant"]), "participant"), r["study"], noted.age(r["age_range"]),
         noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
-        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]), noted)
+        _opt_int(r, "active_policy"), r["created_at"], r["updated_at"]), noted)
 
     def pref_row(r):
-        items = json.loads(_json_text(r["preferences"]))
+        items = json.loads(_json_text(r, "preferences"))
         person = prefs.parse_participant({"id": r["participant"], "preferences": items})
         for k, pref in enumerate(person.preferences):
             noted.private(pref.description, f"preferences (preference {k + 1}'s description)")
-        return r["participant"], _int(r["version"], 1), r["preferences"], r["created_at"]
+        return r["participant"], _int(r, "version", 1), r["preferences"], r["created_at"]
 
     preferences = _rows(tables, "preferences", pref_row, noted)
-    days = _rows(tables, "days", lambda r: (r["participant"], _int(r["day"], 1), r["opened_at"],
+    days = _rows(tables, "days", lambda r: (r["participant"], _int(r, "day", 1), r["opened_at"],
                                             _opt(r["closed_at"])))
     _check_days(days)
 
@@ -317,20 +344,20 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
             raise CacasError(f"policy file {r['path']!r} is missing from the bundle")
         if files.sha256(data) != r["sha256"]:
             raise CacasError(f"policy file {r['path']!r} does not match its sha256")
-        return (r["participant"], _int(r["version"], 1), _int(r["day"]), v.method(r["method"]), r["path"],
+        return (r["participant"], _int(r, "version", 1), _int(r, "day"), v.method(r["method"]), r["path"],
                 r["sha256"], len(data), r["created_at"])
 
     policies = _rows(tables, "policies", policy_row)
     interactions = _rows(tables, "interactions", lambda r: _interaction(r, noted), noted)
     adaptations = _rows(tables, "adaptations", lambda r: (
-        r["participant"], _int(r["day"]), v.method(r["method"]), _json_text(r["parameters"]),
-        v.number(_opt_float(r["duration_s"]) or 0.0, "duration_s", 0), _json_text(r["metrics"]),
-        _opt_int(r["policy_version"]), r["created_at"]))
+        r["participant"], _int(r, "day"), v.method(r["method"]), _json_text(r, "parameters"),
+        v.number(_opt_float(r, "duration_s") or 0.0, "duration_s", 0), _json_text(r, "metrics"),
+        _opt_int(r, "policy_version"), r["created_at"]))
     answers = _rows(tables, "questionnaire", lambda r: (
-        r["participant"], v.satisfaction(_int(r["satisfaction"])),
+        r["participant"], v.satisfaction(_int(r, "satisfaction", 1, 10)),
         noted.private(v.text(r["comments"], "comments", check_contacts=False), "comments"), r["created_at"]), noted)
     events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
-                                                _json_text(r["details"] or "{}")))
+                                                _json_text(r, "details", empty="{}")))
     _check_unique("participants", people, ["participant"])
     _check_unique("preferences", preferences, ["participant", "version"])
     _check_unique("policies", policies, ["participant", "version"])

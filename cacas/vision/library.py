@@ -144,26 +144,30 @@ def scan(root: Path | str | None = None) -> list[Photo]:
 
 def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, root: Path | str | None = None,
                     progress: Progress = None) -> list[Path]:
-    """Write SYNTHETIC scene images to ``root/<slug>/synthetic_<seed>_<k>.jpg``."""
+    """Write SYNTHETIC scene images to ``root/<slug>/synthetic_<seed>_<k>.jpg``, under temporary
+    names first, renamed into place when all are written (:class:`cacas.media_library.Staging`):
+    a run stopped before (Ctrl-C) adds none."""
     from cacas.vision import synth
 
     if images_per_scene < 1:
         raise CacasError(f"images per scene must be at least 1, got {images_per_scene}")
-    if not 32 <= size <= 1024:
-        raise CacasError(f"image size must be between 32 and 1024 pixels, got {size}")
+    low, high = media_library.SYNTHETIC_IMAGE_SIDE
+    if not low <= size <= high:
+        raise CacasError(f"image size must be between {low} and {high} pixels, got {size}")
     root = Path(root) if root is not None else scenes_dir()
     written = []
     total = len(spaces.SCENES) * images_per_scene
-    for j, name in enumerate(spaces.SCENES):
-        folder = root / slug(name)
-        folder.mkdir(parents=True, exist_ok=True)
-        for k in range(images_per_scene):
-            img = synth.render(name, np.random.default_rng([seed, j, k]), size)
-            path = folder / f"synthetic_{seed}_{k:03d}.jpg"
-            img.save(path, quality=85)
-            written.append(path)
-            if progress:
-                progress(len(written) / total, f"{name}: image {k + 1}/{images_per_scene}")
+    with media_library.Staging() as staging:  # all placed at the end: stopped before, nothing is added
+        for j, name in enumerate(spaces.SCENES):
+            folder = root / slug(name)
+            for k in range(images_per_scene):
+                img = synth.render(name, np.random.default_rng([seed, j, k]), size)
+                path = folder / f"synthetic_{seed}_{k:03d}.jpg"
+                img.save(staging.path(path), format="JPEG", quality=85)
+                written.append(path)
+                if progress:
+                    progress(len(written) / total, f"{name}: image {k + 1}/{images_per_scene}")
+        staging.place()
     return written
 
 

@@ -384,7 +384,7 @@ def test_a_clip_shorter_than_half_a_second_is_flagged(server, page, tmp_path):
     # the Try tab's first uploader (the clip's; the Add clips tab has one too, hidden)
     page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first.set_input_files(
         str(clip))
-    page.get_by_text("The clip is 0.03 s long").wait_for(timeout=60_000)
+    page.get_by_text("The clip is 25 ms long").wait_for(timeout=60_000)
     idle(page)
     shows(page, "heard mostly the silence that pads it")
     assert page.locator("[role='tabpanel']:visible [data-testid='stAudio']").count() == 1  # the clip, to hear
