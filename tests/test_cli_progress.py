@@ -1,5 +1,7 @@
 import io
 
+import pytest
+
 from cacas.cli.progress import ProgressBar
 
 
@@ -38,10 +40,8 @@ def test_done_ends_an_unfinished_line():
 
 def test_as_a_context_manager_the_line_ends_even_when_the_work_fails():
     out = Tty()
-    try:
+    with pytest.raises(ValueError, match="bad clip"):  # the error goes on: the bar does not swallow it
         with ProgressBar(stream=out) as bar:
             bar(0.4, "training")
             raise ValueError("bad clip")
-    except ValueError:
-        pass
     assert out.getvalue().endswith("\n")
