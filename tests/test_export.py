@@ -489,6 +489,33 @@ def test_studies_whose_names_differ_only_in_letter_case_are_restored_as_they_wer
         assert moved.get_participant("W01").study == "Default"
 
 
+def test_participant_codes_that_differ_only_in_letter_case_are_restored_as_they_were_with_a_note(tmp_path):
+    """add_participant refuses a case twin of a code in use (P01 and p01, in any study); a database
+    from before the check holds both, and its backup restores each as itself, with a note on the
+    second, as it notes a study's case twin (it imported without a word)."""
+    path = tmp_path / "a" / "study.sqlite"
+    with StudyStore(path) as s:
+        s.create_study("pilot")
+        s.add_participant("P01")
+        s.add_participant("P02", study="pilot")
+        with s._conn:  # as add_participant wrote them before the check
+            s._conn.executemany("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
+                                "((SELECT id FROM studies WHERE name = ?), ?, '2026-01-05T10:00:00.000Z', "
+                                "'2026-01-05T10:00:00.000Z')", [("default", "p01"), ("pilot", "p02")])
+        first = export.export_study(s, tmp_path / "first")
+    twin = ("differs from participant {!r} only in letter case; imported as it was, as the study held it (the "
+            "forms refuse it in new data)")
+    restored = export.import_bundle(first.bundle, tmp_path / "b" / "moved.sqlite")
+    assert restored.notes == (f"participants.csv, row 4, column participant: 'p01' {twin.format('P01')}",
+                              f"participants.csv, row 5, column participant: 'p02' {twin.format('P02')}")
+    with StudyStore(tmp_path / "b" / "moved.sqlite") as moved:
+        assert [(p.code, p.study) for p in moved.list_participants()] == [
+            ("P01", "default"), ("P02", "pilot"), ("p01", "default"), ("p02", "pilot")]
+        second = export.export_study(moved, tmp_path / "second")
+    for name in ROUND_TRIP:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+
+
 def test_an_age_range_the_forms_took_before_their_bound_is_restored_as_it_was_with_a_note(tmp_path):
     """The forms took "200" as an age range before they refused ages above 120: such a study's export
     imports as it was, with a note; a range the forms never took is refused."""

@@ -6,9 +6,10 @@ against its sha256, and inserts everything in one transaction: a bad bundle rais
 naming the table, row and column, and nothing is written.
 
 A restore gives back the study a bundle holds, as it was: what the forms refuse only in new data
-(a participant code that looks like a phone number or a date, free text holding what looks like
-contact details, a study's name that differs from another's only in letter case, an age range
-above 120; a study may hold them from before the check) is imported, with a note naming the
+(a participant code that looks like a phone number or a date, or that differs from another's
+only in letter case, free text holding what looks like contact details, a study's name that
+differs from another's only in letter case, an age range above 120; a study may hold them from
+before the check) is imported, with a note naming the
 table, row and column (:class:`Restored`), not refused.
 """
 
@@ -294,10 +295,19 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
                 r["created_at"])
 
     studies = _rows(tables, "studies", study_row, noted)
-    people = _rows(tables, "participants", lambda r: (
-        noted.private(v.code(r["participant"]), "participant"), r["study"], noted.age(r["age_range"]),
-        noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
-        _opt_int(r["active_policy"]), r["created_at"], r["updated_at"]), noted)
+    codes: dict[str, str] = {}  # lower case -> the first code of the bundle written so
+
+    def person_row(r):
+        code = noted.private(v.code(r["participant"]), "participant")
+        twin = codes.setdefault(code.lower(), code)
+        if twin != code:  # a case twin, which add_participant refuses (codes are unique across studies)
+            noted.kept("participant", f"{code!r} differs from participant {twin!r} only in letter case",
+                       "the forms refuse it in new data")
+        return (code, r["study"], noted.age(r["age_range"]),
+                noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
+                _opt_int(r["active_policy"]), r["created_at"], r["updated_at"])
+
+    people = _rows(tables, "participants", person_row, noted)
 
     def pref_row(r):
         items = json.loads(_json_text(r["preferences"]))
