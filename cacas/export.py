@@ -201,7 +201,7 @@ def described_preferences(preferences: pd.DataFrame) -> dict:
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
     """All tables of :data:`TABLES` as DataFrames (of one study, or all)."""
     participants = store.participants_frame(study)
-    events = store.events(study=study)  # a study's: its participants' and their removals
+    events = store.events(study=study)  # a study's: its creation, its participants' and their removals
     studies = pd.DataFrame([s.__dict__ for s in store.studies()], columns=["name", "description", "created_at"])
     if study is not None:
         studies = studies[studies["name"] == study]

@@ -584,7 +584,30 @@ def test_export_of_one_study(store, tmp_path):
     assert set(tables["participants"]["participant"]) == {"P02"}
     assert set(tables["interactions"]["participant"]) == {"P02"}
     assert tables["studies"]["name"].tolist() == ["pilot"]
-    assert set(tables["events"]["participant"]) == {"P02"}
+    assert set(tables["events"]["participant"].dropna()) == {"P02"}
+    assert tables["events"]["what"].iloc[0] == "create_study"  # its one event about no participant
+    assert "create_study" not in export.export_tables(store, study="default")["events"]["what"].tolist()
+
+
+def test_the_export_of_a_study_keeps_its_creation_and_imports_with_or_without_it(store, tmp_path):
+    """Review: a study's export (the Results page's zip, `cacas export --study`) kept its
+    participants' events but left out its own "create_study" event (stored with no participant), so
+    the study imported from it had no record of its creation. A study's export written before
+    imports as it did."""
+    first = export.export_study(store, tmp_path / "first", study="pilot")
+    events = pd.read_csv(first.tables["events"], keep_default_na=False)
+    assert events[["what", "participant", "details"]].iloc[0].tolist() == ["create_study", "", '{"study": "pilot"}']
+    export.import_bundle(first.bundle, tmp_path / "b" / "moved.sqlite")
+    with StudyStore(tmp_path / "b" / "moved.sqlite") as moved:
+        assert moved.events(what="create_study")["details"].tolist() == ['{"study": "pilot"}']
+        second = export.export_study(moved, tmp_path / "second", study="pilot")
+    for name in export.TABLES:
+        assert first.tables[name].read_bytes() == second.tables[name].read_bytes(), name
+    older = _rewrite(first.bundle, tmp_path / "older.zip", "events", lambda df: df[df["what"] != "create_study"])
+    assert export.import_bundle(older, tmp_path / "c" / "older.sqlite").interactions == 10
+    with StudyStore(tmp_path / "c" / "older.sqlite") as moved:
+        assert moved.events(what="create_study").empty
+        assert [p.code for p in moved.list_participants("pilot")] == ["P02"]
 
 
 def test_the_export_of_a_study_keeps_the_removal_of_its_participants(tmp_path):

@@ -92,7 +92,9 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
         """The event log (newest last): id, at, what, participant, details (JSON); optionally of
         one participant, of one ``study``, or of one kind; the last ``limit`` only.
 
-        A study's events are those of its participants and the removals of its participants
+        A study's events are those of its participants, its creation (:meth:`create_study`: no
+        participant, its details naming the study; the "default" study every database has was
+        created with the database, without one) and the removals of its participants
         (:meth:`remove_participant` keeps that event with no participant, its details naming the
         code and the study, as it has since removals exist); other events about no participant,
         such as an import, are left out then."""
@@ -101,11 +103,11 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
             where.append("participant = ?")
             params.append(str(participant).strip())
         if study is not None:
-            # CASE: details are read as JSON only where a removal holds them (a malformed cell elsewhere
-            # would fail the whole query)
+            # CASE: details are read as JSON only where a study's creation or a removal holds them (a
+            # malformed cell elsewhere would fail the whole query)
             where.append("(participant IN (SELECT p.code FROM participants p JOIN studies s ON s.id = p.study_id "
-                         "WHERE s.name = ?) OR CASE WHEN participant IS NULL AND what = 'remove_participant' "
-                         "AND json_valid(details) THEN json_extract(details, '$.study') END = ?)")
+                         "WHERE s.name = ?) OR CASE WHEN participant IS NULL AND what IN ('create_study', "
+                         "'remove_participant') AND json_valid(details) THEN json_extract(details, '$.study') END = ?)")
             params += [study, study]
         if what is not None:
             where.append("what = ?")
