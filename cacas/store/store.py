@@ -87,6 +87,19 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
         return df
 
     # --- event log ------------------------------------------------------------------
+    def latest_participant(self, study: str | None = None) -> str | None:
+        """The participant (of ``study``, or of any study) whom the latest event of the log is about:
+        the one the researcher or the tablet last worked with; None if no event is about one of
+        them. Events about no participant (a removal, a study's creation, an import) are passed
+        over however many follow (the last 20 events were read: 21 removals hid the participant
+        last worked with). One look-up per participant in the log's index, not a read of the log."""
+        sql = ("SELECT code FROM (SELECT p.code, (SELECT MAX(e.id) FROM events e WHERE e.participant = p.code) "
+               "AS last FROM participants p JOIN studies s ON s.id = p.study_id"
+               + (" WHERE s.name = ?" if study is not None else "") + ") WHERE last IS NOT NULL "
+               "ORDER BY last DESC LIMIT 1")
+        row = self._read(lambda c: c.execute(sql, (study,) if study is not None else ()).fetchone())
+        return None if row is None else row[0]
+
     def events(self, participant: str | None = None, what: str | None = None,
                limit: int | None = None, study: str | None = None) -> pd.DataFrame:
         """The event log (newest last): id, at, what, participant, details (JSON); optionally of
