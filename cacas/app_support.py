@@ -51,13 +51,11 @@ def latest_study(store) -> str | None:
     subject of the latest event (the study being run), None if no event is about a participant.
     It was always "default", so a researcher whose study has another name was greeted with "No
     participants yet"."""
-    recent = store.events(limit=200)
-    for who in reversed([w for w in recent["participant"].tolist() if isinstance(w, str) and w]):
-        try:
-            return store.get_participant(who).study
-        except CacasError:  # a participant since removed
-            continue
-    return None
+    who = store.latest_participant()  # however many events about no participant follow (it read the last 200)
+    try:
+        return None if who is None else store.get_participant(who).study
+    except CacasError:  # removed by another process meanwhile
+        return None
 
 
 def overview_frame(store, study: str | None = None) -> pd.DataFrame:
@@ -131,11 +129,11 @@ def last_participant(store, study: str | None = None) -> str | None:
     """The participant of ``study`` whom the latest event is about (the one the researcher or the
     tablet last worked with: a recorded answer, an adaptation, a preference saved), else the
     first by code, else None: the app's sidebar starts there rather than at the first code. A
-    removal, the study's latest event about no participant, is passed over."""
-    recent = store.events(study=study, limit=20)["participant"].dropna()
-    recent = recent[recent != ""]
-    if len(recent):
-        return str(recent.iloc[-1])
+    removal, the study's latest event about no participant, is passed over, however many there
+    are (the last 20 events were read: a run of removals hid the participant)."""
+    latest = store.latest_participant(study)
+    if latest is not None:
+        return latest
     people = store.list_participants(study)
     return people[0].code if people else None
 

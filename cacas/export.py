@@ -23,6 +23,7 @@ earlier export's as one change (:func:`cacas.store.files.write_all`).
 
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -201,7 +202,7 @@ def described_preferences(preferences: pd.DataFrame) -> dict:
 def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.DataFrame]:
     """All tables of :data:`TABLES` as DataFrames (of one study, or all)."""
     participants = store.participants_frame(study)
-    events = store.events(study=study)  # a study's: its participants' and their removals
+    events = store.events(study=study)  # a study's: its creation, its participants' and their removals
     studies = pd.DataFrame([s.__dict__ for s in store.studies()], columns=["name", "description", "created_at"])
     if study is not None:
         studies = studies[studies["name"] == study]
@@ -405,33 +406,40 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
     created: list[Path] = []
     try:
         store = StudyStore(tmp)
+        policy_dir = store.policy_dir
         try:
             try:
                 restored = restore(store, tables, policies)
             except CacasError as exc:
                 raise CacasError(f"{bundle}: {exc}") from None
-            for rel, data in sorted(policies.items()):
-                target = store.policy_dir / rel
-                if target.exists():
-                    if files.sha256(target.read_bytes()) != files.sha256(data):
-                        raise CacasError(f"{target}: exists with other content; move it away and import again")
-                    continue
-                made.extend(files.missing_folders(target.parent))
-                files.atomic_write(target, data)
-                created.append(target)
             store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
         finally:
             store.close()
-        try:
-            os.link(tmp, db_path)
-        except FileExistsError:
-            raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
-        created.clear()
-        return restored
-    except BaseException:
-        for p in created:
-            p.unlink(missing_ok=True)
-        raise
+        if policies:
+            made.extend(files.missing_folders(policy_dir))
+        # killed before the link, the files no database names are deleted at the next opening (markers)
+        with recovery.saving(policy_dir) if policies else contextlib.nullcontext(lambda path: None) as mark:
+            try:
+                for rel, data in sorted(policies.items()):
+                    target = policy_dir / rel
+                    if target.exists():
+                        if files.sha256(target.read_bytes()) != files.sha256(data):
+                            raise CacasError(f"{target}: exists with other content; move it away and import again")
+                        continue
+                    made.extend(files.missing_folders(target.parent))
+                    mark(target)
+                    files.atomic_write(target, data)
+                    created.append(target)
+                try:
+                    os.link(tmp, db_path)
+                except FileExistsError:
+                    raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
+                created.clear()
+                return restored
+            except BaseException:
+                for p in created:
+                    p.unlink(missing_ok=True)
+                raise
     finally:
         for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock"),
                   recovery.import_lock(tmp)):

@@ -121,7 +121,8 @@ def test_overview_and_events(tmp_path):
     store.create_study("pilot")
     store.add_participant("Q01", study="pilot")
     assert set(app_support.recent_events(store, study="default", limit=50)["participant"]) == {"P01"}
-    assert set(app_support.recent_events(store, study="pilot", limit=50)["participant"]) == {"Q01"}
+    pilot = app_support.recent_events(store, study="pilot", limit=50)
+    assert pilot["participant"].tolist() == ["Q01", ""] and pilot["what"].iloc[-1] == "study pilot created"
     # Fig. 3's rate is of the recorded interactions: an unanswered proposal is not one (Section V-B)
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="others")
@@ -269,6 +270,32 @@ def test_the_sidebar_starts_at_the_participant_last_worked_with(tmp_path):
         store.remove_participant("P04", confirm="P04")
         assert store.events(study="default", limit=1)["what"].tolist() == ["remove_participant"]
         assert app_support.last_participant(store, "default") == "P03"
+
+
+def test_the_participant_last_worked_with_is_found_behind_any_number_of_other_events(tmp_path):
+    """last_participant read the study's last 20 events, latest_study the last 200: a run of events
+    about no participant (removals of codes added by mistake, studies created) hid the participant
+    last worked with, and the sidebar opened at the first code, or at no study. The store looks up
+    the latest event naming each participant instead."""
+    with StudyStore(tmp_path / "s.sqlite") as store:
+        for code in ("P01", "P02"):
+            store.add_participant(code)
+        store.open_day("P02")  # worked with last
+        for i in range(21):
+            store.add_participant(f"X{i:02d}")
+            store.remove_participant(f"X{i:02d}", confirm=f"X{i:02d}")
+        assert app_support.last_participant(store, "default") == "P02"
+        for i in range(201):
+            store.create_study(f"pilot {i}")
+        store.add_participant("Q01", study="pilot 7")
+        assert app_support.latest_study(store) == "pilot 7"
+        store.open_day("P01")
+        assert app_support.latest_study(store) == "default" and app_support.last_participant(store, "default") == "P01"
+        for i in range(201):
+            store.create_study(f"walk {i}")
+        assert app_support.latest_study(store) == "default"
+        assert store.latest_participant() == store.latest_participant("default") == "P01"
+        assert store.latest_participant("pilot 7") == "Q01" and store.latest_participant("walk 3") is None
 
 
 def test_a_preferences_hours_read_as_the_tablet_writes_a_time_of_day():

@@ -6,6 +6,7 @@ import subprocess
 import sys
 import textwrap
 
+from cacas import export
 from cacas.store import StudyStore, recovery
 
 
@@ -169,3 +170,98 @@ def test_a_tidy_that_fails_does_not_stop_the_database_opening(tmp_path, monkeypa
     monkeypatch.setattr(recovery, "finish_interrupted_removals", unreadable)
     with StudyStore(path) as s:
         assert s.load_policy("P03") == b"P03's policy"
+
+
+def _hang_after_writing(call: str, path) -> subprocess.Popen:
+    """A process running ``call`` (Python, with StudyStore and export imported) that stops for good
+    right after it has written its first policy file, before the row naming it is committed."""
+    return subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import time
+        from cacas import export
+        from cacas.store import StudyStore, files
+        real = files.atomic_write
+        def write_then_hang(target, data):
+            real(target, data)
+            print(target, flush=True)
+            time.sleep(120)
+        files.atomic_write = write_then_hang
+        {call}
+        """)], stdout=subprocess.PIPE, text=True, env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+
+
+def test_a_policy_file_whose_save_was_killed_before_its_row_is_deleted_at_the_next_opening(tmp_path):
+    """A policy file is written before its row: an adaptation killed in between left a file no row
+    names in policies/<code>/, which nothing named or removed until the participant's removal. While
+    the save runs (file written, row not yet), another process's opening leaves the file alone."""
+    path = tmp_path / "study.sqlite"
+    kept = _participant_with_a_policy(path)
+    saver = _hang_after_writing(f"StudyStore({str(path)!r}).save_policy('P03', 1, 'nn', b'cut short')", path)
+    try:
+        written = tmp_path / saver.stdout.readline().strip()
+        assert written.read_bytes() == b"cut short"
+        StudyStore(path).close()  # a save going on in another process: its file stays
+        assert written.is_file()
+        saver.send_signal(signal.SIGKILL)
+        saver.wait(10)
+    finally:
+        saver.kill()
+    with StudyStore(path) as s:
+        assert not written.exists() and [v.path.name for v in s.policy_versions("P03")] == [kept.split("/")[1]]
+        assert s.load_policy("P03") == b"P03's policy"
+        s.save_policy("P03", 1, "nn", b"cut short")  # the same save, run again, is whole
+        assert s.load_policy("P03", version=2) == b"cut short"
+    assert sorted(f.name for f in (tmp_path / "policies" / "P03").iterdir()) == sorted(
+        [kept.split("/")[1], written.name])  # no marker left either
+
+
+def test_the_policy_files_of_an_import_killed_before_its_database_was_linked_are_deleted(tmp_path):
+    """`cacas import` writes the bundle's policy files, then links the new database into place:
+    killed in between, its hidden database was deleted at the next opening but the files stayed,
+    named by no database."""
+    source = tmp_path / "a" / "study.sqlite"
+    _participant_with_a_policy(source)
+    with StudyStore(source) as s:
+        s.save_policy("P03", 1, "nn", b"a second one")
+    bundle = export.export_study(source, tmp_path / "out").bundle
+    target = tmp_path / "b" / "study.sqlite"
+    importer = _hang_after_writing(f"export.import_bundle({str(bundle)!r}, {str(target)!r})", target)
+    try:
+        written = tmp_path / importer.stdout.readline().strip()
+        StudyStore(tmp_path / "b" / "pilot.sqlite").close()  # an import going on: its files stay
+        assert written.is_file()
+        importer.send_signal(signal.SIGKILL)
+        importer.wait(10)
+    finally:
+        importer.kill()
+    StudyStore(tmp_path / "b" / "pilot.sqlite").close()
+    assert not target.exists() and not (tmp_path / "b" / "policies" / "P03").exists()
+    assert not [f for f in (tmp_path / "b").iterdir() if ".importing-" in f.name]
+    export.import_bundle(bundle, target)  # imported again, whole
+    with StudyStore(target) as s:
+        assert s.load_policy("P03", version=1) == b"P03's policy"
+
+
+def test_a_file_no_row_names_is_deleted_only_after_a_write_that_was_cut_short(tmp_path):
+    """A file no row names, without the marker a cut-short write leaves (of a database moved out of
+    the folder, say), stays; so does a marked one a database beside names, and every one while a
+    database beside cannot be read."""
+    path = tmp_path / "study.sqlite"
+    rel = _participant_with_a_policy(path)
+    folder = tmp_path / "policies" / "P03"
+    stray = folder / "day1-cacas-0123abcd.pt"
+    stray.write_bytes(b"a moved database's policy")
+    cut = folder / "day1-orl-89abcdef.pt"
+    cut.write_bytes(b"cut short")
+    tmp = folder / ".day1-orl-89abcdef.pt.4242.tmp"
+    tmp.write_bytes(b"cut")
+    markers = [folder / ".day1-orl-89abcdef.pt.4242.saving", folder / f".{rel.split('/')[1]}.4343.saving"]
+    for marker in markers:
+        marker.touch()
+    damaged = tmp_path / "damaged.sqlite"  # a study database's header, damaged further on
+    damaged.write_bytes(path.read_bytes()[:100] + b"\0" * 4000)
+    StudyStore(path).close()
+    assert all(f.exists() for f in (stray, cut, tmp, *markers))
+    damaged.unlink()
+    with StudyStore(path) as s:
+        assert s.load_policy("P03") == b"P03's policy"  # marked, but named
+    assert sorted(f.name for f in folder.iterdir()) == sorted([rel.split("/")[1], stray.name])

@@ -8,7 +8,7 @@ from typing import Sequence
 import pandas as pd
 
 from cacas.errors import AlreadyAdapted, CacasError
-from cacas.store import files
+from cacas.store import files, recovery
 from cacas.store import validate as v
 from cacas.store.base import PolicyVersion
 
@@ -132,7 +132,9 @@ class PoliciesMixin:
 
     def _with_policy_file(self, code: str, day: int, method: str, data: bytes, fn):
         """Write the checkpoint file of ``data``, then ``fn(c, rel, digest, size)`` in a write
-        transaction; the file is removed again if the transaction fails (no file without its row)."""
+        transaction; the file is removed again if the transaction fails (no file without its row),
+        and by the next opening for writing if the process is killed in between
+        (:func:`cacas.store.recovery.saving`)."""
         if not isinstance(data, (bytes, bytearray)) or not data:
             raise CacasError("policy data must be non-empty bytes (ReshapedPolicy.to_bytes())")
         digest = files.sha256(bytes(data))
@@ -146,13 +148,15 @@ class PoliciesMixin:
         if self.readonly:
             raise CacasError(f"{self.path}: opened read-only; nothing was written")
         existed = (self.policy_dir / rel).exists()  # the same bytes, which another database beside may name
-        files.atomic_write(self.policy_dir / rel, bytes(data))
-        try:
-            return self._write(lambda c: fn(c, rel, digest, len(data)))
-        except BaseException:  # e.g. the participant was removed meanwhile: no file without its row
-            if not existed:
-                self._drop_unreferenced(rel)
-            raise
+        with recovery.saving(self.policy_dir) as mark:  # killed before the commit: deleted at the next opening
+            mark(self.policy_dir / rel)
+            files.atomic_write(self.policy_dir / rel, bytes(data))
+            try:
+                return self._write(lambda c: fn(c, rel, digest, len(data)))
+            except BaseException:  # e.g. the participant was removed meanwhile: no file without its row
+                if not existed:
+                    self._drop_unreferenced(rel)
+                raise
 
     def _insert_policy(self, c, pid: int, code: str, day: int, method: str, rel: str, digest: str, size: int,
                        activate: bool) -> int:

@@ -9,12 +9,22 @@ put right when the database is next opened for writing.
 * An import builds the database as ``.<name>.importing-<pid>`` beside its target and renames it
   when complete. Killed, that hidden file stays: a copy of the bundle's study data (the
   participants' interactions among them) that a later removal cannot reach. It is deleted.
+* A policy file is written before the row that names it (``save_policy``, a day's adaptation;
+  an import writes the bundle's files before it links the new database into place). Killed in
+  between, the file stays in ``policies/<code>/`` with no row naming it, where only the
+  participant's removal would reach it. Each writer leaves a marker beside the file while it
+  writes (:func:`saving`); a marker left behind names a file whose save was cut short: the file
+  is deleted unless a study database in the folder names it. A file no row names without such a
+  marker (of a database moved out of the folder, say) is left alone: nothing says it is unused.
 
 Only what is no longer being worked on is touched: a removal or an import holds a kernel lock
 (``flock``) on a lock file of its own while it runs (:func:`busy`), which the kernel releases
 when the process ends, however it ends; another process, or another thread, cannot take it
 meanwhile. (A process id in a name is not enough: after a restart another process may have it,
-and in another container a running process looks gone.)
+and in another container a running process looks gone.) Policy files' writers, of any database
+in the folder (``policies/`` is shared), hold a shared lock on the ``policies`` folder from
+before the file is written until its row is committed (or the file removed again); markers are
+read only with that lock taken exclusively, when no writer is between its file and its row.
 """
 
 from __future__ import annotations
@@ -73,6 +83,107 @@ def _abandoned(lock: Path) -> bool:
     finally:
         os.close(fd)
     return True
+
+
+#: The marker a policy file's writer keeps beside it, from before the file is written until its
+#: row is committed: ``.<file name>.<pid>.saving`` (:func:`saving`).
+_SAVING = re.compile(r"\.(?P<name>.+)\.(?P<pid>\d+)\.saving")
+
+
+@contextlib.contextmanager
+def saving(policy_dir: Path):
+    """``with saving(store.policy_dir) as mark:``, around writing policy files and committing the
+    rows that name them: holds a shared ``flock`` on the policies folder, and ``mark(path)``, called
+    before ``path`` is written, leaves a marker beside it until the block ends. A process killed
+    inside the block leaves its markers, and :func:`delete_unsaved_policy_files` (which takes the
+    lock exclusively, so never while a writer is inside) deletes the files no row names. Best
+    effort: a folder that cannot be created or locked writes no marker (the write then fails on
+    its own, with its own message)."""
+    markers: list[Path] = []
+    fd = None
+    try:
+        policy_dir.mkdir(parents=True, exist_ok=True)
+        fd = os.open(policy_dir, os.O_RDONLY)
+        if fcntl is not None:
+            fcntl.flock(fd, fcntl.LOCK_SH)
+    except OSError:
+        if fd is not None:
+            os.close(fd)
+        fd = None
+
+    def mark(path: Path) -> None:
+        if fd is None:
+            return
+        marker = Path(path).with_name(f".{Path(path).name}.{os.getpid()}.saving")
+        try:
+            marker.parent.mkdir(parents=True, exist_ok=True)
+            marker.touch()
+        except OSError:
+            return
+        markers.append(marker)
+
+    try:
+        yield mark
+    finally:
+        for marker in markers:  # before the lock is released: a marker seen under the lock is abandoned
+            try:
+                marker.unlink(missing_ok=True)
+                marker.parent.rmdir()  # a participant's folder a failed write left empty
+            except OSError:  # it holds files (or it is gone)
+                pass
+        if fd is not None:
+            os.close(fd)  # releases the flock
+
+
+def delete_unsaved_policy_files(store) -> list[Path]:
+    """Delete the policy files whose save or import was killed before a row named them (module
+    docstring): those a marker left by :func:`saving` names, unless a study database in the folder
+    names them (none is deleted while one there cannot be read), with the markers and the
+    writer's temporary file; returns the files deleted. Nothing is done while a writer holds the
+    policies folder's lock (it is left for the next opening)."""
+    folder = store.policy_dir
+    if fcntl is None or not folder.is_dir():
+        return []
+
+    def markers() -> list[Path]:
+        return [m for m in sorted(folder.glob("*/.*.saving"))
+                if not m.parent.name.startswith(".") and _SAVING.fullmatch(m.name) and m.is_file()]
+
+    if not markers():  # most openings: nothing was cut short
+        return []
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return []
+    gone: list[Path] = []
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return []  # a policy file is being written now
+        beside = store._named_beside("")
+        if beside is None:  # a study database beside that cannot be read may name any of them
+            return []
+        named = beside | {row[0] for row in store._read(lambda c: c.execute("SELECT path FROM policies").fetchall())}
+        found = markers()
+        for marker in found:
+            m = _SAVING.fullmatch(marker.name)
+            policy = marker.with_name(m["name"])
+            tmp = marker.with_name(f".{m['name']}.{m['pid']}.tmp")  # files.atomic_write's, if killed inside it
+            unsaved = [] if policy.relative_to(folder).as_posix() in named else [policy]
+            for f in [*unsaved, tmp]:
+                if f.is_file():
+                    f.unlink()
+                    gone.append(f)
+            marker.unlink(missing_ok=True)
+        for parent in sorted({m.parent for m in found}):
+            try:
+                parent.rmdir()  # a participant's folder left empty
+            except OSError:
+                pass
+        return gone
+    finally:
+        os.close(fd)
 
 
 def finish_interrupted_removals(store) -> list[Path]:
@@ -141,5 +252,6 @@ def tidy(store) -> None:
         adopt_policies_beside_link(store)
         delete_abandoned_imports(store.path.parent)
         finish_interrupted_removals(store)
+        delete_unsaved_policy_files(store)  # after the imports: a killed import's database names its files
     except (OSError, CacasError):
         pass

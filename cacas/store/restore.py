@@ -6,9 +6,10 @@ against its sha256, and inserts everything in one transaction: a bad bundle rais
 naming the table, row and column, and nothing is written.
 
 A restore gives back the study a bundle holds, as it was: what the forms refuse only in new data
-(a participant code that looks like a phone number or a date, free text holding what looks like
-contact details, a study's name that differs from another's only in letter case, an age range
-above 120; a study may hold them from before the check) is imported, with a note naming the
+(a participant code that looks like a phone number or a date, or that differs from another's
+only in letter case, free text holding what looks like contact details, a study's name that
+differs from another's only in letter case, an age range above 120, a time not written as the app
+writes times; a study may hold them from before the check) is imported, with a note naming the
 table, row and column (:class:`Restored`), not refused.
 """
 
@@ -152,27 +153,31 @@ class _Notes(list):
                       "the forms took such ages before they refused them")
             return text
 
-    def time(self, cell: str) -> str:
-        """An interaction's time, checked as ``record_interaction`` checks one
-        (:func:`validate.timestamp`: ISO 8601 with a time zone) and kept as it was. A time that
-        ``record_interaction`` stored as given before it converted times to UTC (with an offset,
-        without a zone, a date alone: what :func:`validate.iso_time` reads) is noted; anything
-        else is refused."""
+    def time(self, cell: str, column: str = "time") -> str:
+        """A time of ``column``, checked as ``record_interaction`` checks an interaction's ``time``
+        (:func:`validate.timestamp`: ISO 8601 with a time zone) and kept as it was. A time not
+        written as the app writes times (:func:`validate.now`: UTC, milliseconds, "Z"), but one
+        :func:`validate.iso_time` reads (with an offset, without a zone, a date alone), is noted:
+        ``record_interaction`` stored such an interaction ``time`` as given before it converted
+        times to UTC, and an import took any text in the other time columns (``created_at``,
+        ``opened_at``, an event's ``at``, ...) before it checked them. Anything else is refused."""
+        before = ("record_interaction stored such times before it {}" if column == "time" else
+                  "an import took such times before it checked them")
         try:
             utc = v.timestamp(cell)
         except CacasError as exc:
             try:
                 v.iso_time(cell)
             except ValueError:
-                raise exc from None
-            self.kept("time", str(exc).partition("; valid:")[0], "record_interaction stored such times before it "
-                      "refused them")
+                raise CacasError(str(exc) if column == "time" else
+                                 f"{column} {cell!r} is invalid; valid: {v.TIME_HINT}") from None
+            self.kept(column, str(exc).partition("; valid:")[0], before.format("refused them"))
             return cell
         if utc != cell:
             in_utc = v.iso_time(cell).utcoffset().total_seconds() == 0
-            self.kept("time", f"{cell!r} is " + ("in UTC, but not written as the app writes times" if in_utc
+            self.kept(column, f"{cell!r} is " + ("in UTC, but not written as the app writes times" if in_utc
                                                  else "not in UTC as the app writes times") + f" ({utc!r})",
-                      "record_interaction stored such times before it converted them to UTC")
+                      before.format("converted them to UTC"))
         return cell
 
 
@@ -223,7 +228,7 @@ def _interaction(r: dict[str, Any], noted: _Notes) -> tuple:
             v.model_id(r["sound_model"], "sound_model"), v.model_id(r["scene_model"], "scene_model"),
             kind, v.name("action", r["robot_action"], "robot_action"), probs,
             v.name("response", r["response"], "response"),
-            user, _opt_int(r, "policy_version"), r["created_at"])
+            user, _opt_int(r, "policy_version"), noted.time(r["created_at"], "created_at"))
 
 
 def _check_days(days: list[tuple]) -> None:
@@ -318,24 +323,35 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
                        "the forms refuse it in new data")
         names.append(name)
         return (name, noted.private(v.text(r["description"], "description", check_contacts=False), "description"),
-                r["created_at"])
+                noted.time(r["created_at"], "created_at"))
 
     studies = _rows(tables, "studies", study_row, noted)
-    people = _rows(tables, "participants", lambda r: (
-        noted.private(v.code(r["participant"]), "participant"), r["study"], noted.age(r["age_range"]),
-        noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
-        _opt_int(r, "active_policy"), r["created_at"], r["updated_at"]), noted)
+    codes: dict[str, str] = {}  # lower case -> the first code of the bundle written so
+
+    def person_row(r):
+        code = noted.private(v.code(r["participant"]), "participant")
+        twin = codes.setdefault(code.lower(), code)
+        if twin != code:  # a case twin, which add_participant refuses (codes are unique across studies)
+            noted.kept("participant", f"{code!r} differs from participant {twin!r} only in letter case",
+                       "the forms refuse it in new data")
+        return (code, r["study"], noted.age(r["age_range"]),
+                noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
+                _opt_int(r, "active_policy"), noted.time(r["created_at"], "created_at"),
+                noted.time(r["updated_at"], "updated_at"))
+
+    people = _rows(tables, "participants", person_row, noted)
 
     def pref_row(r):
         items = json.loads(_json_text(r, "preferences"))
         person = prefs.parse_participant({"id": r["participant"], "preferences": items})
         for k, pref in enumerate(person.preferences):
             noted.private(pref.description, f"preferences (preference {k + 1}'s description)")
-        return r["participant"], _int(r, "version", 1), r["preferences"], r["created_at"]
+        return r["participant"], _int(r, "version", 1), r["preferences"], noted.time(r["created_at"], "created_at")
 
     preferences = _rows(tables, "preferences", pref_row, noted)
-    days = _rows(tables, "days", lambda r: (r["participant"], _int(r, "day", 1), r["opened_at"],
-                                            _opt(r["closed_at"])))
+    days = _rows(tables, "days", lambda r: (
+        r["participant"], _int(r, "day", 1), noted.time(r["opened_at"], "opened_at"),
+        None if r["closed_at"] == "" else noted.time(r["closed_at"], "closed_at")), noted)
     _check_days(days)
 
     def policy_row(r):
@@ -345,19 +361,20 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
         if files.sha256(data) != r["sha256"]:
             raise CacasError(f"policy file {r['path']!r} does not match its sha256")
         return (r["participant"], _int(r, "version", 1), _int(r, "day"), v.method(r["method"]), r["path"],
-                r["sha256"], len(data), r["created_at"])
+                r["sha256"], len(data), noted.time(r["created_at"], "created_at"))
 
-    policies = _rows(tables, "policies", policy_row)
+    policies = _rows(tables, "policies", policy_row, noted)
     interactions = _rows(tables, "interactions", lambda r: _interaction(r, noted), noted)
     adaptations = _rows(tables, "adaptations", lambda r: (
         r["participant"], _int(r, "day"), v.method(r["method"]), _json_text(r, "parameters"),
         v.number(_opt_float(r, "duration_s") or 0.0, "duration_s", 0), _json_text(r, "metrics"),
-        _opt_int(r, "policy_version"), r["created_at"]))
+        _opt_int(r, "policy_version"), noted.time(r["created_at"], "created_at")), noted)
     answers = _rows(tables, "questionnaire", lambda r: (
         r["participant"], v.satisfaction(_int(r, "satisfaction", 1, 10)),
-        noted.private(v.text(r["comments"], "comments", check_contacts=False), "comments"), r["created_at"]), noted)
-    events = _rows(tables, "events", lambda r: (r["at"], r["what"], _opt(r["participant"]),
-                                                _json_text(r, "details", empty="{}")))
+        noted.private(v.text(r["comments"], "comments", check_contacts=False), "comments"),
+        noted.time(r["created_at"], "created_at")), noted)
+    events = _rows(tables, "events", lambda r: (noted.time(r["at"], "at"), r["what"], _opt(r["participant"]),
+                                                _json_text(r, "details", empty="{}")), noted)
     _check_unique("participants", people, ["participant"])
     _check_unique("preferences", preferences, ["participant", "version"])
     _check_unique("policies", policies, ["participant", "version"])

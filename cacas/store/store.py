@@ -87,12 +87,27 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
         return df
 
     # --- event log ------------------------------------------------------------------
+    def latest_participant(self, study: str | None = None) -> str | None:
+        """The participant (of ``study``, or of any study) whom the latest event of the log is about:
+        the one the researcher or the tablet last worked with; None if no event is about one of
+        them. Events about no participant (a removal, a study's creation, an import) are passed
+        over however many follow (the last 20 events were read: 21 removals hid the participant
+        last worked with). One look-up per participant in the log's index, not a read of the log."""
+        sql = ("SELECT code FROM (SELECT p.code, (SELECT MAX(e.id) FROM events e WHERE e.participant = p.code) "
+               "AS last FROM participants p JOIN studies s ON s.id = p.study_id"
+               + (" WHERE s.name = ?" if study is not None else "") + ") WHERE last IS NOT NULL "
+               "ORDER BY last DESC LIMIT 1")
+        row = self._read(lambda c: c.execute(sql, (study,) if study is not None else ()).fetchone())
+        return None if row is None else row[0]
+
     def events(self, participant: str | None = None, what: str | None = None,
                limit: int | None = None, study: str | None = None) -> pd.DataFrame:
         """The event log (newest last): id, at, what, participant, details (JSON); optionally of
         one participant, of one ``study``, or of one kind; the last ``limit`` only.
 
-        A study's events are those of its participants and the removals of its participants
+        A study's events are those of its participants, its creation (:meth:`create_study`: no
+        participant, its details naming the study; the "default" study every database has was
+        created with the database, without one) and the removals of its participants
         (:meth:`remove_participant` keeps that event with no participant, its details naming the
         code and the study, as it has since removals exist); other events about no participant,
         such as an import, are left out then."""
@@ -101,11 +116,11 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
             where.append("participant = ?")
             params.append(str(participant).strip())
         if study is not None:
-            # CASE: details are read as JSON only where a removal holds them (a malformed cell elsewhere
-            # would fail the whole query)
+            # CASE: details are read as JSON only where a study's creation or a removal holds them (a
+            # malformed cell elsewhere would fail the whole query)
             where.append("(participant IN (SELECT p.code FROM participants p JOIN studies s ON s.id = p.study_id "
-                         "WHERE s.name = ?) OR CASE WHEN participant IS NULL AND what = 'remove_participant' "
-                         "AND json_valid(details) THEN json_extract(details, '$.study') END = ?)")
+                         "WHERE s.name = ?) OR CASE WHEN participant IS NULL AND what IN ('create_study', "
+                         "'remove_participant') AND json_valid(details) THEN json_extract(details, '$.study') END = ?)")
             params += [study, study]
         if what is not None:
             where.append("what = ?")

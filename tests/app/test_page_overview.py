@@ -145,7 +145,8 @@ def test_recent_activity_shows_a_removal_also_of_the_studys_last_participant(app
     no_exception(at)
     assert "No participants now" in texts(at) and "Recent activity" in texts(at)
     assert at.dataframe[-1].value["what"].tolist() == [removed.replace("P02", "P01"), removed]
-    assert app(study="pilot").dataframe[-1].value["what"].tolist() == [removed.replace("P02", "Q01")]
+    assert app(study="pilot").dataframe[-1].value["what"].tolist() == [removed.replace("P02", "Q01"),
+                                                                       "study pilot created"]
 
 
 def test_a_study_data_folder_without_the_shipped_files_is_said_on_every_researcher_page(app, tmp_path, monkeypatch):
