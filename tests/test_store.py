@@ -463,7 +463,7 @@ def test_a_day_given_as_a_numpy_integer_is_closed(store):
     assert [(d.day, d.is_open) for d in store.days("P01")] == [(1, False)]
     with pytest.raises(CacasError, match="day 1 of participant P01 is closed"):
         store.record_interaction("P01", 1, **GOOD)
-    with pytest.raises(CacasError, match="day"):
+    with pytest.raises(CacasError, match=r"^day 1\.5 is invalid; valid: a whole number >= 1$"):
         store.close_day("P01", 1.5)
 
 
@@ -499,20 +499,21 @@ BAD_INTERACTIONS = [
     (dict(scene="garage"), "unknown scene 'garage'"),
     (dict(robot_action="dance"), "unknown action 'dance'"),
     (dict(task="dance"), "task: unknown action"),
-    (dict(previous_response="yes"), "previous_response"),
-    (dict(recognised_activity="juggle"), "recognised_activity"),
+    (dict(previous_response="yes"), "previous_response: unknown response 'yes'; valid: accept, reject, others"),
+    (dict(recognised_activity="juggle"), "recognised_activity: unknown activity 'juggle'; valid: cough, "),
     (dict(type="type_3"), "interaction type"),
     (dict(type="type_2"), "user_action is missing"),
     (dict(type="type_2", user_action="do nothing"), "not a request"),
-    (dict(user_action="chitchat"), "type_1"),
-    (dict(hour=24), "hour"),
+    (dict(user_action="chitchat"), r"user_action 'chitchat' given for a robot-initiated \(type_1\) interaction; "
+                                   "only type_2 interactions have one"),
+    (dict(hour=24), "hour 24 is invalid; valid: a number with 0 <= hour < 24"),
     (dict(hour=None), "time of day is missing"),
     (dict(hour=7.5, time_slot=5), "time slot"),
     (dict(interval_minutes=-1), "interval_minutes"),
     (dict(probabilities=[0.5] * 14), "sum to 1"),
     (dict(probabilities=[1.0]), "14 numbers"),
     (dict(time="yesterday"), "time 'yesterday'"),
-    (dict(method="Bad Method"), "method"),
+    (dict(method="Bad Method"), "method 'Bad Method' is invalid; valid: a short lower-case name"),
     (dict(policy_version=3), "no policy version 3"),
     (dict(interval_minutes=None), r"repeat interval is missing; give interval_minutes \(>= 0\) or interval_bin"),
     (dict(interval_bin=5), "interval 12 minutes is in bin 4, not 5; give one of them"),
@@ -901,7 +902,7 @@ def test_interactions_of_one_day(store):
                              robot_action="pain check", response="accept")
     assert len(store.interactions_frame("P01", method=None, day=day)) == 1
     assert len(store.interactions_frame("P01", method=None, day=day + 1)) == 0
-    with pytest.raises(CacasError, match="day"):
+    with pytest.raises(CacasError, match=r"^day 0 is invalid; valid: a whole number >= 1$"):
         store.interactions_frame("P01", method=None, day=0)
 
 

@@ -91,3 +91,20 @@ def no_recognisers(monkeypatch):
     import cacas.lab
 
     monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: None)
+
+
+@pytest.fixture
+def downloads(monkeypatch):
+    """What the page's download buttons offer (bytes), by the button's key and by file name (the
+    last button drawn with that name): a button's label alone said nothing of what it downloads."""
+    offered: dict[str, bytes] = {}
+    real = st.download_button
+
+    def download_button(label, data, file_name=None, *args, **kwargs):
+        data_bytes = data.encode("utf-8") if isinstance(data, str) else data
+        offered[file_name] = data_bytes
+        if kwargs.get("key"):
+            offered[kwargs["key"]] = data_bytes
+        return real(label, data, file_name, *args, **kwargs)
+    monkeypatch.setattr(st, "download_button", download_button)
+    return offered

@@ -131,13 +131,15 @@ def test_overlapping_preferences_with_different_actions_are_refused(app, store):
                         "activity (S4) so they do not overlap")
 
 
-def test_export_personas_of_the_study(app, store):
+def test_export_personas_of_the_study(app, store, downloads):
     store.add_participant("P01")
     store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert [b.proto.ignore_rerun for b in at.get("download_button") if b.label == "Download personas.json"] == [True]
-    assert json.loads(store.export_personas())["participants"][0]["id"] == "P01"
+    offered = downloads["personas-default.json"]  # what the button downloads: the study's persona file
+    assert offered == store.export_personas(study="default").encode("utf-8")
+    assert json.loads(offered)["participants"][0]["id"] == "P01"
 
 
 def test_edit_details_valid_and_invalid(app, store):

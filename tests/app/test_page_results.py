@@ -20,7 +20,7 @@ def test_results_empty_study(app):
     assert "No study day with interactions yet" in texts(at)
 
 
-def test_results_show_day_one_and_downloads(app, store):
+def test_results_show_day_one_and_downloads(app, store, downloads):
     _study_with_a_day(store)
     store.add_participant("P02")  # not started yet: counted among the study's participants
     at = app(PAGE, participant="P01")
@@ -32,6 +32,12 @@ def test_results_show_day_one_and_downloads(app, store):
     for name in ("interactions.csv", "daily.csv", "participants.csv", "questionnaire.csv", "adaptations.csv"):
         assert f"Download {name}" in labels
     assert any("zip" in label for label in labels)
+    # each button downloads its own table, as cacas export writes it (a label said nothing of what it held)
+    from cacas import records
+    from cacas.export import export_tables
+    written = export_tables(store, "default")
+    for name in ("interactions", "daily", "participants", "questionnaire", "adaptations"):
+        assert downloads[f"{name}.csv"] == records.csv_bytes(written[name]), name
     # a download reruns nothing: a rerun replaced the prepared files of the other buttons, and a
     # download right after another one found its file gone (MediaFileStorageError)
     assert [b.label for b in at.get("download_button") if not b.proto.ignore_rerun] == []
@@ -447,9 +453,10 @@ def test_a_day_begun_with_only_unanswered_proposals_is_on_fig3(app, store):
     assert values["Mean cumulative feedback, day 2"] == "3 data points"  # day 1's, carried over
 
 
-def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, db):
+def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, db, downloads):
     """Large-study walkthrough: 24 participants gave 120 heatmap rows, 3,300 px, the header gone after
     one screen. More than 8: the first 8 are shown and a list chooses others; the download stays whole."""
+    import io
     import json
 
     import pandas as pd
@@ -478,7 +485,11 @@ def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, d
     assert any("P08" in str(y) for y in heatmap_rows()) and not any("P09" in str(y) for y in heatmap_rows())
     who.set_value(people).run()
     assert any("P10" in str(y) for y in heatmap_rows())
+    who.set_value(people[:2]).run()
+    offered = downloads["results-prefs:Simulated run: run-many-dl"]  # the heatmap's own button
+    assert set(pd.read_csv(io.BytesIO(offered))["participant"]) == set(people)  # whole, whoever is shown
     who.set_value([]).run()
     no_exception(at)
     assert "Choose at least one participant." in [i.value for i in at.info]
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
+    assert len(pd.read_csv(io.BytesIO(downloads["results-prefs:Simulated run: run-many-dl"]))) == 10

@@ -86,14 +86,19 @@ def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
     _button(at, "No response").click().run()  # the quick policy proposes an action here
     no_exception(at)
     assert "Interaction 3 saved (no response)." in texts(at)
+    # a reject (before, no page test pressed it: Reject recording an accept passed)
+    _choose(at)
+    _button(at, "Reject").click().run()
+    no_exception(at)
+    assert "Interaction 4 saved (rejected)." in texts(at)
     # the next proposal starts clean: no word about the last one's request, nothing typed
     _choose(at)
     assert "did not understand" not in texts(at)
     assert at.text_input(key="request-text").value == "" and at.selectbox(key="request-pick").value is None
     df = store.interactions_frame("P01", method=None)
-    assert list(df["type"]) == ["type_2", "type_2", "type_1"]
-    assert list(df["user_action"]) == ["pain check", "remind to turn off", ""]
-    assert df["response"].iloc[2] == "others"
+    assert list(df["type"]) == ["type_2", "type_2", "type_1", "type_1"]
+    assert list(df["user_action"]) == ["pain check", "remind to turn off", "", ""]
+    assert list(df["response"].iloc[2:]) == ["others", "reject"]
     # S6/S7 of the second interaction come from the first (the request carried out, accepted)
     assert (df["previous_action"].iloc[1], df["previous_response"].iloc[1]) == ("pain check", "accept")
 
