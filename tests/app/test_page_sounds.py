@@ -234,3 +234,52 @@ def test_every_clip_of_an_activity_says_when_it_shows_the_first_40(app, tmp_path
     no_exception(at)
     assert "The first 40 of 41 clips, by file name." in [c.value for c in at.caption]
     assert len(at.get("audio")) >= 40
+
+
+def _library_app(app, tmp_path, monkeypatch):
+    """The page over a study data folder of its own (the shipped scenes, one cough clip)."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds" / "cough").mkdir(parents=True)
+    (data / "sounds" / "cough" / "a.wav").write_bytes(_wav())
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    return app(PAGE), data
+
+
+def _add_clips(at, *files, activity="cough"):
+    """Choose ``activity`` (None: none) and the (name, bytes) files, then press Add."""
+    at.selectbox(key="sound-add-name").set_value(activity)
+    uploader = next(u for u in at.get("file_uploader") if u.key.startswith("sound-upload-"))
+    uploader.set_value([(name, data, "audio/wav") for name, data in files])
+    at.button(key="sound-add").click().run()
+    no_exception(at)
+
+
+def _errors(at) -> list[str]:
+    return [e.value for e in at.error if not e.value.startswith("Set-up:")]  # a folder without the D4A pairs
+
+
+def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_path, monkeypatch):
+    """Review: the refusal stayed on the Add tab after the researcher had chosen other files (until the
+    next Add), as if the new files had been refused too."""
+    at, data = _library_app(app, tmp_path, monkeypatch)
+    _add_clips(at, ("b.wav", _wav(0.8)))
+    assert "Added 1 clip(s) to 'cough'." in texts(at)
+    _add_clips(at, ("b2.wav", _wav(0.8)))  # the same bytes: refused
+    assert any("b2.wav: the same recording is already in the library" in e for e in _errors(at))
+    at.run()  # anything else on the page: the same files are still the ones refused
+    assert any("already in the library" in e for e in _errors(at))
+    uploader = next(u for u in at.get("file_uploader") if u.key.startswith("sound-upload-"))
+    uploader.set_value([("c.wav", _wav(0.9), "audio/wav")]).run()  # other files chosen: not refused (yet)
+    no_exception(at)
+    assert not _errors(at)
+    assert sorted(p.name for p in (data / "sounds" / "cough").iterdir()) == ["a.wav", "b.wav"]
+
+    _add_clips(at, ("d.wav", _wav(0.7)), activity=None)  # no activity chosen
+    assert _errors(at) == ["Choose the activity the clips are of; nothing was added."]
+    at.selectbox(key="sound-add-name").set_value("sneeze").run()
+    assert not _errors(at)
