@@ -26,6 +26,10 @@ def _safe_name(name: str, fallback: str) -> str:
     return stem[:80]
 
 
+#: The Sounds and scenes page's button that adds files to a library: its refusals name it.
+ADD_BUTTON = "Add to the library"
+
+
 def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
     """Add recordings of ``activity`` to the sound library: ``files`` are (file name, bytes) from an
     upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
@@ -57,7 +61,8 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
                how: str, default_name: str, extensions: Sequence[str]) -> list[Path]:
     """Write ``files`` into a temporary ``<slug>/`` folder and import it into the library, all or
     nothing (the library's ``import_folder`` checks every file and refuses copies of files already
-    there); an error names each file as the researcher gave it, never our temporary copy. A file
+    there, saying to press :data:`ADD_BUTTON` again without the copy, as the page's button is
+    called); an error names each file as the researcher gave it, never our temporary copy. A file
     whose type the library does not take is refused, not left out (the folder's import skipped it,
     and the others were added as if it had not been given); files of the same name (from two
     folders, or names that differ only in letters a file name cannot hold) are all kept, numbered
@@ -85,7 +90,7 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
                 target = base.with_name(f"{base.stem}-{n}{base.suffix}")
             target.write_bytes(data)
         try:
-            return import_folder(tmp, root)
+            return import_folder(tmp, root, done="added", again=f"press '{ADD_BUTTON}' again")
         except CacasError as exc:  # name the file as the researcher gave it, not our temporary copy
             raise CacasError(str(exc).replace(str(folder) + os.sep, "")) from None
 

@@ -144,7 +144,7 @@ def _add_tab(kind: str, intro: str) -> None:
     else:
         with st.expander("Or take one with this device's camera"):
             st.camera_input("Take a photo", key=capture_key)
-    ui.button(st, "Add to the library", _add, args=(kind,), type="primary", icon=":material/library_add:",
+    ui.button(st, lab.ADD_BUTTON, _add, args=(kind,), type="primary", icon=":material/library_add:",
               key=f"{kind}-add")
     refused = st.session_state.get(f"{kind}-error")
     if refused and refused[1] == _choice(kind):  # once the files or the name are changed, it is of the past

@@ -144,7 +144,8 @@ def _same_audio(path: Path, encoded: bytes) -> bool:
     return old_rate == new_rate and old.shape == new.shape and bool(np.array_equal(old, new))
 
 
-def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None) -> list[Path]:
+def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None,
+                  **wording) -> list[Path]:
     """Copy a researcher's recordings (``source/<activity slug or name>/<clip>``) into the library.
 
     Sub-folders may be named by slug ("watch_tv") or Table I name ("watch TV"). Every file is
@@ -153,10 +154,11 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     if any folder or file is bad, :class:`CacasError` names it and nothing is copied
     (:func:`cacas.media_library.import_folder`, shared with the scene library). Files keep
     their format; a name already in the library gets an ``imported_`` prefix and a number.
+    ``wording``: ``done`` and ``again`` of a refusal's message (``cacas.media_library.import_folder``).
     Returns the new paths.
     """
     root = Path(root) if root is not None else sounds_dir()
-    return media_library.import_folder(source, root, SOUNDS, progress)
+    return media_library.import_folder(source, root, SOUNDS, progress, **wording)
 
 
 def library_clips(root: Path | str | None = None) -> tuple[int, int]:

@@ -269,8 +269,9 @@ def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_p
     at, data = _library_app(app, tmp_path, monkeypatch)
     _add_clips(at, ("b.wav", _wav(0.8)))
     assert "Added 1 clip(s) to 'cough'." in texts(at)
-    _add_clips(at, ("b2.wav", _wav(0.8)))  # the same bytes: refused
-    assert any("b2.wav: the same recording is already in the library" in e for e in _errors(at))
+    _add_clips(at, ("b2.wav", _wav(0.8)))  # the same bytes: refused, in the words of the page's button
+    assert _errors(at) == ["b2.wav: the same recording is already in the library as cough/b.wav; nothing was added "
+                           "(leave the copy out and press 'Add to the library' again)"]
     at.run()  # anything else on the page: the same files are still the ones refused
     assert any("already in the library" in e for e in _errors(at))
     uploader = next(u for u in at.get("file_uploader") if u.key.startswith("sound-upload-"))
@@ -283,3 +284,34 @@ def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_p
     assert _errors(at) == ["Choose the activity the clips are of; nothing was added."]
     at.selectbox(key="sound-add-name").set_value("sneeze").run()
     assert not _errors(at)
+
+
+def test_a_copy_is_refused_in_the_words_of_the_add_button(tmp_path):
+    """Review: a clip or photo already in the library was refused with "nothing was imported (leave the copy
+    out and import again)", beside a button called "Add to the library"; `cacas sound import` keeps its words."""
+    import io
+
+    import pytest
+    from photos import photo
+
+    from cacas import lab
+    from cacas.audio import library
+    from cacas.errors import CacasError
+
+    jpeg = io.BytesIO()
+    photo().save(jpeg, format="JPEG")
+    for add, name, data, root in ((lab.add_clips, "a.wav", _wav(), tmp_path / "sounds"),
+                                  (lab.add_photos, "a.jpg", jpeg.getvalue(), tmp_path / "scenes")):
+        where = add("kitchen" if add is lab.add_photos else "cough", [(name, data)], root)[0]
+        for files in ([("again" + name[1:], data)], [("b" + name[1:], data), ("c" + name[1:], data)]):
+            with pytest.raises(CacasError) as refused:
+                add("kitchen" if add is lab.add_photos else "cough", files, root)
+            said = str(refused.value)
+            assert said.endswith("nothing was added (leave the copy out and press 'Add to the library' again)")
+            assert "import" not in said and lab.ADD_BUTTON == "Add to the library"
+        assert list(where.parent.iterdir()) == [where]
+    src = tmp_path / "mine" / "cough"
+    src.mkdir(parents=True)
+    (src / "a.wav").write_bytes(_wav())
+    with pytest.raises(CacasError, match=r"nothing was imported \(leave the copy out and import again\)$"):
+        library.import_folder(tmp_path / "mine", root=tmp_path / "sounds")  # the command's words
