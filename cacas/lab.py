@@ -43,6 +43,36 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
                       extensions=SUPPORTED_EXTENSIONS)
 
 
+def long_clip_notes(activity: str, added: Sequence[Path], root: Path | str | None = None) -> list[str]:
+    """A note for each clip of ``added`` (just added to ``activity``) that gives the sound model more
+    training windows than the library's other activities hold each (their median): the model
+    learns from windows of :data:`cacas.audio.features.WINDOW_SECONDS`, so one long recording
+    weighs its activity more than the others, and the model leans toward it. [] when the clips
+    are of a usual length, or no other activity has clips to compare with."""
+    from statistics import median
+
+    from cacas.audio.features import WINDOW_SECONDS
+    from cacas.audio.library import clip_paths, clip_seconds, clip_windows
+
+    activity = spaces.canonical("activity", activity)
+    others = [n for n in (sum(clip_windows(p) for p in clip_paths(a, root))
+                          for a in spaces.ACTIVITIES if a != activity) if n]
+    if not others:
+        return []
+    typical = median(others)
+    total = sum(clip_windows(p) for p in clip_paths(activity, root))
+    notes = []
+    for path in added:
+        n = clip_windows(path)
+        if n > typical:
+            notes.append(f"{Path(path).name} is {clip_seconds(path):.0f} s long: the sound model learns from "
+                         f"{WINDOW_SECONDS:g}-s windows, so this one clip gives '{activity}' {n} windows, more "
+                         f"than a whole activity has (the other activities' median: {typical:g}). '{activity}' "
+                         f"has {total} now and weighs more than the others in training: clips of a few seconds, "
+                         "or more clips of the other activities, keep them even.")
+    return notes
+
+
 def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
     """Add photos of the room ``scene`` to the scene library (what the robot's camera sees in a
     study, Section IV-A): ``files`` are (file name, bytes) from an upload or the camera. Every file

@@ -89,7 +89,7 @@ def _choice(kind: str) -> tuple:
 
 def _refuse(kind: str, message: str) -> None:
     s = st.session_state
-    s[f"{kind}-error"], s[f"{kind}-added"] = (message, _choice(kind)), None
+    s[f"{kind}-error"], s[f"{kind}-added"], s[f"{kind}-notes"] = (message, _choice(kind)), None, []
 
 
 def _add(kind: str) -> None:
@@ -108,6 +108,7 @@ def _add(kind: str) -> None:
         _refuse(kind, str(exc))
         return
     s[f"{kind}-error"], s[f"{kind}-added"] = None, f"Added {len(added)} {k['item']}(s) to '{name}'."
+    s[f"{kind}-notes"] = lab.long_clip_notes(name, added) if kind == "sound" else []
     s[f"{kind}-round"] = s.get(f"{kind}-round", 0) + 1
     st.cache_data.clear()
 
@@ -151,6 +152,8 @@ def _add_tab(kind: str, intro: str) -> None:
         st.error(refused[0], icon=":material/error:")
     if st.session_state.get(f"{kind}-added"):
         st.success(st.session_state[f"{kind}-added"], icon=":material/check_circle:")
+        for note in st.session_state.get(f"{kind}-notes", []):  # a long clip weighs its activity in training
+            st.warning(note, icon=":material/timer:")
 
 
 def _library_grid(kind: str, names: str, show, note: str = "") -> None:

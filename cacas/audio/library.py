@@ -161,6 +161,28 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     return media_library.import_folder(source, root, SOUNDS, progress, **wording)
 
 
+def clip_seconds(path) -> float:
+    """The length of a library clip from its header (nothing decoded); 0 for a file libsndfile
+    cannot read."""
+    import soundfile as sf
+
+    try:
+        info = sf.info(str(path))
+    except (RuntimeError, sf.LibsndfileError):
+        return 0.0
+    return info.frames / info.samplerate if info.samplerate else 0.0
+
+
+def clip_windows(path) -> int:
+    """How many windows of :data:`cacas.audio.features.WINDOW_SECONDS` the sound model cuts the clip
+    into (:func:`cacas.audio.features.window_count`; training draws about as many augmented ones per
+    epoch); 0 for a file that cannot be read."""
+    from cacas.audio.features import window_count
+
+    seconds = clip_seconds(path)
+    return window_count(round(seconds * SAMPLE_RATE)) if seconds else 0
+
+
 def library_clips(root: Path | str | None = None) -> tuple[int, int]:
     """(number, total bytes) of the clips in the library's activity folders: the recordings only,
     not a picture or notes kept beside them (study_data/sounds/spectrograms.png)."""

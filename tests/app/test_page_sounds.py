@@ -315,3 +315,27 @@ def test_a_copy_is_refused_in_the_words_of_the_add_button(tmp_path):
     (src / "a.wav").write_bytes(_wav())
     with pytest.raises(CacasError, match=r"nothing was imported \(leave the copy out and import again\)$"):
         library.import_folder(tmp_path / "mine", root=tmp_path / "sounds")  # the command's words
+
+
+def test_a_long_clip_is_said_to_weigh_its_activity(app, tmp_path, monkeypatch):
+    """Review: a 60-s clip was added without a word, though the model learns from it as from as many
+    windows as seconds, more than a whole activity of the library holds: the page says so (the window
+    length taken from the features), and says nothing of a clip of usual length."""
+    from cacas.audio.features import WINDOW_SECONDS
+
+    at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one 1-s clip
+    (data / "sounds" / "sneeze").mkdir()
+    for name in ("s1.wav", "s2.wav"):  # sneeze: 2 windows; the median of the activities other than cough
+        (data / "sounds" / "sneeze" / name).write_bytes(_wav(1.0 + len(name) / 100))
+    _add_clips(at, ("usual.wav", _wav(2.0, rate=8000)))
+    assert "Added 1 clip(s) to 'cough'." in texts(at) and not [w for w in at.warning if "s long" in w.value]
+    seconds = 12 * WINDOW_SECONDS
+    n = round(seconds / WINDOW_SECONDS)
+    _add_clips(at, ("long.wav", _wav(seconds, rate=8000)))
+    notes = [w.value for w in at.warning if "s long" in w.value]
+    assert notes == [f"long.wav is {seconds:.0f} s long: the sound model learns from {WINDOW_SECONDS:g}-s windows, "
+                     f"so this one clip gives 'cough' {n} windows, more than a whole activity has (the other "
+                     f"activities' median: 2). 'cough' has {1 + 2 + n} now and weighs more than the others in training: "
+                     "clips of a few seconds, or more clips of the other activities, keep them even."]
+    at.selectbox(key="sound-add-name").set_value("sneeze").run()  # said until the next Add
+    assert [w.value for w in at.warning if "s long" in w.value] == notes
