@@ -26,6 +26,10 @@ def _safe_name(name: str, fallback: str) -> str:
     return stem[:80]
 
 
+#: The Sounds and scenes page's button that adds files to a library: its refusals name it.
+ADD_BUTTON = "Add to the library"
+
+
 def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
     """Add recordings of ``activity`` to the sound library: ``files`` are (file name, bytes) from an
     upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
@@ -37,6 +41,36 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
     return _add_files("activity", activity, files, import_folder, root, what="recording",
                       how="upload a WAV, FLAC or OGG file or record one", default_name="recording_{}.wav",
                       extensions=SUPPORTED_EXTENSIONS)
+
+
+def long_clip_notes(activity: str, added: Sequence[Path], root: Path | str | None = None) -> list[str]:
+    """A note for each clip of ``added`` (just added to ``activity``) that gives the sound model more
+    training windows than the library's other activities hold each (their median): the model
+    learns from windows of :data:`cacas.audio.features.WINDOW_SECONDS`, so one long recording
+    weighs its activity more than the others, and the model leans toward it. [] when the clips
+    are of a usual length, or no other activity has clips to compare with."""
+    from statistics import median
+
+    from cacas.audio.features import WINDOW_SECONDS
+    from cacas.audio.library import clip_paths, clip_seconds, clip_windows
+
+    activity = spaces.canonical("activity", activity)
+    others = [n for n in (sum(clip_windows(p) for p in clip_paths(a, root))
+                          for a in spaces.ACTIVITIES if a != activity) if n]
+    if not others:
+        return []
+    typical = median(others)
+    total = sum(clip_windows(p) for p in clip_paths(activity, root))
+    notes = []
+    for path in added:
+        n = clip_windows(path)
+        if n > typical:
+            notes.append(f"{Path(path).name} is {clip_seconds(path):.0f} s long: the sound model learns from "
+                         f"{WINDOW_SECONDS:g}-s windows, so this one clip gives '{activity}' {n} windows, more "
+                         f"than a whole activity has (the other activities' median: {typical:g}). '{activity}' "
+                         f"has {total} now and weighs more than the others in training: clips of a few seconds, "
+                         "or more clips of the other activities, keep them even.")
+    return notes
 
 
 def add_photos(scene: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
@@ -57,7 +91,8 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
                how: str, default_name: str, extensions: Sequence[str]) -> list[Path]:
     """Write ``files`` into a temporary ``<slug>/`` folder and import it into the library, all or
     nothing (the library's ``import_folder`` checks every file and refuses copies of files already
-    there); an error names each file as the researcher gave it, never our temporary copy. A file
+    there, saying to press :data:`ADD_BUTTON` again without the copy, as the page's button is
+    called); an error names each file as the researcher gave it, never our temporary copy. A file
     whose type the library does not take is refused, not left out (the folder's import skipped it,
     and the others were added as if it had not been given); files of the same name (from two
     folders, or names that differ only in letters a file name cannot hold) are all kept, numbered
@@ -85,7 +120,7 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
                 target = base.with_name(f"{base.stem}-{n}{base.suffix}")
             target.write_bytes(data)
         try:
-            return import_folder(tmp, root)
+            return import_folder(tmp, root, done="added", again=f"press '{ADD_BUTTON}' again")
         except CacasError as exc:  # name the file as the researcher gave it, not our temporary copy
             raise CacasError(str(exc).replace(str(folder) + os.sep, "")) from None
 

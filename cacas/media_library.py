@@ -106,10 +106,12 @@ def _digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
-def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind) -> None:
+def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind, done: str = "imported",
+                   again: str = "import again") -> None:
     """A file whose bytes are already in the library (under any name), or twice in ``plan``, is
     refused: a copy could fall into both the training and the test split of a model and flatter
-    its accuracy (or, under another name, teach it two answers for one clip)."""
+    its accuracy (or, under another name, teach it two answers for one clip). The message says
+    "nothing was <done> (leave the copy out and <again>)"."""
     seen: dict[str, Path] = {}
     if root.is_dir():
         for sub in (p for p in _visible(root) if p.is_dir()):
@@ -122,8 +124,8 @@ def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind) ->
             where = seen[digest]
             place = (f"already in the library as {where.relative_to(root)}" if where.is_relative_to(root)
                      else f"given twice (also as {where.name})")
-            raise CacasError(f"{f}: the same {kind.item} is {place}; nothing was imported (leave the copy out "
-                             "and import again)")
+            raise CacasError(f"{f}: the same {kind.item} is {place}; nothing was {done} (leave the copy out "
+                             f"and {again})")
         seen[digest] = f
 
 
@@ -187,13 +189,15 @@ def scan(root: Path, kind: MediaKind) -> list[tuple[Path, str]]:
     return sorted(_entries(root, kind), key=lambda e: (order[e[1]], e[0].name))
 
 
-def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Progress = None) -> list[Path]:
+def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Progress = None, *,
+                  done: str = "imported", again: str = "import again") -> list[Path]:
     """Copy ``source/<name or slug>/<file>`` into the library at ``root`` (``root/<slug>/<file>``),
     all or nothing. Refused, with nothing copied: a missing folder, a file beside the name
     folders, a folder that is not a name, a file of another type or one ``kind.check`` refuses,
     and a folder with no file at all, and a file already in the library (the same bytes, under any
     name) or given twice. A name already in the library gets an ``imported_<k>_`` prefix.
-    Returns the new paths."""
+    A refusal that nothing was copied says "nothing was <done>", and a copy to leave out, to do it
+    "<again>" (the app's page adds files with a button of its own). Returns the new paths."""
     source, root = Path(source), Path(root)
     if not source.is_dir():
         raise CacasError(f"{source}: no such folder; expected {kind.layout}")
@@ -207,7 +211,7 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
         kind.check(f)
         if progress:
             progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
-    _refuse_copies(plan, root, kind)
+    _refuse_copies(plan, root, kind, done, again)
     targets, taken = [], set()
     for f, name in plan:
         folder = root / slug(name)
@@ -225,5 +229,5 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
             staging.place()
     except OSError as exc:
         raise CacasError(f"{root}: cannot copy into the {kind.what} library ({exc.strerror or exc}); "
-                         "nothing was imported") from None
+                         f"nothing was {done}") from None
     return targets

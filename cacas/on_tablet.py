@@ -7,6 +7,12 @@ proposing for one interaction recorded the researcher's answer in the participan
 the participant's answer was then refused. One board lives in the server process and is shared by
 its sessions (the app keeps it in a cached resource); nothing of it is written to the study
 database, which records answers only.
+
+The board also holds a request the participant typed that awaits their confirmation ("You would
+like me to ... Is that right?"): a tablet's session lives in the browser's page, so a reload began
+a new session and the request was gone, with the proposal's buttons back in its place. Held here
+(in the server's memory only, until it is answered, withdrawn, or another proposal is shown), the
+reloaded tablet asks it again.
 """
 
 from __future__ import annotations
@@ -38,6 +44,19 @@ class Shown:
         return time.strftime("%H:%M", time.localtime(self.since))
 
 
+@dataclass(frozen=True)
+class Asked:
+    """A request typed on the tablet for the proposal of interaction ``index`` of ``day`` in the
+    context ``context`` (its address token), matched to ``action``, in the participant's words
+    ``said``, awaiting the participant's confirmation."""
+
+    day: int
+    index: int
+    context: str
+    action: str
+    said: str
+
+
 class TabletBoard:
     """Per (study database, participant): the proposal their tablet shows, or nothing."""
 
@@ -45,6 +64,7 @@ class TabletBoard:
         self._lock = threading.Lock()
         self._shown: dict[tuple[str, str], Shown] = {}
         self._heard: set[tuple[str, str]] = set()  # tablets drawn (a proposal or a form) since this board began
+        self._asked: dict[tuple[str, str], Asked] = {}
         self.started = time.time()  # when this board (this server process) began
 
     def heard(self, db: str, participant: str) -> bool:
@@ -62,12 +82,35 @@ class TabletBoard:
             held = self._shown.get(key)
             since = held.since if held == shown else time.time()
             self._shown[key] = replace(shown, since=since)
+            asked = self._asked.get(key)
+            if asked is not None and (asked.day, asked.index) != (shown.day, shown.index):
+                del self._asked[key]  # of an interaction answered meanwhile
 
     def clear(self, db: str, participant: str) -> None:
         """The tablet shows no proposal (it was answered, or the participant went back to the form)."""
         with self._lock:
             self._heard.add((str(db), participant))
             self._shown.pop((str(db), participant), None)
+            self._asked.pop((str(db), participant), None)
+
+    def ask(self, db: str, participant: str, asked: Asked) -> None:
+        """The participant typed a request the robot matched: it awaits their confirmation."""
+        with self._lock:
+            self._asked[(str(db), participant)] = asked
+
+    def withdraw(self, db: str, participant: str) -> None:
+        """No request awaits confirmation (answered, said "No" to, or the proposal left)."""
+        with self._lock:
+            self._asked.pop((str(db), participant), None)
+
+    def asked(self, db: str, participant: str, day: int, index: int, context: str) -> Asked | None:
+        """The request awaiting confirmation on the participant's tablet for this proposal (the
+        interaction ``index`` of ``day`` in the context token ``context``), or None."""
+        with self._lock:
+            held = self._asked.get((str(db), participant))
+        if held is None or (held.day, held.index, held.context) != (day, index, context):
+            return None
+        return held
 
     def shown(self, db: str, participant: str, day: int | None = None, index: int | None = None) -> Shown | None:
         """The proposal the participant's tablet shows; with ``day`` and ``index``, only if it is

@@ -80,15 +80,15 @@ if day == 0:
 elif running is not None:
     ui.job_progress(running.key)
 else:
-    c1, c2, c3 = st.columns(3)
-    c1.metric("Study day", f"{day} ({'open' if status.open else 'closed'})")
-    c2.metric("Interactions that day", status.recorded_today,
+    row = ui.metric_row()
+    row.metric("Study day", f"{day} ({'open' if status.open else 'closed'})")
+    row.metric("Interactions that day", status.recorded_today,
               help="Answered, or asked for: the interactions that give user data (Section V-B)"
                    + (f"; {status.unanswered_today} more saved that give none: unanswered, or a request while doing "
                       "nothing." if status.unanswered_today else "."))
     in_force, newest = app_support.policy_in_force(status.policy_version, versions)
     # the roll-back in the delta line: in the value, "version 1 (newest: 2)" was cut to "version 1 (newes…"
-    c3.metric("Policy in force", in_force, delta=None if newest is None else f"rolled back; newest: version {newest}",
+    row.metric("Policy in force", in_force, delta=None if newest is None else f"rolled back; newest: version {newest}",
               delta_color="off", delta_arrow="off")
     with st.expander("Options"):
         st.selectbox("Method", METHODS, key="adapt-method",

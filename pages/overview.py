@@ -39,15 +39,15 @@ if table.empty:
     st.stop()
 
 started = table["day"] != "not started"
-c1, c2, c3, c4 = st.columns(4)
-c1.metric("Participants", len(table))
-c2.metric("Started", int(started.sum()))
-c3.metric("Interactions on open days", int(table["interactions today"].sum()),
+row = ui.metric_row()
+row.metric("Participants", len(table))
+row.metric("Started", int(started.sum()))
+row.metric("Interactions on open days", int(table["interactions today"].sum()),
           help="Interactions so far on the study days now open that count toward the ~15 a day: proposals "
                "answered and requests, as the success rate counts them (a closed day counts 0 here; unanswered "
                "ones are saved but not counted).")
 rates = table["success rate so far"].dropna()
-c4.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
+row.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
 
 st.subheader("Participants")
 small = st.column_config.TextColumn

@@ -199,6 +199,7 @@ def _discard_changes(who: str) -> None:
 
 def _import_personas() -> None:
     s = st.session_state
+    _forget_import()
     upload = s.get("persona-upload")
     if upload is None:
         s["import-error"] = "choose a persona file (.json) first"
@@ -209,15 +210,21 @@ def _import_personas() -> None:
     except CacasError as exc:
         s["import-error"] = str(exc)
         return
-    s["import-error"] = None
+    # the page opens the first participant's preferences: the toast says it there, and the Import tab
+    # keeps its message for when the researcher comes back to it (until the next import or file)
     s["import-done"] = app_support.personas_imported(done, upload.name)
-    # the page opens the first participant's preferences, not the Import tab with its message
     st.toast(s["import-done"], icon=":material/check_circle:")
     codes = done.codes
     if codes:
         s[ui.PARTICIPANT_KEY] = codes[0]
         st.query_params["participant"] = codes[0]
         s[OPEN_TAB] = f"Preferences of {codes[0]}"
+
+
+def _forget_import() -> None:
+    """The last import's message (done or refused) is of the file it was given: gone once another
+    file is chosen, or imported."""
+    st.session_state["import-error"] = st.session_state["import-done"] = None
 
 
 def _create_study() -> None:
@@ -491,7 +498,7 @@ with tabs["Import / export"]:
                    f"Missing participants are added to study '{study}' with the file's preferences. All or "
                    "nothing: one bad entry, a participant of another study, or one of this study with other "
                    "preferences (unless you choose to replace them), and nothing is imported.")
-        st.file_uploader("Persona file", type=["json"], key="persona-upload")
+        st.file_uploader("Persona file", type=["json"], key="persona-upload", on_change=_forget_import)
         st.checkbox("Replace the preferences of participants already in the study", key="persona-replace",
                     help="Without this, a file naming a participant of this study with other preferences is "
                          "refused. With it, the file's become their new version (the days already run stay "
@@ -499,7 +506,7 @@ with tabs["Import / export"]:
         ui.button(st, "Import", _import_personas, icon=":material/upload:")
         if st.session_state.get("import-error"):
             st.error(st.session_state["import-error"], icon=":material/error:")
-        done = st.session_state.pop("import-done", None)
+        done = st.session_state.get("import-done")
         if done:
             st.success(done, icon=":material/check_circle:")
     with c2:

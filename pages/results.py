@@ -94,7 +94,7 @@ with fig3:
                                         "Each of these methods acted in a study of its own; Fig. 3 below shows one."))
         per_day = plots.success_by_day(daily, method).set_index("day")
         last = per_day.index.max()
-        c1, c2, c3 = st.columns(3)
+        row = ui.metric_row()
         first = per_day.index.min()
         change, paired = plots.success_change(daily, method, first, last)
         # halves up, as the percentages beside it (25 % -> 38 % is "+13", not round()'s "+12": review)
@@ -103,7 +103,7 @@ with fig3:
         in_progress = sorted(c for c, d in app_support.open_days(store, study).items() if d == last) \
             if source == HUMAN else []
         n_first = int(per_day.loc[first, "participants"])
-        c1.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
+        row.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
                   ui.percent(per_day.loc[last, "mean"]),
                   None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}"
                   # paired: over the participants with both days, not the difference of the two plotted means
@@ -115,9 +115,9 @@ with fig3:
                       if len(per_day) > 1 else None,
                       f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the day "
                       "is closed." if in_progress else None])) or None)
-        c2.metric(f"Mean cumulative feedback, day {last}", plots.data_points(per_day.loc[last, "cumulative_feedback"]))
+        row.metric(f"Mean cumulative feedback, day {last}", plots.data_points(per_day.loc[last, "cumulative_feedback"]))
         on_day = int(per_day.loc[last, "on_day"])  # also those with nothing recorded yet that day
-        c3.metric(f"Participants on day {last}", on_day if on_day == n_all else f"{on_day} of {n_all}",
+        row.metric(f"Participants on day {last}", on_day if on_day == n_all else f"{on_day} of {n_all}",
                   help=None if on_day == n_all else f"{n_all} participants have a day in the figure; "
                   f"{on_day} {'has' if on_day == 1 else 'have'} reached day {last}.")
         if in_progress:
@@ -191,11 +191,11 @@ with quest:
                     "preferences?\"* 1 = very dissatisfied, 10 = very satisfied (Section V-B.1).")
         answers = store.questionnaire_frame(study)
         s = app_support.questionnaire_summary(answers)
-        c1, c2, c3, c4 = st.columns(4)
-        c1.metric("Answers", s["n"])
-        c2.metric("Mean", "–" if pd.isna(s["mean"]) else f"{s['mean']:.2f}")
-        c3.metric("SD", "–" if pd.isna(s["sd"]) else f"{s['sd']:.2f}")
-        c4.metric("Rated 8 or higher", ui.percent(s["share_8_or_more"]))
+        row = ui.metric_row()
+        row.metric("Answers", s["n"])
+        row.metric("Mean", "–" if pd.isna(s["mean"]) else f"{s['mean']:.2f}")
+        row.metric("SD", "–" if pd.isna(s["sd"]) else f"{s['sd']:.2f}")
+        row.metric("Rated 8 or higher", ui.percent(s["share_8_or_more"]))
         early = s["mid_study"]
         st.caption("Latest answer per participant; sample standard deviation. The paper: mean 8.125, SD 0.64, "
                    "87.5% at 8 or higher, asked after the 7 days."

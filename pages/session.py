@@ -18,7 +18,7 @@ from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
-from cacas.on_tablet import Shown
+from cacas.on_tablet import Asked, Shown
 from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
@@ -156,6 +156,8 @@ def _clear_request() -> None:
     for key in ("request-match", "request-said", "request-error"):
         s.pop(key, None)
     s["request-text"], s["request-pick"] = "", None
+    if tablet:
+        board.withdraw(db, code)
 
 
 def _cancel() -> None:
@@ -203,7 +205,7 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     s["last-saved"] = f"Saved ({what})." if tablet else f"Interaction {index} saved ({what})."
 
 
-def _match_request() -> None:
+def _match_request(day: int, index: int, context: str) -> None:
     s = st.session_state
     try:
         m = dialogue.match_request(s.get("request-text", ""))
@@ -219,11 +221,15 @@ def _match_request() -> None:
     s["request-match"] = m.action
     # kept apart from the text field's own state, which Streamlit drops while the field is not shown
     s["request-said"] = s.get("request-text", "")
+    if tablet:  # and on the board, where a reload of the tablet finds it (the session is new then)
+        board.ask(db, code, Asked(day, index, context, m.action, s["request-said"]))
 
 
 def _reject_match() -> None:
     s = st.session_state
     s.pop("request-match", None)
+    if tablet:
+        board.withdraw(db, code)
     s["request-text"] = s.pop("request-said", "")  # back in the field, to be said differently
     s["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
 
@@ -437,6 +443,10 @@ else:
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")
 
+    if tablet and not st.session_state.get("request-match"):
+        kept = board.asked(db, code, day, index, context.to_token())
+        if kept is not None:  # the tablet was reloaded while its request awaited the participant's "Yes"
+            st.session_state["request-match"], st.session_state["request-said"] = kept.action, kept.said
     matched = st.session_state.get("request-match")
     if matched:
         # the robot's question about a typed request comes where its proposal's buttons were, in view on a
@@ -478,7 +488,8 @@ else:
                 c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
                 c3.text_input("Or type your request", key="request-text",
                               placeholder="e.g. remind me to turn off the stove")
-                ui.button(c4, "Say it", _match_request, submit=True, icon=":material/chat:", width="stretch")
+                ui.button(c4, "Say it", _match_request, args=(day, index, context.to_token()), submit=True,
+                          icon=":material/chat:", width="stretch")
             if st.session_state.get("request-error"):
                 st.warning(st.session_state["request-error"], icon=":material/help:")
     ui.button(back, "Choose a different activity", _cancel, icon=":material/arrow_back:", width="stretch")

@@ -71,25 +71,43 @@ def _upload_keys(kind: str) -> tuple[str, str]:
     return f"{kind}-upload-{n}", f"{kind}-capture-{n}"
 
 
+def _chosen(kind: str) -> tuple[str | None, list, object]:
+    """The activity or room chosen, the uploaded files and the recording (or photo), as the
+    widgets hold them now."""
+    s = st.session_state
+    upload_key, capture_key = _upload_keys(kind)
+    return s.get(f"{kind}-add-name"), list(s.get(upload_key) or []), s.get(capture_key)
+
+
+def _choice(kind: str) -> tuple:
+    """What an Add is given: the name and each file's upload id. A refusal is shown while the
+    researcher's choice is the one refused, and goes once they change the files or the name."""
+    name, uploads, captured = _chosen(kind)
+    return name, tuple(f.file_id for f in uploads), None if captured is None else captured.file_id
+
+
+def _refuse(kind: str, message: str) -> None:
+    s = st.session_state
+    s[f"{kind}-error"], s[f"{kind}-added"], s[f"{kind}-notes"] = (message, _choice(kind)), None, []
+
+
 def _add(kind: str) -> None:
     """Add the uploaded (and recorded or photographed) files to the library, all or nothing."""
     s, k = st.session_state, _KINDS[kind]
-    upload_key, capture_key = _upload_keys(kind)
-    files = [(f.name, f.getvalue()) for f in (s.get(upload_key) or [])]
-    captured = s.get(capture_key)
+    name, uploads, captured = _chosen(kind)
+    files = [(f.name, f.getvalue()) for f in uploads]
     if captured is not None:
         files.append(("recording.wav" if kind == "sound" else "camera.jpg", captured.getvalue()))
-    name = s.get(f"{kind}-add-name")
     if name is None:  # nothing preset: a clip added to the first activity in the list would train the model wrong
-        s[f"{kind}-error"], s[f"{kind}-added"] = (f"Choose the {k['label']} the {k['items']} are of; nothing was "
-                                                  "added."), None
+        _refuse(kind, f"Choose the {k['label']} the {k['items']} are of; nothing was added.")
         return
     try:
         added = k["add"](name, files)
     except CacasError as exc:
-        s[f"{kind}-error"], s[f"{kind}-added"] = str(exc), None
+        _refuse(kind, str(exc))
         return
     s[f"{kind}-error"], s[f"{kind}-added"] = None, f"Added {len(added)} {k['item']}(s) to '{name}'."
+    s[f"{kind}-notes"] = lab.long_clip_notes(name, added) if kind == "sound" else []
     s[f"{kind}-round"] = s.get(f"{kind}-round", 0) + 1
     st.cache_data.clear()
 
@@ -126,12 +144,15 @@ def _add_tab(kind: str, intro: str) -> None:
     else:
         with st.expander("Or take one with this device's camera"):
             st.camera_input("Take a photo", key=capture_key)
-    ui.button(st, "Add to the library", _add, args=(kind,), type="primary", icon=":material/library_add:",
+    ui.button(st, lab.ADD_BUTTON, _add, args=(kind,), type="primary", icon=":material/library_add:",
               key=f"{kind}-add")
-    if st.session_state.get(f"{kind}-error"):
-        st.error(st.session_state[f"{kind}-error"], icon=":material/error:")
+    refused = st.session_state.get(f"{kind}-error")
+    if refused and refused[1] == _choice(kind):  # once the files or the name are changed, it is of the past
+        st.error(refused[0], icon=":material/error:")
     if st.session_state.get(f"{kind}-added"):
         st.success(st.session_state[f"{kind}-added"], icon=":material/check_circle:")
+        for note in st.session_state.get(f"{kind}-notes", []):  # a long clip weighs its activity in training
+            st.warning(note, icon=":material/timer:")
 
 
 def _library_grid(kind: str, names: str, show, note: str = "") -> None:

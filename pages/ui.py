@@ -222,6 +222,14 @@ def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key
                        on_click="ignore")  # no rerun: a download right after another one found its file gone
 
 
+def metric_row():
+    """A row for ``st.metric``s side by side (``row.metric(...)``): on a narrow page (800 px beside
+    the sidebar) a metric that does not fit goes on to the next line whole. In ``st.columns``
+    each had a quarter or a third of the width, and its label and value were cut ("Interaction…",
+    "9.7 dat…")."""
+    return st.container(horizontal=True, gap="small")
+
+
 #: A share as a whole percentage (halves rounded up), "–" for none.
 percent = app_support.percent
 

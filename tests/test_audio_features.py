@@ -66,6 +66,13 @@ def test_long_clip_cut_into_windows(tmp_path):
     assert windows(np.ones(int(2.3 * SAMPLE_RATE))).shape[0] == 2  # shorter tail dropped
 
 
+def test_window_count_is_what_windows_cuts():
+    """The Sounds and scenes page counts a new clip's windows from its length (nothing decoded)."""
+    for seconds in (0.2, 1.0, 1.4, 1.5, 2.6, 60.0):
+        n = int(seconds * SAMPLE_RATE)
+        assert features.window_count(n) == windows(np.ones(n)).shape[0], seconds
+
+
 def _refused(path, *words):
     """The clip is refused in one line naming it, for the reason ``words`` say: looked for in the
     message without the path (a reason found in the file's own name, "empty.wav", proved nothing)."""

@@ -1,6 +1,6 @@
 """What each participant's tablet shows now (cacas.on_tablet)."""
 
-from cacas.on_tablet import Shown, TabletBoard
+from cacas.on_tablet import Asked, Shown, TabletBoard
 
 
 def _shown(index=1, line="Shall I remind you to turn the stove off?"):
@@ -45,3 +45,26 @@ def test_drawing_the_same_proposal_again_keeps_when_it_was_first_shown():
     assert board.shown("a.sqlite", "P01").line == "Shall I set a timer?"
     assert board.shown("a.sqlite", "P01").since >= first
 
+
+
+def test_a_request_awaiting_confirmation_is_read_back_for_its_proposal_only():
+    """A reloaded tablet asks again the request typed before the reload; not for another proposal."""
+    board = TabletBoard()
+    asked = Asked(1, 2, "3.6.20.2", "remind to turn off", "turn off the stove please")
+    board.show("a.sqlite", "P01", _shown(2))
+    board.ask("a.sqlite", "P01", asked)
+    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") == asked
+    for other in ((1, 2, "3.6.20.3"), (1, 3, "3.6.20.2"), (2, 2, "3.6.20.2")):  # another context, interaction, day
+        assert board.asked("a.sqlite", "P01", *other) is None
+    assert board.asked("b.sqlite", "P01", 1, 2, "3.6.20.2") is None and board.asked("a.sqlite", "P02", 1, 2,
+                                                                                    "3.6.20.2") is None
+    board.show("a.sqlite", "P01", _shown(2))  # the same proposal drawn again (the reload) keeps it
+    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") == asked
+    board.withdraw("a.sqlite", "P01")  # "No"
+    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None
+    board.ask("a.sqlite", "P01", asked)
+    board.show("a.sqlite", "P01", _shown(3))  # the next interaction: answered meanwhile
+    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None
+    board.ask("a.sqlite", "P01", asked)
+    board.clear("a.sqlite", "P01")  # the tablet shows its form
+    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None

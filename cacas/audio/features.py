@@ -150,6 +150,14 @@ def load_clip(path) -> np.ndarray:
     return y
 
 
+def window_count(samples: int) -> int:
+    """How many 1-s windows :func:`windows` cuts a 32-kHz signal of ``samples`` samples into."""
+    if samples <= WINDOW_SAMPLES:
+        return 1
+    count = samples // WINDOW_SAMPLES
+    return count + (samples - count * WINDOW_SAMPLES >= WINDOW_SAMPLES // 2)
+
+
 def windows(signal: np.ndarray) -> np.ndarray:
     """Cut a 32-kHz mono signal into 1-s windows: (n_windows, 32000) float32.
 

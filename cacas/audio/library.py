@@ -148,7 +148,8 @@ def _same_audio(path: Path, encoded: bytes) -> bool:
     return old_rate == new_rate and old.shape == new.shape and bool(np.array_equal(old, new))
 
 
-def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None) -> list[Path]:
+def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None,
+                  **wording) -> list[Path]:
     """Copy a researcher's recordings (``source/<activity slug or name>/<clip>``) into the library.
 
     Sub-folders may be named by slug ("watch_tv") or Table I name ("watch TV"). Every file is
@@ -157,10 +158,33 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     if any folder or file is bad, :class:`CacasError` names it and nothing is copied
     (:func:`cacas.media_library.import_folder`, shared with the scene library). Files keep
     their format; a name already in the library gets an ``imported_`` prefix and a number.
+    ``wording``: ``done`` and ``again`` of a refusal's message (``cacas.media_library.import_folder``).
     Returns the new paths.
     """
     root = Path(root) if root is not None else sounds_dir()
-    return media_library.import_folder(source, root, SOUNDS, progress)
+    return media_library.import_folder(source, root, SOUNDS, progress, **wording)
+
+
+def clip_seconds(path) -> float:
+    """The length of a library clip from its header (nothing decoded); 0 for a file libsndfile
+    cannot read."""
+    import soundfile as sf
+
+    try:
+        info = sf.info(str(path))
+    except (RuntimeError, sf.LibsndfileError):
+        return 0.0
+    return info.frames / info.samplerate if info.samplerate else 0.0
+
+
+def clip_windows(path) -> int:
+    """How many windows of :data:`cacas.audio.features.WINDOW_SECONDS` the sound model cuts the clip
+    into (:func:`cacas.audio.features.window_count`; training draws about as many augmented ones per
+    epoch); 0 for a file that cannot be read."""
+    from cacas.audio.features import window_count
+
+    seconds = clip_seconds(path)
+    return window_count(round(seconds * SAMPLE_RATE)) if seconds else 0
 
 
 def library_clips(root: Path | str | None = None) -> tuple[int, int]:

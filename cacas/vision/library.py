@@ -171,10 +171,12 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
     return written
 
 
-def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None) -> list[Path]:
+def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None,
+                  **wording) -> list[Path]:
     """Copy a researcher's photos (``source/<scene slug or name>/<image>``) into the library, all
     or nothing: every file is checked first (:func:`load_image`), and a bad folder or file is a
     CacasError naming it (:func:`cacas.media_library.import_folder`, shared with the sound
-    library). A name already in the library gets an ``imported_`` prefix and a number."""
+    library). A name already in the library gets an ``imported_`` prefix and a number.
+    ``wording``: ``done`` and ``again`` of a refusal's message (``cacas.media_library.import_folder``)."""
     root = Path(root) if root is not None else scenes_dir()
-    return media_library.import_folder(source, root, SCENE_IMAGES, progress)
+    return media_library.import_folder(source, root, SCENE_IMAGES, progress, **wording)

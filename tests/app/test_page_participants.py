@@ -653,3 +653,25 @@ def test_the_import_says_what_happened_to_each_participant(app, store):
     assert [t.value for t in at.toast] == [said]
     assert [len(store.preference_versions(c)) for c in ("P01", "P02", "P03", "P04")] == [1, 2, 1, 1]
     assert said in [s.value for s in at.success]  # and the Import / export tab, beside its button
+
+
+def test_the_imports_message_stays_in_its_tab_until_the_next_file(app, store):
+    """Review: the Import tab's message was shown by the run of the click alone, while the page opened the first
+    participant's preferences; back on the Import tab (a rerun) it was gone, and only a toast had said it. It
+    stays until another file is chosen or imported; a refused file's message does not sit beside it."""
+    cough = {"activity": ["cough"], "action": "pain check"}
+    data = json.dumps({"participants": [{"id": "P01", "preferences": [cough]}]}).encode()
+    at = app(PAGE)
+    at.file_uploader(key="persona-upload").upload("mine.json", data, "application/json")
+    next(b for b in at.button if b.label == "Import").click().run()
+    said = "Imported mine.json: added P01."
+    assert [s.value for s in at.success] == [said]
+    at.run()  # e.g. the researcher opens the Import / export tab again
+    no_exception(at)
+    assert [s.value for s in at.success] == [said]
+    at.file_uploader(key="persona-upload").upload("bad.json", b"{", "application/json").run()  # another file
+    assert not at.success and not at.error
+    next(b for b in at.button if b.label == "Import").click().run()
+    assert not at.success and len(at.error) == 1 and "bad.json" in at.error[0].value
+    at.file_uploader(key="persona-upload").upload("mine.json", data, "application/json").run()
+    assert not at.error  # the refusal was of the other file

@@ -703,3 +703,38 @@ def test_the_tablet_says_an_answer_given_first_on_another_screen_without_a_numbe
     assert [e.value for e in tablet.error] == [
         "This answer was not saved: this proposal was answered meanwhile on another screen (use stove, rejected). "
         "Set what you are doing again for the next one."]
+
+
+def test_a_reload_of_the_tablet_keeps_a_typed_request_awaiting_its_yes(app, store, p01, quick_policy):
+    """Review: a reload of the tablet (a new session) while "Is that right?" awaited the participant's answer
+    brought the proposal's buttons back and the typed request was gone. The tablet board holds it: the reloaded
+    tablet asks it again, and "Yes, please" records it; once answered or said "No" to, a reload asks nothing."""
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", view="tablet")
+    _choose(at)
+    at.text_input(key="request-text").set_value("please remind me to switch the stove off")
+    _button(at, "Say it").click().run()
+    asked = [m.children[0].value for m in at.chat_message]
+    address = {k: at.query_params[k] for k in ("participant", "view", "ctx", "at")}
+
+    reloaded = app(PAGE, **address)  # what a reload sends: the same address, a new session
+    no_exception(reloaded)
+    assert [m.children[0].value for m in reloaded.chat_message] == asked and len(asked) == 3
+    assert {"Yes, please", "No"} <= {b.label for b in reloaded.button}
+    assert "Accept" not in {b.label for b in reloaded.button}
+    _button(reloaded, "Yes, please").click().run()
+    no_exception(reloaded)
+    df = store.interactions_frame("P01", method=None)
+    assert list(df["user_action"]) == ["remind to turn off"] and list(df["type"]) == ["type_2"]
+
+    # the next proposal: a request said "No" to is not asked again after a reload
+    _choose(reloaded)
+    reloaded.text_input(key="request-text").set_value("please remind me to switch the stove off")
+    _button(reloaded, "Say it").click().run()
+    _button(reloaded, "No").click().run()
+    again = app(PAGE, **{k: reloaded.query_params[k] for k in ("participant", "view", "ctx", "at")})
+    no_exception(again)
+    assert len(again.chat_message) == 1 and "Yes, please" not in {b.label for b in again.button}
+    # nor on the researcher's view, which has a session of its own
+    researcher = app(PAGE, participant="P01")
+    assert "Yes, please" not in {b.label for b in researcher.button}

@@ -234,3 +234,108 @@ def test_every_clip_of_an_activity_says_when_it_shows_the_first_40(app, tmp_path
     no_exception(at)
     assert "The first 40 of 41 clips, by file name." in [c.value for c in at.caption]
     assert len(at.get("audio")) >= 40
+
+
+def _library_app(app, tmp_path, monkeypatch):
+    """The page over a study data folder of its own (the shipped scenes, one cough clip)."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds" / "cough").mkdir(parents=True)
+    (data / "sounds" / "cough" / "a.wav").write_bytes(_wav())
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    return app(PAGE), data
+
+
+def _add_clips(at, *files, activity="cough"):
+    """Choose ``activity`` (None: none) and the (name, bytes) files, then press Add."""
+    at.selectbox(key="sound-add-name").set_value(activity)
+    uploader = next(u for u in at.get("file_uploader") if u.key.startswith("sound-upload-"))
+    uploader.set_value([(name, data, "audio/wav") for name, data in files])
+    at.button(key="sound-add").click().run()
+    no_exception(at)
+
+
+def _errors(at) -> list[str]:
+    return [e.value for e in at.error if not e.value.startswith("Set-up:")]  # a folder without the D4A pairs
+
+
+def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_path, monkeypatch):
+    """Review: the refusal stayed on the Add tab after the researcher had chosen other files (until the
+    next Add), as if the new files had been refused too."""
+    at, data = _library_app(app, tmp_path, monkeypatch)
+    _add_clips(at, ("b.wav", _wav(0.8)))
+    assert "Added 1 clip(s) to 'cough'." in texts(at)
+    _add_clips(at, ("b2.wav", _wav(0.8)))  # the same bytes: refused, in the words of the page's button
+    assert _errors(at) == ["b2.wav: the same recording is already in the library as cough/b.wav; nothing was added "
+                           "(leave the copy out and press 'Add to the library' again)"]
+    at.run()  # anything else on the page: the same files are still the ones refused
+    assert any("already in the library" in e for e in _errors(at))
+    uploader = next(u for u in at.get("file_uploader") if u.key.startswith("sound-upload-"))
+    uploader.set_value([("c.wav", _wav(0.9), "audio/wav")]).run()  # other files chosen: not refused (yet)
+    no_exception(at)
+    assert not _errors(at)
+    assert sorted(p.name for p in (data / "sounds" / "cough").iterdir()) == ["a.wav", "b.wav"]
+
+    _add_clips(at, ("d.wav", _wav(0.7)), activity=None)  # no activity chosen
+    assert _errors(at) == ["Choose the activity the clips are of; nothing was added."]
+    at.selectbox(key="sound-add-name").set_value("sneeze").run()
+    assert not _errors(at)
+
+
+def test_a_copy_is_refused_in_the_words_of_the_add_button(tmp_path):
+    """Review: a clip or photo already in the library was refused with "nothing was imported (leave the copy
+    out and import again)", beside a button called "Add to the library"; `cacas sound import` keeps its words."""
+    import io
+
+    import pytest
+    from photos import photo
+
+    from cacas import lab
+    from cacas.audio import library
+    from cacas.errors import CacasError
+
+    jpeg = io.BytesIO()
+    photo().save(jpeg, format="JPEG")
+    for add, name, data, root in ((lab.add_clips, "a.wav", _wav(), tmp_path / "sounds"),
+                                  (lab.add_photos, "a.jpg", jpeg.getvalue(), tmp_path / "scenes")):
+        where = add("kitchen" if add is lab.add_photos else "cough", [(name, data)], root)[0]
+        for files in ([("again" + name[1:], data)], [("b" + name[1:], data), ("c" + name[1:], data)]):
+            with pytest.raises(CacasError) as refused:
+                add("kitchen" if add is lab.add_photos else "cough", files, root)
+            said = str(refused.value)
+            assert said.endswith("nothing was added (leave the copy out and press 'Add to the library' again)")
+            assert "import" not in said and lab.ADD_BUTTON == "Add to the library"
+        assert list(where.parent.iterdir()) == [where]
+    src = tmp_path / "mine" / "cough"
+    src.mkdir(parents=True)
+    (src / "a.wav").write_bytes(_wav())
+    with pytest.raises(CacasError, match=r"nothing was imported \(leave the copy out and import again\)$"):
+        library.import_folder(tmp_path / "mine", root=tmp_path / "sounds")  # the command's words
+
+
+def test_a_long_clip_is_said_to_weigh_its_activity(app, tmp_path, monkeypatch):
+    """Review: a 60-s clip was added without a word, though the model learns from it as from as many
+    windows as seconds, more than a whole activity of the library holds: the page says so (the window
+    length taken from the features), and says nothing of a clip of usual length."""
+    from cacas.audio.features import WINDOW_SECONDS
+
+    at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one 1-s clip
+    (data / "sounds" / "sneeze").mkdir()
+    for name in ("s1.wav", "s2.wav"):  # sneeze: 2 windows; the median of the activities other than cough
+        (data / "sounds" / "sneeze" / name).write_bytes(_wav(1.0 + len(name) / 100))
+    _add_clips(at, ("usual.wav", _wav(2.0, rate=8000)))
+    assert "Added 1 clip(s) to 'cough'." in texts(at) and not [w for w in at.warning if "s long" in w.value]
+    seconds = 12 * WINDOW_SECONDS
+    n = round(seconds / WINDOW_SECONDS)
+    _add_clips(at, ("long.wav", _wav(seconds, rate=8000)))
+    notes = [w.value for w in at.warning if "s long" in w.value]
+    assert notes == [f"long.wav is {seconds:.0f} s long: the sound model learns from {WINDOW_SECONDS:g}-s windows, "
+                     f"so this one clip gives 'cough' {n} windows, more than a whole activity has (the other "
+                     f"activities' median: 2). 'cough' has {1 + 2 + n} now and weighs more than the others in training: "
+                     "clips of a few seconds, or more clips of the other activities, keep them even."]
+    at.selectbox(key="sound-add-name").set_value("sneeze").run()  # said until the next Add
+    assert [w.value for w in at.warning if "s long" in w.value] == notes

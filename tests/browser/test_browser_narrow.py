@@ -1,0 +1,74 @@
+"""The researcher's pages at 800 px (a laptop's half screen, the sidebar open) and at 1280 px: no
+metric's label or value is cut. In ``st.columns`` the Overview's four metrics had 105 px each
+("Interaction…", "Mean success r…"), the Results' "9.7 dat…"; in ``ui.metric_row`` a metric that
+does not fit goes on to the next line whole, and at 1280 px every row is one line, as before."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from cacas import spaces
+from cacas.store import StudyStore
+from conftest import _run_app
+from test_browser_mini_study import goto
+
+pytestmark = pytest.mark.browser
+
+#: per metric: its label, whether its label or value is cut (an element narrower than its text,
+#: which Streamlit ends with an ellipsis), and its top on the page
+METRICS_JS = """() => [...document.querySelectorAll('[data-testid=stMetric]')].filter(m => m.offsetParent).map(m => {
+  const parts = [...m.querySelectorAll('[data-testid=stMetricLabel] *, [data-testid=stMetricValue] *')];
+  return {label: m.querySelector('[data-testid=stMetricLabel]').innerText,
+          cut: parts.some(e => e.scrollWidth > e.clientWidth + 1),
+          top: Math.round(m.getBoundingClientRect().top)};
+})"""
+
+
+@pytest.fixture(scope="module")
+def study_server(tmp_path_factory, initial_policy):
+    """The app over a study: 4 participants on day 1 with 12 interactions each, 2 of the days closed."""
+    from cacas.study_day import Context, answer, policy_in_force, previous_interaction, propose, start_day
+
+    tmp = tmp_path_factory.mktemp("narrow")
+    db = tmp / "study.sqlite"
+    rng = random.Random(0)
+    with StudyStore(db) as s:
+        for i, code in enumerate(("P01", "P02", "P03", "P04")):
+            s.add_participant(code)
+            s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+            day = start_day(s, code)
+            policy, version = policy_in_force(s, code)
+            for k in range(12):
+                ctx = Context.from_choices(rng.randrange(12), rng.randrange(12), rng.choice(spaces.ACTIVITIES[:6]),
+                                           rng.choice(spaces.SCENES))
+                p = propose(policy, ctx, previous_interaction(s, code, day), policy_version=version)
+                answer(s, code, day, p, response=rng.choice(["accept", "reject"]) if p.robot_speaks else "no response",
+                       index=k + 1)
+            if i < 2:
+                s.close_day(code, day)
+    yield from _run_app(tmp, CACAS_DB=str(db))
+
+
+@pytest.mark.parametrize("width", [800, 1280])
+def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
+    context = browser.new_context(viewport={"width": width, "height": 900})
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    try:
+        seen = {}
+        for path in ("", "results", "adaptation"):
+            goto(page, f"{study_server}/{path}?participant=P01")
+            page.wait_for_selector("[data-testid=stMetric]")
+            metrics = page.evaluate(METRICS_JS)
+            assert metrics, path
+            seen[path or "overview"] = metrics
+        cut = {p: [m["label"] for m in ms if m["cut"]] for p, ms in seen.items()}
+        assert not any(cut.values()), cut
+        assert [m["label"] for m in seen["overview"]] == ["Participants", "Started", "Interactions on open days",
+                                                          "Mean success rate so far"]
+        if width == 1280:  # room enough: each page's metrics side by side on one line
+            assert all(len({m["top"] for m in ms}) == 1 for ms in seen.values()), seen
+    finally:
+        context.close()
