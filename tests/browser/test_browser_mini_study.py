@@ -247,6 +247,7 @@ def test_mini_study(server, page, tmp_path):
 
     # --- researcher: close the day and adapt ---------------------------------------------------------
     goto(page, f"{server}/?participant=P01")
+    shows(page, "Study overview", "Next for P01", "Recent activity")  # drawn, not an exception
     shot(page, "overview")
     goto(page, f"{server}/adaptation?participant=P01")
     assert button(page, "Close day 1 and adapt").is_disabled()  # 4 of about 15: closing waits for a tick
@@ -297,6 +298,7 @@ def test_mini_study(server, page, tmp_path):
     idle(page)
     shot(page, "simulation")
     goto(page, f"{server}/sounds?participant=P01")
+    shows(page, "Sounds and scenes", "Sound library", "Train and evaluate")
     shot(page, "sounds")
     assert elsewhere == [], f"requests to other machines: {sorted(set(elsewhere))}"
 
