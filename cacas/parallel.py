@@ -68,15 +68,6 @@ class InterruptHeld:
             signal.raise_signal(signal.SIGINT)
 
 
-def add_note(exc: BaseException, note: str) -> None:
-    """``exc.add_note(note)`` (Python 3.11), or its ``__notes__`` list on Python 3.10, which has no
-    ``add_note`` (the call raised AttributeError in place of the stop or Ctrl-C being handled)."""
-    if hasattr(exc, "add_note"):
-        exc.add_note(note)
-    else:
-        exc.__notes__ = [*getattr(exc, "__notes__", []), note]
-
-
 def reporter(queue, stop) -> Callable[..., None]:
     """A worker's ``report(*item)``: puts ``item`` on the queue for the main process's ``tick``,
     or raises :class:`Stopped` once the main process asked every worker to stop."""
@@ -127,8 +118,8 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
                 while keep is not None and not queue.empty():  # made before the stop, not yet taken
                     keep(*queue.get())
                 ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
-                add_note(exc, f"{ended} of {len(futures)} {what} ended early in their worker process, "
-                              f"{never} never started")
+                exc.add_note(f"{ended} of {len(futures)} {what} ended early in their worker process, "
+                             f"{never} never started")
                 raise
             return [f.result() for f in futures]
     finally:

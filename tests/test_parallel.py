@@ -127,17 +127,3 @@ def test_a_ctrl_c_pressed_while_the_workers_start_arrives_once_they_have_started
     # stop's reach, and the pool waited for every piece's end, with no note)
     assert re.fullmatch(r"[0-3] of 3 pieces of work ended early in their worker process, [0-2] never started",
                         interrupted.value.__notes__[0])
-
-
-def test_a_note_is_added_on_python_3_10_too():
-    """Python 3.10 (pyproject allows it) has no BaseException.add_note: the stop's note raised
-    AttributeError in place of the stop."""
-    class Python310Error:  # like 3.10's exceptions: no add_note
-        pass
-    old = Python310Error()
-    parallel.add_note(old, "first")
-    parallel.add_note(old, "second")
-    assert old.__notes__ == ["first", "second"]
-    new = ValueError("x")
-    parallel.add_note(new, "third")
-    assert new.__notes__ == ["third"]

@@ -1,3 +1,5 @@
+import json
+
 from apphelpers import no_exception, texts
 
 PAGE = "pages/results.py"
@@ -252,7 +254,9 @@ def test_human_study_accuracy_by_described_preference(app, store):
     no_exception(at)
     assert "Which preferences each method learnt" in texts(at)
     heat = [c for c in at.get("plotly_chart") if "Accuracy by described preference" in c.proto.spec]
-    assert len(heat) == 1 and "P01 · 1. cough → pain check" in heat[0].proto.spec
+    # read as JSON: plotly writes "·" and "→" as \u escapes unless orjson (not a dependency) is installed
+    assert len(heat) == 1 and "P01 · 1. cough → pain check" in json.dumps(json.loads(heat[0].proto.spec),
+                                                                          ensure_ascii=False)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 

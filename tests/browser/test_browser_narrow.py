@@ -58,9 +58,13 @@ def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
     page.set_default_timeout(60_000)
     try:
         seen = {}
-        for path in ("", "results", "adaptation"):
+        for path, last in (("", "Mean success rate so far"), ("results", "Participants on day 1"),
+                           ("adaptation", "Policy in force")):
             goto(page, f"{study_server}/{path}?participant=P01")
-            page.wait_for_selector("[data-testid=stMetric]")
+            # the row drawn to its last metric (on a loaded machine the first alone was read)
+            page.wait_for_function(f"() => [...document.querySelectorAll('[data-testid=stMetricLabel]')]"
+                                   f".some(e => e.innerText.includes({last!r}))")
+            page.wait_for_timeout(300)
             metrics = page.evaluate(METRICS_JS)
             assert metrics, path
             seen[path or "overview"] = metrics
