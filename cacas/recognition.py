@@ -47,6 +47,14 @@ def short_clip_warning(seconds: float) -> str:
             f"it, and the result says little; record at least {SHORT_CLIP_SECONDS:g} s (1 s or more is best)")
 
 
+def unsure_words(recognition: "Recognition", what: str) -> str:
+    """What the app's "Try a clip or a photo" and ``cacas sound/scene recognize`` say of an unsure
+    recognition (:attr:`Recognition.unsure`), ``what`` naming the classes ("sound activities",
+    "home scenes"): one rule and one wording for both."""
+    return (f"{100 * recognition.confidence:.0f}% for {recognition.label}. It may be none of the "
+            f"{len(recognition.probabilities)} {what} the model knows")
+
+
 @dataclass(frozen=True)
 class Recognition:
     """One recognition: ``label``, ``probabilities`` (class -> p, in class order), ``top3``;

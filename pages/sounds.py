@@ -13,7 +13,7 @@ from cacas.vision.library import image_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.plots_recognition import confusion_figure
-from cacas.recognition import short_clip_warning
+from cacas.recognition import short_clip_warning, unsure_words
 from pages import ui
 
 ui.require_app()
@@ -47,9 +47,8 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
     if r.short:
         st.warning(f"The clip {short_clip_warning(r.seconds)}.", icon=":material/timer:")
     if r.unsure:
-        what = "sound activities" if kind == "sound" else "home scenes"
-        st.warning(f"Unsure: {100 * r.confidence:.0f}% for {r.label}. It may be none of the "
-                   f"{len(r.probabilities)} {what} the model knows.", icon=":material/help:")
+        st.warning(f"Unsure: {unsure_words(r, 'sound activities' if kind == 'sound' else 'home scenes')}.",
+                   icon=":material/help:")
     st.dataframe(pd.DataFrame(r.top3, columns=["activity" if kind == "sound" else "scene", "probability"]),
                  hide_index=True, column_config={"probability": st.column_config.ProgressColumn(
                      min_value=0.0, max_value=1.0, format="percent")})

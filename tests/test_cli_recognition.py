@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from cacas import spaces
 from cacas.audio import library
 from cacas.cli import COMMANDS, main
 from cacas.vision import library as scene_library
@@ -434,3 +435,29 @@ def test_an_interrupted_import_leaves_no_temporary_copy(tmp_path, capsys, monkey
     lib.mkdir()
     assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(lib)]) == 130
     assert list(lib.rglob("*")) == []
+
+
+@pytest.mark.parametrize("kind,classes,what", [("sound", spaces.ACTIVITIES, "sound activities"),
+                                               ("scene", spaces.SCENES, "home scenes")])
+def test_an_unsure_recognition_is_warned_of_as_the_app_does(kind, classes, what, tmp_path, capsys, monkeypatch):
+    """Walkthrough: the app's "Try a clip or a photo" says "Unsure: 20% for ..." under 50 %; the
+    command printed the label alone. Now the same words (recognition.unsure_words), on stderr."""
+    import importlib
+
+    from cacas.recognition import make_recognition
+
+    probabilities = np.full(len(classes), 0.8 / (len(classes) - 1))
+    probabilities[1] = 0.2
+    module = importlib.import_module("cacas.audio.model" if kind == "sound" else "cacas.vision.model")
+    recognizer = "SoundRecognizer" if kind == "sound" else "SceneRecognizer"
+
+    class Unsure:
+        def recognize(self, path):
+            return make_recognition(probabilities, classes, seconds=2.0 if kind == "sound" else None)
+    monkeypatch.setattr(getattr(module, recognizer), "load", classmethod(lambda cls, path=None: Unsure()))
+    given = tmp_path / ("a.wav" if kind == "sound" else "a.jpg")
+    assert main([kind, "recognize", str(given)]) == 0
+    cap = capsys.readouterr()
+    assert cap.out.startswith(f"{given}: {classes[1]}\n")
+    assert cap.err == (f"cacas {kind} recognize: warning: {given}: unsure: 20% for {classes[1]}. It may be none of "
+                       f"the {len(classes)} {what} the model knows\n")

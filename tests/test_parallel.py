@@ -14,17 +14,6 @@ from cacas import parallel
 from cacas.jobs import Stopped
 
 
-def _report_until_stopped(shared: bytes, piece: int, queue, stop) -> int:
-    """A piece that reports forever (piece 0 fails at once when ``shared`` says so)."""
-    report = parallel.reporter(queue, stop)
-    if shared == b"fail" and piece == 0:
-        raise ValueError("piece 0 failed")
-    for n in range(100_000):
-        report("made", piece, n)
-        time.sleep(0.01)
-    return piece
-
-
 def _report_for_a_while(shared: bytes, piece: int, queue, stop) -> int:
     """A piece that reports for about 5 s, unless stopped (piece 0 fails at once when ``shared`` says so)."""
     report = parallel.reporter(queue, stop)
@@ -67,7 +56,7 @@ def test_what_was_made_before_a_stop_is_kept():
             time.sleep(0.5)  # meanwhile the workers, reporting every 10 ms, queue more
             raise Stopped("stopped on request")
     with pytest.raises(Stopped):
-        parallel.run_parallel(_report_until_stopped, b"", [0, 1], 2, tick, keep=lambda *item: kept.append(item))
+        parallel.run_parallel(_report_for_a_while, b"", [0, 1], 2, tick, keep=lambda *item: kept.append(item))
     assert len(ticked) == 5 and kept and not set(ticked) & set(kept)  # each item once, to tick or to keep
 
 

@@ -8,6 +8,7 @@ from cacas.cli.sound import (check_confusion_png, count, library_out, print_metr
                              save_confusion)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
+from cacas.recognition import UNSURE_BELOW
 
 
 def register(subparsers) -> None:
@@ -60,7 +61,8 @@ def register(subparsers) -> None:
     e.set_defaults(func=run_eval)
     r = sub.add_parser("recognize", help="recognise the scene of image files (prints label and top 3)",
                        description="Recognise the scene of image files: prints each file's label and its top 3 "
-                                   "with their probabilities.")
+                                   f"with their probabilities, and warns of a label under {UNSURE_BELOW:.0%} (the photo "
+                                   "may be of none of the 6 home scenes), on stderr.")
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
     r.add_argument("--model", type=types.path, default=None,
                    help="the model (default study_data/models/scene_resnet18.pt)")
@@ -133,5 +135,5 @@ def run_recognize(args) -> int:
 
     rec = SceneRecognizer.load(args.model)
     for f in args.files:
-        print_recognition(f, rec.recognize(f))
+        print_recognition(f, rec.recognize(f), "scene recognize", "home scenes")
     return 0

@@ -9,7 +9,7 @@ from pathlib import Path
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.media_library import SYNTHETIC_CLIP_SECONDS
-from cacas.recognition import SHORT_CLIP_SECONDS
+from cacas.recognition import SHORT_CLIP_SECONDS, UNSURE_BELOW
 
 
 def count(n: int, noun: str) -> str:
@@ -35,10 +35,19 @@ def print_metrics(metrics, what: str = "recordings") -> None:
             print(f"  {r.true} -> {r.predicted}: {r.count}")
 
 
-def print_recognition(path, rec) -> None:
+def print_recognition(path, rec, command: str, what: str) -> None:
+    """``rec``'s label and top 3 on stdout; on stderr, as warnings, what the app's "Try a clip or a
+    photo" warns of: a clip too short to say much, a recognition the model is unsure of (``what``:
+    the classes, "sound activities" or "home scenes")."""
+    from cacas.recognition import short_clip_warning, unsure_words
+
     print(f"{path}: {rec.label}")
     for label, p in rec.top3:
         print(f"  {label:24s} {p:.3f}")
+    if rec.short:
+        print(f"cacas {command}: warning: {path}: {short_clip_warning(rec.seconds)}", file=sys.stderr)
+    if rec.unsure:
+        print(f"cacas {command}: warning: {path}: unsure: {unsure_words(rec, what)}", file=sys.stderr)
 
 
 @contextlib.contextmanager
@@ -109,7 +118,8 @@ def register(subparsers) -> None:
                        description="Recognise the activity in sound files: prints each file's label and its "
                                    "top 3 with their probabilities, and warns of a clip shorter than "
                                    f"{SHORT_CLIP_SECONDS:g} s (mostly the silence that pads it to the model's 1-s "
-                                   "window).")
+                                   f"window) and of a label under {UNSURE_BELOW:.0%} (the sound may be none of the "
+                                   "33 activities), on stderr.")
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
     r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
@@ -186,12 +196,8 @@ def save_confusion(metrics, path) -> None:
 
 def run_recognize(args) -> int:
     from cacas.audio.model import SoundRecognizer
-    from cacas.recognition import short_clip_warning
 
     rec = SoundRecognizer.load(args.model)
     for f in args.files:
-        result = rec.recognize(f)
-        print_recognition(f, result)
-        if result.short:  # the app's "Try a clip" warns of it too, in the same words
-            print(f"cacas sound recognize: warning: {f}: {short_clip_warning(result.seconds)}", file=sys.stderr)
+        print_recognition(f, rec.recognize(f), "sound recognize", "sound activities")
     return 0
