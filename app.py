@@ -86,8 +86,11 @@ def _write_address(store) -> None:
     else:
         qp.pop("participant", None)
         qp.pop("day", None)
-    if st.session_state.get(ui.STUDY_KEY) not in (None, "default"):
-        qp["study"] = st.session_state[ui.STUDY_KEY]
+    study = st.session_state.get(ui.STUDY_KEY)
+    # "default" too once there are other studies: a reload without it opened the study last active
+    # (walkthrough: "default" chosen, a refresh showed another study's participants)
+    if study is not None and (study != "default" or len(store.studies()) > 1):
+        qp["study"] = study
     else:
         qp.pop("study", None)
 

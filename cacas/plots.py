@@ -335,9 +335,11 @@ def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: s
         texttemplate="%{z:.0%}", hovertext=hover, hovertemplate="%{hovertext}<extra></extra>",
         colorbar=dict(title="accuracy", tickformat=".0%"), xgap=2, ygap=2))
     fig.update_yaxes(autorange="reversed", title_text=None, automargin=True)
-    fig.update_xaxes(title_text=x_title, type="category", side="top")
-    fig.update_layout(title=title, template="plotly_white", height=max(320, 140 + 26 * len(order)),
-                      margin=dict(l=20, r=20, t=100, b=20))
+    fig.update_xaxes(title_text=x_title, type="category", side="top", automargin=True)
+    # the title pushes the margin above the column labels (yref "container"): on a narrow page Plotly
+    # tilts the labels, which grew into the title (walkthrough, Results at 800 px)
+    fig.update_layout(title=dict(text=title, automargin=True, yref="container"), template="plotly_white",
+                      height=max(320, 140 + 26 * len(order)), margin=dict(l=20, r=20, t=100, b=20))
     return fig
 
 

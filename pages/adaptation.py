@@ -178,7 +178,8 @@ else:
             st.caption("No interactions yet.")
         else:
             n = int(changes["changed"].sum())
-            st.markdown(f"The robot's action in each of {code}'s **{len(changes)} contexts** (most frequent first, "
+            where = f"{code}'s **1 context**" if len(changes) == 1 else f"each of {code}'s **{len(changes)} contexts**"
+            st.markdown(f"The robot's action in {where} (most frequent first, "
                         f"then the most recent), each as at its latest interaction (the robot's task, its previous "
                         f"action and the answer): **{n}** changed.")
             view = changes.rename(columns={"time_slot": "time of day", "interval": "since last activity",

@@ -52,10 +52,14 @@ row.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) el
 st.subheader("Participants")
 small = st.column_config.TextColumn
 # widths in pixels so that the table fits beside the sidebar at 1360 px (the age range is on
-# Participants; today's count is in the next step and the metric above, so "next step" is not cut)
+# Participants; today's count is in the next step and the metric above); "next step" comes second,
+# so that a narrower window (1280 px, or 800 beside the sidebar) cuts or scrolls the other columns,
+# not what to do next (walkthrough: "Start day 2 on the tablet (Study sessi")
 st.dataframe(
     table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
-    column_order=[c for c in table.columns if c not in ("age range", "interactions today")],
+    column_order=["participant", "next step"] + [c for c in table.columns
+                                                 if c not in ("participant", "next step", "age range",
+                                                              "interactions today")],
     column_config={
         "participant": small("participant", width=85), "day": small("day", width=95),
         "policy": small("policy", width=135), "last recorded": small("last recorded", width=145,
@@ -79,9 +83,9 @@ if code:
         st.subheader(f"Next for {code}")
         step = row["next step"].iloc[0]
         st.markdown(f":material/arrow_forward: **{step}**")
-        cols = st.columns(3)
-        ui.link("pages/session.py", "Open the study session", ":material/tablet:", cols[0])
-        ui.link("pages/adaptation.py", "Adaptation", ":material/model_training:", cols[1])
-        ui.link("pages/results.py", "Results", ":material/monitoring:", cols[2])
+        links = ui.metric_row()  # a link that does not fit goes on to the next line whole ("Open the study se")
+        ui.link("pages/session.py", "Open the study session", ":material/tablet:", links)
+        ui.link("pages/adaptation.py", "Adaptation", ":material/model_training:", links)
+        ui.link("pages/results.py", "Results", ":material/monitoring:", links)
 
 recent_activity(events)

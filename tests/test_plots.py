@@ -88,6 +88,10 @@ def test_accuracy_by_preference_heatmaps():
     heat = methods.data[0]
     assert list(heat.x) == ["CACAS", "NN"] and "day 2" in methods.layout.title.text
     assert np.allclose(heat.z[2], [0.9, 0.0])
+    # on a narrow page Plotly tilts the column labels: the title keeps the margin above them (walkthrough:
+    # the tilted labels ran into the title at 800 px)
+    for fig in (days, methods):
+        assert fig.layout.title.automargin and fig.layout.title.yref == "container" and fig.layout.xaxis.automargin
 
 
 def test_loop_method_is_the_one_with_a_success_rate():

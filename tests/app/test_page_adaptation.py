@@ -312,3 +312,18 @@ def test_the_adaptation_after_the_last_day_says_the_final_policy_not_day_8(app, 
     assert (f"Adapted with cacas in 1.5 s; policy version {STUDY_DAYS} is the study's final policy (day {STUDY_DAYS} "
             "was its last day).") in [m.value for m in at.success]
     assert f"day {STUDY_DAYS + 1}" not in texts(at)
+
+
+def test_what_changed_over_one_context_says_it_in_the_singular(app, store, quick_policy):
+    """Walkthrough: "The robot's action in each of A02's 1 contexts"."""
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=7.5, interval_minutes=12,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert "The robot's action in P01's **1 context** (most frequent first" in texts(at)
+    assert "1 contexts" not in texts(at)

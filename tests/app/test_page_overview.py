@@ -19,6 +19,8 @@ def test_overview_lists_participants_with_next_step(app, store):
     steps = dict(zip(df["participant"], df["next step"]))
     assert steps["P01"].startswith("Describe 5 preferences")
     assert steps["P02"].startswith("Start day 1")
+    # what to do next comes second: a narrower window cuts the other columns, not it (walkthrough)
+    assert list(at.dataframe[0].proto.column_order)[:2] == ["participant", "next step"]
     # the sidebar picked the participant last worked with (P02's preferences, saved last); the address carries it
     assert at.session_state["participant"] == "P02"
     assert at.query_params["participant"] == ["P02"] or at.query_params["participant"] == "P02"
@@ -122,6 +124,28 @@ def test_a_new_visit_opens_the_study_being_run(app, store):
     store.add_participant("P01")  # then a default-study participant is added: that study is the latest
     assert app().selectbox(key="study").value == "default"
     assert app(study="pilot-walk").selectbox(key="study").value == "pilot-walk"  # the address wins
+
+
+def test_default_chosen_beside_other_studies_stays_on_a_reload(app, store):
+    """Walkthrough: with another study being run, choosing "default" in the sidebar left the address
+    without a study, and a reload opened the other study."""
+    store.create_study("pilot-walk")
+    store.add_participant("W01", study="pilot-walk")
+    store.open_day("W01")
+    at = app()
+    assert at.selectbox(key="study").value == "pilot-walk"
+    at.selectbox(key="study").set_value("default").run()
+    no_exception(at)
+    assert at.query_params["study"] in ("default", ["default"])
+    reloaded = app(**{k: v[0] if isinstance(v, list) else v for k, v in at.query_params.items()})
+    assert reloaded.selectbox(key="study").value == "default"
+
+
+def test_a_database_of_the_default_study_alone_keeps_it_out_of_the_address(app, store):
+    store.add_participant("P01")
+    at = app(participant="P01")
+    no_exception(at)
+    assert "study" not in at.query_params and at.query_params["participant"] in ("P01", ["P01"])
 
 
 def test_recent_activity_shows_a_removal_also_of_the_studys_last_participant(app, store):
