@@ -142,7 +142,7 @@ def _sidebar(store, page) -> None:
                 state = "open" if status.open else "closed"
                 n, more = status.recorded_today, status.unanswered_today
                 st.caption(f"Day {status.day} ({state}) · {n} interaction{'' if n == 1 else 's'} that day"
-                           + (f" (+{more} unanswered)" if more else "") + " · "
+                           + (f" (+{more} not counted)" if more else "") + " · "
                            f"policy {'initial' if status.policy_version is None else 'v' + str(status.policy_version)}")
             st.caption(f"Participant's tablet: [open the tablet view](./?participant={code}&view=tablet)")
         unsaved = ui.unsaved_preference_forms()

@@ -250,10 +250,39 @@ def recent_events(store, participant: str | None = None, limit: int = 8,
                   study: str | None = None) -> pd.DataFrame:
     """The last events in words, newest first: when, who, what (of one participant, or of the
     participants of one ``study``)."""
-    ev = store.events(participant=participant, limit=limit, study=study)
-    return pd.DataFrame({"when": [short_time(a) for a in ev["at"]],
-                         "participant": ev["participant"].fillna(""),
-                         "what": [_event_words(w, d) for w, d in zip(ev["what"], ev["details"])]}).iloc[::-1]
+    ev = store.events(participant=participant, limit=limit * 8, study=study)  # runs merged below take several
+    rows: list[list] = []  # when, participant, what, the run's merge key, its methods
+    for at, who, what, details in zip(ev["at"], ev["participant"].fillna(""), ev["what"], ev["details"]):
+        key, method = _scoring_run(what, details)
+        if key is not None and rows and rows[-1][3] == (who, key) and method not in rows[-1][4]:
+            rows[-1][0] = at
+            rows[-1][4].append(method)
+            continue
+        rows.append([at, who, _event_words(what, details), (who, key) if key is not None else None, [method]])
+    for row in rows:  # a method comparison's runs, one line: they pushed everything else out of the list
+        if len(row[4]) > 1:
+            kind, day = row[3][1]
+            row[2] = (f"initial policy scored ({', '.join(row[4])})" if kind == "initial" else
+                      f"comparison runs ({', '.join(row[4])}) on {adapted_from(day)}, no policy saved")
+    rows = rows[-limit:]
+    return pd.DataFrame({"when": [short_time(r[0]) for r in rows], "participant": [r[1] for r in rows],
+                         "what": [r[2] for r in rows]}).iloc[::-1]
+
+
+def _scoring_run(what: str, details: str) -> tuple[tuple | None, str | None]:
+    """An event of a run that scores a policy and saves none: the initial policy scored (day 0) or
+    a Fig. 4 comparison run: (its kind and day, its method); (None, None) for any other event."""
+    if what != "record_adaptation":
+        return None, None
+    try:
+        d = json.loads(details or "{}")
+    except json.JSONDecodeError:
+        return None, None
+    if not d.get("day"):
+        return ("initial", 0), d.get("method")
+    if d.get("policy_version") is None:
+        return ("comparison", d.get("day")), d.get("method")
+    return None, None
 
 
 # --- preferences form ----------------------------------------------------------------------------

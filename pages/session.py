@@ -361,7 +361,7 @@ elif context is None:
                    f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a proposal, let "
                    f"{code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
-        st.markdown("#### What are you doing?")
+        st.markdown("#### What are you doing?" if tablet else f"#### What is {code} doing?")  # the researcher sets it
         c1, c2 = st.columns(2)
         # all four chosen every time (Section VI-B: the participant sets S3, S4 and S1): a preset value
         # (the time since the last activity at 20 min; the time of day at the previous interaction's) was kept

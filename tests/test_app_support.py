@@ -432,3 +432,22 @@ def test_an_import_of_personas_is_said_group_by_group():
         "Imported example.json: added P03, P04 · preferences replaced for P02 · unchanged P01.")
     assert app_support.personas_imported(PersonasImport(codes=("P05",), first=("P05",)), "mine.json") == (
         "Imported mine.json: first preferences for P05.")
+
+
+def test_a_method_comparisons_runs_are_one_line_of_recent_activity(tmp_path):
+    """Walkthrough: one participant-day's comparison gave 8 lines ("comparison run (nn) on day 1, no
+    policy saved", ...), and they pushed everything else out of the Overview's recent activity."""
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    store.close_day("P01", store.open_day("P01"))
+    for method in ("cacas-no-pr", "orl", "nn"):
+        store.record_adaptation("P01", 0, method, {"comparison": True}, 1.0, {})
+    for method in ("cacas-no-pr", "orl", "nn"):
+        store.record_adaptation("P01", 1, method, {"comparison": True}, 1.0, {})
+    store.add_participant("P02")
+    store.record_adaptation("P02", 0, "nn", {}, 1.0, {})  # another participant's: a line of its own
+    words = list(app_support.recent_events(store, limit=4)["what"])
+    assert words == ["initial policy scored (nn)", "participant added",
+                     "comparison runs (cacas-no-pr, orl, nn) on day 1, no policy saved",
+                     "initial policy scored (cacas-no-pr, orl, nn)"]
+    store.close()

@@ -450,7 +450,7 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
         bar = at.get("progress")[0]
         assert bar.proto.text == "Day 1 of 7 · 1 of about 15 interactions today" + apart
     at = app(PAGE, participant="P01")  # the researcher's sidebar and the day's table say the same two numbers
-    assert "Day 1 (open) · 1 interaction that day (+1 unanswered) · policy initial" in [
+    assert "Day 1 (open) · 1 interaction that day (+1 not counted) · policy initial" in [  # the same words too
         c.value for c in at.sidebar.caption]
     assert [e.label for e in at.expander if e.label.startswith("Today")] == [
         "Today's interactions (1 recorded, 1 not counted)"]
@@ -498,8 +498,9 @@ def test_the_models_are_loaded_while_the_context_form_is_shown(app, store, p01, 
     store.open_day("P01")
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert "What are you doing?" in texts(at)
+    assert "What is P01 doing?" in texts(at)  # the researcher's view: not the participant's "you"
     assert sorted(kind for kind, _ in seen) == ["scene", "sound"]
+    assert "What are you doing?" in texts(app(PAGE, participant="P01", view="tablet"))
 
 
 def test_the_browsers_back_button_does_not_answer_an_answered_proposal_again(app, store, p01, quick_policy):
