@@ -522,10 +522,14 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
             + ("; compare methods again to add them." if again else "."))
 
 
-def comparison_done(runs: int, elapsed: float) -> str:
+def comparison_done(runs: int, elapsed: float, finished: float | None = None) -> str:
     """What the Results page says when "Compare methods" has ended: the runs it recorded (0: every
-    closed day had every method's run already), and how long it took."""
+    closed day had every method's run already), how long it took and, given ``finished`` (epoch
+    seconds), when it ended: the server keeps the last comparison for every session, and a session
+    opened later read it as news (walkthrough)."""
     took = f"{elapsed:.0f} s" if elapsed < 120 else f"{elapsed / 60:.0f} min"
+    if finished is not None:
+        took += f", ended {short_time(finished)}"
     if not runs:
         return (f"Methods compared ({took}): no new run; each method has one for every closed day of the participants "
                 "with described preferences already (a day is compared once it is closed).")
