@@ -112,6 +112,12 @@ class TabletBoard:
             return None
         return held
 
+    def pending(self, db: str, participant: str) -> Asked | None:
+        """The request awaiting the participant's confirmation on their tablet, whatever its
+        proposal: what the researcher's view says beside the proposal it follows."""
+        with self._lock:
+            return self._asked.get((str(db), participant))
+
     def shown(self, db: str, participant: str, day: int | None = None, index: int | None = None) -> Shown | None:
         """The proposal the participant's tablet shows; with ``day`` and ``index``, only if it is
         for that interaction (one already answered elsewhere, or of a closed day, is not)."""

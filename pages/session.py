@@ -238,7 +238,7 @@ FOLLOW_EVERY_SECONDS = 3
 
 
 @st.fragment(run_every=FOLLOW_EVERY_SECONDS)
-def _follow_the_tablet(drawn, drawn_shown) -> None:
+def _follow_the_tablet(drawn, drawn_shown, drawn_pending) -> None:
     """The researcher's view follows the participant's tablet: once an interaction is saved there (or the
     day is opened, closed or adapted elsewhere), or the tablet shows another proposal, the whole page is
     drawn again, without a reload. The tablet itself is never redrawn under the participant's hands."""
@@ -246,7 +246,7 @@ def _follow_the_tablet(drawn, drawn_shown) -> None:
         now = day_status(store, code)
     except CacasError:  # the participant was removed meanwhile: the whole page says so
         st.rerun()
-    if now != drawn or board.shown(db, code) != drawn_shown:
+    if now != drawn or board.shown(db, code) != drawn_shown or board.pending(db, code) != drawn_pending:
         st.rerun()
 
 
@@ -263,6 +263,14 @@ def _on_the_tablet(shown: Shown) -> None:
         st.caption(f"{shown.activity} in the {shown.scene} · {shown.time_slot}")
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(shown.line)
+        asked = board.pending(db, code)
+        if asked is not None and (asked.day, asked.index) == (shown.day, shown.index):  # typed, awaiting their yes
+            with st.chat_message("user", avatar=":material/person:"):
+                st.markdown(f"“{asked.said}”")
+            words = dialogue.request_words(asked.action)
+            st.caption(f":material/hourglass_empty: The robot understood: {words}"
+                       + (f" ({asked.action})" if words != asked.action else "")  # the action's name, if other
+                       + f"; it waits for {code}'s yes on the tablet.")
         st.caption("The participant answers on the tablet; this page follows it. 'Run it from here instead' opens "
                    "this page's own context form: you set the context and the robot proposes again (the tablet's "
                    "proposal is not taken over). Whichever answer is saved first, here or on the tablet, is kept; "
@@ -274,7 +282,7 @@ def _on_the_tablet(shown: Shown) -> None:
 
 status = day_status(store, code)
 if not tablet:
-    _follow_the_tablet(status, board.shown(db, code))
+    _follow_the_tablet(status, board.shown(db, code), board.pending(db, code))
 head, back = st.columns([2, 1], vertical_alignment="center")  # [3, 1] cut "Choose a different activity" at 768 px
 if tablet:
     head.markdown(f"## :material/smart_toy: Hello, {code}")

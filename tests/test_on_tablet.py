@@ -66,5 +66,6 @@ def test_a_request_awaiting_confirmation_is_read_back_for_its_proposal_only():
     board.show("a.sqlite", "P01", _shown(3))  # the next interaction: answered meanwhile
     assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None
     board.ask("a.sqlite", "P01", asked)
+    assert board.pending("a.sqlite", "P01") == asked and board.pending("a.sqlite", "P02") is None  # any proposal's
     board.clear("a.sqlite", "P01")  # the tablet shows its form
-    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None
+    assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None and board.pending("a.sqlite", "P01") is None

@@ -727,6 +727,9 @@ def test_a_reload_of_the_tablet_keeps_a_typed_request_awaiting_its_yes(app, stor
     no_exception(reloaded)
     df = store.interactions_frame("P01", method=None)
     assert list(df["user_action"]) == ["remind to turn off"] and list(df["type"]) == ["type_2"]
+    answered = app(PAGE, **address)  # the answered proposal's address again: nothing is asked
+    no_exception(answered)
+    assert "Yes, please" not in {b.label for b in answered.button}
 
     # the next proposal: a request said "No" to is not asked again after a reload
     _choose(reloaded)
@@ -739,3 +742,24 @@ def test_a_reload_of_the_tablet_keeps_a_typed_request_awaiting_its_yes(app, stor
     # nor on the researcher's view, which has a session of its own
     researcher = app(PAGE, participant="P01")
     assert "Yes, please" not in {b.label for b in researcher.button}
+
+
+def test_the_researchers_view_shows_a_typed_request_awaiting_the_participants_yes(app, store, p01, quick_policy):
+    """Walkthrough: the researcher's view followed the tablet's proposal but not the request the
+    participant had typed and was about to confirm."""
+    store.open_day("P01")
+    tab = app(PAGE, participant="P01", view="tablet")
+    _choose(tab)
+    tab.text_input(key="request-text").set_value("please remind me to switch the stove off")
+    _button(tab, "Say it").click().run()
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert "On P01's tablet now" in texts(desk)
+    said = [m.children[0].value for m in desk.chat_message]
+    assert "“please remind me to switch the stove off”" in said
+    assert ("The robot understood: remind me to turn it off (remind to turn off); it waits for P01's yes "
+            "on the tablet.") in texts(desk)
+    assert "Yes, please" not in {b.label for b in desk.button}  # the participant's to answer
+    _button(tab, "No").click().run()  # withdrawn: the researcher's view no longer says it
+    desk = app(PAGE, participant="P01")
+    assert "On P01's tablet now" in texts(desk) and "it waits for P01's yes" not in texts(desk)
