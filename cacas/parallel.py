@@ -50,20 +50,24 @@ class InterruptHeld:
             resource_tracker.ensure_running()  # started by the first spawn, it unblocks Ctrl-C here
             self.mask = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
         self.pressed: list[int] = []
-        self.handler = None
-        if threading.current_thread() is threading.main_thread():
-            self.handler = signal.signal(signal.SIGINT, lambda signum, frame: self.pressed.append(signum))
+        self.swapped = None  # the handler to put back; None: not swapped (not the main thread, or not Python's)
+        previous = signal.getsignal(signal.SIGINT)
+        if threading.current_thread() is threading.main_thread() and previous is not None:
+            signal.signal(signal.SIGINT, lambda signum, frame: self.pressed.append(signum))
+            self.swapped = previous
         self.held = True
 
     def release(self) -> None:
-        """The mask and handler as they were; a Ctrl-C pressed meanwhile arrives now. Once only."""
+        """The mask and handler as they were; a Ctrl-C pressed meanwhile arrives now. Once only.
+        Unblocked first, while the noting handler is still in place (a pending Ctrl-C is noted, not
+        raised between the two steps, which left Ctrl-C blocked for good)."""
         if not self.held:
             return
         self.held = False
-        if self.handler is not None:
-            signal.signal(signal.SIGINT, self.handler)
         if self.mask is not None:
             signal.pthread_sigmask(signal.SIG_SETMASK, self.mask)  # a blocked, pending one arrives
+        if self.swapped is not None:
+            signal.signal(signal.SIGINT, self.swapped)
         if self.pressed:
             signal.raise_signal(signal.SIGINT)
 

@@ -265,3 +265,28 @@ def test_a_file_no_row_names_is_deleted_only_after_a_write_that_was_cut_short(tm
     with StudyStore(path) as s:
         assert s.load_policy("P03") == b"P03's policy"  # marked, but named
     assert sorted(f.name for f in folder.iterdir()) == sorted([rel.split("/")[1], stray.name])
+
+
+def test_ctrl_c_while_a_save_waits_for_the_policies_lock_closes_its_descriptor(tmp_path, monkeypatch):
+    """Review: only OSError was caught around the shared lock: a Ctrl-C while waiting for it (a
+    cleanup holding it) left the folder's descriptor open."""
+    import pytest
+
+    def interrupted(fd, how):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(recovery.fcntl, "flock", interrupted)
+    opened = []
+    real_open = os.open
+
+    def recording_open(path, flags, *args):
+        fd = real_open(path, flags, *args)
+        opened.append(fd)
+        return fd
+    monkeypatch.setattr(recovery.os, "open", recording_open)
+    with pytest.raises(KeyboardInterrupt):
+        with recovery.saving(tmp_path / "policies"):
+            pass
+    monkeypatch.undo()
+    assert len(opened) == 1
+    with pytest.raises(OSError):  # closed again
+        os.fstat(opened[0])

@@ -97,19 +97,22 @@ def saving(policy_dir: Path):
     before ``path`` is written, leaves a marker beside it until the block ends. A process killed
     inside the block leaves its markers, and :func:`delete_unsaved_policy_files` (which takes the
     lock exclusively, so never while a writer is inside) deletes the files no row names. Best
-    effort: a folder that cannot be created or locked writes no marker (the write then fails on
-    its own, with its own message)."""
+    effort: a folder that cannot be created writes no marker (the write then fails on its own,
+    with its own message); one that cannot be locked (a file system without ``flock``) writes no
+    marker either, and the save goes ahead: killed before its row, its file is left as before."""
     markers: list[Path] = []
     fd = None
     try:
         policy_dir.mkdir(parents=True, exist_ok=True)
         fd = os.open(policy_dir, os.O_RDONLY)
         if fcntl is not None:
-            fcntl.flock(fd, fcntl.LOCK_SH)
-    except OSError:
+            fcntl.flock(fd, fcntl.LOCK_SH)  # waits while a cleanup holds it
+    except BaseException as exc:  # OSError: no marker; Ctrl-C while waiting: the descriptor is closed too
         if fd is not None:
             os.close(fd)
         fd = None
+        if not isinstance(exc, OSError):
+            raise
 
     def mark(path: Path) -> None:
         if fd is None:
