@@ -362,8 +362,7 @@ def _rewrite(bundle, out, table, change):
 @pytest.mark.parametrize("table,change,message", [
     ("interactions", lambda df: df.assign(activity="juggle"), "interactions.csv, row 2: activity"),
     ("days", lambda df: df.assign(day="100000000000000000000"),
-     r"days.csv, row 2, column day: value 100000000000000000000 is invalid; valid: a whole number "
-     r"1..9223372036854775807"),
+     r"days.csv, row 2, column day: '100000000000000000000' is too large; valid: a whole number >= 1$"),
     ("interactions", lambda df: df.assign(response="maybe"), "unknown response 'maybe'"),
     ("interactions", lambda df: df.assign(interval="7"), "interval 7 is not an S4 bin value"),
     ("questionnaire", lambda df: df.assign(satisfaction="11"), "satisfaction"),
@@ -403,7 +402,7 @@ def _rewrite(bundle, out, table, change):
      r"type_2 interactions have one"),
     ("interactions", lambda df: df.assign(user_action=""), "interactions.csv, row 6: user_action is missing"),
     ("interactions", lambda df: df.assign(time="garbage"),
-     r'interactions.csv, row 2: time \'garbage\' is invalid; valid: an ISO 8601 time with a time zone, such as '
+     r'interactions.csv, row 2, column time: \'garbage\' is invalid; valid: an ISO 8601 time with a time zone, such as '
      r'"2026-11-21T10:00:00Z" \(UTC\)'),
     ("days", lambda df: df.assign(day=df["day"].replace("2", "5")),
      r"days.csv, row 3: day 5 of participant P01 follows day 1; valid: days numbered 1, 2, 3, ..."),
@@ -571,13 +570,13 @@ def test_times_record_interaction_stored_as_given_are_restored_as_they_were_with
     target = tmp_path / "b" / "moved.sqlite"
     restored = export.import_bundle(old, target)
     assert restored.notes == (
-        "interactions.csv, row 2, column time: time '2026-11-21T10:00:00' has no time zone, so which moment it "
+        "interactions.csv, row 2, column time: '2026-11-21T10:00:00' has no time zone, so which moment it "
         "names is not known; imported as it was, as the study held it (record_interaction stored such times "
         "before it refused them)",
         "interactions.csv, row 3, column time: '2026-11-21T11:00:00+01:00' is not in UTC as the app writes times "
         "('2026-11-21T10:00:00.000Z'); imported as it was, as the study held it (record_interaction stored such "
         "times before it converted them to UTC)",
-        "interactions.csv, row 4, column time: time '2026-11-21' is a date alone; imported as it was, as the "
+        "interactions.csv, row 4, column time: '2026-11-21' is a date alone; imported as it was, as the "
         "study held it (record_interaction stored such times before it refused them)",
         "interactions.csv, row 5, column time: '2026-11-21T12:00:00Z' is in UTC, but not written as the app writes "
         "times ('2026-11-21T12:00:00.000Z'); imported as it was, as the study held it (record_interaction stored "
@@ -606,8 +605,8 @@ def test_a_time_column_holding_no_time_is_refused_naming_file_row_and_column(sto
     bad = _rewrite(bundle, tmp_path / "bad.zip", table, lambda df: df.assign(**{
         column: df[column].where(df.index != 0, garbage)}))
     target = tmp_path / "new" / "study.sqlite"
-    with pytest.raises(CacasError, match="^" + re.escape(f"{bad}: {table}.csv, row 2: {column} {garbage!r} is invalid; "
-                                                     "valid: an ISO 8601 time with a time zone, such as ")):
+    with pytest.raises(CacasError, match="^" + re.escape(f"{bad}: {table}.csv, row 2, column {column}: {garbage!r} is "
+                                                     "invalid; valid: an ISO 8601 time with a time zone, such as ")):
         export.import_bundle(bad, target)
     assert not target.parent.exists()
 
@@ -626,9 +625,9 @@ def test_times_an_import_took_unchecked_are_restored_as_they_were_with_notes(sto
     assert export.import_bundle(old, target).notes == (
         f"days.csv, row 2, column opened_at: '2026-11-21T11:00:00+01:00' is not in UTC as the app writes times "
         f"('2026-11-21T10:00:00.000Z'); {why}",
-        f"days.csv, row 2, column closed_at: time '2026-11-21 18:00' has no time zone, so which moment it names is "
+        f"days.csv, row 2, column closed_at: '2026-11-21 18:00' has no time zone, so which moment it names is "
         f"not known; {why}",
-        f"events.csv, row 2, column at: time '2026-11-21' is a date alone; {why}")
+        f"events.csv, row 2, column at: '2026-11-21' is a date alone; {why}")
     with StudyStore(target) as moved:
         assert moved.days_frame()[["opened_at", "closed_at"]].iloc[0].tolist() == ["2026-11-21T11:00:00+01:00",
                                                                                   "2026-11-21 18:00"]

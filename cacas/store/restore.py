@@ -70,12 +70,14 @@ def _int(r: dict, column: str, low: int = 0, high: int = _MAX_INT) -> int:
     try:
         value = int(cell)
     except ValueError:
-        valid = f"a whole number >= {low}" if high == _MAX_INT else f"a whole number {low}..{high}"
-        raise _CellError(column, f"{cell!r} is not a whole number; valid: {valid}") from None
-    try:
-        return v.integer(value, "value", low, high)
-    except CacasError as exc:
-        raise _CellError(column, str(exc)) from None
+        raise _CellError(column, f"{cell!r} is not a whole number; valid: {_whole(low, high)}") from None
+    if not low <= value <= high:
+        raise _CellError(column, f"{cell!r} is too {'small' if value < low else 'large'}; valid: {_whole(low, high)}")
+    return value
+
+
+def _whole(low: int, high: int) -> str:
+    return f"a whole number >= {low}" if high == _MAX_INT else f"a whole number {low}..{high}"
 
 
 def _opt_int(r: dict, column: str) -> int | None:
@@ -164,14 +166,14 @@ class _Notes(list):
         before = ("record_interaction stored such times before it {}" if column == "time" else
                   "an import took such times before it checked them")
         try:
-            utc = v.timestamp(cell)
+            utc = v.timestamp(cell, column)
         except CacasError as exc:
+            problem = str(exc).removeprefix(f"{column} ")  # the column is named before it: "column at: 'x' is ..."
             try:
                 v.iso_time(cell)
             except ValueError:
-                raise CacasError(str(exc) if column == "time" else
-                                 f"{column} {cell!r} is invalid; valid: {v.TIME_HINT}") from None
-            self.kept(column, str(exc).partition("; valid:")[0], before.format("refused them"))
+                raise _CellError(column, problem) from None
+            self.kept(column, problem.partition("; valid:")[0], before.format("refused them"))
             return cell
         if utc != cell:
             in_utc = v.iso_time(cell).utcoffset().total_seconds() == 0

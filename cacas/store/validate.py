@@ -282,12 +282,13 @@ def iso_time(text: str) -> datetime:
     return datetime.fromisoformat(text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text)
 
 
-def timestamp(value: Any) -> str:
+def timestamp(value: Any, field: str = "time") -> str:
     """An interaction's time in the store's format, UTC as :func:`now` writes it
     ("2026-11-21T09:47:34.123Z"): now if None; an aware datetime, or an ISO 8601 text with a time
     zone ("Z" or an offset such as "+01:00"), converted to UTC. A time without a zone, a date alone
     or anything else raises CacasError: which moment it names is not known, and times are compared
-    as text (daily.csv's success ceiling picks the preference version saved by then)."""
+    as text (daily.csv's success ceiling picks the preference version saved by then). ``field``
+    names the value in the message (an import checks other time columns with it)."""
     if value is None:
         return now()
     given = value
@@ -296,22 +297,22 @@ def timestamp(value: Any) -> str:
         try:
             value = iso_time(text)
         except ValueError:
-            raise CacasError(f"time {given!r} is invalid; valid: {TIME_HINT}") from None
+            raise CacasError(f"{field} {given!r} is invalid; valid: {TIME_HINT}") from None
         if "T" not in text.upper() and " " not in text:
-            raise CacasError(f"time {given!r} is a date alone; valid: {TIME_HINT}")
+            raise CacasError(f"{field} {given!r} is a date alone; valid: {TIME_HINT}")
     if not isinstance(value, datetime):
-        raise CacasError(f"time {given!r} is invalid; valid: a datetime with a time zone (tzinfo), or {TIME_HINT}")
+        raise CacasError(f"{field} {given!r} is invalid; valid: a datetime with a time zone (tzinfo), or {TIME_HINT}")
     try:
         offset = value.utcoffset()
     except ValueError:  # pandas' NaT (a missing time in a frame) is a datetime that has none
-        raise CacasError(f"time {given!r} is missing; valid: {TIME_HINT}, or None for now") from None
+        raise CacasError(f"{field} {given!r} is missing; valid: {TIME_HINT}, or None for now") from None
     if offset is None:
-        raise CacasError(f"time {given!r} has no time zone, so which moment it names is not known; valid: "
+        raise CacasError(f"{field} {given!r} has no time zone, so which moment it names is not known; valid: "
                          f"{TIME_HINT}{'' if isinstance(given, str) else ', or a datetime with tzinfo'}")
     try:
         return _utc_text(value)
     except OverflowError:  # 0001-01-01T00:30+01:00 is before the first moment a datetime holds
-        raise CacasError(f"time {given!r} is out of range; valid: {TIME_HINT}") from None
+        raise CacasError(f"{field} {given!r} is out of range; valid: {TIME_HINT}") from None
 
 
 def json_dict(value: Any, field: str) -> str:
