@@ -47,12 +47,16 @@ def short_clip_warning(seconds: float) -> str:
             f"it, and the result says little; record at least {SHORT_CLIP_SECONDS:g} s (1 s or more is best)")
 
 
-def unsure_words(recognition: "Recognition", what: str) -> str:
+#: What a recogniser's classes are called, by kind ("sound", "scene").
+CLASS_WORDS = {"sound": "sound activities", "scene": "home scenes"}
+
+
+def unsure_words(recognition: "Recognition", kind: str) -> str:
     """What the app's "Try a clip or a photo" and ``cacas sound/scene recognize`` say of an unsure
-    recognition (:attr:`Recognition.unsure`), ``what`` naming the classes ("sound activities",
-    "home scenes"): one rule and one wording for both."""
+    recognition (:attr:`Recognition.unsure`) of a ``kind`` ("sound", "scene") recogniser: one rule
+    and one wording for both."""
     return (f"{100 * recognition.confidence:.0f}% for {recognition.label}. It may be none of the "
-            f"{len(recognition.probabilities)} {what} the model knows")
+            f"{len(recognition.probabilities)} {CLASS_WORDS[kind]} the model knows")
 
 
 @dataclass(frozen=True)

@@ -47,7 +47,7 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
     if r.short:
         st.warning(f"The clip {short_clip_warning(r.seconds)}.", icon=":material/timer:")
     if r.unsure:
-        st.warning(f"Unsure: {unsure_words(r, 'sound activities' if kind == 'sound' else 'home scenes')}.",
+        st.warning(f"Unsure: {unsure_words(r, kind)}.",
                    icon=":material/help:")
     st.dataframe(pd.DataFrame(r.top3, columns=["activity" if kind == "sound" else "scene", "probability"]),
                  hide_index=True, column_config={"probability": st.column_config.ProgressColumn(

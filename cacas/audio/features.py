@@ -168,9 +168,7 @@ def windows(signal: np.ndarray) -> np.ndarray:
     n = len(y)
     if n <= WINDOW_SAMPLES:
         return np.pad(y, (0, WINDOW_SAMPLES - n))[None, :]
-    count = n // WINDOW_SAMPLES
-    if n - count * WINDOW_SAMPLES >= WINDOW_SAMPLES // 2:
-        count += 1
+    count = window_count(n)
     y = np.pad(y, (0, max(0, count * WINDOW_SAMPLES - n)))
     return y[: count * WINDOW_SAMPLES].reshape(count, WINDOW_SAMPLES)
 

@@ -34,19 +34,13 @@ def package_version() -> str:
         return importlib.metadata.version("cacas")
     except importlib.metadata.PackageNotFoundError:
         pass
+    import tomllib
+
     pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
     try:
-        import tomllib
-
         return str(tomllib.loads(pyproject.read_text())["project"]["version"])
-    except (ImportError, OSError, ValueError, KeyError):  # Python 3.10 has no tomllib; read the line
-        import re
-
-        try:
-            found = re.search(r'^version\s*=\s*"([^"]+)"', pyproject.read_text(), re.M)
-        except OSError:
-            found = None
-        return found.group(1) if found else "unknown"
+    except (OSError, ValueError, KeyError):  # no pyproject beside the package, or not one of ours
+        return "unknown"
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import (check_confusion_png, count, library_out, print_metrics, print_recognition,
-                             save_confusion)
+from cacas.cli.sound import (add_training_options, check_confusion_png, count, library_out, print_metrics,
+                             print_recognition, save_confusion)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 from cacas.recognition import UNSURE_BELOW
@@ -41,13 +41,7 @@ def register(subparsers) -> None:
     t.add_argument("--weights", default="auto",
                    help="initial weights: 'auto' (torchvision's local cache if present), 'none', or a .pth file "
                         "(default auto)")
-    t.add_argument("--epochs", type=types.count, default=12,
-                   help=types.described("at most this many epochs", types.count, 12))
-    t.add_argument("--patience", type=types.count, default=4,
-                   help=types.described("early stopping: epochs without improvement", types.count, 4))
-    t.add_argument("--seed", type=types.seed, default=0,
-                   help=types.described("seed of the held-out split and the training", types.seed, 0))
-    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_training_options(t, epochs=12, patience=4)
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a scene model (default: on its held-out images)",
                        description="Test a scene model: accuracy, per-scene accuracy and confusions, by default on "
@@ -135,5 +129,5 @@ def run_recognize(args) -> int:
 
     rec = SceneRecognizer.load(args.model)
     for f in args.files:
-        print_recognition(f, rec.recognize(f), "scene recognize", "home scenes")
+        print_recognition(f, rec.recognize(f), "scene")
     return 0

@@ -35,19 +35,19 @@ def print_metrics(metrics, what: str = "recordings") -> None:
             print(f"  {r.true} -> {r.predicted}: {r.count}")
 
 
-def print_recognition(path, rec, command: str, what: str) -> None:
+def print_recognition(path, rec, kind: str) -> None:
     """``rec``'s label and top 3 on stdout; on stderr, as warnings, what the app's "Try a clip or a
-    photo" warns of: a clip too short to say much, a recognition the model is unsure of (``what``:
-    the classes, "sound activities" or "home scenes")."""
+    photo" warns of: a clip too short to say much, a recognition the ``kind`` ("sound", "scene")
+    model is unsure of."""
     from cacas.recognition import short_clip_warning, unsure_words
 
     print(f"{path}: {rec.label}")
     for label, p in rec.top3:
         print(f"  {label:24s} {p:.3f}")
     if rec.short:
-        print(f"cacas {command}: warning: {path}: {short_clip_warning(rec.seconds)}", file=sys.stderr)
+        print(f"cacas {kind} recognize: warning: {path}: {short_clip_warning(rec.seconds)}", file=sys.stderr)
     if rec.unsure:
-        print(f"cacas {command}: warning: {path}: unsure: {unsure_words(rec, what)}", file=sys.stderr)
+        print(f"cacas {kind} recognize: warning: {path}: unsure: {unsure_words(rec, kind)}", file=sys.stderr)
 
 
 @contextlib.contextmanager
@@ -65,6 +65,21 @@ def library_out(out, default: Path):
     except BaseException:
         files.remove_empty(made)
         raise
+
+
+def add_training_options(t, epochs: int, patience: int, augment: int | None = None) -> None:
+    """The options ``sound train`` and ``scene train`` share (``--augment``: sound only), with
+    their defaults and valid values in the help."""
+    t.add_argument("--epochs", type=types.count, default=epochs,
+                   help=types.described("at most this many epochs", types.count, epochs))
+    t.add_argument("--patience", type=types.count, default=patience,
+                   help=types.described("early stopping: epochs without improvement", types.count, patience))
+    if augment is not None:
+        t.add_argument("--augment", type=types.count, default=augment,
+                       help=types.described("augmented copies per training window", types.count, augment))
+    t.add_argument("--seed", type=types.seed, default=0,
+                   help=types.described("seed of the held-out split and the training", types.seed, 0))
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def register(subparsers) -> None:
@@ -95,15 +110,7 @@ def register(subparsers) -> None:
                                    "holding out recordings for the test, and save it.")
     t.add_argument("--data", type=types.path, default=None, help="library folder (default study_data/sounds)")
     t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
-    t.add_argument("--epochs", type=types.count, default=8,
-                   help=types.described("at most this many epochs", types.count, 8))
-    t.add_argument("--patience", type=types.count, default=3,
-                   help=types.described("early stopping: epochs without improvement", types.count, 3))
-    t.add_argument("--augment", type=types.count, default=1,
-                   help=types.described("augmented copies per training window", types.count, 1))
-    t.add_argument("--seed", type=types.seed, default=0,
-                   help=types.described("seed of the held-out split and the training", types.seed, 0))
-    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_training_options(t, epochs=8, patience=3, augment=1)
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)",
                        description="Test a sound model: accuracy, per-activity accuracy and confusions, by "
@@ -199,5 +206,5 @@ def run_recognize(args) -> int:
 
     rec = SoundRecognizer.load(args.model)
     for f in args.files:
-        print_recognition(f, rec.recognize(f), "sound recognize", "sound activities")
+        print_recognition(f, rec.recognize(f), "sound")
     return 0

@@ -276,8 +276,8 @@ TIME_HINT = ('an ISO 8601 time with a time zone, such as "2026-11-21T10:00:00Z" 
 
 
 def iso_time(text: str) -> datetime:
-    """``datetime.fromisoformat`` of ``text``, a trailing "Z" read as UTC (Python 3.10's does not
-    read it); ValueError if it is no ISO 8601 date or time."""
+    """``datetime.fromisoformat`` of ``text`` (surrounding spaces and a lower-case "z" for UTC
+    allowed); ValueError if it is no ISO 8601 date or time."""
     text = text.strip()
     return datetime.fromisoformat(text[:-1] + "+00:00" if text[-1:] in ("Z", "z") else text)
 
