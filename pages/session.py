@@ -232,6 +232,8 @@ def _reject_match() -> None:
         board.withdraw(db, code)
     s["request-text"] = s.pop("request-said", "")  # back in the field, to be said differently
     s["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
+    if tablet:  # said under the request form, below the fold at 1024 x 768 (walkthrough): a toast is seen at once
+        st.toast(s["request-error"], icon=":material/help:")
 
 
 FOLLOW_EVERY_SECONDS = 3

@@ -427,6 +427,8 @@ def test_a_typed_request_is_confirmed_in_place_of_the_proposal(app, store, p01, 
     no_exception(at)
     assert at.text_input(key="request-text").value == "please remind me to switch the stove off"
     assert "Pick what you would like from the list, or say it differently." in texts(at)
+    # said under the request form, below the fold at 1024 x 768: also a toast, seen at once (walkthrough)
+    assert [t.value for t in at.toast] == ["Sorry. Pick what you would like from the list, or say it differently."]
     assert len(at.chat_message) == 1 and "Say it" in {b.label for b in at.button}
     at.text_input(key="request-text").set_value("turn off the stove please")
     _button(at, "Say it").click().run()
