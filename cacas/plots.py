@@ -296,10 +296,13 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
     """Fig. 4: each method's preference accuracy (mean over participants) per day."""
     a = accuracy_by_day(daily)
     fig = go.Figure()
-    for method, d in a.groupby("method", sort=False):
+    for i, (method, d) in enumerate(a.groupby("method", sort=False)):
         fig.add_trace(go.Scatter(
             x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
+            # each method's markers smaller than the one's drawn before: where methods score the same (day 1:
+            # one initial policy) they show as rings, not as the last method's dot alone (walkthrough)
+            marker=dict(size=max(5, 14 - 3 * i)),
             customdata=d[["min", "max", "participants"]],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]} participants)<extra></extra>"))

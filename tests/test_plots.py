@@ -46,6 +46,9 @@ def test_fig4_one_line_per_method():
     fig = methods_figure(daily())
     assert [t.name for t in fig.data] == ["CACAS", "NN"]
     assert np.allclose(fig.data[1].y, [0.3, 0.3, 0.3])
+    # where methods score the same (day 1, one initial policy), the later ones' smaller markers show
+    # the earlier ones around them (walkthrough: one red NN dot stood for the four methods)
+    assert fig.data[0].marker.size > fig.data[1].marker.size
 
 
 def test_the_day_axis_spans_the_days_drawn():
