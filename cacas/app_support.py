@@ -369,6 +369,11 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
                    if not item.get(key)]
         if missing:  # in the form's words; a persona file gets the library's message
             errors[n] = f"choose {' and '.join(missing)}: a preference says which activities lead to which action"
+            try:  # and its words' problem at once, not after the fields are chosen (walkthrough)
+                words = prefs.Preference(activity=(), action="", description=str(item.get("description") or ""))
+                prefs.check_private_words(prefs.Participant(code, (words,)), None, [n])
+            except CacasError as exc:
+                errors[n] += f"; and {_strip_where(str(exc))}"
             continue
         try:
             parsed.append(prefs.parse_preference(item, None, code, n - 1))

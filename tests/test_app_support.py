@@ -67,6 +67,13 @@ def test_preference_form_and_checks():
         1: "choose at least one activity and an action: a preference says which activities lead to which action"}
     typo = {"activity": ["coughing"], "action": "pain check"}
     assert app_support.check_preferences("P01", [typo])[1][1].startswith("field 'activity': unknown activity 'coughing'")
+    # a missing field and contact details in the words: both at once (walkthrough: the words' problem
+    # was said only once the activity had been chosen)
+    mailed = app_support.preference_from_form("mail me at a@b.org", [], [], [], (0, 200), "pain check")
+    assert app_support.check_preferences("P01", [mailed])[1] == {
+        1: "choose at least one activity: a preference says which activities lead to which action; and field "
+           "'description': holds what looks like contact details ('a@b.org'); valid: the participant's words "
+           "without e-mail addresses or phone numbers (study data are pseudonymous)"}
 
 
 def test_overview_says_who_still_owes_the_questionnaire(tmp_path):
