@@ -47,6 +47,18 @@ def short_clip_warning(seconds: float) -> str:
             f"it, and the result says little; record at least {SHORT_CLIP_SECONDS:g} s (1 s or more is best)")
 
 
+def evaluated_on(metrics: "Metrics", what: str) -> str:
+    """What an evaluation's accuracy is on, for ``cacas sound/scene eval`` and the app's "Evaluate
+    the saved ... model" alike: "on 10 held-out recordings (56 of the model's 66 held-out ones are
+    not in the library)", or "on all 33 recordings (training ones included)" when the model's
+    held-out ones were not found (``metrics.extra["set"]``). The page said "held-out" of both."""
+    if metrics.extra.get("set", "held-out") != "held-out":
+        return f"on all {metrics.n} {what} (training ones included)"
+    missing = int(metrics.extra.get("held_out_missing") or 0)
+    return f"on {metrics.n} held-out {what}" + (
+        f" ({missing} of the model's {metrics.n + missing} held-out ones are not in the library)" if missing else "")
+
+
 #: What a recogniser's classes are called, by kind ("sound", "scene").
 CLASS_WORDS = {"sound": "sound activities", "scene": "home scenes"}
 

@@ -13,7 +13,7 @@ from cacas.vision.library import image_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.plots_recognition import confusion_figure
-from cacas.recognition import short_clip_warning, unsure_words
+from cacas.recognition import evaluated_on, short_clip_warning, unsure_words
 from pages import ui
 
 ui.require_app()
@@ -211,11 +211,15 @@ with add_photo:
 
 
 def _metrics_view(metrics, kind: str) -> None:
-    st.metric(f"{kind} test accuracy", f"{100 * metrics.accuracy:.1f}%", help=f"on {metrics.n} held-out items")
+    on = evaluated_on(metrics, "recordings" if kind == "Sound" else "images")
+    held_out = metrics.extra.get("set", "held-out") == "held-out"
+    st.metric(f"{kind} {'test ' if held_out else ''}accuracy", f"{100 * metrics.accuracy:.1f}%", help=on)
+    if not held_out or metrics.extra.get("held_out_missing"):  # not the figure the model was saved with: said
+        st.caption(f":material/info: Accuracy {on}.")
     st.plotly_chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
     per = metrics.per_class.rename(columns={"label": "class"})
     per = per.assign(accuracy=100 * per["accuracy"])  # whole percentages, as the rest of the page (it showed 66.67%)
-    st.dataframe(per, hide_index=True, width="stretch",
+    st.dataframe(per, hide_index=True, width="stretch", placeholder="–",  # a class with no item: "–", not "None"
                  column_config={"accuracy": st.column_config.NumberColumn(format="%.0f%%")})
 
 

@@ -154,3 +154,18 @@ def test_a_short_clips_length_is_said_in_ms_under_a_tenth_of_a_second():
 
     assert [clip_length(s) for s in (0.003, 0.025, 0.2, 0.456)] == ["3 ms", "25 ms", "0.20 s", "0.46 s"]
     assert short_clip_warning(0.003).startswith("is 3 ms long: the model hears 1-s windows")
+
+
+def test_what_an_evaluation_is_on_is_said_as_it_was_made():
+    """Lab walkthrough: the page called an evaluation on every recording (the model's held-out ones not
+    found, training ones included) 'held-out', and one on 10 of 66 held-out recordings said nothing of
+    the 56 missing."""
+    from cacas.recognition import compute_metrics, evaluated_on
+
+    m = compute_metrics([0, 1], [0, 1], ["cough", "cry"])
+    assert evaluated_on(m, "recordings") == "on 2 held-out recordings"  # as older metrics, with no set named
+    m.extra.update({"set": "held-out", "held_out_missing": 5})
+    assert evaluated_on(m, "recordings") == ("on 2 held-out recordings (5 of the model's 7 held-out ones are not "
+                                             "in the library)")
+    m.extra = {"set": "all"}
+    assert evaluated_on(m, "images") == "on all 2 images (training ones included)"

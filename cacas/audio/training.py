@@ -255,10 +255,13 @@ def evaluate_sound_model(recognizer: SoundRecognizer, root: Path | str | None = 
         chosen = [c for c in clips if relative_path(c.path, root) in wanted]
         if chosen:
             clips, which = chosen, "held-out"
+            missing = len(wanted) - len(chosen)  # said beside the accuracy: it is on the ones found only
     if not clips:
         raise CacasError(f"{root}: no recordings to evaluate")
     signals = load_recordings(clips, progress, (0.0, 0.9))
     metrics = evaluate_signals(recognizer, signals, [c.activity for c in clips])
     metrics.extra["set"] = which
+    if which == "held-out":
+        metrics.extra["held_out_missing"] = missing
     tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(clips)} recordings")
     return metrics

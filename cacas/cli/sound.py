@@ -19,10 +19,9 @@ def count(n: int, noun: str) -> str:
 
 def print_metrics(metrics, what: str = "recordings") -> None:
     """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
-    if metrics.extra.get("set", "held-out") == "held-out":
-        print(f"accuracy: {metrics.accuracy:.3f} on {metrics.n} held-out {what}")
-    else:
-        print(f"accuracy: {metrics.accuracy:.3f} on all {metrics.n} {what} (training ones included)")
+    from cacas.recognition import evaluated_on
+
+    print(f"accuracy: {metrics.accuracy:.3f} {evaluated_on(metrics, what)}")
     if "window_accuracy" in metrics.extra:
         print(f"window accuracy: {metrics.extra['window_accuracy']:.3f} on {metrics.extra['windows']} 1-s windows")
     pc = metrics.per_class.dropna(subset=["accuracy"])

@@ -165,6 +165,7 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
         chosen = [p for p in photos if str(p.path.resolve().relative_to(root.resolve())) in wanted]
         if chosen:
             photos, which = chosen, "held-out"
+            missing = len(wanted) - len(chosen)  # said beside the accuracy: it is on the ones found only
     if not photos:
         raise CacasError(f"{root}: no images to evaluate")
     images = []
@@ -173,5 +174,7 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
         tell(progress, 0.9 * (i + 1) / len(photos), f"loading {p.path.name}")
     metrics = evaluate_images(recognizer, images, [p.scene for p in photos])
     metrics.extra["set"] = which
+    if which == "held-out":
+        metrics.extra["held_out_missing"] = missing
     tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(photos)} images")
     return metrics

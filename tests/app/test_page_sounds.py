@@ -91,6 +91,18 @@ def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, mo
     assert len(at.get("plotly_chart")) == 1
     per_class = next(d.value for d in at.dataframe if "class" in d.value.columns)  # whole percentages (was 66.67%)
     assert dict(zip(per_class["class"], per_class["accuracy"])) == {"cough": 100.0, "cry": 100.0, "sneeze": 50.0}
+    assert next(d for d in at.dataframe if "class" in d.value.columns).proto.placeholder == "–"  # not "None"
+    RUNNER.forget("eval-sound")
+    # the model's held-out recordings not found: every recording, training ones included, and said so
+    # (lab walkthrough: the page called it "test accuracy ... on 4 held-out items")
+    metrics.extra["set"] = "all"
+    next(b for b in at.button if b.label == "Evaluate the saved sound model").click().run()
+    assert RUNNER.get("eval-sound").wait(30)
+    at.run()
+    no_exception(at)
+    shown = next(m for m in at.metric if m.label.startswith("Sound"))
+    assert (shown.label, shown.help) == ("Sound accuracy", "on all 4 recordings (training ones included)")
+    assert "Accuracy on all 4 recordings (training ones included)." in texts(at)
     RUNNER.forget("eval-sound")
 
 
