@@ -218,15 +218,23 @@ def _few_label(participants, fewest) -> str:
     return n if participants == 1 else f"fewest {n}"
 
 
+def ringed(i: int) -> dict:
+    """The markers of the ``i``-th method drawn: smaller than those drawn before, so that where
+    methods score the same (day 1: one initial policy; two closed loops alike) they show as rings
+    of every colour, not as the last method's dot alone (walkthroughs)."""
+    return dict(size=max(5, 14 - 3 * i))
+
+
 def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
     """Fig. 3 for every method that ran in a closed loop of its own (``--loop each``): each
     method's mean success rate per day, with its min-max across participants in the hover."""
     fig = go.Figure()
-    for method in closed_loop_methods(daily):
+    for i, method in enumerate(closed_loop_methods(daily)):
         s = _gaps_for_missing_days(success_by_day(daily, method), daily)
         fig.add_trace(go.Scatter(
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
+            marker=ringed(i),
             customdata=s[["min", "max", "cumulative_feedback"]],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]:.0f} data points)<extra></extra>"))
@@ -300,9 +308,7 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
         fig.add_trace(go.Scatter(
             x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
-            # each method's markers smaller than the one's drawn before: where methods score the same (day 1:
-            # one initial policy) they show as rings, not as the last method's dot alone (walkthrough)
-            marker=dict(size=max(5, 14 - 3 * i)),
+            marker=ringed(i),
             customdata=d[["min", "max", "participants"]],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]} participants)<extra></extra>"))

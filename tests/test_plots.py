@@ -114,6 +114,7 @@ def test_fig3_for_every_method_in_its_own_closed_loop():
     assert closed_loop_methods(each) == ["cacas", "nn"]
     fig = success_methods_figure(each)
     assert [t.name for t in fig.data] == ["CACAS", "NN"]
+    assert fig.data[0].marker.size > fig.data[1].marker.size  # equal scores show as rings (lab walkthrough)
     assert np.allclose(fig.data[0].y, [0.4, 0.5, 0.6]) and np.allclose(fig.data[1].y, [0.1, 0.1, 0.1])
     assert [t.name for t in success_methods_figure(daily()).data] == ["CACAS"]
 
