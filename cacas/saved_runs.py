@@ -107,7 +107,8 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     these tables, two of the same kind, or no daily.csv."""
     tables: dict[str, pd.DataFrame] = {}
     names: dict[str, str] = {}
-    for name, data in files:
+    places: dict[str, int] = {}  # each kind's file's place among those uploaded (1, 2, ...)
+    for place, (name, data) in enumerate(files, 1):
         try:
             df = records.read_csv(io.BytesIO(data))
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
@@ -117,8 +118,10 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
             raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv; a daily.csv "
                              f"needs the columns {', '.join(UPLOADABLE_TABLES['daily'])}")
         if kind in tables:
-            raise CacasError(f"{name} and {names[kind]} are both a {kind}.csv; upload one of each kind")
-        tables[kind], names[kind] = (check_daily_values(df, name) if kind == "daily" else df), name
+            which = (f"two files named {name} (files {places[kind]} and {place} of those uploaded)"
+                     if name == names[kind] else f"{name} and {names[kind]}")  # was "daily.csv and daily.csv"
+            raise CacasError(f"{which} are both a {kind}.csv; upload one of each kind")
+        tables[kind], names[kind], places[kind] = (check_daily_values(df, name) if kind == "daily" else df), name, place
     if "daily" not in tables:
         raise CacasError(f"{', '.join(names.values()) or 'nothing uploaded'}: upload a daily.csv as well "
                          "(the other tables are shown beside it)")

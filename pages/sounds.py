@@ -258,7 +258,11 @@ with train:
         if c1.button(f"Train the {kind.lower()} model", disabled=busy, key=f"btn-{key_train}",
                      icon=":material/model_training:",
                      help=("Runs in the background; " + (f"the saved model took {float(took) / 60:.0f} min to train."
-                                                         if took else "several minutes on 2 CPU cores."))):
+                                                         if took else "several minutes on 2 CPU cores.")
+                           # lab walkthrough: one click replaced a 98.5 % model with an 18 % one, unsaid
+                           + " The new model replaces the saved one when it is done, whatever its accuracy, and "
+                             "the tablets use it from their next interaction: keep a copy of study_data/models "
+                             "first if the saved one serves a study.")):
             RUNNER.start(key_train, trainer, label=f"Training the {kind.lower()} model")
             st.rerun()
         if c2.button(f"Evaluate the saved {kind.lower()} model", disabled=busy or model is None,

@@ -461,3 +461,21 @@ def test_an_unsure_recognition_is_warned_of_as_the_app_does(kind, classes, what,
     assert cap.out.startswith(f"{given}: {classes[1]}\n")
     assert cap.err == (f"cacas {kind} recognize: warning: {given}: unsure: 20% for {classes[1]}. It may be none of "
                        f"the {len(classes)} {what} the model knows\n")
+
+
+def test_recognize_goes_on_past_a_file_it_cannot_read(tmp_path, capsys):
+    """Lab walkthrough: `cacas sound recognize bad.wav good.ogg` stopped at the bad file and said nothing
+    of the good one. Each good file is recognised, each bad one is a line, and the exit code is 2."""
+    bad = tmp_path / "bad.wav"
+    bad.write_text("not audio")
+    good = library.clip_paths("use blender")[0]
+    assert main(["sound", "recognize", str(bad), str(good)]) == 2
+    cap = capsys.readouterr()
+    assert cap.out.startswith(f"{good}: ") and len(cap.out.splitlines()) == 4
+    assert cap.err.startswith(f"cacas: error: {bad}: not a readable") and len(cap.err.splitlines()) == 1
+    picture = tmp_path / "photo.jpg"
+    picture.write_text("not an image")
+    img = scene_library.image_paths("kitchen")[0]
+    assert main(["scene", "recognize", str(img), str(picture)]) == 2
+    cap = capsys.readouterr()
+    assert cap.out.startswith(f"{img}: ") and cap.err.startswith(f"cacas: error: {picture}")

@@ -265,6 +265,9 @@ def test_uploaded_tables_are_recognised_by_their_columns():
     ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
                                      r"a daily.csv needs the columns participant, method, day"),
     ([("d1.csv", "daily"), ("d2.csv", "daily")], r"d2.csv and d1.csv are both a daily.csv; upload one of each kind"),
+    # two files of one name (from two folders): "daily.csv and daily.csv are both ..." said which? (lab walkthrough)
+    ([("daily.csv", "daily"), ("b.csv", "by_preference"), ("daily.csv", "daily")],
+     r"^two files named daily.csv \(files 1 and 3 of those uploaded\) are both a daily.csv; upload one of each kind$"),
     ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
     ([], r"nothing uploaded: upload a daily.csv as well"),
     ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),

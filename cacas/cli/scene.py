@@ -5,7 +5,7 @@ from __future__ import annotations
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.cli.sound import (add_training_options, check_confusion_png, count, library_out, print_metrics,
-                             print_recognition, save_confusion)
+                             recognize_each, save_confusion)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 from cacas.recognition import UNSURE_BELOW
@@ -127,7 +127,4 @@ def run_eval(args) -> int:
 def run_recognize(args) -> int:
     from cacas.vision.model import SceneRecognizer
 
-    rec = SceneRecognizer.load(args.model)
-    for f in args.files:
-        print_recognition(f, rec.recognize(f), "scene")
-    return 0
+    return recognize_each(args.files, SceneRecognizer.load(args.model), "scene")

@@ -34,9 +34,12 @@ def test_training_says_how_long_the_saved_model_took(app, monkeypatch):
         "trained": "2026-11-21T10:34:00Z", "accuracy": 0.9, "training_seconds": took[kind]}))
     at = app(PAGE)
     no_exception(at)
-    assert at.button(key="btn-train-scene").help == "Runs in the background; the saved model took 7 min to train."
+    replaces = (" The new model replaces the saved one when it is done, whatever its accuracy, and the tablets use it "
+                "from their next interaction: keep a copy of study_data/models first if the saved one serves a study.")
+    assert at.button(key="btn-train-scene").help == ("Runs in the background; the saved model took 7 min to train."
+                                                     + replaces)
     # no saved model: no time to go by
-    assert at.button(key="btn-train-sound").help == "Runs in the background; several minutes on 2 CPU cores."
+    assert at.button(key="btn-train-sound").help == "Runs in the background; several minutes on 2 CPU cores." + replaces
 
 
 def test_add_clips_valid_and_invalid(tmp_path, monkeypatch):
