@@ -378,7 +378,8 @@ elif context is None:
         # unnoticed by participants and recorded as theirs
         c1.selectbox(f"Time of day{part('S3')}", range(spaces.N_SLOTS), index=None, key="ctx-slot",
                      placeholder="choose the time", format_func=spaces.time_slot_label)
-        c2.selectbox(f"Time since your last activity{part('S4')}", range(spaces.N_INTERVALS), index=None,
+        whose = "your" if tablet else f"{code}'s"  # the researcher sets it for the participant
+        c2.selectbox(f"Time since {whose} last activity{part('S4')}", range(spaces.N_INTERVALS), index=None,
                      key="ctx-interval", placeholder="choose how long",
                      format_func=spaces.interval_label)  # the bin, as the day's table and the export say it
         c3, c4 = st.columns(2)

@@ -345,7 +345,7 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
     assert [s.label for s in tablet.selectbox] == ["Time of day", "Time since your last activity", "Activity", "Room"]
     researcher = app(PAGE, participant="P01")
     assert [s.label for s in researcher.selectbox if s.key and s.key.startswith("ctx-")] == [
-        "Time of day (S3)", "Time since your last activity (S4)", "Activity (S1)", "Room (S2)"]
+        "Time of day (S3)", "Time since P01's last activity (S4)", "Activity (S1)", "Room (S2)"]  # not "your"
 
 
 def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, quick_policy):

@@ -111,7 +111,7 @@ def shot(page, name: str) -> None:
 def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     """Set a context and press "Do it"; True if the robot proposes an action (not quiet)."""
     choose(page, "Time of day", slot)
-    choose(page, "Time since your last activity", "20-30 min")
+    choose(page, "Time since", "20-30 min")  # "your" on the tablet, "P01's" on the researcher's view
     choose(page, "Activity", activity)
     choose(page, "Room", room)
     click(page, "Do it")
