@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pytest
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
+from playwright.sync_api import expect
 
 SCREENSHOTS = Path(os.environ.get("CACAS_SCREENSHOTS") or Path(tempfile.gettempdir()) / "cacas-screenshots")
 
@@ -150,8 +151,10 @@ def test_mini_study(server, page, tmp_path):
     fill(page, "Pseudonymous code", "P01")
     fill(page, "Age range", "25-34")
     click(page, "Add participant")
-    # the next step opens by itself: the new participant's preferences
-    assert page.get_by_role("tab", name="Preferences of P01").get_attribute("aria-selected") == "true"
+    # the next step opens by itself: the new participant's preferences (waited for: on a loaded machine the
+    # run that switches the tab can start after idle's 2 s, and the attribute was read before it; CI)
+    expect(page.get_by_role("tab", name="Preferences of P01")).to_have_attribute("aria-selected", "true",
+                                                                                 timeout=30_000)
 
     fill(page, "In the participant's words", "When I use the stove, remind me to turn it off.", first=True)
     choose(page, "Activities (S1)", "use stove", "stMultiSelect")
