@@ -156,6 +156,17 @@ def study_file_name(prefix: str, study: str, suffix: str) -> str:
     return f"{prefix}-{slug(study) or 'study'}{suffix}"
 
 
+def synthetic_words(training_data: dict) -> str:
+    """How much of a model's training data was synthetic, after its item count: " (synthetic)" when
+    all was, " (131 synthetic)" when some was (a model trained on 131 generated clips and 4
+    recordings read "not synthetic"), "" when none was or it is not recorded (models trained before
+    the count was kept record all or nothing: ``synthetic``)."""
+    some = training_data.get("synthetic_items")
+    if training_data.get("synthetic"):
+        return " (synthetic)"
+    return f" ({some} synthetic)" if isinstance(some, int) and some > 0 else ""
+
+
 def short_time(stamp) -> str:
     """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'."""
     if isinstance(stamp, (int, float)):

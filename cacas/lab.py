@@ -129,11 +129,10 @@ def train_sound(progress: Progress = None, **options):
     """Train the sound CNN on the library and save it as the model the study page uses.
     ``options`` go to :func:`train_sound_model`; its defaults (those of ``cacas sound train``,
     with which the shipped model was trained) apply otherwise."""
-    from cacas.audio.model import default_model_path
     from cacas.audio.training import train_sound_model
 
     result = train_sound_model(progress=progress, **options)
-    result.recognizer.save(default_model_path())
+    result.recognizer.save(model_path("sound"), keep_previous=True)  # the replaced model can be put back
     return result
 
 
@@ -147,11 +146,10 @@ def evaluate_sound(progress: Progress = None):
 
 def train_scene(progress: Progress = None, epochs: int = 12, seed: int = 0):
     """Fine-tune (or train) the scene ResNet-18 on the scene library and save it."""
-    from cacas.vision.model import default_model_path
     from cacas.vision.training import train_scene_model
 
     result = train_scene_model(epochs=epochs, seed=seed, progress=progress)
-    result.recognizer.save(default_model_path())
+    result.recognizer.save(model_path("scene"), keep_previous=True)  # the replaced model can be put back
     return result
 
 
@@ -222,17 +220,39 @@ def library_stamp(kind: str, name: str | None = None) -> tuple:
     return (str(root),) + tuple((f.name, f.stat().st_mtime_ns if f.exists() else None) for f in folders)
 
 
-def model_stamp(kind: str) -> float | None:
-    """The saved sound or scene model's modification time (None: no model saved): a cache key, so
-    that a page reloads a model that was retrained."""
+def model_path(kind: str) -> Path:
+    """Where the saved sound or scene model is (the one the study page and the tablets load)."""
     if kind == "sound":
         from cacas.audio.model import default_model_path
     elif kind == "scene":
         from cacas.vision.model import default_model_path
     else:
         raise CacasError(f"unknown model kind {kind!r}; valid: sound, scene")
-    path = default_model_path()
+    return default_model_path()
+
+
+def model_stamp(kind: str) -> float | None:
+    """The saved sound or scene model's modification time (None: no model saved): a cache key, so
+    that a page reloads a model that was retrained."""
+    path = model_path(kind)
     return path.stat().st_mtime if path.exists() else None
+
+
+def previous_model(kind: str) -> dict | None:
+    """The metadata of the sound or scene model the last training replaced, kept to be put back
+    (:mod:`cacas.previous_model`), or None when none is kept."""
+    from cacas import previous_model as kept
+
+    return kept.previous_metadata(model_path(kind))
+
+
+def put_back_previous_model(kind: str) -> tuple[dict, dict | None]:
+    """Put the kept previous sound or scene model back as the saved one; the model it replaces is
+    kept in its place. (metadata now saved, metadata now kept); a CacasError when none is kept or
+    it cannot be read (nothing changed)."""
+    from cacas import previous_model as kept
+
+    return kept.put_back(model_path(kind), kind)
 
 
 def load_recognizer(kind: str):

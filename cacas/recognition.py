@@ -193,18 +193,26 @@ def model_weights_path(path: Path | str, what: str = "model file") -> Path:
     return path
 
 
-def save_model(path: Path | str, tensors: dict, metadata: dict) -> Path:
-    """Write ``path`` (.pt, tensors only) and ``path.with_suffix('.json')`` (metadata).
+def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: bool = False) -> Path:
+    """Write ``path`` (.pt, tensors only) and ``path.with_suffix('.json')`` (metadata, with the
+    ``model_id`` of the weights it belongs to: :func:`load_model_file` refuses a pair that does not
+    belong together). With ``keep_previous``, a model saved at ``path`` before is kept beside it
+    first (:func:`cacas.previous_model.keep`), to be put back if the new one serves worse.
 
     Both are written to temporary names first and then renamed, so nothing is half-written.
     """
     import torch
 
+    from cacas import previous_model
+
     path = model_weights_path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp_pt, tmp_js = path.with_suffix(".pt.tmp"), path.with_suffix(".json.tmp")
     torch.save(tensors, tmp_pt)
+    metadata = {**metadata, "model_id": model_id(tmp_pt)}
     tmp_js.write_text(json.dumps(metadata, indent=1, default=_json_default) + "\n")
+    if keep_previous:
+        previous_model.keep(path)
     tmp_pt.replace(path)
     tmp_js.replace(path.with_suffix(".json"))
     return path
@@ -278,6 +286,10 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict, str]:
     except Exception as exc:
         raise CacasError(f"{path}: not a readable {kind} model ({' '.join(str(exc).split())[:120]}); "
                          f"{expected}") from None
+    if meta.get("model_id") not in (None, model_id(data)):  # written by save_model since ids were recorded
+        raise CacasError(f"{path}: its metadata {meta_path.name} belongs to other weights (model id "
+                         f"{meta['model_id']}; this file's is {model_id(data)}): a save was interrupted or one "
+                         f"of the two files was copied without the other; train the {kind} model again")
     return tensors, meta, model_id(data)
 
 

@@ -13,6 +13,7 @@ from cacas.vision.library import image_paths
 from cacas.errors import CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.plots_recognition import confusion_figure
+from cacas.previous_model import model_words
 from cacas.recognition import evaluated_on, short_clip_warning, unsure_words
 from pages import ui
 
@@ -223,11 +224,37 @@ def _metrics_view(metrics, kind: str) -> None:
                  column_config={"accuracy": st.column_config.NumberColumn(format="%.0f%%")})
 
 
+def _previous_model_view(kind: str, busy: bool) -> None:
+    """The model the last training replaced (kept beside the saved one): what it is, and a button
+    that puts it back (the replaced model is kept in turn, so a second press undoes it)."""
+    told = st.session_state.pop(f"put-back-{kind}", None)  # the last press's outcome, after its rerun
+    if told is not None and told[0] == "ok":
+        st.success(told[1], icon=":material/history:")
+    elif told is not None:
+        st.error(told[1], icon=":material/error:")
+    kept = lab.previous_model(kind)
+    if kept is None:
+        return
+    st.caption(f":material/history: Kept: the model the last training replaced ({model_words(kept)}).")
+    if st.button(f"Put back the previous {kind} model", key=f"btn-put-back-{kind}", disabled=busy,
+                 icon=":material/undo:", help="It serves the tablets from their next interaction; the model "
+                                              "saved now is kept in its place, so pressing again returns to it."):
+        try:
+            saved, replaced = lab.put_back_previous_model(kind)
+        except CacasError as exc:
+            st.session_state[f"put-back-{kind}"] = ("error", str(exc))
+        else:
+            st.session_state[f"put-back-{kind}"] = (
+                "ok", f"The previous {kind} model is back ({model_words(saved)})"
+                      + (f"; the one it replaced is kept ({model_words(replaced)})." if replaced else "."))
+        st.rerun()
+
+
 with train:
     running = app_support.open_days(ui.store())  # of every study: the recognisers serve them all
     if running:  # a model saved now serves the tablets from their next interaction on
         days = ", ".join(f"{p} (day {d})" for p, d in running.items())
-        st.warning(f"Study days are open: {days}. A model trained now is used on the tablet from "
+        st.warning(f"Study days are open: {days}. A model trained or put back now is used on the tablet from "
                    "the next interaction on (each interaction records the id of the model that recognised it), "
                    "and training slows the tablet meanwhile: train between study days if you can.",
                    icon=":material/warning:")
@@ -243,7 +270,7 @@ with train:
             st.caption(f"Trained {app_support.short_time(meta.get('trained', '?'))} · test accuracy "
                        f"{100 * float(meta.get('accuracy', float('nan'))):.1f}% · "
                        f"{data.get('recordings', data.get('images', '?'))} items"
-                       f"{' (synthetic)' if data.get('synthetic') else ''} · "
+                       f"{app_support.synthetic_words(data)} · "
                        f"{meta.get('training_seconds', '?')} s · model id {model.model_id}")
             k = _KINDS[kind.lower()]
             now = int(_library_counts(kind.lower())[k["items"]].sum())
@@ -261,14 +288,15 @@ with train:
                                                          if took else "several minutes on 2 CPU cores.")
                            # lab walkthrough: one click replaced a 98.5 % model with an 18 % one, unsaid
                            + " The new model replaces the saved one when it is done, whatever its accuracy, and "
-                             "the tablets use it from their next interaction: keep a copy of study_data/models "
-                             "first if the saved one serves a study.")):
+                             "the tablets use it from their next interaction; the replaced one is kept, and "
+                             f"'Put back the previous {kind.lower()} model' returns to it.")):
             RUNNER.start(key_train, trainer, label=f"Training the {kind.lower()} model")
             st.rerun()
         if c2.button(f"Evaluate the saved {kind.lower()} model", disabled=busy or model is None,
                      key=f"btn-{key_eval}", icon=":material/fact_check:"):
             RUNNER.start(key_eval, evaluator, label=f"Evaluating the {kind.lower()} model")
             st.rerun()
+        _previous_model_view(kind.lower(), busy)
         jobs = [j for j in (ui.job_progress(k, stoppable=True) for k in (key_train, key_eval)) if j is not None]
         ended = [j for j in jobs if not j.running]
         last = max(ended, key=lambda j: j.finished or 0) if ended and not busy else None

@@ -180,6 +180,14 @@ def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
     store.close()
 
 
+def test_a_models_synthetic_share_is_said_all_some_or_none():
+    assert app_support.synthetic_words({"synthetic": True, "synthetic_items": 792}) == " (synthetic)"
+    assert app_support.synthetic_words({"synthetic": False, "synthetic_items": 131}) == " (131 synthetic)"
+    assert app_support.synthetic_words({"synthetic": False, "synthetic_items": 0}) == ""
+    assert app_support.synthetic_words({"synthetic": False}) == ""  # trained before the count was kept
+    assert app_support.synthetic_words({}) == ""
+
+
 def test_short_time_of_a_stamp_or_epoch_seconds():
     assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
     assert app_support.short_time(0.0) == "1970-01-01 00:00 UTC"

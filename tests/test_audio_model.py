@@ -74,6 +74,8 @@ def test_save_load_same_predictions(tiny, tmp_path):
     for key in ("classes", "features", "accuracy", "trained", "training_data"):
         assert key in meta
     assert meta["features"]["n_fft"] == 2048 and meta["classes"] == list(spaces.ACTIVITIES)
+    data = meta["training_data"]  # the generated library: every recording synthetic, and counted
+    assert data["synthetic"] is True and data["synthetic_items"] == data["recordings"] > 0
     loaded = SoundRecognizer.load(path)
     assert loaded.model_id == result.recognizer.model_id == model_id(path)  # what interactions record
     clip = library.clip_paths("cough", root)[0]

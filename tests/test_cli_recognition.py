@@ -87,6 +87,33 @@ def test_sound_generate_train_eval_on_a_tiny_library(tmp_path, capsys):
     assert main(["sound", "recognize", "--model", str(model), str(clip)]) == 0
 
 
+def test_train_keeps_the_model_it_replaces_and_put_back_returns_to_it(tmp_path, capsys):
+    """`cacas sound train` over a saved model keeps that one (and says how to put it back);
+    `cacas sound put-back` swaps the two, and says which serves now and which is kept."""
+    from cacas.audio import SoundCNN, SoundRecognizer
+    from cacas.recognition import model_id
+
+    lib = tmp_path / "sounds"
+    library.generate_library(2, seconds=1.0, root=lib, activities=["cough", "watch TV"])
+    model = tmp_path / "sound.pt"
+    SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.985, "trained": "2026-11-20T09:00:00+00:00"}).save(model)
+    before = model_id(model)
+    assert main(["sound", "train", "--data", str(lib), "--model", str(model), "--epochs", "1", "--quiet"]) == 0
+    after = model_id(model)
+    out = capsys.readouterr().out.splitlines()
+    assert out[-1] == (f"the model it replaced (model id {before}, trained 2026-11-20 09:00 UTC, test accuracy 98.5%) "
+                       f"is kept as {tmp_path / 'sound.previous.pt'}; `cacas sound put-back` puts it back")
+    assert main(["sound", "put-back", "--model", str(model)]) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert model_id(model) == before and out[0] == (f"sound model put back: {model} (model id {before}, trained "
+                                                    "2026-11-20 09:00 UTC, test accuracy 98.5%)")
+    assert out[1].startswith(f"the model it replaced (model id {after}, trained ") and out[1].endswith(
+        f"is kept as {tmp_path / 'sound.previous.pt'}; `cacas sound put-back` again puts that one back")
+    assert main(["scene", "put-back", "--model", str(tmp_path / "scene.pt")]) == 2
+    assert capsys.readouterr().err == (f"cacas: error: {tmp_path / 'scene.pt'}: no previous scene model is kept beside it "
+                                       "(scene.previous.pt); one is kept each time training replaces the saved model\n")
+
+
 def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
     assert main(["sound", "train", "--data", str(tmp_path / "absent"), "--quiet"]) == 2
     assert "absent" in capsys.readouterr().err

@@ -8,8 +8,8 @@ class _Result:
         self.recognizer = self
         self.saved = saved
 
-    def save(self, path):
-        self.saved.append(path)
+    def save(self, path, keep_previous=False):
+        self.saved.append((path, keep_previous))
 
 
 def test_app_sound_training_uses_the_command_line_defaults(monkeypatch, tmp_path):
@@ -23,7 +23,7 @@ def test_app_sound_training_uses_the_command_line_defaults(monkeypatch, tmp_path
                         lambda **kw: calls.append(kw) or _Result(saved))
     monkeypatch.setattr(cacas.audio.model, "default_model_path", lambda: tmp_path / "sound_cnn.pt")
     lab.train_sound()
-    assert "epochs" not in calls[0] and saved == [tmp_path / "sound_cnn.pt"]
+    assert "epochs" not in calls[0] and saved == [(tmp_path / "sound_cnn.pt", True)]  # the replaced one kept
     lab.train_sound(epochs=2, seed=5)
     assert calls[1]["epochs"] == 2 and calls[1]["seed"] == 5
     # the defaults the app now relies on are the ones `cacas sound train` uses
@@ -150,6 +150,41 @@ def test_train_scene_saves_the_model_evaluate_scene_tests_it(study_data, monkeyp
     assert result.recognizer.metadata["kind"] == "scene"
     metrics = lab.evaluate_scene()
     assert metrics.n == 6 and metrics.classes == list(loaded.classes) and metrics.extra["set"] == "all"
+    assert lab.previous_model("scene") is None  # nothing was replaced
+    lab.train_scene(progress, epochs=1, seed=8)  # the second training keeps the first's model
+    assert lab.previous_model("scene")["model_id"] == loaded.model_id
+
+
+def test_the_model_a_training_replaced_can_be_put_back_and_put_back_again(study_data):
+    """Each training keeps the model it replaces; putting it back swaps the two (the tablets
+    reload it: its file time changes), and a second put back returns to where one started."""
+    import os
+
+    from cacas.audio.model import SoundCNN, SoundRecognizer
+
+    assert lab.previous_model("sound") is None
+    with pytest.raises(CacasError, match=r"sound_cnn\.pt: no previous sound model is kept beside it "
+                                         r"\(sound_cnn\.previous\.pt\); one is kept each time training replaces"):
+        lab.put_back_previous_model("sound")
+    first = _saved_sound_model()
+    first_id = lab.load_recognizer("sound").model_id
+    second = SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.18}).save(first, keep_previous=True)
+    second_id = lab.load_recognizer("sound").model_id
+    assert second_id != first_id  # other weights (drawn anew)
+    assert lab.previous_model("sound")["model_id"] == first_id and lab.previous_model("sound")["accuracy"] == 0.5
+    os.utime(second, (1_700_000_000, 1_700_000_000))
+    saved, kept = lab.put_back_previous_model("sound")
+    assert (saved["model_id"], saved["accuracy"]) == (first_id, 0.5)
+    assert (kept["model_id"], kept["accuracy"]) == (second_id, 0.18)
+    rec = lab.load_recognizer("sound")
+    assert (rec.model_id, rec.metadata["accuracy"]) == (first_id, 0.5)
+    assert lab.model_stamp("sound") != 1_700_000_000  # the pages and tablets reload it
+    assert lab.previous_model("sound")["model_id"] == second_id
+    lab.put_back_previous_model("sound")  # again: the second model serves, the first is kept
+    assert lab.load_recognizer("sound").model_id == second_id and lab.previous_model("sound")["model_id"] == first_id
+    assert not list(study_data.glob("models/*.tmp"))
+    with pytest.raises(CacasError, match=r"^unknown model kind 'speech'; valid: sound, scene$"):
+        lab.put_back_previous_model("speech")
 
 
 # --- adding photos of a room to the scene library -----------------------------------------------------

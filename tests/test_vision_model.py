@@ -142,6 +142,8 @@ def test_training_metrics_and_save_load(tiny, tmp_path):
     path = result.recognizer.save(tmp_path / "scene.pt")
     meta = json.loads(path.with_suffix(".json").read_text())
     assert meta["classes"] == list(spaces.SCENES) and "accuracy" in meta and "trained" in meta
+    data = meta["training_data"]  # the generated library: every image synthetic, and counted
+    assert data["synthetic"] is True and data["synthetic_items"] == data["images"] > 0
     loaded = SceneRecognizer.load(path)
     assert loaded.model_id == result.recognizer.model_id == model_id(path)  # what interactions record
     img = library.image_paths("bathroom", root)[0]

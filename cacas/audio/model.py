@@ -97,14 +97,17 @@ class SoundRecognizer:
         recognizer.model_id = file_id
         return recognizer
 
-    def save(self, path: Path | str | None = None, **metadata) -> Path:
-        """Write the weights (.pt) and metadata (.json: classes, feature parameters, ...)."""
+    def save(self, path: Path | str | None = None, *, keep_previous: bool = False, **metadata) -> Path:
+        """Write the weights (.pt) and metadata (.json: classes, feature parameters, ...).
+        With ``keep_previous``, a model saved at ``path`` before is kept to be put back
+        (:mod:`cacas.previous_model`)."""
         path = Path(path) if path is not None else default_model_path()
         meta = {**self.metadata, **metadata, "kind": "sound", "classes": self.classes, "features": FEATURE_PARAMS,
                 "architecture": "SoundCNN: conv3x3 64-128-256 (BN, ReLU, maxpool 4x2/2x2/2x2), avgpool 2x2, dense 128, "
                                 f"linear {len(self.classes)}"}
         self.metadata = meta
-        path = save_model(path, {k: v.detach().cpu() for k, v in self.model.state_dict().items()}, meta)
+        path = save_model(path, {k: v.detach().cpu() for k, v in self.model.state_dict().items()}, meta,
+                          keep_previous=keep_previous)
         self.model_id = model_id(path)
         return path
 

@@ -232,6 +232,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
             "windows_trained": int(len(X)), "seed": seed, "augment_copies": augment_copies,
             "clean_windows": clean_windows, "epochs": epochs, "patience": patience,
             "synthetic": all(c.path.name.startswith("synthetic_") for c in clips),
+            "synthetic_items": sum(c.path.name.startswith("synthetic_") for c in clips),
         },
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
     }

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.cli.sound import (add_training_options, check_confusion_png, count, library_out, print_metrics,
-                             recognize_each, save_confusion)
+from cacas.cli.sound import (add_put_back, add_training_options, check_confusion_png, count, library_out,
+                             print_metrics, recognize_each, save_confusion, say_kept)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 from cacas.recognition import UNSURE_BELOW
@@ -61,6 +61,7 @@ def register(subparsers) -> None:
     r.add_argument("--model", type=types.path, default=None,
                    help="the model (default study_data/models/scene_resnet18.pt)")
     r.set_defaults(func=run_recognize)
+    add_put_back(sub, "scene", "study_data/models/scene_resnet18.pt")
 
 
 def run_generate(args) -> int:
@@ -92,10 +93,11 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
-    path = result.recognizer.save(model_path)
+    path = result.recognizer.save(model_path, keep_previous=True)
     print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
           f"{result.recognizer.metadata['initial_weights']}); saved {path}")
     print_metrics(result.metrics, "images")
+    say_kept(path, "scene")
     return 0
 
 

@@ -129,6 +129,30 @@ def register(subparsers) -> None:
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
     r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
+    add_put_back(sub, "sound", "study_data/models/sound_cnn.pt")
+
+
+def add_put_back(sub, kind: str, default: str) -> None:
+    """``cacas sound|scene put-back``: the model the last training replaced serves again."""
+    b = sub.add_parser("put-back", help=f"put back the {kind} model the last training replaced",
+                       description=f"Put back the {kind} model the last training replaced (each training keeps the "
+                                   "model it replaces beside the new one, as <name>.previous.pt); the model it "
+                                   "replaces is kept in its place, so putting back again undoes it.")
+    b.add_argument("--model", type=types.path, default=None, help=f"the saved model (default {default})")
+    b.set_defaults(func=lambda args: run_put_back(args, kind))
+
+
+def run_put_back(args, kind: str) -> int:
+    from cacas import lab, previous_model
+    from cacas.previous_model import model_words
+
+    path = args.model or lab.model_path(kind)
+    saved, kept = previous_model.put_back(path, kind)
+    print(f"{kind} model put back: {path} ({model_words(saved)})")
+    if kept is not None:
+        print(f"the model it replaced ({model_words(kept)}) is kept as {previous_model.previous_path(path)}; "
+              f"`cacas {kind} put-back` again puts that one back")
+    return 0
 
 
 def run_generate(args) -> int:
@@ -161,10 +185,22 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
-    path = result.recognizer.save(model_path)
+    path = result.recognizer.save(model_path, keep_previous=True)
     print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
     print_metrics(result.metrics)
+    say_kept(path, "sound")
     return 0
+
+
+def say_kept(path, kind: str) -> None:
+    """After a training: where the model it replaced is kept, and how to put it back."""
+    from cacas import previous_model
+    from cacas.previous_model import model_words
+
+    kept = previous_model.previous_metadata(path)
+    if kept is not None:
+        print(f"the model it replaced ({model_words(kept)}) is kept as {previous_model.previous_path(path)}; "
+              f"`cacas {kind} put-back` puts it back")
 
 
 def run_eval(args) -> int:

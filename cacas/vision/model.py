@@ -191,8 +191,10 @@ class SceneRecognizer:
         """Round the weights to what :meth:`save` stores (int8 per channel), in place."""
         self.model.load_state_dict(dequantise_state(quantise_state(self.model.state_dict())))
 
-    def save(self, path: Path | str | None = None, **metadata) -> Path:
-        """Write int8-per-channel weights (.pt) and metadata (.json). Calls :meth:`compact` first."""
+    def save(self, path: Path | str | None = None, *, keep_previous: bool = False, **metadata) -> Path:
+        """Write int8-per-channel weights (.pt) and metadata (.json). Calls :meth:`compact` first.
+        With ``keep_previous``, a model saved at ``path`` before is kept to be put back
+        (:mod:`cacas.previous_model`)."""
         path = Path(path) if path is not None else default_model_path()
         self.compact()
         meta = {**self.metadata, **metadata, "kind": "scene", "classes": self.classes,
@@ -200,7 +202,7 @@ class SceneRecognizer:
                 "architecture": f"torchvision resnet18, fc -> {len(self.classes)}",
                 "storage": "int8 per output channel for conv/linear weights, float32 otherwise"}
         self.metadata = meta
-        path = save_model(path, quantise_state(self.model.state_dict()), meta)
+        path = save_model(path, quantise_state(self.model.state_dict()), meta, keep_previous=keep_previous)
         self.model_id = model_id(path)
         return path
 

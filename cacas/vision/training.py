@@ -147,7 +147,8 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
         "initial_weights": source, "image_size": IMAGE_SIZE,
         "training_data": {"root": root_rel, "images": len(photos), "train": int(len(train)),
                           "validation": int(len(val)), "test": int(len(test)), "seed": seed,
-                          "synthetic": all(p.path.name.startswith("synthetic_") for p in photos)},
+                          "synthetic": all(p.path.name.startswith("synthetic_") for p in photos),
+                          "synthetic_items": sum(p.path.name.startswith("synthetic_") for p in photos)},
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
     }
     tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")

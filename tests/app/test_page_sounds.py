@@ -35,11 +35,13 @@ def test_training_says_how_long_the_saved_model_took(app, monkeypatch):
     at = app(PAGE)
     no_exception(at)
     replaces = (" The new model replaces the saved one when it is done, whatever its accuracy, and the tablets use it "
-                "from their next interaction: keep a copy of study_data/models first if the saved one serves a study.")
+                "from their next interaction; the replaced one is kept, and 'Put back the previous scene model' returns "
+                "to it.")
     assert at.button(key="btn-train-scene").help == ("Runs in the background; the saved model took 7 min to train."
                                                      + replaces)
     # no saved model: no time to go by
-    assert at.button(key="btn-train-sound").help == "Runs in the background; several minutes on 2 CPU cores." + replaces
+    assert at.button(key="btn-train-sound").help == ("Runs in the background; several minutes on 2 CPU cores."
+                                                     + replaces.replace("scene", "sound"))
 
 
 def test_add_clips_valid_and_invalid(tmp_path, monkeypatch):
@@ -355,3 +357,48 @@ def test_a_long_clip_is_said_to_weigh_its_activity(app, tmp_path, monkeypatch):
                      "clips of a few seconds, or more clips of the other activities, keep them even."]
     at.selectbox(key="sound-add-name").set_value("sneeze").run()  # said until the next Add
     assert [w.value for w in at.warning if "s long" in w.value] == notes
+
+
+def test_the_model_a_training_replaced_is_shown_and_put_back(app, tmp_path, monkeypatch):
+    """A training replaced a 98.5 % model with an 18 % one, unsaid and for good (lab walkthrough):
+    the replaced model is kept and shown, 'Put back the previous sound model' swaps the two (a second
+    press undoes it), and a kept model that cannot be read is said, with nothing changed."""
+    import cacas.lab
+    from cacas.audio.model import SoundCNN, SoundRecognizer
+
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path))
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: (  # the real stamp: the file's time
+        cacas.lab.model_path(kind).stat().st_mtime_ns if cacas.lab.model_path(kind).exists() else None))
+    path = cacas.lab.model_path("sound")
+    SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.985, "trained": "2026-11-20T09:00:00+00:00"}).save(path)
+    good = cacas.lab.load_recognizer("sound").model_id
+    at = app(PAGE)
+    no_exception(at)
+    assert not [b for b in at.button if b.key == "btn-put-back-sound"]  # nothing kept yet
+    SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.18, "trained": "2026-11-26T18:00:00+00:00"}).save(
+        path, keep_previous=True)
+    poor = cacas.lab.load_recognizer("sound").model_id
+    at.run()
+    kept = [c.value for c in at.caption if c.value.startswith(":material/history: Kept")]
+    assert kept == [f":material/history: Kept: the model the last training replaced (model id {good}, trained "
+                    "2026-11-20 09:00 UTC, test accuracy 98.5%)."]
+    assert f"test accuracy 18.0% · ? items · ? s · model id {poor}" in texts(at)  # the saved one, as before
+    assert at.button(key="btn-put-back-sound").label == "Put back the previous sound model"
+    at.button(key="btn-put-back-sound").click().run()
+    no_exception(at)
+    assert cacas.lab.load_recognizer("sound").model_id == good
+    assert [s.value for s in at.success] == [
+        f"The previous sound model is back (model id {good}, trained 2026-11-20 09:00 UTC, test accuracy 98.5%); "
+        f"the one it replaced is kept (model id {poor}, trained 2026-11-26 18:00 UTC, test accuracy 18.0%)."]
+    assert f"model id {good}" in [c.value for c in at.caption if c.value.startswith("Trained")][0]  # reloaded
+    at.button(key="btn-put-back-sound").click().run()  # again: back to where it started
+    assert cacas.lab.load_recognizer("sound").model_id == poor and cacas.lab.previous_model("sound")["model_id"] == good
+    kept_file = cacas.lab.model_path("sound").with_name("sound_cnn.previous.pt")
+    kept_file.write_bytes(b"damaged")
+    at.button(key="btn-put-back-sound").click().run()
+    no_exception(at)
+    assert [e.value for e in at.error if not e.value.startswith("Set-up:")] == [  # (the empty folder's set-up note)
+        f"the previous sound model kept beside sound_cnn.pt cannot be put back; nothing was changed: {kept_file}: "
+        "not a sound model (not a PyTorch file); expected a model saved by `cacas sound train` (.pt, with its .json "
+        "beside it)"]
+    assert cacas.lab.load_recognizer("sound").model_id == poor

@@ -1,0 +1,138 @@
+"""The sound or scene model a training replaced, kept so that it can be put back.
+
+Training saves its model over the one the tablets use (``study_data/models/sound_cnn.pt``), whatever
+its accuracy: one click in the lab once replaced a 98.5 % model with an 18 % one, and a study's
+next interactions were recognised by it. So each save that replaces a model first keeps the
+replaced one beside it (``sound_cnn.previous.pt`` and its ``.json``), and :func:`put_back` swaps the
+two: the kept model serves again and the replaced one is kept in its place (putting back twice is
+where one started). One previous model is kept, not a history.
+
+Each file pair is written under temporary names and renamed; the metadata names the weights it
+belongs to (``model_id``, :func:`cacas.recognition.model_id`), so a pair left mismatched by an
+interrupted swap is refused on loading (:func:`cacas.recognition.load_model_file`), never used.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from cacas.errors import CacasError
+
+#: What a kept model's file names add to the model's: sound_cnn.pt -> sound_cnn.previous.pt.
+SUFFIX = ".previous"
+
+
+def previous_path(path: Path | str) -> Path:
+    """Where the model that ``path`` replaced is kept: ``sound_cnn.pt`` -> ``sound_cnn.previous.pt``
+    (its metadata beside it, ``sound_cnn.previous.json``)."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}{SUFFIX}{path.suffix}")
+
+
+def _pair(path: Path) -> tuple[Path, Path]:
+    return path, path.with_suffix(".json")
+
+
+def _stamped(meta_bytes: bytes, weights: bytes) -> bytes:
+    """The metadata (JSON bytes) naming the weights it belongs to (``model_id``); metadata that is
+    not a JSON object is kept as it is (loading it says what is wrong with it)."""
+    from cacas.recognition import model_id
+
+    try:
+        meta = json.loads(meta_bytes)
+    except ValueError:
+        return meta_bytes
+    if not isinstance(meta, dict):
+        return meta_bytes
+    meta["model_id"] = model_id(weights)
+    return (json.dumps(meta, indent=1) + "\n").encode()
+
+
+def _write_pairs(*pairs: tuple[Path, bytes, bytes]) -> None:
+    """Each (path, weights, metadata) written as ``path`` and its .json: every file under a
+    temporary name first, then each renamed, weights before metadata (a pair caught between the
+    two is refused on loading as mismatched, never used)."""
+    moves = []
+    for path, weights, meta in pairs:
+        for target, data in zip(_pair(path), (weights, meta)):
+            tmp = target.with_name(target.name + ".tmp")
+            tmp.write_bytes(data)
+            moves.append((tmp, target))
+    for tmp, target in moves:
+        os.replace(tmp, target)
+
+
+def keep(path: Path | str) -> Path | None:
+    """Copy the model saved at ``path`` (weights and metadata) to :func:`previous_path`, replacing
+    the model kept before; the path of the kept copy, or None when there is no complete model at
+    ``path`` to keep (no weights, or no metadata beside them)."""
+    pt, js = _pair(Path(path))
+    if not (pt.is_file() and js.is_file()):
+        return None
+    weights = pt.read_bytes()
+    target = previous_path(pt)
+    _write_pairs((target, weights, _stamped(js.read_bytes(), weights)))
+    return target
+
+
+def previous_metadata(path: Path | str) -> dict | None:
+    """The kept previous model's metadata (what a page shows before putting it back: when it was
+    trained, its accuracy, ``model_id``), or None when none is kept or its metadata is unreadable
+    (:func:`put_back` then says why)."""
+    pt, js = _pair(previous_path(path))
+    if not (pt.is_file() and js.is_file()):
+        return None
+    try:
+        meta = json.loads(js.read_text())
+    except (OSError, ValueError):
+        return None
+    return meta if isinstance(meta, dict) else None
+
+
+def model_words(meta: dict) -> str:
+    """A saved model for a person, from its metadata: "model id 3f2a9c01d4e5, trained 2026-11-26
+    18:40 UTC, test accuracy 94.7%" (what is not recorded is left out)."""
+    from cacas.app_support import short_time
+
+    words = [f"model id {meta.get('model_id') or '(not recorded)'}"]
+    if meta.get("trained"):
+        words.append(f"trained {short_time(meta['trained'])}")
+    if isinstance(meta.get("accuracy"), (int, float)) and not isinstance(meta.get("accuracy"), bool):
+        words.append(f"test accuracy {100 * meta['accuracy']:.1f}%")
+    return ", ".join(words)
+
+
+def put_back(path: Path | str, kind: str) -> tuple[dict, dict | None]:
+    """Swap the model at ``path`` with the kept previous one: the kept model is checked first
+    (:func:`cacas.recognition.load_model_file`: a kept file that is not a ``kind`` model, or whose
+    metadata names other weights, changes nothing) and becomes the saved model; the model it
+    replaces is kept in its place. Returns (the model now saved's metadata, the now kept one's, or
+    None when there was no model at ``path``). The saved model's file time is now, so the app's
+    pages and tablets, which reload a model when its file time changes, use it from their next
+    recognition. No kept model: a CacasError saying when one is kept."""
+    from cacas.recognition import load_model_file
+
+    path = Path(path)
+    kept = previous_path(path)
+    if not kept.is_file():
+        raise CacasError(f"{path}: no previous {kind} model is kept beside it ({kept.name}); one is kept "
+                         f"each time training replaces the saved model")
+    try:  # a kept file that is not a model of this kind, or whose metadata names other weights
+        load_model_file(kept, kind)
+    except CacasError as exc:
+        raise CacasError(f"the previous {kind} model kept beside {path.name} cannot be put back; nothing was "
+                         f"changed: {exc}") from None
+    weights = kept.read_bytes()
+    meta = _stamped(kept.with_suffix(".json").read_bytes(), weights)
+    pt, js = _pair(path)
+    if pt.is_file() and js.is_file():  # the model put aside is kept in turn (putting back twice undoes it)
+        replaced_weights = pt.read_bytes()
+        replaced_meta = _stamped(js.read_bytes(), replaced_weights)
+        _write_pairs((path, weights, meta), (kept, replaced_weights, replaced_meta))
+        return json.loads(meta), json.loads(replaced_meta)
+    _write_pairs((path, weights, meta))  # nothing to keep in turn: the kept files become the saved model's
+    kept.unlink()
+    kept.with_suffix(".json").unlink()
+    return json.loads(meta), None
