@@ -183,8 +183,12 @@ if runs:
                                          "names an action (Fig. 3's dashed line). Not a bound: elsewhere the "
                                          "simulated participant answers by the D4A pairs and may still accept."),
                                 "preference_accuracy": st.column_config.NumberColumn("preference accuracy", **share),
-                                "cumulative_feedback": st.column_config.NumberColumn("cumulative feedback",
-                                                                                     format="%.1f")})
+                                "cumulative_feedback": st.column_config.NumberColumn(
+                                    "cumulative feedback", format="%.1f",
+                                    help="User data points collected up to the day's end (mean over the "
+                                         "participants). A method with no success rate ('–') did not interact: "
+                                         "it adapted from the interactions of the first method, so it shows "
+                                         "that method's count.")})
     d1, d2, d3 = st.columns(3)
     with d1:
         ui.download_csv(daily, "daily.csv", key="sim-dl-daily")

@@ -180,6 +180,10 @@ def test_a_method_without_a_success_rate_shows_a_dash_not_none(app, db):
     assert table["preference_accuracy"].between(0, 100).all()
     config = json.loads(element.proto.columns)
     assert all(config[c]["type_config"]["format"] == "%.0f%%" for c in ("success_rate", "preference_accuracy"))
+    # the bandit's cumulative feedback is NN's (it adapted from NN's interactions): the column says so
+    assert (rows.loc["Bandit (TS)", "cumulative_feedback"] == rows.loc["NN", "cumulative_feedback"]).all()
+    assert "it adapted from the interactions of the first method, so it shows that method's count" in (
+        config["cumulative_feedback"]["help"])
 
 
 def test_a_run_of_this_studys_participants_keeps_none_of_their_words(app, db, store):
