@@ -36,15 +36,17 @@ def _pair(path: Path) -> tuple[Path, Path]:
 
 
 def _stamped(meta_bytes: bytes, weights: bytes) -> bytes:
-    """The metadata (JSON bytes) naming the weights it belongs to (``model_id``); metadata that is
-    not a JSON object is kept as it is (loading it says what is wrong with it)."""
+    """The metadata (JSON bytes) naming the weights it belongs to (``model_id``) where it names
+    none (a model saved before ids were recorded, as the shipped ones). Metadata that names other
+    weights keeps its id, and metadata that is not a JSON object is kept as it is: loading either
+    says what is wrong, rather than the copy passing for a whole model."""
     from cacas.recognition import model_id
 
     try:
         meta = json.loads(meta_bytes)
     except ValueError:
         return meta_bytes
-    if not isinstance(meta, dict):
+    if not isinstance(meta, dict) or meta.get("model_id") is not None:
         return meta_bytes
     meta["model_id"] = model_id(weights)
     return (json.dumps(meta, indent=1) + "\n").encode()

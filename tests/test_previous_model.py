@@ -48,6 +48,16 @@ def test_a_model_saved_before_ids_were_recorded_is_kept_with_its_id(tmp_path):
     assert previous_model.previous_metadata(path)["model_id"] == model_id(path) == model_id(kept)
 
 
+def test_a_mismatched_pair_is_kept_as_it_is_not_passed_off_as_whole(tmp_path):
+    """Weights replaced without their metadata: keeping (or putting back) copies the pair with the
+    metadata's own id, so loading the copy still refuses it."""
+    path = _save(tmp_path / "m.pt", 3)
+    path.write_bytes(_save(tmp_path / "o.pt", 4).read_bytes())
+    kept = previous_model.keep(path)
+    with pytest.raises(CacasError, match=r"m\.previous\.json belongs to other weights"):
+        load_model_file(kept, "sound")
+
+
 def test_putting_back_with_no_saved_model_moves_the_kept_one(tmp_path):
     path = _save(tmp_path / "m.pt", 3)
     _save(path, 4, keep=True)
