@@ -264,7 +264,7 @@ def test_mini_study(server, page, tmp_path):
     # the researcher's view shows the proposal the participant is answering, not a form of its own
     watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
     # its form goes once the run that draws the proposal is over (a form left from before was read: the count waits)
-    expect(watch.locator("button", has_text="Do it")).to_have_count(0)
+    expect(watch.locator("button", has_text="Do it")).to_have_count(0, timeout=30_000)
     shot(watch, "session-researcher-following")
     click(page, "Accept")
     shows(page, "Saved (accepted)")
@@ -402,7 +402,7 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     shows(page, "Which preferences each method learnt")
     # two charts or more, waited for (plotly draws a chart after its element is on the page): the second is there
     expect(page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").nth(1)
-           ).to_be_attached()
+           ).to_be_attached(timeout=30_000)
     shot(page, "results-upload")
 
 
@@ -430,7 +430,8 @@ def test_importing_a_persona_file_says_so(server, page):
     idle(page)
     shows(page, "Preferences of P01")
     # opened, not only named: P01 was selected before the import, and their tab's name was on the page already
-    expect(page.get_by_role("tab", name="Preferences of P01")).to_have_attribute("aria-selected", "true")
+    expect(page.get_by_role("tab", name="Preferences of P01")).to_have_attribute("aria-selected", "true",
+                                                                                 timeout=30_000)
     shot(page, "participants-imported")
 
 
@@ -451,7 +452,8 @@ def test_a_clip_shorter_than_half_a_second_is_flagged(server, page, tmp_path):
     page.get_by_text("The clip is 25 ms long").wait_for(timeout=60_000)
     idle(page)
     shows(page, "heard mostly the silence that pads it")
-    expect(page.locator("[role='tabpanel']:visible [data-testid='stAudio']")).to_have_count(1)  # the clip, to hear
+    # the clip, to hear
+    expect(page.locator("[role='tabpanel']:visible [data-testid='stAudio']")).to_have_count(1, timeout=30_000)
     shot(page, "sounds-short-clip")
 
 
@@ -479,7 +481,7 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     uploader = panel.locator("[data-testid='stFileUploaderDropzoneInput']").first
     upload(page, uploader, photo)
     chips = page.locator("[role='tabpanel']:visible [data-testid='stFileChip']")
-    expect(chips).to_have_count(1)  # the photo, in the uploader
+    expect(chips).to_have_count(1, timeout=30_000)  # the photo, in the uploader
     add = page.locator("[role='tabpanel']:visible button").filter(has_text="Add to the library")
     add.click()
     idle(page)
@@ -487,7 +489,7 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     shot(page, "scenes-photo-added")
     # emptied (stFileChip is Streamlit 1.67's uploaded file: the stFileUploaderFile counted before is no more, and
     # the count was 0 whatever the uploader held)
-    expect(chips).to_have_count(0)
+    expect(chips).to_have_count(0, timeout=30_000)
     added = [p for p in image_paths("kitchen", library_server.data / "scenes") if p.name == "our_kitchen.png"]
     assert len(added) == 1
     # the same bytes again, under another name: refused, nothing added
