@@ -30,7 +30,9 @@ def idle(page, timeout: int = 60_000) -> None:
     """Wait until the script run that the last action started has finished: first for it to
     start (up to 2 s; an action that reruns nothing, or a run over before it is seen, goes on),
     then for it to end. A fixed pause before the wait read a busy server's page before its run
-    began (a CI run: the tablet still showed the proposal after "Accept")."""
+    began (a CI run: the tablet still showed the proposal after "Accept"). A run that starts
+    after the 2 s is not waited for: what a test reads next is waited for itself (``shows``,
+    ``expect``), or the action is a ``click``, which knows that a run follows."""
     try:
         page.wait_for_selector(RUNNING, timeout=2_000)
     except PlaywrightTimeout:
@@ -39,7 +41,46 @@ def idle(page, timeout: int = 60_000) -> None:
     page.wait_for_timeout(200)
 
 
+#: counts the script runs a page starts (Streamlit's stApp turns data-test-script-state to "running" for each)
+#: and its connections to the server (data-test-connection-state turns "CONNECTED"), as they happen, from the page's
+#: load on: a helper can then wait for the run its action started, however late it starts and however fast it is
+#: over, or for the page to reconnect (installed by ``goto``, for every document the page loads)
+COUNTERS = """
+if (window.__cacasRuns === undefined) {
+  window.__cacasRuns = 0;
+  window.__cacasConnects = 0;
+  const counts = {'data-test-script-state': ['running', '__cacasRuns'],
+                  'data-test-connection-state': ['CONNECTED', '__cacasConnects']};
+  new MutationObserver(records => records.forEach((r, i) => {
+    // the value this change set: the next change's old value, or the attribute's now
+    const next = records.slice(i + 1).find(o => o.target === r.target && o.attributeName === r.attributeName);
+    const now = next ? next.oldValue : r.target.getAttribute(r.attributeName);
+    const [value, counter] = counts[r.attributeName];
+    if (now === value && r.oldValue !== value) window[counter] += 1;
+  })).observe(document, {subtree: true, attributes: true, attributeOldValue: true,
+                         attributeFilter: Object.keys(counts)});
+}"""
+
+
+def runs(page) -> int:
+    """The script runs the page has started so far (``COUNTERS``)."""
+    n = page.evaluate("() => window.__cacasRuns")
+    assert n is not None, "the page does not count its runs: open it with goto()"
+    return n
+
+
+def ran(page, since: int, timeout: int = 60_000) -> None:
+    """Wait until a run has started since the page's ``since``-th (``runs``) and the page is idle."""
+    page.wait_for_function(
+        "n => window.__cacasRuns > n && document.querySelector(\"[data-testid='stApp']\")"
+        ".getAttribute('data-test-script-state') === 'notRunning'", arg=since, timeout=timeout)
+    page.wait_for_timeout(200)
+
+
 def goto(page, url: str) -> None:
+    if not getattr(page, "_cacas_counts_runs", False):
+        page.add_init_script(COUNTERS)
+        page._cacas_counts_runs = True
     page.goto(url)
     page.wait_for_selector("[data-testid='stApp']")
     idle(page)
@@ -50,8 +91,22 @@ def button(page, text: str):
 
 
 def click(page, text: str) -> None:
+    """Click the button ``text`` and wait for the run it starts (a button always reruns the page): on a
+    loaded machine that run could start after ``idle``'s 2 s, and the page was read before it (CI)."""
+    before = runs(page)
     button(page, text).click()
-    idle(page)
+    ran(page, before)
+
+
+def upload(page, uploader, *files) -> None:
+    """Give the file uploader's input ``uploader`` the ``files`` and wait until each is uploaded (its chip's
+    button reads "Remove <name>"; "Cancel upload of <name>" meanwhile), then for the run that the uploader
+    starts then: a button clicked before that reruns the page without the files (an uploader outside a form)."""
+    before = runs(page)
+    uploader.set_input_files([str(f) for f in files])
+    for f in files:
+        expect(page.get_by_role("button", name=f"Remove {Path(f).name}", exact=True)).to_be_visible(timeout=60_000)
+    ran(page, before)
 
 
 def _widget(page, testid: str, label: str):
@@ -116,9 +171,12 @@ def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     choose(page, "Activity", activity)
     choose(page, "Room", room)
     click(page, "Do it")
-    if "getting ready" in text_of(page):  # first use: the initial policy is being trained
-        page.wait_for_selector("text=Or ask the robot yourself", timeout=600_000)
-        idle(page)
+    # the proposal's answers, waited for, not read at once: "Accept" (and the others) if the robot speaks,
+    # "Nothing needed" if it stays quiet; on first use they come once the initial policy is trained, in the
+    # background (the page says the robot is getting ready meanwhile)
+    answers = page.locator("button").filter(has_text=re.compile(r"(Accept|Nothing needed)$"))
+    expect(answers.first).to_be_visible(timeout=600_000)
+    idle(page)  # the run that draws them is over
     return button(page, "Accept").count() > 0
 
 
@@ -205,7 +263,8 @@ def test_mini_study(server, page, tmp_path):
     page.set_viewport_size({"width": 1360, "height": 900})
     # the researcher's view shows the proposal the participant is answering, not a form of its own
     watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
-    assert watch.locator("button", has_text="Do it").count() == 0
+    # its form goes once the run that draws the proposal is over (a form left from before was read: the count waits)
+    expect(watch.locator("button", has_text="Do it")).to_have_count(0, timeout=30_000)
     shot(watch, "session-researcher-following")
     click(page, "Accept")
     shows(page, "Saved (accepted)")
@@ -332,18 +391,18 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     page.get_by_text("Upload CSV files", exact=True).click()
     idle(page)
     uploader = page.locator("[data-testid='stFileUploaderDropzoneInput']")
-    uploader.set_input_files([str(folder / "daily.csv"), str(folder / "notes.csv")])
-    idle(page)
+    upload(page, uploader, folder / "daily.csv", folder / "notes.csv")
     shows(page, "notes.csv: not a daily.csv, by_preference.csv or interactions.csv")
     page.get_by_role("button", name="Remove notes.csv").click()
     idle(page)
-    uploader.set_input_files([str(folder / "by_preference.csv")])
-    idle(page)
+    upload(page, uploader, folder / "by_preference.csv")
     shows(page, "Uploaded: daily.csv, by_preference.csv.")
     page.get_by_role("tab", name="Fig. 4 · methods").click()
     idle(page)
     shows(page, "Which preferences each method learnt")
-    assert page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").count() >= 2
+    # two charts or more, waited for (plotly draws a chart after its element is on the page): the second is there
+    expect(page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").nth(1)
+           ).to_be_attached(timeout=30_000)
     shot(page, "results-upload")
 
 
@@ -355,9 +414,8 @@ def test_importing_a_persona_file_says_so(server, page):
     goto(page, f"{server}/participants")
     page.get_by_role("tab", name="Import / export").click()
     idle(page)
-    page.locator("[data-testid='stFileUploaderDropzoneInput']").set_input_files(
-        str(study_data_dir() / "personas" / "example.json"))
-    idle(page)
+    upload(page, page.locator("[data-testid='stFileUploaderDropzoneInput']"),
+           study_data_dir() / "personas" / "example.json")
     click(page, "Import")
     # the mini study's P01 (under way, with preferences of their own) is named, and nothing imported
     shows(page, "example.json: P01 (day 1) is in study 'default' already, with other preferences; nothing was "
@@ -366,11 +424,14 @@ def test_importing_a_persona_file_says_so(server, page):
     idle(page)
     click(page, "Import")
     toast = page.locator("[data-testid='stToast']")
-    toast.first.wait_for(timeout=30_000)
-    assert ("Imported example.json: added P02, P03, P04, P05, P06, P07, P08 · preferences replaced for P01."
-            in toast.first.inner_text())
+    expect(toast.first).to_contain_text(
+        "Imported example.json: added P02, P03, P04, P05, P06, P07, P08 · preferences replaced for P01.",
+        timeout=30_000)
     idle(page)
     shows(page, "Preferences of P01")
+    # opened, not only named: P01 was selected before the import, and their tab's name was on the page already
+    expect(page.get_by_role("tab", name="Preferences of P01")).to_have_attribute("aria-selected", "true",
+                                                                                 timeout=30_000)
     shot(page, "participants-imported")
 
 
@@ -387,12 +448,12 @@ def test_a_clip_shorter_than_half_a_second_is_flagged(server, page, tmp_path):
     page.get_by_role("tab", name="Try a clip or a photo").click()
     idle(page)
     # the Try tab's first uploader (the clip's; the Add clips tab has one too, hidden)
-    page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first.set_input_files(
-        str(clip))
+    upload(page, page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first, clip)
     page.get_by_text("The clip is 25 ms long").wait_for(timeout=60_000)
     idle(page)
     shows(page, "heard mostly the silence that pads it")
-    assert page.locator("[role='tabpanel']:visible [data-testid='stAudio']").count() == 1  # the clip, to hear
+    # the clip, to hear
+    expect(page.locator("[role='tabpanel']:visible [data-testid='stAudio']")).to_have_count(1, timeout=30_000)
     shot(page, "sounds-short-clip")
 
 
@@ -418,22 +479,23 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     page.get_by_role("option", name="kitchen", exact=True).first.click()
     idle(page)
     uploader = panel.locator("[data-testid='stFileUploaderDropzoneInput']").first
-    uploader.set_input_files(str(photo))
-    idle(page)
+    upload(page, uploader, photo)
+    chips = page.locator("[role='tabpanel']:visible [data-testid='stFileChip']")
+    expect(chips).to_have_count(1, timeout=30_000)  # the photo, in the uploader
     add = page.locator("[role='tabpanel']:visible button").filter(has_text="Add to the library")
     add.click()
     idle(page)
     page.get_by_text("Added 1 photo(s) to 'kitchen'.").wait_for(timeout=30_000)
     shot(page, "scenes-photo-added")
-    assert page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderFile']").count() == 0  # emptied
+    # emptied (stFileChip is Streamlit 1.67's uploaded file: the stFileUploaderFile counted before is no more, and
+    # the count was 0 whatever the uploader held)
+    expect(chips).to_have_count(0, timeout=30_000)
     added = [p for p in image_paths("kitchen", library_server.data / "scenes") if p.name == "our_kitchen.png"]
     assert len(added) == 1
     # the same bytes again, under another name: refused, nothing added
     again = tmp_path / "kitchen again.png"
     again.write_bytes(photo.read_bytes())
-    page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first.set_input_files(
-        str(again))
-    idle(page)
+    upload(page, page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first, again)
     add.click()
     idle(page)
     page.get_by_text("the same image is already in the library as kitchen/our_kitchen.png").wait_for(timeout=30_000)

@@ -14,6 +14,9 @@ from cacas.store import StudyStore
 from conftest import _free_port, _run_app
 from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context
 
+CONNECTS = "() => window.__cacasConnects"  # the page's connections to the server so far (goto counts them)
+RECONNECTED = "n => window.__cacasConnects > n"
+
 pytestmark = pytest.mark.browser
 
 
@@ -46,8 +49,10 @@ def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initia
     with app_to_restart(tmp_path, db) as (url, restart):
         goto(page, f"{url}/?participant=P01&view=tablet")
         speaking_context(page, CANDIDATES)
+        connects = page.evaluate(CONNECTS)
         restart()
-        page.wait_for_timeout(3_000)  # the page reconnects by itself
+        # the page reconnects by itself: waited for, not a fixed 3 s
+        page.wait_for_function(RECONNECTED, arg=connects, timeout=60_000)
         button(page, "Accept").click()  # once
         shows(page, "Saved (accepted)", timeout=90_000)  # a new server loads the policy first
         with StudyStore(db, readonly=True) as s:
@@ -69,8 +74,9 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
         page.get_by_role("tab", name="Add a participant").click()
         idle(page)
         page.get_by_role("textbox", name="Pseudonymous code", exact=True).fill("P02")  # in a form: no rerun
+        connects = page.evaluate(CONNECTS)
         restart()
-        page.wait_for_timeout(3_000)
+        page.wait_for_function(RECONNECTED, arg=connects, timeout=60_000)  # the page reconnects by itself
         button(page, "Add participant").click()  # once
         shows(page, "Preferences of P02")
         with StudyStore(db, readonly=True) as s:
