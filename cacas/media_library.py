@@ -136,7 +136,10 @@ class Staging:
     :meth:`place` is done, the temporary files, the new files already placed and the folders made
     for them are removed (a file it replaced with other content stays replaced)."""
 
-    def __init__(self):
+    def __init__(self, root: Path | str | None = None):
+        """``root``: the library written into; the temporary files that a writer killed outright
+        (kill -9, a power cut) left in its folders are removed on entering (:func:`remove_leftovers`)."""
+        self.root = Path(root) if root is not None else None
         self.staged: list[tuple[Path, Path, bool]] = []  # (temporary, target, target existed)
         self.made: list[Path] = []
         self.placed: list[Path] = []  # new files renamed into place so far
@@ -171,11 +174,47 @@ class Staging:
         files.remove_empty(self.made)
 
     def __enter__(self) -> "Staging":
+        if self.root is not None:
+            remove_leftovers(self.root)
         return self
 
     def __exit__(self, kind, exc, tb) -> None:
         if kind is not None and not self.done:
             self.discard()
+
+
+_LEFTOVER = re.compile(r"^\..+\.(\d+)\.tmp$")
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # another user's process: alive
+        return True
+    return True
+
+
+def remove_leftovers(root: Path | str) -> list[Path]:
+    """Remove the temporary files (``.<name>.<pid>.tmp``, :class:`Staging`) in the library
+    folders of ``root`` whose writing process is gone: a generate or import killed outright leaves
+    them (a Ctrl-C or SIGTERM is cleaned up at once). A file of a process still running, or of a
+    pid now another's, is left. Returns the removed files."""
+    root = Path(root)
+    removed = []
+    if not root.is_dir():
+        return removed
+    for folder in (p for p in root.iterdir() if p.is_dir()):
+        for f in folder.iterdir():
+            m = _LEFTOVER.match(f.name)
+            if m and f.is_file() and not _alive(int(m.group(1))):
+                try:
+                    f.unlink()
+                    removed.append(f)
+                except OSError:  # pragma: no cover - removed meanwhile, or not ours to remove
+                    pass
+    return removed
 
 
 def scan(root: Path, kind: MediaKind) -> list[tuple[Path, str]]:
@@ -221,7 +260,7 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
         taken.add(target)
         targets.append(target)
     try:  # new names only (taken ones get a prefix), so removing them undoes the import
-        with Staging() as staging:
+        with Staging(root) as staging:
             for i, ((f, _), target) in enumerate(zip(plan, targets)):
                 shutil.copy2(f, staging.path(target))
                 if progress:
