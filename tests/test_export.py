@@ -4,6 +4,7 @@ import io
 import json
 import math
 import re
+import shutil
 import sqlite3
 import zipfile
 
@@ -55,12 +56,32 @@ def fill(store: StudyStore) -> None:
     store.record_questionnaire("P02", 7)
 
 
+@pytest.fixture(scope="module")
+def filled(tmp_path_factory):
+    """The folder of a database that ``fill`` made (the database and its policies/), made once: a
+    study of ~40 transactions, each synced to disk, took a quarter of a second per test."""
+    folder = tmp_path_factory.mktemp("filled") / "a"
+    with StudyStore(folder / "study.sqlite") as s:
+        fill(s)
+    return folder
+
+
 @pytest.fixture
-def store(tmp_path):
+def store(tmp_path, filled):
+    """``fill``'s study at tmp_path/a/study.sqlite: a copy of its folder, the test's own to change."""
+    shutil.copytree(filled, tmp_path / "a")
     s = StudyStore(tmp_path / "a" / "study.sqlite")
-    fill(s)
     yield s
     s.close()
+
+
+@pytest.fixture(scope="module")
+def bundle(tmp_path_factory, filled):
+    """The zip bundle of ``fill``'s study, exported once, for tests that only read it."""
+    folder = tmp_path_factory.mktemp("bundle")
+    shutil.copytree(filled, folder / "a")
+    with StudyStore(folder / "a" / "study.sqlite") as s:
+        return export.export_study(s, folder / "out").bundle
 
 
 def test_export_writes_every_table_and_one_zip(store, tmp_path):
@@ -420,8 +441,7 @@ def _rewrite(bundle, out, table, change):
      r"adaptations.csv, row 2, column parameters: not valid JSON \(Expecting property name enclosed in double "
      r"quotes\)"),
 ])
-def test_bad_bundle_is_refused_and_leaves_nothing(store, tmp_path, table, change, message):
-    bundle = export.export_study(store, tmp_path / "out").bundle
+def test_bad_bundle_is_refused_and_leaves_nothing(bundle, tmp_path, table, change, message):
     bad = _rewrite(bundle, tmp_path / "bad.zip", table, change)
     target = tmp_path / "new" / "study.sqlite"
     with pytest.raises(CacasError, match=message) as refused:
@@ -595,13 +615,12 @@ TIME_COLUMNS = [("studies", "created_at"), ("participants", "created_at"), ("par
 
 @pytest.mark.parametrize("table,column", TIME_COLUMNS)
 @pytest.mark.parametrize("garbage", ["yesterday", "2026-13-45T10:00:00Z", ""])
-def test_a_time_column_holding_no_time_is_refused_naming_file_row_and_column(store, tmp_path, table, column, garbage):
+def test_a_time_column_holding_no_time_is_refused_naming_file_row_and_column(bundle, tmp_path, table, column, garbage):
     """Review: only an interaction's time was checked; any text in created_at, opened_at, closed_at,
     updated_at or an event's at imported (times are compared as text: the questionnaire's day, the
     preference version in force for daily.csv's success ceiling)."""
     if (column, garbage) == ("closed_at", ""):
         garbage = "-"  # empty is a day still open
-    bundle = export.export_study(store, tmp_path / "out").bundle
     bad = _rewrite(bundle, tmp_path / "bad.zip", table, lambda df: df.assign(**{
         column: df[column].where(df.index != 0, garbage)}))
     target = tmp_path / "new" / "study.sqlite"
@@ -761,8 +780,7 @@ def _with_entries(bundle, out, add=(), policies_csv=None):
 
 @pytest.mark.parametrize("entry", ["policies/../../escaped.pt", "policies//etc/cron.d/x.pt",
                                    "policies/P01/notes.txt", "policies/P01/sub/day1-cacas-0123abcd.pt"])
-def test_bundle_with_an_unexpected_policy_file_is_refused(store, tmp_path, entry):
-    bundle = export.export_study(store, tmp_path / "out").bundle
+def test_bundle_with_an_unexpected_policy_file_is_refused(bundle, tmp_path, entry):
     bad = _with_entries(bundle, tmp_path / "bad.zip", add=[(entry, b"not a policy")])
     target = tmp_path / "new" / "study.sqlite"
     with pytest.raises(CacasError, match=f"bad.zip: unexpected file '{re.escape(entry)}' in the bundle"):
@@ -772,8 +790,7 @@ def test_bundle_with_an_unexpected_policy_file_is_refused(store, tmp_path, entry
 
 
 @pytest.mark.parametrize("path", ["../x.pt", "/tmp/x.pt", "P01/../../x.pt", "P01/day1-cacas-0123abcd.txt"])
-def test_bundle_naming_a_policy_path_outside_policies_is_refused(store, tmp_path, path):
-    bundle = export.export_study(store, tmp_path / "out").bundle
+def test_bundle_naming_a_policy_path_outside_policies_is_refused(bundle, tmp_path, path):
     bad = _with_entries(bundle, tmp_path / "bad.zip", policies_csv=lambda _: path)
     target = tmp_path / "new" / "study.sqlite"
     with pytest.raises(CacasError, match=f"policies.csv names an unexpected policy path '{re.escape(path)}'"):
@@ -808,8 +825,8 @@ def _counts(path):
 
 
 @pytest.fixture
-def bundle_tables(store, tmp_path):
-    return export.read_bundle(export.export_study(store, tmp_path / "out").bundle)
+def bundle_tables(bundle):
+    return export.read_bundle(bundle)
 
 
 @pytest.mark.parametrize("table,change,message", [

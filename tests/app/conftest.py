@@ -15,6 +15,20 @@ APP = str(ROOT / "app.py")
 TIMEOUT = 60
 
 
+@pytest.fixture(scope="session", autouse=True)
+def components_scanned_once():
+    """Each AppTest scans every installed distribution's metadata for Streamlit components (v2
+    manifests) on its first run, as a server does once at its start: 0.3-0.8 s per test, most of a
+    page test's time. The installed packages do not change during the tests: scanned once here."""
+    from streamlit.components.v2 import manifest_scanner
+
+    real = manifest_scanner.scan_component_manifests
+    found = real()
+    manifest_scanner.scan_component_manifests = lambda *a, **k: list(found)
+    yield
+    manifest_scanner.scan_component_manifests = real
+
+
 @pytest.fixture
 def db(tmp_path, monkeypatch):
     """A fresh study database file; the app finds it through $CACAS_DB."""
