@@ -238,7 +238,7 @@ def model_stamp(kind: str) -> float | None:
     return path.stat().st_mtime if path.exists() else None
 
 
-def previous_model(kind: str) -> dict | None:
+def kept_model(kind: str) -> dict | None:
     """The metadata of the sound or scene model the last training replaced, kept to be put back
     (:mod:`cacas.previous_model`), or None when none is kept."""
     from cacas import previous_model as kept
@@ -246,13 +246,13 @@ def previous_model(kind: str) -> dict | None:
     return kept.previous_metadata(model_path(kind))
 
 
-def put_back_previous_model(kind: str) -> tuple[dict, dict | None]:
+def put_back_previous_model(kind: str, expected: str | None = None) -> tuple[dict, dict | None]:
     """Put the kept previous sound or scene model back as the saved one; the model it replaces is
-    kept in its place. (metadata now saved, metadata now kept); a CacasError when none is kept or
-    it cannot be read (nothing changed)."""
+    kept in its place. (metadata now saved, metadata now kept); a CacasError when none is kept, it
+    cannot be read, or it is not model ``expected`` (the one the page showed): nothing changed."""
     from cacas import previous_model as kept
 
-    return kept.put_back(model_path(kind), kind)
+    return kept.put_back(model_path(kind), kind, expected)
 
 
 def load_recognizer(kind: str):

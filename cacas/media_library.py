@@ -136,10 +136,12 @@ class Staging:
     :meth:`place` is done, the temporary files, the new files already placed and the folders made
     for them are removed (a file it replaced with other content stays replaced)."""
 
-    def __init__(self, root: Path | str | None = None):
-        """``root``: the library written into; the temporary files that a writer killed outright
-        (kill -9, a power cut) left in its folders are removed on entering (:func:`remove_leftovers`)."""
+    def __init__(self, root: Path | str | None = None, extensions: Sequence[str] = ()):
+        """``root``: the library written into (its files end in one of ``extensions``); the
+        temporary files that a writer killed outright (kill -9, a power cut) left in its folders
+        are removed on entering (:func:`remove_leftovers`)."""
         self.root = Path(root) if root is not None else None
+        self.extensions = tuple(extensions)
         self.staged: list[tuple[Path, Path, bool]] = []  # (temporary, target, target existed)
         self.made: list[Path] = []
         self.placed: list[Path] = []  # new files renamed into place so far
@@ -175,7 +177,7 @@ class Staging:
 
     def __enter__(self) -> "Staging":
         if self.root is not None:
-            remove_leftovers(self.root)
+            remove_leftovers(self.root, self.extensions)
         return self
 
     def __exit__(self, kind, exc, tb) -> None:
@@ -183,7 +185,11 @@ class Staging:
             self.discard()
 
 
-_LEFTOVER = re.compile(r"^\..+\.(\d+)\.tmp$")
+_LEFTOVER = re.compile(r"^\.(.+)\.(\d{1,9})\.tmp$")
+#: A leftover is removed only when older than this (seconds) as well: a process id alone does not
+#: tell that its writer is gone (in another container a running process looks gone; the store's
+#: recovery says the same), and no generate or import writes a file for that long.
+LEFTOVER_AGE = 3600
 
 
 def _alive(pid: int) -> bool:
@@ -191,29 +197,35 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except OSError:  # another user's process: alive
+    except (OSError, OverflowError, ValueError):  # another user's process, or no pid this system has: leave
         return True
     return True
 
 
-def remove_leftovers(root: Path | str) -> list[Path]:
-    """Remove the temporary files (``.<name>.<pid>.tmp``, :class:`Staging`) in the library
-    folders of ``root`` whose writing process is gone: a generate or import killed outright leaves
-    them (a Ctrl-C or SIGTERM is cleaned up at once). A file of a process still running, or of a
-    pid now another's, is left. Returns the removed files."""
+def remove_leftovers(root: Path | str, extensions: Sequence[str]) -> list[Path]:
+    """Remove the temporary files that :class:`Staging` writes (``.<name>.<pid>.tmp``, ``name``
+    ending in one of the library's ``extensions``) in the library folders of ``root``, whose
+    process is gone and that are older than :data:`LEFTOVER_AGE`: a generate or import killed
+    outright leaves them (a Ctrl-C or SIGTERM is cleaned up at once). Anything else is left.
+    Returns the removed files."""
+    import time
+
     root = Path(root)
     removed = []
     if not root.is_dir():
         return removed
+    now = time.time()
     for folder in (p for p in root.iterdir() if p.is_dir()):
         for f in folder.iterdir():
             m = _LEFTOVER.match(f.name)
-            if m and f.is_file() and not _alive(int(m.group(1))):
-                try:
+            if not (m and Path(m.group(1)).suffix.lower() in extensions and f.is_file()):
+                continue
+            try:
+                if now - f.stat().st_mtime > LEFTOVER_AGE and not _alive(int(m.group(2))):
                     f.unlink()
                     removed.append(f)
-                except OSError:  # pragma: no cover - removed meanwhile, or not ours to remove
-                    pass
+            except OSError:  # pragma: no cover - removed meanwhile, or not ours to remove
+                pass
     return removed
 
 
@@ -260,7 +272,7 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
         taken.add(target)
         targets.append(target)
     try:  # new names only (taken ones get a prefix), so removing them undoes the import
-        with Staging(root) as staging:
+        with Staging(root, kind.extensions) as staging:
             for i, ((f, _), target) in enumerate(zip(plan, targets)):
                 shutil.copy2(f, staging.path(target))
                 if progress:

@@ -31,6 +31,19 @@ def previous_path(path: Path | str) -> Path:
     return path.with_name(f"{path.stem}{SUFFIX}{path.suffix}")
 
 
+def writing(path: Path | str):
+    """An exclusive lock (``flock``, :func:`cacas.store.recovery.busy`) on the model saved at
+    ``path`` and its kept one, for a save (keep, then the renames) or a put-back: a training's save
+    in the app's thread, a put-back from another browser and a command-line training take turns,
+    rather than renaming each other's temporary files (they share names). The lock file
+    (``.<name>.lock`` beside the model) stays."""
+    from cacas.store.recovery import busy
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return busy(path.with_name(f".{path.stem}.lock"))
+
+
 def _pair(path: Path) -> tuple[Path, Path]:
     return path, path.with_suffix(".json")
 
@@ -54,11 +67,11 @@ def _stamped(meta_bytes: bytes, weights: bytes) -> bytes:
 
 def _write_pairs(*pairs: tuple[Path, bytes, bytes]) -> None:
     """Each (path, weights, metadata) written as ``path`` and its .json: every file under a
-    temporary name first, then each renamed, weights before metadata (a pair caught between the
-    two is refused on loading as mismatched, never used)."""
+    temporary name first, then each renamed, metadata before weights (the metadata names its
+    weights: a pair caught between the two is refused on loading as mismatched, never used)."""
     moves = []
     for path, weights, meta in pairs:
-        for target, data in zip(_pair(path), (weights, meta)):
+        for target, data in zip(reversed(_pair(path)), (meta, weights)):
             tmp = target.with_name(target.name + ".tmp")
             tmp.write_bytes(data)
             moves.append((tmp, target))
@@ -66,16 +79,31 @@ def _write_pairs(*pairs: tuple[Path, bytes, bytes]) -> None:
         os.replace(tmp, target)
 
 
+def _belongs(meta_bytes: bytes, weights: bytes) -> bool:
+    """False when the metadata names weights other than these (a torn save); True otherwise (no
+    id recorded, as the shipped models', or metadata load_model_file refuses for its own reason)."""
+    from cacas.recognition import model_id
+
+    try:
+        meta = json.loads(meta_bytes)
+    except ValueError:
+        return True
+    return not isinstance(meta, dict) or meta.get("model_id") in (None, model_id(weights))
+
+
 def keep(path: Path | str) -> Path | None:
     """Copy the model saved at ``path`` (weights and metadata) to :func:`previous_path`, replacing
-    the model kept before; the path of the kept copy, or None when there is no complete model at
-    ``path`` to keep (no weights, or no metadata beside them)."""
+    the model kept before; the path of the kept copy, or None when there is no whole model at
+    ``path`` to keep (no weights, no metadata beside them, or metadata naming other weights: a torn
+    save is not kept over the last good model)."""
     pt, js = _pair(Path(path))
     if not (pt.is_file() and js.is_file()):
         return None
-    weights = pt.read_bytes()
+    weights, meta = pt.read_bytes(), js.read_bytes()
+    if not _belongs(meta, weights):
+        return None
     target = previous_path(pt)
-    _write_pairs((target, weights, _stamped(js.read_bytes(), weights)))
+    _write_pairs((target, weights, _stamped(meta, weights)))
     return target
 
 
@@ -106,17 +134,29 @@ def model_words(meta: dict) -> str:
     return ", ".join(words)
 
 
-def put_back(path: Path | str, kind: str) -> tuple[dict, dict | None]:
+def put_back(path: Path | str, kind: str, expected: str | None = None) -> tuple[dict, dict | None]:
     """Swap the model at ``path`` with the kept previous one: the kept model is checked first
     (:func:`cacas.recognition.load_model_file`: a kept file that is not a ``kind`` model, or whose
     metadata names other weights, changes nothing) and becomes the saved model; the model it
     replaces is kept in its place. Returns (the model now saved's metadata, the now kept one's, or
     None when there was no model at ``path``). The saved model's file time is now, so the app's
     pages and tablets, which reload a model when its file time changes, use it from their next
-    recognition. No kept model: a CacasError saying when one is kept."""
-    from cacas.recognition import load_model_file
+    recognition. No kept model: a CacasError saying when one is kept. ``expected``: the kept
+    model's id as the caller showed it; another kept model (a second press, or another browser's
+    put-back since) is refused, not swapped back.
 
-    path = Path(path)
+    Left as a known window: killed between its renames (milliseconds), the model put aside is only
+    in the kept slot's ``.tmp`` files until the next keep or put-back overwrites them."""
+    with writing(path):
+        return _put_back(path, kind, expected)
+
+
+def _put_back(path, kind: str, expected: str | None) -> tuple[dict, dict | None]:
+    from cacas.recognition import load_model_file, model_weights_path
+
+    path = model_weights_path(path, f"{kind} model")
+    if path.is_dir():
+        raise CacasError(f"{path}: is a folder; give the saved {kind} model's .pt file")
     kept = previous_path(path)
     if not kept.is_file():
         raise CacasError(f"{path}: no previous {kind} model is kept beside it ({kept.name}); one is kept "
@@ -128,6 +168,9 @@ def put_back(path: Path | str, kind: str) -> tuple[dict, dict | None]:
                          f"changed: {exc}") from None
     weights = kept.read_bytes()
     meta = _stamped(kept.with_suffix(".json").read_bytes(), weights)
+    if expected is not None and json.loads(meta).get("model_id") != expected:
+        raise CacasError(f"the previous {kind} model kept beside {path.name} is no longer model {expected} (it was "
+                         "put back already, or a training replaced the model since); nothing was changed")
     pt, js = _pair(path)
     if pt.is_file() and js.is_file():  # the model put aside is kept in turn (putting back twice undoes it)
         replaced_weights = pt.read_bytes()

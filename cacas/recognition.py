@@ -199,7 +199,8 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     belong together). With ``keep_previous``, a model saved at ``path`` before is kept beside it
     first (:func:`cacas.previous_model.keep`), to be put back if the new one serves worse.
 
-    Both are written to temporary names first and then renamed, so nothing is half-written.
+    Both are written to temporary names first and then renamed, so nothing is half-written; the
+    metadata is renamed first, and the file time of the weights (the app's cache key) changes last.
     """
     import torch
 
@@ -211,10 +212,13 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     torch.save(tensors, tmp_pt)
     metadata = {**metadata, "model_id": model_id(tmp_pt)}
     tmp_js.write_text(json.dumps(metadata, indent=1, default=_json_default) + "\n")
-    if keep_previous:
-        previous_model.keep(path)
-    tmp_pt.replace(path)
-    tmp_js.replace(path.with_suffix(".json"))
+    with previous_model.writing(path):  # a put-back or another save meanwhile waits
+        if keep_previous:
+            previous_model.keep(path)
+        # metadata first: it names its weights, so until they follow the pair is refused, never used
+        # (weights first left new weights beside the old, id-less metadata of the shipped models: loaded)
+        tmp_js.replace(path.with_suffix(".json"))
+        tmp_pt.replace(path)
     return path
 
 
@@ -289,7 +293,8 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict, str]:
     if meta.get("model_id") not in (None, model_id(data)):  # written by save_model since ids were recorded
         raise CacasError(f"{path}: its metadata {meta_path.name} belongs to other weights (model id "
                          f"{meta['model_id']}; this file's is {model_id(data)}): a save was interrupted or one "
-                         f"of the two files was copied without the other; train the {kind} model again")
+                         f"of the two files was copied without the other; put back the previous {kind} model "
+                         f"if one is kept (`cacas {kind} put-back`), or train it again")
     return tensors, meta, model_id(data)
 
 

@@ -232,15 +232,15 @@ def _previous_model_view(kind: str, busy: bool) -> None:
         st.success(told[1], icon=":material/history:")
     elif told is not None:
         st.error(told[1], icon=":material/error:")
-    kept = lab.previous_model(kind)
+    kept = lab.kept_model(kind)
     if kept is None:
         return
-    st.caption(f":material/history: Kept: the model the last training replaced ({model_words(kept)}).")
+    st.caption(f":material/history: Kept beside it, to put back: {model_words(kept)}.")
     if st.button(f"Put back the previous {kind} model", key=f"btn-put-back-{kind}", disabled=busy,
                  icon=":material/undo:", help="It serves the tablets from their next interaction; the model "
                                               "saved now is kept in its place, so pressing again returns to it."):
         try:
-            saved, replaced = lab.put_back_previous_model(kind)
+            saved, replaced = lab.put_back_previous_model(kind, kept.get("model_id"))
         except CacasError as exc:
             st.session_state[f"put-back-{kind}"] = ("error", str(exc))
         else:
@@ -262,7 +262,12 @@ with train:
                                      ("Scene", lab.train_scene, lab.evaluate_scene)):
         st.subheader(f"{kind} model")
         model = ui.recognizer(kind.lower())
-        if model is None:
+        if model is None and ui.model_stamp(kind.lower()) is not None:  # saved, but cannot serve: say why
+            try:
+                lab.load_recognizer(kind.lower())
+            except CacasError as exc:
+                st.error(str(exc), icon=":material/error:")
+        elif model is None:
             st.caption("No trained model saved yet.")
         else:
             meta = model.metadata

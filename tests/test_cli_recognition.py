@@ -109,6 +109,15 @@ def test_train_keeps_the_model_it_replaces_and_put_back_returns_to_it(tmp_path, 
                                                     "2026-11-20 09:00 UTC, test accuracy 98.5%)")
     assert out[1].startswith(f"the model it replaced (model id {after}, trained ") and out[1].endswith(
         f"is kept as {tmp_path / 'sound.previous.pt'}; `cacas sound put-back` again puts that one back")
+    assert main(["sound", "put-back", "--model", str(model.with_suffix(".json"))]) == 2  # the metadata named
+    assert capsys.readouterr().err == (f"cacas: error: sound model {model.with_suffix('.json')}: a .json file is where "
+                                       f"a model's metadata goes, beside its weights; valid: a .pt file, e.g. {model}\n")
+    assert main(["sound", "put-back", "--model", str(tmp_path)]) == 2
+    assert capsys.readouterr().err == f"cacas: error: {tmp_path}: is a folder; give the saved sound model's .pt file\n"
+    # a training that replaces nothing says nothing of a kept model (one is kept from before here)
+    model.unlink()
+    assert main(["sound", "train", "--data", str(lib), "--model", str(model), "--epochs", "1", "--quiet"]) == 0
+    assert "is kept as" not in capsys.readouterr().out
     assert main(["scene", "put-back", "--model", str(tmp_path / "scene.pt")]) == 2
     assert capsys.readouterr().err == (f"cacas: error: {tmp_path / 'scene.pt'}: no previous scene model is kept beside it "
                                        "(scene.previous.pt); one is kept each time training replaces the saved model\n")

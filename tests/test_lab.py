@@ -150,9 +150,9 @@ def test_train_scene_saves_the_model_evaluate_scene_tests_it(study_data, monkeyp
     assert result.recognizer.metadata["kind"] == "scene"
     metrics = lab.evaluate_scene()
     assert metrics.n == 6 and metrics.classes == list(loaded.classes) and metrics.extra["set"] == "all"
-    assert lab.previous_model("scene") is None  # nothing was replaced
+    assert lab.kept_model("scene") is None  # nothing was replaced
     lab.train_scene(progress, epochs=1, seed=8)  # the second training keeps the first's model
-    assert lab.previous_model("scene")["model_id"] == loaded.model_id
+    assert lab.kept_model("scene")["model_id"] == loaded.model_id
 
 
 def test_the_model_a_training_replaced_can_be_put_back_and_put_back_again(study_data):
@@ -162,7 +162,7 @@ def test_the_model_a_training_replaced_can_be_put_back_and_put_back_again(study_
 
     from cacas.audio.model import SoundCNN, SoundRecognizer
 
-    assert lab.previous_model("sound") is None
+    assert lab.kept_model("sound") is None
     with pytest.raises(CacasError, match=r"sound_cnn\.pt: no previous sound model is kept beside it "
                                          r"\(sound_cnn\.previous\.pt\); one is kept each time training replaces"):
         lab.put_back_previous_model("sound")
@@ -171,7 +171,7 @@ def test_the_model_a_training_replaced_can_be_put_back_and_put_back_again(study_
     second = SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.18}).save(first, keep_previous=True)
     second_id = lab.load_recognizer("sound").model_id
     assert second_id != first_id  # other weights (drawn anew)
-    assert lab.previous_model("sound")["model_id"] == first_id and lab.previous_model("sound")["accuracy"] == 0.5
+    assert lab.kept_model("sound")["model_id"] == first_id and lab.kept_model("sound")["accuracy"] == 0.5
     os.utime(second, (1_700_000_000, 1_700_000_000))
     saved, kept = lab.put_back_previous_model("sound")
     assert (saved["model_id"], saved["accuracy"]) == (first_id, 0.5)
@@ -179,9 +179,9 @@ def test_the_model_a_training_replaced_can_be_put_back_and_put_back_again(study_
     rec = lab.load_recognizer("sound")
     assert (rec.model_id, rec.metadata["accuracy"]) == (first_id, 0.5)
     assert lab.model_stamp("sound") != 1_700_000_000  # the pages and tablets reload it
-    assert lab.previous_model("sound")["model_id"] == second_id
+    assert lab.kept_model("sound")["model_id"] == second_id
     lab.put_back_previous_model("sound")  # again: the second model serves, the first is kept
-    assert lab.load_recognizer("sound").model_id == second_id and lab.previous_model("sound")["model_id"] == first_id
+    assert lab.load_recognizer("sound").model_id == second_id and lab.kept_model("sound")["model_id"] == first_id
     assert not list(study_data.glob("models/*.tmp"))
     with pytest.raises(CacasError, match=r"^unknown model kind 'speech'; valid: sound, scene$"):
         lab.put_back_previous_model("speech")

@@ -1,6 +1,7 @@
 """The model a training replaced, kept to be put back (cacas.previous_model)."""
 
 import json
+import os
 
 import pytest
 import torch
@@ -16,7 +17,8 @@ def _save(path, n, keep=False, **meta):
 
 
 def _files(folder):
-    return sorted(p.name for p in folder.iterdir())
+    """The folder's files but the hidden lock file that saves and put-backs take turns on."""
+    return sorted(p.name for p in folder.iterdir() if not (p.name.startswith(".") and p.name.endswith(".lock")))
 
 
 def test_the_kept_model_is_named_beside_the_saved_one(tmp_path):
@@ -48,14 +50,43 @@ def test_a_model_saved_before_ids_were_recorded_is_kept_with_its_id(tmp_path):
     assert previous_model.previous_metadata(path)["model_id"] == model_id(path) == model_id(kept)
 
 
-def test_a_mismatched_pair_is_kept_as_it_is_not_passed_off_as_whole(tmp_path):
-    """Weights replaced without their metadata: keeping (or putting back) copies the pair with the
-    metadata's own id, so loading the copy still refuses it."""
+def test_a_torn_save_is_not_kept_over_the_last_good_model(tmp_path):
+    """Weights replaced without their metadata (a save killed between its renames, one file copied
+    over): the refusal's advice was to train again, whose keep() then copied the torn pair over the
+    kept model, the only good one left (review). A torn pair is not kept."""
     path = _save(tmp_path / "m.pt", 3)
-    path.write_bytes(_save(tmp_path / "o.pt", 4).read_bytes())
-    kept = previous_model.keep(path)
-    with pytest.raises(CacasError, match=r"m\.previous\.json belongs to other weights"):
-        load_model_file(kept, "sound")
+    good = model_id(path)
+    _save(path, 4, keep=True)
+    path.write_bytes(_save(tmp_path / "o.pt", 5).read_bytes())  # torn
+    assert previous_model.keep(path) is None
+    _save(path, 6, keep=True)  # the training that the refusal asked for
+    assert previous_model.previous_metadata(path)["model_id"] == good
+    load_model_file(previous_model.previous_path(path), "sound")  # whole: it loads
+
+
+def test_a_save_cut_between_its_renames_is_refused_even_over_metadata_with_no_id(tmp_path, monkeypatch):
+    """The shipped models' metadata records no id: a save whose weights were renamed before its
+    metadata, cut between the two, loaded the new weights with the old classes and accuracy. The
+    metadata goes first, and it names its weights: the cut pair is refused."""
+    import cacas.recognition
+
+    path = _save(tmp_path / "m.pt", 3)
+    meta = json.loads(path.with_suffix(".json").read_text())
+    del meta["model_id"]
+    path.with_suffix(".json").write_text(json.dumps(meta))
+    real, calls = os.replace, []
+
+    def replace_once(src, dst):
+        if calls:
+            raise KeyboardInterrupt  # killed before the second rename
+        calls.append(dst)
+        return real(src, dst)
+    monkeypatch.setattr(cacas.recognition.Path, "replace", lambda self, dst: replace_once(self, dst))
+    with pytest.raises(KeyboardInterrupt):
+        _save(path, 4)
+    monkeypatch.undo()
+    with pytest.raises(CacasError, match="belongs to other weights"):
+        load_model_file(path, "sound")
 
 
 def test_putting_back_with_no_saved_model_moves_the_kept_one(tmp_path):
@@ -92,3 +123,41 @@ def test_a_model_is_described_by_what_its_metadata_records():
                                        "accuracy": 0.9854}) == (
         "model id 0123456789ab, trained 2026-11-20 09:00 UTC, test accuracy 98.5%")
     assert previous_model.model_words({"accuracy": None}) == "model id (not recorded)"
+
+
+def test_a_put_back_of_a_kept_model_other_than_the_one_shown_is_refused(tmp_path):
+    """A second press (or another browser's put-back since the page was drawn) would swap back:
+    the page passes the kept model's id it showed, and another is refused, nothing changed."""
+    path = _save(tmp_path / "m.pt", 3)
+    _save(path, 4, keep=True)
+    shown = previous_model.previous_metadata(path)["model_id"]
+    previous_model.put_back(path, "sound", expected=shown)
+    serving = model_id(path)
+    with pytest.raises(CacasError, match=rf"^the previous sound model kept beside m\.pt is no longer model {shown} "
+                                         r"\(it was put back already, or a training replaced the model since\); "
+                                         r"nothing was changed$"):
+        previous_model.put_back(path, "sound", expected=shown)
+    assert model_id(path) == serving == shown
+
+
+def test_saves_and_put_backs_of_one_model_take_turns(tmp_path):
+    """The app's training thread, a put-back from another browser and a command-line training
+    share temporary names: a save waits while a put-back (or another save) holds the model."""
+    import threading
+
+    path = _save(tmp_path / "m.pt", 3)
+    order, holding = [], threading.Event()
+
+    def hold():
+        with previous_model.writing(path):
+            holding.set()
+            threading.Event().wait(0.5)  # time for the save to try
+            order.append("put-back done")
+
+    other = threading.Thread(target=hold)
+    other.start()
+    holding.wait(10)
+    _save(path, 4, keep=True)
+    order.append("save done")
+    other.join(10)
+    assert order == ["put-back done", "save done"]

@@ -22,7 +22,8 @@ def test_save_then_load_gives_the_tensors_and_metadata(sound_file):
     tensors, meta, file_id = load_model_file(sound_file, "sound")
     assert torch.equal(tensors["w"], torch.arange(3.0))
     assert meta == {"kind": "sound", "classes": ["cough"], "model_id": file_id}  # the weights it belongs to
-    assert sorted(p.name for p in sound_file.parent.iterdir()) == ["m.json", "m.pt"]  # no temporary left
+    assert sorted(p.name for p in sound_file.parent.iterdir()) == [".m.lock", "m.json", "m.pt"]  # no temporary
+    # left (the lock file saves and put-backs take turns on stays: cacas.previous_model.writing)
     assert file_id == hashlib.sha256(sound_file.read_bytes()).hexdigest()[:12] == model_id(sound_file)
 
 
@@ -33,8 +34,9 @@ def test_metadata_that_names_other_weights_is_refused(sound_file, tmp_path):
     sound_file.write_bytes(other.read_bytes())
     with pytest.raises(CacasError, match=rf"m\.pt: its metadata m\.json belongs to other weights \(model id "
                                          rf"[0-9a-f]{{12}}; this file's is {model_id(other)}\): a save was interrupted "
-                                         r"or one of the two files was copied without the other; train the sound "
-                                         r"model again"):
+                                         r"or one of the two files was copied without the other; put back the "
+                                         r"previous sound model if one is kept \(`cacas sound put-back`\), or "
+                                         r"train it again$"):
         load_model_file(sound_file, "sound")
     meta = json.loads(sound_file.with_suffix(".json").read_text())
     del meta["model_id"]  # metadata from before ids were recorded (the shipped models') is not checked

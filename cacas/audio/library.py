@@ -115,7 +115,8 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     names = [spaces.canonical("activity", a) for a in (activities or spaces.ACTIVITIES)]
     written = []
     total = len(names) * clips_per_activity
-    with media_library.Staging(root) as staging:  # all placed at the end: stopped before, nothing is added
+    # all placed at the end: stopped before, nothing is added
+    with media_library.Staging(root, SUPPORTED_EXTENSIONS) as staging:
         for i, name in enumerate(names):
             folder = root / slug(name)
             # one independent stream per (seed, activity, clip): adding activities changes nothing else

@@ -5,7 +5,7 @@ from __future__ import annotations
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.cli.sound import (add_put_back, add_training_options, check_confusion_png, count, library_out,
-                             print_metrics, recognize_each, save_confusion, say_kept)
+                             print_metrics, recognize_each, save_confusion, saved_model_id, say_kept)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 from cacas.recognition import UNSURE_BELOW
@@ -93,11 +93,12 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
+    replaced = saved_model_id(model_path)
     path = result.recognizer.save(model_path, keep_previous=True)
     print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
           f"{result.recognizer.metadata['initial_weights']}); saved {path}")
     print_metrics(result.metrics, "images")
-    say_kept(path, "scene")
+    say_kept(path, "scene", replaced)
     return 0
 
 

@@ -185,20 +185,31 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
+    replaced = saved_model_id(model_path)
     path = result.recognizer.save(model_path, keep_previous=True)
     print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
     print_metrics(result.metrics)
-    say_kept(path, "sound")
+    say_kept(path, "sound", replaced)
     return 0
 
 
-def say_kept(path, kind: str) -> None:
-    """After a training: where the model it replaced is kept, and how to put it back."""
+def saved_model_id(path) -> str | None:
+    """The model id of the weights saved at ``path`` (None: none), read before a training saves."""
+    from pathlib import Path
+
+    from cacas.recognition import model_id
+
+    return model_id(path) if Path(path).is_file() else None
+
+
+def say_kept(path, kind: str, replaced: str | None) -> None:
+    """After a training: where the model it replaced (``replaced``, its id) is kept, and how to put
+    it back; nothing when it replaced none, or the one there was not kept (a torn save)."""
     from cacas import previous_model
     from cacas.previous_model import model_words
 
     kept = previous_model.previous_metadata(path)
-    if kept is not None:
+    if replaced is not None and kept is not None and kept.get("model_id") == replaced:
         print(f"the model it replaced ({model_words(kept)}) is kept as {previous_model.previous_path(path)}; "
               f"`cacas {kind} put-back` puts it back")
 

@@ -157,7 +157,8 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
     root = Path(root) if root is not None else scenes_dir()
     written = []
     total = len(spaces.SCENES) * images_per_scene
-    with media_library.Staging(root) as staging:  # all placed at the end: stopped before, nothing is added
+    # all placed at the end: stopped before, nothing is added
+    with media_library.Staging(root, IMAGE_EXTENSIONS) as staging:
         for j, name in enumerate(spaces.SCENES):
             folder = root / slug(name)
             for k in range(images_per_scene):

@@ -380,8 +380,8 @@ def test_the_model_a_training_replaced_is_shown_and_put_back(app, tmp_path, monk
     poor = cacas.lab.load_recognizer("sound").model_id
     at.run()
     kept = [c.value for c in at.caption if c.value.startswith(":material/history: Kept")]
-    assert kept == [f":material/history: Kept: the model the last training replaced (model id {good}, trained "
-                    "2026-11-20 09:00 UTC, test accuracy 98.5%)."]
+    assert kept == [f":material/history: Kept beside it, to put back: model id {good}, trained "
+                    "2026-11-20 09:00 UTC, test accuracy 98.5%."]
     assert f"test accuracy 18.0% · ? items · ? s · model id {poor}" in texts(at)  # the saved one, as before
     assert at.button(key="btn-put-back-sound").label == "Put back the previous sound model"
     at.button(key="btn-put-back-sound").click().run()
@@ -392,7 +392,7 @@ def test_the_model_a_training_replaced_is_shown_and_put_back(app, tmp_path, monk
         f"the one it replaced is kept (model id {poor}, trained 2026-11-26 18:00 UTC, test accuracy 18.0%)."]
     assert f"model id {good}" in [c.value for c in at.caption if c.value.startswith("Trained")][0]  # reloaded
     at.button(key="btn-put-back-sound").click().run()  # again: back to where it started
-    assert cacas.lab.load_recognizer("sound").model_id == poor and cacas.lab.previous_model("sound")["model_id"] == good
+    assert cacas.lab.load_recognizer("sound").model_id == poor and cacas.lab.kept_model("sound")["model_id"] == good
     kept_file = cacas.lab.model_path("sound").with_name("sound_cnn.previous.pt")
     kept_file.write_bytes(b"damaged")
     at.button(key="btn-put-back-sound").click().run()
@@ -402,3 +402,40 @@ def test_the_model_a_training_replaced_is_shown_and_put_back(app, tmp_path, monk
         "not a sound model (not a PyTorch file); expected a model saved by `cacas sound train` (.pt, with its .json "
         "beside it)"]
     assert cacas.lab.load_recognizer("sound").model_id == poor
+
+
+def test_a_put_back_pressed_while_a_training_runs_is_refused(app, tmp_path, monkeypatch):
+    """A page drawn before a training started (another browser) still shows the button: pressed,
+    nothing is put back (the training's save would undo the swap and lose the model put aside): the
+    press's run draws it disabled, and a disabled button reports no press. A model saved but
+    unreadable is said, not shown as 'No trained model saved yet'."""
+    import threading
+
+    import cacas.lab
+    from cacas.audio.model import SoundCNN, SoundRecognizer
+    from cacas.jobs import RUNNER
+
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(tmp_path))
+    monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: (  # the file's time, as the real stamp
+        cacas.lab.model_path(kind).stat().st_mtime_ns if cacas.lab.model_path(kind).exists() else None))
+    path = cacas.lab.model_path("sound")
+    SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.9}).save(path)
+    SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.2}).save(path, keep_previous=True)
+    serving = cacas.lab.load_recognizer("sound").model_id
+    at = app(PAGE)
+    assert not at.button(key="btn-put-back-sound").disabled
+    release = threading.Event()
+    RUNNER.start("train-sound", lambda progress=None: release.wait(30), label="Training the sound model")
+    try:
+        at.button(key="btn-put-back-sound").click().run()
+        no_exception(at)
+        assert cacas.lab.load_recognizer("sound").model_id == serving and not at.success
+        assert at.button(key="btn-put-back-sound").disabled  # and drawn disabled meanwhile
+    finally:
+        release.set()
+        assert RUNNER.get("train-sound").wait(30)
+        RUNNER.forget("train-sound")
+    path.write_bytes(b"damaged")
+    at.run()
+    assert f"{path}: not a sound model (not a PyTorch file)" in " ".join(e.value for e in at.error)
+    assert [c.value for c in at.caption].count("No trained model saved yet.") == 1  # the scene model's alone
