@@ -247,6 +247,8 @@ def _previous_model_view(kind: str, busy: bool) -> None:
             st.session_state[f"put-back-{kind}"] = (
                 "ok", f"The previous {kind} model is back ({model_words(saved)})"
                       + (f"; the one it replaced is kept ({model_words(replaced)})." if replaced else "."))
+            for key in (f"train-{kind}", f"eval-{kind}"):  # their results were of the model put aside
+                RUNNER.forget(key)
         st.rerun()
 
 

@@ -384,7 +384,15 @@ def test_the_model_a_training_replaced_is_shown_and_put_back(app, tmp_path, monk
                     "2026-11-20 09:00 UTC, test accuracy 98.5%."]
     assert f"test accuracy 18.0% · ? items · ? s · model id {poor}" in texts(at)  # the saved one, as before
     assert at.button(key="btn-put-back-sound").label == "Put back the previous sound model"
+    from cacas.jobs import RUNNER  # the last training's results, of the model about to be put aside
+
+    RUNNER.start("train-sound", lambda progress=None: None, label="Training the sound model")
+    assert RUNNER.get("train-sound").wait(30)
+    at.run()
+    assert any(c.value.startswith("Training the sound model: finished") for c in at.caption)
     at.button(key="btn-put-back-sound").click().run()
+    assert not any(c.value.startswith("Training the sound model: finished") for c in at.caption)  # not shown
+    assert RUNNER.get("train-sound") is None  # under the model put back
     no_exception(at)
     assert cacas.lab.load_recognizer("sound").model_id == good
     assert [s.value for s in at.success] == [
