@@ -515,3 +515,28 @@ def test_recognize_goes_on_past_a_file_it_cannot_read(tmp_path, capsys):
     assert main(["scene", "recognize", str(img), str(picture)]) == 2
     cap = capsys.readouterr()
     assert cap.out.startswith(f"{img}: ") and cap.err.startswith(f"cacas: error: {picture}")
+
+
+def test_scene_train_keeps_the_model_it_replaces(tmp_path, capsys, monkeypatch):
+    """`cacas scene train` keeps the model it replaces too (the training itself replaced by an
+    untrained ResNet-18: it is tested in test_vision_model)."""
+    import cacas.vision.training
+    from cacas.recognition import model_id
+    from cacas.vision.model import SceneRecognizer, build_resnet18
+
+    def train_scene_model(*args, **kw):
+        model, _ = build_resnet18(weights="none")
+        rec = SceneRecognizer(model, metadata={"accuracy": 0.5, "initial_weights": "none"})
+        return cacas.vision.training.SceneTrainingResult(rec, None, [], None, 0.0)
+
+    monkeypatch.setattr(cacas.vision.training, "train_scene_model", train_scene_model)
+    monkeypatch.setattr("cacas.cli.scene.print_metrics", lambda *a, **k: None)
+    model = tmp_path / "scene.pt"
+    assert main(["scene", "train", "--model", str(model), "--weights", "none", "--quiet"]) == 0
+    first = model_id(model)
+    assert "is kept as" not in capsys.readouterr().out  # nothing was replaced
+    assert main(["scene", "train", "--model", str(model), "--weights", "none", "--quiet"]) == 0
+    assert capsys.readouterr().out.splitlines()[-1] == (
+        f"the model it replaced (model id {first}, test accuracy 50.0%) is kept as {tmp_path / 'scene.previous.pt'}; "
+        "`cacas scene put-back` puts it back")
+    assert model_id(tmp_path / "scene.previous.pt") == first != model_id(model)
