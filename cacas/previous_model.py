@@ -91,11 +91,55 @@ def _belongs(meta_bytes: bytes, weights: bytes) -> bool:
     return not isinstance(meta, dict) or meta.get("model_id") in (None, model_id(weights))
 
 
+def _meta_id(js: Path) -> str | None:
+    try:
+        meta = json.loads(js.read_bytes())
+    except (OSError, ValueError):
+        return None
+    return meta.get("model_id") if isinstance(meta, dict) else None
+
+
+def _file_id(pt: Path) -> str | None:
+    from cacas.recognition import model_id
+
+    return model_id(pt) if pt.is_file() else None
+
+
+def finish_put_back(path: Path | str) -> None:
+    """Finish a put-back killed between its renames (:func:`put_back` renames the saved pair, then
+    the kept one, metadata before weights), or drop its temporary files when it had renamed nothing:
+    called under :func:`writing` before a keep or a put-back overwrites them. A put-back killed
+    after the saved pair was renamed held the model it put aside only in the kept slot's ``.tmp``
+    files (the kept slot then held a copy of the saved model): that model is kept again."""
+    pt, js = _pair(Path(path))
+    tmp = lambda f: f.with_name(f.name + ".tmp")  # noqa: E731
+    # the saved pair: its metadata renamed, its weights not (the metadata names the waiting weights)
+    if tmp(pt).is_file() and not tmp(js).is_file() and _meta_id(js) not in (None, _file_id(pt)) \
+            and _meta_id(js) == _file_id(tmp(pt)):
+        os.replace(tmp(pt), pt)
+    kpt, kjs = _pair(previous_path(path))
+    if not (tmp(kpt).is_file() or tmp(kjs).is_file()):
+        return
+    # the model waiting to be kept: its files not yet renamed, or renamed already
+    wpt, wjs = (tmp(kpt) if tmp(kpt).is_file() else kpt), (tmp(kjs) if tmp(kjs).is_file() else kjs)
+    waiting = _meta_id(wjs) if wpt.is_file() and _meta_id(wjs) == _file_id(wpt) else None
+    kept_now = _meta_id(kjs) if kpt.is_file() and _meta_id(kjs) == _file_id(kpt) else None
+    saved_now = _file_id(pt)
+    if waiting is not None and waiting != saved_now and kept_now in (None, saved_now):  # nowhere else: keep it
+        for f, target in ((tmp(kjs), kjs), (tmp(kpt), kpt)):
+            if f.is_file():
+                os.replace(f, target)
+        return
+    for f in (tmp(kjs), tmp(kpt)):  # a copy of a model that is whole elsewhere, or a part written
+        f.unlink(missing_ok=True)
+
+
 def keep(path: Path | str) -> Path | None:
     """Copy the model saved at ``path`` (weights and metadata) to :func:`previous_path`, replacing
     the model kept before; the path of the kept copy, or None when there is no whole model at
     ``path`` to keep (no weights, no metadata beside them, or metadata naming other weights: a torn
     save is not kept over the last good model)."""
+    finish_put_back(path)
     pt, js = _pair(Path(path))
     if not (pt.is_file() and js.is_file()):
         return None
@@ -143,10 +187,8 @@ def put_back(path: Path | str, kind: str, expected: str | None = None) -> tuple[
     pages and tablets, which reload a model when its file time changes, use it from their next
     recognition. No kept model: a CacasError saying when one is kept. ``expected``: the kept
     model's id as the caller showed it; another kept model (a second press, or another browser's
-    put-back since) is refused, not swapped back.
-
-    Left as a known window: killed between its renames (milliseconds), the model put aside is only
-    in the kept slot's ``.tmp`` files until the next keep or put-back overwrites them."""
+    put-back since) is refused, not swapped back. Killed between its renames, the next keep or
+    put-back finishes it (:func:`finish_put_back`)."""
     with writing(path):
         return _put_back(path, kind, expected)
 
@@ -157,6 +199,7 @@ def _put_back(path, kind: str, expected: str | None) -> tuple[dict, dict | None]
     path = model_weights_path(path, f"{kind} model")
     if path.is_dir():
         raise CacasError(f"{path}: is a folder; give the saved {kind} model's .pt file")
+    finish_put_back(path)
     kept = previous_path(path)
     if not kept.is_file():
         raise CacasError(f"{path}: no previous {kind} model is kept beside it ({kept.name}); one is kept "

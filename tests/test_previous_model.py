@@ -161,3 +161,31 @@ def test_saves_and_put_backs_of_one_model_take_turns(tmp_path):
     order.append("save done")
     other.join(10)
     assert order == ["put-back done", "save done"]
+
+
+@pytest.mark.parametrize("renames_done", [0, 1, 2, 3])
+def test_a_put_back_killed_between_its_renames_loses_neither_model(tmp_path, monkeypatch, renames_done):
+    """Review: killed after the saved pair was renamed and before the kept one, both slots held the
+    model put back, and the one put aside was only in .tmp files that the next keep overwrote. The
+    next keep or put-back finishes a put-back that had begun, and drops one that had not."""
+    path = _save(tmp_path / "m.pt", 3)
+    _save(path, 4, keep=True)
+    kept_id, saved_id = previous_model.previous_metadata(path)["model_id"], model_id(path)
+    real, done = os.replace, []
+
+    def replace(src, dst):
+        if len(done) == renames_done:
+            raise KeyboardInterrupt  # killed here
+        done.append(dst)
+        return real(src, dst)
+    monkeypatch.setattr(previous_model.os, "replace", replace)
+    with pytest.raises(KeyboardInterrupt):
+        previous_model.put_back(path, "sound")
+    monkeypatch.undo()
+    previous_model.finish_put_back(path)  # as the next keep or put-back does first
+    kept = previous_model.previous_path(path)
+    state = (load_model_file(path, "sound")[2], load_model_file(kept, "sound")[2])  # both whole
+    assert state == ((saved_id, kept_id) if renames_done == 0 else (kept_id, saved_id))
+    # (the saved slot's temporary files of a put-back that renamed nothing stay until the next save's
+    # overwrite them: a save writes its own there before it takes the lock, so they are not removed)
+    assert not list(tmp_path.glob("m.previous.*.tmp"))
