@@ -48,6 +48,15 @@ def _pair(path: Path) -> tuple[Path, Path]:
     return path, path.with_suffix(".json")
 
 
+def _recorded(meta_bytes: bytes) -> dict | None:
+    """The metadata as a dict, or None when it is not a JSON object (loading says what is wrong)."""
+    try:
+        meta = json.loads(meta_bytes)
+    except ValueError:
+        return None
+    return meta if isinstance(meta, dict) else None
+
+
 def _stamped(meta_bytes: bytes, weights: bytes) -> bytes:
     """The metadata (JSON bytes) naming the weights it belongs to (``model_id``) where it names
     none (a model saved before ids were recorded, as the shipped ones). Metadata that names other
@@ -55,11 +64,8 @@ def _stamped(meta_bytes: bytes, weights: bytes) -> bytes:
     says what is wrong, rather than the copy passing for a whole model."""
     from cacas.recognition import model_id
 
-    try:
-        meta = json.loads(meta_bytes)
-    except ValueError:
-        return meta_bytes
-    if not isinstance(meta, dict) or meta.get("model_id") is not None:
+    meta = _recorded(meta_bytes)
+    if meta is None or meta.get("model_id") is not None:
         return meta_bytes
     meta["model_id"] = model_id(weights)
     return (json.dumps(meta, indent=1) + "\n").encode()
@@ -84,19 +90,17 @@ def _belongs(meta_bytes: bytes, weights: bytes) -> bool:
     id recorded, as the shipped models', or metadata load_model_file refuses for its own reason)."""
     from cacas.recognition import model_id
 
-    try:
-        meta = json.loads(meta_bytes)
-    except ValueError:
-        return True
-    return not isinstance(meta, dict) or meta.get("model_id") in (None, model_id(weights))
+    meta = _recorded(meta_bytes)
+    return meta is None or meta.get("model_id") in (None, model_id(weights))
 
 
 def _meta_id(js: Path) -> str | None:
+    """The model id a metadata file records (None: none, or no readable metadata)."""
     try:
-        meta = json.loads(js.read_bytes())
-    except (OSError, ValueError):
+        meta = _recorded(js.read_bytes())
+    except OSError:
         return None
-    return meta.get("model_id") if isinstance(meta, dict) else None
+    return meta.get("model_id") if meta is not None else None
 
 
 def _file_id(pt: Path) -> str | None:
