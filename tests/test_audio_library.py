@@ -221,3 +221,24 @@ def test_import_refuses_a_clip_shorter_than_half_a_second_and_copies_nothing(tmp
     assert not lib.exists()
     (src / "cough" / "short.wav").unlink()
     assert "half.wav" in {p.name for p in library.import_folder(src, root=lib)}
+
+
+def test_clip_seconds_reads_each_file_version_once_and_a_replaced_clip_afresh(tmp_path, monkeypatch):
+    path = tmp_path / "a.wav"
+    sf.write(path, np.zeros(16000, np.float32) + 0.1, 16000)
+    opened = []
+    real_info = sf.info
+    monkeypatch.setattr(sf, "info", lambda p, *a, **k: opened.append(p) or real_info(p, *a, **k))
+    assert library.clip_seconds(path) == pytest.approx(1.0)
+    assert library.clip_seconds(path) == pytest.approx(1.0)
+    assert len(opened) == 1  # the second call read no header
+    replacement = tmp_path / "b.wav"
+    sf.write(replacement, np.zeros(48000, np.float32) + 0.1, 16000)
+    replacement.replace(path)  # as the library writes: a whole file renamed over the old one
+    assert library.clip_seconds(path) == pytest.approx(3.0)
+    assert len(opened) == 2
+    assert library.clip_windows(path) > 0
+    path.unlink()
+    assert library.clip_seconds(path) == 0.0 and library.clip_windows(path) == 0
+    (tmp_path / "bad.wav").write_bytes(b"not a wav")
+    assert library.clip_seconds(tmp_path / "bad.wav") == 0.0
