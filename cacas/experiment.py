@@ -184,12 +184,22 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
                    methods: Sequence[str] = PAPER_METHODS, seed: int = 0, no_response_rate: float = 0.1,
                    progress: Progress | None = None, config: CACAAConfig | None = None,
                    d4a: D4A | None = None, initial_policy=None, eval_states: int = 400,
-                   jobs: int | None = None, ask_after_reject: float = 0.0, loop: str = "first") -> StudyResult:
+                   jobs: int | None = None, ask_after_reject: float = 0.0, loop: str = "first",
+                   places: Sequence[int] | None = None) -> StudyResult:
     """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
     number of worker processes (default 1; more need the caller's script to guard its entry
     point with ``if __name__ == "__main__":``, as worker processes are spawned). ``loop``: see
-    :data:`LOOPS` and the module's docstring."""
+    :data:`LOOPS` and the module's docstring.
+
+    ``places``: each participant's place in the persona file they come from (default 0, 1, 2, ...
+    in the order given). A participant's random streams depend on (seed, place) only, so a run
+    of some of a file's participants, given their places, gives each of them the rows the whole
+    file's run gives them."""
     check_study_arguments(days, interactions, no_response_rate, ask_after_reject, seed)
+    places = list(range(len(participants))) if places is None else [int(i) for i in places]
+    if len(places) != len(participants) or len(set(places)) != len(places) or min(places, default=0) < 0:
+        raise CacasError(f"places {places} are invalid for {len(participants)} participants; valid: one distinct "
+                         "whole number >= 0 for each participant (their places in the persona file)")
     methods = check_methods(methods)
     loop = check_loop(loop)
     d4a = d4a or load_d4a()
@@ -200,14 +210,14 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
         if progress else None)
     jobs = max(1, min(jobs or 1, len(participants)))
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,
-             ask_after_reject, loop) for p_i, person in enumerate(participants)]
+             ask_after_reject, loop) for p_i, person in zip(places, participants)]
     total = len(participants) * days
-    where = [0.0] * len(participants)  # each participant's days done (a fraction while adapting)
+    where = dict.fromkeys(places, 0.0)  # each participant's days done (a fraction while adapting), by place
 
     def tick(p_i: int, days_done: float, message: str) -> None:
         where[p_i] = days_done
         if progress:
-            progress(min(sum(where) / total, 1.0), message)
+            progress(min(sum(where.values()) / total, 1.0), message)
 
     if progress:  # then a report per method adapted and per participant-day
         who = f"{len(participants)} participant{'s' if len(participants) != 1 else ''}"
@@ -231,7 +241,7 @@ default_jobs = parallel.default_jobs
 
 
 def participant_test_states(person: Participant, p_i: int, seed: int, n: int) -> np.ndarray:
-    """Fig. 4's test states of the study's ``p_i``-th participant (seeded by study and index)."""
+    """Fig. 4's test states of the participant at place ``p_i`` (seeded by study and place)."""
     return evaluation_states(person, n, seed=seed * 7919 + p_i)
 
 
@@ -242,7 +252,7 @@ _ARITHMETIC_DAYS, _ARITHMETIC_PARTICIPANTS = 13, 990
 
 
 def adaptation_seed(seed: int, p_i: int, day: int, method: str) -> int:
-    """The seed of ``method``'s adaptation after ``day`` for the study's ``p_i``-th participant.
+    """The seed of ``method``'s adaptation after ``day`` for the participant at place ``p_i``.
 
     Up to day 13 and participant 990: seed * 100003 + p_i * 101 + day * 7 + the method's index
     (distinct there). Beyond, where that formula would give two adaptations the same random
@@ -297,7 +307,7 @@ def simulate_participant(initial, person: Participant, p_i: int, days: int, inte
                          ) -> tuple[list[dict], list[dict], pd.DataFrame]:
     """One participant's simulated study: (interaction rows, preference-accuracy rows, the
     accuracy by preference: records.BY_PREFERENCE_COLUMNS). Its random streams depend on (seed,
-    participant index) only, so the result is the same whether participants run one after
+    the participant's place ``p_i``) only, so the result is the same whether participants run one after
     another or in parallel. ``report(p_i, days_done, message)`` follows it: days_done grows by a
     fraction as each method adapts, and is a whole number once a day is lived and adapted from."""
     test_states = participant_test_states(person, p_i, seed, eval_states)

@@ -348,11 +348,13 @@ def check_simulation(participants, methods, days: int = 7, interactions: int = 1
 def run_simulation(participants, out_root, days: int = 7, interactions: int = 15, methods=("cacas",),
                    seed: int = 0, no_response_rate: float = 0.1, progress=None,
                    ask_after_reject: float = 0.0, loop: str = "first", jobs: int | None = None,
-                   personas: str | None = None) -> Path:
+                   personas: str | None = None, places=None) -> Path:
     """A simulated study (:func:`cacas.experiment.simulate_study`) saved as a run under
     ``out_root`` (see :func:`save_run`); returns the run's folder. For a background job.
     ``personas`` says where the participants came from (:func:`persona_source`), kept in the
-    run's settings.
+    run's settings; ``places``, the participants' places in it (their random streams:
+    :func:`cacas.experiment.simulate_study`), so that a run of some of a file's participants
+    gives each the rows ``cacas simulate`` gives them from the whole file.
     Participants run side by side in ``jobs`` worker processes (default: one per core, as
     ``cacas simulate``); the tables are the same whatever ``jobs``."""
     from datetime import datetime, timezone
@@ -363,7 +365,7 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
     result = simulate_study(list(participants), days=days, interactions=interactions, methods=tuple(methods),
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
                             ask_after_reject=ask_after_reject, loop=loop,
-                            jobs=default_jobs() if jobs is None else jobs)
+                            jobs=default_jobs() if jobs is None else jobs, places=places)
     stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
     name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,

@@ -137,6 +137,7 @@ if go:
                                   saved_runs.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source, details=choices,
+                                  places=[list(by_id).index(c) for c in chosen],
                                   label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
                                         f"{', '.join(methods)} · seed {int(seed)}")
         if not started:

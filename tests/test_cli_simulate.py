@@ -48,6 +48,10 @@ def bad_pref(**change):
     (GOOD, ["--d4a", ""], ["argument --d4a: an empty path; valid: a file or folder path"]),
     (GOOD, ["--plot", " "], ["argument --plot: an empty path"]),
     (GOOD, ["--jobs", "0"], ["--jobs 0 is invalid; valid: a whole number >= 1"]),
+    (GOOD, ["--participants", "P01,P09"], ["--participants: P09 is not in", "personas.json",
+                                           "valid: comma-separated codes of", "P01"]),
+    (GOOD, ["--participants", " , "], ["--participants ' , ' names no participant", "valid:", "P01"]),
+    (GOOD, ["--participants", "P01,P01"], ["--participants: P01 given twice", "valid:"]),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, capsys, content, args, needles):
     path = tmp_path / "missing.json" if content is None else write(tmp_path, content)
@@ -411,3 +415,26 @@ def test_the_plotly_js_the_figures_load_is_written_said_and_a_leftover_one_repla
     assert main(run) == 0  # the same one again: written, not said to be replaced
     out = capsys.readouterr().out
     assert "the plotly.js they load" in out and "replaced an earlier" not in out
+
+
+def test_participants_of_a_file_get_the_rows_the_whole_files_run_gives_them(tmp_path, capsys):
+    """--participants runs some of a file's participants, each with its random streams of the
+    whole file's run (seeded by its place in the file, not in the choice), whatever the order given."""
+    import pandas as pd
+
+    from cacas.paths import study_data_dir
+
+    people = json.loads((study_data_dir() / "personas" / "example.json").read_text())["participants"][:3]
+    personas = write(tmp_path, {"participants": people})
+    codes = [p["id"] for p in people]
+    run = ["simulate", "--personas", str(personas), "--days", "2", "--interactions", "4", "--methods", "cacas,nn",
+           "--seed", "3", "--quiet"]
+    assert main(run + ["--out", str(tmp_path / "all")]) == 0
+    assert main(run + ["--out", str(tmp_path / "some"), "--participants", f"{codes[2]}, {codes[0]}",
+                       "--jobs", "2"]) == 0
+    for name in ("daily.csv", "interactions.csv", "by_preference.csv"):
+        whole, some = (pd.read_csv(tmp_path / d / name) for d in ("all", "some"))
+        assert sorted(set(some["participant"])) == sorted([codes[0], codes[2]])
+        mine = whole[whole["participant"] != codes[1]].reset_index(drop=True)
+        pd.testing.assert_frame_equal(some, mine)
+    assert len(pd.read_csv(tmp_path / "some" / "interactions.csv")) > 0

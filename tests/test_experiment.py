@@ -163,6 +163,12 @@ def test_same_seed_same_tables(small_config, small_initial):
     pd.testing.assert_frame_equal(a.interactions, b.interactions)
 
 
+@pytest.mark.parametrize("places", [[0, 0], [1], [-1, 2], [0, 1, 2]])
+def test_places_must_be_one_distinct_place_per_participant(places):
+    with pytest.raises(CacasError, match=r"places .* are invalid for 2 participants; valid: one distinct whole"):
+        simulate_study(PEOPLE[:2], days=1, interactions=2, methods=["nn"], places=places)
+
+
 def test_each_method_in_its_own_closed_loop(small_config, small_initial):
     kw = dict(days=3, interactions=10, seed=5, config=small_config, initial_policy=small_initial)
     res = simulate_study(PEOPLE, methods=["cacas", "nn"], loop="each", **kw)

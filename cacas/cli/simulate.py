@@ -49,10 +49,34 @@ def write_figures(folder, figures: dict) -> bool:
     return replaced
 
 
+def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
+    """The participants of ``people`` (a persona file's, in its order) that ``codes`` names
+    (comma-separated, any order), in the file's order, and their places in it (their random
+    streams' seeds: :func:`cacas.experiment.simulate_study`). A code the file lacks, one given
+    twice, or none: a CacasError naming it and the valid codes."""
+    wanted = [c.strip() for c in codes.split(",") if c.strip()]
+    ids = [p.id for p in people]
+    valid = f"valid: comma-separated codes of {source}: {', '.join(ids)}"
+    if not wanted:
+        raise CacasError(f"--participants {codes!r} names no participant; {valid}")
+    unknown = [c for c in wanted if c not in ids]
+    if unknown:
+        raise CacasError(f"--participants: {', '.join(unknown)} {'is' if len(unknown) == 1 else 'are'} not in "
+                         f"{source}; {valid}")
+    twice = sorted({c for c in wanted if wanted.count(c) > 1})
+    if twice:
+        raise CacasError(f"--participants: {', '.join(twice)} given twice; {valid}")
+    places = [i for i, c in enumerate(ids) if c in wanted]
+    return [people[i] for i in places], places
+
+
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
                        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--personas", required=True, type=types.path, metavar="FILE", help="persona JSON file (its format: docs/personas.md)")
+    p.add_argument("--participants", metavar="CODES",
+                   help="comma-separated participant codes of the persona file to simulate (default: all); "
+                        "each gets the rows the whole file's run gives them")
     p.add_argument("--days", type=types.integer, default=7, help="study days (default 7)")
     p.add_argument("--interactions", type=types.integer, default=15, help="interactions a day, about (default 15)")
     p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
@@ -104,6 +128,9 @@ def run(args) -> int:
     from cacas.store import validate as v
 
     people = load_personas(args.personas)
+    places = None
+    if args.participants is not None:
+        people, places = choose_participants(people, args.participants, args.personas)
     for person in people:  # read as it is (the researcher's file), but the study database would refuse it
         try:
             v.new_code(person.id)
@@ -125,7 +152,7 @@ def run(args) -> int:
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
                                 jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
-                                loop=args.loop)
+                                loop=args.loop, places=places)
     except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
         files.remove_empty(made)
         raise

@@ -274,7 +274,7 @@ def test_the_form_keeps_the_researchers_choices_while_other_pages_are_open(app, 
     no_exception(at)
     assert calls == [dict(days=3, interactions=5, methods=("nn", "bandit"), seed=4, no_response_rate=0.2,
                           ask_after_reject=0.3, loop="each", personas="study_data/personas/example_leave_me_alone.json",
-                          participants=["Q01", "Q02"])]
+                          participants=["Q01", "Q02"], places=[0, 1])]
     chosen = ("The same, each with a 'leave me alone' preference (Q01-Q08)", ["Q01", "Q02"],
               {"Days": 3, "Interactions a day": 5, "Seed": 4, "No-response rate": 0.2, "Ask after a rejection": 0.3},
               ["nn", "bandit"], "each")
@@ -349,3 +349,15 @@ def test_an_uploaded_persona_file_is_kept_while_other_pages_are_open(app, db):
     at.file_uploader(key="sim-upload").set_value(None).run()  # by the researcher: gone
     no_exception(at)
     assert at.multiselect[0].value == [] and "uploaded before" not in texts(at)
+
+
+def test_a_run_of_some_participants_seeds_each_by_its_place_in_the_file(app, db, held_run):
+    """The lab gives simulate_study each chosen participant's place in the persona file, not in the
+    choice, so P03 gets the rows `cacas simulate` gives P03 from the whole file (or --participants)."""
+    release, calls = held_run
+    at = app(PAGE)
+    at.multiselect[0].set_value(["P03", "P01"])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    assert calls[0]["participants"] == ["P03", "P01"] and calls[0]["places"] == [2, 0]
+    release()
+    assert RUNNER.get(f"simulate:{db}").wait(60)
