@@ -3,7 +3,11 @@
 * ``generate_response(up, s, a)``: "the user preference has the first priority and the D4A pairs
   have the second priority". Where a preference covers the state, its action is accepted, doing
   nothing gets no response ("others") and any other action is rejected; elsewhere the D4A pairs
-  answer. :class:`ResponseModel` does this for a whole batch of states at once.
+  answer. The paper: "It first checks if the current state s and agent action a fit the user
+  preference. If it does not fit, D4A pairs are used"; we read "fit" as "a preference covers the
+  state" (README, "Our reading of the paper": the literal reading would let the D4A pairs accept
+  most wrong proposals in covered states, against the paper's day-1 success rate of 0.30).
+  :class:`ResponseModel` does this for a whole batch of states at once.
 * ``generate_state(t, h, source)``: "generates a state every K minutes ... The time starts at 00:00
   and ends at 23:59 and increases by K minutes each step". :class:`StateGenerator` steps E
   parallel simulated days at once (batched for speed); the activity comes from ``source`` (the
