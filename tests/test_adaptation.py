@@ -424,3 +424,33 @@ def test_each_step_1_setting_has_its_own_initial_policy_file(tmp_path, monkeypat
     assert small.parent == shipped.parent and small.name.startswith("initial_policy-config-")
     assert initial_policy_path(config=replace(small_config, initial_train_days=5)) not in (small, shipped)
     assert initial_policy_path(config=replace(small_config, beta=0.1)) == small
+
+
+def test_step2_can_take_table_iiis_argmax_and_says_so(small_config, small_initial, monkeypatch):
+    """CACAAConfig(adapt_actions="argmax") trains step 2 on the most likely action (Table III as
+    printed); the default samples (SAC's exploration). A bad value names the valid ones."""
+    import dataclasses
+
+    from cacas import adaptation
+
+    seen = []
+    real = adaptation.run_sac_training
+
+    def spy(sac, behaviour, *args, **kw):
+        seen.append(behaviour)
+        return real(sac, behaviour, *args, **kw)
+
+    monkeypatch.setattr(adaptation, "run_sac_training", spy)
+    rows = stove_days()
+    sampled = adaptation.adapt_policy(small_initial, rows, "cacas", seed=1, config=small_config)
+    greedy = adaptation.adapt_policy(small_initial, rows, "cacas", seed=1,
+                                     config=dataclasses.replace(small_config, adapt_actions="argmax"))
+    assert sampled.parameters["adapt_actions"] == "sample" and greedy.parameters["adapt_actions"] == "argmax"
+    x = spaces.encode_states(np.array([[a, 0, 3, 2, 0, 13, 2] for a in range(33)]))
+    p_sampled, p_greedy = seen[0](x), seen[1](x)
+    assert np.allclose(p_sampled.sum(1), 1) and (p_sampled < 1).all()  # a distribution to sample from
+    assert set(np.unique(p_greedy)) == {0.0, 1.0} and (p_greedy.sum(1) == 1).all()
+    probs = np.array([[0.1, 0.6, 0.3], [0.5, 0.2, 0.3]])
+    assert adaptation.greedy(lambda x: probs)(None).tolist() == [[0, 1, 0], [1, 0, 0]]
+    with pytest.raises(CacasError, match="adapt_actions 'greedy' is invalid; valid: sample, argmax"):
+        adaptation.CACAAConfig(adapt_actions="greedy")
