@@ -6,7 +6,8 @@ The tables (long format; issue 4, item 4):
   ``cacas simulate`` writes), then :data:`cacas.store.INTERACTION_EXTRA_COLUMNS`;
 * ``daily.csv``: :func:`cacas.records.daily_table`, the columns of ``cacas simulate``'s
   ``daily.csv`` (Fig. 3 success rate and cumulative feedback; Fig. 4 preference accuracy, see
-  :func:`accuracy_frame`), so one set of plots serves human and simulated studies;
+  :func:`accuracy_frame`), so one set of plots serves human and simulated studies, and a last
+  column, ``preferences_version`` (:func:`with_preferences_version`);
 * ``by_preference.csv``: :func:`by_preference_frame`, Fig. 4 by described preference (the
   columns ``cacas simulate`` writes);
 * ``participants.csv``, ``questionnaire.csv``, ``adaptations.csv``;
@@ -109,15 +110,34 @@ def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: p
 
 def accuracy_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
                    found: pd.DataFrame | None = None) -> pd.DataFrame:
-    """participant, method, day, preference_accuracy: Fig. 4's metric of the policy in force
-    (the run of :func:`runs_in_force`, or ``found``, its answer if the caller has it): its
-    ``metrics["preference_accuracy"]``, NaN if absent. Only days the participant has are listed."""
-    cols = ["participant", "method", "day", "preference_accuracy"]
+    """participant, method, day, preference_accuracy, preferences_version: Fig. 4's metric of the
+    policy in force (the run of :func:`runs_in_force`, or ``found``, its answer if the caller has
+    it): its ``metrics["preference_accuracy"]``, NaN if absent, and the described preferences'
+    version it was scored against (:func:`cacas.study_day.scored_version`; empty for a run not
+    scored, or recorded before runs named it). Only days the participant has are listed."""
+    from cacas.study_day import scored_version
+
+    cols = ["participant", "method", "day", "preference_accuracy", "preferences_version"]
     found = runs_in_force(interactions, adaptations, days) if found is None else found
     if not len(found):
         return pd.DataFrame(columns=cols)
-    value = adaptations["preference_accuracy"].astype(float).to_numpy()[found["run"].to_numpy()]
-    return found.assign(preference_accuracy=value)[cols]
+    run = found["run"].to_numpy()
+    value = adaptations["preference_accuracy"].astype(float).to_numpy()[run]
+    version = pd.array([scored_version(m) for m in adaptations["metrics"].to_numpy()[run]], dtype="Int64")
+    return found.assign(preference_accuracy=value, preferences_version=version)[cols]
+
+
+def with_preferences_version(daily: pd.DataFrame, accuracy: pd.DataFrame) -> pd.DataFrame:
+    """A human study's daily.csv with a last column, ``preferences_version``: the described
+    preferences' version each row's ``preference_accuracy`` was scored against (from
+    :func:`accuracy_frame`). Preferences edited mid-study leave earlier days scored on theirs, so
+    a participant's days may be scored on two versions; empty where nothing was scored."""
+    keys = ["participant", "method", "day"]
+    version = accuracy[keys + ["preferences_version"]].astype({"day": "int64"}) if len(accuracy) else \
+        pd.DataFrame(columns=keys + ["preferences_version"])
+    out = daily.merge(version, on=keys, how="left")
+    out["preferences_version"] = pd.array(pd.to_numeric(out["preferences_version"]), dtype="Int64")
+    return out
 
 
 def by_preference_frame(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame,
@@ -210,10 +230,11 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
     adaptations, days = store.adaptations_frame(study=study), store.days_frame(study)
     preferences = store.preferences_frame(study)
     found = runs_in_force(interactions, adaptations, days)  # once, for daily.csv and by_preference.csv
+    accuracy = accuracy_frame(interactions, adaptations, days, found)
     return {
         "interactions": interactions,
-        "daily": daily_table(interactions[INTERACTION_COLUMNS], accuracy_frame(interactions, adaptations, days, found),
-                             described_preferences(preferences)),
+        "daily": with_preferences_version(daily_table(interactions[INTERACTION_COLUMNS], accuracy,
+                                                      described_preferences(preferences)), accuracy),
         "by_preference": by_preference_frame(interactions, adaptations, days, found),
         "participants": participants,
         "questionnaire": store.questionnaire_frame(study),

@@ -95,7 +95,7 @@ def test_export_writes_every_table_and_one_zip(store, tmp_path):
     assert list(inter.columns[:len(INTERACTION_COLUMNS)]) == INTERACTION_COLUMNS
     assert len(inter) == 20
     daily = pd.read_csv(result.tables["daily"])
-    assert list(daily.columns) == DAILY_COLUMNS
+    assert list(daily.columns) == DAILY_COLUMNS + ["preferences_version"]
     assert set(pd.read_csv(result.tables["participants"])["participant"]) == {"P01", "P02"}
     assert pd.read_csv(result.tables["questionnaire"])["satisfaction"].tolist() == [9, 7]
     assert len(pd.read_csv(result.tables["adaptations"])) == 9
@@ -991,3 +991,29 @@ def test_a_time_given_with_an_offset_is_scored_against_the_preferences_saved_by_
         stored = s.interactions_frame("P01")["time"].iloc[0]
     assert daily["success_ceiling"].tolist() == [0.0]  # the version in force then: cough only
     assert stored == when.strftime("%Y-%m-%dT%H:%M:%S.%f")[:-3] + "Z"
+
+
+def test_daily_says_which_preferences_each_days_accuracy_was_scored_on(tmp_path):
+    """Preferences edited mid-study leave the earlier days scored on the earlier version: daily.csv's
+    last column says which, so days scored on two versions are not read as one line."""
+    with StudyStore(tmp_path / "s.sqlite") as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [COUGH])
+        s.record_adaptation("P01", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.3, "preferences_version": 1})
+        for day, version in ((1, 1), (2, 2)):
+            d = s.open_day("P01")
+            s.record_interaction("P01", d, activity="cough", scene="bedroom", hour=8.0, interval_minutes=30,
+                                 robot_action="pain check", response="accept")
+            s.close_day("P01", d)
+            if version == 2:  # the participant described their preferences again after day 2
+                s.save_preferences("P01", [dict(COUGH, action="show compassion")])
+            v = s.save_policy("P01", d, "cacas", f"after day {d}".encode())
+            s.record_adaptation("P01", d, "cacas", {}, 1.0, {"preference_accuracy": 0.5 + d / 10,
+                                                               "preferences_version": version}, policy_version=v)
+        s.record_adaptation("P01", 2, "nn", {}, 1.0, {"preference_accuracy": 0.2})  # recorded before runs named it
+        s.open_day("P01")
+        daily = export.export_tables(s)["daily"]
+    got = {(r.method, r.day): (r.preference_accuracy, r.preferences_version) for r in daily.itertuples()}
+    assert got[("cacas", 1)] == (0.3, 1) and got[("cacas", 2)] == (0.6, 1) and got[("cacas", 3)] == (0.7, 2)
+    assert pd.isna(got[("nn", 3)][1]) and got[("nn", 3)][0] == pytest.approx(0.2)
+    assert str(daily["preferences_version"].dtype) == "Int64"
