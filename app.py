@@ -77,49 +77,50 @@ def _sync_participant(store) -> None:
                                           else latest if latest in studies else studies[0])
 
 
-def _write_address(store) -> None:
+def _address(store) -> dict[str, str | None]:
+    """The address's participant, day and study (None: left out) for the session's choice."""
     code = st.session_state.get(ui.PARTICIPANT_KEY)
-    qp = st.query_params
-    if code:
-        qp["participant"] = code
-        qp["day"] = str(day_status(store, code).day_on_screen)
-    else:
-        qp.pop("participant", None)
-        qp.pop("day", None)
     study = st.session_state.get(ui.STUDY_KEY)
     # "default" too once there are other studies: a reload without it opened the study last active
     # (walkthrough: "default" chosen, a refresh showed another study's participants)
-    if study is not None and (study != "default" or len(store.studies()) > 1):
-        qp["study"] = study
-    else:
-        qp.pop("study", None)
+    return {"participant": code or None, "day": str(day_status(store, code).day_on_screen) if code else None,
+            "study": study if study is not None and (study != "default" or len(store.studies()) > 1) else None}
+
+
+def _page_links(nav, address: dict[str, str | None]) -> None:
+    """The researcher's pages, in ``nav`` (the top of the sidebar), as links that carry the
+    address's participant, day and study: Streamlit's own navigation clears the address on a page
+    change, and writing it again pushed a second entry into the browser's history, so Back took
+    two presses to leave a page (three or four when the address was written a parameter at a time)."""
+    carried = {k: v for k, v in address.items() if v is not None}
+    for section, pages in _navigation().items():
+        nav.caption(section)
+        for page in pages:
+            nav.page_link(page, label=page.title, icon=page.icon, query_params=carried, width="stretch")
 
 
 def _on_study_change() -> None:
     st.session_state[ui.PARTICIPANT_KEY] = None
     st.session_state.pop(_UNKNOWN_KEY, None)
-    st.query_params.pop("participant", None)
+    ui.select_participant(None)
 
 
 def _on_participant_change() -> None:
     """The sidebar's choice goes into the address at once (the address wins on every run)."""
-    code = st.session_state.get(ui.PARTICIPANT_KEY)
     st.session_state.pop(_UNKNOWN_KEY, None)
-    if code:
-        st.query_params["participant"] = code
-    else:
-        st.query_params.pop("participant", None)
-    for key in ("ctx", "at"):  # a proposal belongs to its participant's interaction
-        st.query_params.pop(key, None)
+    ui.select_participant(st.session_state.get(ui.PARTICIPANT_KEY))  # a proposal belongs to its participant
 
 
 #: The page that says beside its forms which preference changes are unsaved (the sidebar does not repeat it there).
 FORMS_PAGE = "pages/participants.py"
 
 
-def _sidebar(store, page) -> None:
+def _sidebar(store, page) -> dict[str, str | None]:
+    """Draw the sidebar; returns the address (:func:`_address`) for the participant it settled on."""
     with st.sidebar:
         st.markdown("### :material/smart_toy: CACAS Studio")
+        links = st.container(key="page-links")  # filled last, with the participant chosen below
+        st.divider()
         studies = [s.name for s in store.studies()]
         st.selectbox("Study", studies, key=ui.STUDY_KEY, on_change=_on_study_change,
                      help="Studies group participants; every database has the study 'default'.")
@@ -153,6 +154,9 @@ def _sidebar(store, page) -> None:
         if store.created and os.environ.get(DB_ENV) and not codes and studies == [DEFAULT_STUDY]:
             st.info(f"New: this server created it, empty. If you meant an existing database, check ${DB_ENV} and "
                     "start the app again.", icon=":material/new_releases:")
+    address = _address(store)
+    _page_links(links, address)
+    return address
 
 
 def main() -> None:
@@ -196,13 +200,14 @@ def _route(store) -> None:
             st.stop()
         page = st.navigation([st.Page("pages/session.py", title="Study session", default=True)],
                              position="hidden")
+        address = _address(store)
     else:
-        page = st.navigation(_navigation())
-        _sidebar(store, page)
+        page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
+        address = _sidebar(store, page)
         problem = study_data_problem()
         if problem:  # said on every researcher page, before a participant meets it on the tablet
             (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
-    _write_address(store)
+    ui.set_address(**address)
     page.run()
 
 

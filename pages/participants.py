@@ -63,8 +63,7 @@ def _open_new(code: str) -> None:
     """Clear the add form and open the new participant's preferences, the next step."""
     s = st.session_state
     s["add-error"] = None
-    s[ui.PARTICIPANT_KEY] = code
-    st.query_params["participant"] = code
+    ui.select_participant(code)
     s["new-code"], s["new-age"], s["new-notes"] = "", "", ""
     s[OPEN_TAB] = f"Preferences of {code}"
 
@@ -216,8 +215,7 @@ def _import_personas() -> None:
     st.toast(s["import-done"], icon=":material/check_circle:")
     codes = done.codes
     if codes:
-        s[ui.PARTICIPANT_KEY] = codes[0]
-        st.query_params["participant"] = codes[0]
+        ui.select_participant(codes[0])
         s[OPEN_TAB] = f"Preferences of {codes[0]}"
 
 
@@ -237,8 +235,7 @@ def _create_study() -> None:
         return
     s["study-error"] = None
     s[ui.STUDY_KEY] = new.name
-    s[ui.PARTICIPANT_KEY] = None
-    st.query_params.pop("participant", None)
+    ui.select_participant(None)
     s["new-study-name"] = s["new-study-description"] = ""
     s[OPEN_TAB] = "Add a participant"  # the next step: its participants
     st.toast(f"Study {new.name!r} created and selected: add its participants.", icon=":material/check_circle:")

@@ -140,8 +140,7 @@ def _set_context() -> None:
         return
     # the proposal belongs to one interaction: the browser's Back button brings its address back after
     # it was answered, and the page must not take it for the next interaction (a second answer)
-    st.query_params["ctx"], st.query_params["at"] = ctx.to_token(), _interaction_mark(status.day,
-                                                                                      status.interactions_today + 1)
+    ui.set_address(ctx=ctx.to_token(), at=_interaction_mark(status.day, status.interactions_today + 1))
     _clear_request()
 
 
@@ -161,8 +160,7 @@ def _clear_request() -> None:
 
 
 def _cancel() -> None:
-    for key in ("ctx", "at"):
-        st.query_params.pop(key, None)
+    ui.set_address(ctx=None, at=None)
     _clear_request()
     st.session_state.pop("run-here", None)  # the researcher's view follows the tablet again
 

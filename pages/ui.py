@@ -13,6 +13,7 @@ from cacas.errors import CacasError
 from cacas.jobs import RUNNER, STOPPED, Job
 from cacas.on_tablet import TabletBoard
 from cacas.store import StudyStore, default_db_path
+from cacas.study_day import day_status
 
 def require_app() -> None:
     """Run this page through ``app.py``. Streamlit treats a ``pages/`` folder as old-style pages
@@ -146,15 +147,29 @@ def participant() -> str | None:
 
 def select_participant(code: str | None) -> None:
     """Select ``code`` (None: none) in the sidebar and the address, from a callback (before the
-    sidebar is drawn); the day and proposal in the address belonged to the previous participant."""
+    sidebar is drawn); the day and proposal in the address belonged to the previous participant.
+    The new participant's day goes in with them, in the same change of address (the page's own
+    writing of the address then changes nothing: one entry in the browser's history)."""
     st.session_state[PARTICIPANT_KEY] = code
+    try:
+        day = str(day_status(store(), code).day_on_screen) if code else None
+    except CacasError:  # not (or no longer) in the database: the page's run settles it
+        day = None
+    set_address(participant=code or None, day=day, ctx=None, at=None)
+
+
+def set_address(**params: str | None) -> None:
+    """Change the address's query parameters (a value of None removes one) in one message to the
+    browser, and only when something changes: each message the browser takes as a new address
+    pushes an entry into its history, and writing the participant, day and study one at a time
+    on every run made the researcher press Back three or four times to leave a page
+    (walkthrough)."""
     qp = st.query_params
-    if code:
-        qp["participant"] = code
-    else:
-        qp.pop("participant", None)
-    for key in ("day", "ctx", "at"):
-        qp.pop(key, None)
+    now = qp.to_dict()
+    wanted = {k: v for k, v in now.items() if k not in params}
+    wanted.update({k: str(v) for k, v in params.items() if v is not None})
+    if wanted != now:
+        qp.from_dict(wanted)
 
 
 def study() -> str | None:
@@ -174,10 +189,22 @@ def need_participant() -> str:
     return code
 
 
+#: The query parameters a link to another researcher's page carries (Streamlit clears the address
+#: on a page change; writing it again would push a second entry into the browser's history).
+CARRIED = ("participant", "day", "study")
+
+
+def carried() -> dict[str, str]:
+    """The address's participant, day and study, for a link to another page."""
+    qp = st.query_params
+    return {k: qp[k] for k in CARRIED if k in qp}
+
+
 def link(page: str, label: str, icon: str | None = None, container=None) -> None:
-    """A link to another page of the app (left out if that page is not in the navigation)."""
+    """A link to another page of the app, carrying the participant, day and study (left out if that
+    page is not in the navigation)."""
     try:
-        (container or st).page_link(page, label=label, icon=icon)
+        (container or st).page_link(page, label=label, icon=icon, query_params=carried())
     except st.errors.StreamlitPageNotFoundError:
         pass
 

@@ -12,7 +12,7 @@ def test_first_request_to_a_page_gets_the_app_shell(server, browser):
     page.wait_for_selector(WAIT, timeout=90_000)
     # waited for, not read at once: a loaded run found the page idle and its heading not drawn yet (is_visible
     # False: an idle page between two runs, or one not drawn at once)
-    nav = page.locator("[data-testid='stSidebarNav']")
+    nav = page.locator(".st-key-page-links")
     expect(nav).to_contain_text("Overview", timeout=30_000)  # the app's navigation, titled pages
     expect(nav).to_contain_text("Simulation lab", timeout=30_000)
     items = nav.inner_text().split("\n")  # drawn at once, from one message: the whole list once these are in

@@ -202,7 +202,7 @@ def test_mini_study(server, page, tmp_path):
     # --- overview and participants -------------------------------------------------------------------
     goto(page, server)
     shows(page, "No participants yet")
-    page.locator("[data-testid='stSidebarNav'] a", has_text="Participants").click()
+    page.locator(".st-key-page-links").get_by_role("link", name="Participants").click()
     idle(page)
     page.get_by_role("tab", name="Add a participant").click()
     idle(page)  # switching tabs reruns the page
@@ -240,7 +240,8 @@ def test_mini_study(server, page, tmp_path):
     # --- the tablet view: five interactions, with a reload in the middle ----------------------------
     goto(page, f"{server}/?participant=P01&view=tablet")
     shows(page, "Hello, P01")
-    assert page.locator("[data-testid='stSidebarNav']").count() == 0  # no researcher pages
+    assert page.locator(".st-key-page-links, [data-testid='stSidebarNav'], [data-testid='stSidebar']").count() == 0
+    # no researcher pages
     click(page, "Start day 1")
     shows(page, "0 of about 15 interactions today")
     shot(page, "session-context")
