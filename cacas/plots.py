@@ -104,13 +104,31 @@ def _gaps_for_missing_days(s: pd.DataFrame, daily: pd.DataFrame) -> pd.DataFrame
     return s.set_index("day").reindex(days).rename_axis("day").reset_index()
 
 
-def _day_axis(fig: go.Figure, days) -> None:
+def _day_axis(fig: go.Figure, days, participants: dict | None = None) -> bool:
     """The x axis of days: whole days, spanning the days drawn with a margin (one day alone is
-    drawn at its own place, not in the middle of an axis from day 0 to day 2)."""
+    drawn at its own place, not in the middle of an axis from day 0 to day 2). ``participants``
+    (day -> how many a day's points average): when days average different numbers, each day's
+    label says its number ("3<br>n = 1"), so that a line that moves because someone has not
+    reached a day yet is not read as a change (walkthrough: 49 % -> 67 % from one participant fewer).
+    Returns whether it did (the labels take two lines: a legend below needs more room)."""
     d = pd.to_numeric(pd.Series(list(days)), errors="coerce").dropna()
     lo, hi = (float(d.min()), float(d.max())) if len(d) else (1.0, 1.0)
     pad = 0.5 if lo == hi else 0.25
     fig.update_xaxes(title_text="day", dtick=1, range=[lo - pad, hi + pad])
+    counts = {int(k): int(v) for k, v in (participants or {}).items() if pd.notna(v)}
+    if len(set(counts.values())) > 1:
+        ticks = sorted(counts)
+        fig.update_xaxes(tickmode="array", tickvals=ticks, ticktext=[f"{t}<br>n = {counts[t]}" for t in ticks],
+                         title_text="day (n: participants averaged)")
+        return True
+    return False
+
+
+def participants_reached(daily: pd.DataFrame) -> pd.Series:
+    """Each participant's last day in ``daily`` (index: participant): a day with a success rate,
+    begun with nothing recorded yet, or scored for Fig. 4, under any method."""
+    had = _on_the_day(daily) | daily["preference_accuracy"].notna()
+    return daily[had].assign(day=daily["day"].astype(int)).groupby("participant")["day"].max()
 
 
 #: The y range of a rate (success rate, preference accuracy): room above 100 % for a whole marker
@@ -163,14 +181,14 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     top = float(s["cumulative_feedback"].max()) if s["cumulative_feedback"].notna().any() else 1.0
     fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
                      tickmode="auto", nticks=6, secondary_y=True)
-    _day_axis(fig, s["day"])
+    below = -0.3 if _day_axis(fig, s["day"], dict(zip(s["day"], s["on_day"]))) else -0.2
     n = int(s["participants"].max()) if s["participants"].notna().any() else 0
     # who it is about as a subtitle: on one line with the title, half the page's width cut it
     # ("... (CACAS, 1 participa")
     fig.update_layout(title=dict(text=title) if title else dict(
                           text="Success rate and cumulative feedback",
                           subtitle=dict(text=f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}")),
-                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=60, t=80 if not title else 60, b=60),
+                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=60, t=80 if not title else 60, b=60),
                       template="plotly_white")
     return fig
 
@@ -313,9 +331,9 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]} participants)<extra></extra>"))
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
-    _day_axis(fig, a["day"])
+    below = -0.3 if _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict()) else -0.2
     fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
-                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60),
+                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=30, t=60, b=60),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 

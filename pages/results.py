@@ -74,10 +74,24 @@ else:
     daily = tables["daily"]
     st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}.")
 
+# a study in progress: participants on different days make each day's mean one of different people
+shown, reached = daily, plots.participants_reached(daily) if len(daily) else pd.Series(dtype=int)
+common = int(reached.min()) if len(reached) else None
+if common is not None and common < int(reached.max()):
+    behind = ", ".join(f"{who} on day {day}" for who, day in reached[reached < reached.max()].items())
+    through = "day 1" if common == 1 else f"days 1-{common}"
+    whole = st.radio("Days in the figures", ["every", "common"], horizontal=True, key="results-days",
+                     format_func={"every": f"Every day (later days average fewer participants: {behind})",
+                                  "common": f"Only {through}, which every participant has reached"}.get,
+                     help="Each day's mean is over the participants who had that day: while some are behind, a "
+                          "line can rise or fall only because fewer people are averaged. The day labels say how "
+                          "many each day averages. The tables are whole either way.") == "every"
+    shown = daily if whole else daily[daily["day"].astype(int) <= common]
+
 fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"])
 
 with fig3:
-    method, looped = plots.loop_method(daily), plots.closed_loop_methods(daily)
+    method, looped = plots.loop_method(shown), plots.closed_loop_methods(shown)
     if method is None:
         st.info("No study day with interactions yet. Run a day on the **Study session** page." if source == HUMAN
                 else "No success rate in this daily.csv: no method acted with the participants (its accuracies are "
@@ -86,17 +100,17 @@ with fig3:
         if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
             human = source == HUMAN
             st.plotly_chart(plots.success_methods_figure(
-                daily, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
+                shown, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
             method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method",
                                   format_func=lambda m: plots.METHOD_LABELS.get(m, m),
                                   help=("Participants' days count under the method whose policy was in force that "
                                         "day; Fig. 3 below shows one method." if human else
                                         "Each of these methods acted in a study of its own; Fig. 3 below shows one."))
-        per_day = plots.success_by_day(daily, method).set_index("day")
+        per_day = plots.success_by_day(shown, method).set_index("day")
         last = per_day.index.max()
         row = ui.metric_row()
         first = per_day.index.min()
-        change, paired = plots.success_change(daily, method, first, last)
+        change, paired = plots.success_change(shown, method, first, last)
         # halves up, as the percentages beside it (25 % -> 38 % is "+13", not round()'s "+12": review)
         change = math.floor(100 * change + 0.5) if paired else 0
         n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["on_day"].max())
@@ -123,7 +137,7 @@ with fig3:
         if in_progress:
             st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                        "are so far, and change until the day is closed.")
-        st.plotly_chart(plots.success_figure(daily, method=method), width="stretch")
+        st.plotly_chart(plots.success_figure(shown, method=method), width="stretch")
         st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
                    "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
                    "and requests, which are not successes); as in the paper, a proposal left unanswered, the robot "
@@ -155,7 +169,7 @@ with fig4:
                 st.success(app_support.comparison_done(job.result, job.elapsed, job.finished), icon=":material/check_circle:")
     # Fig. 4 is daily.csv's, whatever the source: the day a policy was in force (re-plotting the export
     # draws the same figure); policies adapted for a day not started yet are listed below it
-    accuracy, by_pref = daily, tables.get("by_preference")
+    accuracy, by_pref = shown, tables.get("by_preference")
     summary = plots.accuracy_table(accuracy)
     if summary.empty:
         st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "

@@ -2,8 +2,8 @@ import pytest
 import numpy as np
 import pandas as pd
 
-from cacas.plots import (CEILING_NAME, accuracy_by_day, data_points, methods_figure, preference_days_figure,
-                         preference_methods_figure, preference_rows, success_by_day, success_figure,
+from cacas.plots import (CEILING_NAME, accuracy_by_day, data_points, methods_figure, participants_reached,
+                         preference_days_figure, preference_methods_figure, preference_rows, success_by_day, success_figure,
                          success_methods_figure)
 
 
@@ -219,6 +219,18 @@ def test_fig3_hover_says_how_many_participants_each_days_mean_has():
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
     assert [str(n) for n in [row[0] for row in mean.customdata]] == ["2 participants", "2 participants", "1 participant"]
     assert "mean of %{customdata[0]}" in mean.hovertemplate
+
+
+def test_day_labels_say_how_many_participants_a_day_averages_when_they_differ():
+    d = daily()
+    assert "ticktext" not in success_figure(d).layout.xaxis.to_plotly_json()  # every day the same two
+    d = d[~((d["participant"] == "P01") & (d["day"] == 3))]  # P01 has not reached day 3
+    for fig in (success_figure(d), methods_figure(d)):
+        assert list(fig.layout.xaxis.ticktext) == ["1<br>n = 2", "2<br>n = 2", "3<br>n = 1"]
+        assert list(fig.layout.xaxis.tickvals) == [1, 2, 3] and "participants averaged" in fig.layout.xaxis.title.text
+    assert participants_reached(d).to_dict() == {"P01": 2, "P02": 3}
+    scored_only = d.assign(success_rate=np.nan, interactions=np.nan)  # Fig. 4's scores alone count too
+    assert participants_reached(scored_only).to_dict() == {"P01": 2, "P02": 3}
 
 
 def test_fig3_labels_a_day_whose_rate_rests_on_few_interactions():

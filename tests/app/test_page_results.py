@@ -501,3 +501,36 @@ def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, d
     assert "Choose at least one participant." in [i.value for i in at.info]
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
     assert len(pd.read_csv(io.BytesIO(downloads["results-prefs:Simulated run: run-many-dl"]))) == 10
+
+
+def test_a_study_in_progress_can_show_only_the_days_everyone_reached(app, store):
+    """Walkthrough: with P01 on day 2 and P02 on day 1, Fig. 3's line rose from day 1 (both) to day 2
+    (P01 alone) only because P02 was not averaged. The researcher can keep the figures to the days
+    every participant has reached; the day labels say how many each day averages."""
+    _study_with_a_day(store)  # P01: day 1 closed, 2 of 3 accepted
+    store.add_participant("P02")
+    day = store.open_day("P02")
+    for _ in range(3):
+        store.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="chitchat", response="reject")
+    store.close_day("P02", day)
+    _a_cough(store, store.open_day("P01"))  # P01's day 2: 1 of 1 accepted
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    days = at.radio(key="results-days")
+    assert days.value == "every" and "P02 on day 1" in days.options[0] and "Only day 1" in days.options[1]
+    fig3 = json.loads(at.get("plotly_chart")[0].proto.spec)
+    assert fig3["layout"]["xaxis"]["ticktext"] == ["1<br>n = 2", "2<br>n = 1"]
+    assert at.metric[0].label == "Day 2 mean success rate so far" and at.metric[0].value == "100%"
+    days.set_value("common").run()
+    no_exception(at)
+    assert at.metric[0].label == "Day 1 mean success rate" and at.metric[0].value == "33%"  # (67 % + 0 %) / 2
+    fig3 = json.loads(at.get("plotly_chart")[0].proto.spec)
+    assert "ticktext" not in fig3["layout"]["xaxis"] and fig3["layout"]["xaxis"]["range"] == [0.5, 1.5]
+    assert len(at.get("dataframe")) >= 1  # the tables stay whole
+    store.close_day("P01", 2)
+    day = store.open_day("P02")
+    cough = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5, robot_action="pain check")
+    store.record_interaction("P02", day, response="accept", **cough)
+    at = app(PAGE, participant="P01")
+    assert not [r for r in at.radio if r.key == "results-days"]  # everyone on day 2: nothing to choose
