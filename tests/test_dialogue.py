@@ -71,6 +71,12 @@ def test_names_are_case_insensitive_and_unknown_is_an_error():
     ("please remind me to put the knife back", "remind to put back"),
     ("put my keys away", "remind to put back"),
     ("please switch the TV off", "remind to turn off"),
+    # a fall said as it is, also with "help" in it (walkthrough: "I fell" was not understood)
+    ("I fell", "call someone for help"),
+    ("help, I fell", "call someone for help"),
+    ("I have fallen and I can't get up", "call someone for help"),
+    ("I'm on the floor", "call someone for help"),
+    ("could you make me a cup of tea", "ask to offer help"),
 ])
 def test_match_request(text, action):
     assert dialogue.match_request(text).action == action
