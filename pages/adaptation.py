@@ -98,7 +98,9 @@ else:
     if status.open:
         shown = ui.tablet_board().shown(db, code, day=day, index=status.interactions_today + 1)
         if shown is not None:  # the participant is about to answer: an answer after closing is not saved
-            st.warning(f"{code}'s tablet shows a proposal for interaction {shown.index} ({shown.activity}, shown at "
+            # no interaction number: the tablet counts recorded interactions ("7 of about 15"), this index counts
+            # every moment of the day, unanswered ones too ("interaction 16" beside "7 of about 15": walkthrough)
+            st.warning(f"{code}'s tablet shows a proposal ({shown.activity}, shown at "
                        f"{shown.shown_at}): let the participant answer it "
                        "before closing the day, or the answer is not saved.", icon=":material/tablet:")
         # closing cannot be undone: a day short of the ~15 interactions is closed only when the researcher says so

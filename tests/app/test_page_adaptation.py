@@ -268,7 +268,7 @@ def test_closing_a_day_while_the_tablet_shows_a_proposal_is_warned(app, store, q
     at = app(PAGE, participant="P01")
     no_exception(at)
     warned = [w.value for w in at.warning if "tablet shows a proposal" in w.value]
-    assert len(warned) == 1 and warned[0].startswith("P01's tablet shows a proposal for interaction 5 (use stove, shown")
+    assert len(warned) == 1 and warned[0].startswith("P01's tablet shows a proposal (use stove, shown")
     assert warned[0].endswith("let the participant answer it before closing the day, or the answer is not saved.")
     label = "Accept" if any(b.label == "Accept" for b in tab.button) else "Nothing needed"
     next(b for b in tab.button if b.label == label).click().run()  # answered: nothing to warn about
