@@ -178,10 +178,7 @@ def short_time(stamp) -> str:
 
 
 def _event_words(what: str, details: str) -> str:
-    try:
-        d = json.loads(details or "{}")
-    except json.JSONDecodeError:
-        d = {}
+    d = _details(details) or {}
     if what == "record_interaction":
         if d.get("type") == records.USER_INITIATED:
             asked = f"asked for '{d['user_action']}'" if d.get("user_action") else "asked for an action"
@@ -363,13 +360,18 @@ def _may_begin_earlier(lines: list[_Line], ev: pd.DataFrame) -> bool:
                                  <= COMPARISON_GAP_S for line in lines)
 
 
-def _detail(details: str, key: str):
-    """One field of an event's details (JSON); None if it has none or they are not JSON."""
+def _details(details: str | None) -> dict | None:
+    """An event's details (its JSON object; {} for none), or None when they are not a JSON object."""
     try:
         d = json.loads(details or "{}")
     except json.JSONDecodeError:
         return None
-    return d.get(key) if isinstance(d, dict) else None
+    return d if isinstance(d, dict) else None
+
+
+def _detail(details: str, key: str):
+    """One field of an event's details; None if it has none or they are not JSON."""
+    return (_details(details) or {}).get(key)
 
 
 def _seconds_between(earlier, later) -> float:
@@ -386,11 +388,8 @@ def _seconds_between(earlier, later) -> float:
 def _scoring_run(what: str, details: str) -> tuple[tuple | None, str | None]:
     """An event of a run that scores a policy and saves none: the initial policy scored (day 0) or
     a Fig. 4 comparison run: (its kind and day, its method); (None, None) for any other event."""
-    if what != "record_adaptation":
-        return None, None
-    try:
-        d = json.loads(details or "{}")
-    except json.JSONDecodeError:
+    d = _details(details) if what == "record_adaptation" else None
+    if d is None:
         return None, None
     if not d.get("day"):
         return ("initial", 0), d.get("method")
