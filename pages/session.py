@@ -509,4 +509,11 @@ if done and not tablet:
                      + (f", {unanswered} not counted)" if unanswered else ")"), key="today-interactions"):
         today = store.interactions_frame(code, method=None, extra=True)
         view = app_support.interactions_view(today[today["day"] == day]).drop(columns="day")  # one day: room for
-        st.dataframe(view, hide_index=True, width="stretch")                                  # the answer
+        # the answer. The words first: a number needs little room, an answer ("asked for remind to take medicine")
+        # much (walkthrough at 1280 px: "asked for pa…", "use hair dry…" cut while "#" had room to spare); what the
+        # robot heard and saw only when a recogniser was used (else every row says "(as set)")
+        view = view.drop(columns=[c for c in ("robot heard", "robot saw") if (view[c] == app_support.AS_SET).all()])
+        st.dataframe(view, hide_index=True, width="stretch", column_config={
+            "#": st.column_config.NumberColumn(width=40), "time of day": st.column_config.TextColumn(width=90),
+            "since last activity": st.column_config.TextColumn("since last", width=80),
+            "answer": st.column_config.TextColumn(width="medium")})

@@ -389,6 +389,13 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     table = at.dataframe[0].value
     assert list(table["since last activity"]) == ["20-30 min"]
     assert "day" not in table.columns and "answer" in table.columns  # one day's table: no day column
+    # no recogniser: every row would say "(as set)" under what the robot heard and saw; the answer gets the room
+    assert "robot heard" not in table.columns and "robot saw" not in table.columns
+    store.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                             robot_action="pain check", response="accept", recognised_activity="sneeze")
+    at.run()
+    table = at.dataframe[0].value
+    assert list(table["robot heard"]) == ["(as set)", "sneeze"] and "robot saw" not in table.columns
 
 
 def test_a_request_the_robot_did_not_understand_is_also_a_toast_on_the_tablet(app, store, p01, quick_policy):
