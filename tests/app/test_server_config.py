@@ -6,11 +6,11 @@ from streamlit import config
 PROJECT_ROOT = Path(__file__).resolve().parents[2]
 
 
-def options(monkeypatch):
+def options(monkeypatch, names=("server.address", "server.fileWatcherType", "server.runOnSave",
+                                 "browser.gatherUsageStats")):
     monkeypatch.chdir(PROJECT_ROOT)  # Streamlit reads ./.streamlit/config.toml
     config.get_config_options(force_reparse=True)
-    return {name: config.get_option(name) for name in
-            ("server.address", "server.fileWatcherType", "server.runOnSave", "browser.gatherUsageStats")}
+    return {name: config.get_option(name) for name in names}
 
 
 def test_study_data_stays_on_this_machine_and_code_on_disk_is_not_reloaded_into_a_running_study(monkeypatch):
@@ -23,6 +23,20 @@ def test_study_data_stays_on_this_machine_and_code_on_disk_is_not_reloaded_into_
     # running server (modules reloaded while cached stores and policies keep the old classes)
     assert got == {"server.address": "localhost", "server.fileWatcherType": "none",
                    "server.runOnSave": False, "browser.gatherUsageStats": False}
+
+
+def test_a_script_run_does_not_end_with_a_full_garbage_collection(monkeypatch):
+    """Streamlit's default ends every script run with gc.collect(2): 150-250 ms holding the interpreter
+    lock in this server (torch, pandas, plotly: some 300,000 objects). A running job's progress reruns
+    every 0.5 s (ui.job_progress), so the adaptation, in the same process, waited for the lock: "Close day
+    N and adapt" took 6.3 s with the page open, 2.9 s with it closed (walkthrough; measured in Chromium).
+    AppTest's runner skips that collection whatever the setting, so the setting itself is tested here."""
+    try:
+        got = options(monkeypatch, ("runner.postScriptGC",))
+    finally:
+        monkeypatch.undo()
+        config.get_config_options(force_reparse=True)
+    assert got == {"runner.postScriptGC": False}
 
 
 def test_the_app_script_runs_bare_as_a_worker_process_runs_it(tmp_path):
