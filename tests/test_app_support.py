@@ -517,20 +517,29 @@ def test_an_interleaved_comparison_is_one_line_and_leaves_the_other_events_in_th
     store.close()
 
 
-def test_a_comparison_never_swallows_a_real_adaptation_made_meanwhile(tmp_path):
-    """A participant adapted (policy saved) while a comparison of others runs: its runs, the
-    initial policy's score of its day 1 included, stay lines of their own."""
+def _comparison_with_p03_meanwhile(tmp_path, meanwhile):
+    """P01 and P02's comparison of days 1-2 (``_comparison_runs``), with ``meanwhile(store, day)``
+    done for P03 (added, day 1 open) after its 9th run; returns the store."""
     store = _two_participants_two_days(tmp_path)
     store.add_participant("P03")
     day = store.open_day("P03")
-    runs = _comparison_runs(("P01", "P02"), (1, 2))
-    for i, run in enumerate(runs):
+    for i, run in enumerate(_comparison_runs(("P01", "P02"), (1, 2))):
         _record_run(store, *run)
-        if i == 8:  # as study_day.adapt_day does it
-            store.note_adaptation_started("P03", day, "cacas")
-            store.close_day("P03", day)
-            store.save_adapted_policy("P03", day, "cacas", b"policy bytes", {}, 1.0, {"preference_accuracy": 0.5},
-                                      initial_metrics={"preference_accuracy": 0.25})
+        if i == 8:
+            meanwhile(store, day)
+    return store
+
+
+def test_a_comparison_never_swallows_a_real_adaptation_made_meanwhile(tmp_path):
+    """A participant adapted (policy saved) while a comparison of others runs: its runs, the
+    initial policy's score of its day 1 included, stay lines of their own."""
+    def adapt_p03(store, day):  # as study_day.adapt_day does it
+        store.note_adaptation_started("P03", day, "cacas")
+        store.close_day("P03", day)
+        store.save_adapted_policy("P03", day, "cacas", b"policy bytes", {}, 1.0, {"preference_accuracy": 0.5},
+                                  initial_metrics={"preference_accuracy": 0.25})
+
+    store = _comparison_with_p03_meanwhile(tmp_path, adapt_p03)
     events = app_support.recent_events(store, limit=10)
     rows = list(zip(events["participant"], events["what"]))
     assert rows[:6] == [
@@ -576,16 +585,12 @@ def test_a_comparison_an_hour_after_another_is_a_line_of_its_own(tmp_path):
 def test_a_comparison_longer_than_the_events_read_at_first_is_said_whole(tmp_path):
     """recent_events reads the newest events 8 a line at first: a comparison with a tablet's
     interactions recorded meanwhile begins before them, and its lines still name every run."""
-    store = _two_participants_two_days(tmp_path)
-    store.add_participant("P03")
-    day = store.open_day("P03")
-    runs = _comparison_runs(("P01", "P02"), (1, 2))
-    for i, run in enumerate(runs):
-        _record_run(store, *run)
-        if i == 8:
-            for _ in range(12):
-                store.record_interaction("P03", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                                         robot_action="pain check", response="accept")
+    def tablet_p03(store, day):
+        for _ in range(12):
+            store.record_interaction("P03", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                     robot_action="pain check", response="accept")
+
+    store = _comparison_with_p03_meanwhile(tmp_path, tablet_p03)
     assert list(app_support.recent_events(store, limit=3)["what"]) == [
         "comparison runs (cacas-no-pr, orl, nn) for P01, P02 on days 1-2, no policy saved",
         "initial policy scored (cacas-no-pr, orl, nn) for P01, P02",
