@@ -119,10 +119,12 @@ with fig3:
         n_first = int(per_day.loc[first, "participants"])
         row.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
                   ui.percent(per_day.loc[last, "mean"]),
+                  # a day begun with nothing recorded yet: "–" alone read as a missing figure (walkthrough)
+                  "nothing recorded yet" if n_last == 0 else
                   None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}"
                   # paired: over the participants with both days, not the difference of the two plotted means
                   + ("" if paired == n_first == n_last else f" ({paired} with both days)"),
-                  delta_color="normal" if change else "off",
+                  delta_color="normal" if change and n_last else "off", delta_arrow="auto" if n_last else "off",
                   help=" ".join(filter(None, [
                       f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with a "
                       f"success rate that day; the change is over the {paired} with both day {first} and day {last}."

@@ -457,6 +457,7 @@ def test_a_day_begun_with_only_unanswered_proposals_is_on_fig3(app, store):
     no_exception(at)
     values = {m.label: m.value for m in at.metric}
     assert values["Day 2 mean success rate so far"] == "–"
+    assert at.metric[0].proto.delta == "nothing recorded yet"  # "–" alone read as a missing figure
     assert values["Participants on day 2"] == "1"
     assert values["Mean cumulative feedback, day 2"] == "3 data points"  # day 1's, carried over
 
