@@ -151,19 +151,28 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     # each day's mean is over the participants who had that day: the hover says how many (a study in
     # progress has fewer on its later days), and on how many recorded interactions each
     few = s["fewest"] < FEW_INTERACTIONS
-    fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers+text", name="success rate (mean)",
-                             line=dict(color=colour, width=3),
+    fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
+                             line=dict(color=colour, width=3), cliponaxis=False,
                              customdata=[[_participants(n, on), _interactions_each(n, lo, hi)]
                                          for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
                                                                   s["most"])],
-                             text=[_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"], s["fewest"], few)],
-                             textposition=_label_positions(s["day"], s["mean"]), cliponaxis=False,
-                             textfont=dict(size=12, color="#404040"),
                              marker=dict(size=[11 if f else 7 for f in few],  # hollow: a rate on few answers
                                          symbol=["circle-open" if f else "circle" for f in few]),
                              hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]}, "
                                            "%{customdata[1]})<extra></extra>"),
                   secondary_y=False)
+    # the few-answers labels as annotations on a white ground: a trace's text lay under the cumulative
+    # feedback's line and markers (its axis is drawn above the first), which crossed it out (walkthrough)
+    for day, mean, where, label in zip(s["day"], s["mean"], _label_positions(s["day"], s["mean"]),
+                                       [_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"],
+                                                                                            s["fewest"], few)]):
+        if label and pd.notna(mean):
+            vertical, horizontal = where.split()
+            fig.add_annotation(x=day, y=mean, text=label, showarrow=False, yref="y",
+                               yanchor="top" if vertical == "bottom" else "bottom",
+                               yshift=-9 if vertical == "bottom" else 9,
+                               xanchor={"right": "left", "left": "right"}.get(horizontal, "center"),
+                               bgcolor="rgba(255,255,255,0.85)", font=dict(size=12, color="#404040"))
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
         # not a bound: where no preference names an action a participant may still accept what the robot offers
         fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME,
