@@ -10,6 +10,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's cacas, not an installed one
 
 from cacas.d4a import persona_summary  # noqa: E402
+from cacas.errors import CacasError  # noqa: E402
 from cacas.paths import study_data_dir  # noqa: E402
 from cacas.preferences import load_personas  # noqa: E402
 
@@ -24,8 +25,20 @@ def markdown(path) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":
+def main(argv=None) -> int:
+    """Print the table; a bad persona file is one line naming what is wrong (as ``cacas simulate``
+    says it) and exit code 2, not a traceback."""
     parser = argparse.ArgumentParser(description="Print a persona file's table: covered states, twists vs D4A.")
     parser.add_argument("persona_file", nargs="?", default=str(study_data_dir() / "personas" / "example.json"),
                         help="a persona file (default: the shipped example personas)")
-    print(markdown(parser.parse_args().persona_file))
+    try:
+        table = markdown(parser.parse_args(argv).persona_file)
+    except CacasError as exc:
+        print(f"persona_table: {exc}", file=sys.stderr)
+        return 2
+    print(table)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

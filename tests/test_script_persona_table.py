@@ -1,0 +1,36 @@
+"""scripts/persona_table.py: the README's table of a persona file, and one line for a bad file."""
+
+import importlib.util
+import json
+
+import pytest
+
+from cacas.paths import PROJECT_ROOT
+
+
+@pytest.fixture(scope="module")
+def script():
+    spec = importlib.util.spec_from_file_location("persona_table", PROJECT_ROOT / "scripts" / "persona_table.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_table_of_a_persona_file(script, tmp_path, capsys):
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check"}]}]}))
+    assert script.main([str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].startswith("| participant | preferences | covered S1-S4 states |")
+    assert lines[2].startswith("| P01 | 1 | ") and lines[-1].startswith("| mean | 1 | ")
+
+
+def test_a_bad_persona_file_is_one_line_and_exit_2(script, tmp_path, capsys):
+    """README review: a bad file printed a traceback and exit 1 where cacas simulate says one line, exit 2."""
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check", "hours": [[7, 9]]}]}]}))
+    assert script.main([str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("persona_table: ") and "p.json" in err[0] and "P01" in err[0]
