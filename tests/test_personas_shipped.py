@@ -1,6 +1,5 @@
 """The shipped example personas and the hold-out personas: realistic, varied, and not the generic user."""
 
-import importlib.util
 from pathlib import Path
 
 import pytest
@@ -9,6 +8,7 @@ from cacas import spaces
 from cacas.d4a import differs_from_generic, load_d4a, persona_summary
 from cacas.paths import PROJECT_ROOT, study_data_dir
 from cacas.preferences import load_personas, parse_personas
+from script_module import load_script
 
 EXAMPLE = study_data_dir() / "personas" / "example.json"
 HOLDOUT = Path(__file__).parent / "data" / "holdout_personas.json"
@@ -114,9 +114,7 @@ def test_differs_from_generic_examples(d4a):
 
 
 def test_readme_table_is_the_computed_one():
-    spec = importlib.util.spec_from_file_location("persona_table", PROJECT_ROOT / "scripts" / "persona_table.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
+    module = load_script("persona_table")
     readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
     assert module.markdown(EXAMPLE) in readme
 

@@ -1,15 +1,14 @@
 """scripts/accuracy_by_preference.py: a day's accuracy per described preference, from the
 by_preference.csv of a simulated study."""
 
-import importlib.util
 
 import pandas as pd
 import pytest
 
 from cacas import records
 from cacas.experiment import simulate_study
-from cacas.paths import PROJECT_ROOT
 from cacas.preferences import parse_personas
+from script_module import load_script
 
 PERSONAS = {"participants": [{"id": "Q1", "preferences": [
     {"activity": ["use stove"], "scene": ["kitchen"], "action": "set a timer"},
@@ -18,11 +17,7 @@ PERSONAS = {"participants": [{"id": "Q1", "preferences": [
 
 @pytest.fixture(scope="module")
 def script():
-    spec = importlib.util.spec_from_file_location("accuracy_by_preference",
-                                                  PROJECT_ROOT / "scripts" / "accuracy_by_preference.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("accuracy_by_preference")
 
 
 def test_all_equals_the_studys_preference_accuracy(script, tmp_path, capsys, small_config, small_initial):

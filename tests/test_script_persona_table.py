@@ -1,19 +1,15 @@
 """scripts/persona_table.py: the README's table of a persona file, and one line for a bad file."""
 
-import importlib.util
 import json
 
 import pytest
 
-from cacas.paths import PROJECT_ROOT
+from script_module import load_script
 
 
 @pytest.fixture(scope="module")
 def script():
-    spec = importlib.util.spec_from_file_location("persona_table", PROJECT_ROOT / "scripts" / "persona_table.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("persona_table")
 
 
 def test_the_table_of_a_persona_file(script, tmp_path, capsys):

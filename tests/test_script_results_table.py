@@ -1,19 +1,15 @@
 """scripts/results_table.py: the README's table of means per day from a daily.csv."""
 
-import importlib.util
 
 import pandas as pd
 import pytest
 
-from cacas.paths import PROJECT_ROOT
+from script_module import load_script
 
 
 @pytest.fixture(scope="module")
 def script():
-    spec = importlib.util.spec_from_file_location("results_table", PROJECT_ROOT / "scripts" / "results_table.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("results_table")
 
 
 def daily(nn_success, ceiling=1.0):
