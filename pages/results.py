@@ -78,7 +78,8 @@ else:
 shown, reached = daily, plots.participants_reached(daily) if len(daily) else pd.Series(dtype=int)
 common = int(reached.min()) if len(reached) else None
 if common is not None and common < int(reached.max()):
-    behind = ", ".join(f"{who} on day {day}" for who, day in reached[reached < reached.max()].items())
+    late = [f"{who} on day {day}" for who, day in reached[reached < reached.max()].items()]
+    behind = ", ".join(late[:4]) + (f" and {len(late) - 4} more" if len(late) > 4 else "")  # a radio label, not a list
     through = "day 1" if common == 1 else f"days 1-{common}"
     whole = st.radio("Days in the figures", ["every", "common"], horizontal=True, key="results-days",
                      format_func={"every": f"Every day (later days average fewer participants: {behind})",

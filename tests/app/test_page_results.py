@@ -535,3 +535,9 @@ def test_a_study_in_progress_can_show_only_the_days_everyone_reached(app, store)
     store.record_interaction("P02", day, response="accept", **cough)
     at = app(PAGE, participant="P01")
     assert not [r for r in at.radio if r.key == "results-days"]  # everyone on day 2: nothing to choose
+    for code in ("P03", "P04", "P05", "P06", "P07"):  # many behind: four named, the others counted
+        store.add_participant(code)
+        store.record_interaction(code, store.open_day(code), response="accept", **cough)
+    at = app(PAGE, participant="P01")
+    assert at.radio(key="results-days").options[0].endswith("P03 on day 1, P04 on day 1, P05 on day 1, P06 on day 1 "
+                                                             "and 1 more)")
