@@ -177,8 +177,11 @@ def short_time(stamp) -> str:
     return f"{s[:10]} {s[11:16]} UTC" if len(s) >= 16 else s
 
 
-def _event_words(what: str, details: str) -> str:
-    d = _details(details) or {}
+def _event_words(what: str, d: dict | None) -> str:
+    """An event in words, from its kind and its parsed details (:func:`_details`; None for details
+    that are not a JSON object: the kind alone, said so)."""
+    if d is None:
+        return f"{what.replace('_', ' ')} (its details are not readable)"
     if what == "record_interaction":
         if d.get("type") == records.USER_INITIATED:
             asked = f"asked for '{d['user_action']}'" if d.get("user_action") else "asked for an action"
@@ -325,7 +328,8 @@ class _Line:
 def _activity_lines(ev: pd.DataFrame) -> list[_Line]:
     """The events (oldest first) as lines, oldest first, a comparison's runs merged (see
     :func:`recent_events`)."""
-    whos, whats, details = list(ev["participant"].fillna("")), list(ev["what"]), list(ev["details"])
+    whos, whats = list(ev["participant"].fillna("")), list(ev["what"])
+    details = [_details(d) for d in ev["details"]]  # None for details that are not a JSON object
     lines: list[_Line] = []
     open_line: dict[str, _Line] = {}  # of each kind, the line a comparison's next run may join
     added: dict[str, int] = {}  # participant -> position of their addition
@@ -336,7 +340,7 @@ def _activity_lines(ev: pd.DataFrame) -> list[_Line]:
         if what == "add_participant":
             added[who] = i
         elif what == "close_day":
-            closed[(who, _detail(details[i], "day"))] = i
+            closed[(who, (details[i] or {}).get("day"))] = i
         if key is not None and key[0] == "initial" and i + 1 < len(ev) and whats[i + 1] == "save_policy" \
                 and whos[i + 1] == who:
             key = None  # the initial policy scored with a day's real adaptation, in its transaction
@@ -369,11 +373,6 @@ def _details(details: str | None) -> dict | None:
     return d if isinstance(d, dict) else None
 
 
-def _detail(details: str, key: str):
-    """One field of an event's details; None if it has none or they are not JSON."""
-    return (_details(details) or {}).get(key)
-
-
 def _seconds_between(earlier, later) -> float:
     """Seconds from one event's time (the store's ISO stamps) to another's; 0 if either is no time."""
     from datetime import datetime
@@ -385,11 +384,11 @@ def _seconds_between(earlier, later) -> float:
         return 0.0
 
 
-def _scoring_run(what: str, details: str) -> tuple[tuple | None, str | None]:
+def _scoring_run(what: str, d: dict | None) -> tuple[tuple | None, str | None]:
     """An event of a run that scores a policy and saves none: the initial policy scored (day 0) or
-    a Fig. 4 comparison run: (its kind and day, its method); (None, None) for any other event."""
-    d = _details(details) if what == "record_adaptation" else None
-    if d is None:
+    a Fig. 4 comparison run: (its kind and day, its method); (None, None) for any other event.
+    ``d``: the event's parsed details (:func:`_details`)."""
+    if what != "record_adaptation" or d is None:
         return None, None
     if not d.get("day"):
         return ("initial", 0), d.get("method")

@@ -596,3 +596,24 @@ def test_a_comparison_longer_than_the_events_read_at_first_is_said_whole(tmp_pat
         "initial policy scored (cacas-no-pr, orl, nn) for P01, P02",
         "day 1, interaction 12: robot proposed 'pain check', accepted"]
     store.close()
+
+
+class _Events:
+    """A store whose events are given (the columns of StudyStore.events), for details no store writes."""
+
+    def __init__(self, rows):
+        self.frame = pd.DataFrame(rows, columns=["id", "at", "what", "participant", "details"])
+
+    def events(self, participant=None, limit=None, study=None):
+        return self.frame.tail(limit).reset_index(drop=True)
+
+
+def test_recent_events_with_details_that_are_not_a_json_object():
+    """Details are parsed once an event; broken or non-object details give the event's kind, said
+    unreadable (they read "initial policy scored (None)" and "day None closed"), and merge with nothing."""
+    store = _Events([(1, "2026-11-21T09:00:00.000Z", "close_day", "P01", "not json"),
+                     (2, "2026-11-21T09:00:01.000Z", "record_adaptation", "P01", "[1, 2]"),
+                     (3, "2026-11-21T09:00:02.000Z", "open_day", "P01", '{"day": 2}')])
+    assert list(app_support.recent_events(store)["what"]) == [
+        "day 2 started", "record adaptation (its details are not readable)",
+        "close day (its details are not readable)"]
