@@ -355,12 +355,31 @@ _NEGATION_REACH = {"to", "me", "you", "it", "want", "need", "please", "a", "an",
                    "remind", "reminding", "tell", "ask", "keep", "show", "offer", "talk", "chat", "play", "set"}
 
 
+#: Punctuation that ends a clause: a negation before it does not reach the words after it ("No, call my
+#: daughter", "Stop! Call an ambulance" ask for the call).
+_CLAUSE_END = re.compile(r"[.,;:!?]")
+
+
+def _clauses(text: str) -> list[int]:
+    """The clause (0, 1, ...) of each word of :func:`_words` ``(text)``, clauses ending at :data:`_CLAUSE_END`."""
+    clause, out = 0, []
+    for token in re.finditer(rf"{_WORD.pattern}|{_CLAUSE_END.pattern}", text.lower().replace("’", "'")):
+        if _CLAUSE_END.fullmatch(token.group()):
+            clause += 1
+        else:
+            out.append(clause)
+    return out
+
+
 def _negated(text: str, action: str) -> bool:
     """Whether a negation governs the words that matched ``action``: "don't call anyone", "no need to
-    call", "I do not want a timer", "stop the chitchat". "Don't forget to remind me" is a request."""
-    words = _words(text)
+    call", "I do not want a timer", "stop the chitchat". "Don't forget to remind me" is a request, and
+    so is "No, call my daughter": a negation does not reach past the end of its clause."""
+    words, clause = _words(text), _clauses(text)
     first = min(i for p in _PHRASES[action] for i in _positions(words, p))
     for i in range(first - 1, -1, -1):
+        if clause[i] != clause[first]:
+            return False
         if words[i] in _NEGATIONS:
             return not (i + 1 < len(words) and words[i + 1] == "forget")
         if words[i] not in _NEGATION_REACH:

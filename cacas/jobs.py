@@ -123,7 +123,9 @@ class JobRunner:
                 with job._lock:
                     job.log.append("stopped on request")
                     job.status = STOPPED
-            except Exception as exc:  # the page shows the message; the log keeps the trace
+            except BaseException as exc:  # the page shows the message; the log keeps the trace. Not only
+                # Exception: a SystemExit (a library calling sys.exit()) left the job "running" for good, and
+                # its key (a participant's day to adapt) could not be started again until the server restarted
                 with job._lock:
                     job.error = str(exc) or exc.__class__.__name__
                     job.exception = exc

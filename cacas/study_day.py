@@ -82,6 +82,8 @@ class Context:
     def from_token(cls, token: str) -> "Context":
         try:
             slot, interval, act, scene = (int(x) for x in str(token).split("."))
+            if not (0 <= act < len(spaces.ACTIVITIES) and 0 <= scene < len(spaces.SCENES)):
+                raise IndexError(act)  # a negative index counted from the end: "-1" was "do nothing" / "others"
             return cls.from_choices(slot, interval, spaces.ACTIVITIES[act], spaces.SCENES[scene])
         except (ValueError, IndexError):
             raise CacasError(f"context {token!r} in the address is invalid") from None

@@ -171,6 +171,10 @@ def test_a_request_not_to_do_something_is_not_taken_for_the_request(text):
                                           ("I can't breathe, call for help", "call someone for help"),
                                           ("call someone, I am not ok", "call someone for help"),
                                           ("remind me to turn off the stove, not the TV", "remind to turn off"),
-                                          ("I am not sure, check if I am in pain", "pain check")])
+                                          ("I am not sure, check if I am in pain", "pain check"),
+                                          # a "no" or "stop" answering the robot, then the request: not negated
+                                          ("No, call my daughter", "call someone for help"),
+                                          ("Stop! Call an ambulance", "call someone for help"),
+                                          ("no. set a timer please", "set a timer")])
 def test_a_not_elsewhere_in_a_request_does_not_undo_it(text, action):
     assert dialogue.match_request(text).action == action

@@ -114,3 +114,22 @@ def test_details_are_kept_for_the_pages_and_not_handed_to_the_work():
     assert job.wait(10) and job.status == DONE
     assert job.details == {"sim-days": 3} and seen == {"seed": 1}
     assert runner.start("other", work)[0].details is None
+
+
+def test_work_ending_with_a_base_exception_fails_and_its_key_can_start_again():
+    """A SystemExit (not an Exception) in the work left the job "running" forever: the same key then
+    returned that job at every start, and the page waited for it for good."""
+    import sys
+
+    runner = JobRunner()
+
+    def work(progress):
+        progress(0.5, "half way")
+        sys.exit("a library gave up")
+
+    job, _ = runner.start("k", work)
+    assert job.wait(10)
+    assert job.status == FAILED and not job.running and job.error == "a library gave up"
+    assert runner.running() == []
+    again, started = runner.start("k", lambda progress: 42)
+    assert started and again is not job and again.wait(10) and again.result == 42

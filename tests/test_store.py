@@ -932,3 +932,40 @@ def test_an_age_range_the_store_took_before_its_bound_stays_when_the_details_are
         store.update_participant("P01", age_range="201")
     assert store.update_participant("P01", age_range="65+").age_range == "65+"
     assert store.add_participant("P09", age_range="120").age_range == "120"
+
+
+@pytest.mark.parametrize("call", [
+    lambda s: s.close_day("P01", 2**63),
+    lambda s: s.interactions_frame(day=2**63),
+    lambda s: s.get_preferences("P01", 2**63),
+    lambda s: s.set_active_policy("P01", 2**63),
+    lambda s: s.load_policy("P01", version=2**63),
+    lambda s: s.record_adaptation("P01", 2**63, "cacas", {}, 0.0, {}),
+    lambda s: s.save_policy("P01", 2**63, "cacas", b"x"),
+    lambda s: s.events(limit=2**63),
+    lambda s: s.record_interaction("P01", 2**63, activity="cough", scene="bedroom", time_slot=1, interval_bin=1,
+                                   robot_action="pain check", response="accept"),
+    lambda s: s.record_interaction("P01", 1, activity="cough", scene="bedroom", time_slot=1, interval_bin=1,
+                                   robot_action="pain check", response="accept", policy_version=2**63),
+])
+def test_a_number_too_large_for_the_database_is_refused_naming_it(tmp_path, call):
+    """A day, version or limit above SQLite's 64-bit INTEGER passed the checks and reached SQLite,
+    which raised OverflowError (or "datatype mismatch"), not one CacasError."""
+    with StudyStore(tmp_path / "db.sqlite") as s:
+        s.add_participant("P01")
+        s.open_day("P01")
+        with pytest.raises(CacasError, match=r"9223372036854775808 is too large; valid: a whole number >= \d+ "
+                                             r"\(at most 9223372036854775807\)$"):
+            call(s)
+
+
+def test_minutes_too_many_for_six_decimals_are_kept_not_a_traceback(tmp_path):
+    """interval_minutes 1e308 is a finite number the check took; cutting it to 6 decimals overflowed
+    (OverflowError: cannot convert float infinity to integer)."""
+    with StudyStore(tmp_path / "db.sqlite") as s:
+        s.add_participant("P01")
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", time_slot=1, interval_minutes=1e308,
+                             robot_action="pain check", response="accept")
+        row = s.interactions_frame(extra=True).iloc[0]
+        assert row["interval_minutes"] == 1e308 and row["interval"] == 200

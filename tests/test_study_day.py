@@ -89,6 +89,9 @@ def test_context_token_round_trip_and_bad_input():
         Context.from_choices(1, 0, "dance", "bedroom")
     with pytest.raises(CacasError, match="in the address is invalid"):
         Context.from_token("1.2.99.0")
+    for token in ("1.2.-1.0", "1.2.0.-1", "1.2.-33.0"):  # taken from the end of the lists: another context
+        with pytest.raises(CacasError, match="in the address is invalid"):
+            Context.from_token(token)
 
 
 def test_answers_are_recorded_with_the_state(store, policy):

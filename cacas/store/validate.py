@@ -155,11 +155,18 @@ def method(value: Any) -> str:
     return value
 
 
+#: The largest whole number SQLite stores (64-bit INTEGER): a larger day, version or index was
+#: given to SQLite as it was, which raised OverflowError (a traceback) instead of a CacasError.
+MAX_INT = 2**63 - 1
+
+
 def integer(value: Any, field: str, low: int, high: int | None = None) -> int:
     ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
     if not ok or value < low or (high is not None and value > high):
         rng = f"{low}..{high}" if high is not None else f">= {low}"
         raise CacasError(f"{field} {value!r} is invalid; valid: a whole number {rng}")
+    if value > MAX_INT:
+        raise CacasError(f"{field} {value!r} is too large; valid: a whole number >= {low} (at most {MAX_INT})")
     return int(value)
 
 
@@ -223,7 +230,10 @@ def user_action(kind: str, value: Any) -> str | None:
 def _as_exported(x: float | None) -> float | None:
     """A time kept to the 6 decimals that CSV export writes (cut, not rounded, so that it stays in
     its slot or bin: 23.9999999 h would be written as 24.000000, which no import accepts)."""
-    return None if x is None else math.floor(x * 1e6) / 1e6
+    if x is None:
+        return None
+    scaled = x * 1e6
+    return math.floor(scaled) / 1e6 if math.isfinite(scaled) else x  # a float that large has no decimals to cut
 
 
 def time_slot(hour: Any, slot: Any) -> tuple[float | None, int]:
