@@ -238,7 +238,7 @@ SYNONYMS: dict[str, tuple[str, ...]] = {
     "remind to take medicine": ("medicine", "medication", "meds", "pill", "pills", "drug", "dose",
                                 "prescription", "vitamin", "vitamins", "insulin", "inhaler",
                                 "take medicine", "take my medicine"),
-    "ask to offer help": ("help", "assist", "assistance", "hand", "give me a hand", "support",
+    "ask to offer help": ("help", "assist", "assistance", "hand me", "give me a hand", "support",
                           "help me", "need help", "do something for me", "fetch",
                           "bring", "get me", "tea", "coffee", "a drink", "cup of"),
     "call someone for help": ("call", "phone", "ring", "emergency", "ambulance", "doctor", "nurse",
@@ -346,7 +346,7 @@ _NOTHING_WANTED = re.compile(r"\b(nothing|leave me( alone)?|no,? thanks?|no than
 
 
 #: Words that turn a request into its opposite when they come before the action's words ("don't call")
-_NEGATIONS = {"don't", "dont", "not", "never", "no", "stop", "without", "won't", "shouldn't", "mustn't"}
+_NEGATIONS = {"don't", "dont", "not", "never", "no", "nothing", "stop", "without", "won't", "shouldn't", "mustn't"}
 #: Words that may stand between such a word and the action's ("no need to call", "do not want a timer");
 #: any other word ends its reach ("I'm not well, call for help" asks for help)
 _NEGATION_REACH = {"to", "me", "you", "it", "want", "need", "please", "a", "an", "the", "any", "anyone", "do",

@@ -77,6 +77,9 @@ def test_names_are_case_insensitive_and_unknown_is_an_error():
     ("I have fallen and I can't get up", "call someone for help"),
     ("I'm on the floor", "call someone for help"),
     ("could you make me a cup of tea", "ask to offer help"),
+    # "hand" alone was a request for help (review: "I hurt my hand" asked to offer help)
+    ("I hurt my hand", "pain check"),
+    ("hand me the remote", "ask to offer help"),
 ])
 def test_match_request(text, action):
     assert dialogue.match_request(text).action == action
@@ -158,7 +161,7 @@ def test_the_misunderstood_message_reads_as_a_sentence():
 @pytest.mark.parametrize("text", ["please don't call anyone", "no need to call anyone", "never call my son",
                                   "I do not want a timer", "stop the chitchat", "do not remind me to turn off the stove",
                                   "Don’t remind me to unplug the hair dryer", "don't you dare call my son",
-                                  "don't put the knife back"])
+                                  "don't put the knife back", "Nothing hurts, I'm fine"])
 def test_a_request_not_to_do_something_is_not_taken_for_the_request(text):
     """'Please don't call anyone' was confirmed as 'call someone for help': one tap from recording the
     opposite of what was said. It is answered in place, nothing matched."""
