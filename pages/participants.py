@@ -471,7 +471,7 @@ if code:
 with tabs["Add a participant"]:
     with st.form("add-participant", border=True):
         st.text_input("Pseudonymous code", key="new-code", placeholder="P01",
-                      help="1-16 letters, digits, '-' or '_'. Never a name.")
+                      help="1-16 letters A-Z (no accents), digits, '-' or '_'. Never a name.")
         st.text_input("Age range", key="new-age", placeholder="e.g. 25-34 or 65+ (optional)")
         st.text_area("Notes", key="new-notes", placeholder="Optional; no names or contact details")
         if st.session_state.get("add-error"):

@@ -327,8 +327,8 @@ class PeopleMixin:
                "p.created_at, p.updated_at, (SELECT MAX(version) FROM preferences f "
                "WHERE f.participant_id = p.id) AS preference_version "
                "FROM participants p JOIN studies s ON s.id = p.study_id")
-        df = self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code",
-                         (study,) if study else ())
+        df = self._frame(sql + (" WHERE s.name = ?" if study is not None else "") + " ORDER BY p.code",
+                         (study,) if study is not None else ())
         for col in ("active_policy", "preference_version"):
             df[col] = df[col].astype("Int64")
         return df
@@ -516,5 +516,5 @@ class PeopleMixin:
         """preferences.csv: participant, version, preferences (persona-format JSON list), created_at."""
         sql = ("SELECT p.code AS participant, f.version, f.preferences, f.created_at FROM preferences f "
                "JOIN participants p ON p.id = f.participant_id JOIN studies s ON s.id = p.study_id")
-        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, f.version",
-                           (study,) if study else ())
+        return self._frame(sql + (" WHERE s.name = ?" if study is not None else "") + " ORDER BY p.code, f.version",
+                           (study,) if study is not None else ())

@@ -251,5 +251,5 @@ class PoliciesMixin:
         sql = ("SELECT p.code AS participant, o.version, o.day, o.method, o.path, o.sha256, o.size, o.created_at, "
                "CAST(o.version = p.active_policy AS INTEGER) AS active FROM policies o "
                "JOIN participants p ON p.id = o.participant_id JOIN studies s ON s.id = p.study_id")
-        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, o.version",
-                           (study,) if study else ())
+        return self._frame(sql + (" WHERE s.name = ?" if study is not None else "") + " ORDER BY p.code, o.version",
+                           (study,) if study is not None else ())

@@ -87,8 +87,8 @@ class SessionsMixin:
         """days.csv: participant, day, opened_at, closed_at (empty while open)."""
         sql = ("SELECT p.code AS participant, d.day, d.opened_at, COALESCE(d.closed_at, '') AS closed_at "
                "FROM days d JOIN participants p ON p.id = d.participant_id JOIN studies s ON s.id = p.study_id")
-        return self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY p.code, d.day",
-                           (study,) if study else ())
+        return self._frame(sql + (" WHERE s.name = ?" if study is not None else "") + " ORDER BY p.code, d.day",
+                           (study,) if study is not None else ())
 
     # --- interactions --------------------------------------------------------------------------
     def record_interaction(self, participant: str, day: int, *, activity: str, scene: str,

@@ -82,7 +82,7 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
                "WHERE d.participant_id = q.participant_id AND d.opened_at <= q.created_at) AS day, "
                "q.satisfaction, q.comments, q.created_at FROM questionnaires q "
                "JOIN participants p ON p.id = q.participant_id JOIN studies s ON s.id = p.study_id")
-        df = self._frame(sql + (" WHERE s.name = ?" if study else "") + " ORDER BY q.id", (study,) if study else ())
+        df = self._frame(sql + (" WHERE s.name = ?" if study is not None else "") + " ORDER BY q.id", (study,) if study is not None else ())
         df["day"] = df["day"].astype("Int64")
         return df
 

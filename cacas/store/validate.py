@@ -22,7 +22,7 @@ from cacas.records import ROBOT_INITIATED, USER_INITIATED, line_feeds
 
 #: Pseudonymous participant codes: a letter or digit, then letters, digits, "-" or "_"; at most 16.
 CODE_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}$")
-CODE_HINT = 'a pseudonymous code of 1-16 letters, digits, "-" or "_" (e.g. "P01"), never a name'
+CODE_HINT = 'a pseudonymous code of 1-16 letters A-Z (no accents), digits, "-" or "_" (e.g. "P01"), never a name'
 #: Age ranges: "25-34", "65+" or "30" (years); empty means not recorded.
 AGE_RE = re.compile(r"^(\d{1,3})(?:-(\d{1,3})|\+)?$")
 #: Method names (cacas, cacas-no-pr, orl, nn, ...).
@@ -93,8 +93,8 @@ def study(value: Any, check_contacts: bool = True) -> str:
     """A study's name: 1-64 letters, digits, spaces, ".", "-" or "_", and (``check_contacts``) no
     contact details (:func:`contact_details`)."""
     if not isinstance(value, str) or not STUDY_RE.fullmatch(value.strip()):
-        raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters, digits, spaces, "
-                         f"'.', '-' or '_'")
+        raise CacasError(f"study name {value!r} is invalid; valid: 1-64 letters A-Z (no accents), "
+                         f"digits, spaces, '.', '-' or '_'")
     found = check_contacts and contact_details(value)  # a study's name is in every export, as notes are
     if found:
         raise CacasError(f"study name {value!r} holds what looks like a phone number ({found!r}); valid: a name "
