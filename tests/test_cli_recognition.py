@@ -154,6 +154,9 @@ def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
     (["scene", "train", "--model", ""], "argument --model: an empty path"),
     (["export", "--db", "s.sqlite", "--out", ""], "argument --out: an empty path"),
     (["bench", "--json", ""], "argument --json: an empty path"),
+    # review: a trailing "/" names a folder; a file named "newdir" was made
+    (["import", "--bundle", "b.zip", "--db", "newdir/"],
+     "argument --db: 'newdir/' ends in '/', a folder; valid: a file path, e.g. newdir/study.sqlite"),
 ])
 def test_arguments_out_of_range_are_refused_before_any_work_in_one_line(tmp_path, capsys, monkeypatch, args, says):
     """Review: --seed -1 ended in a 27-line traceback (after an empty library folder was made),

@@ -40,7 +40,7 @@ def register(subparsers) -> None:
                               description=f"Load a {BUNDLE_NAME} written by `cacas export` into a new "
                                           "database file (an existing file is never overwritten).")
     q.add_argument("--bundle", required=True, type=types.path, help=f"the {BUNDLE_NAME} to import")
-    q.add_argument("--db", required=True, type=types.path, help="the NEW database file to create")
+    q.add_argument("--db", required=True, type=types.database_file, help="the NEW database file to create")
     q.set_defaults(func=run_import)
 
 

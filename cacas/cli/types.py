@@ -79,6 +79,16 @@ def path(text: str) -> Path:
     return Path(text)
 
 
+def database_file(text: str) -> Path:
+    """A study database file to write, its path not ending in a separator: "newdir/" reads as a folder, and it
+    made a file named "newdir" (review)."""
+    p = path(text)
+    if text.rstrip().endswith(("/", "\\")):
+        raise argparse.ArgumentTypeError(f"{text!r} ends in {text.rstrip()[-1]!r}, a folder; valid: a file path, "
+                                         f"e.g. {text.rstrip().rstrip('/').rstrip(chr(92)) or 'results'}/study.sqlite")
+    return p
+
+
 def png(text: str) -> Path:
     """A file path ending in .png (the confusion matrix is drawn as PNG)."""
     p = path(text)
