@@ -342,7 +342,11 @@ def score_request(text: str) -> list[tuple[str, int, tuple[str, ...]]]:
 
 
 #: Typed words that ask for nothing ("nothing needed", "leave me alone", "no thanks").
-_NOTHING_WANTED = re.compile(r"\b(nothing|leave me( alone)?|no,? thanks?|no thank you|go away|not now)\b", re.I)
+_NOTHING_WANTED = re.compile(r"\b(nothing|leave me( alone)?|no,? thanks?|no thank you|go away|not now|never ?mind)\b",
+                             re.I)
+#: "Never mind" asks for nothing: its "mind" is not "remind to be careful"'s ("mind the step"); it is
+#: taken out before matching, a clause's end in its place ("never mind, call my son" asks for the call)
+_NEVER_MIND = re.compile(r"\bnever ?mind\b", re.I)
 
 
 #: Words that turn a request into its opposite when they come before the action's words ("don't call")
@@ -396,7 +400,8 @@ def match_request(text: str) -> RequestMatch:
     if not isinstance(text, str) or not text.strip():
         raise CacasError("The request is empty. Type what you would like the robot to do, "
                          "for example 'remind me to turn off the stove'.")
-    ranked = score_request(text)
+    said = _NEVER_MIND.sub(",", text)
+    ranked = score_request(said)
     if not ranked:
         if _NOTHING_WANTED.search(text):  # not a request: there is an answer for it
             raise CacasError("All right, nothing then. Press 'Reject' if the robot offered something you do not "
@@ -407,7 +412,7 @@ def match_request(text: str) -> RequestMatch:
         raise CacasError(f"Sorry, the robot did not understand {said!r}. Try other words, for example "
                          f"{examples}, or pick what you would like from the list above.")
     best, score, hits = ranked[0]
-    if _negated(text, best):  # "please don't call anyone" asks for the opposite of "call someone for help"
+    if _negated(said, best):  # "please don't call anyone" asks for the opposite of "call someone for help"
         raise CacasError(f"All right, not that ('{request_words(best)}'). Press 'Reject' if the robot offered "
                          "something you do not want, or pick what you would like from the list above.")
     return RequestMatch(text=text.strip(), action=best, score=score, matched=hits,

@@ -80,6 +80,8 @@ def test_names_are_case_insensitive_and_unknown_is_an_error():
     # "hand" alone was a request for help (review: "I hurt my hand" asked to offer help)
     ("I hurt my hand", "pain check"),
     ("hand me the remote", "ask to offer help"),
+    ("never mind, call my son", "call someone for help"),
+    ("mind the step", "remind to be careful"),
 ])
 def test_match_request(text, action):
     assert dialogue.match_request(text).action == action
@@ -145,7 +147,7 @@ def test_request_words_are_the_participants_words_inside_a_sentence():
         request_words("dance")
 
 
-@pytest.mark.parametrize("text", ["nothing needed, leave me alone", "No thanks", "please do nothing"])
+@pytest.mark.parametrize("text", ["nothing needed, leave me alone", "No thanks", "please do nothing", "Never mind", "nevermind."])
 def test_asking_for_nothing_is_told_which_answer_says_so(text):
     """Typing that nothing is wanted is not a request the robot misunderstood: the message names the
     answers that say so (a walkthrough participant typed 'nothing needed, leave me alone')."""
