@@ -298,6 +298,11 @@ def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     zf.writestr(info, data)
 
 
+#: Reads of the tables an export makes when its policy files change under it (a participant removed
+#: between the tables' snapshot and the files' reads); the last failure is said as it is.
+_EXPORT_ATTEMPTS = 3
+
+
 def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | None = None,
                  bundle: bool = True) -> ExportResult:
     """Write every table as ``<out_dir>/<table>.csv`` and all of them (with the policy
@@ -315,15 +320,19 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
         known = [s.name for s in store.studies()]
         if study is not None and study not in known:
             raise CacasError(f"unknown study {study!r}; known studies: {', '.join(known) or 'none'}")
-        with store.snapshot():  # one consistent view, even while the app keeps writing
-            tables = export_tables(store, study)
-        try:
-            policies = {rel: store.load_policy(who, version=int(ver))
-                        for who, ver, rel in zip(tables["policies"]["participant"], tables["policies"]["version"],
-                                                 tables["policies"]["path"])} if bundle else {}
-        except CacasError as exc:  # the zip must hold every checkpoint to be imported; the tables do not
-            raise CacasError(f"{exc}; the zip needs every policy file (restore it from a backup), and "
-                             f"`cacas export --tables-only` writes the CSV tables without it") from None
+        for attempt in range(_EXPORT_ATTEMPTS):
+            with store.snapshot():  # one consistent view, even while the app keeps writing
+                tables = export_tables(store, study)
+            try:
+                policies = {rel: store.load_policy(who, version=int(ver))
+                            for who, ver, rel in zip(tables["policies"]["participant"], tables["policies"]["version"],
+                                                     tables["policies"]["path"])} if bundle else {}
+                break
+            except CacasError as exc:  # the zip must hold every checkpoint to be imported; the tables do not
+                if attempt + 1 < _EXPORT_ATTEMPTS and not store.policies_frame(study).equals(tables["policies"]):
+                    continue  # a participant removed (or a policy saved) after the tables were read: read again
+                raise CacasError(f"{exc}; the zip needs every policy file (restore it from a backup), and "
+                                 f"`cacas export --tables-only` writes the CSV tables without it") from None
     finally:
         if store is not db:
             store.close()

@@ -1017,3 +1017,29 @@ def test_daily_says_which_preferences_each_days_accuracy_was_scored_on(tmp_path)
     assert got[("cacas", 1)] == (0.3, 1) and got[("cacas", 2)] == (0.6, 1) and got[("cacas", 3)] == (0.7, 2)
     assert pd.isna(got[("nn", 3)][1]) and got[("nn", 3)][0] == pytest.approx(0.2)
     assert str(daily["preferences_version"].dtype) == "Int64"
+
+
+def test_a_participant_removed_while_the_export_reads_policy_files_is_read_again(store, tmp_path, monkeypatch):
+    """Review: a participant removed between the tables' snapshot and the reads of their policy files
+    failed the export with "restore it from a backup", though nothing was lost; the export reads the
+    tables again and writes the study as it is now. A file missing for good is still refused."""
+    load, removed = store.load_policy, []
+
+    def remove_first(who, **kw):
+        if not removed:
+            with StudyStore(store.path) as other:  # another tab removes P02, files and all
+                other.remove_participant("P02", confirm="P02")
+            removed.append("P02")
+        return load(who, **kw)
+
+    monkeypatch.setattr(store, "load_policy", remove_first)
+    result = export.export_study(store, tmp_path / "out")
+    assert removed == ["P02"]
+    assert set(pd.read_csv(result.tables["participants"])["participant"]) == {"P01"}
+    with zipfile.ZipFile(result.bundle) as zf:
+        assert sum(n.startswith("policies/") for n in zf.namelist()) == 2
+    for f in (store.path.parent / "policies").rglob("*"):
+        if f.is_file():
+            f.unlink()  # lost for good: the tables do not change, and the message says so
+    with pytest.raises(CacasError, match=r"the zip needs every policy file \(restore it from a backup\)"):
+        export.export_study(store, tmp_path / "again")
