@@ -245,6 +245,10 @@ def _remove_participant(who: str) -> None:
     """Remove ``who`` and everything recorded about them (the store checks the typed code); the
     sidebar moves to the next participant of the study (callbacks run before it is drawn)."""
     s = st.session_state
+    if _adapting(who):  # begun in another tab since this page was drawn with the button enabled
+        s["remove-error"] = (who, f"A policy is being adapted for {who} (begun since this page was drawn): "
+                                  "remove them once it has finished (Adaptation page). Nothing was removed.")
+        return
     codes = [p.code for p in store.list_participants(study)]
     try:
         gone = store.remove_participant(who, s.get(f"remove-confirm-{who}", ""))
@@ -266,6 +270,11 @@ def _remove_participant(who: str) -> None:
     st.toast(f"Participant {who} removed, with everything recorded about them." if not gone.kept_files else
              f"Participant {who} removed. Some of their policy files stay: see the note at the top of the page.",
              icon=":material/delete:")
+
+
+def _adapting(who: str) -> bool:
+    """Whether a policy is being adapted for ``who`` (the Adaptation page's job, in any tab)."""
+    return any(j.key.startswith(f"adapt:{ui.db_path()}:{who}:") for j in RUNNER.running())
 
 
 def _kept_note(footprint) -> str:
@@ -297,7 +306,7 @@ def _removal_section(who: str) -> None:
         st.warning(f"Day {left.open_day} is open ({n(left.open_day_interactions, 'interaction')} so far): removing "
                    f"{who} ends it and deletes it with the rest; their tablet then says its address names no "
                    "participant.", icon=":material/warning:")
-    busy = any(j.key.startswith(f"adapt:{ui.db_path()}:{who}:") for j in RUNNER.running())
+    busy = _adapting(who)
     if busy:
         st.info(f"A policy is being adapted for {who}: remove them once it has finished (Adaptation page).",
                 icon=":material/hourglass_top:")

@@ -675,3 +675,26 @@ def test_the_imports_message_stays_in_its_tab_until_the_next_file(app, store):
     assert not at.success and len(at.error) == 1 and "bad.json" in at.error[0].value
     at.file_uploader(key="persona-upload").upload("mine.json", data, "application/json").run()
     assert not at.error  # the refusal was of the other file
+
+
+def test_a_removal_clicked_after_an_adaptation_began_elsewhere_removes_nothing(app, store):
+    """The button is disabled while a policy is adapted, but a page drawn before the adaptation
+    began (another tab) still had it enabled: the click checks again and removes nothing."""
+    import threading
+
+    from cacas.jobs import RUNNER
+
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    at.text_input(key="remove-confirm-P01").set_value("P01").run()
+    release = threading.Event()
+    job, _ = RUNNER.start(f"adapt:{store.path}:P01:1", lambda progress: release.wait(30))  # begun in another tab
+    try:
+        _remove_button(at, "P01").click().run()
+        no_exception(at)
+        assert [p.code for p in store.list_participants()] == ["P01"]
+        assert ("A policy is being adapted for P01 (begun since this page was drawn): remove them once it has "
+                "finished (Adaptation page). Nothing was removed.") in [e.value for e in at.error]
+    finally:
+        release.set()
+        job.wait(10)
