@@ -274,7 +274,7 @@ def check_conflicts(preferences: Iterable[Preference], source: str | None = None
             overlap = a.coverage_mask() & b.coverage_mask()
             if overlap.any():
                 act, sc, sl, iv = (int(x[0]) for x in np.nonzero(overlap))
-                example = (f"{spaces.ACTIVITIES[act]} in the {spaces.SCENES[sc]} at "
+                example = (f"{spaces.ACTIVITIES[act]} {spaces.in_scene(spaces.SCENES[sc])} at "
                            f"{spaces.time_slot_label(sl)}, interval {spaces.interval_label(iv)}")
                 if a.task is not None or b.task is not None:  # S5 matters: say during which task
                     example += f", while the robot's task is {spaces.ACTIONS[tasks[0]]!r}"

@@ -99,6 +99,12 @@ def scene_index(name: str) -> int:
     return index_of("scene", name)
 
 
+def in_scene(name: str) -> str:
+    """Where, in words: "in the kitchen"; the scene "others" (any other room) is "in another room"
+    (the tablet said "in the others")."""
+    return "in another room" if SCENES[scene_index(name)] == "others" else f"in the {SCENES[scene_index(name)]}"
+
+
 def action_index(name: str) -> int:
     return index_of("action", name)
 

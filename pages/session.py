@@ -121,11 +121,20 @@ def _status_or_gone():
         return None
 
 
+#: An empty context form sent this soon after an answer was saved is a double tap's second tap: ignored.
+DOUBLE_TAP_SECONDS = 2.0
+
+
 def _set_context() -> None:
     s = st.session_state
     missing = [what for what, key in (("the time of day", "ctx-slot"),
                                       ("the time since your last activity", "ctx-interval"),
                                       ("an activity", "ctx-activity"), ("a room", "ctx-scene")) if s.get(key) is None]
+    if len(missing) == 4 and time.monotonic() - s.get("saved-at", (float("-inf"), ""))[0] < DOUBLE_TAP_SECONDS:
+        # the second tap of a double tap on an answer: "Do it" is drawn where the answer was (walkthrough at
+        # 1024 x 768: it said "Choose the time of day ... first" in red in place of "Saved")
+        s["last-saved"] = s["saved-at"][1]
+        return
     if missing:
         s["session-error"] = f"Choose {', '.join(missing[:-1]) + ' and ' if len(missing) > 1 else ''}{missing[-1]} first."
         return
@@ -201,6 +210,7 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     # the participant sees the day's count of recorded interactions, which leaves out unanswered ones: a number
     # here ("Interaction 6" under "5 of about 15") would not match it; the researcher's number is the day's table's
     s["last-saved"] = f"Saved ({what})." if tablet else f"Interaction {index} saved ({what})."
+    s["saved-at"] = (time.monotonic(), s["last-saved"])
 
 
 def _match_request(day: int, index: int, context: str) -> None:
@@ -250,6 +260,28 @@ def _follow_the_tablet(drawn, drawn_shown, drawn_pending) -> None:
         st.rerun()
 
 
+#: How often a tablet left waiting for the researcher (a day to adapt, preferences to describe) looks again.
+WAIT_EVERY_SECONDS = 5
+
+
+def _waiting_for() -> tuple | None:
+    """What a tablet left waiting shows, as it stands (None once the participant is gone)."""
+    try:
+        now = day_status(store, code)
+    except CacasError:
+        return None
+    return now, waiting_for_preferences(store, code, now)
+
+
+@st.fragment(run_every=WAIT_EVERY_SECONDS)
+def _wait_for_the_researcher(drawn: tuple | None) -> None:
+    """The tablet left on "Day N is finished" (or "The study has not started yet") moves on by itself
+    once the researcher has adapted the robot (described the preferences): it had no button, and only a
+    reload of the browser, which a participant does not think of, drew "Start day N" (walkthrough)."""
+    if _waiting_for() != drawn:
+        st.rerun()
+
+
 def _run_here() -> None:
     st.session_state["run-here"] = True
 
@@ -260,7 +292,7 @@ def _on_the_tablet(shown: Shown) -> None:
     with st.container(border=True):
         st.markdown(f"**On {code}'s tablet now** · interaction {shown.index}, shown at "
                     f"{shown.shown_at}")
-        st.caption(f"{shown.activity} in the {shown.scene} · {shown.time_slot}")
+        st.caption(f"{shown.activity} {spaces.in_scene(shown.scene)} · {shown.time_slot}")
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(shown.line)
         asked = board.pending(db, code)
@@ -305,6 +337,8 @@ if saved:
 if not status.open:
     if tablet:
         board.clear(db, code)
+        if not status.finished:  # nothing there for the participant to do until the researcher has
+            _wait_for_the_researcher(_waiting_for())
     if status.finished:
         st.success(f"All {STUDY_DAYS} days are done. Thank you for taking part!", icon=":material/celebration:")
     elif status.waiting_for_adaptation:
@@ -337,8 +371,6 @@ st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
             text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
                  "today" + (f" (and {unanswered} not counted: no response, nothing needed while the robot was "
                             "quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
-if status.recorded_today >= TARGET_INTERACTIONS:
-    st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
 
 token_ctx = st.query_params.get("ctx")
 context = None
@@ -361,6 +393,9 @@ if context is None and on_tablet is not None and not st.session_state.get("run-h
 elif context is None:
     if tablet:
         board.clear(db, code)
+    if status.recorded_today >= TARGET_INTERACTIONS:  # on the form only: over a proposal it pushed the request
+        # form below the fold at 1024 x 768 (walkthrough)
+        st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     if not tablet and not board.heard(db, code):
@@ -422,7 +457,7 @@ else:
     with left.container(border=True):
         st.markdown("**Your activity**")
         st.markdown(f"### {context.activity}")
-        st.caption(f"in the {context.scene} · {spaces.time_slot_label(context.time_slot)} · "
+        st.caption(f"{spaces.in_scene(context.scene)} · {spaces.time_slot_label(context.time_slot)} · "
                    f"{spaces.interval_label(context.interval_bin)} since your last activity")
         if clip:
             st.audio(str(clip), format=audio_mime(clip), autoplay=True)

@@ -91,3 +91,12 @@ def test_indices_from_onehot_inverts_encoding():
     rows = np.array([[3, 1, 4, 2, 0, 5, 1], [32, 5, 11, 11, 13, 13, 2]])
     assert np.array_equal(spaces.indices_from_onehot(spaces.encode_states(rows)), rows)
     assert np.array_equal(spaces.indices_from_onehot(spaces.encode_states(rows, parts=6), parts=6), rows[:, :6])
+
+
+def test_a_scene_in_words():
+    """The tablet said "in the others" for the sixth scene (walkthrough)."""
+    assert spaces.in_scene("kitchen") == "in the kitchen"
+    assert spaces.in_scene("Living Room") == "in the living room"
+    assert spaces.in_scene("others") == "in another room"
+    with pytest.raises(CacasError, match="garden"):
+        spaces.in_scene("garden")

@@ -772,3 +772,35 @@ def test_the_researchers_view_shows_a_typed_request_awaiting_the_participants_ye
     _button(tab, "No").click().run()  # withdrawn: the researcher's view no longer says it
     desk = app(PAGE, participant="P01")
     assert "On P01's tablet now" in texts(desk) and "it waits for P01's yes" not in texts(desk)
+
+
+def test_a_double_tap_on_an_answer_says_saved_not_choose_the_time_first(app, store, p01, quick_policy):
+    """Walkthrough at 1024 x 768: the second tap of a double tap on "Accept" landed on the next form's
+    "Do it", drawn where the answers were, and the page said "Choose the time of day ... first" in red in
+    place of "Saved". An empty form sent within two seconds of a save is that second tap: ignored."""
+    store.open_day("P01")
+    at = app(PAGE, participant="P01", view="tablet")
+    _choose(at)
+    _button(at, "Accept").click().run()
+    _button(at, "Do it").click().run()  # the second tap
+    no_exception(at)
+    assert not at.error and [m.value for m in at.success] == ["Saved (accepted)."]
+    assert len(store.interactions_frame("P01", method=None)) == 1
+    at.session_state["saved-at"] = (at.session_state["saved-at"][0] - 2.5, "Saved (accepted).")  # later: a tap of its own
+    _button(at, "Do it").click().run()
+    assert [e.value for e in at.error] == [
+        "Choose the time of day, the time since your last activity, an activity and a room first."]
+
+
+def test_that_is_about_enough_is_said_on_the_form_not_over_a_proposal(app, store, p01, quick_policy):
+    """Walkthrough at 1024 x 768: from the 16th interaction the note pushed the request form below the fold."""
+    day = store.open_day("P01")
+    for _ in range(15):
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+    at = app(PAGE, participant="P01", view="tablet")
+    enough = "That's about enough for today, thank you! You may carry on, or stop here."
+    assert enough in [m.value for m in at.info]
+    _choose(at, scene="others")
+    assert enough not in [m.value for m in at.info]
+    assert any(c.value.startswith("in another room · ") for c in at.caption)  # it said "in the others"

@@ -1,0 +1,47 @@
+"""A tablet left waiting for the researcher moves on by itself.
+
+On "Day 1 is finished. The robot is learning from it ..." the tablet had no button and was never
+drawn again: only a reload of the browser, which a participant does not think of (and a kiosk
+tablet may not allow), showed "Start day 2" once the researcher had adapted the robot (walkthrough
+at 1024 x 768)."""
+
+from __future__ import annotations
+
+import pytest
+from playwright.sync_api import expect
+
+from cacas.store import StudyStore
+from conftest import _run_app
+from test_browser_mini_study import goto
+
+pytestmark = pytest.mark.browser
+
+
+@pytest.fixture(scope="module")
+def waiting_server(tmp_path_factory):
+    """The app over P01, whose day 1 is closed and not adapted yet."""
+    tmp = tmp_path_factory.mktemp("tablet-waits")
+    db = tmp / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+        s.close_day("P01", day)
+    for url in _run_app(tmp, CACAS_DB=str(db)):  # the server stops once the module's tests are done
+        yield db, url
+
+
+def test_the_tablet_shows_start_day_2_once_the_day_is_adapted_without_a_reload(browser, waiting_server):
+    db, url = waiting_server
+    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    goto(page, f"{url}/?participant=P01&view=tablet")
+    expect(page.get_by_text("Day 1 is finished. The robot is learning from it")).to_be_visible(timeout=30_000)
+    page.evaluate("window.notReloaded = true")
+    with StudyStore(db) as s:  # the researcher adapts the robot, on their own screen
+        s.save_policy("P01", 1, "cacas", b"the adapted policy")
+    expect(page.get_by_role("button", name="Start day 2")).to_be_visible(timeout=30_000)
+    assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
+    assert page.get_by_text("Day 1 is finished").count() == 0
+    page.close()
