@@ -309,7 +309,11 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
 
     if method in ("orl", "sac-user-data"):
         s, a, r, s2, day = orl_transitions(interactions)
-        n_new = int((day == day.max()).sum()) if len(day) else 0
+        # new: the transitions of the day just lived (the latest day of the interactions), none if
+        # that day recorded nothing (counting those of the latest day with some made sac-user-data
+        # learn again from an earlier day's after a day the participant answered nothing)
+        latest = int(interactions["day"].max()) if len(interactions) else None
+        n_new = int((day == latest).sum()) if len(day) else 0
         if method == "orl":
             if sac.memory is None:
                 sac.memory = load_initial_policy(d4a=d4a, config=config).sac.memory

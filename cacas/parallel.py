@@ -32,6 +32,29 @@ def ignore_interrupt() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
+def _exit_with_parent() -> None:
+    """End this worker or manager process when the main process is gone: killed outright
+    (``kill -9``, the kernel's out-of-memory killer, a crashed app server) it cannot stop them, and
+    they stayed for good, orphans holding a Python with torch each (a daemon thread waits on the
+    parent's sentinel, which a spawned process has)."""
+    parent = mp.parent_process()
+    if parent is None:
+        return
+
+    def watch() -> None:
+        parent.join()  # returns once the parent process has ended
+        os._exit(1)
+
+    threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
+
+
+def start_process() -> None:
+    """The initializer of the worker and manager processes: Ctrl-C left to the main process
+    (:func:`ignore_interrupt`), and the process ends when the main process is gone."""
+    ignore_interrupt()
+    _exit_with_parent()
+
+
 class InterruptHeld:
     """Ctrl-C (SIGINT) held back while worker processes start, until :meth:`release`.
 
@@ -97,8 +120,8 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
     manager = SyncManager(ctx=ctx)
     held = InterruptHeld()
     try:
-        manager.start(ignore_interrupt)
-        with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=ignore_interrupt) as pool:
+        manager.start(start_process)
+        with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=start_process) as pool:
             queue, stop = manager.Queue(), manager.Event()
             futures = []
             try:

@@ -309,7 +309,7 @@ class DiscreteSAC:
         separate steps. ``tests/test_bench.py`` checks the update against the plain reference.
         """
         c = self.config
-        if self.buffer.size == 0:
+        if self.buffer.size == 0 or n_updates < 1:  # nothing to learn from, or no update asked for
             return {}
         with torch.no_grad():
             for _ in range(n_updates):

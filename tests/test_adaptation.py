@@ -258,6 +258,18 @@ def test_sac_user_data_is_online_sac_one_update_per_new_transition(small_config,
     assert result.policy.sac.memory is None and result.policy.sac.buffer.size == 3 * 8 * 2
 
 
+def test_sac_user_data_makes_no_update_after_a_day_that_recorded_nothing(small_config, small_initial):
+    """Helper's bug hunt: after a day whose interactions were all left unanswered, sac-user-data
+    counted the latest day *with* transitions (the day before) as new and made its updates again."""
+    days = stove_days(2, per_day=8)
+    away = days["day"] == 2  # day 2: the robot proposed, the participant never answered
+    days.loc[away, ["type", "robot_action", "response", "user_action"]] = ["type_1", "chitchat", "others", ""]
+    assert records.is_recorded(days[away]).sum() == 0
+    result = adapt_policy(small_initial, days, "sac-user-data", seed=0, config=small_config)
+    assert result.parameters["updates"] == 0
+    assert result.policy.sac.updates == small_initial.sac.updates
+
+
 class _Oracle:
     """A policy that always chooses the described preference's action (evaluation only)."""
 

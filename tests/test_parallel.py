@@ -148,3 +148,64 @@ def test_a_ctrl_c_raised_as_the_handler_is_put_back_leaves_nothing_blocked(monke
         held.release()
     monkeypatch.undo()
     assert signal.pthread_sigmask(signal.SIG_BLOCK, []) == before
+
+
+def _report_for_a_minute(shared: bytes, piece: int, queue, stop) -> int:
+    report = parallel.reporter(queue, stop)
+    for n in range(600):
+        report("made", piece, n)
+        time.sleep(0.1)
+    return piece
+
+
+KILLED_RUN = """
+import multiprocessing, sys
+from cacas import parallel
+from tests.test_parallel import _report_for_a_minute
+
+said = []
+def tick(*item):
+    if not said:  # the workers and the manager, once they report
+        said.append(1)
+        print(" ".join(str(p.pid) for p in multiprocessing.active_children()), flush=True)
+
+if __name__ == "__main__":
+    parallel.run_parallel(_report_for_a_minute, b"", [0, 1], 2, tick)
+"""
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    with open(f"/proc/{pid}/stat") as fh:  # a zombie (ended, not yet reaped) is gone
+        return fh.read().split(")")[-1].split()[0] != "Z"
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_worker_processes_end_when_the_main_process_is_killed_outright(tmp_path):
+    """Helper's bug hunt: after `kill -9` of the main process (or the out-of-memory killer) the
+    manager and worker processes stayed for good, orphaned."""
+    script = tmp_path / "killed_run.py"
+    script.write_text(KILLED_RUN)
+    root = Path(__file__).parents[1]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    main = subprocess.Popen([sys.executable, str(script)], stdout=subprocess.PIPE, text=True, env=env, cwd=root)
+    pids = []
+    try:
+        pids = [int(p) for p in main.stdout.readline().split()]
+        assert len(pids) >= 3  # the manager and two workers
+        main.kill()
+        main.wait(timeout=30)
+        deadline = time.time() + 20
+        while time.time() < deadline and any(_alive(p) for p in pids):
+            time.sleep(0.2)
+        assert not [p for p in pids if _alive(p)]
+    finally:
+        main.kill()
+        for pid in pids:  # whatever is left of this test's own processes
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except ProcessLookupError:
+                pass

@@ -160,3 +160,15 @@ def test_flat_adam_without_torchs_fused_kernel_makes_torchs_adam_updates(monkeyp
     expected = torch.cat([a.detach().reshape(-1), b.detach(), c.detach().reshape(-1)])
     assert torch.allclose(_adam_trajectory(monkeypatch, fused=False), expected, atol=1e-6)
     assert torch.allclose(_adam_trajectory(monkeypatch, fused=True), expected, atol=1e-6)
+
+
+def test_zero_updates_leave_the_agent_as_it_was():
+    """Helper's bug hunt: update(0) on a filled buffer raised UnboundLocalError ('losses'), e.g. ORL
+    with adapt_train_days=0 or sac-user-data with no new transition."""
+    agent = DiscreteSAC(SACConfig(hidden=16, batch_size=8), seed=0)
+    agent.buffer.add_batch(np.eye(agent.config.state_dim, dtype=np.float32)[:4], np.arange(4), np.ones(4),
+                           np.eye(agent.config.state_dim, dtype=np.float32)[1:5])
+    before = {k: v.clone() for k, v in agent.actor.state_dict().items()}
+    assert agent.update(0) == {}
+    assert agent.updates == 0
+    assert all(torch.equal(before[k], v) for k, v in agent.actor.state_dict().items())

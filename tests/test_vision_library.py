@@ -130,3 +130,18 @@ def test_an_image_too_large_to_read_safely_is_one_clear_message(tmp_path, monkey
     with pytest.raises(CacasError, match=r"big\.png: is too large to read safely \(more than 2,000 pixels\); "
                                          r"valid: a photo of at most 1,000 pixels"):
         library.load_image(tmp_path / "big.png")
+
+
+def test_a_photo_with_an_exif_orientation_is_read_upright(tmp_path):
+    """Helper's bug hunt: a phone's portrait photo, stored sideways with EXIF orientation 6 (turn 90
+    degrees clockwise to show), reached the scene model and the pages on its side."""
+    stored = Image.new("RGB", (60, 40), "white")
+    stored.paste((200, 0, 0), (0, 0, 20, 40))  # the stored image's left third is red
+    exif = Image.Exif()
+    exif[0x0112] = 6
+    path = tmp_path / "phone.jpg"
+    stored.save(path, exif=exif, quality=95)
+    upright = library.load_image(path)
+    assert upright.size == (40, 60)
+    r, g, b = upright.getpixel((20, 5))  # turned clockwise, the stored left side is on top
+    assert r > 150 and g < 80 and b < 80

@@ -46,8 +46,9 @@ def image_paths(scene: str, root: Path | str | None = None) -> list[Path]:
 
 
 def load_image(path):
-    """Open an image file as RGB; a missing, empty or unreadable file raises CacasError naming it."""
-    from PIL import Image, UnidentifiedImageError
+    """Open an image file as RGB, upright as a photo viewer shows it (a camera's EXIF orientation
+    applied); a missing, empty or unreadable file raises CacasError naming it."""
+    from PIL import Image, ImageOps, UnidentifiedImageError
 
     path = Path(path)
     if not path.exists():
@@ -59,7 +60,9 @@ def load_image(path):
     try:
         with Image.open(path) as im:
             im.load()
-            return _eight_bit(im).convert("RGB")
+            # a phone stores a portrait photo sideways with an orientation tag: the model and the
+            # pages got it on its side (helper's bug hunt)
+            return _eight_bit(ImageOps.exif_transpose(im)).convert("RGB")
     except Image.DecompressionBombError:  # not an OSError: it ended the page with a traceback
         raise CacasError(f"{path}: is too large to read safely (more than {2 * Image.MAX_IMAGE_PIXELS:,} pixels); "
                          f"valid: a photo of at most {Image.MAX_IMAGE_PIXELS:,} pixels, e.g. 6000 x 4000") from None
