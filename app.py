@@ -184,17 +184,39 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
     return any(words in said for words in ("malformed", "not a database", "disk i/o error", "database corrupt"))
 
 
+#: The tablet's look. A tablet at 1024 x 768 shows the proposal, its answers and the request form without
+#: scrolling: Streamlit's 6rem above the page was room they needed (a style only: it takes no room itself).
+#: A form's "Press Enter to submit form" is a developer's words: Enter says the typed request. Buttons and
+#: chips to tap are at least 48 px high, and the robot's words, the labels and the buttons' words larger,
+#: for participants of 65 and more (walkthrough at tablet sizes: 40 px buttons, 14 px words, the robot's
+#: line at 16 px). Toasts come at the bottom: at the top they covered "Choose a different activity".
+TABLET_STYLE = """
+[data-testid='stMainBlockContainer'] { padding-top: 1.5rem; }
+[data-testid='InputInstructions'] { display: none; }
+[data-testid='stMain'] button[data-testid^='stBaseButton'] { min-height: 3.25rem; }
+[data-testid='stMain'] button[data-testid^='stBaseButton'] p { font-size: 1.1rem; }
+[data-testid='stMain'] button[data-variant='pills'] { min-height: 2.75rem; padding: 0 1rem; }
+[data-testid='stMain'] button[data-variant='pills'] p { font-size: 1.05rem; }
+[data-testid='stMain'] [data-testid='stSelectbox'] [role='group'],
+[data-testid='stMain'] [data-testid='stTextInput'] input { min-height: 2.75rem; }
+[data-testid='stMain'] [data-testid='stSelectbox'] input,
+[data-testid='stMain'] [data-testid='stTextInput'] input { font-size: 1.05rem; }
+[data-testid='stMain'] [data-testid='stWidgetLabel'] p { font-size: 1.05rem; }
+[data-testid='stMain'] [data-testid='stMarkdownContainer'] p { font-size: 1.05rem; }
+[data-testid='stMain'] [data-testid='stCaptionContainer'], [data-testid='stMain'] [data-testid='stCaptionContainer'] p,
+[data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
+[data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
+[data-testid='stToastContainer'] { top: auto; bottom: 1rem; }
+"""
+
+
 def _route(store) -> None:
     """The participant from the address, the page, the sidebar; then the page itself."""
     ui.run_missed_click()  # where Streamlit runs a button's callback: before anything is drawn
     _sync_participant(store)
     ui.keep_preference_forms()
     if ui.tablet_mode():
-        # a tablet at 1024 x 768 shows the proposal, its answers and the request form without scrolling:
-        # Streamlit's 6rem above the page was room they needed (a style only: it takes no room itself)
-        # and a form's "Press Enter to submit form" is a developer's words: Enter says the typed request
-        st.html("<style>[data-testid='stMainBlockContainer'] { padding-top: 1.5rem; } "
-                "[data-testid='InputInstructions'] { display: none; }</style>")
+        st.html(f"<style>{TABLET_STYLE}</style>")
         if not st.session_state.get(ui.PARTICIPANT_KEY):
             st.error("This tablet address names no known participant. Ask the researcher for your link.")
             st.stop()

@@ -315,7 +315,8 @@ def _on_the_tablet(shown: Shown) -> None:
 status = day_status(store, code)
 if not tablet:
     _follow_the_tablet(status, board.shown(db, code), board.pending(db, code))
-head, back = st.columns([2, 1], vertical_alignment="center")  # [3, 1] cut "Choose a different activity" at 768 px
+# [3, 1] cut "Choose a different activity" at 768 px, and [2, 1] the tablet's larger words ("Hello, P01" is short)
+head, back = st.columns([1, 1] if tablet else [2, 1], vertical_alignment="center")
 if tablet:
     head.markdown(f"## :material/smart_toy: Hello, {code}")
 else:
@@ -405,20 +406,20 @@ elif context is None:
                    f"{code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
         st.markdown("#### What are you doing?" if tablet else f"#### What is {code} doing?")  # the researcher sets it
-        c1, c2 = st.columns(2)
         # all four chosen every time (Section VI-B: the participant sets S3, S4 and S1): a preset value
         # (the time since the last activity at 20 min; the time of day at the previous interaction's) was kept
-        # unnoticed by participants and recorded as theirs
-        c1.selectbox(f"Time of day{part('S3')}", range(spaces.N_SLOTS), index=None, key="ctx-slot",
-                     placeholder="choose the time", format_func=spaces.time_slot_label)
+        # unnoticed by participants and recorded as theirs. Chips to tap where there are a dozen choices or
+        # fewer: a select box is a text field that may raise a tablet's keyboard at each tap (walkthrough)
+        st.pills(f"Time of day{part('S3')}", range(spaces.N_SLOTS), key="ctx-slot",
+                 format_func=spaces.time_slot_label)
         whose = "your" if tablet else f"{code}'s"  # the researcher sets it for the participant
-        c2.selectbox(f"Time since {whose} last activity{part('S4')}", range(spaces.N_INTERVALS), index=None,
-                     key="ctx-interval", placeholder="choose how long",
-                     format_func=spaces.interval_label)  # the bin, as the day's table and the export say it
-        c3, c4 = st.columns(2)
+        st.pills(f"Time since {whose} last activity{part('S4')}", range(spaces.N_INTERVALS), key="ctx-interval",
+                 format_func=spaces.interval_label)  # the bin, as the day's table and the export say it
+        c3, _ = st.columns(2)
         c3.selectbox(f"Activity{part('S1')}", spaces.ACTIVITIES, index=None, key="ctx-activity",
-                     placeholder="choose an activity")
-        c4.selectbox(f"Room{part('S2')}", spaces.SCENES, index=None, key="ctx-scene", placeholder="choose a room")
+                     placeholder="choose an activity")  # 33: a list to scroll (or type in), not a wall of chips
+        st.pills(f"Room{part('S2')}", spaces.SCENES, key="ctx-scene")  # a row of its own: in half the width
+        # the chips ran off its edge ("dining ro")
         ui.button(st, "Do it", _set_context, submit=True, type="primary", icon=":material/play_arrow:",
                   width="stretch")
     _warm_up()  # after the form: it is on the screen meanwhile
@@ -454,9 +455,10 @@ else:
                                    spaces.time_slot_label(context.time_slot), proposal.action, proposal.line))
 
     left, right = st.columns([1, 1])
+    # each card says what it is about and its name on one line: the name under a heading of its own took the
+    # room the tablet's larger buttons need at 1024 x 768 (walkthrough)
     with left.container(border=True):
-        st.markdown("**Your activity**")
-        st.markdown(f"### {context.activity}")
+        st.markdown(f"##### Your activity: {context.activity}")
         st.caption(f"{spaces.in_scene(context.scene)} · {spaces.time_slot_label(context.time_slot)} · "
                    f"{spaces.interval_label(context.interval_bin)} since your last activity")
         if clip:
@@ -464,10 +466,9 @@ else:
         else:
             st.caption("No sound clip for this activity in the library.")
     with right.container(border=True):
-        st.markdown("**The robot heard**")
         if heard:
             mark = ":material/check:" if heard.label == context.activity else ":material/help:"
-            st.markdown(f"### {heard.label} {mark}")
+            st.markdown(f"##### The robot heard: {heard.label} {mark}")
             if heard.unsure:  # under a check mark, "not sure it heard that right" read as a contradiction
                 st.caption(":material/help: " + ("The robot was not sure, but it heard that right."
                                                  if heard.label == context.activity else
@@ -476,7 +477,7 @@ else:
                 st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard.top3[1:]) +
                            f" · confidence {100 * heard.confidence:.0f}%")
         else:
-            st.markdown(f"### {context.activity}")
+            st.markdown(f"##### The robot heard: {context.activity}")
             st.caption("No sound model: the robot uses the activity as chosen.")
         if seen:
             mark = ":material/check:" if seen.label == context.scene else ":material/help:"

@@ -19,10 +19,10 @@ def _button(at, label):
 
 
 def _choose(at, slot=3, interval=6, activity="use stove", scene="kitchen"):
-    at.selectbox(key="ctx-slot").set_value(slot)
-    at.selectbox(key="ctx-interval").set_value(interval)
+    at.pills(key="ctx-slot").set_value(slot)
+    at.pills(key="ctx-interval").set_value(interval)
     at.selectbox(key="ctx-activity").set_value(activity)
-    at.selectbox(key="ctx-scene").set_value(scene)
+    at.pills(key="ctx-scene").set_value(scene)
     _button(at, "Do it").click().run()
     no_exception(at)
 
@@ -215,11 +215,11 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1")  # cough in the bedroom
     no_exception(at)
     heard = recognizer.recognize(clip).label
-    assert "The robot heard" in texts(at) and f"### {heard}" in texts(at)
+    assert f"##### The robot heard: {heard}" in texts(at)
     assert "confidence" in texts(at)  # the researcher's view shows the numbers
     tablet = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", view="tablet")  # the participant's: plain labels
     no_exception(tablet)
-    assert f"### {heard}" in texts(tablet)
+    assert f"##### The robot heard: {heard}" in texts(tablet)
     assert "confidence" not in texts(tablet) and "Also possible" not in texts(tablet)
     assert len(at.get("audio")) == 1
     label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
@@ -261,11 +261,11 @@ def test_the_robot_says_when_it_is_not_sure_what_it_heard(app, store, p01, quick
     for view in ({}, {"view": "tablet"}):
         at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", **view)  # a cough chosen, and heard
         no_exception(at)
-        assert "### cough :material/check:" in texts(at)
+        assert "##### The robot heard: cough :material/check:" in texts(at)
         assert ("The robot was not sure, but it heard that right." in texts(at)) == unsure
         assert "The robot is not sure it heard that right." not in texts(at)  # not under a check mark
         at = app(PAGE, participant="P01", ctx="4.6.1.0", at="1.1", **view)  # crying chosen, a cough heard
-        assert "### cough :material/help:" in texts(at)
+        assert "##### The robot heard: cough :material/help:" in texts(at)
         assert ("The robot is not sure it heard that right." in texts(at)) == unsure
 
 
@@ -278,15 +278,15 @@ def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
     assert "Choose the time of day, the time since your last activity and a room first." in texts(at)
     assert "ctx" not in at.query_params
     # nothing preset: a value the participant did not choose would be recorded as theirs
-    assert at.selectbox(key="ctx-interval").value is None and at.selectbox(key="ctx-slot").value is None
-    at.selectbox(key="ctx-slot").set_value(5)
+    assert at.pills(key="ctx-interval").value is None and at.pills(key="ctx-slot").value is None
+    at.pills(key="ctx-slot").set_value(5)
     _button(at, "Do it").click().run()
     assert "Choose the time since your last activity and a room first." in texts(at)
-    at.selectbox(key="ctx-interval").set_value(2)
+    at.pills(key="ctx-interval").set_value(2)
     at.selectbox(key="ctx-activity").set_value(None)
     _button(at, "Do it").click().run()
     assert "Choose an activity and a room first." in texts(at)
-    at.selectbox(key="ctx-interval").set_value(None)
+    at.pills(key="ctx-interval").set_value(None)
     _button(at, "Do it").click().run()
     assert "Choose the time since your last activity, an activity and a room first." in texts(at)
 
@@ -342,10 +342,25 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
     store.open_day("P01")
     tablet = app(participant="P01", view="tablet")
     no_exception(tablet)
-    assert [s.label for s in tablet.selectbox] == ["Time of day", "Time since your last activity", "Activity", "Room"]
+    def labels(at):
+        return [w.label for w in at.main if getattr(w, "key", None) and w.key.startswith("ctx-")]
+
+    assert labels(tablet) == ["Time of day", "Time since your last activity", "Activity", "Room"]
     researcher = app(PAGE, participant="P01")
-    assert [s.label for s in researcher.selectbox if s.key and s.key.startswith("ctx-")] == [
+    assert labels(researcher) == [
         "Time of day (S3)", "Time since P01's last activity (S4)", "Activity (S1)", "Room (S2)"]  # not "your"
+
+
+def test_the_context_is_tapped_on_chips_but_the_activity_is_picked_from_a_list(app, store, p01):
+    """Walkthrough at tablet sizes: four select boxes, each a text field that may raise the tablet's
+    keyboard at every tap, about 60 a day; the dozen times, intervals and six rooms are chips, nothing
+    chosen at first, and the 33 activities a list."""
+    store.open_day("P01")
+    at = app(participant="P01", view="tablet")
+    assert [(p.key, len(p.options), p.value) for p in at.pills] == [
+        ("ctx-slot", 12, None), ("ctx-interval", 12, None), ("ctx-scene", 6, None)]
+    assert at.pills(key="ctx-slot").options[4] == "08:00-10:00" and at.pills(key="ctx-scene").options[-1] == "others"
+    assert [(b.key, len(b.options)) for b in at.selectbox] == [("ctx-activity", 33)]
 
 
 def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, quick_policy):
@@ -381,7 +396,7 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     the same (the tablet offered "20 min", the table "20-30 min")."""
     store.open_day("P01")
     at = app(PAGE, participant="P01")
-    assert at.selectbox(key="ctx-interval").options[:4] == ["0-1 min", "1-2 min", "2-5 min", "5-10 min"]
+    assert at.pills(key="ctx-interval").options[:4] == ["0-1 min", "1-2 min", "2-5 min", "5-10 min"]
     _choose(at, interval=6)
     assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in [c.value for c in at.caption]
     label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"

@@ -125,6 +125,13 @@ def choose(page, label: str, option: str, testid: str = "stSelectbox") -> None:
     idle(page)  # outside a form a choice reruns the page, as a person waits for it
 
 
+def tap(page, label: str, option: str) -> None:
+    """Tap the chip ``option`` of the chips (st.pills) labelled ``label`` (in a form: no rerun)."""
+    chip = _widget(page, "stButtonGroup", label).get_by_role("radio", name=option, exact=True)
+    chip.click()
+    expect(chip).to_have_attribute("aria-checked", "true")
+
+
 def fill(page, label: str, text: str, first: bool = False) -> None:
     box = page.get_by_role("textbox", name=label, exact=True)
     (box.first if first else box).fill(text)
@@ -166,10 +173,10 @@ def shot(page, name: str) -> None:
 
 def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     """Set a context and press "Do it"; True if the robot proposes an action (not quiet)."""
-    choose(page, "Time of day", slot)
-    choose(page, "Time since", "20-30 min")  # "your" on the tablet, "P01's" on the researcher's view
+    tap(page, "Time of day", slot)
+    tap(page, "Time since", "20-30 min")  # "your" on the tablet, "P01's" on the researcher's view
     choose(page, "Activity", activity)
-    choose(page, "Room", room)
+    tap(page, "Room", room)
     click(page, "Do it")
     # the proposal's answers, waited for, not read at once: "Accept" (and the others) if the robot speaks,
     # "Nothing needed" if it stays quiet; on first use they come once the initial policy is trained, in the
@@ -245,6 +252,16 @@ def test_mini_study(server, page, tmp_path):
     click(page, "Start day 1")
     shows(page, "0 of about 15 interactions today")
     shot(page, "session-context")
+    # the context is tapped on chips at least 44 px high (the times, the intervals and the rooms were select
+    # boxes, text fields that may raise a tablet's keyboard), and the whole form fits a 1024 x 768 tablet
+    page.set_viewport_size({"width": 1024, "height": 768})
+    page.wait_for_timeout(500)
+    chips = page.locator("[data-testid='stButtonGroup'] [role='radio']")
+    assert chips.count() == 12 + 12 + 6
+    assert min(chips.nth(i).bounding_box()["height"] for i in range(chips.count())) >= 44
+    box = button(page, "Do it").bounding_box()
+    assert box["height"] >= 48 and box["y"] + box["height"] <= 768, box
+    page.set_viewport_size({"width": 1360, "height": 900})
 
     # the researcher's own view of the session, in another tab, follows the tablet without a reload
     watch = page.context.new_page()
@@ -261,6 +278,9 @@ def test_mini_study(server, page, tmp_path):
     for target in (button(page, "Say it"), button(page, "Choose a different activity"), button(page, "No response")):
         box = target.bounding_box()
         assert box is not None and box["y"] + box["height"] <= 768, box
+    # and large enough to tap for a participant of 65 and more (walkthrough: every button was 40 px high)
+    for name in ("Accept", "Reject", "No response", "Ask", "Say it", "Choose a different activity"):
+        assert button(page, name).bounding_box()["height"] >= 48, name
     page.set_viewport_size({"width": 1360, "height": 900})
     # the researcher's view shows the proposal the participant is answering, not a form of its own
     watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
