@@ -293,6 +293,12 @@ def adapt_policy(previous, interactions: pd.DataFrame, method: str = "cacas", se
 
     if method == "nn":
         states, actions = accept_pairs(interactions)
+        if not len(actions):  # nothing to learn from: an untrained network, its actions drawn by its seed,
+            # took over (helper's bug hunt: a participant who wants quiet fell from 0.72 to 0.00); the robot keeps
+            # the policy in force, as CACAS leaves its MLP part out until there is accepted data
+            say(1.0, "no accepted action yet: nothing to train the MLP policy on; the policy in force is kept")
+            kept = previous if previous is not None else load_initial_policy(d4a=d4a, config=config)
+            return AdaptationResult(kept, log, params, time.perf_counter() - t0)
         mlp = MLPPolicy(seed=seed).fit(states, actions)
         say(1.0, f"MLP policy trained on {len(actions)} accepted actions")
         return AdaptationResult(ReshapedPolicy(None, mlp, 0.0, method), log, params, time.perf_counter() - t0)

@@ -549,6 +549,10 @@ if done and not tablet:
         # much (walkthrough at 1280 px: "asked for pa…", "use hair dry…" cut while "#" had room to spare); what the
         # robot heard and saw only when a recogniser was used (else every row says "(as set)")
         view = view.drop(columns=[c for c in ("robot heard", "robot saw") if (view[c] == app_support.AS_SET).all()])
+        # what happened first, then where and when (walkthrough at 1024 px beside the sidebar: the answer was
+        # scrolled out of a 560 px table, behind the time, the interval and the room)
+        first = ["#", "activity", "robot proposed", "answer"]
+        view = view[first + [c for c in view.columns if c not in first]]
         st.dataframe(view, hide_index=True, width="stretch", column_config={
             "#": st.column_config.NumberColumn(width=40), "time of day": st.column_config.TextColumn(width=90),
             "since last activity": st.column_config.TextColumn("since last", width=80),

@@ -270,6 +270,21 @@ def test_sac_user_data_makes_no_update_after_a_day_that_recorded_nothing(small_c
     assert result.policy.sac.updates == small_initial.sac.updates
 
 
+def test_nn_with_no_accepted_action_keeps_the_policy_in_force(small_config, small_initial):
+    """Helper's bug hunt: with no accepted action to train on, NN put an untrained network in force (its
+    actions drawn by its seed; a participant who wants quiet fell from 0.72 to 0.00); it keeps the policy
+    in force, as CACAS leaves its MLP part out until there is accepted data."""
+    days = stove_days(1, per_day=8)
+    days[["type", "robot_action", "response", "user_action"]] = ["type_1", "chitchat", "reject", ""]
+    result = adapt_policy(small_initial, days, "nn", seed=3, config=small_config)
+    assert result.policy is small_initial
+    assert result.log == ["no accepted action yet: nothing to train the MLP policy on; the policy in force is kept"]
+    states = evaluation_states(PERSON)[:50]
+    assert (result.policy.greedy(states) == small_initial.greedy(states)).all()
+    trained = adapt_policy(small_initial, stove_days(1), "nn", seed=3, config=small_config)  # with accepted data
+    assert trained.policy is not small_initial and trained.policy.method == "nn"
+
+
 class _Oracle:
     """A policy that always chooses the described preference's action (evaluation only)."""
 

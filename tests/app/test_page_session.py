@@ -406,6 +406,9 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     assert "day" not in table.columns and "answer" in table.columns  # one day's table: no day column
     # no recogniser: every row would say "(as set)" under what the robot heard and saw; the answer gets the room
     assert "robot heard" not in table.columns and "robot saw" not in table.columns
+    # what happened first: at 1024 px the answer was scrolled out of view behind the time and the room
+    assert list(table.columns) == ["#", "activity", "robot proposed", "answer", "time of day", "since last activity",
+                                   "room"]
     store.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
                              robot_action="pain check", response="accept", recognised_activity="sneeze")
     at.run()
