@@ -258,9 +258,13 @@ with data:
     for name, df in tables.items():
         if name in ("events", "policies", "studies", "preferences", "days") and source == HUMAN:
             continue
-        with st.expander(f"{name}.csv · {len(df)} row{'s' if len(df) != 1 else ''}", expanded=name == "daily"):
-            st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)),
-                         placeholder="")  # an empty cell as the CSV holds it, not "None"
+        # a closed table's rows are not sent to the browser: opening it reruns the page and draws it (a 24 x 7
+        # study's interactions, adaptations and by_preference tables were 3.4 MB on every load of the page)
+        with st.expander(f"{name}.csv · {len(df)} row{'s' if len(df) != 1 else ''}", expanded=name == "daily",
+                         key=f"results-table-{name}", on_change="rerun") as table:
+            if table.open is not False:
+                st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)),
+                             placeholder="")  # an empty cell as the CSV holds it, not "None"
             ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
         def _bundle() -> bytes:

@@ -244,7 +244,10 @@ def load_run(db: str, name: str) -> saved_runs.Run:
 
 
 def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
-    st.download_button(label or f"Download {file_name}", records.csv_bytes(df), file_name=file_name,
+    """A download button for ``df`` as ``records.csv_bytes`` makes it. The CSV is written when the
+    button is clicked, not on every run of the page (Streamlit's deferred download: the Results page
+    of a 24 x 7 study wrote its 8 tables' CSVs, a quarter of its run, on every rerun)."""
+    st.download_button(label or f"Download {file_name}", lambda: records.csv_bytes(df), file_name=file_name,
                        mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:",
                        on_click="ignore")  # no rerun: a download right after another one found its file gone
 

@@ -110,12 +110,14 @@ def no_recognisers(monkeypatch):
 @pytest.fixture
 def downloads(monkeypatch):
     """What the page's download buttons offer (bytes), by the button's key and by file name (the
-    last button drawn with that name): a button's label alone said nothing of what it downloads."""
+    last button drawn with that name): a button's label alone said nothing of what it downloads.
+    Data made on the click (a callable, Streamlit's deferred download) is made here, as a click would."""
     offered: dict[str, bytes] = {}
     real = st.download_button
 
     def download_button(label, data, file_name=None, *args, **kwargs):
-        data_bytes = data.encode("utf-8") if isinstance(data, str) else data
+        made = data() if callable(data) else data
+        data_bytes = made.encode("utf-8") if isinstance(made, str) else made
         offered[file_name] = data_bytes
         if kwargs.get("key"):
             offered[kwargs["key"]] = data_bytes

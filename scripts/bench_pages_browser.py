@@ -1,0 +1,178 @@
+"""Benchmark of the app's pages through the real server, in headless Chromium (Playwright).
+
+    python3 scripts/bench_pages_browser.py DB [--repeats 5] [--participant P000] [--pages ...]
+
+Starts ``streamlit run app.py`` on DB (e.g. from ``scripts/bench_pages_db.py``), opens "/" once
+(the server's first request), then for each page: opens it in a new browser tab (a new session) at
+?participant=..., timing from the navigation until the script run is over (Streamlit's
+data-test-script-state back to notRunning after a run) and until every Plotly chart is drawn.
+"cold" is the page's first visit after the server's start (modules imported on first use: torch
+for the Adaptation page, the recognisers for Sounds), "load" the median [min-max] of ``--repeats``
+later visits. Then, on Results, times a change of participant in the sidebar, a change of the
+"Data" source and back, and on Adaptation a change of the "Before" policy, until the page is idle.
+Prints Markdown tables in seconds; the machine's load average is printed with them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+CHROMIUM = "/usr/bin/chromium"
+FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
+         "--disable-sync", "--no-first-run"]
+PAGES = {"overview": "", "participants": "participants", "session": "session", "adaptation": "adaptation",
+         "results": "results", "simulation": "simulation", "sounds": "sounds"}
+COUNTERS = """
+if (window.__runs === undefined) {
+  window.__runs = 0;
+  new MutationObserver(records => records.forEach(r => {
+    if (r.attributeName === 'data-test-script-state' && r.target.getAttribute(r.attributeName) === 'running'
+        && r.oldValue !== 'running') window.__runs += 1;
+  })).observe(document, {subtree: true, attributes: true, attributeOldValue: true,
+                         attributeFilter: ['data-test-script-state']});
+}"""
+IDLE_AFTER = ("n => window.__runs > n && document.querySelector(\"[data-testid='stApp']\")"
+              "?.getAttribute('data-test-script-state') === 'notRunning'")
+CHARTS = ("() => [...document.querySelectorAll(\"[data-testid='stPlotlyChart']\")].every("
+          "c => c.querySelector('.main-svg'))")
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def start_server(db: str, log: Path):
+    port = free_port()
+    env = dict(os.environ, PYTHONUNBUFFERED="1", CACAS_DB=db,
+               PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
+    proc = subprocess.Popen([sys.executable, "-m", "streamlit", "run", "app.py", "--server.port", str(port),
+                             "--server.headless", "true", "--server.address", "127.0.0.1",
+                             "--browser.gatherUsageStats", "false", "--server.fileWatcherType", "none"],
+                            cwd=ROOT, env=env, stdout=open(log, "w"), stderr=subprocess.STDOUT)
+    base = f"http://127.0.0.1:{port}"
+    deadline = time.time() + 90
+    while True:
+        try:
+            with urllib.request.urlopen(f"{base}/_stcore/health", timeout=2) as r:
+                if r.status == 200:
+                    return proc, base
+        except OSError:
+            pass
+        if proc.poll() is not None or time.time() > deadline:
+            proc.kill()
+            raise RuntimeError(log.read_text()[-2000:])
+        time.sleep(0.3)
+
+
+def visit(browser, url: str) -> tuple[float, float, object]:
+    """(seconds to idle, seconds to charts drawn, the open page)."""
+    ctx = browser.new_context(viewport={"width": 1360, "height": 900})
+    pg = ctx.new_page()
+    pg.set_default_timeout(60_000)
+    pg.add_init_script(COUNTERS)
+    t = time.perf_counter()
+    pg.goto(url)
+    pg.wait_for_function(IDLE_AFTER, arg=0, polling=20)
+    idle = time.perf_counter() - t
+    pg.wait_for_function(CHARTS, polling=20)
+    return idle, time.perf_counter() - t, pg
+
+
+def rerun_time(pg, action) -> float:
+    """Seconds from ``action`` until the run it starts is over (the page then idle)."""
+    before = pg.evaluate("() => window.__runs")
+    t = time.perf_counter()
+    action()
+    pg.wait_for_function(IDLE_AFTER, arg=before, polling=20)
+    pg.wait_for_function(CHARTS, polling=20)
+    return time.perf_counter() - t
+
+
+def choose(pg, label: str, option: str) -> None:
+    box = pg.locator("[data-testid='stSelectbox']").filter(has=pg.locator("label", has_text=label)).first
+    box.locator("input").click()
+    pg.keyboard.type(option)
+    pg.get_by_role("option", name=option, exact=True).first.click()
+
+
+def fmt(xs) -> str:
+    return f"{statistics.median(xs):.2f} [{min(xs):.2f}-{max(xs):.2f}]"
+
+
+def main() -> None:
+    from playwright.sync_api import sync_playwright
+
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("db")
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--participant", default="P000")
+    ap.add_argument("--pages", default=",".join(PAGES))
+    ap.add_argument("--log", default="/tmp/bench_pages_browser.log")
+    ap.add_argument("--no-interactions", action="store_true", help="time the page loads only")
+    args = ap.parse_args()
+    proc, base = start_server(str(Path(args.db).resolve()), Path(args.log))
+    print(f"server pid {proc.pid}", file=sys.stderr, flush=True)
+    try:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
+            q = f"?participant={args.participant}"
+            _, _, pg = visit(browser, f"{base}/{q}")  # the server's first request
+            pg.context.close()
+            print(f"load average {os.getloadavg()[0]:.1f}")
+            print("| page | cold: idle / charts drawn (s) | load: idle (s) | load: charts drawn (s) |")
+            print("|---|---:|---:|---:|")
+            for page in args.pages.split(","):
+                url = f"{base}/{PAGES[page]}{q}"
+                cold_idle, cold_drawn, pg = visit(browser, url)
+                pg.context.close()
+                idle, drawn = [], []
+                for _ in range(args.repeats):
+                    a, b, pg = visit(browser, url)
+                    pg.context.close()
+                    idle.append(a)
+                    drawn.append(b)
+                print(f"| {page} | {cold_idle:.2f} / {cold_drawn:.2f} | {fmt(idle)} | {fmt(drawn)} |", flush=True)
+            if args.no_interactions:
+                return
+            print(f"\nload average {os.getloadavg()[0]:.1f}")
+            print("| interaction | median [min-max] (s) |")
+            print("|---|---:|")
+            _, _, pg = visit(browser, f"{base}/results{q}")
+            others = ["P001", args.participant]
+            times = [rerun_time(pg, lambda: choose(pg, "Participant", others[i % 2])) for i in range(args.repeats)]
+            print(f"| Results: another participant in the sidebar | {fmt(times)} |", flush=True)
+            times = []
+            for i in range(args.repeats):
+                times.append(rerun_time(pg, lambda: pg.get_by_role("radio", name="A simulated run", exact=True).click()))
+                times.append(rerun_time(pg, lambda: pg.get_by_role(
+                    "radio", name="Human study (this database)", exact=True).click()))
+            print(f"| Results: Data source to 'A simulated run' and back to the human study (each) "
+                  f"| {fmt(times[1::2])} (back) / {fmt(times[0::2])} (away) |", flush=True)
+            pg.context.close()
+            _, _, pg = visit(browser, f"{base}/adaptation{q}")
+            opts = ["version 3 (after day 3, cacas)", "version 5 (after day 5, cacas)"]
+            times = [rerun_time(pg, lambda: choose(pg, "Before", opts[i % 2])) for i in range(args.repeats)]
+            print(f"| Adaptation: another 'Before' policy | {fmt(times)} |", flush=True)
+            pg.context.close()
+            browser.close()
+    finally:
+        proc.terminate()
+        try:
+            proc.wait(10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,110 @@
+"""A large human study's database for the page benchmarks (``scripts/bench_pages.py``).
+
+    python3 scripts/bench_pages_db.py DB [--participants 24] [--days 7] [--interactions 15]
+
+PARTICIPANTS x DAYS closed and CACAS-adapted study days of INTERACTIONS interactions each (about
+10 % unanswered, 10 % requests, the policy's 14 probabilities and the recognisers' guesses as the
+tablet records them), the example personas' described preferences (cycled), a policy version per
+day (the shipped initial policy's bytes, ~640 KB: the Adaptation page loads two versions), Fig. 4
+metrics scored by ``fig4_metrics`` (once per persona, then jittered), the three baselines' runs of a
+method comparison (cacas-no-pr, orl, nn) for every day, and a questionnaire answer from everyone.
+No training: it takes about a minute.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's cacas, not an installed one
+from cacas import spaces  # noqa: E402
+from cacas.store import StudyStore  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def build(path: Path, participants: int = 24, days: int = 7, interactions: int = 15, seed: int = 0) -> StudyStore:
+    from cacas.adaptation import load_initial_policy
+    from cacas.study_day import described_now, scored_on_preferences
+
+    rng = np.random.default_rng(seed)
+    personas = json.loads((ROOT / "study_data/personas/example.json").read_text())["participants"]
+    policy_bytes = (ROOT / "study_data/models/initial_policy.pt").read_bytes()
+    initial = load_initial_policy()
+    store = StudyStore(path)
+    scored: dict[int, dict] = {}
+    for p in range(participants):
+        code = f"P{p:03d}"
+        store.add_participant(code, age_range="65+")
+        store.save_preferences(code, personas[p % len(personas)]["preferences"])
+        prefs, pv = described_now(store, code)
+        if p % len(personas) not in scored:
+            scored[p % len(personas)] = scored_on_preferences(initial, prefs, pv)
+        base = scored[p % len(personas)]
+
+        def jitter(m: dict) -> dict:
+            out = dict(m, preference_accuracy=float(min(1.0, m["preference_accuracy"] + rng.random() * 0.5)))
+            out["by_preference"] = [dict(r, correct=int(rng.integers(r["states"] + 1))) for r in m["by_preference"]]
+            return out
+
+        for method in ("cacas", "cacas-no-pr", "orl", "nn"):
+            store.record_adaptation(code, 0, method, {"initial": True}, 0.0, base)
+        version = None
+        for _ in range(days):
+            day = store.open_day(code)
+            prev_action, prev_resp = "do nothing", "others"
+            for i in range(interactions):
+                probs = rng.dirichlet(np.ones(spaces.N_ACTIONS) * 0.3)
+                action = spaces.ACTIONS[int(probs.argmax())]
+                act = spaces.ACTIVITIES[int(rng.integers(spaces.N_ACTIVITIES))]
+                scene = spaces.SCENES[int(rng.integers(spaces.N_SCENES))]
+                u = rng.random()
+                kw = dict(activity=act, scene=scene, hour=float(7 + i % 15) + rng.random(),
+                          interval_minutes=float(rng.integers(1, 240)), task="do nothing",
+                          previous_action=prev_action, previous_response=prev_resp, robot_action=action,
+                          probabilities=probs, recognised_activity=act, recognised_scene=scene,
+                          policy_version=version)
+                if u < 0.1:
+                    resp = "others"
+                    store.record_interaction(code, day, response=resp, **kw)
+                elif u < 0.2:
+                    resp = "accept"
+                    want = spaces.ACTIONS[int(rng.integers(1, spaces.N_ACTIONS))]
+                    store.record_interaction(code, day, type="type_2", response=resp, user_action=want, **kw)
+                else:
+                    resp = "accept" if rng.random() < 0.4 + 0.08 * day else "reject"
+                    store.record_interaction(code, day, response=resp, **kw)
+                prev_action, prev_resp = action, resp
+            store.close_day(code, day)
+            metrics = dict(jitter(base), interactions=interactions * day, policy_before=version)
+            version = store.save_adapted_policy(code, day, "cacas", policy_bytes,
+                                                {"log": ["bench"], "seed": 0}, 1.3 + rng.random(), metrics)
+            for method in ("cacas-no-pr", "orl", "nn"):
+                store.record_adaptation(code, day, method, {"comparison": True, "seed": 0}, 1.0 + rng.random(),
+                                        jitter(base))
+        store.record_questionnaire(code, int(rng.integers(6, 11)), "fine" if p % 3 else "")
+    return store
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("db")
+    ap.add_argument("--participants", type=int, default=24)
+    ap.add_argument("--days", type=int, default=7)
+    ap.add_argument("--interactions", type=int, default=15)
+    args = ap.parse_args()
+    if Path(args.db).exists():
+        sys.exit(f"{args.db} exists")
+    s = build(Path(args.db), args.participants, args.days, args.interactions)
+    from cacas.export import export_tables
+    t = export_tables(s)
+    print({k: len(v) for k, v in t.items()})
+    s.close()
+
+
+if __name__ == "__main__":
+    main()
