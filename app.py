@@ -189,7 +189,8 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: A form's "Press Enter to submit form" is a developer's words: Enter says the typed request. Buttons and
 #: chips to tap are at least 48 px high, and the robot's words, the labels and the buttons' words larger,
 #: for participants of 65 and more (walkthrough at tablet sizes: 40 px buttons, 14 px words, the robot's
-#: line at 16 px). Toasts come at the bottom: at the top they covered "Choose a different activity".
+#: line at 16 px). Toasts come at the bottom: at the top they covered "Choose a different activity". The
+#: sound's player is as tall as a button: a tablet that blocks autoplay leaves its play button to tap.
 TABLET_STYLE = """
 [data-testid='stMainBlockContainer'] { padding-top: 1.5rem; }
 [data-testid='InputInstructions'] { display: none; }
@@ -207,6 +208,7 @@ TABLET_STYLE = """
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
 [data-testid='stToastContainer'] { top: auto; bottom: 1rem; }
+[data-testid='stMain'] audio { width: 100%; height: 3.25rem; }
 """
 
 

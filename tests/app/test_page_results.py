@@ -541,3 +541,19 @@ def test_a_study_in_progress_can_show_only_the_days_everyone_reached(app, store)
     at = app(PAGE, participant="P01")
     assert at.radio(key="results-days").options[0].endswith("P03 on day 1, P04 on day 1, P05 on day 1, P06 on day 1 "
                                                              "and 1 more)")
+
+
+def test_a_closed_table_sends_no_rows_but_keeps_its_download(app, store, downloads):
+    """Helper's profile of a 24 x 7 study: the Tables tab sent every table's rows (3.4 MB) on each load of
+    the page, in expanders that were closed; a closed table is drawn once opened, its download stays."""
+    _study_with_a_day(store)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    tables = [e for e in at.expander if ".csv · " in e.label]
+    assert {"daily.csv", "interactions.csv", "adaptations.csv", "participants.csv"} <= {e.label.split(" · ")[0] for e in tables}
+    drawn = {e.label.split(" · ")[0]: [type(c).__name__ for c in e.children.values()].count("Dataframe")
+             for e in tables}
+    assert drawn["daily.csv"] == 1  # open at first
+    assert drawn["interactions.csv"] == 0 and drawn["adaptations.csv"] == 0 and drawn["participants.csv"] == 0
+    assert {"dl-table-interactions", "dl-table-adaptations", "dl-table-participants"} <= set(downloads)
+    assert downloads["dl-table-interactions"].decode().count("\n") == 1 + 3  # the header and the day's 3 rows

@@ -281,6 +281,7 @@ def test_mini_study(server, page, tmp_path):
     # and large enough to tap for a participant of 65 and more (walkthrough: every button was 40 px high)
     for name in ("Accept", "Reject", "No response", "Ask", "Say it", "Choose a different activity"):
         assert button(page, name).bounding_box()["height"] >= 48, name
+    assert page.locator("audio").first.bounding_box()["height"] >= 48  # its play button, if autoplay is blocked
     page.set_viewport_size({"width": 1360, "height": 900})
     # the researcher's view shows the proposal the participant is answering, not a form of its own
     watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
