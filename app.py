@@ -11,6 +11,7 @@ to the researcher's pages, no preferences, no other participants.
 
 import os
 import sqlite3
+import threading
 from pathlib import Path
 
 import streamlit as st
@@ -159,6 +160,31 @@ def _sidebar(store, page) -> dict[str, str | None]:
     return address
 
 
+#: What the pages import on first use, which took the first visit of a page after the server's start
+#: 3.5-7.4 s (torch 1.9-2.6 s for Adaptation, torchvision 2.5 s for Sounds & scenes; helper's profile of a
+#: 24 x 7 study), and librosa's features, which the tablet's first proposal needs.
+PRELOADED = ("cacas.adaptation", "torchvision.models", "librosa.feature")
+
+
+@st.cache_resource(show_spinner=False)
+def _preload() -> threading.Thread:
+    """Import :data:`PRELOADED` in a thread of its own, once per server process, started after the first
+    page is drawn: the researcher reads that page meanwhile. A page that needs a module being imported
+    waits for that import (Python's import lock), never imports it twice."""
+    import importlib
+
+    def load() -> None:
+        for name in PRELOADED:
+            try:
+                importlib.import_module(name)
+            except Exception:  # noqa: BLE001  the page that needs it says what is wrong, in its place
+                pass
+
+    thread = threading.Thread(target=load, name="cacas-preload", daemon=True)
+    thread.start()
+    return thread
+
+
 def main() -> None:
     """Open the study database, route to the page and draw the sidebar."""
     st.set_page_config(page_title="CACAS Studio", page_icon=str(ICON) if ICON.exists() else None, layout="wide")
@@ -176,6 +202,8 @@ def main() -> None:
         # damage quick_check did not see on opening, met by the sidebar or a page: a message, not a traceback
         st.error(f"The study database {ui.db_path()} cannot be read ({exc}). Restore it from a backup or an "
                  "export (`cacas import`).", icon=":material/error:")
+    finally:  # also after a page's st.stop()
+        _preload()
 
 
 def _damaged(exc: sqlite3.DatabaseError) -> bool:

@@ -1,6 +1,6 @@
 """Benchmark of the app's pages through the real server, in headless Chromium (Playwright).
 
-    python3 scripts/bench_pages_browser.py DB [--repeats 5] [--participant P000] [--pages ...]
+    python3 scripts/bench_pages_browser.py DB [--repeats 5] [--participant P000] [--pages ...] [--after S]
 
 Starts ``streamlit run app.py`` on DB (e.g. from ``scripts/bench_pages_db.py``), opens "/" once
 (the server's first request), then for each page: opens it in a new browser tab (a new session) at
@@ -120,6 +120,8 @@ def main() -> None:
     ap.add_argument("--pages", default=",".join(PAGES))
     ap.add_argument("--log", default="/tmp/bench_pages_browser.log")
     ap.add_argument("--no-interactions", action="store_true", help="time the page loads only")
+    ap.add_argument("--after", type=float, default=0.0, metavar="SECONDS",
+                    help="wait this long after the server's first request (a researcher reading the first page)")
     args = ap.parse_args()
     proc, base = start_server(str(Path(args.db).resolve()), Path(args.log))
     print(f"server pid {proc.pid}", file=sys.stderr, flush=True)
@@ -129,6 +131,7 @@ def main() -> None:
             q = f"?participant={args.participant}"
             _, _, pg = visit(browser, f"{base}/{q}")  # the server's first request
             pg.context.close()
+            time.sleep(args.after)
             print(f"load average {os.getloadavg()[0]:.1f}")
             print("| page | cold: idle / charts drawn (s) | load: idle (s) | load: charts drawn (s) |")
             print("|---|---:|---:|---:|")
