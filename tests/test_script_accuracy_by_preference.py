@@ -21,7 +21,8 @@ def script():
 
 
 def test_all_equals_the_studys_preference_accuracy(script, tmp_path, capsys, small_config, small_initial):
-    res = simulate_study(parse_personas(PERSONAS), days=2, interactions=6, methods=["cacas", "nn"], seed=0,
+    # 15 a day, the paper's: with 6, day 1 had no accepted action, and NN kept the initial policy in force
+    res = simulate_study(parse_personas(PERSONAS), days=2, interactions=15, methods=["cacas", "nn"], seed=0,
                          config=small_config, initial_policy=small_initial)
     path = tmp_path / "by_preference.csv"
     records.write_csv(res.by_preference, path)
