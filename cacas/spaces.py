@@ -99,10 +99,16 @@ def scene_index(name: str) -> int:
     return index_of("scene", name)
 
 
+def scene_words(name: str) -> str:
+    """A scene as a participant reads it: its name; "others" (any other room) is "another room"."""
+    scene = SCENES[scene_index(name)]
+    return "another room" if scene == "others" else scene
+
+
 def in_scene(name: str) -> str:
-    """Where, in words: "in the kitchen"; the scene "others" (any other room) is "in another room"
-    (the tablet said "in the others")."""
-    return "in another room" if SCENES[scene_index(name)] == "others" else f"in the {SCENES[scene_index(name)]}"
+    """Where, in words: "in the kitchen", "in another room" (the tablet said "in the others")."""
+    words = scene_words(name)
+    return f"in {words}" if words == "another room" else f"in the {words}"
 
 
 def action_index(name: str) -> int:

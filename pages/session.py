@@ -416,10 +416,13 @@ elif context is None:
         st.pills(f"Time since {whose} last activity{part('S4')}", range(spaces.N_INTERVALS), key="ctx-interval",
                  format_func=spaces.interval_label)  # the bin, as the day's table and the export say it
         c3, _ = st.columns(2)
-        c3.selectbox(f"Activity{part('S1')}", spaces.ACTIVITIES, index=None, key="ctx-activity",
-                     placeholder="choose an activity")  # 33: a list to scroll (or type in), not a wall of chips
-        st.pills(f"Room{part('S2')}", spaces.SCENES, key="ctx-scene")  # a row of its own: in half the width
-        # the chips ran off its edge ("dining ro")
+        # 33: a list to scroll (or type in), not a wall of chips; alphabetical, to be found (Table I's order put
+        # "fall down" between "sniff" and "burp")
+        c3.selectbox(f"Activity{part('S1')}", sorted(spaces.ACTIVITIES, key=str.lower), index=None,
+                     key="ctx-activity", placeholder="choose an activity")
+        # a row of its own: in half the width the chips ran off its edge ("dining ro"); Table I's "others" is
+        # "another room" to the participant, as the proposal's caption says
+        st.pills(f"Room{part('S2')}", spaces.SCENES, key="ctx-scene", format_func=spaces.scene_words if tablet else str)
         ui.button(st, "Do it", _set_context, submit=True, type="primary", icon=":material/play_arrow:",
                   width="stretch")
     _warm_up()  # after the form: it is on the screen meanwhile

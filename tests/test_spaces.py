@@ -98,5 +98,7 @@ def test_a_scene_in_words():
     assert spaces.in_scene("kitchen") == "in the kitchen"
     assert spaces.in_scene("Living Room") == "in the living room"
     assert spaces.in_scene("others") == "in another room"
+    assert [spaces.scene_words(s) for s in spaces.SCENES] == ["bedroom", "living room", "kitchen", "bathroom",
+                                                              "dining room", "another room"]
     with pytest.raises(CacasError, match="garden"):
         spaces.in_scene("garden")

@@ -351,7 +351,7 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
         "Time of day (S3)", "Time since P01's last activity (S4)", "Activity (S1)", "Room (S2)"]  # not "your"
 
 
-def test_the_context_is_tapped_on_chips_but_the_activity_is_picked_from_a_list(app, store, p01):
+def test_the_context_is_tapped_on_chips_but_the_activity_is_picked_from_a_list(app, store, p01, quick_policy):
     """Walkthrough at tablet sizes: four select boxes, each a text field that may raise the tablet's
     keyboard at every tap, about 60 a day; the dozen times, intervals and six rooms are chips, nothing
     chosen at first, and the 33 activities a list."""
@@ -359,8 +359,15 @@ def test_the_context_is_tapped_on_chips_but_the_activity_is_picked_from_a_list(a
     at = app(participant="P01", view="tablet")
     assert [(p.key, len(p.options), p.value) for p in at.pills] == [
         ("ctx-slot", 12, None), ("ctx-interval", 12, None), ("ctx-scene", 6, None)]
-    assert at.pills(key="ctx-slot").options[4] == "08:00-10:00" and at.pills(key="ctx-scene").options[-1] == "others"
+    assert at.pills(key="ctx-slot").options[4] == "08:00-10:00"
+    assert at.pills(key="ctx-scene").options[-1] == "another room"  # Table I's "others", as the participant reads it
     assert [(b.key, len(b.options)) for b in at.selectbox] == [("ctx-activity", 33)]
+    activities = at.selectbox(key="ctx-activity").options  # alphabetical, to be found in a list of 33
+    assert activities[:3] == ["brush teeth", "burp", "clear throat"] and activities == sorted(activities, key=str.lower)
+    researcher = app(PAGE, participant="P01")
+    assert researcher.pills(key="ctx-scene").options[-1] == "others"  # Table I's S2 name for the researcher
+    _choose(at, scene="others")  # the value is Table I's
+    assert store.resume("P01") is not None and at.query_params["ctx"] in ("3.6.20.5", ["3.6.20.5"])
 
 
 def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, quick_policy):
