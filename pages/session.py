@@ -264,10 +264,11 @@ def _follow_the_tablet(drawn, drawn_shown, drawn_pending) -> None:
 WAIT_EVERY_SECONDS = 5
 
 
-def _waiting_for() -> tuple | None:
-    """What a tablet left waiting shows, as it stands (None once the participant is gone)."""
+def _waiting_for(now=None) -> tuple | None:
+    """What a tablet left waiting shows: the day status (``now``, or read as it stands) and whether it
+    waits for the preferences; None once the participant is gone."""
     try:
-        now = day_status(store, code)
+        now = now or day_status(store, code)
     except CacasError:
         return None
     return now, waiting_for_preferences(store, code, now)
@@ -339,7 +340,7 @@ if not status.open:
     if tablet:
         board.clear(db, code)
         if not status.finished:  # nothing there for the participant to do until the researcher has
-            _wait_for_the_researcher(_waiting_for())
+            _wait_for_the_researcher(_waiting_for(status))  # as drawn below, not read again
     if status.finished:
         st.success(f"All {STUDY_DAYS} days are done. Thank you for taking part!", icon=":material/celebration:")
     elif status.waiting_for_adaptation:

@@ -82,10 +82,11 @@ def path(text: str) -> Path:
 def database_file(text: str) -> Path:
     """A study database file to write, its path not ending in a separator: "newdir/" reads as a folder, and it
     made a file named "newdir" (review)."""
-    p = path(text)
-    if text.rstrip().endswith(("/", "\\")):
-        raise argparse.ArgumentTypeError(f"{text!r} ends in {text.rstrip()[-1]!r}, a folder; valid: a file path, "
-                                         f"e.g. {text.rstrip().rstrip('/').rstrip(chr(92)) or 'results'}/study.sqlite")
+    p, given = path(text), text.rstrip()
+    folder = given.rstrip("/\\")
+    if folder != given:
+        raise argparse.ArgumentTypeError(f"{text!r} ends in {given[-1]!r}, a folder; valid: a file path, "
+                                         f"e.g. {folder or 'results'}/study.sqlite")
     return p
 
 
