@@ -72,6 +72,18 @@ def greedy(probabilities: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.nd
     return behaviour
 
 
+#: The longest step of the simulated day (:attr:`CACAAConfig.k_minutes`): two steps a day, one transition.
+K_MINUTES_MAX = 720
+
+
+def _is_whole(value) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+
+
 @dataclass
 class CACAAConfig:
     """Hyper-parameters of Table III (names after the paper where it names them)."""
@@ -94,6 +106,17 @@ class CACAAConfig:
     def __post_init__(self) -> None:
         if self.adapt_actions not in ADAPT_ACTIONS:
             raise CacasError(f"adapt_actions {self.adapt_actions!r} is invalid; valid: {', '.join(ADAPT_ACTIONS)}")
+        k = self.k_minutes
+        if not _is_number(k) or not np.isfinite(k) or not 0 < k <= K_MINUTES_MAX:
+            # 0 divided by zero in steps_per_day; above 720 a simulated day had one step and no transition to learn from
+            raise CacasError(f"k_minutes {k!r} is invalid; valid: a number of minutes above 0 and at most "
+                             f"{K_MINUTES_MAX} (a simulated day has at least two steps)")
+        if not _is_whole(self.parallel_days) or self.parallel_days < 1:
+            raise CacasError(f"parallel_days {self.parallel_days!r} is invalid; valid: a whole number >= 1 "
+                             "(simulated days stepped side by side)")
+        if not _is_whole(self.adapt_train_days) or self.adapt_train_days < 0:
+            raise CacasError(f"adapt_train_days {self.adapt_train_days!r} is invalid; valid: a whole number >= 0 "
+                             "(rounds of simulated days of step 2; 0: no SAC training)")
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -270,10 +270,30 @@ SYNONYMS: dict[str, tuple[str, ...]] = {
 }
 
 _WORD = re.compile(r"[a-z0-9']+")
+#: Punctuation that ends a clause: a negation before it does not reach the words after it ("No, call my
+#: daughter", "Stop! Call an ambulance" ask for the call).
+_CLAUSE_END = re.compile(r"[.,;:!?]")
+#: One pass over the text: a word, or a clause's end (the two never overlap).
+_TOKEN = re.compile(rf"({_WORD.pattern})|{_CLAUSE_END.pattern}")
+
+
+def _tokens(text: str) -> tuple[list[str], list[int]]:
+    """The words of ``text`` (lower case, "’" as "'") and the clause (0, 1, ...) of each, clauses
+    ending at :data:`_CLAUSE_END`: one tokeniser for both (they were two, and had to agree)."""
+    words: list[str] = []
+    clauses: list[int] = []
+    clause = 0
+    for token in _TOKEN.finditer(text.lower().replace("’", "'")):
+        if token.group(1) is None:
+            clause += 1
+        else:
+            words.append(token.group(1))
+            clauses.append(clause)
+    return words, clauses
 
 
 def _words(text: str) -> list[str]:
-    return _WORD.findall(text.lower().replace("’", "'"))
+    return _tokens(text)[0]
 
 
 #: Particles of phrasal verbs that take their object in between: "put the knife back", "turn the oven off".
@@ -359,27 +379,11 @@ _NEGATION_REACH = {"to", "me", "you", "it", "want", "need", "please", "a", "an",
                    "remind", "reminding", "tell", "ask", "keep", "show", "offer", "talk", "chat", "play", "set"}
 
 
-#: Punctuation that ends a clause: a negation before it does not reach the words after it ("No, call my
-#: daughter", "Stop! Call an ambulance" ask for the call).
-_CLAUSE_END = re.compile(r"[.,;:!?]")
-
-
-def _clauses(text: str) -> list[int]:
-    """The clause (0, 1, ...) of each word of :func:`_words` ``(text)``, clauses ending at :data:`_CLAUSE_END`."""
-    clause, out = 0, []
-    for token in re.finditer(rf"{_WORD.pattern}|{_CLAUSE_END.pattern}", text.lower().replace("’", "'")):
-        if _CLAUSE_END.fullmatch(token.group()):
-            clause += 1
-        else:
-            out.append(clause)
-    return out
-
-
 def _negated(text: str, action: str) -> bool:
     """Whether a negation governs the words that matched ``action``: "don't call anyone", "no need to
     call", "I do not want a timer", "stop the chitchat". "Don't forget to remind me" is a request, and
     so is "No, call my daughter": a negation does not reach past the end of its clause."""
-    words, clause = _words(text), _clauses(text)
+    words, clause = _tokens(text)
     first = min(i for p in _PHRASES[action] for i in _positions(words, p))
     for i in range(first - 1, -1, -1):
         if clause[i] != clause[first]:

@@ -18,3 +18,20 @@ class AlreadyAdapted(AlreadyRecorded):
     """The study day was adapted already (another tab or server adapted it first): nothing more
     was written (the policy that adaptation saved is a version of its own, in force unless rolled
     back since)."""
+
+
+def case_twin(value: object, known) -> str | None:
+    """The one name of ``known`` that equals ``value`` (surrounding spaces ignored) but for letter
+    case, or None (none, or several: a restored backup may keep case twins)."""
+    text = str(value).strip()
+    twins = [str(k) for k in known if str(k).casefold() == text.casefold() and str(k) != text]
+    return twins[0] if len(twins) == 1 else None
+
+
+def did_you_mean(value: object, known) -> str:
+    """``"did you mean 'P01'? "`` when :func:`case_twin` finds one, else ``""``: the start of an
+    unknown-name message's hint. Participant codes and study names cannot differ only in letter
+    case (new ones that would are refused), so "p01" for "P01" is a typing slip. The lookup itself
+    stays exact: a stored code is never changed, nor matched without the researcher's word."""
+    twin = case_twin(value, known)
+    return f"did you mean {twin!r}? " if twin is not None else ""

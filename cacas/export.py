@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from cacas.errors import CacasError
+from cacas.errors import CacasError, did_you_mean
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
@@ -319,7 +319,8 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     try:
         known = [s.name for s in store.studies()]
         if study is not None and study not in known:
-            raise CacasError(f"unknown study {study!r}; known studies: {', '.join(known) or 'none'}")
+            raise CacasError(f"unknown study {study!r}; {did_you_mean(study, known)}"
+                             f"known studies: {', '.join(known) or 'none'}")
         for attempt in range(_EXPORT_ATTEMPTS):
             with store.snapshot():  # one consistent view, even while the app keeps writing
                 tables = export_tables(store, study)

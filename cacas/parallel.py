@@ -105,6 +105,19 @@ def reporter(queue, stop) -> Callable[..., None]:
     return report
 
 
+class NotStarted(Stopped):
+    """A piece that a worker process took from the pool's queue once the stop was asked: its work
+    never began (the pool hands each worker one call ahead, which ``Future.cancel`` cannot take back)."""
+
+
+def _piece(worker: Callable, shared: bytes, piece: Any, queue, stop):
+    """Runs one piece in a worker process, unless the main process has asked every worker to stop
+    (then :class:`NotStarted`: counted as never started, not as ended early)."""
+    if stop.is_set():
+        raise NotStarted("stopped before it started")
+    return worker(shared, piece, queue, stop)
+
+
 def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: int,
                  tick: Callable[..., None], what: str = "pieces of work",
                  keep: Callable[..., None] | None = None) -> list:
@@ -126,7 +139,7 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
             futures = []
             try:
                 for piece in pieces:  # one by one: a Ctrl-C meanwhile stops those submitted (below)
-                    futures.append(pool.submit(worker, shared, piece, queue, stop))
+                    futures.append(pool.submit(_piece, worker, shared, piece, queue, stop))
                 held.release()  # the workers have started: a Ctrl-C meanwhile arrives here
                 pending = set(futures)
                 while pending:
@@ -140,11 +153,16 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
                     tick(*queue.get())
             except BaseException as exc:  # a stop request, Ctrl-C, or a worker's failure
                 stop.set()
-                never = sum(f.cancel() for f in futures)
+                for f in futures:
+                    f.cancel()  # those still in the pool's own queue; one already handed to a worker: _piece
                 wait(futures)
                 while keep is not None and not queue.empty():  # made before the stop, not yet taken
                     keep(*queue.get())
-                ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped) for f in futures)
+                # never started: cancelled, or taken by a worker after the stop (_piece); ended early: stopped
+                # at a report, once begun
+                never = sum(f.cancelled() or isinstance(f.exception(), NotStarted) for f in futures)
+                ended = sum(not f.cancelled() and isinstance(f.exception(), Stopped)
+                            and not isinstance(f.exception(), NotStarted) for f in futures)
                 exc.add_note(f"{ended} of {len(futures)} {what} ended early in their worker process, "
                              f"{never} never started")
                 raise

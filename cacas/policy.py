@@ -111,7 +111,9 @@ class ReshapedPolicy:
         """Eq. 4 over the reshaped distribution."""
         return self.action_probabilities(states).argmax(1)
 
-    def decide(self, state: spaces.State) -> tuple[int, np.ndarray]:
+    def decide(self, state: spaces.State, rng: np.random.Generator | None = None) -> tuple[int, np.ndarray]:
+        """Eq. 4's action and the distribution. ``rng`` is not used (the argmax draws nothing): every
+        policy's ``decide`` takes one (:meth:`BanditPolicy.decide` draws from it)."""
         p = self.action_probabilities([state])[0]
         return int(p.argmax()), p
 
@@ -145,6 +147,12 @@ class BanditPolicy:
     activity taught. ``decide`` and ``sample`` draw (exploration: how the robot acts with it, on the
     tablet and in a closed-loop simulation); Fig. 4's accuracy uses
     the posterior mean (``action_probabilities`` is a softmax of the means, sharp).
+
+    Its draws come from ``rng``: seeded by ``seed`` when it is made (an adaptation, as in
+    ``cacas simulate``, which never loads a bandit from a file: the same --seed, the same
+    daily.csv); a bandit loaded from its file (:func:`policy_from_bytes`: the one a tablet uses)
+    draws from fresh entropy, see :meth:`_from_dict`. A caller may pass a generator of its own to
+    ``sample`` / ``decide`` (the tablet does: :func:`cacas.study_day.proposal_draws`).
     """
 
     kind = "bandit"
@@ -203,14 +211,15 @@ class BanditPolicy:
     def greedy(self, states) -> np.ndarray:
         return self.action_probabilities(states).argmax(1)
 
-    def sample(self, states) -> np.ndarray:
+    def sample(self, states, rng: np.random.Generator | None = None) -> np.ndarray:
         """Thompson sampling: for each state, the action whose draw from its Beta posterior is
-        highest (what the robot does with this policy, in a study or a closed-loop simulation)."""
+        highest (what the robot does with this policy, in a study or a closed-loop simulation).
+        The draws come from ``rng`` if given, else from the policy's own generator."""
         a, b = self._posterior(self._indices(states))
-        return self.rng.beta(a, b).argmax(1)
+        return (self.rng if rng is None else rng).beta(a, b).argmax(1)
 
-    def decide(self, state: spaces.State) -> tuple[int, np.ndarray]:
-        return int(self.sample([state])[0]), self.action_probabilities([state])[0]
+    def decide(self, state: spaces.State, rng: np.random.Generator | None = None) -> tuple[int, np.ndarray]:
+        return int(self.sample([state], rng)[0]), self.action_probabilities([state])[0]
 
     def to_bytes(self) -> bytes:
         buf = io.BytesIO()
@@ -220,8 +229,18 @@ class BanditPolicy:
 
     @classmethod
     def _from_dict(cls, d: dict) -> "BanditPolicy":
+        """The bandit of a policy file, drawing from fresh entropy (``np.random.default_rng()``).
+
+        The file keeps the posteriors, not a generator: a loaded bandit was seeded 0, so each load
+        (the tablet's, after every server restart, once the Adaptation page had put a bandit in
+        force) replayed the same Thompson draws. Fresh entropy cannot replay, and costs no
+        reproducibility that was ever there: ``cacas simulate`` adapts its bandits in memory,
+        seeded, and never loads one from a file. The tablet passes a generator of its own to
+        :meth:`decide` (:func:`cacas.study_day.proposal_draws`), so its proposal stays put through
+        a page rerun; this generator serves every other caller."""
         p = cls(np.zeros((spaces.N_ACTIVITIES, spaces.N_ACTIONS), np.int64))
         p.alpha0, p.beta0, p.wins, p.losses = d["alpha0"], d["beta0"], d["wins"], d["losses"]
+        p.rng = np.random.default_rng()
         return p
 
 

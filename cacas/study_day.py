@@ -244,6 +244,21 @@ def clip_for(context: Context, participant: str, day: int, index: int, clips: li
     return Path(clips[int(hashlib.sha256(key).hexdigest(), 16) % len(clips)])
 
 
+def proposal_draws(participant: str, day: int, index: int, policy: str | None = None) -> np.random.Generator:
+    """The random draws of one interaction's proposal (the bandit's Thompson draw), seeded by a hash
+    of who, which day, which interaction of it (the day's answers recorded so far + 1) and which
+    policy (its checkpoint's sha256), as :func:`clip_for` chooses the clip.
+
+    Not the policy's own generator: a bandit loaded from its file restarted that from the same seed
+    after every server restart, so a tablet replayed the same draws day after day. Not fresh entropy
+    either: the proposal is drawn again at each rerun of the page (any click before the answer, a
+    reload), and it must not change under the participant's eyes; keyed so, each new interaction
+    draws anew, a rerun or a restart repeats the draw of the interaction at hand only, and a
+    study's proposals can be recomputed from its records."""
+    key = f"{participant}|{day}|{index}|{policy or ''}".encode()
+    return np.random.default_rng(np.frombuffer(hashlib.sha256(key).digest(), dtype=np.uint32))
+
+
 def previous_interaction(store, participant: str, day: int) -> dict | None:
     """The day's last interaction (for S5-S7 of the next state), or None at the start of a day."""
     df = store.interactions_frame(participant, method=None)
@@ -254,17 +269,18 @@ def previous_interaction(store, participant: str, day: int) -> dict | None:
 def propose(policy, context: Context, previous: dict | None = None, heard: str | None = None,
             heard_confidence: float | None = None, policy_version: int | None = None,
             seen: str | None = None, sound_model: str | None = None,
-            scene_model: str | None = None) -> Proposal:
+            scene_model: str | None = None, draws: np.random.Generator | None = None) -> Proposal:
     """The robot's proposal: the policy state from the context (S1 is what the robot heard and S2
     the room it saw, when recognisers are installed, else as set; S5-S7 from the previous
-    interaction), Eq. 4's action and its line. ``sound_model`` / ``scene_model``: the ids of the
+    interaction), Eq. 4's action (the bandit's Thompson draw, from ``draws`` if given:
+    :func:`proposal_draws`) and its line. ``sound_model`` / ``scene_model``: the ids of the
     models that heard and saw (kept with the answer, so a study knows which model served it)."""
     from cacas.simulator import dialog_state
 
     act_on = spaces.canonical("activity", heard) if heard else context.activity
     seen = spaces.canonical("scene", seen) if seen else None
     state = dialog_state(act_on, seen or context.scene, context.hour, context.interval_minutes, previous)
-    action_index, probs = policy.decide(state)
+    action_index, probs = policy.decide(state) if draws is None else policy.decide(state, rng=draws)
     action = spaces.ACTIONS[action_index]
     return Proposal(context, act_on, heard_confidence if heard else None, state, action,
                     np.asarray(probs, dtype=float), dialogue.robot_line(act_on, action), policy_version, seen,

@@ -22,8 +22,8 @@ from cacas.on_tablet import Asked, Shown
 from cacas.recognition import Recognition
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
-                             previous_interaction, propose, recorded_answer, request_accepts_proposal, start_day,
-                             waiting_for_preferences)
+                             previous_interaction, propose, proposal_draws, recorded_answer,
+                             request_accepts_proposal, start_day, waiting_for_preferences)
 from pages import ui
 
 ui.require_app()
@@ -453,7 +453,8 @@ else:
     proposal = propose(policy, context, previous_interaction(store, code, day),
                        heard=heard.label if heard else None, heard_confidence=heard.confidence if heard else None,
                        policy_version=version, seen=seen.label if seen else None,
-                       sound_model=heard.model if heard else None, scene_model=seen.model if seen else None)
+                       sound_model=heard.model if heard else None, scene_model=seen.model if seen else None,
+                       draws=proposal_draws(code, day, index, in_force.sha256 if in_force else None))
     if tablet:  # the researcher's view shows it, and offers no second form for this interaction
         board.show(db, code, Shown(day, index, context.activity, context.scene,
                                    spaces.time_slot_label(context.time_slot), proposal.action, proposal.line))

@@ -1,5 +1,6 @@
 import dataclasses
 import inspect
+import re
 
 import numpy as np
 import pandas as pd
@@ -481,3 +482,35 @@ def test_step2_can_take_table_iiis_argmax_and_says_so(small_config, small_initia
     assert adaptation.greedy(lambda x: probs)(None).tolist() == [[0, 1, 0], [1, 0, 0]]
     with pytest.raises(CacasError, match="adapt_actions 'greedy' is invalid; valid: sample, argmax"):
         adaptation.CACAAConfig(adapt_actions="greedy")
+
+
+@pytest.mark.parametrize("field, value, valid", [
+    ("k_minutes", 0, "a number of minutes above 0 and at most 720"),
+    ("k_minutes", -10, "a number of minutes above 0 and at most 720"),
+    ("k_minutes", 721, "a number of minutes above 0 and at most 720"),
+    ("k_minutes", float("nan"), "a number of minutes above 0 and at most 720"),
+    ("k_minutes", "10", "a number of minutes above 0 and at most 720"),
+    ("k_minutes", True, "a number of minutes above 0 and at most 720"),
+    ("parallel_days", 0, "a whole number >= 1"),
+    ("parallel_days", 2.5, "a whole number >= 1"),
+    ("parallel_days", "8", "a whole number >= 1"),
+    ("adapt_train_days", -1, "a whole number >= 0"),
+    ("adapt_train_days", 1.0, "a whole number >= 0"),
+    ("adapt_train_days", None, "a whole number >= 0"),
+])
+def test_a_bad_k_minutes_parallel_days_or_adapt_train_days_is_one_error_naming_field_value_and_valid(
+        field, value, valid):
+    """k_minutes 0 raised ZeroDivisionError deep in training, parallel_days 0 an empty batch's error,
+    adapt_train_days "2" a TypeError: each is now refused where the config is made."""
+    with pytest.raises(CacasError, match=rf"^{field} {re.escape(repr(value))} is invalid; valid: {re.escape(valid)}"):
+        adaptation.CACAAConfig(**{field: value})
+    with pytest.raises(CacasError, match=rf"^{field} {re.escape(repr(value))} is invalid"):
+        dataclasses.replace(adaptation.CACAAConfig(), **{field: value})
+
+
+def test_the_edges_of_k_minutes_parallel_days_and_adapt_train_days_are_valid():
+    for kw in (dict(k_minutes=720), dict(k_minutes=0.5), dict(k_minutes=np.float32(10)), dict(parallel_days=1),
+               dict(parallel_days=np.int64(3)), dict(adapt_train_days=0)):
+        config = adaptation.CACAAConfig(**kw)
+        assert all(getattr(config, k) == v for k, v in kw.items())
+    assert adaptation.CACAAConfig(k_minutes=720).adapt_updates == 2  # two steps a day: one transition a round

@@ -137,6 +137,13 @@ def test_export_of_an_unknown_study_exits_2_and_keeps_an_earlier_export(run, stu
     assert tree(out) == before
 
 
+def test_export_of_a_study_named_in_another_letter_case_suggests_the_study(run, study, tmp_path, capsys):
+    assert run("export", "--db", study, "--out", tmp_path / "out", "--study", "Default") == 2
+    err = capsys.readouterr().err
+    assert "unknown study 'Default'; did you mean 'default'? known studies: default" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out").exists()
+
+
 def test_export_of_a_database_with_a_damaged_table_exits_2(run, study, tmp_path, capsys):
     """A damaged page inside a table (the file still opens as a study database): one line."""
     with sqlite3.connect(study) as c:

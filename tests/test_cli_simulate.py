@@ -50,6 +50,7 @@ def bad_pref(**change):
     (GOOD, ["--jobs", "0"], ["--jobs 0 is invalid; valid: a whole number >= 1"]),
     (GOOD, ["--participants", "P01,P09"], ["--participants: P09 is not in", "personas.json",
                                            "valid: comma-separated codes of", "P01"]),
+    (GOOD, ["--participants", "p01"], ["--participants: p01 is not in", "; did you mean P01? valid: comma-separated"]),
     (GOOD, ["--participants", " , "], ["--participants ' , ' names no participant", "valid:", "P01"]),
     (GOOD, ["--participants", "P01,P01"], ["--participants: P01 given twice", "valid:"]),
 ])

@@ -183,3 +183,17 @@ def test_a_request_not_to_do_something_is_not_taken_for_the_request(text):
                                           ("no. set a timer please", "set a timer")])
 def test_a_not_elsewhere_in_a_request_does_not_undo_it(text, action):
     assert dialogue.match_request(text).action == action
+
+
+@pytest.mark.parametrize("text, words, clauses", [
+    ("No, call my daughter", ["no", "call", "my", "daughter"], [0, 1, 1, 1]),
+    ("Stop! Call an ambulance.", ["stop", "call", "an", "ambulance"], [0, 1, 1, 1]),
+    ("Don’t call anyone", ["don't", "call", "anyone"], [0, 0, 0]),
+    ("I'm not well... call for help!", ["i'm", "not", "well", "call", "for", "help"], [0, 0, 0, 3, 3, 3]),
+    ("", [], []),
+    ("?!", [], []),
+])
+def test_one_tokeniser_gives_the_words_and_the_clause_of_each(text, words, clauses):
+    """_words and the clause of each word came from two tokenisers that had to agree; one gives both now."""
+    assert dialogue._tokens(text) == (words, clauses)
+    assert dialogue._words(text) == words

@@ -262,8 +262,11 @@ def test_a_stop_ends_every_worker_process_at_its_next_report(small_config, small
     with pytest.raises(Stopped) as stopped:
         simulate_study(PEOPLE[:2], days=5, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
                        initial_policy=small_initial, jobs=2, progress=stop_at_first_worker_report)
-    assert stopped.value.__notes__ == ["2 of 2 participants' studies ended early in their worker process, "
-                                       "0 never started"]
+    # the second worker process may take its participant only after the stop (it starts more slowly): never started
+    assert stopped.value.__notes__[0] in ("2 of 2 participants' studies ended early in their worker process, "
+                                          "0 never started",
+                                          "1 of 2 participants' studies ended early in their worker process, "
+                                          "1 never started")
 
 
 def test_ctrl_c_ends_every_worker_process_at_its_next_report_and_queued_participants_never_start(
@@ -279,11 +282,12 @@ def test_ctrl_c_ends_every_worker_process_at_its_next_report_and_queued_particip
     with pytest.raises(KeyboardInterrupt) as interrupted:
         simulate_study(three, days=5, interactions=4, methods=["cacas", "nn"], seed=2, config=small_config,
                        initial_policy=small_initial, jobs=2, progress=interrupt_at_first_worker_report)
-    # the third is queued behind the two running: cancelled, or ended at its start (the pool hands one
-    # call ahead to its workers), never run
+    # the third is queued behind the two running: cancelled, or taken by a worker after the stop (the pool
+    # hands one call ahead to its workers), never run; the second worker process may take its participant
+    # only after the stop too
     assert interrupted.value.__notes__[0] in (
         "2 of 3 participants' studies ended early in their worker process, 1 never started",
-        "3 of 3 participants' studies ended early in their worker process, 0 never started")
+        "1 of 3 participants' studies ended early in their worker process, 2 never started")
 
 
 def test_a_method_gives_the_same_results_whichever_methods_run_beside_it(small_config, small_initial):

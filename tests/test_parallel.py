@@ -15,10 +15,8 @@ from cacas.jobs import Stopped
 
 
 def _report_for_a_while(shared: bytes, piece: int, queue, stop) -> int:
-    """A piece that reports for about 5 s, unless stopped (piece 0 fails at once when ``shared`` says so)."""
+    """A piece that reports for about 5 s, unless stopped."""
     report = parallel.reporter(queue, stop)
-    if shared == b"fail" and piece == 0:
-        raise ValueError("piece 0 failed")
     for n in range(500):
         report("made", piece, n)
         time.sleep(0.01)
@@ -38,12 +36,49 @@ def test_every_item_reaches_tick_and_the_results_come_in_order():
     assert sorted(seen) == [("made", p, n) for p in range(3) for n in range(3)]
 
 
-def test_a_failing_piece_stops_the_others_at_once():
+def _fail_once_piece_1_began(shared: bytes, piece: int, queue, stop) -> int:
+    """Piece 1 marks the file ``shared`` names, then reports for about 5 s; piece 0 fails once it is marked
+    (so piece 1 has begun when the stop comes: a piece its worker takes only after it never starts)."""
+    began = Path(shared.decode())
+    if piece == 0:
+        while not began.exists():
+            time.sleep(0.01)
+        raise ValueError("piece 0 failed")
+    began.touch()
+    return _report_for_a_while(b"", piece, queue, stop)
+
+
+def test_a_failing_piece_stops_the_others_at_once(tmp_path):
     """Review: the other workers ran to their end before the failure was said."""
     with pytest.raises(ValueError, match="piece 0 failed") as failed:
-        parallel.run_parallel(_report_for_a_while, b"fail", [0, 1], 2, lambda *item: None)
+        parallel.run_parallel(_fail_once_piece_1_began, str(tmp_path / "began").encode(), [0, 1], 2,
+                              lambda *item: None)
     # piece 1 (5 s of reports) ended early, stopped, not at its end
     assert failed.value.__notes__ == ["1 of 2 pieces of work ended early in their worker process, 0 never started"]
+
+
+def _report_until_stopped(shared: bytes, piece: int, queue, stop) -> int:
+    """A piece that reports, then waits for the stop and reports again (which raises Stopped)."""
+    report = parallel.reporter(queue, stop)
+    report("began", piece)
+    stop.wait()
+    report("after the stop", piece)
+    return piece
+
+
+def test_a_piece_a_worker_took_from_the_queue_after_a_stop_counts_as_never_started():
+    """One worker: piece 0 runs, piece 1 waits in the pool's queue handed to the worker (which
+    ``Future.cancel`` cannot take back), piece 2 in the pool's own. Stopped at piece 0's first report,
+    piece 1 was counted as ended early though its work never began."""
+    began = []
+
+    def tick(*item):
+        began.append(item)
+        raise Stopped("stopped on request")
+    with pytest.raises(Stopped) as stopped:
+        parallel.run_parallel(_report_until_stopped, b"", [0, 1, 2], 1, tick)
+    assert began == [("began", 0)]
+    assert stopped.value.__notes__ == ["1 of 3 pieces of work ended early in their worker process, 2 never started"]
 
 
 def test_what_was_made_before_a_stop_is_kept():
@@ -113,9 +148,11 @@ def test_a_ctrl_c_pressed_while_the_workers_start_arrives_once_they_have_started
         parallel.run_parallel(_report_for_a_while, b"", [0, 1, 2], 2, lambda *item: None)
     assert pressed
     # stopped by run_parallel once the 3 were submitted (before: raised as the first was, outside the
-    # stop's reach, and the pool waited for every piece's end, with no note)
-    assert re.fullmatch(r"[0-3] of 3 pieces of work ended early in their worker process, [0-2] never started",
-                        interrupted.value.__notes__[0])
+    # stop's reach, and the pool waited for every piece's end, with no note); a piece its worker took
+    # only after the stop never started, so all 3 may have
+    counts = re.fullmatch(r"([0-3]) of 3 pieces of work ended early in their worker process, ([0-3]) never started",
+                          interrupted.value.__notes__[0])
+    assert counts and int(counts[1]) + int(counts[2]) == 3
 
 
 @pytest.mark.skipif(not hasattr(signal, "pthread_sigmask"), reason="no signal masks on this platform")

@@ -110,6 +110,25 @@ def test_accept_pairs_learn_what_the_user_data_d_still_holds_as_accept():
     assert [spaces.ACTIONS[x] for x in accept_pairs(asked_instead)[1]] == ["remind to turn off"]
 
 
+def test_a_bandit_loaded_from_its_file_does_not_replay_its_draws_after_a_reload():
+    """A loaded bandit was seeded 0: each load (the tablet's, after a server restart) drew the same
+    Thompson sequence again. A bandit made with a seed (the simulation's) still repeats it."""
+    d4a = load_d4a().table
+    data = BanditPolicy(d4a).to_bytes()  # the prior only: wide posteriors, the draws vary
+    st = _states(200)
+
+    def draws(policy):
+        return [policy.sample(st).tolist() for _ in range(3)]
+
+    first, second = policy_from_bytes(data), policy_from_bytes(data)
+    assert draws(first) != draws(second)  # 600 draws: equal only by a chance of less than 1e-100
+    assert draws(BanditPolicy(d4a, seed=5)) == draws(BanditPolicy(d4a, seed=5))  # cacas simulate's
+    # a generator passed in gives the draws (the tablet's, cacas.study_day.proposal_draws), whatever the policy's
+    assert first.sample(st, np.random.default_rng(7)).tolist() == second.sample(st, np.random.default_rng(7)).tolist()
+    action, probs = first.decide(spaces.State.from_names("cough", "bedroom", 8, 20), rng=np.random.default_rng(7))
+    assert 0 <= action < spaces.N_ACTIONS and np.isclose(probs.sum(), 1)
+
+
 def test_bandit_learns_from_feedback_and_round_trips():
     bandit = BanditPolicy(load_d4a().table).fit(pd.concat([_interactions()] * 5))
     st = records.policy_states(_interactions())

@@ -254,6 +254,40 @@ def test_a_study_name_that_differs_from_one_only_in_letter_case_is_refused(store
     assert [s.name for s in store.studies()] == ["default", "pilot walk"]
 
 
+def test_a_lookup_that_differs_from_a_code_or_study_only_in_letter_case_suggests_it(store):
+    """`--participant p01` said "unknown participant 'p01'; known participants: P01". Codes and
+    study names cannot differ only in letter case, so the message names the one meant; the lookup
+    stays exact (nothing is matched, changed or written)."""
+    store.add_participant("P02")
+    store.create_study("Pilot Walk")
+    before = snapshot(store.path)
+    with pytest.raises(CacasError, match=r"^unknown participant 'p01'; did you mean 'P01'\? known participants: "
+                                         r"P01, P02$"):
+        store.get_participant("p01")
+    with pytest.raises(CacasError, match=r"^unknown participant ' p02 '; did you mean 'P02'\? known"):
+        store.update_participant(" p02 ", notes="x")
+    with pytest.raises(CacasError, match=r"^unknown study 'pilot walk'; did you mean 'Pilot Walk'\? known studies: "
+                                         r"Pilot Walk, default$"):
+        store.add_participant("P03", study="pilot walk")
+    # no case twin: the message as before
+    with pytest.raises(CacasError, match=r"^unknown participant 'P09'; known participants: P01, P02$"):
+        store.get_participant("P09")
+    with pytest.raises(CacasError, match=r"^unknown study 'nope'; known studies: Pilot Walk, default$"):
+        store.add_participant("P03", study="nope")
+    assert snapshot(store.path) == before
+    assert [p.code for p in store.list_participants()] == ["P01", "P02"]
+
+
+def test_no_suggestion_when_a_restored_study_keeps_two_codes_that_differ_only_in_letter_case(store):
+    """A restored backup may keep case twins (restore notes them); then "which one" is not ours to guess."""
+    with sqlite3.connect(store.path) as c:  # as a restored backup holds them
+        c.executemany("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES (1, ?, 'x', 'x')",
+                      [("Ab",), ("aB",)])
+    with pytest.raises(CacasError, match=r"^unknown participant 'ab'; known participants: Ab, P01, aB$"):
+        store.get_participant("ab")
+    assert store.get_participant("aB").code == "aB"
+
+
 @pytest.mark.parametrize("code", ["0612345678", "20261121", "06-12-34-56-78"])
 def test_a_new_participant_code_that_looks_like_a_phone_number_or_a_date_is_refused(store, code):
     """A code is in every export: one that is a phone number or a birth date is not pseudonymous.

@@ -11,8 +11,8 @@ from cacas.errors import AlreadyAdapted, CacasError
 from cacas.policy import ReshapedPolicy
 from cacas.sac import DiscreteSAC, SACConfig
 from cacas.store import StudyStore
-from cacas.study_day import (STUDY_DAYS, Context, answer, clip_for, day_status, propose, questionnaire_timing,
-                             start_day)
+from cacas.study_day import (STUDY_DAYS, Context, answer, clip_for, day_status, propose, proposal_draws,
+                             questionnaire_timing, start_day)
 
 
 @pytest.fixture
@@ -75,6 +75,30 @@ def test_a_day_is_not_started_with_a_d4a_file_that_does_not_parse(store, tmp_pat
 @pytest.fixture
 def policy():
     return ReshapedPolicy(DiscreteSAC(SACConfig(), seed=0), None, beta=1.0, method="initial")
+
+
+def test_a_bandit_in_force_on_the_tablet_draws_anew_after_a_server_restart_and_keeps_a_proposal_through_a_rerun():
+    """The Adaptation page can put a bandit in force; the tablet loads it from its file after each
+    server restart, and its Thompson draws restarted from the same seed: day after day the same
+    sequence of proposals. The tablet's draws are keyed by who, day, interaction and policy."""
+    from cacas.d4a import load_d4a
+    from cacas.policy import BanditPolicy, policy_from_bytes
+
+    data = BanditPolicy(load_d4a().table).to_bytes()  # the prior only: its draws vary widely
+    ctx = Context.from_choices(4, 6, "cough", "bedroom")
+
+    def proposals(day, indices):  # a server start: the policy loaded from its file, then a day of proposals
+        policy = policy_from_bytes(data)
+        return [propose(policy, ctx, draws=proposal_draws("P01", day, i, "sha")).action for i in indices]
+
+    day1, day2 = proposals(1, range(1, 31)), proposals(2, range(1, 31))
+    assert day1 != day2  # 30 draws each: equal only by a chance of less than 1e-20
+    assert len(set(day1)) > 1  # the draws differ from one interaction to the next
+    # a rerun of the page, or a restart before the answer, draws the interaction at hand again: the same proposal
+    assert proposals(1, [5, 5, 5]) == [day1[4]] * 3
+    # another participant or another policy version draws otherwise
+    assert proposal_draws("P01", 1, 5, "sha").random(4).tolist() != proposal_draws("P02", 1, 5, "sha").random(4).tolist()
+    assert proposal_draws("P01", 1, 5, "sha").random(4).tolist() != proposal_draws("P01", 1, 5, "ahs").random(4).tolist()
 
 
 def test_context_token_round_trip_and_bad_input():

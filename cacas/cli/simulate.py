@@ -20,7 +20,7 @@ import argparse
 import sys
 
 from cacas.cli import types
-from cacas.errors import CacasError
+from cacas.errors import CacasError, case_twin
 
 
 #: The figures --plot writes (fig3_methods.html only with --loop each and several methods).
@@ -61,8 +61,10 @@ def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
         raise CacasError(f"--participants {codes!r} names no participant; {valid}")
     unknown = [c for c in wanted if c not in ids]
     if unknown:
+        meant = [case_twin(c, ids) for c in unknown]  # "p01" for "P01": a file's codes are unique in letter case
+        hint = f"did you mean {', '.join(meant)}? " if None not in meant else ""
         raise CacasError(f"--participants: {', '.join(unknown)} {'is' if len(unknown) == 1 else 'are'} not in "
-                         f"{source}; {valid}")
+                         f"{source}; {hint}{valid}")
     twice = sorted({c for c in wanted if wanted.count(c) > 1})
     if twice:
         raise CacasError(f"--participants: {', '.join(twice)} given twice; {valid}")

@@ -14,7 +14,7 @@ from typing import Any, Callable, Sequence, TypeVar
 
 import pandas as pd
 
-from cacas.errors import CacasError
+from cacas.errors import CacasError, did_you_mean
 from cacas.paths import study_data_dir
 from cacas.store import db
 from cacas.store import validate as v
@@ -191,15 +191,17 @@ class StoreBase:
             known = [r[0] for r in c.execute("SELECT code FROM participants ORDER BY code LIMIT 21")]
             more = ", ..." if len(known) > 20 else ""
             listed = ", ".join(known[:20]) + more if known else "none yet; add one first"
-            raise CacasError(f"unknown participant {code!r}; known participants: {listed}")
+            twins = [r[0] for r in c.execute("SELECT code FROM participants WHERE code = ? COLLATE NOCASE",
+                                             (str(code).strip(),))]
+            raise CacasError(f"unknown participant {code!r}; {did_you_mean(code, twins)}known participants: {listed}")
         return row[0]
 
     @staticmethod
     def _study_id(c: sqlite3.Connection, name: str) -> int:
         row = c.execute("SELECT id FROM studies WHERE name = ?", (name,)).fetchone()
         if row is None:
-            known = ", ".join(r[0] for r in c.execute("SELECT name FROM studies ORDER BY name"))
-            raise CacasError(f"unknown study {name!r}; known studies: {known}")
+            names = [r[0] for r in c.execute("SELECT name FROM studies ORDER BY name")]
+            raise CacasError(f"unknown study {name!r}; {did_you_mean(name, names)}known studies: {', '.join(names)}")
         return row[0]
 
     @staticmethod
