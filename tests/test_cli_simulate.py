@@ -438,3 +438,19 @@ def test_participants_of_a_file_get_the_rows_the_whole_files_run_gives_them(tmp_
         mine = whole[whole["participant"] != codes[1]].reset_index(drop=True)
         pd.testing.assert_frame_equal(some, mine)
     assert len(pd.read_csv(tmp_path / "some" / "interactions.csv")) > 0
+
+
+@pytest.mark.parametrize("plot", ["absolute", "dotdot", "symlink"])
+def test_figures_into_the_out_folder_named_another_way_are_kept(tmp_path, capsys, monkeypatch, plot):
+    """CLI audit: --plot naming the --out folder another way (an absolute path beside a relative
+    one, x/../out, a link to it) deleted the figures just written there as 'an earlier run's'."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "out", target_is_directory=True)
+    plot_dir = {"absolute": str(tmp_path / "out"), "dotdot": "x/../out", "symlink": "link"}[plot]
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                 "--methods", "nn", "--jobs", "1", "--quiet", "--out", "out", "--plot", plot_dir])
+    out = capsys.readouterr().out
+    assert code == 0 and "removed an earlier run's" not in out
+    assert {"daily.csv", "fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "plotly.min.js"} <= \
+        {p.name for p in (tmp_path / "out").iterdir()}

@@ -180,9 +180,13 @@ def run(args) -> int:
               "the plotly.js they load (keep it beside them)")
         if replaced:
             print(f"replaced an earlier {plot_dir / PLOTLY_JS}: it was not the plotly.js these figures need")
-    # an earlier run's figures beside these tables would show other results: removed, and said
-    stale = [d / name for d in dict.fromkeys(filter(None, (plot_dir, out))) for name in FIGURES
-             if (d / name).is_file() and not (d == plot_dir and name in figures)]
+    # an earlier run's figures beside these tables would show other results: removed, and said. The
+    # folders compared as resolved: --plot may name --out another way (absolute, x/../out, a link),
+    # and the figures just written there are this run's
+    folders = {d.resolve(): d for d in (out, plot_dir) if d is not None}
+    written_here = plot_dir.resolve() if plot_dir is not None else None
+    stale = [d / name for where, d in folders.items() for name in FIGURES
+             if (d / name).is_file() and not (where == written_here and name in figures)]
     for path in stale:
         path.unlink()
     if stale:
