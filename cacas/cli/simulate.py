@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from cacas import records
 from cacas.cli import types
 from cacas.errors import CacasError
 
@@ -77,18 +78,26 @@ def register(sub) -> None:
     p.add_argument("--participants", metavar="CODES",
                    help="comma-separated participant codes of the persona file to simulate (default: all); "
                         "each gets the rows the whole file's run gives them")
-    p.add_argument("--days", type=types.integer, default=7, help="study days (default 7)")
-    p.add_argument("--interactions", type=types.integer, default=15, help="interactions a day, about (default 15)")
-    p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
-                   help="comma-separated methods; the first runs in closed loop, or every one with --loop each "
-                        "(cacas, cacas-no-pr, orl, nn, bandit, sac-user-data; default the paper's four)")
-    p.add_argument("--seed", type=types.integer, default=0, help="random seed (same seed, same daily.csv)")
-    p.add_argument("--no-response-rate", type=types.share, default=0.1,
-                   help="share of robot actions the simulated participant does not answer (default 0.1)")
+    # the ranges the command checks (cacas.experiment.study_argument_problems), said in the help
+    p.add_argument("--days", type=types.integer, default=7,
+                   help=f"study days; valid: a whole number from 1 to {records.MAX_DAYS} (default 7)")
+    p.add_argument("--interactions", type=types.integer, default=15,
+                   help=f"interactions a day, about; valid: a whole number from 1 to {records.MAX_INTERACTIONS} "
+                        "(default 15)")
+    p.add_argument("--methods", default=",".join(records.PAPER_METHODS),
+                   help="comma-separated methods; the first runs in closed loop, or every one with --loop each; "
+                        f"valid: {', '.join(records.METHOD_ORDER)}, each at most once (default "
+                        f"{','.join(records.PAPER_METHODS)}, the paper's four)")
+    p.add_argument("--seed", type=types.integer, default=0,
+                   help=f"random seed (same seed, same daily.csv); valid: a whole number from 0 to "
+                        f"{records.MAX_SEED} (default 0)")
+    p.add_argument("--no-response-rate", type=types.share, default=0.1, metavar="RATE",
+                   help="share of robot actions the simulated participant does not answer; valid: 0 <= rate < 1 "
+                        "(default 0.1)")
     p.add_argument("--ask-after-reject", type=types.share, default=0.0, metavar="RATE",
                    help="share of wrong robot actions the simulated participant answers by asking for the "
-                        "preferred action instead (as the tablet allows; default 0: only when the robot does "
-                        "nothing)")
+                        "preferred action instead (as the tablet allows); valid: 0 <= rate <= 1 (default 0: "
+                        "only when the robot does nothing)")
     p.add_argument("--loop", default="first", metavar="{first,each}",
                    help="first: the first method acts, every method adapts from its interactions (the paper's "
                         "Fig. 4; default); each: every method acts and adapts in a closed loop of its own")
@@ -99,7 +108,8 @@ def register(sub) -> None:
                    help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here: the "
                         "--out folder, or one holding no tables (not a study's export, nor another run's)")
     p.add_argument("--jobs", type=types.integer, default=None,
-                   help="worker processes (default: one per core; results do not depend on it)")
+                   help="worker processes; valid: a whole number >= 1 (default: one per core; results do not "
+                        "depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -118,7 +128,6 @@ def run(args) -> int:
 
     import pandas as pd
 
-    from cacas import records
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
     from cacas.experiment import default_jobs, simulate_study, summary_table
