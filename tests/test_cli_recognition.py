@@ -543,3 +543,21 @@ def test_scene_train_keeps_the_model_it_replaces(tmp_path, capsys, monkeypatch):
         f"the model it replaced (model id {first}, test accuracy 50.0%) is kept as {tmp_path / 'scene.previous.pt'}; "
         "`cacas scene put-back` puts it back")
     assert model_id(tmp_path / "scene.previous.pt") == first != model_id(model)
+
+
+def test_positional_arguments_say_what_they_take():
+    """CLI audit: `cacas sound|scene import --help` listed `folder` with no word on the layout it
+    needs, and `recognize --help` its FILE with no word on the file types it reads."""
+    from cacas.audio.features import SUPPORTED_EXTENSIONS
+    from cacas.vision.library import IMAGE_EXTENSIONS
+
+    extensions = {"sound": SUPPORTED_EXTENSIONS, "scene": IMAGE_EXTENSIONS}
+    for command in ("sound", "scene"):
+        for name in ("import", "recognize"):
+            positional = [a for a in _actions(command)[name]._actions if not a.option_strings]
+            assert positional, (command, name)
+            for action in positional:
+                text = " ".join((action.help or "").split())
+                assert all(ext in text for ext in extensions[command]), (command, name, text)
+                if name == "import":
+                    assert ("<activity>" if command == "sound" else "<scene>") in text, text
