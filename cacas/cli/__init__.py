@@ -23,6 +23,11 @@ COMMANDS = ["simulate", "export", "sound", "scene", "bench"]
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own errors: one line, exit code 2
+        if message.startswith("the following arguments are required: "):  # a missing COMMAND / ACTION: which there are
+            missing = message.split(": ", 1)[1].split(", ")
+            for action in self._actions:
+                if isinstance(action, argparse._SubParsersAction) and action.metavar in missing:
+                    message += f"; valid: {', '.join(action.choices)}"
         self.exit(2, f"cacas: error: {message}\n")
 
 
