@@ -96,12 +96,15 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
-    replaced = saved_model_id(model_path)
-    path = result.recognizer.save(model_path, keep_previous=True)
-    print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
-          f"{result.recognizer.metadata['initial_weights']}); saved {path}")
-    print_metrics(result.metrics, "images")
-    say_kept(path, "scene", replaced)
+    from cacas.cli import signals_held
+
+    with signals_held():  # Ctrl-C while the model is saved: after the save (a torn one is refused), and said
+        replaced = saved_model_id(model_path)
+        path = result.recognizer.save(model_path, keep_previous=True)
+        print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
+              f"{result.recognizer.metadata['initial_weights']}); saved {path}")
+        print_metrics(result.metrics, "images")
+        say_kept(path, "scene", replaced)
     return 0
 
 

@@ -187,11 +187,14 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
-    replaced = saved_model_id(model_path)
-    path = result.recognizer.save(model_path, keep_previous=True)
-    print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
-    print_metrics(result.metrics)
-    say_kept(path, "sound", replaced)
+    from cacas.cli import signals_held
+
+    with signals_held():  # Ctrl-C while the model is saved: after the save (a torn one is refused), and said
+        replaced = saved_model_id(model_path)
+        path = result.recognizer.save(model_path, keep_previous=True)
+        print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
+        print_metrics(result.metrics)
+        say_kept(path, "sound", replaced)
     return 0
 
 
