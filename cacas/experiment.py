@@ -58,9 +58,8 @@ class StudyResult:
     by_preference: pd.DataFrame  # records.BY_PREFERENCE_COLUMNS
 
 
-#: Bounds of a simulated study: a year of days; at most one interaction a minute (a day has
-#: 1440); seeds as numpy takes them.
-MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
+#: Bounds of a simulated study (:data:`cacas.records.MAX_DAYS` says why).
+MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = records.MAX_DAYS, records.MAX_INTERACTIONS, records.MAX_SEED
 
 
 #: How :func:`check_study_arguments` names each size: the command line's options.

@@ -22,6 +22,11 @@ import pandas as pd
 PAPER_METHODS = ("cacas", "cacas-no-pr", "orl", "nn")
 METHOD_ORDER = PAPER_METHODS + ("bandit", "sac-user-data")
 
+#: Bounds of a simulated study (``cacas.experiment`` checks them; kept here, beside the methods,
+#: so that the command line's --help says them without importing the learning code): a year of
+#: days; at most one interaction a minute (a day has 1440); seeds as numpy takes them.
+MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
+
 
 def sort_by_method(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     """``table`` sorted by ``keys``, its ``method`` column in :data:`METHOD_ORDER` (any other

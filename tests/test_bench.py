@@ -139,3 +139,15 @@ def test_fast_sac_update_equals_the_reference_step():
         assert torch.allclose(mine, theirs, atol=1e-5, rtol=1e-4)
     # and the step moved the weights (the comparison is not of untouched tensors)
     assert not torch.allclose(ours.actor[0].weight, DiscreteSAC(seed=5).actor[0].weight)
+
+
+@pytest.mark.parametrize("option, says", [("--repeats", ["valid: a whole number >= 1", "(default 5"]),
+                                          ("--threads", ["valid: a whole number >= 1", "(default 1"])])
+def test_bench_help_says_what_is_valid_and_the_default(option, says):
+    """CLI audit: --repeats and --threads did not say what the command accepts (it refuses 0)."""
+    from cacas.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices["bench"]
+    text = " ".join(next(a for a in sub._actions if option in a.option_strings).help.split())
+    for s in says:
+        assert s in text, text

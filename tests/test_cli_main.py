@@ -74,3 +74,21 @@ def test_version_falls_back_to_pyproject_when_not_installed(monkeypatch):
     monkeypatch.setattr(importlib.metadata, "version", not_installed)
     expected = tomllib.loads((Path(__file__).parents[1] / "pyproject.toml").read_text())["project"]["version"]
     assert cli.package_version() == expected
+
+
+def test_a_missing_command_or_action_is_one_line_naming_the_valid_ones(capsys):
+    """CLI audit: `cacas` and `cacas sound` said 'the following arguments are required: COMMAND'
+    (ACTION) and no more: the one-line error leaves out argparse's usage, so nothing named the
+    commands (actions) there are."""
+    import pytest
+
+    from cacas.cli import main
+
+    for argv, valid in ([[], "simulate, export, import, sound, scene, bench"],
+                        [["sound"], "generate, import, train, eval, recognize, put-back"],
+                        [["scene"], "generate, import, train, eval, recognize, put-back"]):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and err.count("\n") == 1, err
+        assert "the following arguments are required" in err and f"; valid: {valid}" in err, err

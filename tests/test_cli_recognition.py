@@ -543,3 +543,56 @@ def test_scene_train_keeps_the_model_it_replaces(tmp_path, capsys, monkeypatch):
         f"the model it replaced (model id {first}, test accuracy 50.0%) is kept as {tmp_path / 'scene.previous.pt'}; "
         "`cacas scene put-back` puts it back")
     assert model_id(tmp_path / "scene.previous.pt") == first != model_id(model)
+
+
+def test_positional_arguments_say_what_they_take():
+    """CLI audit: `cacas sound|scene import --help` listed `folder` with no word on the layout it
+    needs, and `recognize --help` its FILE with no word on the file types it reads."""
+    from cacas.audio.features import SUPPORTED_EXTENSIONS
+    from cacas.vision.library import IMAGE_EXTENSIONS
+
+    extensions = {"sound": SUPPORTED_EXTENSIONS, "scene": IMAGE_EXTENSIONS}
+    for command in ("sound", "scene"):
+        for name in ("import", "recognize"):
+            positional = [a for a in _actions(command)[name]._actions if not a.option_strings]
+            assert positional, (command, name)
+            for action in positional:
+                text = " ".join((action.help or "").split())
+                assert all(ext in text for ext in extensions[command]), (command, name, text)
+                if name == "import":
+                    assert ("<activity>" if command == "sound" else "<scene>") in text, text
+
+
+@pytest.mark.parametrize("signum, code", [("SIGINT", 130), ("SIGTERM", 143)])
+def test_a_signal_while_the_trained_model_is_saved_waits_for_the_save(tmp_path, capsys, monkeypatch, signum, code):
+    """CLI audit: Ctrl-C or SIGTERM as `sound train` saved its model (after minutes of training)
+    stopped the save part-way: its temporary files stayed beside the model, and between its two
+    renames new metadata would stand beside the old weights (a pair that is refused). The save
+    now finishes, is said, and then the command stops."""
+    import os
+    import signal
+
+    from cacas import previous_model
+    from cacas.audio import SoundCNN, SoundRecognizer
+    from cacas.recognition import model_id
+
+    lib = tmp_path / "sounds"
+    library.generate_library(2, seconds=1.0, root=lib, activities=["cough", "watch TV"])
+    model = tmp_path / "sound.pt"
+    SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.5}).save(model)
+    before = model_id(model)
+    real_keep = previous_model.keep
+
+    def keep_then_signal(path):
+        kept = real_keep(path)
+        os.kill(os.getpid(), getattr(signal, signum))
+        return kept
+
+    monkeypatch.setattr(previous_model, "keep", keep_then_signal)
+    assert main(["sound", "train", "--data", str(lib), "--model", str(model), "--epochs", "1", "--quiet"]) == code
+    captured = capsys.readouterr()
+    assert f"saved {model}" in captured.out
+    names = {p.name for p in tmp_path.iterdir()}
+    assert {"sound.json", "sound.pt", "sound.previous.json", "sound.previous.pt"} <= names
+    assert not [n for n in names if n.endswith(".tmp")], names  # no temporary file left
+    assert model_id(model) != before and SoundRecognizer.load(model).metadata["model_id"] == model_id(model)

@@ -439,3 +439,151 @@ def test_participants_of_a_file_get_the_rows_the_whole_files_run_gives_them(tmp_
         mine = whole[whole["participant"] != codes[1]].reset_index(drop=True)
         pd.testing.assert_frame_equal(some, mine)
     assert len(pd.read_csv(tmp_path / "some" / "interactions.csv")) > 0
+
+
+@pytest.mark.parametrize("plot", ["absolute", "dotdot", "symlink"])
+def test_figures_into_the_out_folder_named_another_way_are_kept(tmp_path, capsys, monkeypatch, plot):
+    """CLI audit: --plot naming the --out folder another way (an absolute path beside a relative
+    one, x/../out, a link to it) deleted the figures just written there as 'an earlier run's'."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "x").mkdir()
+    (tmp_path / "link").symlink_to(tmp_path / "out", target_is_directory=True)
+    plot_dir = {"absolute": str(tmp_path / "out"), "dotdot": "x/../out", "symlink": "link"}[plot]
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                 "--methods", "nn", "--jobs", "1", "--quiet", "--out", "out", "--plot", plot_dir])
+    out = capsys.readouterr().out
+    assert code == 0 and "removed an earlier run's" not in out
+    assert {"daily.csv", "fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "plotly.min.js"} <= \
+        {p.name for p in (tmp_path / "out").iterdir()}
+
+
+
+def _earlier_run(folder):
+    """An earlier run's tables and figures in ``folder``: name -> text."""
+    folder.mkdir(parents=True, exist_ok=True)
+    earlier = {name: f"the earlier run's {name}\n" for name in
+               ("daily.csv", "interactions.csv", "by_preference.csv", "fig3_success.html", "fig4_methods.html",
+                "fig4_by_preference.html", "fig3_methods.html")}
+    for name, text in earlier.items():
+        (folder / name).write_text(text)
+    return earlier
+
+
+def _texts(folder):
+    return {p.name: p.read_text() for p in folder.iterdir() if p.is_file()}
+
+
+def test_ctrl_c_while_the_figures_are_drawn_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypatch):
+    """CLI audit: the tables were written before the figures were drawn, so Ctrl-C (or a failure)
+    while drawing them left the new tables beside the earlier run's figures, and exit 130 said
+    'interrupted' over a folder that was no longer as it was (README: 'leaves the folder as it was')."""
+    import cacas.plots
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cacas.plots, "methods_figure", interrupted)
+    out = tmp_path / "out"
+    earlier = _earlier_run(out)
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                 "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out), "--plot", str(out)])
+    captured = capsys.readouterr()
+    assert code == 130 and "cacas: interrupted" in captured.err
+    assert "wrote" not in captured.out
+    assert _texts(out) == earlier
+
+
+def test_figures_that_cannot_be_written_leave_the_tables_beside_them_as_they_were(tmp_path, capsys):
+    """CLI audit: a figure that could not be written (here plotly.min.js is a folder) failed with
+    'the folder's files are unchanged' after the new tables had replaced the earlier run's there."""
+    out = tmp_path / "out"
+    earlier = _earlier_run(out)
+    (out / "plotly.min.js").mkdir()
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                 "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out), "--plot", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "plotly.min.js: cannot be written" in err
+    assert _texts(out) == earlier
+
+
+@pytest.mark.parametrize("signum, code, said", [("SIGINT", 130, "cacas: interrupted"),
+                                                ("SIGTERM", 143, "cacas: terminated")])
+def test_a_signal_while_the_results_are_put_in_place_waits_for_them(tmp_path, capsys, monkeypatch, signum, code,
+                                                                     said):
+    """CLI audit: Ctrl-C or SIGTERM between the tables' write and the figures' left the new tables
+    beside the earlier run's figures. Once the results are being put in place, the signal waits
+    until they all are (under a second), then stops the command as usual."""
+    import os
+    import signal
+
+    from cacas.store import files
+
+    real = files.write_all
+    sent = []
+
+    def signalled(folder, contents):
+        written = real(folder, contents)
+        if not sent:
+            sent.append(signum)
+            os.kill(os.getpid(), getattr(signal, signum))
+        return written
+
+    monkeypatch.setattr(files, "write_all", signalled)
+    out = tmp_path / "out"
+    _earlier_run(out)
+    plots = tmp_path / "plots"
+    before = signal.getsignal(signal.SIGINT)
+    result = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                   "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out), "--plot", str(plots)])
+    captured = capsys.readouterr()
+    assert sent and result == code and captured.err.endswith(f"{said}\n")
+    assert f"wrote {out / 'daily.csv'}" in captured.out and "removed an earlier run's" in captured.out
+    assert signal.getsignal(signal.SIGINT) == before
+    texts = _texts(out)
+    assert sorted(texts) == ["by_preference.csv", "daily.csv", "interactions.csv"]  # the earlier figures went
+    assert texts["daily.csv"].startswith("participant,method,day,")
+    assert {"fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "plotly.min.js"} <= \
+        {p.name for p in plots.iterdir()}
+
+
+def test_figures_that_cannot_be_written_in_their_own_folder_say_the_tables_were(tmp_path, capsys):
+    """--plot another folder: the tables are put in place first; a figure that then cannot be
+    written is one line that says where the tables were written."""
+    plots = tmp_path / "plots"
+    (plots / "plotly.min.js").mkdir(parents=True)
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
+                 "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(tmp_path / "out"), "--plot", str(plots)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1
+    assert "plotly.min.js: cannot be written" in err and f"; the tables were written in {tmp_path / 'out'}" in err
+    assert (tmp_path / "out" / "daily.csv").read_text().startswith("participant,method,day,")
+    assert not (plots / "fig3_success.html").exists()
+
+
+def _option_help(command, option):
+    """The --help text of ``option`` of ``cacas <command>``, on one line."""
+    from cacas.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if a.dest == "command").choices[command]
+    action = next(a for a in sub._actions if option in a.option_strings)
+    return " ".join(action.help.split())
+
+
+from cacas.experiment import MAX_DAYS, MAX_INTERACTIONS, MAX_SEED  # noqa: E402
+
+
+@pytest.mark.parametrize("option, says", [
+    ("--days", [f"valid: a whole number from 1 to {MAX_DAYS}", "(default 7)"]),
+    ("--interactions", [f"valid: a whole number from 1 to {MAX_INTERACTIONS}", "(default 15)"]),
+    ("--seed", [f"valid: a whole number from 0 to {MAX_SEED}", "(default 0)"]),
+    ("--no-response-rate", ["valid: 0 <= rate < 1", "(default 0.1)"]),
+    ("--ask-after-reject", ["valid: 0 <= rate <= 1", "default 0"]),
+    ("--jobs", ["valid: a whole number >= 1", "default: one per core"]),
+    ("--methods", ["cacas, cacas-no-pr, orl, nn, bandit, sac-user-data", "default cacas,cacas-no-pr,orl,nn"]),
+])
+def test_simulate_help_says_what_is_valid_and_the_default(option, says):
+    """CLI audit: --days, --interactions, --seed and the two rates said neither what the command
+    accepts (it refuses the rest) nor, for --seed, the default; --methods said 'the paper's four'."""
+    text = _option_help("simulate", option)
+    for s in says:
+        assert s in text, text

@@ -69,6 +69,19 @@ def test_a_refused_rename_puts_back_what_was_already_replaced(tmp_path, monkeypa
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "b.csv"]  # no c.csv, no temporary files
 
 
+def test_ctrl_c_between_the_renames_puts_back_what_was_already_replaced(tmp_path, monkeypatch, fail_on_call):
+    """CLI audit: Ctrl-C (KeyboardInterrupt) between two renames left the files already renamed
+    new and the others old (only an OSError put them back): a folder mixing two runs."""
+    (tmp_path / "a.csv").write_bytes(b"old a")
+    (tmp_path / "b.csv").write_bytes(b"old b")
+    monkeypatch.setattr(files.os, "replace", fail_on_call(os.replace, 2, KeyboardInterrupt()))
+    with pytest.raises(KeyboardInterrupt):
+        files.write_all(tmp_path, {"a.csv": b"new a", "b.csv": b"new b", "c.csv": b"new c"})
+    monkeypatch.undo()
+    assert (tmp_path / "a.csv").read_bytes() == b"old a" and (tmp_path / "b.csv").read_bytes() == b"old b"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv", "b.csv"]  # no c.csv, no temporary files
+
+
 def test_a_file_that_was_not_there_is_removed_again(tmp_path, monkeypatch, fail_on_call):
     monkeypatch.setattr(files.os, "replace", fail_on_call(os.replace, 2))
     with pytest.raises(CacasError, match="b.csv: cannot be written"):

@@ -10,6 +10,7 @@ never with a traceback. So is, as a last resort, a file the command cannot read 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import importlib
 import sqlite3
 import sys
@@ -22,6 +23,11 @@ COMMANDS = ["simulate", "export", "sound", "scene", "bench"]
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # argparse's own errors: one line, exit code 2
+        if message.startswith("the following arguments are required: "):  # a missing COMMAND / ACTION: which there are
+            missing = message.split(": ", 1)[1].split(", ")
+            for action in self._actions:
+                if isinstance(action, argparse._SubParsersAction) and action.metavar in missing:
+                    message += f"; valid: {', '.join(action.choices)}"
         self.exit(2, f"cacas: error: {message}\n")
 
 
@@ -82,6 +88,30 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if on_main_thread:
             signal.signal(signal.SIGTERM, earlier)
+
+
+@contextlib.contextmanager
+def signals_held():
+    """Ctrl-C (SIGINT) and SIGTERM held while the block runs and delivered when it ends: a command
+    puts its results in place (several files, an earlier run's removed) as one change, not stopped
+    half-way through it. The block is short (files written from bytes already made). Off the main
+    thread (where no signal handler runs) it holds nothing."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    arrived: list[int] = []
+    earlier = {s: signal.signal(s, lambda signum, frame: arrived.append(signum))
+               for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in earlier.items():
+            signal.signal(s, signal.SIG_DFL if handler is None else handler)
+        for s in dict.fromkeys(arrived):  # its own handler now: "cacas: interrupted" / "terminated"
+            signal.raise_signal(s)
 
 
 def _terminated() -> int:

@@ -27,8 +27,9 @@ def register(sub) -> None:
     p.add_argument("--quick", action="store_true",
                    help="smoke run: fewer repeats (one of the long measurements, at least 3 of the short ones), "
                         "a 1 x 2-day study, 1 simulated day of initial training")
-    p.add_argument("--repeats", type=types.integer, default=None, help="timed repeats of the short measurements (default 5)")
-    p.add_argument("--threads", type=types.integer, default=1, help="torch threads (default 1: best for these small networks)")
+    p.add_argument("--repeats", type=types.integer, default=None, help="timed repeats of the short measurements; valid: a whole number >= 1 (default 5, fewer "
+                        "with --quick)")
+    p.add_argument("--threads", type=types.integer, default=1, help="torch threads; valid: a whole number >= 1 (default 1: best for these small networks)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 

@@ -27,14 +27,27 @@ class ProgressBar:
         fraction = min(max(fraction, 0.0), 1.0)
         elapsed = time.perf_counter() - self.start
         eta = f", ~{elapsed / fraction - elapsed:.0f}s left" if fraction > 0 else ""
-        filled = int(round(self.width * fraction))
         prefix = f"{self.label} " if self.label else ""
-        line = (f"{prefix}[{'#' * filled}{'-' * (self.width - filled)}] {fraction:4.0%} "
-                f"{elapsed:.0f}s{eta}  {message}")[:150]
+        fits = min(150, self.columns() - 1)  # a narrow terminal: a shorter bar, the percentage still seen
+        width = max(5, min(self.width, fits - len(prefix) - 28))
+        filled = int(round(width * fraction))
+        line = (f"{prefix}[{'#' * filled}{'-' * (width - filled)}] {fraction:4.0%} "
+                f"{elapsed:.0f}s{eta}  {message}")[:fits]
         end = "\n" if fraction >= 1.0 else ""
-        self.stream.write("\r" + line.ljust(len(self.last)) + end)
+        self.stream.write("\r" + line.ljust(min(len(self.last), fits)) + end)
         self.stream.flush()
         self.last = "" if end else line
+
+    def columns(self) -> int:
+        """The terminal's width, read at each redraw (it may be resized): a longer line wraps, and
+        the carriage return then goes back to the start of its last part only, so that every redraw
+        added a line (an 80-column terminal filled with bars). Unknown: no limit of its own."""
+        import os
+
+        try:
+            return os.get_terminal_size(self.stream.fileno()).columns or 10_000
+        except (AttributeError, OSError, ValueError):  # no fileno (io.UnsupportedOperation is both)
+            return 10_000
 
     def __enter__(self) -> "ProgressBar":
         return self

@@ -30,7 +30,9 @@ def register(subparsers) -> None:
     i = sub.add_parser("import", help="copy your own photos (FOLDER/<scene>/<image>) into the library",
                        description="Copy your own photos (FOLDER/<scene>/<image>) into the scene library; if any "
                                    "folder or file is bad, nothing is copied.")
-    i.add_argument("folder", type=types.path)
+    i.add_argument("folder", type=types.path, metavar="FOLDER",
+                   help="your photos as FOLDER/<scene>/<image>: a sub-folder per scene, named as in Table I "
+                        "(living_room or 'living room'), holding .jpg, .jpeg, .png, .bmp or .webp images")
     i.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/scenes)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="fine-tune ResNet-18 on the scene library and save it",
@@ -57,7 +59,8 @@ def register(subparsers) -> None:
                        description="Recognise the scene of image files: prints each file's label and its top 3 "
                                    f"with their probabilities, and warns of a label under {UNSURE_BELOW:.0%} (the photo "
                                    "may be of none of the 6 home scenes), on stderr.")
-    r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
+    r.add_argument("files", nargs="+", type=types.path, metavar="FILE",
+                   help="image files: .jpg, .jpeg, .png, .bmp or .webp")
     r.add_argument("--model", type=types.path, default=None,
                    help="the model (default study_data/models/scene_resnet18.pt)")
     r.set_defaults(func=run_recognize)
@@ -93,12 +96,15 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    weights=args.weights, progress=bar)
-    replaced = saved_model_id(model_path)
-    path = result.recognizer.save(model_path, keep_previous=True)
-    print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
-          f"{result.recognizer.metadata['initial_weights']}); saved {path}")
-    print_metrics(result.metrics, "images")
-    say_kept(path, "scene", replaced)
+    from cacas.cli import signals_held
+
+    with signals_held():  # Ctrl-C while the model is saved: after the save (a torn one is refused), and said
+        replaced = saved_model_id(model_path)
+        path = result.recognizer.save(model_path, keep_previous=True)
+        print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}, initial weights: "
+              f"{result.recognizer.metadata['initial_weights']}); saved {path}")
+        print_metrics(result.metrics, "images")
+        say_kept(path, "scene", replaced)
     return 0
 
 

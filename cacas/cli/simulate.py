@@ -19,6 +19,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from cacas import records
 from cacas.cli import types
 from cacas.errors import CacasError, case_twin
 
@@ -31,22 +32,22 @@ FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", 
 PLOTLY_JS = "plotly.min.js"
 
 
-def write_figures(folder, figures: dict) -> bool:
-    """Write ``figures`` (file name -> Plotly figure) as HTML into ``folder`` with the plotly.js
-    they load, as one change (:func:`cacas.store.files.write_all`). Plotly's own ``write_html``
-    keeps any plotly.min.js already there, whatever it holds (an older plotly's, a truncated
-    copy), and the figures then load it; here it is replaced by this plotly's. Returns whether
-    an earlier, different plotly.min.js was replaced."""
+def figure_files(figures: dict) -> dict[str, bytes]:
+    """The files ``figures`` (file name -> Plotly figure) are written as: each as HTML, and the
+    plotly.js they load (:data:`PLOTLY_JS`), this plotly's. Plotly's own ``write_html`` keeps any
+    plotly.min.js already in the folder, whatever it holds (an older plotly's, a truncated copy),
+    and the figures then load it; written with these files, it is replaced by this plotly's."""
     from plotly.offline import get_plotlyjs
 
-    from cacas.store import files
+    return {**{name: fig.to_html(include_plotlyjs="directory").encode("utf-8") for name, fig in figures.items()},
+            PLOTLY_JS: get_plotlyjs().encode("utf-8")}
 
-    script = get_plotlyjs().encode("utf-8")
+
+def other_plotly_js(folder, script: bytes) -> bool:
+    """Whether ``folder`` holds a plotly.min.js other than ``script`` (that writing the figures
+    replaces)."""
     earlier = folder / PLOTLY_JS
-    replaced = earlier.is_file() and earlier.read_bytes() != script
-    files.write_all(folder, {**{name: fig.to_html(include_plotlyjs="directory").encode("utf-8")
-                                for name, fig in figures.items()}, PLOTLY_JS: script})
-    return replaced
+    return earlier.is_file() and earlier.read_bytes() != script
 
 
 def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
@@ -79,18 +80,26 @@ def register(sub) -> None:
     p.add_argument("--participants", metavar="CODES",
                    help="comma-separated participant codes of the persona file to simulate (default: all); "
                         "each gets the rows the whole file's run gives them")
-    p.add_argument("--days", type=types.integer, default=7, help="study days (default 7)")
-    p.add_argument("--interactions", type=types.integer, default=15, help="interactions a day, about (default 15)")
-    p.add_argument("--methods", default="cacas,cacas-no-pr,orl,nn",
-                   help="comma-separated methods; the first runs in closed loop, or every one with --loop each "
-                        "(cacas, cacas-no-pr, orl, nn, bandit, sac-user-data; default the paper's four)")
-    p.add_argument("--seed", type=types.integer, default=0, help="random seed (same seed, same daily.csv)")
-    p.add_argument("--no-response-rate", type=types.share, default=0.1,
-                   help="share of robot actions the simulated participant does not answer (default 0.1)")
+    # the ranges the command checks (cacas.experiment.study_argument_problems), said in the help
+    p.add_argument("--days", type=types.integer, default=7,
+                   help=f"study days; valid: a whole number from 1 to {records.MAX_DAYS} (default 7)")
+    p.add_argument("--interactions", type=types.integer, default=15,
+                   help=f"interactions a day, about; valid: a whole number from 1 to {records.MAX_INTERACTIONS} "
+                        "(default 15)")
+    p.add_argument("--methods", default=",".join(records.PAPER_METHODS),
+                   help="comma-separated methods; the first runs in closed loop, or every one with --loop each; "
+                        f"valid: {', '.join(records.METHOD_ORDER)}, each at most once (default "
+                        f"{','.join(records.PAPER_METHODS)}, the paper's four)")
+    p.add_argument("--seed", type=types.integer, default=0,
+                   help=f"random seed (same seed, same daily.csv); valid: a whole number from 0 to "
+                        f"{records.MAX_SEED} (default 0)")
+    p.add_argument("--no-response-rate", type=types.share, default=0.1, metavar="RATE",
+                   help="share of robot actions the simulated participant does not answer; valid: 0 <= rate < 1 "
+                        "(default 0.1)")
     p.add_argument("--ask-after-reject", type=types.share, default=0.0, metavar="RATE",
                    help="share of wrong robot actions the simulated participant answers by asking for the "
-                        "preferred action instead (as the tablet allows; default 0: only when the robot does "
-                        "nothing)")
+                        "preferred action instead (as the tablet allows); valid: 0 <= rate <= 1 (default 0: "
+                        "only when the robot does nothing)")
     p.add_argument("--loop", default="first", metavar="{first,each}",
                    help="first: the first method acts, every method adapts from its interactions (the paper's "
                         "Fig. 4; default); each: every method acts and adapts in a closed loop of its own")
@@ -101,7 +110,8 @@ def register(sub) -> None:
                    help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here: the "
                         "--out folder, or one holding no tables (not a study's export, nor another run's)")
     p.add_argument("--jobs", type=types.integer, default=None,
-                   help="worker processes (default: one per core; results do not depend on it)")
+                   help="worker processes; valid: a whole number >= 1 (default: one per core; results do not "
+                        "depend on it)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -120,7 +130,6 @@ def run(args) -> int:
 
     import pandas as pd
 
-    from cacas import records
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
     from cacas.experiment import default_jobs, simulate_study, summary_table
@@ -161,14 +170,13 @@ def run(args) -> int:
     finally:  # the bar's line ended however the run stopped: "cacas: interrupted" starts a line of its own
         if progress is not None:
             progress.done()
-    # the three tables replace an earlier run's together, or not at all
-    written = files.write_all(out, {"daily.csv": records.csv_bytes(result.daily),
-                                    "interactions.csv": records.csv_bytes(result.interactions),
-                                    "by_preference.csv": records.csv_bytes(result.by_preference)})
-    table = summary_table(result.daily)
-    with pd.option_context("display.width", 120, "display.max_rows", 200):
-        print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
-    print("wrote " + ", ".join(str(path) for path in written.values()))
+    # everything the run writes is made before any of it is: Ctrl-C or a failure while the figures
+    # are drawn leaves the folders as they were (the tables were written first, and stayed beside
+    # an earlier run's figures)
+    tables = {"daily.csv": records.csv_bytes(result.daily),
+              "interactions.csv": records.csv_bytes(result.interactions),
+              "by_preference.csv": records.csv_bytes(result.by_preference)}
+    figures: dict = {}
     if plot_dir is not None:
         from cacas.plots import methods_figure, preference_methods_figure, success_figure, success_methods_figure
 
@@ -177,16 +185,39 @@ def run(args) -> int:
                    "fig4_by_preference.html": preference_methods_figure(result.by_preference)}
         if args.loop == "each" and len(methods) > 1:
             figures["fig3_methods.html"] = success_methods_figure(result.daily)
-        replaced = write_figures(plot_dir, figures)
-        print("wrote " + ", ".join(str(plot_dir / name) for name in figures) + f" and {plot_dir / PLOTLY_JS}, "
-              "the plotly.js they load (keep it beside them)")
-        if replaced:
-            print(f"replaced an earlier {plot_dir / PLOTLY_JS}: it was not the plotly.js these figures need")
-    # an earlier run's figures beside these tables would show other results: removed, and said
-    stale = [d / name for d in dict.fromkeys(filter(None, (plot_dir, out))) for name in FIGURES
-             if (d / name).is_file() and not (d == plot_dir and name in figures)]
-    for path in stale:
-        path.unlink()
-    if stale:
-        print("removed an earlier run's " + ", ".join(str(p) for p in stale) + " (they no longer match these tables)")
+    drawn = figure_files(figures) if figures else {}
+    replaced = plot_dir is not None and other_plotly_js(plot_dir, drawn[PLOTLY_JS])
+    # an earlier run's figures beside these tables would show other results: removed, and said. The
+    # folders compared as resolved: --plot may name --out another way (absolute, x/../out, a link),
+    # and the figures written there are this run's
+    folders = {d.resolve(): d for d in (out, plot_dir) if d is not None}
+    written_here = plot_dir.resolve() if plot_dir is not None else None
+    stale = [d / name for where, d in folders.items() for name in FIGURES
+             if (d / name).is_file() and not (where == written_here and name in figures)]
+    table = summary_table(result.daily)
+    from cacas.cli import signals_held
+
+    # put in place as one change, and said: Ctrl-C or SIGTERM from here on stops the command after it
+    with signals_held():
+        if written_here == out.resolve():  # tables and figures replace an earlier run's together, or not at all
+            written = files.write_all(out, {**tables, **drawn})
+        else:  # the three tables replace an earlier run's together, or not at all; then the figures
+            written = files.write_all(out, tables)
+            if plot_dir is not None:
+                try:
+                    files.write_all(plot_dir, drawn)
+                except CacasError as exc:
+                    raise CacasError(f"{exc}; the tables were written in {out}") from None
+        for path in stale:
+            path.unlink(missing_ok=True)
+        with pd.option_context("display.width", 120, "display.max_rows", 200):
+            print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
+        print("wrote " + ", ".join(str(written[name]) for name in tables))
+        if plot_dir is not None:
+            print("wrote " + ", ".join(str(plot_dir / name) for name in figures) + f" and {plot_dir / PLOTLY_JS}, "
+                  "the plotly.js they load (keep it beside them)")
+            if replaced:
+                print(f"replaced an earlier {plot_dir / PLOTLY_JS}: it was not the plotly.js these figures need")
+        if stale:
+            print("removed an earlier run's " + ", ".join(str(p) for p in stale) + " (they no longer match these tables)")
     return 0

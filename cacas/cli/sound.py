@@ -101,7 +101,9 @@ def register(subparsers) -> None:
     i = sub.add_parser("import", help="copy your own recordings (FOLDER/<activity>/<clip>) into the library",
                        description="Copy your own recordings (FOLDER/<activity>/<clip>) into the sound library; "
                                    "if any folder or file is bad, nothing is copied.")
-    i.add_argument("folder", type=types.path)
+    i.add_argument("folder", type=types.path, metavar="FOLDER",
+                   help="your recordings as FOLDER/<activity>/<clip>: a sub-folder per activity, named as in "
+                        "Table I (use_stove or 'use stove'), holding .wav, .flac or .ogg clips")
     i.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="train the sound CNN on the library and save it",
@@ -126,7 +128,7 @@ def register(subparsers) -> None:
                                    f"{SHORT_CLIP_SECONDS:g} s (mostly the silence that pads it to the model's 1-s "
                                    f"window) and of a label under {UNSURE_BELOW:.0%} (the sound may be none of the "
                                    "33 activities), on stderr.")
-    r.add_argument("files", nargs="+", type=types.path, metavar="FILE")
+    r.add_argument("files", nargs="+", type=types.path, metavar="FILE", help="sound files: .wav, .flac or .ogg")
     r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
     add_put_back(sub, "sound", "study_data/models/sound_cnn.pt")
@@ -185,11 +187,14 @@ def run_train(args) -> int:
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
-    replaced = saved_model_id(model_path)
-    path = result.recognizer.save(model_path, keep_previous=True)
-    print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
-    print_metrics(result.metrics)
-    say_kept(path, "sound", replaced)
+    from cacas.cli import signals_held
+
+    with signals_held():  # Ctrl-C while the model is saved: after the save (a torn one is refused), and said
+        replaced = saved_model_id(model_path)
+        path = result.recognizer.save(model_path, keep_previous=True)
+        print(f"trained in {result.seconds:.0f} s ({count(len(result.history), 'epoch')}); saved {path}")
+        print_metrics(result.metrics)
+        say_kept(path, "sound", replaced)
     return 0
 
 

@@ -168,6 +168,7 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
     it replaces kept aside (a hard link) until all renames are done. A failure (disk full,
     read-only folder, a rename refused) puts back the files already replaced, removes the
     temporary ones and raises a CacasError naming the file: the folder's files are as they were.
+    So does Ctrl-C (KeyboardInterrupt, or SIGTERM raised as one), which is then raised again.
     Returns name -> path."""
     folder = Path(folder)
     _remove_left_over(folder, contents)
@@ -193,7 +194,7 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
         for name, tmp in tmps.items():
             os.replace(tmp, folder / name)
             done.append(name)
-    except OSError as exc:
+    except BaseException as exc:  # an OSError, or Ctrl-C / SIGTERM between two renames
         for n in reversed(done):  # put back what was replaced
             try:
                 if kept[n] is None:
@@ -202,6 +203,8 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
                     os.replace(kept[n], folder / n)
             except OSError:  # pragma: no cover - the folder went away meanwhile
                 pass
+        if not isinstance(exc, OSError):
+            raise
         raise CacasError(f"{folder / name}: cannot be written ({exc.strerror or exc}); "
                          f"the folder's files are unchanged") from None
     finally:
