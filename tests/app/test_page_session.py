@@ -275,20 +275,20 @@ def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
     at.selectbox(key="ctx-activity").set_value("cough")
     _button(at, "Do it").click().run()
     no_exception(at)
-    assert "Choose the time of day, the time since your last activity and a room first." in texts(at)
+    assert "Choose the time of day, the time since P01's last activity and a room first." in texts(at)
     assert "ctx" not in at.query_params
     # nothing preset: a value the participant did not choose would be recorded as theirs
     assert at.pills(key="ctx-interval").value is None and at.pills(key="ctx-slot").value is None
     at.pills(key="ctx-slot").set_value(5)
     _button(at, "Do it").click().run()
-    assert "Choose the time since your last activity and a room first." in texts(at)
+    assert "Choose the time since P01's last activity and a room first." in texts(at)
     at.pills(key="ctx-interval").set_value(2)
     at.selectbox(key="ctx-activity").set_value(None)
     _button(at, "Do it").click().run()
     assert "Choose an activity and a room first." in texts(at)
     at.pills(key="ctx-interval").set_value(None)
     _button(at, "Do it").click().run()
-    assert "Choose the time since your last activity, an activity and a room first." in texts(at)
+    assert "Choose the time since P01's last activity, an activity and a room first." in texts(at)
 
 
 def test_an_answer_after_the_day_was_closed_meanwhile_says_it_was_not_saved(app, store, p01, quick_policy):
@@ -351,6 +351,31 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
         "Time of day (S3)", "Time since P01's last activity (S4)", "Activity (S1)", "Room (S2)"]  # not "your"
 
 
+def test_the_researchers_view_names_the_participant_where_the_tablet_says_you(app, store, p01, quick_policy):
+    """Walkthrough (researcher's view at 1440 px): the form asked "What is P01 doing?" and "Time since P01's last
+    activity (S4)", but the proposal's card said "Your activity: cough ... since your last activity" and a form
+    sent without the interval "Choose the time since your last activity"; the researcher is not the one doing it.
+    The tablet keeps speaking to the participant."""
+    store.open_day("P01")
+    researcher = app(PAGE, participant="P01")
+    _button(researcher, "Do it").click().run()
+    assert [e.value for e in researcher.error] == [
+        "Choose the time of day, the time since P01's last activity, an activity and a room first."]
+    _choose(researcher, slot=3, interval=6, activity="use stove", scene="kitchen")
+    said = texts(researcher)
+    assert "##### P01's activity: use stove" in said
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since P01's last activity" in said
+    assert "Your activity" not in said and "your last activity" not in said
+    tablet = app(participant="P01", view="tablet")
+    _button(tablet, "Do it").click().run()
+    assert [e.value for e in tablet.error] == [
+        "Choose the time of day, the time since your last activity, an activity and a room first."]
+    _choose(tablet, slot=3, interval=6, activity="use stove", scene="kitchen")
+    said = texts(tablet)
+    assert "##### Your activity: use stove" in said
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in said
+
+
 def test_the_context_is_tapped_on_chips_but_the_activity_is_picked_from_a_list(app, store, p01, quick_policy):
     """Walkthrough at tablet sizes: four select boxes, each a text field that may raise the tablet's
     keyboard at every tap, about 60 a day; the dozen times, intervals and six rooms are chips, nothing
@@ -405,7 +430,7 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     at = app(PAGE, participant="P01")
     assert at.pills(key="ctx-interval").options[:4] == ["0-1 min", "1-2 min", "2-5 min", "5-10 min"]
     _choose(at, interval=6)
-    assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in [c.value for c in at.caption]
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since P01's last activity" in [c.value for c in at.caption]
     label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
     _button(at, label).click().run()
     table = at.dataframe[0].value
