@@ -199,4 +199,6 @@ if runs:
         ui.download_csv(summary, "summary.csv", key="sim-dl-summary")
     if run.by_preference is not None:
         st.subheader("Which preferences each method learnt")
-        ui.preference_heatmaps(run.by_preference, key="sim-prefs")
+        # keyed by run: one key for every run kept the day picked (or last shown) for the run before, so a 7-day
+        # run that ended after a 2-day one opened on day 2 (walkthrough); the Results page keys it by run too
+        ui.preference_heatmaps(run.by_preference, key=f"sim-prefs:{name}")
