@@ -533,6 +533,21 @@ def hours_label(hours) -> str:
     return ", ".join(f"{a:02d}:00-{b:02d}:00" for a, b in hours)
 
 
+def preference_interval_label(interval) -> str:
+    """A preference's ``interval`` (S4, Table I: [min, max] over the bins' lower ends, both included) as the
+    minutes it covers, in the tablet's words for the bins: [5, 30] -> "5-60 min" (the bins 5-10 ... 30-60 min;
+    "5-30" read as "up to 30 minutes"), [60, 200] -> "60+ min"; None (any interval) -> "any"."""
+    if not interval:
+        return "any"
+    bins = [i for i, b in enumerate(spaces.INTERVAL_BINS) if interval[0] <= b <= interval[1]]
+    if not bins:  # no bin's lower end in the range: the preference covers no state (the file's check says so)
+        return f"{interval[0]:g}-{interval[1]:g} (no S4 bin)"
+    lo, hi = spaces.INTERVAL_BINS[bins[0]], bins[-1]
+    if bins[0] == 0 and hi == spaces.N_INTERVALS - 1:
+        return "any"
+    return f"{lo}+ min" if hi == spaces.N_INTERVALS - 1 else f"{lo}-{spaces.INTERVAL_BINS[hi + 1]} min"
+
+
 def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
     """The described preferences as a readable table with each one's covered-state count: the
     context and the action first (what the robot should learn), the participant's words last (the
@@ -542,7 +557,7 @@ def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
         rows.append({
             "#": i, "activities": ", ".join(p.activity), "action": p.action,
             "rooms": ", ".join(p.scene) if p.scene else "any room", "hours": hours_label(p.hours),
-            "interval (min)": f"{p.interval[0]:g}-{p.interval[1]:g}" if p.interval else "any",
+            "since last activity": preference_interval_label(p.interval),
             "covered states": p.covered_count(), "in their words": p.description,
         })
     return pd.DataFrame(rows)

@@ -617,3 +617,21 @@ def test_recent_events_with_details_that_are_not_a_json_object():
     assert list(app_support.recent_events(store)["what"]) == [
         "day 2 started", "record adaptation (its details are not readable)",
         "close day (its details are not readable)"]
+
+
+def test_a_preferences_interval_reads_as_the_minutes_its_bins_cover():
+    """Walkthrough: the preferences table said "5-30" for the interval [5, 30], read as "up to 30 minutes", while
+    the preference takes in the S4 bin the tablet offers as "30-60 min" (the file holds bins' lower ends, Table I).
+    The table says the minutes covered, in the tablet's words for the bins."""
+    from cacas import app_support
+    from cacas.preferences import Participant, Preference
+
+    label = app_support.preference_interval_label
+    assert label((5, 30)) == "5-60 min" and label((0, 30)) == "0-60 min"
+    assert label((60, 200)) == "60+ min" and label((0, 0)) == "0-1 min" and label((200, 200)) == "200+ min"
+    assert label((7, 45)) == "10-60 min"  # bins 10, 15, 20 and 30 lie in [7, 45]
+    assert label(None) == "any" and label((0, 200)) == "any"
+    table = app_support.preferences_table(Participant("P01", (
+        Preference(activity=("cough",), action="pain check", interval=(5, 30)),
+        Preference(activity=("use stove",), action="remind to turn off"))))
+    assert list(table["since last activity"]) == ["5-60 min", "any"]
