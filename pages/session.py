@@ -348,13 +348,21 @@ if not status.open:
         board.clear(db, code)
         if not status.finished:  # nothing there for the participant to do until the researcher has
             _wait_for_the_researcher(_waiting_for(status))  # as drawn below, not read again
-    if status.finished:
+    # the tablet thanks and reassures the participant; the researcher's view says the researcher's next step
+    # (walkthrough: it thanked the researcher for taking part, and told them to wait for the researcher)
+    if status.finished and tablet:
         st.success(f"All {STUDY_DAYS} days are done. Thank you for taking part!", icon=":material/celebration:")
-    elif status.waiting_for_adaptation:
+    elif status.finished:
+        st.success(f"All {STUDY_DAYS} days of {code} are done. Next: the satisfaction questionnaire (Section V-B.1), "
+                   "on the Results page.", icon=":material/celebration:")
+        ui.link("pages/results.py", "Record the questionnaire", ":material/monitoring:")
+    elif status.waiting_for_adaptation and tablet:
         st.info(f"Day {status.day} is finished. The robot is learning from it; you can start day "
                 f"{status.day + 1} once the researcher has adapted the robot.", icon=":material/hourglass_top:")
-        if not tablet:
-            ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
+    elif status.waiting_for_adaptation:
+        st.info(f"Day {status.day} is finished: adapt the robot from it, then {code} can start day "
+                f"{status.day + 1} on the tablet.", icon=":material/hourglass_top:")
+        ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
     elif waiting_for_preferences(store, code, status):
         if tablet:
             st.info("The study has not started yet: the researcher will tell you when.", icon=":material/schedule:")

@@ -159,8 +159,38 @@ def test_closed_day_waits_for_adaptation(app, store, p01, quick_policy):
     store.close_day("P01", day)
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert "robot is learning" in texts(at)
+    assert "Day 1 is finished: adapt the robot from it, then P01 can start day 2 on the tablet." in texts(at)
     assert not any(b.label.startswith("Start day") for b in at.button)
+
+
+def test_the_researchers_view_says_the_researchers_next_step_where_the_tablet_thanks(app, store, p01):
+    """Walkthrough (researcher's view): a finished study said "All 7 days are done. Thank you for taking part!"
+    and a day waiting for its adaptation "you can start day 2 once the researcher has adapted the robot", both
+    the participant's words. The researcher's view says what to do next; the tablet keeps its words."""
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    researcher = app(PAGE, participant="P01")
+    no_exception(researcher)
+    assert "once the researcher has adapted" not in texts(researcher)
+    tablet = app(participant="P01", view="tablet")
+    assert ("Day 1 is finished. The robot is learning from it; you can start day 2 once the researcher has adapted "
+            "the robot.") in texts(tablet)
+    for d in range(1, 8):
+        if d > 1:
+            store.open_day("P01")
+            store.record_interaction("P01", d, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                     robot_action="pain check", response="accept")
+            store.close_day("P01", d)
+        store.save_policy("P01", d, "cacas", b"the adapted policy")
+    researcher = app(PAGE, participant="P01")
+    no_exception(researcher)
+    assert ("All 7 days of P01 are done. Next: the satisfaction questionnaire (Section V-B.1), on the Results page."
+            in texts(researcher))
+    assert "Thank you for taking part" not in texts(researcher)
+    tablet = app(participant="P01", view="tablet")
+    assert "All 7 days are done. Thank you for taking part!" in texts(tablet)
 
 
 def test_first_use_prepares_the_initial_policy_in_the_background(app, store, p01, quick_policy, monkeypatch):
