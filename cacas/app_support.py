@@ -242,12 +242,13 @@ def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
 
 def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
     """The Adaptation page's adaptation runs (the store's adaptations_frame), in words: day,
-    what (the method; the initial policy's Fig. 4 score, recorded as day 0, says so; a run that
-    saved no policy is a comparison), duration (s), preference accuracy (percent; NaN if not
+    what (the method; the initial policy's Fig. 4 score, recorded as day 0, says so, with the method
+    whose day 1 it is: a method comparison scores it once for each baseline, and four rows read alike;
+    a run that saved no policy is a comparison), duration (s), preference accuracy (percent; NaN if not
     scored), scored on (the described preferences' version), policy version (empty where none was
     saved; it read "None"), saved (short time)."""
     initial = [json.loads(p or "{}").get("initial", False) for p in runs["parameters"]]
-    what = [("initial policy, scored for Fig. 4" if first else
+    what = [(f"initial policy, scored for Fig. 4 ({m})" if first else
              f"{m} (comparison)" if pd.isna(v) else m)
             for m, v, first in zip(runs["method"], runs["policy_version"], initial)]
     return pd.DataFrame({"day": runs["day"], "what": what, "duration (s)": runs["duration_s"],

@@ -413,7 +413,7 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "scored on",
                                   "policy version", "saved"]
     assert list(runs["scored on"]) == ["version 1", "version 2", "", ""]  # older runs name none
-    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4"]
+    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4 (cacas)"]
     assert list(runs["preference accuracy"]) == [75.0, 100.0, 10.0, 25.0]
     assert list(runs["policy version"]) == ["1", "2", "", ""]  # a comparison run saves no policy (read "None")
     assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
@@ -635,3 +635,20 @@ def test_a_preferences_interval_reads_as_the_minutes_its_bins_cover():
         Preference(activity=("cough",), action="pain check", interval=(5, 30)),
         Preference(activity=("use stove",), action="remind to turn off"))))
     assert list(table["since last activity"]) == ["5-60 min", "any"]
+
+
+def test_the_initial_policys_fig4_scores_name_their_method(tmp_path):
+    """Walkthrough (Adaptation, "Adaptation runs"): a method comparison scores the initial policy as day 0 once
+    for each method (Fig. 4's day 1 of each), and the table showed four rows alike, "initial policy, scored for
+    Fig. 4", that read as duplicates. Each names its method."""
+    from cacas.store import StudyStore
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    methods = ("cacas", "cacas-no-pr", "orl", "nn")
+    for method in methods:
+        store.record_adaptation("P01", 0, method, {"initial": True}, 0.0, {"preference_accuracy": 0.25})
+    runs = app_support.runs_table(store.adaptations_frame("P01"))
+    assert list(runs["what"]) == [f"initial policy, scored for Fig. 4 ({m})" for m in methods]
+    assert runs["what"].is_unique
+    store.close()
