@@ -142,8 +142,14 @@ if go:
                                         f"{', '.join(methods)} · seed {int(seed)}")
         if not started:
             st.warning("A simulation is already running.")
+        else:  # said once the page is drawn again (a toast before st.rerun is not shown)
+            s["sim-started"] = True
         st.rerun()
 
+if s.pop("sim-started", False):
+    # the progress bar and its Stop button are under the form: at 1280 x 800 below the fold, and the click
+    # seemed to do nothing but grey out the button (walkthrough)
+    st.toast("Simulation started: its progress, and a Stop button, are under the form.", icon=":material/play_arrow:")
 job = ui.job_progress(JOB, stoppable=True)
 if job is not None and job.status == FAILED:
     st.error(f"The simulation failed: {job.error}", icon=":material/error:")

@@ -63,6 +63,24 @@ def test_a_second_run_is_shown_when_it_ends_not_the_one_looked_at_before(app, db
     assert "methods nn · seed 0" in texts(at)
 
 
+def test_a_run_started_says_where_its_progress_is(app, db):
+    """Walkthrough at 1280 x 800: the progress bar and the Stop button are under the form, below the fold, and
+    the click on "Run simulation" seemed to do nothing but grey out the button. A toast says it started, and
+    where to follow it; once."""
+    at = app(PAGE)
+    at.multiselect[0].set_value(["P01"])
+    at.number_input[0].set_value(2)   # days
+    at.number_input[1].set_value(4)   # interactions a day
+    at.multiselect[1].set_value(["nn"])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert [t.value for t in at.toast] == ["Simulation started: its progress, and a Stop button, are under the form."]
+    job = RUNNER.get(f"simulate:{db}")
+    assert job is not None and job.wait(300), "simulation did not finish"
+    at.run()
+    assert not at.toast  # said once
+
+
 def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
     """Walkthrough: a 3-day run ended after a 2-day one, and its heatmap by described preference opened on
     day 2, the day the slider had for the run shown before (one key for every run); the Results page keys
