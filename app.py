@@ -193,6 +193,9 @@ def main() -> None:
     except CacasError as exc:
         st.error(f"The study database cannot be opened: {exc}")
         st.stop()
+    # the tablets' board begins with the server's first page, whichever it is: begun with the first Study session
+    # page, its "has not heard from the tablet since the app started (HH:MM)" gave that page's time (walkthrough)
+    ui.tablet_board()
 
     try:
         _route(store)

@@ -242,12 +242,13 @@ def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
 
 def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
     """The Adaptation page's adaptation runs (the store's adaptations_frame), in words: day,
-    what (the method; the initial policy's Fig. 4 score, recorded as day 0, says so; a run that
-    saved no policy is a comparison), duration (s), preference accuracy (percent; NaN if not
+    what (the method; the initial policy's Fig. 4 score, recorded as day 0, says so, with the method
+    whose day 1 it is: a method comparison scores it once for each baseline, and four rows read alike;
+    a run that saved no policy is a comparison), duration (s), preference accuracy (percent; NaN if not
     scored), scored on (the described preferences' version), policy version (empty where none was
     saved; it read "None"), saved (short time)."""
     initial = [json.loads(p or "{}").get("initial", False) for p in runs["parameters"]]
-    what = [("initial policy, scored for Fig. 4" if first else
+    what = [(f"initial policy, scored for Fig. 4 ({m})" if first else
              f"{m} (comparison)" if pd.isna(v) else m)
             for m, v, first in zip(runs["method"], runs["policy_version"], initial)]
     return pd.DataFrame({"day": runs["day"], "what": what, "duration (s)": runs["duration_s"],
@@ -533,6 +534,21 @@ def hours_label(hours) -> str:
     return ", ".join(f"{a:02d}:00-{b:02d}:00" for a, b in hours)
 
 
+def preference_interval_label(interval) -> str:
+    """A preference's ``interval`` (S4, Table I: [min, max] over the bins' lower ends, both included) as the
+    minutes it covers, in the tablet's words for the bins: [5, 30] -> "5-60 min" (the bins 5-10 ... 30-60 min;
+    "5-30" read as "up to 30 minutes"), [60, 200] -> "60+ min"; None (any interval) -> "any"."""
+    if not interval:
+        return "any"
+    bins = [i for i, b in enumerate(spaces.INTERVAL_BINS) if interval[0] <= b <= interval[1]]
+    if not bins:  # no bin's lower end in the range: the preference covers no state (the file's check says so)
+        return f"{interval[0]:g}-{interval[1]:g} (no S4 bin)"
+    lo, hi = spaces.INTERVAL_BINS[bins[0]], bins[-1]
+    if bins[0] == 0 and hi == spaces.N_INTERVALS - 1:
+        return "any"
+    return f"{lo}+ min" if hi == spaces.N_INTERVALS - 1 else f"{lo}-{spaces.INTERVAL_BINS[hi + 1]} min"
+
+
 def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
     """The described preferences as a readable table with each one's covered-state count: the
     context and the action first (what the robot should learn), the participant's words last (the
@@ -542,7 +558,7 @@ def preferences_table(participant: prefs.Participant) -> pd.DataFrame:
         rows.append({
             "#": i, "activities": ", ".join(p.activity), "action": p.action,
             "rooms": ", ".join(p.scene) if p.scene else "any room", "hours": hours_label(p.hours),
-            "interval (min)": f"{p.interval[0]:g}-{p.interval[1]:g}" if p.interval else "any",
+            "since last activity": preference_interval_label(p.interval),
             "covered states": p.covered_count(), "in their words": p.description,
         })
     return pd.DataFrame(rows)

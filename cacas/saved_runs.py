@@ -100,6 +100,18 @@ UPLOADABLE_TABLES = {
 }
 
 
+def _missing_columns(columns) -> str:
+    """What a CSV that is none of the ``UPLOADABLE_TABLES`` lacks to be the one it is nearest to (most of
+    whose columns it has, at least half), as " (as a daily.csv it lacks the column day)"; "" if none is near
+    (walkthrough: a daily.csv without its day column was told only every column a daily.csv needs)."""
+    have = set(map(str, columns))
+    share, kind = max((len(have & set(cols)) / len(cols), kind) for kind, cols in UPLOADABLE_TABLES.items())
+    if share < 0.5:
+        return ""
+    lacks = [c for c in UPLOADABLE_TABLES[kind] if c not in have]
+    return f" (as a {kind}.csv it lacks the column{'s' if len(lacks) > 1 else ''} {', '.join(lacks)})"
+
+
 def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.DataFrame]:
     """Uploaded CSV files (name, content) as {"daily": ..., "by_preference": ..., "interactions":
     ...}, each file recognised by its columns (``UPLOADABLE_TABLES``). A daily.csv is required;
@@ -115,8 +127,9 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
             raise CacasError(f"{name}: not a readable CSV file ({str(exc).splitlines()[0] if str(exc) else exc})")
         kind = next((k for k, cols in UPLOADABLE_TABLES.items() if set(cols) <= set(df.columns)), None)
         if kind is None:
-            raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv; a daily.csv "
-                             f"needs the columns {', '.join(UPLOADABLE_TABLES['daily'])}")
+            raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv"
+                             f"{_missing_columns(df.columns)}; a daily.csv needs the columns "
+                             f"{', '.join(UPLOADABLE_TABLES['daily'])}")
         if kind in tables:
             which = (f"two files named {name} (files {places[kind]} and {place} of those uploaded)"
                      if name == names[kind] else f"{name} and {names[kind]}")  # was "daily.csv and daily.csv"

@@ -47,13 +47,20 @@ def _job_key(who: str, day: int) -> str:
 
 def _start(who: str, day: int) -> None:
     s = st.session_state
-    done = RUNNER.get(_job_key(who, day))
+    key = _job_key(who, day)
+    mine = s.get("adapt-started") == key  # this tab started it: this click is its own second one (a double click)
+    done = RUNNER.get(key)
     if done is not None and done.status == DONE:  # adapted in this server: a stale tab's click keeps its result
-        s["adapt-note"] = f"Day {day} was adapted already, in another tab: this click did nothing."
+        s["adapt-note"] = None if mine else f"Day {day} was adapted already, in another tab: this click did nothing."
         return
-    job, started = RUNNER.start(_job_key(who, day), adapt_day, db, who, day, method=s.get("adapt-method", "cacas"),
+    job, started = RUNNER.start(key, adapt_day, db, who, day, method=s.get("adapt-method", "cacas"),
                                 seed=int(s.get("adapt-seed", 0)), label=f"Adapting {who} after day {day}")
-    s["adapt-note"] = None if started else "This adaptation is already running (started in another tab?)."
+    if started:
+        s["adapt-started"] = key
+    # not started: this adaptation runs already (a double click's second click, or another tab's), and the page
+    # shows its progress in place of the button. A note "already running (started in another tab?)" was shown
+    # only once the run was over, beside its result, and blamed another tab for this tab's double click
+    s["adapt-note"] = None
 
 
 def _rollback(who: str, key: str) -> None:

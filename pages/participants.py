@@ -102,6 +102,12 @@ def _form_owner(key) -> tuple[str, str] | None:
 FIELDS = ("words", "activity", "scene", "slots", "interval", "action")
 
 
+def _interval_bin(minutes: int) -> str:
+    """An S4 mark of the form's slider (a bin's lower end in minutes, as the persona file's ``interval``
+    holds it) as the tablet names that bin: 30 -> "30-60 min" (Table I)."""
+    return spaces.interval_label(spaces.INTERVAL_BINS.index(minutes))
+
+
 def _form_start(existing: list, version: int, who: str) -> dict:
     """What the form of ``who``'s saved ``version`` shows before any change: key -> value."""
     start = {_count_key(who, version): max(5, len(existing))}
@@ -435,9 +441,13 @@ if code:
                                key=k("slots"), placeholder="any time")
                 # value= (a pair) makes it a range slider, so its value is never set through the session
                 # (Streamlit warns when both are); persist_state keeps it while other pages are open
+                # each mark is one of Table I's S4 bins, read as the tablet and the day's table say it: "0" to "30"
+                # read as "within 30 minutes" but takes in 30-59 min, the bin the tablet calls "30-60 min"
                 c4.select_slider("Minutes since the last activity (S4)", options=list(spaces.INTERVAL_BINS),
                                  value=start[k("interval")], key=k("interval"), persist_state="session",
-                                 help="The whole range means any interval.")
+                                 format_func=_interval_bin,
+                                 help="From one S4 bin to another, both included, as the tablet offers them "
+                                      "(0-1 min ... 200+ min). The whole range means any interval.")
                 st.selectbox("The robot should (action)", [ANY, *spaces.ACTIONS], key=k("action"))
                 if n in tasks:
                     st.caption(f"Only while the robot is busy with: {', '.join(tasks[n])} (from the imported file).")

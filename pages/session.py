@@ -127,8 +127,9 @@ DOUBLE_TAP_SECONDS = 2.0
 
 def _set_context() -> None:
     s = st.session_state
+    # the researcher's view names the participant, as its labels do ("Time since P01's last activity (S4)")
     missing = [what for what, key in (("the time of day", "ctx-slot"),
-                                      ("the time since your last activity", "ctx-interval"),
+                                      (f"the time since {_whose()} last activity", "ctx-interval"),
                                       ("an activity", "ctx-activity"), ("a room", "ctx-scene")) if s.get(key) is None]
     if len(missing) == 4 and time.monotonic() - s.get("saved-at", (float("-inf"), ""))[0] < DOUBLE_TAP_SECONDS:
         # the second tap of a double tap on an answer: "Do it" is drawn where the answer was (walkthrough at
@@ -151,6 +152,12 @@ def _set_context() -> None:
     # it was answered, and the page must not take it for the next interaction (a second answer)
     ui.set_address(ctx=ctx.to_token(), at=_interaction_mark(status.day, status.interactions_today + 1))
     _clear_request()
+
+
+def _whose() -> str:
+    """Whose activity the page speaks of: the participant's own ("your") on the tablet; on the
+    researcher's view, the participant's code ("P01's"): the researcher sets the context for them."""
+    return "your" if tablet else f"{code}'s"
 
 
 def _interaction_mark(day: int, index: int) -> str:
@@ -341,13 +348,21 @@ if not status.open:
         board.clear(db, code)
         if not status.finished:  # nothing there for the participant to do until the researcher has
             _wait_for_the_researcher(_waiting_for(status))  # as drawn below, not read again
-    if status.finished:
+    # the tablet thanks and reassures the participant; the researcher's view says the researcher's next step
+    # (walkthrough: it thanked the researcher for taking part, and told them to wait for the researcher)
+    if status.finished and tablet:
         st.success(f"All {STUDY_DAYS} days are done. Thank you for taking part!", icon=":material/celebration:")
-    elif status.waiting_for_adaptation:
+    elif status.finished:
+        st.success(f"All {STUDY_DAYS} days of {code} are done. Next: the satisfaction questionnaire (Section V-B.1), "
+                   "on the Results page.", icon=":material/celebration:")
+        ui.link("pages/results.py", "Record the questionnaire", ":material/monitoring:")
+    elif status.waiting_for_adaptation and tablet:
         st.info(f"Day {status.day} is finished. The robot is learning from it; you can start day "
                 f"{status.day + 1} once the researcher has adapted the robot.", icon=":material/hourglass_top:")
-        if not tablet:
-            ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
+    elif status.waiting_for_adaptation:
+        st.info(f"Day {status.day} is finished: adapt the robot from it, then {code} can start day "
+                f"{status.day + 1} on the tablet.", icon=":material/hourglass_top:")
+        ui.link("pages/adaptation.py", "Adapt the robot now", ":material/model_training:")
     elif waiting_for_preferences(store, code, status):
         if tablet:
             st.info("The study has not started yet: the researcher will tell you when.", icon=":material/schedule:")
@@ -413,8 +428,7 @@ elif context is None:
         # fewer: a select box is a text field that may raise a tablet's keyboard at each tap (walkthrough)
         st.pills(f"Time of day{part('S3')}", range(spaces.N_SLOTS), key="ctx-slot",
                  format_func=spaces.time_slot_label)
-        whose = "your" if tablet else f"{code}'s"  # the researcher sets it for the participant
-        st.pills(f"Time since {whose} last activity{part('S4')}", range(spaces.N_INTERVALS), key="ctx-interval",
+        st.pills(f"Time since {_whose()} last activity{part('S4')}", range(spaces.N_INTERVALS), key="ctx-interval",
                  format_func=spaces.interval_label)  # the bin, as the day's table and the export say it
         c3, _ = st.columns(2)
         # 33: a list to scroll (or type in), not a wall of chips; alphabetical, to be found (Table I's order put
@@ -463,9 +477,9 @@ else:
     # each card says what it is about and its name on one line: the name under a heading of its own took the
     # room the tablet's larger buttons need at 1024 x 768 (walkthrough)
     with left.container(border=True):
-        st.markdown(f"##### Your activity: {context.activity}")
+        st.markdown(f"##### {'Your' if tablet else _whose()} activity: {context.activity}")
         st.caption(f"{spaces.in_scene(context.scene)} · {spaces.time_slot_label(context.time_slot)} · "
-                   f"{spaces.interval_label(context.interval_bin)} since your last activity")
+                   f"{spaces.interval_label(context.interval_bin)} since {_whose()} last activity")
         if clip:
             st.audio(str(clip), format=audio_mime(clip), autoplay=True)
         else:

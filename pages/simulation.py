@@ -142,8 +142,14 @@ if go:
                                         f"{', '.join(methods)} · seed {int(seed)}")
         if not started:
             st.warning("A simulation is already running.")
+        else:  # said once the page is drawn again (a toast before st.rerun is not shown)
+            s["sim-started"] = True
         st.rerun()
 
+if s.pop("sim-started", False):
+    # the progress bar and its Stop button are under the form: at 1280 x 800 below the fold, and the click
+    # seemed to do nothing but grey out the button (walkthrough)
+    st.toast("Simulation started: its progress, and a Stop button, are under the form.", icon=":material/play_arrow:")
 job = ui.job_progress(JOB, stoppable=True)
 if job is not None and job.status == FAILED:
     st.error(f"The simulation failed: {job.error}", icon=":material/error:")
@@ -199,4 +205,6 @@ if runs:
         ui.download_csv(summary, "summary.csv", key="sim-dl-summary")
     if run.by_preference is not None:
         st.subheader("Which preferences each method learnt")
-        ui.preference_heatmaps(run.by_preference, key="sim-prefs")
+        # keyed by run: one key for every run kept the day picked (or last shown) for the run before, so a 7-day
+        # run that ended after a 2-day one opened on day 2 (walkthrough); the Results page keys it by run too
+        ui.preference_heatmaps(run.by_preference, key=f"sim-prefs:{name}")

@@ -413,7 +413,7 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "scored on",
                                   "policy version", "saved"]
     assert list(runs["scored on"]) == ["version 1", "version 2", "", ""]  # older runs name none
-    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4"]
+    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4 (cacas)"]
     assert list(runs["preference accuracy"]) == [75.0, 100.0, 10.0, 25.0]
     assert list(runs["policy version"]) == ["1", "2", "", ""]  # a comparison run saves no policy (read "None")
     assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
@@ -617,3 +617,38 @@ def test_recent_events_with_details_that_are_not_a_json_object():
     assert list(app_support.recent_events(store)["what"]) == [
         "day 2 started", "record adaptation (its details are not readable)",
         "close day (its details are not readable)"]
+
+
+def test_a_preferences_interval_reads_as_the_minutes_its_bins_cover():
+    """Walkthrough: the preferences table said "5-30" for the interval [5, 30], read as "up to 30 minutes", while
+    the preference takes in the S4 bin the tablet offers as "30-60 min" (the file holds bins' lower ends, Table I).
+    The table says the minutes covered, in the tablet's words for the bins."""
+    from cacas import app_support
+    from cacas.preferences import Participant, Preference
+
+    label = app_support.preference_interval_label
+    assert label((5, 30)) == "5-60 min" and label((0, 30)) == "0-60 min"
+    assert label((60, 200)) == "60+ min" and label((0, 0)) == "0-1 min" and label((200, 200)) == "200+ min"
+    assert label((7, 45)) == "10-60 min"  # bins 10, 15, 20 and 30 lie in [7, 45]
+    assert label(None) == "any" and label((0, 200)) == "any"
+    table = app_support.preferences_table(Participant("P01", (
+        Preference(activity=("cough",), action="pain check", interval=(5, 30)),
+        Preference(activity=("use stove",), action="remind to turn off"))))
+    assert list(table["since last activity"]) == ["5-60 min", "any"]
+
+
+def test_the_initial_policys_fig4_scores_name_their_method(tmp_path):
+    """Walkthrough (Adaptation, "Adaptation runs"): a method comparison scores the initial policy as day 0 once
+    for each method (Fig. 4's day 1 of each), and the table showed four rows alike, "initial policy, scored for
+    Fig. 4", that read as duplicates. Each names its method."""
+    from cacas.store import StudyStore
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    methods = ("cacas", "cacas-no-pr", "orl", "nn")
+    for method in methods:
+        store.record_adaptation("P01", 0, method, {"initial": True}, 0.0, {"preference_accuracy": 0.25})
+    runs = app_support.runs_table(store.adaptations_frame("P01"))
+    assert list(runs["what"]) == [f"initial policy, scored for Fig. 4 ({m})" for m in methods]
+    assert runs["what"].is_unique
+    store.close()

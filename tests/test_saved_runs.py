@@ -261,6 +261,22 @@ def test_uploaded_tables_are_recognised_by_their_columns():
         saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(daily.assign(interactions=2)))])
 
 
+def test_an_upload_near_a_table_names_the_columns_it_lacks():
+    """Walkthrough: a daily.csv whose day column had been dropped (by hand, in a spreadsheet) was told it is "not a
+    daily.csv, by_preference.csv or interactions.csv" and every column a daily.csv needs: which one lacked, it did
+    not say. A file with most of a table's columns is told the ones it lacks; one near none, as before."""
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
+    with pytest.raises(CacasError) as err:
+        saved_runs.load_uploaded_tables([("daily.csv", _csv(daily.drop(columns="day")))])
+    assert str(err.value).startswith("daily.csv: not a daily.csv, by_preference.csv or interactions.csv (as a "
+                                     "daily.csv it lacks the column day); a daily.csv needs the columns participant, ")
+    with pytest.raises(CacasError, match=r"\(as a daily.csv it lacks the columns day, interactions\)"):
+        saved_runs.load_uploaded_tables([("d.csv", _csv(daily.drop(columns=["day", "interactions"])))])
+    with pytest.raises(CacasError) as err:
+        saved_runs.load_uploaded_tables([("notes.csv", b"a,b\n1,2\n")])
+    assert "lacks" not in str(err.value)
+
+
 @pytest.mark.parametrize("files, message", [
     ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
                                      r"a daily.csv needs the columns participant, method, day"),

@@ -174,6 +174,38 @@ def test_a_stale_tabs_click_keeps_the_adaptation_this_server_finished(app, store
     assert len(store.policy_versions("P01")) == 1
 
 
+def test_a_double_click_on_close_and_adapt_adapts_once_and_says_nothing_more(app, store, quick_policy, monkeypatch):
+    """Walkthrough: a double click on "Close day 2 and adapt" left, once the adaptation was over, a yellow "This
+    adaptation is already running (started in another tab?)" beside "Adapted with cacas ...": the second click
+    (its callback called while the first click's run draws) found the run going, and its note stayed."""
+    from pages import ui
+
+    clicks = {}
+    real = ui.button
+
+    def button(where, label, on_click, **kw):  # the button's callback, to call it again as a second click does
+        clicks[label] = (on_click, kw.get("args", ()), kw.get("kwargs") or {})
+        return real(where, label, on_click, **kw)
+
+    monkeypatch.setattr(ui, "button", button)
+    day = _day_with_interactions(store)
+    at = app(PAGE, participant="P01")
+    at.checkbox(key=f"close-short-P01-{day}").check().run()
+    label = f"Close day {day} and adapt"
+    _button(at, label).click().run()
+    at.session_state[ui._MISSED_CLICK] = clicks[label]  # the double click's second click: called first thing
+    at.run()
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job.wait(600) and job.status == "done", job.error
+    at.session_state[ui._MISSED_CLICK] = clicks[label]  # and a second click that arrives after the run is over
+    at.run()
+    at.run()
+    no_exception(at)
+    assert [w.value for w in at.warning] == []
+    assert any(m.value.startswith("Adapted with cacas in ") for m in at.success)
+    assert len(store.policy_versions("P01")) == 1
+
+
 def test_an_adaptation_the_app_was_stopped_during_is_said_so(app, store, quick_policy):
     """Review: after a kill mid-adaptation the page offered 'Adapt after day 1' with no word of the
     run that saved nothing. It says so (this server knows no such run), until the day is adapted."""

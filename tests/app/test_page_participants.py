@@ -698,3 +698,23 @@ def test_a_removal_clicked_after_an_adaptation_began_elsewhere_removes_nothing(a
     finally:
         release.set()
         job.wait(10)
+
+
+def test_the_interval_slider_names_the_bins_as_the_tablet_does(app, store):
+    """Walkthrough: the S4 slider's marks read "0" ... "30" ... "200", so a range "0" to "30" read as "within
+    30 minutes", yet it takes in the bin the tablet offers as "30-60 min" (the persona file's [0, 30] holds
+    bin starts, Table I). The marks are the tablet's bin names; the value saved is unchanged."""
+    from cacas import spaces
+
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "interval": [5, 30], "action": "pain check"}])
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    slider = at.select_slider(key="pf-P01-v1-1-interval")
+    assert slider.options == [spaces.interval_label(i) for i in range(spaces.N_INTERVALS)]
+    assert slider.options[0] == "0-1 min" and slider.options[7] == "30-60 min" and slider.options[-1] == "200+ min"
+    assert slider.value == (5, 30)
+    slider.set_range(0, 60).run()
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    assert store.get_preferences("P01").preferences[0].interval == (0, 60)

@@ -159,8 +159,38 @@ def test_closed_day_waits_for_adaptation(app, store, p01, quick_policy):
     store.close_day("P01", day)
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert "robot is learning" in texts(at)
+    assert "Day 1 is finished: adapt the robot from it, then P01 can start day 2 on the tablet." in texts(at)
     assert not any(b.label.startswith("Start day") for b in at.button)
+
+
+def test_the_researchers_view_says_the_researchers_next_step_where_the_tablet_thanks(app, store, p01):
+    """Walkthrough (researcher's view): a finished study said "All 7 days are done. Thank you for taking part!"
+    and a day waiting for its adaptation "you can start day 2 once the researcher has adapted the robot", both
+    the participant's words. The researcher's view says what to do next; the tablet keeps its words."""
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    researcher = app(PAGE, participant="P01")
+    no_exception(researcher)
+    assert "once the researcher has adapted" not in texts(researcher)
+    tablet = app(participant="P01", view="tablet")
+    assert ("Day 1 is finished. The robot is learning from it; you can start day 2 once the researcher has adapted "
+            "the robot.") in texts(tablet)
+    for d in range(1, 8):
+        if d > 1:
+            store.open_day("P01")
+            store.record_interaction("P01", d, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                     robot_action="pain check", response="accept")
+            store.close_day("P01", d)
+        store.save_policy("P01", d, "cacas", b"the adapted policy")
+    researcher = app(PAGE, participant="P01")
+    no_exception(researcher)
+    assert ("All 7 days of P01 are done. Next: the satisfaction questionnaire (Section V-B.1), on the Results page."
+            in texts(researcher))
+    assert "Thank you for taking part" not in texts(researcher)
+    tablet = app(participant="P01", view="tablet")
+    assert "All 7 days are done. Thank you for taking part!" in texts(tablet)
 
 
 def test_first_use_prepares_the_initial_policy_in_the_background(app, store, p01, quick_policy, monkeypatch):
@@ -275,20 +305,20 @@ def test_context_needs_an_activity_and_a_room(app, store, p01, quick_policy):
     at.selectbox(key="ctx-activity").set_value("cough")
     _button(at, "Do it").click().run()
     no_exception(at)
-    assert "Choose the time of day, the time since your last activity and a room first." in texts(at)
+    assert "Choose the time of day, the time since P01's last activity and a room first." in texts(at)
     assert "ctx" not in at.query_params
     # nothing preset: a value the participant did not choose would be recorded as theirs
     assert at.pills(key="ctx-interval").value is None and at.pills(key="ctx-slot").value is None
     at.pills(key="ctx-slot").set_value(5)
     _button(at, "Do it").click().run()
-    assert "Choose the time since your last activity and a room first." in texts(at)
+    assert "Choose the time since P01's last activity and a room first." in texts(at)
     at.pills(key="ctx-interval").set_value(2)
     at.selectbox(key="ctx-activity").set_value(None)
     _button(at, "Do it").click().run()
     assert "Choose an activity and a room first." in texts(at)
     at.pills(key="ctx-interval").set_value(None)
     _button(at, "Do it").click().run()
-    assert "Choose the time since your last activity, an activity and a room first." in texts(at)
+    assert "Choose the time since P01's last activity, an activity and a room first." in texts(at)
 
 
 def test_an_answer_after_the_day_was_closed_meanwhile_says_it_was_not_saved(app, store, p01, quick_policy):
@@ -351,6 +381,31 @@ def test_the_tablet_speaks_the_participants_language(app, store, p01, quick_poli
         "Time of day (S3)", "Time since P01's last activity (S4)", "Activity (S1)", "Room (S2)"]  # not "your"
 
 
+def test_the_researchers_view_names_the_participant_where_the_tablet_says_you(app, store, p01, quick_policy):
+    """Walkthrough (researcher's view at 1440 px): the form asked "What is P01 doing?" and "Time since P01's last
+    activity (S4)", but the proposal's card said "Your activity: cough ... since your last activity" and a form
+    sent without the interval "Choose the time since your last activity"; the researcher is not the one doing it.
+    The tablet keeps speaking to the participant."""
+    store.open_day("P01")
+    researcher = app(PAGE, participant="P01")
+    _button(researcher, "Do it").click().run()
+    assert [e.value for e in researcher.error] == [
+        "Choose the time of day, the time since P01's last activity, an activity and a room first."]
+    _choose(researcher, slot=3, interval=6, activity="use stove", scene="kitchen")
+    said = texts(researcher)
+    assert "##### P01's activity: use stove" in said
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since P01's last activity" in said
+    assert "Your activity" not in said and "your last activity" not in said
+    tablet = app(participant="P01", view="tablet")
+    _button(tablet, "Do it").click().run()
+    assert [e.value for e in tablet.error] == [
+        "Choose the time of day, the time since your last activity, an activity and a room first."]
+    _choose(tablet, slot=3, interval=6, activity="use stove", scene="kitchen")
+    said = texts(tablet)
+    assert "##### Your activity: use stove" in said
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in said
+
+
 def test_the_context_is_tapped_on_chips_but_the_activity_is_picked_from_a_list(app, store, p01, quick_policy):
     """Walkthrough at tablet sizes: four select boxes, each a text field that may raise the tablet's
     keyboard at every tap, about 60 a day; the dozen times, intervals and six rooms are chips, nothing
@@ -405,7 +460,7 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     at = app(PAGE, participant="P01")
     assert at.pills(key="ctx-interval").options[:4] == ["0-1 min", "1-2 min", "2-5 min", "5-10 min"]
     _choose(at, interval=6)
-    assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in [c.value for c in at.caption]
+    assert "in the kitchen · 06:00-08:00 · 20-30 min since P01's last activity" in [c.value for c in at.caption]
     label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
     _button(at, label).click().run()
     table = at.dataframe[0].value
@@ -703,6 +758,29 @@ def test_the_researchers_view_says_when_it_has_not_heard_from_the_tablet(app, st
     assert "has not heard from" not in texts(tab)  # never on the tablet itself
     desk = app(PAGE, participant="P01")
     assert "has not heard from" not in texts(desk)
+
+
+def test_not_heard_from_the_tablet_since_the_app_started_gives_the_apps_start(app, store, p01, quick_policy,
+                                                                             monkeypatch):
+    """Walkthrough: the app's first page was drawn at 02:16, the Study session page first opened at 02:21, and
+    the researcher's view said "has not heard from P01's tablet since the app started (02:21)": the tablets'
+    board began with the first Study session page. It begins with the server's first page."""
+    import time as real_time
+    from types import SimpleNamespace
+
+    from cacas import on_tablet
+
+    store.open_day("P01")
+    now = {"t": real_time.mktime((2026, 11, 27, 2, 16, 0, 0, 0, -1))}
+    # the board's clock only (not the process's: Streamlit's own timing stays real)
+    monkeypatch.setattr(on_tablet, "time", SimpleNamespace(time=lambda: now["t"], strftime=real_time.strftime,
+                                                           localtime=real_time.localtime))
+    at = app(participant="P01")  # the Overview, first
+    no_exception(at)
+    now["t"] += 5 * 60
+    at.switch_page(PAGE).run()
+    no_exception(at)
+    assert "This page has not heard from P01's tablet since the app started (02:16)." in texts(at)
 
 
 def test_the_tablet_says_an_answered_proposal_without_a_number_of_its_own(app, store, p01, quick_policy):

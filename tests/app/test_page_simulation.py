@@ -44,9 +44,9 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     assert len(at.get("plotly_chart")) == 3  # Fig. 3, Fig. 4 and Fig. 4 by described preference
     assert (job.result / "by_preference.csv").exists()
     assert "Which preferences each method learnt" in texts(at)
-    at.button_group(key="sim-prefs-view").set_value("One method, day by day").run()
+    at.button_group(key=f"sim-prefs:{job.result.name}-view").set_value("One method, day by day").run()
     no_exception(at)
-    assert at.selectbox(key="sim-prefs-method").value == "nn"
+    assert at.selectbox(key=f"sim-prefs:{job.result.name}-method").value == "nn"
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
 
 
@@ -61,6 +61,57 @@ def test_a_second_run_is_shown_when_it_ends_not_the_one_looked_at_before(app, db
     at.selectbox(key="sim-run").set_value(first.result.name).run()  # going back to the first one stays there
     assert at.selectbox(key="sim-run").value == first.result.name
     assert "methods nn · seed 0" in texts(at)
+
+
+def test_a_run_started_says_where_its_progress_is(app, db):
+    """Walkthrough at 1280 x 800: the progress bar and the Stop button are under the form, below the fold, and
+    the click on "Run simulation" seemed to do nothing but grey out the button. A toast says it started, and
+    where to follow it; once."""
+    at = app(PAGE)
+    at.multiselect[0].set_value(["P01"])
+    at.number_input[0].set_value(2)   # days
+    at.number_input[1].set_value(4)   # interactions a day
+    at.multiselect[1].set_value(["nn"])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert [t.value for t in at.toast] == ["Simulation started: its progress, and a Stop button, are under the form."]
+    job = RUNNER.get(f"simulate:{db}")
+    assert job is not None and job.wait(300), "simulation did not finish"
+    at.run()
+    assert not at.toast  # said once
+
+
+def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
+    """Walkthrough: a 3-day run ended after a 2-day one, and its heatmap by described preference opened on
+    day 2, the day the slider had for the run shown before (one key for every run); the Results page keys
+    it by run already."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    for name, days in (("run-a", 2), ("run-c", 3)):
+        daily = pd.DataFrame({"participant": ["P01"] * days, "method": ["cacas"] * days, "day": range(1, days + 1),
+                              "success_rate": [0.5] * days, "preference_accuracy": [0.5] * days,
+                              "cumulative_feedback": range(5, 5 * days + 1, 5), "interactions": [15] * days})
+        by_pref = daily[["participant", "method", "day"]].assign(
+            preference=1, label="Cough: pain check", activity="cough", action="pain check", states=40, correct=20,
+            accuracy=0.5)
+        saved_runs.save_run(saved_runs.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
+                             by_pref)
+    at = app(PAGE)
+    at.selectbox(key="sim-run").set_value("run-a").run()
+    no_exception(at)
+
+    def day_shown():
+        return next(s.value for s in at.select_slider if s.label == "Day")
+
+    assert day_shown() == 2
+    at.selectbox(key="sim-run").set_value("run-c").run()
+    no_exception(at)
+    assert day_shown() == 3  # run-c's last day, not the day run-a's heatmap had
+    next(s for s in at.select_slider if s.label == "Day").set_value(1).run()
+    at.selectbox(key="sim-run").set_value("run-a").run()
+    assert day_shown() == 2  # and run-a's own last day, not run-c's pick
 
 
 def test_each_method_in_its_own_closed_loop(app, db):
