@@ -476,7 +476,7 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
     """
     numbers = list(numbers) if numbers is not None else list(range(1, len(items) + 1))
     errors: dict[int, str] = {}
-    parsed = []
+    parsed, parsed_numbers = [], []
     for n, item in zip(numbers, items):
         missing = [what for key, what in (("activity", "at least one activity"), ("action", "an action"))
                    if not item.get(key)]
@@ -489,21 +489,30 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
                 errors[n] += f"; and {_strip_where(str(exc))}"
             continue
         try:
-            parsed.append(prefs.parse_preference(item, None, code, n - 1))
-            prefs.check_private_words(prefs.Participant(code, (parsed[-1],)), None, [n])
+            one = prefs.parse_preference(item, None, code, n - 1)
+            prefs.check_private_words(prefs.Participant(code, (one,)), None, [n])
         except CacasError as exc:
             errors[n] = _strip_where(str(exc))
-    if errors:
-        return None, errors, None
-    if not parsed:
+            continue
+        parsed.append(one)
+        parsed_numbers.append(n)
+    if not parsed and not errors:
         return None, {}, "describe at least one preference (activities and an action)"
+    # the valid ones' overlaps are said with the others' errors, in the same save (walkthrough: an
+    # overlap was said only on the save after the errors were mended, a second round of fixes)
+    overall = None
     for i in range(len(parsed)):
         for j in range(i + 1, len(parsed)):
             try:
                 prefs.check_conflicts([parsed[i], parsed[j]], None, code, fields=FORM_FIELDS)
             except CacasError as exc:
-                msg = _strip_where(str(exc)).replace("preferences 1 and 2", f"preferences {numbers[i]} and {numbers[j]}", 1)
-                return None, {}, msg
+                overall = _strip_where(str(exc)).replace(
+                    "preferences 1 and 2", f"preferences {parsed_numbers[i]} and {parsed_numbers[j]}", 1)
+                break
+        if overall:
+            break
+    if errors or overall:
+        return None, errors, overall
     return prefs.Participant(code, tuple(parsed)), {}, None
 
 

@@ -455,9 +455,9 @@ if code:
                     st.error(f"Preference {n}: {errors[n]}", icon=":material/error:")
                 elif old is not None:
                     st.caption(f"Covers {old.covered_count():,} states.")
-        if overall:
+        if overall:  # an overlap among the valid ones, said with the others' errors (one round of fixes)
             st.error(overall, icon=":material/error:")
-        elif errors:  # the messages sit with their preferences, maybe far above this button
+        if errors:  # the messages sit with their preferences, maybe far above this button
             bad = sorted(errors)
             st.error(f"Not saved: preference{'s' if len(bad) > 1 else ''} {', '.join(map(str, bad))} "
                      f"need{'' if len(bad) > 1 else 's'} fixing (the message is under "

@@ -131,6 +131,23 @@ def test_overlapping_preferences_with_different_actions_are_refused(app, store):
                         "activity (S4) so they do not overlap")
 
 
+def test_an_overlap_is_said_with_another_preferences_error_in_one_save(app, store):
+    """Walkthrough: the overlap of preferences 1 and 4 was said only on the save after preference 3's
+    missing action was chosen; both are said at the first save."""
+    store.add_participant("P01")
+    at = app(PAGE, participant="P01")
+    _fill(at, "P01", 0, 1, activity=["use stove"], action="remind to turn off")
+    _fill(at, "P01", 0, 3, activity=["cough"])  # no action
+    _fill(at, "P01", 0, 4, activity=["use stove"], scene=["kitchen"], action="chitchat")
+    next(b for b in at.button if b.label == "Save preferences").click().run()
+    no_exception(at)
+    msgs = [e.value for e in at.error]
+    assert any(m.startswith("Preference 3: choose an action: ") for m in msgs)
+    assert any(m.startswith("preferences 1 and 4 both cover") for m in msgs)
+    assert msgs[-1] == "Not saved: preference 3 needs fixing (the message is under it above)."
+    assert store.get_preferences("P01") is None
+
+
 def test_export_personas_of_the_study(app, store, downloads):
     store.add_participant("P01")
     store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
