@@ -535,6 +535,12 @@ def _strip_where(message: str) -> str:
     return message
 
 
+def counted(n: int, word: str, plural: str | None = None) -> str:
+    """``n`` and ``word`` in agreement: "1 participant", "0 participants", "3 clips" (``plural``
+    where adding "s" is wrong). The pages said "participant(s)"."""
+    return f"{n:,} {word if n == 1 else plural or word + 's'}"
+
+
 def hours_label(hours) -> str:
     """A preference's hours as the tablet and the day's table write a time of day (S3):
     [(6, 12)] -> "06:00-12:00"; one two-hour slot is :func:`cacas.spaces.time_slot_label`'s."""

@@ -497,7 +497,7 @@ with tabs["Add a participant"]:
             st.error(st.session_state["add-error"], icon=":material/error:")
         ui.button(st, "Add participant", _add_participant, submit=True, type="primary",
                   icon=":material/person_add:")
-    st.caption(f"{len(people)} participant(s) in study '{study}'.")
+    st.caption(f"{app_support.counted(len(people), 'participant')} in study '{study}'.")
     with st.expander("New study: participants are added to the study chosen in the sidebar"):
         with st.form("new-study", border=False):
             st.text_input("Study name", placeholder="e.g. pilot-2026", key="new-study-name")
@@ -529,7 +529,7 @@ with tabs["Import / export"]:
         st.markdown("**Export the study's preferences**")
         text = store.export_personas(study=study)
         n = len(persona_json(text, "the study's persona file")["participants"])
-        st.caption(f"{n} participant(s) with preferences in study '{study}'.")
+        st.caption(f"{app_support.counted(n, 'participant')} with preferences in study '{study}'.")
         st.download_button("Download personas.json", text.encode("utf-8"),
                            file_name=app_support.study_file_name("personas", study, ".json"),
                            mime="application/json", disabled=n == 0, icon=":material/download:", on_click="ignore")

@@ -57,8 +57,9 @@ elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
     run = ui.load_run(db, name)
     tables, daily = run.tables, run.daily
-    st.caption(f"Simulated run **{name}** (Simulation lab): {daily['participant'].nunique()} simulated "
-               f"participant(s), methods {', '.join(daily['method'].unique())}"
+    st.caption(f"Simulated run **{name}** (Simulation lab): "
+               f"{app_support.counted(daily['participant'].nunique(), 'simulated participant')}, "
+               f"methods {', '.join(daily['method'].unique())}"
                + (", each in its own closed loop." if run.settings.get("loop") == "each" else "."))
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
@@ -273,7 +274,7 @@ with data:
 
         missing = store.missing_policy_files(study)
         if missing:
-            st.warning(f"No zip: {len(missing)} policy file(s) are missing from `{store.policy_dir}` "
+            st.warning(f"No zip: {app_support.counted(len(missing), 'policy file')} {'is' if len(missing) == 1 else 'are'} missing from `{store.policy_dir}` "
                        f"({', '.join(missing[:3])}{', ...' if len(missing) > 3 else ''}), and the zip must hold every "
                        "one to be imported. Restore them from a backup; the tables above download one by one.",
                        icon=":material/warning:")

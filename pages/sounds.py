@@ -106,7 +106,7 @@ def _add(kind: str) -> None:
     except CacasError as exc:
         _refuse(kind, str(exc))
         return
-    s[f"{kind}-error"], s[f"{kind}-added"] = None, f"Added {len(added)} {k['item']}(s) to '{name}'."
+    s[f"{kind}-error"], s[f"{kind}-added"] = None, f"Added {app_support.counted(len(added), k['item'], k['items'])} to '{name}'."
     s[f"{kind}-notes"] = lab.long_clip_notes(name, added) if kind == "sound" else []
     s[f"{kind}-round"] = s.get(f"{kind}-round", 0) + 1
     st.cache_data.clear()
@@ -166,7 +166,7 @@ def _library_grid(kind: str, names: str, show, note: str = "") -> None:
     for i, row in counts.iterrows():
         with cols[i % 3].container(border=True):
             name, count = row[k["label"]], row[k["items"]]
-            st.markdown(f"**{i + 1}. {name}** · {count} {k['item']}(s)")
+            st.markdown(f"**{i + 1}. {name}** · {app_support.counted(count, k['item'], k['items'])}")
             paths = k["paths"](name) if count else []
             if paths:
                 show(paths[0])

@@ -656,3 +656,11 @@ def test_the_initial_policys_fig4_scores_name_their_method(tmp_path):
     assert list(runs["what"]) == [f"initial policy, scored for Fig. 4 ({m})" for m in methods]
     assert runs["what"].is_unique
     store.close()
+
+
+def test_counted_agrees_in_number():
+    """The pages said "1 participant(s)" (walkthrough)."""
+    assert [app_support.counted(n, "participant") for n in (0, 1, 2, 1500)] == [
+        "0 participants", "1 participant", "2 participants", "1,500 participants"]
+    assert app_support.counted(1, "photo", "photos") == "1 photo"
+    assert app_support.counted(3, "policy file") == "3 policy files"

@@ -76,7 +76,7 @@ def test_adding_a_code_in_use_in_another_study_names_that_study(app, store):
     no_exception(at)
     assert [e.value for e in at.error] == ["participant P01 already exists (in study 'default'); codes must be "
                                            "unique across all studies"]
-    assert "0 participant(s) in study 'Default'." in texts(at)
+    assert "0 participants in study 'Default'." in texts(at)
 
 
 def test_save_valid_preferences(app, store):

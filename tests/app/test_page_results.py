@@ -266,7 +266,7 @@ def test_no_zip_offered_while_a_policy_file_is_missing(app, store):
     store.active_policy("P01").path.unlink()
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert "No zip: 1 policy file(s) are missing" in texts(at)
+    assert "No zip: 1 policy file is missing" in texts(at)
     labels = [b.label for b in at.get("download_button")]
     assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
 

@@ -182,7 +182,7 @@ def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app,
     assert f"**{sum(photos.values())} photos** for **6 of 6** rooms." in [m.value.split(" In a study")[0]
                                                                           for m in at.markdown]
     for i, scene in enumerate(SCENES, 1):
-        assert f"**{i}. {scene}** · {photos[scene]} photo(s)" in [m.value for m in at.markdown]
+        assert f"**{i}. {scene}** · {photos[scene]} photo{'s' if photos[scene] != 1 else ''}" in [m.value for m in at.markdown]
     assert [c.value for c in at.caption if "train it again" in c.value] == [
         f":material/update: The scene library holds {sum(photos.values())} photos now ({sum(photos.values()) - 5} "
         "when this model was trained): train it again to use them."]
@@ -286,7 +286,7 @@ def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_p
     next Add), as if the new files had been refused too."""
     at, data = _library_app(app, tmp_path, monkeypatch)
     _add_clips(at, ("b.wav", _wav(0.8)))
-    assert "Added 1 clip(s) to 'cough'." in texts(at)
+    assert "Added 1 clip to 'cough'." in texts(at)
     _add_clips(at, ("b2.wav", _wav(0.8)))  # the same bytes: refused, in the words of the page's button
     assert _errors(at) == ["b2.wav: the same recording is already in the library as cough/b.wav; nothing was added "
                            "(leave the copy out and press 'Add to the library' again)"]
@@ -346,7 +346,7 @@ def test_a_long_clip_is_said_to_weigh_its_activity(app, tmp_path, monkeypatch):
     for name in ("s1.wav", "s2.wav"):  # sneeze: 2 windows; the median of the activities other than cough
         (data / "sounds" / "sneeze" / name).write_bytes(_wav(1.0 + len(name) / 100))
     _add_clips(at, ("usual.wav", _wav(2.0, rate=8000)))
-    assert "Added 1 clip(s) to 'cough'." in texts(at) and not [w for w in at.warning if "s long" in w.value]
+    assert "Added 1 clip to 'cough'." in texts(at) and not [w for w in at.warning if "s long" in w.value]
     seconds = 12 * WINDOW_SECONDS
     n = round(seconds / WINDOW_SECONDS)
     _add_clips(at, ("long.wav", _wav(seconds, rate=8000)))

@@ -507,7 +507,7 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     add = page.locator("[role='tabpanel']:visible button").filter(has_text="Add to the library")
     add.click()
     idle(page)
-    page.get_by_text("Added 1 photo(s) to 'kitchen'.").wait_for(timeout=30_000)
+    page.get_by_text("Added 1 photo to 'kitchen'.").wait_for(timeout=30_000)
     shot(page, "scenes-photo-added")
     # emptied (stFileChip is Streamlit 1.67's uploaded file: the stFileUploaderFile counted before is no more, and
     # the count was 0 whatever the uploader held)
