@@ -170,15 +170,31 @@ PRELOADED = ("cacas.adaptation", "torchvision.models", "librosa.feature")
 def _preload() -> threading.Thread:
     """Import :data:`PRELOADED` in a thread of its own, once per server process, started after the first
     page is drawn: the researcher reads that page meanwhile. A page that needs a module being imported
-    waits for that import (Python's import lock), never imports it twice."""
+    waits for that import (Python's import lock), never imports it twice.
+
+    No automatic garbage collection while it runs. Python 3.11 keeps the AST constructor's recursion
+    depth per interpreter, not per call (CPython gh-106905): torch's import parses source about 100
+    times (``ast.parse``, for its ``_overload`` decorators and ``inspect.signature``), and a page that
+    Streamlit compiled meanwhile (its "magic" parses the page) failed once in a while with
+    "SystemError: AST constructor recursion depth mismatch" (the tests: about one run in eight of a
+    page's test file). The two constructions interleave only when a collection in the middle of one
+    runs Python code (a finalizer, a weakref callback) and the other thread takes the interpreter;
+    without collections they run one after the other. The collector is on again once the imports end."""
+    import gc
     import importlib
 
     def load() -> None:
-        for name in PRELOADED:
-            try:
-                importlib.import_module(name)
-            except Exception:  # noqa: BLE001  the page that needs it says what is wrong, in its place
-                pass
+        collecting = gc.isenabled()
+        gc.disable()
+        try:
+            for name in PRELOADED:
+                try:
+                    importlib.import_module(name)
+                except Exception:  # noqa: BLE001  the page that needs it says what is wrong, in its place
+                    pass
+        finally:
+            if collecting:
+                gc.enable()
 
     thread = threading.Thread(target=load, name="cacas-preload", daemon=True)
     thread.start()
