@@ -70,14 +70,14 @@ def open_study_file(path: Path) -> sqlite3.Connection:
     try:
         conn = _open_for_reading(path)
     except sqlite3.Error as exc:
-        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if _disk_trouble(exc) else ''}") from None
+        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
     try:
         app_id = conn.execute("PRAGMA application_id").fetchone()[0]
     except sqlite3.DatabaseError as exc:
         conn.close()
         if _not_sqlite(exc):
             raise NotAStudyDatabase(f"{path}: is not a study database (not an SQLite file)") from None
-        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if _disk_trouble(exc) else ''}") from None
+        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
     if app_id != APPLICATION_ID:
         conn.close()
         raise NotAStudyDatabase(f"{path}: is not a study database (an SQLite file of another application)")
@@ -98,12 +98,12 @@ def _not_sqlite(exc: sqlite3.Error) -> bool:
     return "not a database" in str(exc).lower()
 
 
-#: What a reading refused by the disk (:func:`_disk_trouble`) adds to its message.
+#: What a reading refused by the disk (:func:`disk_trouble`) adds to its message.
 _DISK_HINT = ("; the disk may be full, or the file or its folder cannot be written (SQLite writes its -shm file "
               "beside the database to read it): free some disk space (or check the permissions) and try again")
 
 
-def _disk_trouble(exc: sqlite3.Error) -> bool:
+def disk_trouble(exc: sqlite3.Error) -> bool:
     """SQLite's error says the disk refused a write or a read (a full disk, a file size limit, a
     failing device), not that the file is damaged or another application's: SQLITE_IOERR and
     SQLITE_FULL. Opening a study database in WAL mode writes its -shm file even to read it, so a
@@ -321,7 +321,7 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
         conn.close()
         if _not_sqlite(exc):
             raise CacasError(f"{path}: is not a study database (not an SQLite file)") from None
-        if _disk_trouble(exc):  # a full disk: SQLite cannot size the -shm (or -wal) file it needs
+        if disk_trouble(exc):  # a full disk: SQLite cannot size the -shm (or -wal) file it needs
             raise CacasError(f"{path}: the study database cannot be opened now ({exc}); nothing was changed. The "
                              "disk may be full, or the file or its folder cannot be written: free some disk space "
                              "(or check the permissions) and open it again; the file is not damaged by this, do not "
