@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import math
 
-import tempfile
-from pathlib import Path
 
 import pandas as pd
 import streamlit as st
 
 from cacas import app_support, plots, records, saved_runs
 from cacas.errors import CacasError
-from cacas.export import export_study, export_tables, next_day_accuracy
+from cacas.export import bundle_bytes, export_tables, next_day_accuracy
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.parallel import default_jobs
 from cacas.method_comparison import compare_methods
@@ -267,16 +265,16 @@ with data:
                              placeholder="")  # an empty cell as the CSV holds it, not "None"
             ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
-        def _bundle() -> bytes:
-            with tempfile.TemporaryDirectory() as tmp:
-                return Path(export_study(ui.store(), tmp, study).bundle).read_bytes()
+        def _bundle() -> bytes:  # made in memory: no copy of the study left on disk by a server killed meanwhile
+            return bundle_bytes(ui.store(), study)
 
-        missing = store.missing_policy_files(study)
-        if missing:
-            st.warning(f"No zip: {len(missing)} policy file(s) are missing from `{store.policy_dir}` "
-                       f"({', '.join(missing[:3])}{', ...' if len(missing) > 3 else ''}), and the zip must hold every "
-                       "one to be imported. Restore them from a backup; the tables above download one by one.",
-                       icon=":material/warning:")
+        missing, damaged = store.missing_policy_files(study), store.damaged_policy_files(study)
+        if missing or damaged:
+            said = [f"{len(found)} policy file(s) {how} ({', '.join(found[:3])}{', ...' if len(found) > 3 else ''})"
+                    for found, how in ((missing, f"are missing from `{store.policy_dir}`"),
+                                       (damaged, "do not match their recorded sha256 (changed or damaged)")) if found]
+            st.warning(f"No zip: {' and '.join(said)}, and the zip must hold every one to be imported. Restore them "
+                       "from a backup; the tables above download one by one.", icon=":material/warning:")
         else:
             note = app_support.bundle_note(tables["policies"], db, study)
             if note:

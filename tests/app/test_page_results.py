@@ -271,6 +271,40 @@ def test_no_zip_offered_while_a_policy_file_is_missing(app, store):
     assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
 
 
+def test_no_zip_offered_while_a_policy_file_is_damaged(app, store):
+    """Safety audit: a policy file changed on disk (its sha256 no longer the recorded one) left the
+    zip offered, and the click failed with the browser's bare "Failed to generate file for
+    download" (Streamlit logs the error; the researcher saw nothing of which file or what to do)."""
+    _study_with_a_day(store)
+    store.save_policy("P01", 1, "cacas", b"a policy")
+    store.active_policy("P01").path.write_bytes(b"another policy")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert ("No zip: 1 policy file(s) do not match their recorded sha256 (changed or damaged) "
+            "(P01/day1-cacas-") in texts(at)
+    labels = [b.label for b in at.get("download_button")]
+    assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
+
+
+def test_the_zip_is_made_in_memory_as_cacas_export_writes_it(app, store, downloads, monkeypatch, tmp_path):
+    """Safety audit: "Download everything" wrote the study's tables and zip into a temporary folder to
+    read the zip back: a server killed during the download left that plain copy of the study (notes,
+    comments, a withdrawn participant's answers) in /tmp for good, and a full /tmp failed the download."""
+    from cacas import export
+    from cacas.store import files
+
+    _study_with_a_day(store)
+    store.save_policy("P01", 1, "cacas", b"a policy")
+    expected = export.export_study(store, tmp_path / "cli").bundle.read_bytes()
+
+    def no_copy_on_disk(*args, **kwargs):
+        raise AssertionError("the study was written to disk for the download")
+    monkeypatch.setattr(files, "write_all", no_copy_on_disk)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert downloads["cacas-study-default.zip"] == expected
+
+
 def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
     import pandas as pd
 
