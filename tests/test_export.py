@@ -451,6 +451,26 @@ def test_bad_bundle_is_refused_and_leaves_nothing(bundle, tmp_path, table, chang
     assert not target.parent.exists()  # nor an empty folder
 
 
+def test_a_policy_file_listed_in_another_participants_folder_is_refused(bundle, tmp_path):
+    """Safety audit: an edited bundle whose policies.csv put P02's policy file in P01's folder
+    imported; removing P01 then deleted P02's policy (its version could no longer be loaded, nor the
+    study exported), and removing P02 left the file behind."""
+    old, new = "P02/day1-cacas-", "P01/day1-cacas-"
+    bad = tmp_path / "bad.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "policies.csv":
+                data = data.replace(old.encode(), new.encode())
+            zout.writestr(name.replace(f"policies/{old}", f"policies/{new}"), data)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"policies.csv, row 4, column path: 'P01/day1-cacas-[0-9a-f]{8}.pt' is not "
+                                         r"in participant P02's folder; valid: a path beginning P02/ \(cacas export "
+                                         r"keeps each policy file in its participant's folder\)$"):
+        export.import_bundle(bad, target)
+    assert not target.parent.exists()
+
+
 def _before_the_contact_checks(monkeypatch):
     """Let the store take what a study may hold from before the contact checks (codes that look like
     a phone number or a date, contact details in free text), which the forms refuse now."""
