@@ -982,6 +982,29 @@ def test_interactions_of_one_day(store):
         store.interactions_frame("P01", method=None, day=0)
 
 
+def test_details_edited_from_what_a_form_was_drawn_with_keep_another_tabs_change(store):
+    """Safety audit: ``update_participant(drawn=...)``, the details form's save. A field left as the
+    form was drawn keeps what is saved now; a field changed here and by another tab since is
+    refused, nothing written; without ``drawn`` a call sets what it names, as before."""
+    from cacas.store.people import DetailsChanged
+
+    store.add_participant("P09", age_range="25-34", notes="likes tea")
+    drawn = ("25-34", "likes tea")
+    store.update_participant("P09", notes="likes tea; hard of hearing")  # another tab
+    info = store.update_participant("P09", age_range="35-44", notes="likes tea", drawn=drawn)
+    assert (info.age_range, info.notes) == ("35-44", "likes tea; hard of hearing")
+    events = len(store.events("P09"))
+    with pytest.raises(DetailsChanged, match=r"^P09's age range and notes were saved \(in another tab\) while this "
+                                             r"form was changed; nothing was saved, as saving would undo that change$"):
+        store.update_participant("P09", age_range="45-54", notes="likes coffee", drawn=drawn)
+    assert (store.get_participant("P09").age_range, len(store.events("P09"))) == ("35-44", events)
+    # the same change made in both: nothing to undo
+    info = store.update_participant("P09", age_range="35-44", notes="likes coffee",
+                                    drawn=("25-34", "likes tea; hard of hearing"))
+    assert (info.age_range, info.notes) == ("35-44", "likes coffee")
+    assert store.update_participant("P09", notes="walks daily").notes == "walks daily"
+
+
 def test_the_store_refuses_preferences_edited_from_an_older_version(store):
     from cacas.store.people import PreferencesChanged
 
