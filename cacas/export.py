@@ -41,6 +41,7 @@ from cacas.errors import CacasError, did_you_mean
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
+from cacas.store.db import WriteRefused
 from cacas.store.restore import RESTORE_COLUMNS, Restored, restore
 from cacas.study_day import STUDY_DAYS
 
@@ -452,11 +453,16 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
     refuses is named with the ``bundle`` it is in, as :func:`read_bundle` names its refusals."""
     created: list[Path] = []
     try:
-        store = StudyStore(tmp)
+        try:
+            store = StudyStore(tmp)
+        except WriteRefused as exc:  # a full disk, a folder that cannot be written: the new database's doing
+            raise CacasError(f"{db_path}: {exc}") from None
         policy_dir = store.policy_dir
         try:
             try:
                 restored = restore(store, tables, policies)
+            except WriteRefused as exc:  # not the bundle's fault (it was named as if it were)
+                raise CacasError(f"{db_path}: {exc}") from None
             except CacasError as exc:
                 raise CacasError(f"{bundle}: {exc}") from None
             store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file

@@ -471,6 +471,29 @@ def test_a_policy_file_listed_in_another_participants_folder_is_refused(bundle, 
     assert not target.parent.exists()
 
 
+def test_a_full_disk_during_an_import_names_the_new_database_not_the_bundle(bundle, tmp_path, monkeypatch):
+    """Safety audit: the disk filling up while an import wrote the new database was said as
+    "cacas-study.zip: the study database cannot be written (database or disk is full)", as if the
+    bundle were bad. The message names the database being built; nothing is left behind."""
+    import sqlite3
+
+    from cacas.store import db
+
+    real = db.transact
+
+    def full(conn, fn, queue=None):
+        def write(c):
+            fn(c)
+            raise sqlite3.OperationalError("database or disk is full")
+        return real(conn, write if fn.__qualname__.startswith("restore") else fn, queue)
+    monkeypatch.setattr(db, "transact", full)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{target}: the study database cannot be written (database "
+                                                          "or disk is full); nothing was saved")):
+        export.import_bundle(bundle, target)
+    assert not target.parent.exists()
+
+
 def _before_the_contact_checks(monkeypatch):
     """Let the store take what a study may hold from before the contact checks (codes that look like
     a phone number or a date, contact details in free text), which the forms refuse now."""

@@ -195,13 +195,18 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
     raise AssertionError("unreachable")  # pragma: no cover
 
 
+class WriteRefused(CacasError):
+    """A write the database refused (:func:`transact`): the database's or its disk's doing, not
+    the data's (an import says so of the database it builds, not of the bundle)."""
+
+
 def _refused(exc: sqlite3.Error) -> CacasError:
     """A write the database refused: still busy after the retries, or a read-only file or
     folder, a full disk, a damaged file."""
     if _is_busy(exc):
-        return CacasError(f"the study database is busy ({exc}); try again")
-    return CacasError(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
-                      "folder are writable and the disk has room")
+        return WriteRefused(f"the study database is busy ({exc}); try again")
+    return WriteRefused(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
+                        "folder are writable and the disk has room")
 
 
 def read(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
