@@ -21,7 +21,7 @@ from cacas import app_support
 from cacas.errors import CacasError
 from cacas.paths import study_data_blocked, study_data_problem
 from cacas.store import DB_ENV, DEFAULT_STUDY
-from cacas.store.db import disk_trouble
+from cacas.store.db import disk_trouble, is_busy
 from cacas.study_day import day_status
 from pages import ui
 
@@ -204,7 +204,12 @@ def main() -> None:
                      "known to be damaged: do not replace it with a backup, which would lose what was saved since.",
                      icon=":material/error:")
             return
-        if not _damaged(exc):  # a locked database, a constraint: not the file's fault, not to be restored
+        if isinstance(exc, sqlite3.OperationalError) and is_busy(exc):  # held by another program for long
+            st.warning(f"The study database {ui.db_path()} is busy ({exc}): another program has held it for more "
+                       "than 10 s (a database tool left open on it?). Nothing was lost; reload the page in a moment.",
+                       icon=":material/hourglass_empty:")
+            return
+        if not _damaged(exc):  # a constraint: not the file's fault, not to be restored
             raise
         # damage quick_check did not see on opening, met by the sidebar or a page: a message, not a traceback
         st.error(f"The study database {ui.db_path()} cannot be read ({exc}). Restore it from a backup or an "

@@ -118,7 +118,8 @@ def _configure(conn: sqlite3.Connection, readonly: bool) -> None:
         conn.execute("PRAGMA synchronous = FULL")
 
 
-def _is_busy(exc: sqlite3.OperationalError) -> bool:
+def is_busy(exc: sqlite3.OperationalError) -> bool:
+    """SQLite's error says another connection holds the lock (SQLITE_BUSY, "database is locked")."""
     msg = str(exc).lower()
     return "locked" in msg or "busy" in msg
 
@@ -174,7 +175,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
         try:
             conn.execute("BEGIN IMMEDIATE")
         except sqlite3.OperationalError as exc:
-            if _is_busy(exc) and attempt < WRITE_RETRIES:
+            if is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
             raise _refused(exc) from None
@@ -184,7 +185,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
             return result
         except sqlite3.OperationalError as exc:
             conn.execute("ROLLBACK") if conn.in_transaction else None
-            if _is_busy(exc) and attempt < WRITE_RETRIES:
+            if is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
             raise _refused(exc) from None
@@ -203,7 +204,7 @@ class WriteRefused(CacasError):
 def _refused(exc: sqlite3.Error) -> CacasError:
     """A write the database refused: still busy after the retries, or a read-only file or
     folder, a full disk, a damaged file."""
-    if _is_busy(exc):
+    if is_busy(exc):
         return WriteRefused(f"the study database is busy ({exc}); try again")
     return WriteRefused(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
                         "folder are writable and the disk has room")
