@@ -487,6 +487,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                     os.link(tmp, db_path)
                 except FileExistsError:
                     raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
+                files.fsync_folder(db_path.parent)  # the new name on disk before "imported" is said
                 created.clear()
                 return restored
             except BaseException:

@@ -3,6 +3,7 @@
 import io
 import json
 import math
+import os
 import re
 import shutil
 import sqlite3
@@ -492,6 +493,26 @@ def test_a_full_disk_during_an_import_names_the_new_database_not_the_bundle(bund
                                                           "or disk is full); nothing was saved")):
         export.import_bundle(bundle, target)
     assert not target.parent.exists()
+
+
+def test_an_import_makes_the_new_databases_name_durable_before_it_returns(bundle, tmp_path, monkeypatch):
+    """Safety audit: the import linked the new database into place and said "imported" without
+    syncing its folder: a power cut then could lose the name (and the study with it, once the
+    researcher had moved the bundle away). The folder is synced after the link."""
+    synced, real_fsync, real_link = [], os.fsync, os.link
+
+    def fsync(fd):
+        synced.append(os.fstat(fd).st_ino)
+        real_fsync(fd)
+
+    def link(src, dst, *args, **kwargs):
+        real_link(src, dst, *args, **kwargs)
+        synced.append("linked")
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "link", link)
+    target = tmp_path / "new" / "study.sqlite"
+    export.import_bundle(bundle, target)
+    assert target.parent.stat().st_ino in synced[synced.index("linked"):]
 
 
 def _before_the_contact_checks(monkeypatch):
