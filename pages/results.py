@@ -249,7 +249,7 @@ with quest:
         if len(answers):
             st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
                          .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
-            ui.download_csv(answers, "questionnaire.csv")
+            ui.download_csv(lambda: ui.store().questionnaire_frame(study), "questionnaire.csv")  # as at the click
 
 with data:
     st.markdown("Long-format tables, the same columns as `cacas simulate` and `cacas export` write.")
@@ -263,7 +263,10 @@ with data:
             if table.open is not False:
                 st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)),
                              placeholder="")  # an empty cell as the CSV holds it, not "None"
-            ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
+            # the study's tables as the database holds them at the click (a participant removed since the page
+            # was drawn is not in them); a simulated or uploaded run's as shown
+            ui.download_csv((lambda name=name: export_tables(ui.store(), study)[name]) if source == HUMAN else df,
+                            f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
         def _bundle() -> bytes:  # made in memory: no copy of the study left on disk by a server killed meanwhile
             return bundle_bytes(ui.store(), study)

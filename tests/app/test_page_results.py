@@ -305,6 +305,36 @@ def test_the_zip_is_made_in_memory_as_cacas_export_writes_it(app, store, downloa
     assert downloads["cacas-study-default.zip"] == expected
 
 
+def test_a_participant_removed_after_the_page_was_drawn_is_not_in_its_downloads(app, store, monkeypatch):
+    """Safety audit: a Results tab drawn before a participant's removal (a withdrawal, in another tab)
+    still downloaded their rows: each table's CSV was made on the click from the frame read when the
+    page was drawn. The study's tables are read from the database at the click."""
+    import io
+
+    import pandas as pd
+    import streamlit as st
+
+    _study_with_a_day(store)
+    store.add_participant("P02")
+    day = store.open_day("P02")
+    store.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.record_questionnaire("P02", 6, "fine")
+    made = {}  # file name -> what the button makes on the click (not made while the page is drawn)
+    real = st.download_button
+
+    def download_button(label, data, file_name=None, *args, **kwargs):
+        made[file_name] = data
+        return real(label, data, file_name, *args, **kwargs)
+    monkeypatch.setattr(st, "download_button", download_button)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    store.remove_participant("P02", "P02")  # another tab, after this page was drawn
+    for name in ("interactions.csv", "daily.csv", "participants.csv", "questionnaire.csv"):
+        table = pd.read_csv(io.BytesIO(made[name]()))
+        assert "P02" not in set(table["participant"]), name
+
+
 def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
     import pandas as pd
 
