@@ -534,6 +534,8 @@ with tabs["Import / export"]:
         text = store.export_personas(study=study)
         n = len(persona_json(text, "the study's persona file")["participants"])
         st.caption(f"{n} participant(s) with preferences in study '{study}'.")
-        st.download_button("Download personas.json", text.encode("utf-8"),
+        # written at the click: a participant removed since this page was drawn (a withdrawal, in another tab) is
+        # not in it, with their own words
+        st.download_button("Download personas.json", lambda: ui.store().export_personas(study=study).encode("utf-8"),
                            file_name=app_support.study_file_name("personas", study, ".json"),
                            mime="application/json", disabled=n == 0, icon=":material/download:", on_click="ignore")
