@@ -21,6 +21,7 @@ from cacas import app_support
 from cacas.errors import CacasError
 from cacas.paths import study_data_blocked, study_data_problem
 from cacas.store import DB_ENV, DEFAULT_STUDY
+from cacas.store.db import disk_trouble, is_busy
 from cacas.study_day import day_status
 from pages import ui
 
@@ -216,7 +217,18 @@ def main() -> None:
     try:
         _route(store)
     except sqlite3.DatabaseError as exc:
-        if not _damaged(exc):  # a locked database, a constraint: not the file's fault, not to be restored
+        if disk_trouble(exc):  # a full or failing disk: the file is not known to be damaged, and must be kept
+            st.error(f"The study database {ui.db_path()} cannot be read from the disk now ({exc}). The disk may be "
+                     "full or failing: free some disk space (or check the disk) and reload the page. The file is not "
+                     "known to be damaged: do not replace it with a backup, which would lose what was saved since.",
+                     icon=":material/error:")
+            return
+        if isinstance(exc, sqlite3.OperationalError) and is_busy(exc):  # held by another program for long
+            st.warning(f"The study database {ui.db_path()} is busy ({exc}): another program has held it for more "
+                       "than 10 s (a database tool left open on it?). Nothing was lost; reload the page in a moment.",
+                       icon=":material/hourglass_empty:")
+            return
+        if not _damaged(exc):  # a constraint: not the file's fault, not to be restored
             raise
         # damage quick_check did not see on opening, met by the sidebar or a page: a message, not a traceback
         st.error(f"The study database {ui.db_path()} cannot be read ({exc}). Restore it from a backup or an "
@@ -228,7 +240,7 @@ def main() -> None:
 def _damaged(exc: sqlite3.DatabaseError) -> bool:
     """Whether SQLite's error says the file itself is damaged (and a backup is the remedy)."""
     said = str(exc).lower()
-    return any(words in said for words in ("malformed", "not a database", "disk i/o error", "database corrupt"))
+    return any(words in said for words in ("malformed", "not a database", "database corrupt"))
 
 
 #: The tablet's look. A tablet at 1024 x 768 shows the proposal, its answers and the request form without

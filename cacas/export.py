@@ -41,6 +41,7 @@ from cacas.errors import CacasError, did_you_mean
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
+from cacas.store.db import WriteRefused
 from cacas.store.restore import RESTORE_COLUMNS, Restored, restore
 from cacas.study_day import STUDY_DAYS
 
@@ -313,6 +314,30 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     read-only *before* anything is created, so a missing file or one that is not a study
     database raises CacasError and changes and creates nothing.
     """
+    contents = export_contents(db, study, bundle)
+    check_output_folder(out_dir, "export", str(out_dir))
+    out = files.writable_folder(out_dir, str(out_dir))
+    paths = files.write_all(out, contents)
+    stale = out / BUNDLE_NAME
+    removed = ()
+    if not bundle and stale.is_file():  # an earlier export's zip beside these tables would hold other data
+        stale.unlink()
+        removed = (stale,)
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
+
+
+def bundle_bytes(db: StudyStore | str | Path, study: str | None = None) -> bytes:
+    """The bytes of the ``cacas-study.zip`` :func:`export_study` writes (the Results page's
+    "Download everything"), made in memory: no copy of the study is written to disk (a temporary
+    folder of the tables, left behind when the server is killed during the download, would hold
+    a withdrawn participant's data; a full temporary disk failed the download)."""
+    return export_contents(db, study)[BUNDLE_NAME]
+
+
+def export_contents(db: StudyStore | str | Path, study: str | None = None, bundle: bool = True) -> dict[str, bytes]:
+    """File name -> bytes of what :func:`export_study` writes: every table's CSV and, with
+    ``bundle``, the zip of them all with the policy checkpoints (a missing or damaged checkpoint
+    raises CacasError naming it). ``db``: as for :func:`export_study`."""
     # a path is opened here; anything else is an open store (also one of a class reloaded since,
     # as Streamlit does when the code changes under a running app)
     store = StudyStore(db, readonly=True) if isinstance(db, (str, os.PathLike)) else db
@@ -337,8 +362,6 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     finally:
         if store is not db:
             store.close()
-    check_output_folder(out_dir, "export", str(out_dir))
-    out = files.writable_folder(out_dir, str(out_dir))
     contents = {f"{name}.csv": csv_bytes(tables[name]) for name in TABLES}
     if bundle:
         buf = io.BytesIO()
@@ -348,13 +371,7 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
             for rel in sorted(policies):
                 _zip_entry(zf, f"policies/{rel}", policies[rel])
         contents[BUNDLE_NAME] = buf.getvalue()
-    paths = files.write_all(out, contents)
-    stale = out / BUNDLE_NAME
-    removed = ()
-    if not bundle and stale.is_file():  # an earlier export's zip beside these tables would hold other data
-        stale.unlink()
-        removed = (stale,)
-    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
+    return contents
 
 
 def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
@@ -436,11 +453,16 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
     refuses is named with the ``bundle`` it is in, as :func:`read_bundle` names its refusals."""
     created: list[Path] = []
     try:
-        store = StudyStore(tmp)
+        try:
+            store = StudyStore(tmp)
+        except WriteRefused as exc:  # a full disk, a folder that cannot be written: the new database's doing
+            raise CacasError(f"{db_path}: {exc}") from None
         policy_dir = store.policy_dir
         try:
             try:
                 restored = restore(store, tables, policies)
+            except WriteRefused as exc:  # not the bundle's fault (it was named as if it were)
+                raise CacasError(f"{db_path}: {exc}") from None
             except CacasError as exc:
                 raise CacasError(f"{bundle}: {exc}") from None
             store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
@@ -465,6 +487,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                     os.link(tmp, db_path)
                 except FileExistsError:
                     raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
+                files.fsync_folder(db_path.parent)  # the new name on disk before "imported" is said
                 created.clear()
                 return restored
             except BaseException:
@@ -477,5 +500,6 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "by_preference_frame",
-           "next_day_accuracy", "runs_in_force", "export_tables", "export_study", "read_bundle", "import_bundle"]
+__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "bundle_bytes", "by_preference_frame",
+           "next_day_accuracy", "runs_in_force", "export_contents", "export_tables", "export_study", "read_bundle",
+           "import_bundle"]

@@ -253,4 +253,4 @@ if len(runs):
         st.dataframe(table, hide_index=True, width="stretch", column_order=_named(table),
                      column_config={"duration (s)": st.column_config.NumberColumn(format="%.1f"),
                                     "preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
-        ui.download_csv(store.adaptations_frame(code), f"adaptations-{code}.csv")
+        ui.download_csv(lambda: ui.store().adaptations_frame(code), f"adaptations-{code}.csv")  # as at the click

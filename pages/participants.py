@@ -6,7 +6,7 @@ from cacas import app_support, spaces
 from cacas.preferences import persona_json
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER
-from cacas.store.people import PreferencesChanged
+from cacas.store.people import DetailsChanged, PreferencesChanged
 from cacas.study_day import day_status
 from pages import ui
 
@@ -71,12 +71,24 @@ def _open_new(code: str) -> None:
 def _update_details(who: str) -> None:
     s = st.session_state
     try:
-        store.update_participant(who, age_range=s[f"age-{who}"], notes=s[f"notes-{who}"])
+        store.update_participant(who, age_range=s[f"age-{who}"], notes=s[f"notes-{who}"],
+                                 drawn=s.get(f"details-drawn-{who}"))
+    except DetailsChanged as exc:  # the form shows the saved details next, to be changed again
+        _refill_details(who)
+        s["details-error"] = f"{str(exc)[0].upper()}{str(exc)[1:]}. The form now shows them: make your changes again."
+        return
     except CacasError as exc:
         s["details-error"] = str(exc)
         return
     s["details-error"] = None
+    _refill_details(who)  # the form shows what is saved now: another tab's change to the other field too
     st.toast(f"Details of {who} saved.", icon=":material/check_circle:")
+
+
+def _refill_details(who: str) -> None:
+    """``who``'s details form is filled afresh from the store at its next drawing."""
+    for key in (f"age-{who}", f"notes-{who}", f"details-drawn-{who}"):
+        st.session_state.pop(key, None)
 
 
 def _form_key(who: str, version: int, n: int, field: str) -> str:
@@ -263,7 +275,7 @@ def _remove_participant(who: str) -> None:
         return
     s.pop("remove-error", None)
     _drop_form(who)
-    for key in (f"age-{who}", f"notes-{who}", f"old-version-{who}", f"remove-confirm-{who}"):
+    for key in (f"age-{who}", f"notes-{who}", f"details-drawn-{who}", f"old-version-{who}", f"remove-confirm-{who}"):
         s.pop(key, None)  # nothing typed about them stays in this tab either
     for key in ("pref-check", "pref-saved"):
         if (s.get(key) or ("",))[0] == who:
@@ -476,6 +488,8 @@ if code:
 
     with tabs[f"Details of {code}"]:
         info = store.get_participant(code)
+        if f"age-{code}" not in st.session_state:  # the form is filled afresh: what it was drawn with (the store's check)
+            st.session_state[f"details-drawn-{code}"] = (info.age_range, info.notes)
         with st.form(f"details-{code}", border=True):
             st.text_input("Age range", value=info.age_range, key=f"age-{code}", placeholder="e.g. 25-34 or 65+")
             st.text_area("Notes (no names or contact details)", value=info.notes, key=f"notes-{code}")
@@ -530,6 +544,8 @@ with tabs["Import / export"]:
         text = store.export_personas(study=study)
         n = len(persona_json(text, "the study's persona file")["participants"])
         st.caption(f"{app_support.counted(n, 'participant')} with preferences in study '{study}'.")
-        st.download_button("Download personas.json", text.encode("utf-8"),
+        # written at the click: a participant removed since this page was drawn (a withdrawal, in another tab) is
+        # not in it, with their own words
+        st.download_button("Download personas.json", lambda: ui.store().export_personas(study=study).encode("utf-8"),
                            file_name=app_support.study_file_name("personas", study, ".json"),
                            mime="application/json", disabled=n == 0, icon=":material/download:", on_click="ignore")

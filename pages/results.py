@@ -5,15 +5,13 @@ from __future__ import annotations
 
 import math
 
-import tempfile
-from pathlib import Path
 
 import pandas as pd
 import streamlit as st
 
 from cacas import app_support, plots, records, saved_runs
 from cacas.errors import CacasError
-from cacas.export import export_study, export_tables, next_day_accuracy
+from cacas.export import bundle_bytes, export_tables, next_day_accuracy
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.parallel import default_jobs
 from cacas.method_comparison import compare_methods
@@ -252,7 +250,7 @@ with quest:
         if len(answers):
             st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
                          .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
-            ui.download_csv(answers, "questionnaire.csv")
+            ui.download_csv(lambda: ui.store().questionnaire_frame(study), "questionnaire.csv")  # as at the click
 
 with data:
     st.markdown("Long-format tables, the same columns as `cacas simulate` and `cacas export` write.")
@@ -266,18 +264,24 @@ with data:
             if table.open is not False:
                 st.dataframe(df, hide_index=True, width="stretch", height=min(400, 38 + 35 * len(df)),
                              placeholder="")  # an empty cell as the CSV holds it, not "None"
-            ui.download_csv(df, f"{name}.csv", key=f"dl-table-{name}")
+            # the study's tables as the database holds them at the click (a participant removed since the page
+            # was drawn is not in them); a simulated or uploaded run's as shown
+            ui.download_csv((lambda name=name: export_tables(ui.store(), study)[name]) if source == HUMAN else df,
+                            f"{name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
-        def _bundle() -> bytes:
-            with tempfile.TemporaryDirectory() as tmp:
-                return Path(export_study(ui.store(), tmp, study).bundle).read_bytes()
+        def _bundle() -> bytes:  # made in memory: no copy of the study left on disk by a server killed meanwhile
+            return bundle_bytes(ui.store(), study)
 
-        missing = store.missing_policy_files(study)
-        if missing:
-            st.warning(f"No zip: {app_support.counted(len(missing), 'policy file')} {'is' if len(missing) == 1 else 'are'} missing from `{store.policy_dir}` "
-                       f"({', '.join(missing[:3])}{', ...' if len(missing) > 3 else ''}), and the zip must hold every "
-                       "one to be imported. Restore them from a backup; the tables above download one by one.",
-                       icon=":material/warning:")
+        missing, damaged = store.missing_policy_files(study), store.damaged_policy_files(study)
+        if missing or damaged:
+            said = [f"{app_support.counted(len(found), 'policy file')} {how[len(found) == 1]} "
+                    f"({', '.join(found[:3])}{', ...' if len(found) > 3 else ''})"
+                    for found, how in ((missing, (f"are missing from `{store.policy_dir}`",
+                                                  f"is missing from `{store.policy_dir}`")),
+                                       (damaged, ("do not match their recorded sha256 (changed or damaged)",
+                                                  "does not match its recorded sha256 (changed or damaged)"))) if found]
+            st.warning(f"No zip: {' and '.join(said)}, and the zip must hold every one to be imported. Restore them "
+                       "from a backup; the tables above download one by one.", icon=":material/warning:")
         else:
             note = app_support.bundle_note(tables["policies"], db, study)
             if note:

@@ -243,11 +243,14 @@ def load_run(db: str, name: str) -> saved_runs.Run:
         st.stop()
 
 
-def download_csv(df: pd.DataFrame, file_name: str, label: str | None = None, key: str | None = None) -> None:
+def download_csv(df, file_name: str, label: str | None = None, key: str | None = None) -> None:
     """A download button for ``df`` as ``records.csv_bytes`` makes it. The CSV is written when the
     button is clicked, not on every run of the page (Streamlit's deferred download: the Results page
-    of a 24 x 7 study wrote its 8 tables' CSVs, a quarter of its run, on every rerun)."""
-    st.download_button(label or f"Download {file_name}", lambda: records.csv_bytes(df), file_name=file_name,
+    of a 24 x 7 study wrote its 8 tables' CSVs, a quarter of its run, on every rerun). ``df`` may be
+    a function that reads the frame then: the study database's tables as they are at the click (a
+    page drawn before a participant's removal downloaded their rows)."""
+    st.download_button(label or f"Download {file_name}", lambda: records.csv_bytes(df() if callable(df) else df),
+                       file_name=file_name,
                        mime="text/csv", key=key or f"dl-{file_name}", icon=":material/download:",
                        on_click="ignore")  # no rerun: a download right after another one found its file gone
 

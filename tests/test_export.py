@@ -3,6 +3,7 @@
 import io
 import json
 import math
+import os
 import re
 import shutil
 import sqlite3
@@ -449,6 +450,69 @@ def test_bad_bundle_is_refused_and_leaves_nothing(bundle, tmp_path, table, chang
     assert str(refused.value).startswith(f"{bad}: ")  # the bundle named, as read_bundle names it
     assert not target.exists()
     assert not target.parent.exists()  # nor an empty folder
+
+
+def test_a_policy_file_listed_in_another_participants_folder_is_refused(bundle, tmp_path):
+    """Safety audit: an edited bundle whose policies.csv put P02's policy file in P01's folder
+    imported; removing P01 then deleted P02's policy (its version could no longer be loaded, nor the
+    study exported), and removing P02 left the file behind."""
+    old, new = "P02/day1-cacas-", "P01/day1-cacas-"
+    bad = tmp_path / "bad.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == "policies.csv":
+                data = data.replace(old.encode(), new.encode())
+            zout.writestr(name.replace(f"policies/{old}", f"policies/{new}"), data)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"policies.csv, row 4, column path: 'P01/day1-cacas-[0-9a-f]{8}.pt' is not "
+                                         r"in participant P02's folder; valid: a path beginning P02/ \(cacas export "
+                                         r"keeps each policy file in its participant's folder\)$"):
+        export.import_bundle(bad, target)
+    assert not target.parent.exists()
+
+
+def test_a_full_disk_during_an_import_names_the_new_database_not_the_bundle(bundle, tmp_path, monkeypatch):
+    """Safety audit: the disk filling up while an import wrote the new database was said as
+    "cacas-study.zip: the study database cannot be written (database or disk is full)", as if the
+    bundle were bad. The message names the database being built; nothing is left behind."""
+    import sqlite3
+
+    from cacas.store import db
+
+    real = db.transact
+
+    def full(conn, fn, queue=None):
+        def write(c):
+            fn(c)
+            raise sqlite3.OperationalError("database or disk is full")
+        return real(conn, write if fn.__qualname__.startswith("restore") else fn, queue)
+    monkeypatch.setattr(db, "transact", full)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{target}: the study database cannot be written (database "
+                                                          "or disk is full); nothing was saved")):
+        export.import_bundle(bundle, target)
+    assert not target.parent.exists()
+
+
+def test_an_import_makes_the_new_databases_name_durable_before_it_returns(bundle, tmp_path, monkeypatch):
+    """Safety audit: the import linked the new database into place and said "imported" without
+    syncing its folder: a power cut then could lose the name (and the study with it, once the
+    researcher had moved the bundle away). The folder is synced after the link."""
+    synced, real_fsync, real_link = [], os.fsync, os.link
+
+    def fsync(fd):
+        synced.append(os.fstat(fd).st_ino)
+        real_fsync(fd)
+
+    def link(src, dst, *args, **kwargs):
+        real_link(src, dst, *args, **kwargs)
+        synced.append("linked")
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "link", link)
+    target = tmp_path / "new" / "study.sqlite"
+    export.import_bundle(bundle, target)
+    assert target.parent.stat().st_ino in synced[synced.index("linked"):]
 
 
 def _before_the_contact_checks(monkeypatch):

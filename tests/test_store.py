@@ -130,6 +130,43 @@ def test_a_study_database_that_cannot_be_read_here_is_refused_read_only(tmp_path
     assert path.read_bytes() == before
 
 
+def test_a_study_database_on_a_full_disk_is_not_called_another_applications_file(tmp_path):
+    """Safety audit: a study database (WAL mode) opened when its disk was full (SQLite cannot
+    size the -shm file it needs: "disk I/O error") was refused as "is not a study database": a
+    researcher told that moves or replaces a healthy file. The message says the disk may be full
+    and what to do; the file is left as it was. (A file size limit stands in for the full disk.)"""
+    import subprocess
+    import sys
+
+    path = tmp_path / "s.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+    assert not (tmp_path / "s.sqlite-shm").exists()  # the last connection closed: SQLite needs a new one
+    before = path.read_bytes()
+    script = ("import resource, signal, sys\n"
+              "signal.signal(signal.SIGXFSZ, signal.SIG_IGN)\n"
+              "resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))  # no file grows past 4 kB: a full disk\n"
+              "from cacas.errors import CacasError\n"
+              "from cacas.store import StudyStore\n"
+              "for readonly in (False, True):  # the app; cacas export\n"
+              "    try:\n"
+              "        StudyStore(sys.argv[1], readonly=readonly)\n"
+              "    except CacasError as exc:\n"
+              "        print(exc)\n")
+    said = subprocess.run([sys.executable, "-c", script, str(path)], capture_output=True, text=True, check=True,
+                          cwd=str(__import__("pathlib").Path(__file__).resolve().parents[1])).stdout.strip()
+    assert said.splitlines() == [
+        f"{path}: the study database cannot be opened now (disk I/O error); nothing was changed. The disk may be "
+        "full, or the file or its folder cannot be written: free some disk space (or check the permissions) and open "
+        "it again; the file is not damaged by this, do not replace it",
+        f"{path}: cannot be read (disk I/O error); the disk may be full, or the file or its folder cannot be written "
+        "(SQLite writes its -shm file beside the database to read it): free some disk space (or check the "
+        "permissions) and try again"]
+    assert path.read_bytes() == before
+    with StudyStore(path) as s:  # room again: the study is there
+        assert [p.code for p in s.list_participants()] == ["P01"]
+
+
 def test_a_folder_or_a_file_sqlite_keeps_beside_is_not_opened(tmp_path):
     (tmp_path / "folder.sqlite").mkdir()
     with pytest.raises(CacasError, match=r"folder.sqlite: is not a file; expected a CACAS study database \(.sqlite\)"):
@@ -943,6 +980,29 @@ def test_interactions_of_one_day(store):
     assert len(store.interactions_frame("P01", method=None, day=day + 1)) == 0
     with pytest.raises(CacasError, match=r"^day 0 is invalid; valid: a whole number >= 1$"):
         store.interactions_frame("P01", method=None, day=0)
+
+
+def test_details_edited_from_what_a_form_was_drawn_with_keep_another_tabs_change(store):
+    """Safety audit: ``update_participant(drawn=...)``, the details form's save. A field left as the
+    form was drawn keeps what is saved now; a field changed here and by another tab since is
+    refused, nothing written; without ``drawn`` a call sets what it names, as before."""
+    from cacas.store.people import DetailsChanged
+
+    store.add_participant("P09", age_range="25-34", notes="likes tea")
+    drawn = ("25-34", "likes tea")
+    store.update_participant("P09", notes="likes tea; hard of hearing")  # another tab
+    info = store.update_participant("P09", age_range="35-44", notes="likes tea", drawn=drawn)
+    assert (info.age_range, info.notes) == ("35-44", "likes tea; hard of hearing")
+    events = len(store.events("P09"))
+    with pytest.raises(DetailsChanged, match=r"^P09's age range and notes were saved \(in another tab\) while this "
+                                             r"form was changed; nothing was saved, as saving would undo that change$"):
+        store.update_participant("P09", age_range="45-54", notes="likes coffee", drawn=drawn)
+    assert (store.get_participant("P09").age_range, len(store.events("P09"))) == ("35-44", events)
+    # the same change made in both: nothing to undo
+    info = store.update_participant("P09", age_range="35-44", notes="likes coffee",
+                                    drawn=("25-34", "likes tea; hard of hearing"))
+    assert (info.age_range, info.notes) == ("35-44", "likes coffee")
+    assert store.update_participant("P09", notes="walks daily").notes == "walks daily"
 
 
 def test_the_store_refuses_preferences_edited_from_an_older_version(store):

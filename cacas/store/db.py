@@ -70,14 +70,14 @@ def open_study_file(path: Path) -> sqlite3.Connection:
     try:
         conn = _open_for_reading(path)
     except sqlite3.Error as exc:
-        raise CacasError(f"{path}: cannot be read ({exc})") from None
+        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
     try:
         app_id = conn.execute("PRAGMA application_id").fetchone()[0]
     except sqlite3.DatabaseError as exc:
         conn.close()
         if _not_sqlite(exc):
             raise NotAStudyDatabase(f"{path}: is not a study database (not an SQLite file)") from None
-        raise CacasError(f"{path}: cannot be read ({exc})") from None
+        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
     if app_id != APPLICATION_ID:
         conn.close()
         raise NotAStudyDatabase(f"{path}: is not a study database (an SQLite file of another application)")
@@ -98,6 +98,19 @@ def _not_sqlite(exc: sqlite3.Error) -> bool:
     return "not a database" in str(exc).lower()
 
 
+#: What a reading refused by the disk (:func:`disk_trouble`) adds to its message.
+_DISK_HINT = ("; the disk may be full, or the file or its folder cannot be written (SQLite writes its -shm file "
+              "beside the database to read it): free some disk space (or check the permissions) and try again")
+
+
+def disk_trouble(exc: sqlite3.Error) -> bool:
+    """SQLite's error says the disk refused a write or a read (a full disk, a file size limit, a
+    failing device), not that the file is damaged or another application's: SQLITE_IOERR and
+    SQLITE_FULL. Opening a study database in WAL mode writes its -shm file even to read it, so a
+    full disk fails it with "disk I/O error" (safety audit: that was called "not a study database")."""
+    return any(words in str(exc).lower() for words in ("disk i/o error", "disk is full"))
+
+
 def _configure(conn: sqlite3.Connection, readonly: bool) -> None:
     conn.execute(f"PRAGMA busy_timeout = {BUSY_TIMEOUT_MS}")
     conn.execute("PRAGMA foreign_keys = ON")
@@ -105,7 +118,8 @@ def _configure(conn: sqlite3.Connection, readonly: bool) -> None:
         conn.execute("PRAGMA synchronous = FULL")
 
 
-def _is_busy(exc: sqlite3.OperationalError) -> bool:
+def is_busy(exc: sqlite3.OperationalError) -> bool:
+    """SQLite's error says another connection holds the lock (SQLITE_BUSY, "database is locked")."""
     msg = str(exc).lower()
     return "locked" in msg or "busy" in msg
 
@@ -161,7 +175,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
         try:
             conn.execute("BEGIN IMMEDIATE")
         except sqlite3.OperationalError as exc:
-            if _is_busy(exc) and attempt < WRITE_RETRIES:
+            if is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
             raise _refused(exc) from None
@@ -171,7 +185,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
             return result
         except sqlite3.OperationalError as exc:
             conn.execute("ROLLBACK") if conn.in_transaction else None
-            if _is_busy(exc) and attempt < WRITE_RETRIES:
+            if is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
             raise _refused(exc) from None
@@ -182,13 +196,18 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
     raise AssertionError("unreachable")  # pragma: no cover
 
 
+class WriteRefused(CacasError):
+    """A write the database refused (:func:`transact`): the database's or its disk's doing, not
+    the data's (an import says so of the database it builds, not of the bundle)."""
+
+
 def _refused(exc: sqlite3.Error) -> CacasError:
     """A write the database refused: still busy after the retries, or a read-only file or
     folder, a full disk, a damaged file."""
-    if _is_busy(exc):
-        return CacasError(f"the study database is busy ({exc}); try again")
-    return CacasError(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
-                      "folder are writable and the disk has room")
+    if is_busy(exc):
+        return WriteRefused(f"the study database is busy ({exc}); try again")
+    return WriteRefused(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
+                        "folder are writable and the disk has room")
 
 
 def read(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T]) -> T:
@@ -308,6 +327,11 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
         conn.close()
         if _not_sqlite(exc):
             raise CacasError(f"{path}: is not a study database (not an SQLite file)") from None
+        if disk_trouble(exc):  # a full disk: SQLite cannot size the -shm (or -wal) file it needs
+            raise CacasError(f"{path}: the study database cannot be opened now ({exc}); nothing was changed. The "
+                             "disk may be full, or the file or its folder cannot be written: free some disk space "
+                             "(or check the permissions) and open it again; the file is not damaged by this, do not "
+                             "replace it") from None
         if "unable to open" in str(exc) or "readonly" in str(exc):
             raise CacasError(f"{path}: cannot open the study database for writing ({exc}); check that the file and "
                              "its folder are writable") from None

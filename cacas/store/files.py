@@ -39,10 +39,10 @@ def atomic_write(path: Path, data: bytes) -> None:
             tmp.unlink(missing_ok=True)
         except OSError:  # pragma: no cover - the folder went away meanwhile
             pass
-    _fsync_folder(path.parent)
+    fsync_folder(path.parent)
 
 
-def _fsync_folder(folder: Path) -> None:
+def fsync_folder(folder: Path) -> None:
     """Make renames in ``folder`` durable."""
     try:
         fd = os.open(folder, os.O_RDONLY)
@@ -213,5 +213,5 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
                 path.unlink(missing_ok=True)
             except OSError:  # pragma: no cover - the folder went away meanwhile
                 pass
-    _fsync_folder(folder)
+    fsync_folder(folder)
     return {n: folder / n for n in contents}

@@ -23,6 +23,11 @@ class PreferencesChanged(CacasError):
     """Preferences edited from a version that is no longer the latest (``save_preferences``)."""
 
 
+class DetailsChanged(CacasError):
+    """A participant's details (age range, notes) edited on a form while another form saved other
+    ones in the same field (``update_participant`` with ``drawn``)."""
+
+
 #: Tables holding rows about one participant (a ``participant_id`` column referencing
 #: ``participants``), children first: the order :meth:`PeopleMixin.remove_participant` deletes in
 #: (interactions and adaptation runs name policy versions and days).
@@ -107,23 +112,41 @@ class PeopleMixin:
         return self.get_participant(code)
 
     def update_participant(self, code: str, age_range: str | None = None,
-                           notes: str | None = None) -> ParticipantInfo:
+                           notes: str | None = None, drawn: tuple[str, str] | None = None) -> ParticipantInfo:
         """Change a participant's age range and/or notes (None: unchanged). The age range they hold
         stays as it is, also one the store took before it refused ages above ``validate.AGE_MAX``
-        (the Participants page sends it with the notes); a new one is checked in full."""
+        (the Participants page sends it with the notes); a new one is checked in full.
+
+        ``drawn``: the (age range, notes) the form was filled with, when it sends both fields
+        whether or not they were changed (the Participants page). A field the form left as drawn
+        keeps what is stored now (another tab may have saved it since); a field changed here that
+        another tab changed too since is refused with :class:`DetailsChanged`, nothing written (two
+        researchers on one participant: the later save undid the earlier one's notes without a word)."""
         age = None if age_range is None else v.age_range(age_range, bounded=False)
         notes = None if notes is None else v.text(notes, "notes")
+        who = str(code).strip()
 
         def fn(c):
             pid = self._pid(c, code)
             row = c.execute("SELECT age_range, notes FROM participants WHERE id = ?", (pid,)).fetchone()
-            if age is not None and age != row[0]:
+            new_age, new_notes = age, notes
+            if drawn is not None:
+                clashes = [field for field, sent, was, now in (("age range", age, drawn[0], row[0]),
+                                                                ("notes", notes, drawn[1], row[1]))
+                           if sent is not None and sent != was and now != was and sent != now]
+                if clashes:
+                    raise DetailsChanged(f"{who}'s {' and '.join(clashes)} {'was' if clashes == ['age range'] else 'were'} "
+                                         "saved (in another tab) while this form was changed; nothing was saved, as "
+                                         "saving would undo that change")
+                new_age = None if age == drawn[0] else age  # left as drawn: what is stored now stays
+                new_notes = None if notes == drawn[1] else notes
+            if new_age is not None and new_age != row[0]:
                 v.age_range(age_range)
-            new = (row[0] if age is None else age, row[1] if notes is None else notes)
+            new = (row[0] if new_age is None else new_age, row[1] if new_notes is None else new_notes)
             c.execute("UPDATE participants SET age_range = ?, notes = ?, updated_at = ? WHERE id = ?",
                       (*new, v.now(), pid))
             self._event(c, "update_participant", str(code).strip(), age_range=new[0],
-                        notes_changed=notes is not None)
+                        notes_changed=new_notes is not None)
         self._write(fn)
         return self.get_participant(code)
 

@@ -13,6 +13,11 @@ from cacas.store import validate as v
 from cacas.store.base import PolicyVersion
 
 
+#: (file, size, modification time, recorded sha256) -> whether the file's bytes match it
+#: (:meth:`PoliciesMixin.damaged_policy_files`), for the life of the process.
+_CHECKED: dict[tuple, bool] = {}
+
+
 class PoliciesMixin:
     """Method group of StudyStore: adaptation runs and policy checkpoints."""
 
@@ -244,6 +249,28 @@ class PoliciesMixin:
         """Policy files the database names but the policies folder lacks (paths relative to it),
         e.g. before an export whose zip must hold them all."""
         return [rel for rel in self.policies_frame(study)["path"] if not (self.policy_dir / rel).is_file()]
+
+    def damaged_policy_files(self, study: str | None = None) -> list[str]:
+        """Policy files the database names that are there but do not match their recorded sha256
+        (changed or damaged: :meth:`load_policy` refuses them, and so does the export's zip).
+        Each file is read once while it stays as it is (its size and modification time): the
+        Results page asks on every run."""
+        bad = []
+        for rel, digest in zip(*(self.policies_frame(study)[col] for col in ("path", "sha256"))):
+            path = self.policy_dir / rel
+            try:
+                st = path.stat()
+            except OSError:  # missing: missing_policy_files says so
+                continue
+            key = (str(path), st.st_size, st.st_mtime_ns, digest)
+            if key not in _CHECKED:
+                try:
+                    _CHECKED[key] = files.sha256(path.read_bytes()) == digest
+                except OSError:
+                    _CHECKED[key] = False
+            if not _CHECKED[key]:
+                bad.append(rel)
+        return bad
 
     def policies_frame(self, study: str | None = None) -> pd.DataFrame:
         """policies.csv: participant, version, day, method, path (relative to the policies

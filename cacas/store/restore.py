@@ -357,6 +357,10 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     _check_days(days)
 
     def policy_row(r):
+        if not r["path"].startswith(f"{r['participant']}/"):  # a participant's removal deletes their folder's files
+            raise _CellError("path", f"{r['path']!r} is not in participant {r['participant']}'s folder; valid: a path "
+                                     f"beginning {r['participant']}/ (cacas export keeps each policy file in its "
+                                     "participant's folder)")
         data = policy_files.get(r["path"])
         if data is None:
             raise CacasError(f"policy file {r['path']!r} is missing from the bundle")

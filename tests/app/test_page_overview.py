@@ -264,5 +264,29 @@ def test_damage_the_sidebar_meets_is_a_message_too_and_a_locked_database_is_not_
         raise sqlite3.OperationalError("database is locked")
     monkeypatch.setattr(app_support, "overview_frame", locked)
     at = app()
+    no_exception(at)  # safety audit: it was a traceback
     assert not any("Restore it from a backup" in e.value for e in at.error)
-    assert at.exception and "database is locked" in at.exception[0].message
+    assert any("is busy (database is locked): another program has held it for more than 10 s (a database tool left "
+               "open on it?). Nothing was lost; reload the page in a moment." in w.value for w in at.warning)
+
+
+def test_a_disk_that_refuses_a_read_is_not_called_damage_to_restore_from_a_backup(app, store, monkeypatch):
+    """Safety audit: "disk I/O error" met while a page read the database (a full disk: SQLite could not
+    grow the -shm file of a large write-ahead log) told the researcher to restore the database from a
+    backup, which would throw away what was saved since the backup. The message says the disk may be
+    full or failing and to keep the file."""
+    import sqlite3
+
+    from cacas import app_support
+
+    def refused(*args, **kwargs):
+        raise sqlite3.OperationalError("disk I/O error")
+
+    monkeypatch.setattr(app_support, "overview_frame", refused)
+    at = app()
+    no_exception(at)
+    said = [e.value for e in at.error]
+    assert not any("Restore it from a backup" in e for e in said)
+    assert any("cannot be read from the disk now (disk I/O error). The disk may be full or failing: free some disk "
+               "space (or check the disk) and reload the page. The file is not known to be damaged: do not replace "
+               "it with a backup, which would lose what was saved since" in e for e in said), said

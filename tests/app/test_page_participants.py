@@ -179,6 +179,63 @@ def test_edit_details_valid_and_invalid(app, store):
     assert store.get_participant("P01").notes == "uses a walking frame"
 
 
+def test_details_saved_in_another_tab_are_not_undone_by_this_forms_save(app, store):
+    """Safety audit: two researchers on one participant's details. The form sends both fields: a
+    save that changed the age range put back the notes as this tab had drawn them, and the other
+    tab's note ("hard of hearing") was gone without a word. A field left as drawn keeps what is
+    saved; the same field changed in both is refused, nothing saved, and the form shows the saved one."""
+    store.add_participant("P01", age_range="25-34", notes="likes tea")
+    at = app(PAGE, participant="P01")
+    store.update_participant("P01", notes="likes tea; hard of hearing: speak up")  # the other tab
+    at.run()
+    at.text_input(key="age-P01").set_value("35-44")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    no_exception(at)
+    info = store.get_participant("P01")
+    assert (info.age_range, info.notes) == ("35-44", "likes tea; hard of hearing: speak up")
+    assert at.text_area(key="notes-P01").value == "likes tea; hard of hearing: speak up"  # the form shows it now
+
+    store.update_participant("P01", notes="prefers mornings")  # the other tab again, the same field
+    at.text_area(key="notes-P01").set_value("likes coffee now")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    no_exception(at)
+    assert store.get_participant("P01").notes == "prefers mornings"
+    assert ("P01's notes were saved (in another tab) while this form was changed; nothing was saved, as saving would "
+            "undo that change. The form now shows them: make your changes again.") in [e.value for e in at.error]
+    assert at.text_area(key="notes-P01").value == "prefers mornings"
+    at.text_area(key="notes-P01").set_value("prefers mornings; likes coffee now")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    assert store.get_participant("P01").notes == "prefers mornings; likes coffee now"
+    assert not at.error
+
+
+def test_the_persona_file_download_leaves_out_a_participant_removed_after_the_page_was_drawn(app, store,
+                                                                                            monkeypatch):
+    """Safety audit: the study's persona file was made when the page was drawn, so a tab left open
+    across a participant's removal (a withdrawal, in another tab) still downloaded their preferences,
+    in their own words. It is made at the click."""
+    import json
+
+    import streamlit as st
+
+    for code, words in (("P01", "when I cough"), ("P02", "my own words: when I cough")):
+        store.add_participant(code)
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check", "description": words}])
+    made = {}
+    real = st.download_button
+
+    def download_button(label, data, file_name=None, *args, **kwargs):
+        made[file_name] = data
+        return real(label, data, file_name, *args, **kwargs)
+    monkeypatch.setattr(st, "download_button", download_button)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    store.remove_participant("P02", "P02")  # another tab, after this page was drawn
+    data = made["personas-default.json"]
+    offered = json.loads(data() if callable(data) else data)
+    assert [p["id"] for p in offered["participants"]] == ["P01"]
+
+
 def test_saved_preferences_fill_the_form_and_a_new_version_is_kept(app, store):
     store.add_participant("P01")
     store.save_preferences("P01", [{"description": "stove", "activity": ["use stove"], "hours": [[6, 10], [16, 20]],

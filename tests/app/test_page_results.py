@@ -271,6 +271,70 @@ def test_no_zip_offered_while_a_policy_file_is_missing(app, store):
     assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
 
 
+def test_no_zip_offered_while_a_policy_file_is_damaged(app, store):
+    """Safety audit: a policy file changed on disk (its sha256 no longer the recorded one) left the
+    zip offered, and the click failed with the browser's bare "Failed to generate file for
+    download" (Streamlit logs the error; the researcher saw nothing of which file or what to do)."""
+    _study_with_a_day(store)
+    store.save_policy("P01", 1, "cacas", b"a policy")
+    store.active_policy("P01").path.write_bytes(b"another policy")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert ("No zip: 1 policy file does not match its recorded sha256 (changed or damaged) "
+            "(P01/day1-cacas-") in texts(at)
+    labels = [b.label for b in at.get("download_button")]
+    assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
+
+
+def test_the_zip_is_made_in_memory_as_cacas_export_writes_it(app, store, downloads, monkeypatch, tmp_path):
+    """Safety audit: "Download everything" wrote the study's tables and zip into a temporary folder to
+    read the zip back: a server killed during the download left that plain copy of the study (notes,
+    comments, a withdrawn participant's answers) in /tmp for good, and a full /tmp failed the download."""
+    from cacas import export
+    from cacas.store import files
+
+    _study_with_a_day(store)
+    store.save_policy("P01", 1, "cacas", b"a policy")
+    expected = export.export_study(store, tmp_path / "cli").bundle.read_bytes()
+
+    def no_copy_on_disk(*args, **kwargs):
+        raise AssertionError("the study was written to disk for the download")
+    monkeypatch.setattr(files, "write_all", no_copy_on_disk)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert downloads["cacas-study-default.zip"] == expected
+
+
+def test_a_participant_removed_after_the_page_was_drawn_is_not_in_its_downloads(app, store, monkeypatch):
+    """Safety audit: a Results tab drawn before a participant's removal (a withdrawal, in another tab)
+    still downloaded their rows: each table's CSV was made on the click from the frame read when the
+    page was drawn. The study's tables are read from the database at the click."""
+    import io
+
+    import pandas as pd
+    import streamlit as st
+
+    _study_with_a_day(store)
+    store.add_participant("P02")
+    day = store.open_day("P02")
+    store.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.record_questionnaire("P02", 6, "fine")
+    made = {}  # file name -> what the button makes on the click (not made while the page is drawn)
+    real = st.download_button
+
+    def download_button(label, data, file_name=None, *args, **kwargs):
+        made[file_name] = data
+        return real(label, data, file_name, *args, **kwargs)
+    monkeypatch.setattr(st, "download_button", download_button)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    store.remove_participant("P02", "P02")  # another tab, after this page was drawn
+    for name in ("interactions.csv", "daily.csv", "participants.csv", "questionnaire.csv"):
+        table = pd.read_csv(io.BytesIO(made[name]()))
+        assert "P02" not in set(table["participant"]), name
+
+
 def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
     import pandas as pd
 
