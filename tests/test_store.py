@@ -1088,3 +1088,18 @@ def test_an_empty_study_name_filters_every_table_alike(store):
     for name, frame in frames.items():
         assert len(frame(None)) and len(frame("default")), name
         assert frame("").empty and frame("default ").empty, name
+
+
+def test_every_wrong_field_of_a_participant_is_said_at_once(store):
+    """Walkthrough: a form with a wrong age range and contact details in the notes was told one per save."""
+    before = store.list_participants()
+    with pytest.raises(CacasError) as err:
+        store.add_participant("P 01", age_range="old", notes="mail me at a@b.org")
+    said = str(err.value)
+    assert said.count("; and ") == 2 and "'P 01'" in said and "age range 'old' is invalid" in said \
+        and "notes contain what looks like contact details ('a@b.org')" in said
+    assert store.list_participants() == before
+    store.add_participant("P09", age_range="25-34")
+    with pytest.raises(CacasError, match=r"age range 'old' is invalid.*; and notes contain what looks like contact"):
+        store.update_participant("P09", age_range="old", notes="call 555-1234")
+    assert (store.get_participant("P09").age_range, store.get_participant("P09").notes) == ("25-34", "")

@@ -98,8 +98,8 @@ class PeopleMixin:
         """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
         names, no phone number or date: :func:`validate.new_code`). ``age_range`` like "25-34" or
         "65+"; a code already in use raises CacasError."""
-        code, age_range = v.new_code(code), v.age_range(age_range)
-        notes, study = v.text(notes, "notes"), v.study(study)
+        code, age_range, notes, study = v.each(lambda: v.new_code(code), lambda: v.age_range(age_range),
+                                               lambda: v.text(notes, "notes"), lambda: v.study(study))
 
         def fn(c):
             sid = self._study_id(c, study)
@@ -122,8 +122,8 @@ class PeopleMixin:
         keeps what is stored now (another tab may have saved it since); a field changed here that
         another tab changed too since is refused with :class:`DetailsChanged`, nothing written (two
         researchers on one participant: the later save undid the earlier one's notes without a word)."""
-        age = None if age_range is None else v.age_range(age_range, bounded=False)
-        notes = None if notes is None else v.text(notes, "notes")
+        age, notes = v.each(lambda: None if age_range is None else v.age_range(age_range, bounded=False),
+                            lambda: None if notes is None else v.text(notes, "notes"))
         who = str(code).strip()
 
         def fn(c):

@@ -11,7 +11,7 @@ import math
 import re
 import threading
 from datetime import datetime, timedelta, timezone
-from typing import Any, Mapping
+from typing import Any, Callable, Mapping
 
 import numpy as np
 
@@ -34,6 +34,22 @@ TYPES = (ROBOT_INITIATED, USER_INITIATED)
 
 _last_now = datetime.min.replace(tzinfo=timezone.utc)
 _now_lock = threading.Lock()
+
+
+def each(*checks: Callable[[], Any]) -> list:
+    """Run every check (a function of no argument, such as ``lambda: age_range(x)``): their values in
+    order, or one CacasError saying every problem found, joined by "; and ". A form with two wrong
+    fields is told both at one save (walkthrough: the details form said the age range, then, at the
+    next save, the notes)."""
+    values, problems = [], []
+    for check in checks:
+        try:
+            values.append(check())
+        except CacasError as exc:
+            problems.append(str(exc))
+    if problems:
+        raise CacasError("; and ".join(problems))
+    return values
 
 
 def now() -> str:

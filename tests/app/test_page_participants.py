@@ -177,6 +177,12 @@ def test_edit_details_valid_and_invalid(app, store):
     next(b for b in at.button if b.label == "Save details").click().run()
     assert "notes contain what looks like contact details ('555-1234')" in texts(at)
     assert store.get_participant("P01").notes == "uses a walking frame"
+    # both fields wrong: both said at one save (walkthrough: the age range, then at the next save the notes)
+    at.text_input(key="age-P01").set_value("very old")
+    next(b for b in at.button if b.label == "Save details").click().run()
+    said = next(e.value for e in at.error if "age range" in e.value)
+    assert "age range 'very old' is invalid" in said and "; and notes contain what looks like contact details" in said
+    assert (store.get_participant("P01").age_range, store.get_participant("P01").notes) == ("65+", "uses a walking frame")
 
 
 def test_details_saved_in_another_tab_are_not_undone_by_this_forms_save(app, store):
