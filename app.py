@@ -291,6 +291,7 @@ def _route(store) -> None:
         if problem:  # said on every researcher page, before a participant meets it on the tablet
             (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
     ui.set_address(**address)
+    ui.click_not_done()  # a click whose callback met a busy or unreadable database, said above the page
     page.run()
 
 

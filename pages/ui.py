@@ -3,6 +3,7 @@ background-job progress. Layout only; everything that computes or stores is in `
 
 from __future__ import annotations
 
+import sqlite3
 import time
 
 import pandas as pd
@@ -123,7 +124,7 @@ def button(where, label: str, on_click, *, args=(), kwargs=None, key: str | None
 
     def callback(*a, **k):
         st.session_state[_CALLBACK_RAN] = key
-        on_click(*a, **k)
+        _run_click(on_click, a, k)
 
     draw = where.form_submit_button if submit else where.button
     if draw(label, key=key, on_click=callback, args=args, kwargs=kwargs, **options) \
@@ -137,7 +138,39 @@ def run_missed_click() -> None:
     missed = st.session_state.pop(_MISSED_CLICK, None)
     if missed is not None:
         on_click, args, kwargs = missed
+        _run_click(on_click, args, kwargs)
+
+
+#: Where a click that met a busy or unreadable study database leaves its message for the page (:func:`_run_click`).
+_CLICK_NOT_DONE = "button-click-not-done"
+
+
+def _run_click(on_click, args, kwargs) -> None:
+    """Call a button's callback. The study database held by another program past the busy timeout,
+    or a disk that refuses a read or a write, is said at the top of the page (:func:`click_not_done`)
+    rather than as a traceback: Streamlit runs callbacks before the page, out of reach of
+    ``app.main``'s handler (safety audit: a tablet's answer met a locked read so). The store writes in
+    transactions, so nothing of the click is half-saved; other errors are raised as before."""
+    from cacas.store.db import disk_trouble, is_busy
+
+    try:
         on_click(*args, **kwargs)
+    except sqlite3.OperationalError as exc:
+        if is_busy(exc):
+            why = f"the study database was busy ({exc}): another program held it for more than 10 s"
+        elif disk_trouble(exc):
+            why = f"the study database could not be read or written on the disk ({exc}): it may be full or failing"
+        else:
+            raise
+        st.session_state[_CLICK_NOT_DONE] = (f"That tap or click was not carried out: {why}. Nothing of it was "
+                                             "saved; try it again in a moment.")
+
+
+def click_not_done() -> None:
+    """Say, at the top of the page, that the last click was not carried out (:func:`_run_click`)."""
+    said = st.session_state.pop(_CLICK_NOT_DONE, None)
+    if said:
+        st.warning(said, icon=":material/hourglass_empty:")
 
 
 def participant() -> str | None:
