@@ -92,3 +92,24 @@ def test_a_missing_command_or_action_is_one_line_naming_the_valid_ones(capsys):
         err = capsys.readouterr().err
         assert exc.value.code == 2 and err.count("\n") == 1, err
         assert "the following arguments are required" in err and f"; valid: {valid}" in err, err
+
+
+def test_an_abbreviated_or_misspelt_option_is_refused_naming_the_full_one(capsys, tmp_path):
+    """CLI audit: `--day 1` was taken as `--days 1` (argparse's abbreviations): a script would change its
+    meaning once an option that the abbreviation also fits is added. Refused, one line, the nearest named."""
+    import pytest
+
+    from cacas.cli import main
+
+    personas = "study_data/personas/example.json"
+    for argv, said in ((["simulate", "--personas", personas, "--out", str(tmp_path), "--day", "1"],
+                        "unrecognized arguments: --day 1 (did you mean --days?)"),
+                       (["simulate", "--personas", personas, "--out", str(tmp_path), "--day", "1", "--sed", "3"],
+                        "unrecognized arguments: --day 1 --sed 3 (did you mean --days for --day, --seed for --sed?)"),
+                       (["export", "--db", "x.sqlite", "--out", str(tmp_path), "--tables"],
+                        "unrecognized arguments: --tables (did you mean --tables-only?)")):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+    assert not any(tmp_path.iterdir())  # nothing run

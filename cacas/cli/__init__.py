@@ -22,13 +22,42 @@ COMMANDS = ["simulate", "export", "sound", "scene", "bench"]
 
 
 class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors, and options only as spelt in full: an abbreviation ("--day" for
+    "--days") is refused, so that a script written today keeps its meaning when an option is added
+    that the abbreviation would also fit (CLI audit)."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)
+        super().__init__(*args, **kwargs)
+
     def error(self, message):  # argparse's own errors: one line, exit code 2
         if message.startswith("the following arguments are required: "):  # a missing COMMAND / ACTION: which there are
             missing = message.split(": ", 1)[1].split(", ")
             for action in self._actions:
                 if isinstance(action, argparse._SubParsersAction) and action.metavar in missing:
                     message += f"; valid: {', '.join(action.choices)}"
+        elif message.startswith("unrecognized arguments: "):  # an option misspelt or abbreviated: the nearest
+            import difflib
+
+            options = sorted(self._option_strings())
+            near = {word: difflib.get_close_matches(word, options, n=1, cutoff=0.6)
+                    for word in message.split(": ", 1)[1].split() if word.startswith("--")}
+            said = {word: found[0] for word, found in near.items() if found}
+            if len(said) == 1:
+                message += f" (did you mean {next(iter(said.values()))}?)"
+            elif said:
+                message += f" (did you mean {', '.join(f'{full} for {word}' for word, full in said.items())}?)"
         self.exit(2, f"cacas: error: {message}\n")
+
+    def _option_strings(self) -> set[str]:
+        """Every option of this parser and of its sub-commands, at any depth."""
+        found = set()
+        for action in self._actions:
+            found.update(o for o in action.option_strings if o.startswith("--"))
+            if isinstance(action, argparse._SubParsersAction):
+                for sub in action.choices.values():
+                    found |= sub._option_strings()
+        return found
 
 
 def package_version() -> str:
