@@ -19,3 +19,21 @@ def texts(at: AppTest) -> str:
         except (AttributeError, KeyError):
             pass
     return "\n".join(parts)
+
+
+def save_runs(db, days: dict[str, int]) -> None:
+    """Saved Simulation lab runs beside the database ``db``: run name -> days, one participant (P01),
+    CACAS, and a by-preference table (the heatmap's)."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    for name, n in days.items():
+        daily = pd.DataFrame({"participant": ["P01"] * n, "method": ["cacas"] * n, "day": range(1, n + 1),
+                              "success_rate": [0.5] * n, "preference_accuracy": [0.5] * n,
+                              "cumulative_feedback": range(5, 5 * n + 1, 5), "interactions": [15] * n})
+        by_pref = daily[["participant", "method", "day"]].assign(
+            preference=1, label="Cough: pain check", activity="cough", action="pain check", states=40, correct=20,
+            accuracy=0.5)
+        saved_runs.save_run(saved_runs.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
+                             by_pref)

@@ -107,15 +107,26 @@ def no_recognisers(monkeypatch):
     monkeypatch.setattr(cacas.lab, "model_stamp", lambda kind: None)
 
 
+class _Offered(dict):
+    """The ``downloads`` fixture: name or key -> bytes, and ``at_click``: file name -> the button's data."""
+
+    def __init__(self):
+        super().__init__()
+        self.at_click: dict = {}
+
+
 @pytest.fixture
 def downloads(monkeypatch):
     """What the page's download buttons offer (bytes), by the button's key and by file name (the
     last button drawn with that name): a button's label alone said nothing of what it downloads.
-    Data made on the click (a callable, Streamlit's deferred download) is made here, as a click would."""
-    offered: dict[str, bytes] = {}
+    Data made on the click (a callable, Streamlit's deferred download) is made here, as a click would;
+    ``.at_click[file_name]`` is what the button holds, to make it again later (a click after a change
+    made elsewhere since the page was drawn)."""
+    offered = _Offered()
     real = st.download_button
 
     def download_button(label, data, file_name=None, *args, **kwargs):
+        offered.at_click[file_name] = data
         made = data() if callable(data) else data
         data_bytes = made.encode("utf-8") if isinstance(made, str) else made
         offered[file_name] = data_bytes

@@ -251,28 +251,19 @@ def test_details_saved_in_another_tab_are_not_undone_by_this_forms_save(app, sto
 
 
 def test_the_persona_file_download_leaves_out_a_participant_removed_after_the_page_was_drawn(app, store,
-                                                                                            monkeypatch):
+                                                                                            downloads):
     """Safety audit: the study's persona file was made when the page was drawn, so a tab left open
     across a participant's removal (a withdrawal, in another tab) still downloaded their preferences,
     in their own words. It is made at the click."""
     import json
 
-    import streamlit as st
-
     for code, words in (("P01", "when I cough"), ("P02", "my own words: when I cough")):
         store.add_participant(code)
         store.save_preferences(code, [{"activity": ["cough"], "action": "pain check", "description": words}])
-    made = {}
-    real = st.download_button
-
-    def download_button(label, data, file_name=None, *args, **kwargs):
-        made[file_name] = data
-        return real(label, data, file_name, *args, **kwargs)
-    monkeypatch.setattr(st, "download_button", download_button)
     at = app(PAGE, participant="P01")
     no_exception(at)
     store.remove_participant("P02", "P02")  # another tab, after this page was drawn
-    data = made["personas-default.json"]
+    data = downloads.at_click["personas-default.json"]
     offered = json.loads(data() if callable(data) else data)
     assert [p["id"] for p in offered["participants"]] == ["P01"]
 

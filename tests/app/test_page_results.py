@@ -1,6 +1,6 @@
 import json
 
-from apphelpers import no_exception, texts
+from apphelpers import no_exception, save_runs, texts
 
 PAGE = "pages/results.py"
 
@@ -175,19 +175,7 @@ def test_results_of_a_simulated_run(app, db):
 
 def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
     """A day picked for one run's heatmap was kept for the next run shown (or the human study)."""
-    import pandas as pd
-
-    from cacas import saved_runs
-
-    for name, days in (("run-a", 2), ("run-c", 3)):
-        daily = pd.DataFrame({"participant": ["P01"] * days, "method": ["cacas"] * days, "day": range(1, days + 1),
-                              "success_rate": [0.5] * days, "preference_accuracy": [0.5] * days,
-                              "cumulative_feedback": range(5, 5 * days + 1, 5), "interactions": [15] * days})
-        by_pref = daily[["participant", "method", "day"]].assign(
-            preference=1, label="Cough: pain check", activity="cough", action="pain check", states=40, correct=20,
-            accuracy=0.5)
-        saved_runs.save_run(saved_runs.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
-                             by_pref)
+    save_runs(db, {"run-a": 2, "run-c": 3})
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     at.selectbox(key="results-run").set_value("run-c").run()
@@ -305,14 +293,13 @@ def test_the_zip_is_made_in_memory_as_cacas_export_writes_it(app, store, downloa
     assert downloads["cacas-study-default.zip"] == expected
 
 
-def test_a_participant_removed_after_the_page_was_drawn_is_not_in_its_downloads(app, store, monkeypatch):
+def test_a_participant_removed_after_the_page_was_drawn_is_not_in_its_downloads(app, store, downloads):
     """Safety audit: a Results tab drawn before a participant's removal (a withdrawal, in another tab)
     still downloaded their rows: each table's CSV was made on the click from the frame read when the
     page was drawn. The study's tables are read from the database at the click."""
     import io
 
     import pandas as pd
-    import streamlit as st
 
     _study_with_a_day(store)
     store.add_participant("P02")
@@ -320,13 +307,7 @@ def test_a_participant_removed_after_the_page_was_drawn_is_not_in_its_downloads(
     store.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="accept")
     store.record_questionnaire("P02", 6, "fine")
-    made = {}  # file name -> what the button makes on the click (not made while the page is drawn)
-    real = st.download_button
-
-    def download_button(label, data, file_name=None, *args, **kwargs):
-        made[file_name] = data
-        return real(label, data, file_name, *args, **kwargs)
-    monkeypatch.setattr(st, "download_button", download_button)
+    made = downloads.at_click  # file name -> what the button makes on the click
     at = app(PAGE, participant="P01")
     no_exception(at)
     store.remove_participant("P02", "P02")  # another tab, after this page was drawn

@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from apphelpers import no_exception, texts
+from apphelpers import no_exception, save_runs, texts
 
 from cacas.jobs import RUNNER
 
@@ -85,19 +85,7 @@ def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
     """Walkthrough: a 3-day run ended after a 2-day one, and its heatmap by described preference opened on
     day 2, the day the slider had for the run shown before (one key for every run); the Results page keys
     it by run already."""
-    import pandas as pd
-
-    from cacas import saved_runs
-
-    for name, days in (("run-a", 2), ("run-c", 3)):
-        daily = pd.DataFrame({"participant": ["P01"] * days, "method": ["cacas"] * days, "day": range(1, days + 1),
-                              "success_rate": [0.5] * days, "preference_accuracy": [0.5] * days,
-                              "cumulative_feedback": range(5, 5 * days + 1, 5), "interactions": [15] * days})
-        by_pref = daily[["participant", "method", "day"]].assign(
-            preference=1, label="Cough: pain check", activity="cough", action="pain check", states=40, correct=20,
-            accuracy=0.5)
-        saved_runs.save_run(saved_runs.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
-                             by_pref)
+    save_runs(db, {"run-a": 2, "run-c": 3})
     at = app(PAGE)
     at.selectbox(key="sim-run").set_value("run-a").run()
     no_exception(at)
