@@ -63,6 +63,15 @@ BUNDLE_VERSION = 1
 #: The tables of a bundle, in the order they are written.
 TABLES = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences",
           "days", "policies", "studies", "events")
+#: The most a bundle's member may hold uncompressed (its ZipInfo.file_size), checked before it is
+#: read: a study's largest table is a few MB, and a policy file smaller still.
+MAX_MEMBER_BYTES = 256 * 2**20
+#: The most all the members an import reads may hold together, uncompressed.
+MAX_BUNDLE_BYTES = 1024 * 2**20
+#: The most a member of more than :data:`RATIO_FROM_BYTES` may be compressed (uncompressed size /
+#: compressed size): a study's tables come to 5-30, a policy file to about 1; a zip bomb to ~1000.
+MAX_COMPRESSION_RATIO = 200
+RATIO_FROM_BYTES = 2**20
 _POLICY_PATH = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}/day\d+-[a-z0-9][a-z0-9_.-]*-[0-9a-f]{8}\.pt$")
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
@@ -417,9 +426,38 @@ def export_contents(db: StudyStore | str | Path, study: str | None = None, bundl
     return contents
 
 
+def _size(n: int) -> str:
+    return f"{n} bytes ({n / 2**20:.1f} MiB)" if n >= 2**20 else f"{n} bytes"
+
+
+def check_sizes(path: Path, members: list[zipfile.ZipInfo]) -> None:
+    """Refuse (CacasError naming the bundle, the member and the limit) before anything is read: a
+    member larger than :data:`MAX_MEMBER_BYTES` uncompressed, or compressed more than
+    :data:`MAX_COMPRESSION_RATIO` to 1 (a zip bomb), or members larger together than
+    :data:`MAX_BUNDLE_BYTES`. The sizes are the zip's own word; zipfile never reads more than the
+    size a member's header gives (it stops there, and a CRC that does not match is a damage)."""
+    valid = f"valid: the {BUNDLE_NAME} cacas export wrote; nothing was imported"
+    total = 0
+    for info in members:
+        if info.file_size > MAX_MEMBER_BYTES:
+            raise CacasError(f"{path}: {info.filename} in the bundle is {_size(info.file_size)} uncompressed, over "
+                             f"the limit of {_size(MAX_MEMBER_BYTES)} for one file of a bundle; {valid}")
+        ratio = info.file_size / max(info.compress_size, 1)
+        if info.file_size > RATIO_FROM_BYTES and ratio > MAX_COMPRESSION_RATIO:
+            raise CacasError(f"{path}: {info.filename} in the bundle is compressed {ratio:.0f} to 1 "
+                             f"({_size(info.file_size)} from {_size(info.compress_size)}), over the limit of "
+                             f"{MAX_COMPRESSION_RATIO} to 1 (a study's tables come to about 30 at most); {valid}")
+        total += info.file_size
+        if total > MAX_BUNDLE_BYTES:
+            raise CacasError(f"{path}: the bundle's tables and policy files are {_size(total)} uncompressed "
+                             f"by {info.filename}, over the limit of {_size(MAX_BUNDLE_BYTES)} for a whole bundle; "
+                             f"{valid}")
+
+
 def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
-    """The bytes of the bundle's member ``name``; a damaged one (bytes changed in its compressed
-    data: zlib.error; a bad CRC; cut short: EOFError) is a CacasError naming the bundle and it."""
+    """The bytes of the bundle's member ``name`` (its size checked by :func:`check_sizes` first); a
+    damaged one (bytes changed in its compressed data: zlib.error; a bad CRC; cut short: EOFError)
+    is a CacasError naming the bundle and it."""
     try:
         return zf.read(name)
     except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
@@ -442,6 +480,10 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     try:
         with zipfile.ZipFile(path) as zf:
             names = set(zf.namelist())
+            # every member read below, sized before any is read (others are never read)
+            check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
+                               or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
+                               or (i.filename.startswith("policies/") and not i.filename.endswith("/"))])
             if MANIFEST_NAME in names:  # none in bundles written before it: version 1
                 _check_manifest(path, _member(path, zf, MANIFEST_NAME))
             tables = {}

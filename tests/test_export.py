@@ -1205,3 +1205,93 @@ def test_a_bundle_written_before_the_manifest_still_imports(bundle, tmp_path):
     old = _with_manifest(bundle, tmp_path / "old.zip", None)
     target = tmp_path / "new" / "study.sqlite"
     assert export.import_bundle(old, target).interactions == 20
+
+
+# --- a member's size is checked before it is read (safety audit L7) ---------------------------------
+
+@pytest.fixture
+def opened(monkeypatch):
+    """The names of the zip members read (ZipFile.read opens each)."""
+    names = []
+    real = zipfile.ZipFile.open
+
+    def spy(self, name, *args, **kwargs):
+        names.append(getattr(name, "filename", name))
+        return real(self, name, *args, **kwargs)
+
+    monkeypatch.setattr(zipfile.ZipFile, "open", spy)
+    return names
+
+
+def _claiming(bundle, out, member, size):
+    """A copy of ``bundle`` whose central directory says ``member`` is ``size`` bytes uncompressed."""
+    data = bytearray(bundle.read_bytes())
+    at = data.find(b"PK\x01\x02")
+    while at != -1:
+        length = int.from_bytes(data[at + 28:at + 30], "little")
+        if data[at + 46:at + 46 + length] == member.encode():
+            data[at + 24:at + 28] = size.to_bytes(4, "little")
+            break
+        at = data.find(b"PK\x01\x02", at + 4)
+    else:
+        raise AssertionError(f"{member} not in {bundle}")
+    out.write_bytes(bytes(data))
+    return out
+
+
+def test_a_member_claiming_more_than_the_limit_is_refused_before_it_is_read(bundle, tmp_path, opened):
+    crafted = _claiming(bundle, tmp_path / "crafted.zip", "interactions.csv", 2**32 - 16)
+    with zipfile.ZipFile(crafted) as zf:  # the crafted size is what the zip says
+        assert zf.getinfo("interactions.csv").file_size == 2**32 - 16
+    opened.clear()
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError) as refused:
+        export.import_bundle(crafted, target)
+    assert str(refused.value) == (
+        f"{crafted}: interactions.csv in the bundle is 4294967280 bytes (4096.0 MiB) uncompressed, over the limit of "
+        "268435456 bytes (256.0 MiB) for one file of a bundle; valid: the cacas-study.zip cacas export wrote; nothing "
+        "was imported")
+    assert opened == []  # no member read at all
+    assert not target.exists() and not target.parent.exists()
+
+
+def test_a_member_compressed_like_a_zip_bomb_is_refused_before_it_is_read(bundle, tmp_path, opened):
+    """events.csv followed by 8 MiB of blank lines (which pandas skips: it imported) compresses
+    about 1000 to 1."""
+    bomb = tmp_path / "bomb.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            zout.writestr(name, data + b"\n" * 2**23 if name == "events.csv" else data)
+    opened.clear()
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError) as refused:
+        export.import_bundle(bomb, target)
+    assert re.fullmatch(
+        rf"{re.escape(str(bomb))}: events.csv in the bundle is compressed \d+ to 1 \(\d+ bytes \(8\.0 MiB\) from "
+        r"\d+ bytes\), over the limit of 200 to 1 \(a study's tables come to about 30 at most\); valid: the "
+        r"cacas-study.zip cacas export wrote; nothing was imported", str(refused.value)), str(refused.value)
+    assert "events.csv" not in opened
+    assert not target.exists() and not target.parent.exists()
+
+
+def test_members_larger_together_than_the_limit_are_refused(bundle, tmp_path, monkeypatch, opened):
+    monkeypatch.setattr(export, "MAX_BUNDLE_BYTES", 10_000)  # the bundle's members read come to ~20 kB
+    opened.clear()
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r": the bundle's tables and policy files are \d+ bytes uncompressed by "
+                                         r"\S+, over the limit of 10000 bytes for a whole bundle; valid: the "
+                                         r"cacas-study.zip cacas export wrote; nothing was imported$"):
+        export.import_bundle(bundle, target)
+    assert opened == []
+    assert not target.exists()
+
+
+def test_the_size_limits_leave_a_real_bundle_and_other_files_alone(bundle, tmp_path):
+    """A study's tables compress about 13 to 1; a file the import never reads is not counted."""
+    with zipfile.ZipFile(bundle) as zf:
+        assert max(i.file_size / i.compress_size for i in zf.infolist()) < export.MAX_COMPRESSION_RATIO
+    odd = _with_entries(bundle, tmp_path / "odd.zip")
+    with zipfile.ZipFile(odd, "a", zipfile.ZIP_DEFLATED) as zf:  # compressed ~1000 to 1, never read
+        zf.writestr("readme.txt", b"\n" * 2**23)
+    assert export.import_bundle(odd, tmp_path / "new" / "study.sqlite").interactions == 20
