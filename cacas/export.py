@@ -15,6 +15,10 @@ The tables (long format; issue 4, item 4):
   ``days.csv``, ``policies.csv`` (+ the checkpoint files under ``policies/`` in the zip) and
   ``events.csv``.
 
+The zip also holds ``manifest.json``: the bundle format and its version (:data:`BUNDLE_VERSION`),
+which an import checks (a newer one is refused; a bundle without it, written before it, is read
+as version 1).
+
 :func:`export_study` writes them and ``cacas-study.zip``; :func:`import_bundle` loads such a zip
 into a new database (export, import, export gives the same tables; the event log gains one
 "import_bundle" event). CSV is written with :func:`cacas.records.csv_bytes` and the zip with
@@ -42,14 +46,32 @@ from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
 from cacas.store.db import WriteRefused
-from cacas.store.restore import RESTORE_COLUMNS, Restored, restore
+from cacas.store.restore import RESTORE_COLUMNS, Restored, check_columns, restore
 from cacas.study_day import STUDY_DAYS
 
 #: Name of the zip of all tables inside the output folder.
 BUNDLE_NAME = "cacas-study.zip"
+#: The member of a bundle that says its format and the format's version (bundles written before
+#: it have none, and are read as version 1).
+MANIFEST_NAME = "manifest.json"
+#: What a bundle's manifest says it is.
+BUNDLE_FORMAT = "cacas-study-bundle"
+#: The version of the bundle format this CACAS Studio writes, and the newest it imports. A change
+#: an older import would get wrong (a new column, table or file it would leave out without a word)
+#: takes the next number.
+BUNDLE_VERSION = 1
 #: The tables of a bundle, in the order they are written.
 TABLES = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences",
           "days", "policies", "studies", "events")
+#: The most a bundle's member may hold uncompressed (its ZipInfo.file_size), checked before it is
+#: read: a study's largest table is a few MB, and a policy file smaller still.
+MAX_MEMBER_BYTES = 256 * 2**20
+#: The most all the members an import reads may hold together, uncompressed.
+MAX_BUNDLE_BYTES = 1024 * 2**20
+#: The most a member of more than :data:`RATIO_FROM_BYTES` may be compressed (uncompressed size /
+#: compressed size): a study's tables come to 5-30, a policy file to about 1; a zip bomb to ~1000.
+MAX_COMPRESSION_RATIO = 200
+RATIO_FROM_BYTES = 2**20
 _POLICY_PATH = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]{0,15}/day\d+-[a-z0-9][a-z0-9_.-]*-[0-9a-f]{8}\.pt$")
 _ZIP_TIME = (1980, 1, 1, 0, 0, 0)
 
@@ -292,6 +314,35 @@ def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
         raise ValueError(f"writing={writing!r}")
 
 
+def manifest_bytes() -> bytes:
+    """The bytes of a bundle's ``manifest.json``: the format and its version (the same every time,
+    so the same database gives the same zip)."""
+    return (json.dumps({"format": BUNDLE_FORMAT, "version": BUNDLE_VERSION}, indent=2, sort_keys=True)
+            + "\n").encode()
+
+
+def _check_manifest(path: Path, data: bytes) -> None:
+    """Refuse (CacasError naming the bundle) a manifest this CACAS Studio cannot read, or one of a
+    bundle format newer than :data:`BUNDLE_VERSION`: its import would lose what that version added."""
+    valid = (f'valid: {{"format": "{BUNDLE_FORMAT}", "version": N}} with N from 1 to {BUNDLE_VERSION}, as '
+             "cacas export writes it")
+    try:
+        manifest = json.loads(data.decode("utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise CacasError(f"{path}: {MANIFEST_NAME} in the bundle is not valid JSON ({exc}); {valid}") from None
+    if not isinstance(manifest, dict) or manifest.get("format") != BUNDLE_FORMAT:
+        said = manifest.get("format") if isinstance(manifest, dict) else manifest
+        raise CacasError(f"{path}: {MANIFEST_NAME} in the bundle does not name a study bundle (format {said!r}); "
+                         f"{valid}")
+    version = manifest.get("version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise CacasError(f"{path}: {MANIFEST_NAME} in the bundle gives the version {version!r}; {valid}")
+    if version > BUNDLE_VERSION:
+        raise CacasError(f"{path}: was written by a newer CACAS Studio (bundle format version {version}); this one "
+                         f"imports versions 1 to {BUNDLE_VERSION} and would lose what is new in it; update CACAS "
+                         "Studio, then import it; nothing was imported")
+
+
 def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
     info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
     info.compress_type = zipfile.ZIP_DEFLATED
@@ -366,6 +417,7 @@ def export_contents(db: StudyStore | str | Path, study: str | None = None, bundl
     if bundle:
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w") as zf:
+            _zip_entry(zf, MANIFEST_NAME, manifest_bytes())
             for name, data in contents.items():
                 _zip_entry(zf, name, data)
             for rel in sorted(policies):
@@ -374,9 +426,38 @@ def export_contents(db: StudyStore | str | Path, study: str | None = None, bundl
     return contents
 
 
+def _size(n: int) -> str:
+    return f"{n} bytes ({n / 2**20:.1f} MiB)" if n >= 2**20 else f"{n} bytes"
+
+
+def check_sizes(path: Path, members: list[zipfile.ZipInfo]) -> None:
+    """Refuse (CacasError naming the bundle, the member and the limit) before anything is read: a
+    member larger than :data:`MAX_MEMBER_BYTES` uncompressed, or compressed more than
+    :data:`MAX_COMPRESSION_RATIO` to 1 (a zip bomb), or members larger together than
+    :data:`MAX_BUNDLE_BYTES`. The sizes are the zip's own word; zipfile never reads more than the
+    size a member's header gives (it stops there, and a CRC that does not match is a damage)."""
+    valid = f"valid: the {BUNDLE_NAME} cacas export wrote; nothing was imported"
+    total = 0
+    for info in members:
+        if info.file_size > MAX_MEMBER_BYTES:
+            raise CacasError(f"{path}: {info.filename} in the bundle is {_size(info.file_size)} uncompressed, over "
+                             f"the limit of {_size(MAX_MEMBER_BYTES)} for one file of a bundle; {valid}")
+        ratio = info.file_size / max(info.compress_size, 1)
+        if info.file_size > RATIO_FROM_BYTES and ratio > MAX_COMPRESSION_RATIO:
+            raise CacasError(f"{path}: {info.filename} in the bundle is compressed {ratio:.0f} to 1 "
+                             f"({_size(info.file_size)} from {_size(info.compress_size)}), over the limit of "
+                             f"{MAX_COMPRESSION_RATIO} to 1 (a study's tables come to about 30 at most); {valid}")
+        total += info.file_size
+        if total > MAX_BUNDLE_BYTES:
+            raise CacasError(f"{path}: the bundle's tables and policy files are {_size(total)} uncompressed "
+                             f"by {info.filename}, over the limit of {_size(MAX_BUNDLE_BYTES)} for a whole bundle; "
+                             f"{valid}")
+
+
 def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
-    """The bytes of the bundle's member ``name``; a damaged one (bytes changed in its compressed
-    data: zlib.error; a bad CRC; cut short: EOFError) is a CacasError naming the bundle and it."""
+    """The bytes of the bundle's member ``name`` (its size checked by :func:`check_sizes` first); a
+    damaged one (bytes changed in its compressed data: zlib.error; a bad CRC; cut short: EOFError)
+    is a CacasError naming the bundle and it."""
     try:
         return zf.read(name)
     except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
@@ -385,7 +466,10 @@ def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
 
 
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
-    """The tables (every cell as text, "" for empty) and policy files of a bundle zip."""
+    """The tables (every cell as text, "" for empty) and policy files of a bundle zip, after its
+    ``manifest.json`` (if it has one: older bundles do not) is checked: a bundle of a newer format
+    version than :data:`BUNDLE_VERSION` is refused, as is a table with a column this CACAS Studio
+    does not know (:func:`cacas.store.restore.check_columns`)."""
     path = Path(path)
     if path.is_dir():  # an export's folder, say: "no such bundle" read as if it were not there
         inside = path / BUNDLE_NAME
@@ -396,6 +480,12 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     try:
         with zipfile.ZipFile(path) as zf:
             names = set(zf.namelist())
+            # every member read below, sized before any is read (others are never read)
+            check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
+                               or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
+                               or (i.filename.startswith("policies/") and not i.filename.endswith("/"))])
+            if MANIFEST_NAME in names:  # none in bundles written before it: version 1
+                _check_manifest(path, _member(path, zf, MANIFEST_NAME))
             tables = {}
             for name in RESTORE_COLUMNS:
                 if f"{name}.csv" not in names:
@@ -411,6 +501,10 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
                     policies[rel] = _member(path, zf, name)
     except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
+    try:
+        check_columns(tables)
+    except CacasError as exc:
+        raise CacasError(f"{path}: {exc}") from None
     listed = list(tables["policies"].get("path", []))
     for rel in listed:
         if not _POLICY_PATH.match(rel):
@@ -500,6 +594,6 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             p.unlink(missing_ok=True)
 
 
-__all__ = ["BUNDLE_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "bundle_bytes", "by_preference_frame",
+__all__ = ["BUNDLE_NAME", "BUNDLE_VERSION", "MANIFEST_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "bundle_bytes", "by_preference_frame",
            "next_day_accuracy", "runs_in_force", "export_contents", "export_tables", "export_study", "read_bundle",
            "import_bundle"]

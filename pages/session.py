@@ -20,6 +20,7 @@ from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
 from cacas.on_tablet import Asked, Shown
 from cacas.recognition import Recognition
+from cacas.store.db import WriteRefused
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
                              previous_interaction, propose, proposal_draws, recorded_answer,
@@ -95,6 +96,12 @@ def _recognise(kind: str, path: str, stamp: float | None) -> Recognition | None:
 #: What the tablet says when the day cannot start (a set-up problem the researcher must mend):
 #: the participant is not shown the researcher's message, which stays one click away.
 NOT_READY = "The robot is not ready to start the day: please ask the researcher."
+#: What the tablet says when the study database refuses to save an answer (a full disk, a database
+#: held busy, a file that cannot be written): the researcher's message stays one click away.
+NOT_SAVED = ("Your answer was not saved: the robot could not store it just now. Please try again in a moment, "
+             "and if it happens again, tell the researcher.")
+#: The tablet's plain words whose researcher's message is kept under "For the researcher".
+_PLAIN = (NOT_READY, NOT_SAVED)
 
 
 def _start_day() -> None:
@@ -203,6 +210,10 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
             which = "this proposal" if tablet else f"interaction {index}"  # the tablet's count has no such number
             s["session-error"] = (f"This answer was not saved: {which} was answered meanwhile on another screen "
                                   f"({other['activity']}, {said}). Set what you are doing again for the next one.")
+        return
+    except WriteRefused as exc:  # the database's or its disk's doing, not the participant's: plain words on the tablet
+        s["session-error"] = NOT_SAVED if tablet else str(exc)
+        s["session-error-detail"] = str(exc) if tablet else None
         return
     except CacasError as exc:
         s["session-error"] = str(exc)
@@ -336,7 +347,7 @@ if not tablet:
 
 if st.session_state.get("session-error"):
     st.error(st.session_state["session-error"], icon=":material/error:")
-    if st.session_state["session-error"] == NOT_READY and st.session_state.get("session-error-detail"):
+    if st.session_state["session-error"] in _PLAIN and st.session_state.get("session-error-detail"):
         with st.expander("For the researcher"):
             st.write(st.session_state["session-error-detail"])
 saved = st.session_state.pop("last-saved", None)

@@ -1107,3 +1107,191 @@ def test_a_participant_removed_while_the_export_reads_policy_files_is_read_again
             f.unlink()  # lost for good: the tables do not change, and the message says so
     with pytest.raises(CacasError, match=r"the zip needs every policy file \(restore it from a backup\)"):
         export.export_study(store, tmp_path / "again")
+
+
+# --- the bundle's format: its version, and columns an import would lose (safety audit L6) ----------
+
+def test_every_column_the_export_writes_is_one_an_import_knows(store):
+    """The columns import reads or works out again are exactly those the export writes: a column added
+    to the export and not here would make every new bundle refused."""
+    from cacas.store.restore import RESTORE_COLUMNS, known_columns
+
+    tables = export.export_tables(store)
+    for name in RESTORE_COLUMNS:
+        assert sorted(tables[name].columns) == sorted(known_columns(name)), name
+
+
+@pytest.mark.parametrize("table,columns", [("interactions", ["mood"]), ("participants", ["email", "phone"]),
+                                           ("events", ["Unnamed: 4"])])
+def test_a_table_with_a_column_import_does_not_know_is_refused_and_leaves_nothing(bundle, tmp_path, table,
+                                                                                   columns):
+    """Safety audit L6: a column a newer CACAS Studio writes (or an edited file's) was dropped on
+    import without a word."""
+    from cacas.store.restore import known_columns
+
+    bad = _rewrite(bundle, tmp_path / "bad.zip", table, lambda df: df.assign(**{c: "x" for c in columns}))
+    target = tmp_path / "new" / "study.sqlite"
+    said = ", ".join(repr(c) for c in columns)
+    with pytest.raises(CacasError) as refused:
+        export.import_bundle(bad, target)
+    assert str(refused.value) == (
+        f"{bad}: {table}.csv has {'a column' if len(columns) == 1 else 'columns'} this CACAS Studio does not know "
+        f"({said}), which an import would lose; valid: the columns cacas export writes "
+        f"({', '.join(known_columns(table))}). A bundle written by a newer CACAS Studio needs that version to "
+        "import it")
+    assert not target.exists() and not target.parent.exists()
+
+
+def test_restore_refuses_an_unknown_column_before_writing_anything(bundle_tables, tmp_path):
+    tables, policies = bundle_tables
+    tables = dict(tables, days=tables["days"].assign(weather="rain"))
+    with StudyStore(tmp_path / "new.sqlite") as s:
+        before = _counts(s.path)
+        with pytest.raises(CacasError, match=r"^days.csv has a column this CACAS Studio does not know \('weather'\)"):
+            restore(s, tables, policies)
+        assert _counts(s.path) == before
+
+
+def test_a_bundle_says_its_format_version_and_stays_the_same_bytes(store, tmp_path):
+    result = export.export_study(store, tmp_path / "out")
+    with zipfile.ZipFile(result.bundle) as zf:
+        assert zf.namelist()[0] == "manifest.json"
+        assert json.loads(zf.read("manifest.json")) == {"format": "cacas-study-bundle", "version": 1}
+    assert export.BUNDLE_VERSION == 1
+    assert export.bundle_bytes(store) == result.bundle.read_bytes()
+    assert not (tmp_path / "out" / "manifest.json").exists()  # in the zip only
+
+
+def _with_manifest(bundle, out, data):
+    """A copy of ``bundle`` whose manifest.json holds ``data`` (None: no manifest, as before it)."""
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(out, "w") as zout:
+        for name in zin.namelist():
+            if name != "manifest.json":
+                zout.writestr(name, zin.read(name))
+        if data is not None:
+            zout.writestr("manifest.json", data)
+    return out
+
+
+def test_a_bundle_of_a_newer_format_is_refused_and_leaves_nothing(bundle, tmp_path):
+    newer = _with_manifest(bundle, tmp_path / "newer.zip", json.dumps({"format": "cacas-study-bundle",
+                                                                        "version": 2}))
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError) as refused:
+        export.import_bundle(newer, target)
+    assert str(refused.value) == (
+        f"{newer}: was written by a newer CACAS Studio (bundle format version 2); this one imports versions 1 to 1 "
+        "and would lose what is new in it; update CACAS Studio, then import it; nothing was imported")
+    assert not target.exists() and not target.parent.exists()
+
+
+@pytest.mark.parametrize("data,message", [
+    (b"{not json", r"manifest.json in the bundle is not valid JSON \("),
+    (json.dumps({"format": "other", "version": 1}), r"manifest.json in the bundle does not name a study bundle "
+                                                     r"\(format 'other'\)"),
+    (json.dumps({"format": "cacas-study-bundle", "version": "1"}), r"manifest.json in the bundle gives the version '1'"),
+    (json.dumps({"format": "cacas-study-bundle", "version": 0}), r"manifest.json in the bundle gives the version 0"),
+])
+def test_a_manifest_import_cannot_read_is_refused(bundle, tmp_path, data, message):
+    bad = _with_manifest(bundle, tmp_path / "bad.zip", data)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=message + r'.*; valid: \{"format": "cacas-study-bundle", "version": N\} '
+                                                   r"with N from 1 to 1"):
+        export.import_bundle(bad, target)
+    assert not target.exists()
+
+
+def test_a_bundle_written_before_the_manifest_still_imports(bundle, tmp_path):
+    old = _with_manifest(bundle, tmp_path / "old.zip", None)
+    target = tmp_path / "new" / "study.sqlite"
+    assert export.import_bundle(old, target).interactions == 20
+
+
+# --- a member's size is checked before it is read (safety audit L7) ---------------------------------
+
+@pytest.fixture
+def opened(monkeypatch):
+    """The names of the zip members read (ZipFile.read opens each)."""
+    names = []
+    real = zipfile.ZipFile.open
+
+    def spy(self, name, *args, **kwargs):
+        names.append(getattr(name, "filename", name))
+        return real(self, name, *args, **kwargs)
+
+    monkeypatch.setattr(zipfile.ZipFile, "open", spy)
+    return names
+
+
+def _claiming(bundle, out, member, size):
+    """A copy of ``bundle`` whose central directory says ``member`` is ``size`` bytes uncompressed."""
+    data = bytearray(bundle.read_bytes())
+    at = data.find(b"PK\x01\x02")
+    while at != -1:
+        length = int.from_bytes(data[at + 28:at + 30], "little")
+        if data[at + 46:at + 46 + length] == member.encode():
+            data[at + 24:at + 28] = size.to_bytes(4, "little")
+            break
+        at = data.find(b"PK\x01\x02", at + 4)
+    else:
+        raise AssertionError(f"{member} not in {bundle}")
+    out.write_bytes(bytes(data))
+    return out
+
+
+def test_a_member_claiming_more_than_the_limit_is_refused_before_it_is_read(bundle, tmp_path, opened):
+    crafted = _claiming(bundle, tmp_path / "crafted.zip", "interactions.csv", 2**32 - 16)
+    with zipfile.ZipFile(crafted) as zf:  # the crafted size is what the zip says
+        assert zf.getinfo("interactions.csv").file_size == 2**32 - 16
+    opened.clear()
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError) as refused:
+        export.import_bundle(crafted, target)
+    assert str(refused.value) == (
+        f"{crafted}: interactions.csv in the bundle is 4294967280 bytes (4096.0 MiB) uncompressed, over the limit of "
+        "268435456 bytes (256.0 MiB) for one file of a bundle; valid: the cacas-study.zip cacas export wrote; nothing "
+        "was imported")
+    assert opened == []  # no member read at all
+    assert not target.exists() and not target.parent.exists()
+
+
+def test_a_member_compressed_like_a_zip_bomb_is_refused_before_it_is_read(bundle, tmp_path, opened):
+    """events.csv followed by 8 MiB of blank lines (which pandas skips: it imported) compresses
+    about 1000 to 1."""
+    bomb = tmp_path / "bomb.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(bomb, "w", zipfile.ZIP_DEFLATED) as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            zout.writestr(name, data + b"\n" * 2**23 if name == "events.csv" else data)
+    opened.clear()
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError) as refused:
+        export.import_bundle(bomb, target)
+    assert re.fullmatch(
+        rf"{re.escape(str(bomb))}: events.csv in the bundle is compressed \d+ to 1 \(\d+ bytes \(8\.0 MiB\) from "
+        r"\d+ bytes\), over the limit of 200 to 1 \(a study's tables come to about 30 at most\); valid: the "
+        r"cacas-study.zip cacas export wrote; nothing was imported", str(refused.value)), str(refused.value)
+    assert "events.csv" not in opened
+    assert not target.exists() and not target.parent.exists()
+
+
+def test_members_larger_together_than_the_limit_are_refused(bundle, tmp_path, monkeypatch, opened):
+    monkeypatch.setattr(export, "MAX_BUNDLE_BYTES", 10_000)  # the bundle's members read come to ~20 kB
+    opened.clear()
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r": the bundle's tables and policy files are \d+ bytes uncompressed by "
+                                         r"\S+, over the limit of 10000 bytes for a whole bundle; valid: the "
+                                         r"cacas-study.zip cacas export wrote; nothing was imported$"):
+        export.import_bundle(bundle, target)
+    assert opened == []
+    assert not target.exists()
+
+
+def test_the_size_limits_leave_a_real_bundle_and_other_files_alone(bundle, tmp_path):
+    """A study's tables compress about 13 to 1; a file the import never reads is not counted."""
+    with zipfile.ZipFile(bundle) as zf:
+        assert max(i.file_size / i.compress_size for i in zf.infolist()) < export.MAX_COMPRESSION_RATIO
+    odd = _with_entries(bundle, tmp_path / "odd.zip")
+    with zipfile.ZipFile(odd, "a", zipfile.ZIP_DEFLATED) as zf:  # compressed ~1000 to 1, never read
+        zf.writestr("readme.txt", b"\n" * 2**23)
+    assert export.import_bundle(odd, tmp_path / "new" / "study.sqlite").interactions == 20

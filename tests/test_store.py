@@ -167,6 +167,46 @@ def test_a_study_database_on_a_full_disk_is_not_called_another_applications_file
         assert [p.code for p in s.list_participants()] == ["P01"]
 
 
+@pytest.mark.parametrize("held", ["written", "read", "read at the WAL switch"])
+def test_a_study_database_held_locked_while_it_opens_is_busy_not_another_file(tmp_path, monkeypatch, held):
+    """Safety audit L2: a "database is locked" met while opening (quick_check, or the switch to WAL)
+    said "is not a study database (database is locked)": a researcher told that moves or replaces a
+    healthy file. Another connection holds it: one writing (quick_check cannot read) or one reading
+    (the schema's check cannot commit, nor the switch to WAL take the file); the file is left as it
+    was, and opens once it is let go."""
+    from cacas.store import db
+
+    path = tmp_path / "s.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+    other = sqlite3.connect(path, isolation_level=None)
+    other.execute("PRAGMA journal_mode = DELETE")  # as an import leaves it; a lock then keeps others out
+    before = path.read_bytes()
+    if held == "written":
+        other.execute("BEGIN EXCLUSIVE")
+    else:
+        other.execute("BEGIN")
+        other.execute("SELECT COUNT(*) FROM participants").fetchone()
+    monkeypatch.setattr(db, "BUSY_TIMEOUT_MS", 50)  # not the 10 s a study waits
+    if held == "read at the WAL switch":  # the reader came after the schema's check: the switch meets it
+        monkeypatch.setattr(db, "_init_schema", lambda conn, path: None)
+    try:
+        modes = (False, True) if held == "written" else (False,)  # a reader does not keep cacas export out
+        for readonly in modes:  # the app; cacas export
+            with pytest.raises(CacasError) as refused:
+                StudyStore(path, readonly=readonly)
+            assert str(refused.value) == (
+                f"{path}: the study database is busy (database is locked): another program held it for more than "
+                "0.05 s while it was being opened; nothing was changed, and the file is fine. Try again in a moment, "
+                "once that program is done with it")
+    finally:
+        other.execute("ROLLBACK")
+        other.close()
+    assert path.read_bytes() == before
+    with StudyStore(path) as s:  # let go: the study is there
+        assert [p.code for p in s.list_participants()] == ["P01"]
+
+
 def test_a_folder_or_a_file_sqlite_keeps_beside_is_not_opened(tmp_path):
     (tmp_path / "folder.sqlite").mkdir()
     with pytest.raises(CacasError, match=r"folder.sqlite: is not a file; expected a CACAS study database \(.sqlite\)"):

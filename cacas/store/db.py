@@ -77,6 +77,8 @@ def open_study_file(path: Path) -> sqlite3.Connection:
         conn.close()
         if _not_sqlite(exc):
             raise NotAStudyDatabase(f"{path}: is not a study database (not an SQLite file)") from None
+        if _busy(path, exc):
+            raise _busy(path, exc) from None
         raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
     if app_id != APPLICATION_ID:
         conn.close()
@@ -109,6 +111,21 @@ def disk_trouble(exc: sqlite3.Error) -> bool:
     SQLITE_FULL. Opening a study database in WAL mode writes its -shm file even to read it, so a
     full disk fails it with "disk I/O error" (safety audit: that was called "not a study database")."""
     return any(words in str(exc).lower() for words in ("disk i/o error", "disk is full"))
+
+
+def _busy(path: Path, exc: sqlite3.Error) -> CacasError | None:
+    """The message for opening a study database another connection held locked past the busy
+    timeout (quick_check, the switch to WAL, the first read): busy, to try again; None for another
+    error. It was called "not a study database (database is locked)" (safety audit L2)."""
+    if isinstance(exc, WriteRefused):  # the schema's check (one transaction), retried while busy
+        if not exc.busy:
+            return None
+        exc = exc.__context__ or "database is locked"
+    elif not (isinstance(exc, sqlite3.OperationalError) and is_busy(exc)):
+        return None
+    return CacasError(f"{path}: the study database is busy ({exc}): another program held it for more than "
+                      f"{BUSY_TIMEOUT_MS / 1000:g} s while it was being opened; nothing was changed, and the file is "
+                      "fine. Try again in a moment, once that program is done with it")
 
 
 def _configure(conn: sqlite3.Connection, readonly: bool) -> None:
@@ -198,14 +215,19 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
 
 class WriteRefused(CacasError):
     """A write the database refused (:func:`transact`): the database's or its disk's doing, not
-    the data's (an import says so of the database it builds, not of the bundle)."""
+    the data's (an import says so of the database it builds, not of the bundle). ``busy``: another
+    connection held the lock past the retries."""
+
+    busy = False
 
 
 def _refused(exc: sqlite3.Error) -> CacasError:
     """A write the database refused: still busy after the retries, or a read-only file or
     folder, a full disk, a damaged file."""
     if is_busy(exc):
-        return WriteRefused(f"the study database is busy ({exc}); try again")
+        refused = WriteRefused(f"the study database is busy ({exc}); try again")
+        refused.busy = True
+        return refused
     return WriteRefused(f"the study database cannot be written ({exc}); nothing was saved. Check that its file and "
                         "folder are writable and the disk has room")
 
@@ -293,7 +315,7 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
             names = {r[0] for r in conn.execute("SELECT name FROM sqlite_master WHERE type='table'")}
         except sqlite3.DatabaseError as exc:
             conn.close()
-            raise CacasError(f"{path}: cannot be read as a study database ({exc})") from None
+            raise (_busy(path, exc) or CacasError(f"{path}: cannot be read as a study database ({exc})")) from None
         if not set(TABLES) <= names or not 1 <= version <= SCHEMA_VERSION:
             conn.close()
             remedy = ("it was written by a newer CACAS Studio: update this one" if version > SCHEMA_VERSION
@@ -332,6 +354,8 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
                              "disk may be full, or the file or its folder cannot be written: free some disk space "
                              "(or check the permissions) and open it again; the file is not damaged by this, do not "
                              "replace it") from None
+        if _busy(path, exc):  # another connection's lock, past the busy timeout: the file is fine
+            raise _busy(path, exc) from None
         if "unable to open" in str(exc) or "readonly" in str(exc):
             raise CacasError(f"{path}: cannot open the study database for writing ({exc}); check that the file and "
                              "its folder are writable") from None
@@ -339,6 +363,11 @@ def connect(path: Path, readonly: bool = False) -> sqlite3.Connection:
             raise CacasError(f"{path}: the database file is damaged ({exc}); nothing was changed. Restore it from "
                              "a backup or an export") from None
         raise CacasError(f"{path}: is not a study database ({exc})") from None
+    except WriteRefused as exc:  # the schema's check met the lock through all its retries
+        conn.close()
+        if exc.busy:
+            raise _busy(path, exc) from None
+        raise
     except BaseException:
         conn.close()
         raise

@@ -50,6 +50,41 @@ RESTORE_COLUMNS: dict[str, list[str]] = {
 #: Columns a bundle written before they existed may lack: read as empty.
 OPTIONAL_COLUMNS: dict[str, list[str]] = {"interactions": ["sound_model", "scene_model"]}  # schema version 2
 
+#: Columns cacas export writes that an import does not read: each is worked out again from the
+#: others (an interaction's study from its participant, a participant's preference version from
+#: preferences.csv, an answer's day from days.csv, a run's preference accuracy from its metrics, a
+#: policy's being in force from participants.csv).
+DERIVED_COLUMNS: dict[str, list[str]] = {
+    "interactions": ["study"],
+    "participants": ["preference_version"],
+    "questionnaire": ["day"],
+    "adaptations": ["preference_accuracy"],
+    "policies": ["active"],
+}
+
+
+def known_columns(name: str) -> list[str]:
+    """Every column of table ``name`` a bundle may have (those :data:`RESTORE_COLUMNS` reads, then
+    :data:`DERIVED_COLUMNS`): what cacas export writes, now and in every earlier version."""
+    return RESTORE_COLUMNS[name] + DERIVED_COLUMNS.get(name, [])
+
+
+def check_columns(tables: dict[str, pd.DataFrame]) -> None:
+    """Refuse (CacasError) a table holding a column this CACAS Studio does not know (one a newer
+    version writes, or an edited file's): an import would drop it without a word. Names the file,
+    its unknown columns and the columns that are valid."""
+    for name in RESTORE_COLUMNS:
+        df = tables.get(name)
+        if df is None:
+            continue
+        known = known_columns(name)
+        unknown = [str(c) for c in df.columns if c not in known]
+        if unknown:
+            raise CacasError(f"{name}.csv has {'a column' if len(unknown) == 1 else 'columns'} this CACAS Studio "
+                             f"does not know ({', '.join(map(repr, unknown))}), which an import would lose; "
+                             f"valid: the columns cacas export writes ({', '.join(known)}). A bundle written by a "
+                             "newer CACAS Studio needs that version to import it")
+
 
 #: The largest whole number a study database column holds (SQLite's 64-bit INTEGER).
 _MAX_INT = 2**63 - 1
@@ -312,7 +347,9 @@ def _check_foreign_keys(c: sqlite3.Connection, before: dict[str, int]) -> None:
 def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
     """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
     number of interactions restored and the notes on what was kept as it was. ``policy_files``
-    maps each policies.csv path to its bytes."""
+    maps each policies.csv path to its bytes. A column it does not know is refused before any row
+    is read (:func:`check_columns`)."""
+    check_columns(tables)
     # codes and free text as the study held them: what looks like contact details is noted, not refused
     noted = _Notes()
     names = [s.name for s in store.studies()]  # the new database's "default", then the bundle's

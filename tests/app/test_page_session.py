@@ -907,3 +907,52 @@ def test_that_is_about_enough_is_said_on_the_form_not_over_a_proposal(app, store
     _choose(at, scene="others")
     assert enough not in [m.value for m in at.info]
     assert any(c.value.startswith("in another room · ") for c in at.caption)  # it said "in the others"
+
+
+def test_a_full_disk_tells_the_participant_plainly_that_their_answer_was_not_saved(app, store, p01, quick_policy,
+                                                                                   monkeypatch):
+    """Safety audit L9: the tablet showed the participant the database's own message ("the study
+    database cannot be written (database or disk is full) ..."). It says their answer was not saved
+    and what to do, the reason one click away for the researcher; the researcher's view says it as
+    before. Nothing is saved, and the answer goes through once the disk has room."""
+    import sqlite3
+
+    from cacas.store import db
+
+    full = []
+    real = db.transact
+
+    def transact(conn, fn, queue=None):
+        def writing(c):
+            result = fn(c)
+            if full:  # the disk fills up as the answer is written
+                raise sqlite3.OperationalError("database or disk is full")
+            return result
+        return real(conn, writing, queue)
+
+    monkeypatch.setattr(db, "transact", transact)
+    store.open_day("P01")
+    said = "the study database cannot be written (database or disk is full); nothing was saved"
+    for view in ({"view": "tablet"}, {}):
+        at = app(PAGE, participant="P01", ctx="3.6.20.2", at="1.1", **view)
+        no_exception(at)
+        answer = next(b.label for b in at.button if b.label in ("Accept", "Nothing needed"))
+        full.append(True)
+        _button(at, answer).click().run()
+        full.clear()
+        no_exception(at)
+        errors = [e.value for e in at.error]
+        if view:
+            assert errors == ["Your answer was not saved: the robot could not store it just now. Please try again in "
+                              "a moment, and if it happens again, tell the researcher."]
+            assert "For the researcher" in [x.label for x in at.expander]
+            assert said in texts(at)  # one click away
+        else:
+            assert len(errors) == 1 and errors[0].startswith(said)
+            assert "For the researcher" not in [x.label for x in at.expander]
+        assert len(store.interactions_frame("P01", method=None)) == 0
+        assert at.query_params.get("ctx") in ("3.6.20.2", ["3.6.20.2"])  # the proposal stays, to answer again
+    _button(at, answer).click().run()  # room again
+    no_exception(at)
+    assert len(store.interactions_frame("P01", method=None)) == 1
+    assert "Interaction 1 saved" in texts(at)
