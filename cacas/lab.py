@@ -220,6 +220,24 @@ def library_stamp(kind: str, name: str | None = None) -> tuple:
     return (str(root),) + tuple((f.name, f.stat().st_mtime_ns if f.exists() else None) for f in folders)
 
 
+def library_problem(kind: str) -> str | None:
+    """What training would refuse in the sound or scene library as it is now (a folder that is not
+    an activity or a room, a file of a type the library does not read, no library folder at all),
+    in the words the training would fail with; None when the library's layout is fine. The library
+    tabs say it before a training is started on it (the folders are listed, no file is read)."""
+    if kind == "sound":
+        from cacas.audio.library import scan
+    elif kind == "scene":
+        from cacas.vision.library import scan
+    else:
+        raise CacasError(f"unknown library kind {kind!r}; valid: sound, scene")
+    try:
+        scan()
+    except CacasError as exc:
+        return str(exc)
+    return None
+
+
 def model_path(kind: str) -> Path:
     """Where the saved sound or scene model is (the one the study page and the tablets load)."""
     if kind == "sound":

@@ -119,6 +119,11 @@ def _library_counts(kind: str) -> pd.DataFrame:
 
 
 @st.cache_data(show_spinner=False, max_entries=16)
+def _library_problem(kind: str, stamp: tuple) -> str | None:
+    return lab.library_problem(kind)
+
+
+@st.cache_data(show_spinner=False, max_entries=16)
 def _counts(kind: str, stamp: tuple) -> pd.DataFrame:
     k = _KINDS[kind]
     rows = []
@@ -162,6 +167,9 @@ def _library_grid(kind: str, names: str, show, note: str = "") -> None:
     counts = _library_counts(kind)
     n = counts[k["items"]]
     st.markdown(f"**{int(n.sum())} {k['items']}** for **{int((n > 0).sum())} of {len(k['names'])}** {names}.{note}")
+    problem = _library_problem(kind, lab.library_stamp(kind))  # passed over in the counts, refused by training
+    if problem:
+        st.warning(f"Training the {kind} model would refuse this library: {problem}", icon=":material/folder_off:")
     cols = st.columns(3)
     for i, row in counts.iterrows():
         with cols[i % 3].container(border=True):

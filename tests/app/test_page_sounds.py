@@ -447,3 +447,32 @@ def test_a_put_back_pressed_while_a_training_runs_is_refused(app, tmp_path, monk
     at.run()
     assert f"{path}: not a sound model (not a PyTorch file)" in " ".join(e.value for e in at.error)
     assert [c.value for c in at.caption].count("No trained model saved yet.") == 1  # the scene model's alone
+
+
+def test_the_library_tabs_say_what_training_would_refuse(app, tmp_path, monkeypatch):
+    """Walkthrough: a folder 'coughing' (not an activity) and a notes.txt in cry/ were passed over on the
+    Sound library tab ("48 clips for 2 of 33 activities", all well), and training then failed on them
+    after it had started; the tab says it, naming the folder and what is valid. The same for the scenes."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds" / "cry").mkdir(parents=True)
+    (data / "sounds" / "cry" / "a.wav").write_bytes(_wav())
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    at = app(PAGE)
+    no_exception(at)
+    assert not [w.value for w in at.warning if "would refuse" in w.value]  # a library training takes
+    (data / "sounds" / "coughing").mkdir()
+    (data / "sounds" / "coughing" / "b.wav").write_bytes(_wav(0.9))
+    (data / "scenes" / "bedroom" / "notes.txt").write_text("camera settings")
+    at.run()
+    no_exception(at)
+    said = [w.value for w in at.warning if "would refuse" in w.value]
+    assert len(said) == 2, said
+    assert said[0].startswith("Training the sound model would refuse this library: ")
+    assert "folder name 'coughing' is not an activity; valid: cough, cry" in said[0]
+    assert said[1].startswith("Training the scene model would refuse this library: ")
+    assert "notes.txt: unsupported file type '.txt'; valid: " in said[1]
