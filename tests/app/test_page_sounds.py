@@ -461,6 +461,7 @@ def test_the_library_tabs_say_what_training_would_refuse(app, tmp_path, monkeypa
     shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
     (data / "sounds" / "cry").mkdir(parents=True)
     (data / "sounds" / "cry" / "a.wav").write_bytes(_wav())
+    (data / "sounds" / "cry" / "b.wav").write_bytes(_wav(0.8))
     monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
     at = app(PAGE)
     no_exception(at)
@@ -476,3 +477,17 @@ def test_the_library_tabs_say_what_training_would_refuse(app, tmp_path, monkeypa
     assert "folder name 'coughing' is not an activity; valid: cough, cry" in said[0]
     assert said[1].startswith("Training the scene model would refuse this library: ")
     assert "notes.txt: unsupported file type '.txt'; valid: " in said[1]
+
+
+def test_the_sound_library_tab_says_an_activity_with_a_single_clip(app, tmp_path, monkeypatch):
+    """Walkthrough: an activity with one clip was counted like any other ("1 clip"), and training failed on
+    it once started ("cannot be split 9:1"); the tab says it first, with what is valid."""
+    at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one clip
+    no_exception(at)
+    said = [w.value for w in at.warning if "would refuse" in w.value]
+    assert len(said) == 1 and said[0].endswith(
+        "activities with a single recording cannot be split 9:1 into training and test: cough; valid: 2 recordings "
+        "or more of each activity that has any (add another, or remove the one)"), said
+    (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
+    at.run()
+    assert not [w.value for w in at.warning if "would refuse" in w.value]
