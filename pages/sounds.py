@@ -295,9 +295,13 @@ with train:
                            "when this model was trained): train it again to use them.")
         key_train, key_eval = f"train-{kind.lower()}", f"eval-{kind.lower()}"
         busy = any(RUNNER.get(k) is not None and RUNNER.get(k).running for k in (key_train, key_eval))
+        refused = _library_problem(kind.lower(), lab.library_stamp(kind.lower()))  # said before, not after a start
+        if refused:
+            st.warning(f"Cannot train the {kind.lower()} model on this library: {refused}",
+                       icon=":material/folder_off:")
         c1, c2 = st.columns(2)
         took = (model.metadata.get("training_seconds") if model is not None else None)
-        if c1.button(f"Train the {kind.lower()} model", disabled=busy, key=f"btn-{key_train}",
+        if c1.button(f"Train the {kind.lower()} model", disabled=busy or bool(refused), key=f"btn-{key_train}",
                      icon=":material/model_training:",
                      help=("Runs in the background; " + (f"the saved model took {float(took) / 60:.0f} min to train."
                                                          if took else "several minutes on 2 CPU cores.")

@@ -491,3 +491,18 @@ def test_the_sound_library_tab_says_an_activity_with_a_single_clip(app, tmp_path
     (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
     at.run()
     assert not [w.value for w in at.warning if "would refuse" in w.value]
+
+
+def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, monkeypatch):
+    """Walkthrough: "Train the sound model" started on a library with no sounds folder (or an activity of one
+    clip) and failed a moment later; the Train tab says why first, and the button waits until it is fixed."""
+    at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one clip
+    no_exception(at)
+    assert at.button(key="btn-train-sound").disabled
+    assert not at.button(key="btn-train-scene").disabled  # the shipped scenes: fine
+    said = [e.value for e in at.warning if e.value.startswith("Cannot train the sound model on this library: ")]
+    assert len(said) == 1 and "cough; valid: 2 recordings or more" in said[0], said
+    (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
+    at.run()
+    assert not at.button(key="btn-train-sound").disabled
+    assert not [e.value for e in at.warning if e.value.startswith("Cannot train")]
