@@ -220,6 +220,30 @@ def library_stamp(kind: str, name: str | None = None) -> tuple:
     return (str(root),) + tuple((f.name, f.stat().st_mtime_ns if f.exists() else None) for f in folders)
 
 
+def library_problem(kind: str) -> str | None:
+    """What training would refuse in the sound or scene library as it is now (a folder that is not
+    an activity or a room, a file of a type the library does not read, no library folder at all, an
+    activity or room with a single file),
+    in the words the training would fail with; None when the library's layout is fine. The library
+    tabs say it before a training is started on it (the folders are listed, no file is read)."""
+    from cacas.recognition_training import check_splittable
+
+    if kind == "sound":
+        from cacas.audio.library import scan, sounds_dir as root_of
+        names, what, item, name_of = spaces.ACTIVITIES, "activities", "recording", lambda clip: clip.activity
+    elif kind == "scene":
+        from cacas.vision.library import scan, scenes_dir as root_of
+        names, what, item, name_of = spaces.SCENES, "scenes", "image", lambda photo: photo.scene
+    else:
+        raise CacasError(f"unknown library kind {kind!r}; valid: sound, scene")
+    try:  # in training's own words (train_sound_model, train_scene_model)
+        labels = [list(names).index(name_of(f)) for f in scan()]
+        check_splittable(labels, list(names), root_of(), what, item)
+    except CacasError as exc:
+        return str(exc)
+    return None
+
+
 def model_path(kind: str) -> Path:
     """Where the saved sound or scene model is (the one the study page and the tablets load)."""
     if kind == "sound":

@@ -246,7 +246,8 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     all or nothing. Refused, with nothing copied: a missing folder, a file beside the name
     folders, a folder that is not a name, a file of another type or one ``kind.check`` refuses,
     and a folder with no file at all, and a file already in the library (the same bytes, under any
-    name) or given twice. A name already in the library gets an ``imported_<k>_`` prefix.
+    name) or given twice; the files ``kind.check`` refuses are all said at once, one a line ("- <file>:
+    ..."). A name already in the library gets an ``imported_<k>_`` prefix.
     A refusal that nothing was copied says "nothing was <done>", and a copy to leave out, to do it
     "<again>" (the app's page adds files with a button of its own). Returns the new paths."""
     source, root = Path(source), Path(root)
@@ -258,10 +259,19 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     plan = _entries(source, kind)
     if not plan:
         raise CacasError(f"{source}: no {kind.item}s found; expected {kind.layout}")
-    for i, (f, _) in enumerate(plan):  # every file checked before anything is copied
-        kind.check(f)
+    bad = []
+    for i, (f, _) in enumerate(plan):  # every file checked before anything is copied, every bad one said
+        try:
+            kind.check(f)
+        except CacasError as exc:
+            bad.append(str(exc))
         if progress:
             progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
+    if len(bad) == 1:
+        raise CacasError(bad[0])
+    if bad:  # one at a time took a try for each (walkthrough: three bad clips, three presses)
+        raise CacasError(f"{len(bad)} of the {len(plan)} {kind.item}s cannot be used; nothing was {done}:"
+                         + "".join(f"\n- {b}" for b in bad))
     _refuse_copies(plan, root, kind, done, again)
     targets, taken = [], set()
     for f, name in plan:

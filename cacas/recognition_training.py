@@ -36,16 +36,30 @@ def relative_path(path: Path, root: Path) -> str:
         return str(path)
 
 
+def check_splittable(labels: np.ndarray, classes: Sequence[str], root: Path, what: str, item: str) -> None:
+    """A CacasError naming ``root``, the classes with a single item and what is valid, if any class
+    has one (:func:`training_split` cannot give it a training and a test item); the library tabs
+    say it before a training is started."""
+    counts = np.bincount(np.asarray(labels, dtype=int), minlength=len(classes))
+    thin = [classes[i] for i in range(len(classes)) if 0 < counts[i] < 2]
+    if thin:
+        raise CacasError(f"{root}: {what} with a single {item} cannot be split 9:1 into training and test: "
+                         f"{', '.join(thin)}; valid: 2 {item}s or more of each {what_one(what)} that has any "
+                         "(add another, or remove the one)")
+
+
+def what_one(what: str) -> str:
+    """The singular of a class word: "activities" -> "activity", "scenes" -> "scene"."""
+    return what[:-3] + "y" if what.endswith("ies") else what[:-1] if what.endswith("s") else what
+
+
 def training_split(labels: np.ndarray, classes: Sequence[str], test_fraction: float, seed: int,
                    root: Path, what: str, item: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(train, validation, test) index arrays over the items. Every class with items needs two
     of them (one to train, one to test): otherwise one CacasError naming ``root`` and the
     classes (``what``, e.g. "activities"; ``item``, e.g. "recording"). With too few items for a
     validation side, validation falls back to the training items."""
-    counts = np.bincount(labels, minlength=len(classes))
-    thin = [classes[i] for i in range(len(classes)) if 0 < counts[i] < 2]
-    if thin:
-        raise CacasError(f"{root}: {what} with a single {item} cannot be split 9:1: {', '.join(thin)}")
+    check_splittable(labels, classes, root, what, item)
     keep, test = stratified_group_split(labels, test_fraction, seed)
     tr_sub, val_sub = stratified_group_split(labels[keep], 1.0 / 9.0, seed + 1)
     train, val = keep[tr_sub], keep[val_sub]

@@ -119,6 +119,11 @@ def _library_counts(kind: str) -> pd.DataFrame:
 
 
 @st.cache_data(show_spinner=False, max_entries=16)
+def _library_problem(kind: str, stamp: tuple) -> str | None:
+    return lab.library_problem(kind)
+
+
+@st.cache_data(show_spinner=False, max_entries=16)
 def _counts(kind: str, stamp: tuple) -> pd.DataFrame:
     k = _KINDS[kind]
     rows = []
@@ -162,6 +167,9 @@ def _library_grid(kind: str, names: str, show, note: str = "") -> None:
     counts = _library_counts(kind)
     n = counts[k["items"]]
     st.markdown(f"**{int(n.sum())} {k['items']}** for **{int((n > 0).sum())} of {len(k['names'])}** {names}.{note}")
+    problem = _library_problem(kind, lab.library_stamp(kind))  # passed over in the counts, refused by training
+    if problem:
+        st.warning(f"Training the {kind} model would refuse this library: {problem}", icon=":material/folder_off:")
     cols = st.columns(3)
     for i, row in counts.iterrows():
         with cols[i % 3].container(border=True):
@@ -287,9 +295,13 @@ with train:
                            "when this model was trained): train it again to use them.")
         key_train, key_eval = f"train-{kind.lower()}", f"eval-{kind.lower()}"
         busy = any(RUNNER.get(k) is not None and RUNNER.get(k).running for k in (key_train, key_eval))
+        refused = _library_problem(kind.lower(), lab.library_stamp(kind.lower()))  # said before, not after a start
+        if refused:
+            st.warning(f"Cannot train the {kind.lower()} model on this library: {refused}",
+                       icon=":material/folder_off:")
         c1, c2 = st.columns(2)
         took = (model.metadata.get("training_seconds") if model is not None else None)
-        if c1.button(f"Train the {kind.lower()} model", disabled=busy, key=f"btn-{key_train}",
+        if c1.button(f"Train the {kind.lower()} model", disabled=busy or bool(refused), key=f"btn-{key_train}",
                      icon=":material/model_training:",
                      help=("Runs in the background; " + (f"the saved model took {float(took) / 60:.0f} min to train."
                                                          if took else "several minutes on 2 CPU cores.")

@@ -269,3 +269,35 @@ def test_a_photo_is_shown_as_the_model_sees_it():
     assert shown.mode == "RGB" and shown.size == (64, 48) and shown.getpixel((32, 10))[0] < 200
     with pytest.raises(CacasError, match=r"^notes\.png: not a readable image"):
         lab.photo_to_show("notes.png", b"text")
+
+
+def test_every_bad_file_of_an_add_is_said_at_once(tmp_path):
+    """Walkthrough: three bad clips added together were refused one at a time ('notes.wav: not a readable
+    ...'; without it, 'silent.wav: is all silence'; without that, 'tiny.wav: is 0.20 s long'): three
+    presses to learn what one could have said. Nothing is added while any is bad."""
+    import io
+
+    import numpy as np
+    import soundfile as sf
+
+    from cacas.audio.library import clip_paths
+
+    def wav(seconds, amplitude=0.3):
+        buf = io.BytesIO()
+        t = np.arange(int(seconds * 16000)) / 16000
+        sf.write(buf, amplitude * np.sin(2 * np.pi * 440 * t), 16000, format="WAV")
+        return buf.getvalue()
+
+    root = tmp_path / "sounds"
+    files = [("good.wav", wav(1.0)), ("silent.wav", wav(1.0, 0.0)), ("notes.wav", b"this is not audio"),
+             ("tiny.wav", wav(0.2))]
+    with pytest.raises(CacasError) as told:
+        lab.add_clips("cough", files, root)
+    lines = str(told.value).split("\n- ")
+    assert lines[0] == "3 of the 4 recordings cannot be used; nothing was added:"
+    assert [line.split(":")[0] for line in lines[1:]] == ["notes.wav", "silent.wav", "tiny.wav"]
+    assert "is all silence" in lines[2] and "valid: a recording of at least 0.5 s" in lines[3]
+    assert clip_paths("cough", root) == []
+    # one bad file: said as before
+    with pytest.raises(CacasError, match=r"^notes\.wav: not a readable WAV/FLAC/OGG audio file"):
+        lab.add_clips("cough", files[:1] + files[2:3], root)

@@ -447,3 +447,62 @@ def test_a_put_back_pressed_while_a_training_runs_is_refused(app, tmp_path, monk
     at.run()
     assert f"{path}: not a sound model (not a PyTorch file)" in " ".join(e.value for e in at.error)
     assert [c.value for c in at.caption].count("No trained model saved yet.") == 1  # the scene model's alone
+
+
+def test_the_library_tabs_say_what_training_would_refuse(app, tmp_path, monkeypatch):
+    """Walkthrough: a folder 'coughing' (not an activity) and a notes.txt in cry/ were passed over on the
+    Sound library tab ("48 clips for 2 of 33 activities", all well), and training then failed on them
+    after it had started; the tab says it, naming the folder and what is valid. The same for the scenes."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    (data / "sounds" / "cry").mkdir(parents=True)
+    (data / "sounds" / "cry" / "a.wav").write_bytes(_wav())
+    (data / "sounds" / "cry" / "b.wav").write_bytes(_wav(0.8))
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    at = app(PAGE)
+    no_exception(at)
+    assert not [w.value for w in at.warning if "would refuse" in w.value]  # a library training takes
+    (data / "sounds" / "coughing").mkdir()
+    (data / "sounds" / "coughing" / "b.wav").write_bytes(_wav(0.9))
+    (data / "scenes" / "bedroom" / "notes.txt").write_text("camera settings")
+    at.run()
+    no_exception(at)
+    said = [w.value for w in at.warning if "would refuse" in w.value]
+    assert len(said) == 2, said
+    assert said[0].startswith("Training the sound model would refuse this library: ")
+    assert "folder name 'coughing' is not an activity; valid: cough, cry" in said[0]
+    assert said[1].startswith("Training the scene model would refuse this library: ")
+    assert "notes.txt: unsupported file type '.txt'; valid: " in said[1]
+
+
+def test_the_sound_library_tab_says_an_activity_with_a_single_clip(app, tmp_path, monkeypatch):
+    """Walkthrough: an activity with one clip was counted like any other ("1 clip"), and training failed on
+    it once started ("cannot be split 9:1"); the tab says it first, with what is valid."""
+    at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one clip
+    no_exception(at)
+    said = [w.value for w in at.warning if "would refuse" in w.value]
+    assert len(said) == 1 and said[0].endswith(
+        "activities with a single recording cannot be split 9:1 into training and test: cough; valid: 2 recordings "
+        "or more of each activity that has any (add another, or remove the one)"), said
+    (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
+    at.run()
+    assert not [w.value for w in at.warning if "would refuse" in w.value]
+
+
+def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, monkeypatch):
+    """Walkthrough: "Train the sound model" started on a library with no sounds folder (or an activity of one
+    clip) and failed a moment later; the Train tab says why first, and the button waits until it is fixed."""
+    at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one clip
+    no_exception(at)
+    assert at.button(key="btn-train-sound").disabled
+    assert not at.button(key="btn-train-scene").disabled  # the shipped scenes: fine
+    said = [e.value for e in at.warning if e.value.startswith("Cannot train the sound model on this library: ")]
+    assert len(said) == 1 and "cough; valid: 2 recordings or more" in said[0], said
+    (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
+    at.run()
+    assert not at.button(key="btn-train-sound").disabled
+    assert not [e.value for e in at.warning if e.value.startswith("Cannot train")]
