@@ -280,8 +280,10 @@ with data:
                                                   f"is missing from `{store.policy_dir}`")),
                                        (damaged, ("do not match their recorded sha256 (changed or damaged)",
                                                   "does not match its recorded sha256 (changed or damaged)"))) if found]
-            st.warning(f"No zip: {' and '.join(said)}, and the zip must hold every one to be imported. Restore them "
-                       "from a backup; the tables above download one by one.", icon=":material/warning:")
+            one = len(missing) + len(damaged) == 1
+            st.warning(f"No zip: {' and '.join(said)}, and the zip must hold every one to be imported. Restore "
+                       f"{'it' if one else 'them'} from a backup; the tables above download one by one.",
+                       icon=":material/warning:")
         else:
             note = app_support.bundle_note(tables["policies"], db, study)
             if note:

@@ -270,6 +270,7 @@ def test_no_zip_offered_while_a_policy_file_is_damaged(app, store):
     no_exception(at)
     assert ("No zip: 1 policy file does not match its recorded sha256 (changed or damaged) "
             "(P01/day1-cacas-") in texts(at)
+    assert "Restore it from a backup" in texts(at)  # one file: "it", not "them"
     labels = [b.label for b in at.get("download_button")]
     assert "Download interactions.csv" in labels and not any("zip" in label for label in labels)
 
