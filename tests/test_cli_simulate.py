@@ -106,7 +106,7 @@ def test_same_seed_writes_the_same_daily_csv_byte_for_byte(tmp_path, capsys):
     assert main(args + ["--out", str(tmp_path / "a"), "--plot", str(tmp_path / "plots")]) == 0
     assert main(args + ["--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
-    assert "preference_accuracy" in out and "cacas" in out
+    assert "accuracy" in out and "cacas" in out  # the printed table of means
     a, b = (tmp_path / "a" / "daily.csv").read_bytes(), (tmp_path / "b" / "daily.csv").read_bytes()
     assert a == b and a.startswith(b"participant,method,day,success_rate,preference_accuracy,cumulative_feedback,"
                                    b"interactions")
@@ -587,3 +587,46 @@ def test_simulate_help_says_what_is_valid_and_the_default(option, says):
     text = _option_help("simulate", option)
     for s in says:
         assert s in text, text
+
+
+def _study_of_every_method(days):
+    """A StudyResult as simulate_study returns it: every method, the given days, two participants
+    (the first method in closed loop, a day with no interaction), the other tables empty."""
+    import pandas as pd
+
+    from cacas import records
+    from cacas.experiment import StudyResult
+
+    rows = []
+    for person in ("P01", "P02"):
+        for m_i, method in enumerate(records.METHOD_ORDER):
+            for day in days:
+                acts = m_i == 0 and day != days[0]
+                rows.append(dict(participant=person, method=method, day=day,
+                                 success_rate=0.123456 if acts else float("nan"), preference_accuracy=0.98765,
+                                 cumulative_feedback=1234.5 + day, interactions=15,
+                                 success_ceiling=1.0 if acts else float("nan"), unanswered=1))
+    daily = pd.DataFrame(rows).reindex(columns=records.DAILY_COLUMNS)
+    return StudyResult(daily=daily, interactions=pd.DataFrame(columns=records.INTERACTION_COLUMNS),
+                       by_preference=pd.DataFrame(columns=records.BY_PREFERENCE_COLUMNS))
+
+
+def test_the_printed_table_fits_an_80_column_terminal(tmp_path, capsys, monkeypatch):
+    """CLI audit: the per-method, per-day table printed daily.csv's column names on one line, 91
+    columns wide: it wrapped in an 80-column terminal (and in a log read in one). Every method,
+    a day of three digits: the table's lines fit, its headings name daily.csv's columns, an
+    empty mean is '-', and a piped run (capsys is no terminal) gets the same."""
+    import cacas.experiment
+    from cacas import records
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", lambda *a, **k: _study_of_every_method([1, 365]))
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--days", "365",
+                 "--methods", ",".join(records.METHOD_ORDER), "--out", str(tmp_path / "o")]) == 0
+    table = capsys.readouterr().out.split("\nwrote ")[0].splitlines()
+    assert max(len(line) for line in table) <= 80, "\n".join(table)
+    assert len(table) == 2 + 2 * len(records.METHOD_ORDER)
+    assert table[0].split() == ["success", "success", "preference", "cumulative"]
+    assert table[1].split() == ["method", "day", "rate", "ceiling", "accuracy", "feedback"]
+    assert table[2].split() == ["cacas", "1", "-", "-", "0.988", "1235.5"]
+    assert table[3].split() == ["cacas", "365", "0.123", "1.000", "0.988", "1599.5"]
+    assert table[-1].split() == ["sac-user-data", "365", "-", "-", "0.988", "1599.5"]

@@ -50,6 +50,37 @@ def other_plotly_js(folder, script: bytes) -> bool:
     return earlier.is_file() and earlier.read_bytes() != script
 
 
+#: The printed table's columns (:func:`cacas.experiment.summary_table`'s, daily.csv's names) as
+#: two-line headings, and each one's decimals: with its names on one line it was 91 columns wide
+#: and wrapped in an 80-column terminal (CLI audit).
+SUMMARY_COLUMNS = {"method": ("", "method", None), "day": ("", "day", None),
+                   "success_rate": ("success", "rate", 3), "success_ceiling": ("success", "ceiling", 3),
+                   "preference_accuracy": ("preference", "accuracy", 3),
+                   "cumulative_feedback": ("cumulative", "feedback", 1)}
+
+
+def summary_text(table) -> str:
+    """``table`` (:func:`cacas.experiment.summary_table`: means per method and day) as the lines
+    ``cacas simulate`` prints: a two-line heading naming daily.csv's columns, the method on the
+    left, numbers right-aligned, an empty mean (no closed loop, no interaction) as ``-``. At most
+    60 columns for every method and up to 365 days, whatever the terminal (or a pipe, a log)."""
+    import math
+
+    columns = [c for c in SUMMARY_COLUMNS if c in table.columns]
+
+    def cell(column, value) -> str:
+        decimals = SUMMARY_COLUMNS[column][2]
+        if decimals is None:
+            return str(value)
+        return "-" if value is None or math.isnan(value) else f"{value:.{decimals}f}"
+
+    rows = [[SUMMARY_COLUMNS[c][0] for c in columns], [SUMMARY_COLUMNS[c][1] for c in columns],
+            *([cell(c, row[c]) for c in columns] for row in table.to_dict("records"))]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(columns))]
+    align = [str.ljust if c == "method" else str.rjust for c in columns]
+    return "\n".join("  ".join(a(text, w) for text, w, a in zip(row, widths, align)).rstrip() for row in rows)
+
+
 def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
     """The participants of ``people`` (a persona file's, in its order) that ``codes`` names
     (comma-separated, any order), in the file's order, and their places in it (their random
@@ -127,8 +158,6 @@ def run(args) -> int:
         methods = check_methods(args.methods.split(","))
     except CacasError as exc:
         raise CacasError(f"--methods {args.methods}: {exc}") from None
-
-    import pandas as pd
 
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
@@ -210,8 +239,7 @@ def run(args) -> int:
                     raise CacasError(f"{exc}; the tables were written in {out}") from None
         for path in stale:
             path.unlink(missing_ok=True)
-        with pd.option_context("display.width", 120, "display.max_rows", 200):
-            print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
+        print(summary_text(table))
         print("wrote " + ", ".join(str(written[name]) for name in tables))
         if plot_dir is not None:
             print("wrote " + ", ".join(str(plot_dir / name) for name in figures) + f" and {plot_dir / PLOTLY_JS}, "
