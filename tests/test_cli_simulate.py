@@ -33,6 +33,10 @@ def bad_pref(**change):
     (dict(GOOD, studdy="typo"), [], ["personas.json", "field 'studdy': unknown field; valid fields: participants"]),
     ('{"participants": [{"id": "P01", "id": "P02", "preferences": []}]}', [],
      ["personas.json", "field 'id' appears twice in one object"]),
+    # a comma in a code: --participants (comma-separated codes) could not pick that participant (CLI audit)
+    ({"participants": [dict(GOOD["participants"][0], id="Smith, Anna")]}, [],
+     ["personas.json: participant 1, field 'id': 'Smith, Anna' holds a comma, which separates the codes of "
+      "`cacas simulate --participants`; valid: a pseudonymous code"]),
     (GOOD, ["--days", "0"], ["--days 0"]),
     (GOOD, ["--methods", "cacas,dqn"], ["--methods cacas,dqn: unknown method 'dqn'", "valid: cacas, cacas-no-pr"]),
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
