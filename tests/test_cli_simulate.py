@@ -634,3 +634,43 @@ def test_the_printed_table_fits_an_80_column_terminal(tmp_path, capsys, monkeypa
     assert table[2].split() == ["cacas", "1", "-", "-", "0.988", "1235.5"]
     assert table[3].split() == ["cacas", "365", "0.123", "1.000", "0.988", "1599.5"]
     assert table[-1].split() == ["sac-user-data", "365", "-", "-", "0.988", "1599.5"]
+
+
+@pytest.mark.parametrize("jobs, cores, gb, runs, says", [
+    # more workers than cores: run as asked, and said (they take turns: no faster)
+    (["--jobs", "6"], 2, 64, 6, ["--jobs 6: 6 worker processes on 2 cores take turns, so the run is not faster"]),
+    # more than the memory holds (0.8 GB each): as many as it holds, and said
+    (["--jobs", "6"], 8, 2.5, 3, ["--jobs 6: 6 worker processes need about 4.8 GB (0.8 GB each) and 2.5 GB of "
+                                  "memory is available; running 3 (the results are the same"]),
+    ([], 8, 2.5, 3, ["one worker process per core: 8 worker processes need about 6.4 GB"]),
+    # one per participant at most, without a word; the default: one per core
+    (["--jobs", "20"], 32, 64, 8, []),
+    ([], 4, 64, 4, []),
+    ([], 4, None, 4, []),  # the available memory unknown (not Linux): one per core
+])
+def test_jobs_beyond_the_cores_or_the_memory_are_said_or_capped(tmp_path, capsys, monkeypatch, jobs, cores, gb,
+                                                                runs, says):
+    """CLI audit: --jobs was bounded by the number of participants only; each worker process
+    takes about 0.8 GB and a core, so --jobs 40 on a laptop was run (swapping, or killed for
+    memory, losing the run) without a word."""
+    import cacas.experiment
+    import cacas.parallel
+
+    asked = {}
+
+    def study(people, **kw):
+        asked.update(kw)
+        return _study_of_every_method([1])
+
+    monkeypatch.setattr(cacas.parallel, "cores", lambda: cores)
+    monkeypatch.setattr(cacas.parallel, "available_memory", lambda: None if gb is None else int(gb * 2**30))
+    monkeypatch.setattr(cacas.experiment, "simulate_study", study)
+    people = {"participants": [dict(GOOD["participants"][0], id=f"P0{i}") for i in range(1, 9)]}
+    assert main(["simulate", "--personas", str(write(tmp_path, people)), "--quiet", *jobs,
+                 "--out", str(tmp_path / "o")]) == 0
+    assert asked["jobs"] == runs
+    notes = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(notes) == len(says)
+    for note, said in zip(notes, says):
+        assert note.startswith("cacas simulate: note: ") and said in note, note
+

@@ -22,6 +22,7 @@ import sys
 from cacas import records
 from cacas.cli import types
 from cacas.errors import CacasError, case_twin
+from cacas.parallel import GB, WORKER_MEMORY
 
 
 #: The figures --plot writes (fig3_methods.html only with --loop each and several methods).
@@ -140,9 +141,12 @@ def register(sub) -> None:
     p.add_argument("--plot", type=types.path, metavar="DIR",
                    help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here: the "
                         "--out folder, or one holding no tables (not a study's export, nor another run's)")
-    p.add_argument("--jobs", type=types.integer, default=None,
-                   help="worker processes; valid: a whole number >= 1 (default: one per core; results do not "
-                        "depend on it)")
+    p.add_argument("--jobs", type=types.integer, default=None, metavar="N",
+                   help="worker processes, participants side by side, each holding about "
+                        f"{WORKER_MEMORY / GB:.1f} GB; valid: a whole number >= 1 (default: one per core); at "
+                        "most one per participant and as many as the available memory holds (fewer are run, "
+                        "with a note); more than the cores is run, with a note (no faster); the results do "
+                        "not depend on it")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -161,7 +165,8 @@ def run(args) -> int:
 
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
-    from cacas.experiment import default_jobs, simulate_study, summary_table
+    from cacas.experiment import simulate_study, summary_table
+    from cacas.parallel import plan_jobs
     from cacas.export import check_output_folder
     from cacas.preferences import load_personas
     from cacas.store import files
@@ -178,6 +183,9 @@ def run(args) -> int:
             print(f"cacas simulate: note: {args.personas}: {exc}; the study database refuses such codes",
                   file=sys.stderr)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
+    jobs, notes = plan_jobs(args.jobs, len(people))
+    for note in notes:
+        print(f"cacas simulate: note: {note}", file=sys.stderr)
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind, nor the folders above it that it created
     made = [folder for f in (args.out, args.plot) if f for folder in files.missing_folders(f)]
@@ -191,7 +199,7 @@ def run(args) -> int:
         progress = None if args.quiet else ProgressBar("simulate")
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
-                                jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
+                                jobs=jobs, ask_after_reject=args.ask_after_reject,
                                 loop=args.loop, places=places)
     except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
         files.remove_empty(made)
