@@ -25,8 +25,6 @@ from cacas.errors import CacasError, case_twin
 from cacas.parallel import GB, WORKER_MEMORY
 
 
-#: The figures --plot writes (fig3_methods.html only with --loop each and several methods).
-FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html")
 
 
 #: The plotly.js the figures load from their folder (``include_plotlyjs="directory"``).
@@ -167,7 +165,7 @@ def run(args) -> int:
     from cacas.d4a import load_d4a
     from cacas.experiment import simulate_study, summary_table
     from cacas.parallel import plan_jobs
-    from cacas.export import check_output_folder
+    from cacas.export import SIMULATION_FIGURES, check_output_folder
     from cacas.preferences import load_personas
     from cacas.store import files
     from cacas.store import validate as v
@@ -229,7 +227,7 @@ def run(args) -> int:
     # and the figures written there are this run's
     folders = {d.resolve(): d for d in (out, plot_dir) if d is not None}
     written_here = plot_dir.resolve() if plot_dir is not None else None
-    stale = [d / name for where, d in folders.items() for name in FIGURES
+    stale = [d / name for where, d in folders.items() for name in SIMULATION_FIGURES
              if (d / name).is_file() and not (where == written_here and name in figures)]
     table = summary_table(result.daily)
     from cacas.cli import signals_held
