@@ -1,4 +1,5 @@
-"""``cacas simulate``: a whole simulated study (design.md's contract; the persona file: docs/personas.md).
+"""``cacas simulate``: a whole simulated study (design.md's contract; the persona file: docs/personas.md;
+the researcher's help: :data:`DESCRIPTION`).
 
     cacas simulate --personas FILE [--days 7] [--interactions 15]
                    [--methods cacas,cacas-no-pr,orl,nn] [--seed 0] --out DIR [--plot DIR]
@@ -103,9 +104,36 @@ def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
     return [people[i] for i in places], places
 
 
+#: ``cacas simulate --help``'s text: for a researcher (the module's docstring is for developers),
+#: its lines at most 79 columns wide (RawDescriptionHelpFormatter keeps them as written).
+DESCRIPTION = """\
+Run a simulated study: the participants of a persona file (its format:
+docs/personas.md) act in the contexts their described preferences cover, about
+--interactions times a day; the robot acts with the policy in force, and the
+policy is adapted after each day (the paper's Fig. 3 and Fig. 4).
+
+Writes DIR/daily.csv (one row per participant, method and day: success_rate,
+preference_accuracy, cumulative_feedback, interactions, ...),
+DIR/interactions.csv (every simulated interaction) and DIR/by_preference.csv
+(Fig. 4's accuracy per described preference), and prints each method's mean
+of each day. With --plot, also Fig. 3, Fig. 4 and the accuracy by preference
+as Plotly HTML. The same --seed writes the same daily.csv.
+
+The first method acts with the participants and every method adapts from the
+same interactions (the paper's Fig. 4); with --loop each, every method runs a
+closed-loop study of its own (with more than one method, --plot also writes
+fig3_methods.html, Fig. 3 for every method)."""
+
+EPILOG = """\
+examples (from the project folder):
+  cacas simulate --personas study_data/personas/example.json --out results
+  cacas simulate --personas study_data/personas/example.json --days 3 \\
+      --participants P01,P02 --methods cacas,nn --out results --plot results"""
+
+
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--personas", required=True, type=types.path, metavar="FILE", help="persona JSON file (its format: docs/personas.md)")
     p.add_argument("--participants", metavar="CODES",
                    help="comma-separated participant codes of the persona file to simulate (default: all); "
