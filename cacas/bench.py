@@ -334,8 +334,8 @@ def run_bench(cfg: BenchConfig | None = None, progress: Progress | None = None) 
     d4a = load_d4a()
     cacaa = cfg.cacaa()
     if cfg.short_training:
-        notes.append("note: QUICK run (smoke test): adaptations train 1 simulated day and ORL 30 updates; "
-                     "these figures are not the benchmark")
+        notes.append(f"note: QUICK run (smoke test): adaptations train {cacaa.adapt_train_days} simulated day(s), "
+                     f"{cacaa.adapt_updates} SAC updates (ORL as many); these figures are not the benchmark")
     initial = load_initial_policy()
     person = _example_people(1)[0]
 
