@@ -74,14 +74,26 @@ def test_cacas_moves_from_the_initial_action(small_config, small_initial):
 
 def test_adaptation_never_reads_described_preferences(monkeypatch, small_config, small_initial):
     """No-preference-leak guard: the adaptation sees interactions only (paper: 'the system has no
-    access to them'). Any use of the preference machinery during adaptation fails the test."""
+    access to them'). Any use of the preference machinery during adaptation fails the test:
+    making a preference or participant, any of their methods and properties, any function of
+    cacas.preferences (reading, parsing or validating a persona file or the study database's
+    preferences) and the preference-driven state draws. (Trapping only coverage_mask,
+    preferred_action_table and the parsers let a leak through that built a Preference from a
+    persona file's JSON and read its activity_indices and action_index.)"""
     def leak(*args, **kwargs):
         raise AssertionError("the adaptation read described preferences")
-    for name in ("coverage_mask", "preferred_action_table"):
-        monkeypatch.setattr(preferences.Participant, name, leak, raising=False)
-        monkeypatch.setattr(preferences.Preference, name, leak, raising=False)
-    for name in ("load_personas", "parse_personas", "parse_participant", "parse_preference"):
-        monkeypatch.setattr(preferences, name, leak)
+    trapped = []
+    for cls in (preferences.Preference, preferences.Participant):
+        for name, value in list(vars(cls).items()):
+            if name == "__init__" or not name.startswith("_") and (callable(value) or isinstance(value, property)):
+                monkeypatch.setattr(cls, name, property(leak) if isinstance(value, property) else leak)
+                trapped.append(f"{cls.__name__}.{name}")
+    for name, value in list(vars(preferences).items()):
+        if inspect.isfunction(value) and value.__module__ == preferences.__name__ and not name.startswith("_"):
+            monkeypatch.setattr(preferences, name, leak)
+            trapped.append(name)
+    assert {"Preference.__init__", "Preference.action_index", "Preference.activity_indices",
+            "Participant.preferred_action_table", "persona_json", "parse_participant", "load_personas"} <= set(trapped)
     monkeypatch.setattr(adaptation, "preference_states", leak)
     for method in METHODS:
         adapt_policy(small_initial, stove_days(2), method, seed=0, config=small_config)
