@@ -6,7 +6,10 @@ activities (S1), 6 scenes (S2), 12 two-hour time slots (S3), 12 repeat-interval 
 
 * The policy state is S1..S7 one-hot and concatenated: 33+6+12+12+14+14+3 = 94 dimensions.
 * The user-model input S_u is S1..S6: 91 dimensions (Section IV-C.1); there S6 is the action
-  being judged.
+  being judged. In the policy state, where the paper says only that S6 is "the action that the
+  robot needs to take", S6 is our reading: the robot's previous action, and S7 the user's
+  response to it (design.md, "State (Table I): our reading"; the action to take is the policy's
+  output, Eq. 4).
 * The number of states, 33*6*12*12*14*14*3, is the paper's 16,765,056 (:data:`N_STATES`).
 
 Names match case-insensitively (surrounding blanks and repeated spaces ignored); an unknown name
