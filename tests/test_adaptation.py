@@ -526,3 +526,27 @@ def test_the_edges_of_k_minutes_parallel_days_and_adapt_train_days_are_valid():
         config = adaptation.CACAAConfig(**kw)
         assert all(getattr(config, k) == v for k, v in kw.items())
     assert adaptation.CACAAConfig(k_minutes=720).adapt_updates == 2  # two steps a day: one transition a round
+
+
+def test_a_request_for_the_robots_own_proposal_is_not_also_its_reject():
+    """A type_2 row whose request is the robot's own proposal (the tablet records that as an accept,
+    study_day.request_accepts_proposal, but the library API and a bundle import take it as it is):
+    the user data D hold it as accepted only (Table II: no D_f reject of the proposal), and so do
+    ORL's transitions and the bandit's counts (they made it +1 and -1 for the same action, a win
+    and a loss)."""
+    from cacas.adaptation import orl_transitions
+    from cacas.d4a import load_d4a
+    from cacas.policy import BanditPolicy
+    from cacas.user_model import UserData
+
+    row = {"participant": "P01", "method": "cacas", "day": 1, "index": 1, "time": "08:00", "activity": "cough",
+           "scene": "bedroom", "time_slot": 4, "interval": 10, "task": "do nothing", "previous_action": "do nothing",
+           "previous_response": "others", "type": "type_2", "robot_action": "pain check", "response": "accept",
+           "user_action": "pain check"}
+    rows = pd.DataFrame([row], columns=records.INTERACTION_COLUMNS)
+    su = (spaces.activity_index("cough"), 0, 4, spaces.interval_bin(10), 0, spaces.action_index("pain check"))
+    assert UserData.from_interactions(rows).holds_accept(su)
+    _, a, r, _, _ = orl_transitions(rows)
+    assert [(spaces.ACTIONS[x], float(y)) for x, y in zip(a, r)] == [("pain check", 1.0)]
+    bandit = BanditPolicy(load_d4a().table).fit(rows)
+    assert bandit.wins.sum() == 1 and bandit.losses.sum() == 0
