@@ -43,7 +43,7 @@ def fill(store: StudyStore) -> None:
                                          response=["accept", "reject", "others", "accept"][i], probabilities=p,
                                          recognised_activity="sneeze", sound_model=f"{d}123456789ab"[:12])
             store.record_interaction(who, day, activity="use stove", scene="kitchen", time_slot=8, interval_bin=3,
-                                     robot_action="do nothing", response="reject", type=USER_INITIATED,
+                                     robot_action="do nothing", response="accept", type=USER_INITIATED,
                                      user_action="remind to turn off")
             store.close_day(who, day)
             v = store.save_policy(who, day, "cacas", f"{who} policy after day {day}".encode())
@@ -423,6 +423,10 @@ def _rewrite(bundle, out, table, change):
      r"interactions.csv, row 2: user_action 'chitchat' given for a robot-initiated \(type_1\) interaction; only "
      r"type_2 interactions have one"),
     ("interactions", lambda df: df.assign(user_action=""), "interactions.csv, row 6: user_action is missing"),
+    # a type_2 row is the confirmed request (Table II's D_i): its response is "accept"
+    ("interactions", lambda df: df.assign(response=df["response"].where(df["type"] != "type_2", "reject")),
+     r"interactions.csv, row 6: response 'reject' given for a user-initiated \(type_2\) interaction; valid: "
+     r"'accept'"),
     ("interactions", lambda df: df.assign(time="garbage"),
      r'interactions.csv, row 2, column time: \'garbage\' is invalid; valid: an ISO 8601 time with a time zone, such as '
      r'"2026-11-21T10:00:00Z" \(UTC\)'),

@@ -588,7 +588,7 @@ def test_record_interaction_all_fields(store):
     i1 = store.record_interaction("P01", day, **GOOD, probabilities=probs(), recognised_activity="sneeze",
                                   recognised_scene="bedroom", task="chitchat", time="2026-11-21T10:00:00Z")
     i2 = store.record_interaction("P01", day, activity="Use Stove", scene="kitchen", time_slot=3,
-                                  interval_bin=0, robot_action="do nothing", response="reject",
+                                  interval_bin=0, robot_action="do nothing", response="accept",
                                   type=USER_INITIATED, user_action="remind to turn off",
                                   previous_action="pain check", previous_response="accept")
     assert i2 > i1
@@ -620,6 +620,11 @@ BAD_INTERACTIONS = [
     (dict(type="type_3"), "interaction type"),
     (dict(type="type_2"), "user_action is missing"),
     (dict(type="type_2", user_action="do nothing"), "not a request"),
+    (dict(type="type_2", user_action="chitchat", response="reject"),
+     r"response 'reject' given for a user-initiated \(type_2\) interaction; valid: 'accept'"),
+    (dict(type="type_2", user_action="pain check", robot_action="pain check", response="accept"),
+     r"user_action 'pain check' is the robot's own proposal \(robot_action\); valid: a request for another "
+     r"action, or the proposal's accept as a robot-initiated \(type_1\) interaction"),
     (dict(user_action="chitchat"), r"user_action 'chitchat' given for a robot-initiated \(type_1\) interaction; "
                                    "only type_2 interactions have one"),
     (dict(hour=24), "hour 24 is invalid; valid: a number with 0 <= hour < 24"),
