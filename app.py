@@ -163,8 +163,11 @@ def _sidebar(store, page) -> dict[str, str | None]:
 
 #: What the pages import on first use, which took the first visit of a page after the server's start
 #: 3.5-7.4 s (torch 1.9-2.6 s for Adaptation, torchvision 2.5 s for Sounds & scenes; helper's profile of a
-#: 24 x 7 study), and librosa's features, which the tablet's first proposal needs.
-PRELOADED = ("cacas.adaptation", "torchvision.models", "librosa.feature")
+#: 24 x 7 study), and librosa's features, which the tablet's first proposal needs. librosa's own modules
+#: load lazily: ``librosa.feature`` alone imported a stub, and the tablet's first recognition of a clip
+#: still imported the rest (scipy.signal, soundfile, numba: some 1,000 modules, 3.6 s; profile of the first
+#: proposal), so the module that computes the MFCC is named.
+PRELOADED = ("cacas.adaptation", "torchvision.models", "librosa.feature.spectral")
 
 
 @st.cache_resource(show_spinner=False)
