@@ -41,7 +41,7 @@ if source == SIMULATED:
                                                help="Saved by the Simulation lab, newest first.")
 
 if source == HUMAN:
-    tables = export_tables(store, study)
+    tables = ui.study_tables(study)
     daily = tables["daily"]
     n_people, n_started = len(tables["participants"]), tables["days"]["participant"].nunique()  # as Overview's "Started"
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''} "
