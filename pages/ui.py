@@ -95,22 +95,6 @@ def store() -> StudyStore:
     return _open_store(db_path())
 
 
-@st.cache_data(show_spinner=False, max_entries=8)
-def _study_tables(path: str, study: str | None, stamp: tuple[int, int]) -> dict[str, pd.DataFrame]:
-    from cacas.export import export_tables
-
-    return export_tables(store(), study)
-
-
-def study_tables(study: str | None) -> dict[str, pd.DataFrame]:
-    """``export.export_tables(store(), study)``, read again only when the database has changed since
-    (:meth:`StudyStore.data_stamp`: a write by this server, another program or a worker process): the
-    Results page read every table on each of its runs, a third of the run for a 24 x 7 study (a change of
-    participant, of the days shown, a click). The stamp is taken before the tables are read, so tables
-    cached under it are never older than it. Each caller gets its own copy (``st.cache_data``)."""
-    return _study_tables(db_path(), study, store().data_stamp())
-
-
 @st.cache_resource(show_spinner=False)
 def tablet_board() -> TabletBoard:
     """What each participant's tablet shows now, shared by this server's sessions (the Study
