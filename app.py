@@ -183,7 +183,12 @@ def _preload() -> threading.Thread:
     "SystemError: AST constructor recursion depth mismatch" (the tests: about one run in eight of a
     page's test file). The two constructions interleave only when a collection in the middle of one
     runs Python code (a finalizer, a weakref callback) and the other thread takes the interpreter;
-    without collections they run one after the other. The collector is on again once the imports end."""
+    without collections they run one after the other. The collector is on again once the imports end.
+
+    Then the saved sound and scene models are loaded into the page's cache (``ui.recognizer``): the first
+    visit of Sounds & scenes loaded them (0.7-1.5 s of its run, the scene model's most, after the imports;
+    profile of a 24 x 7 study), and so did the tablet's first form. A page that needs one meanwhile waits
+    for that load (the cache's lock), never loads it twice."""
     import gc
     import importlib
 
@@ -195,6 +200,11 @@ def _preload() -> threading.Thread:
                 try:
                     importlib.import_module(name)
                 except Exception:  # noqa: BLE001  the page that needs it says what is wrong, in its place
+                    pass
+            for kind in ("sound", "scene"):
+                try:
+                    ui.recognizer(kind)  # None without a model, or one that cannot be read: the pages say why
+                except Exception:  # noqa: BLE001
                     pass
         finally:
             if collecting:

@@ -71,6 +71,13 @@ def import_module(name, *args, **kwargs):
         collecting.append(gc.isenabled())
     return real_import(name, *args, **kwargs)
 importlib.import_module = import_module
+from cacas import lab
+loaded = []  # the threads that loaded a sound or scene model
+real_load = lab.load_recognizer
+def load_recognizer(kind):
+    loaded.append((kind, threading.current_thread().name))
+    return real_load(kind)
+lab.load_recognizer = load_recognizer
 from streamlit.testing.v1 import AppTest
 for _ in range(2):  # two runs of the first page: one import thread for the server process
     at = AppTest.from_file("app.py", default_timeout=120)
@@ -82,6 +89,7 @@ for t in threading.enumerate():
         t.join(120)
 print(" ".join(sorted(m for m in PRELOADED if m in sys.modules)))
 print(collecting, gc.isenabled())
+print(sorted(loaded))
 """
 
 
@@ -96,10 +104,13 @@ def test_the_first_page_starts_the_heavy_imports_in_the_background_once(tmp_path
     run = subprocess.run([sys.executable, "-c", PRELOAD_CHECK], cwd=PROJECT_ROOT, capture_output=True, text=True,
                          env=dict(os.environ, CACAS_DB=str(tmp_path / "s.sqlite")), timeout=300)
     assert run.returncode == 0, run.stderr[-2000:]
-    assert run.stdout.split("\n")[:3] == ["1", "cacas.adaptation librosa.feature.spectral torchvision.models",
+    assert run.stdout.split("\n")[:4] == ["1", "cacas.adaptation librosa.feature.spectral torchvision.models",
                                           # no automatic collection while importing (app._preload: Python 3.11's
                                           # AST race with a page compiled meanwhile), on again afterwards
-                                          "[False, False, False] True"]
+                                          "[False, False, False] True",
+                                          # the saved models too, once, in that thread (the first Sounds & scenes
+                                          # page and the tablet's first form loaded them)
+                                          "[('scene', 'cacas-preload'), ('sound', 'cacas-preload')]"]
 
 
 FIRST_RECOGNITION_CHECK = """
