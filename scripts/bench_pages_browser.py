@@ -37,6 +37,7 @@ import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # this checkout's cacas, not an installed one (--tablet's database)
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
          "--disable-sync", "--no-first-run"]
@@ -130,7 +131,6 @@ TABLET_CONTEXTS = [("cough", "bedroom"), ("use stove", "kitchen")]
 
 def tablet_database(db: str, folder: Path) -> str:
     """A copy of ``db`` in ``folder`` with :data:`TABLET`, who has a described preference and day 1 open."""
-    sys.path.insert(0, str(ROOT))
     from cacas.store import StudyStore
     from cacas.study_day import start_day
 
