@@ -1148,3 +1148,23 @@ def test_every_wrong_field_of_a_participant_is_said_at_once(store):
     with pytest.raises(CacasError, match=r"age range 'old' is invalid.*; and notes contain what looks like contact"):
         store.update_participant("P09", age_range="old", notes="call 555-1234")
     assert (store.get_participant("P09").age_range, store.get_participant("P09").notes) == ("25-34", "")
+
+
+def test_the_data_stamp_changes_with_every_write_of_any_connection_and_not_with_reads(tmp_path):
+    """The app caches what it reads from the study database under this stamp (``ui.study_tables``): a
+    write by the app's own connection, or by another one (a ``cacas import``, a worker process), must
+    change it, or a page shows tables of before the write."""
+    path = tmp_path / "study.sqlite"
+    with StudyStore(path) as app, StudyStore(path) as other:
+        start = app.data_stamp()
+        app.participants_frame(None), app.interactions_frame(method=None), other.studies()  # reads only
+        assert app.data_stamp() == start
+        app.add_participant("P01")  # the app's own write
+        own = app.data_stamp()
+        assert own != start
+        other.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])  # another connection's
+        theirs = app.data_stamp()
+        assert theirs != own
+        other.add_participant("P02")
+        assert app.data_stamp() not in (start, own, theirs)
+        assert app.data_stamp() == app.data_stamp()
