@@ -167,11 +167,22 @@ class PeopleMixin:
         """The policy paths the readable study databases beside this one name, the name of one
         that cannot be read ("" if none), and the names of those that name a file of ``code``'s
         (each holds a participant ``code`` of its own, maybe the same person: an imported copy)."""
+        named: set[str] = set()
+        namers: list[str] = []
+        found, unreadable = self._read_beside("SELECT path FROM policies")
+        for name, paths in found.items():
+            named |= paths
+            if any(path.startswith(f"{code}/") for path in paths):
+                namers.append(name)
+        return named, unreadable, namers
+
+    def _read_beside(self, sql: str) -> tuple[dict[str, set], str]:
+        """``sql``'s first column in each readable study database beside this one (file name ->
+        the values), and the name of one that cannot be read ("" if none): it may hold anything."""
         from cacas.store import db
 
-        named: set[str] = set()
+        found: dict[str, set] = {}
         unreadable = ""
-        namers: list[str] = []
         for other in sorted(self.path.parent.iterdir()):
             # never opened: this database, and the files SQLite keeps beside a database (opened and
             # closed here, they would drop SQLite's locks on them: see db.open_study_file)
@@ -185,16 +196,12 @@ class PeopleMixin:
                 unreadable = unreadable or other.name  # busy, damaged: it may name any file
                 continue
             try:
-                paths = {r[0] for r in conn.execute("SELECT path FROM policies").fetchall()}
-            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: it may name any file
+                found[other.name] = {r[0] for r in conn.execute(sql).fetchall()}
+            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: it may hold anything
                 unreadable = unreadable or other.name
-            else:
-                named |= paths
-                if any(path.startswith(f"{code}/") for path in paths):
-                    namers.append(other.name)
             finally:
                 conn.close()
-        return named, unreadable, namers
+        return found, unreadable
 
     def _files_to_remove(self, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
@@ -272,9 +279,9 @@ class PeopleMixin:
             pid = self._pid(c, code)
             study = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                               "WHERE p.id = ?", (pid,)).fetchone()[0]
-            files = self._files_to_remove(code)  # read the neighbouring databases once
-            doomed = files[0]
-            removed = self._footprint(c, pid, code, files)
+            to_remove = self._files_to_remove(code)  # read the neighbouring databases once
+            doomed = to_remove[0]
+            removed = self._footprint(c, pid, code, to_remove)
             c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
             try:
                 for table in PARTICIPANT_TABLES:
@@ -296,6 +303,9 @@ class PeopleMixin:
                     raise CacasError(f"{f}: the participant's policy file cannot be removed "
                                      f"({exc.strerror or exc}); nothing was removed") from None
                 moved.append((f, target))
+            if moved:  # the moves on disk before the commit: a power cut cannot bring the files back without rows
+                for where in sorted({*(f.parent for f, _ in moved), *(t.parent for _, t in moved), trash.parent}):
+                    files.fsync_folder(where)
             return removed
 
         with held:
@@ -324,6 +334,7 @@ class PeopleMixin:
             if trash.exists():
                 raise CacasError(f"participant {code} was removed from the study database, but their policy files "
                                  f"in {trash} could not be deleted: delete that folder by hand")
+            files.fsync_folder(self.policy_dir)  # (a trash folder brought back is deleted at the next opening)
         return removed
 
     def get_participant(self, code: str) -> ParticipantInfo:
