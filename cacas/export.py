@@ -541,6 +541,39 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
         raise
 
 
+def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Path) -> None:
+    """Refuse (CacasError) a bundle whose participant codes differ only in letter case from each
+    other (possible only in an imported study: the forms refuse them) or from a participant of a
+    study database beside ``db_path``, when the file system there does not tell letter case apart
+    (macOS's and Windows' default): the two would share one folder of policy files,
+    ``policies/P01/``, and removing one would delete the other's (safety audit L4)."""
+    codes = [str(c) for c in tables["participants"]["participant"]] if "participants" in tables else []
+    seen: dict[str, str] = {}
+    twins = None
+    for code in codes:
+        first = seen.setdefault(code.casefold(), code)
+        if first != code:
+            twins = f"participants.csv holds participants {first} and {code}, whose codes differ only in letter case"
+            break
+    beside = ""
+    if twins is None:
+        found, _ = store._read_beside("SELECT code FROM participants")
+        for name, theirs in sorted(found.items()):
+            folded = {str(c).casefold(): str(c) for c in theirs}
+            hit = next((c for c in codes if c.casefold() in folded and folded[c.casefold()] != c), None)
+            if hit is not None:
+                twins = (f"participant {hit} differs only in letter case from participant {folded[hit.casefold()]} of "
+                         f"the study database {name} beside {db_path.name}")
+                beside = "another folder for the new database, or "
+                break
+    if twins is None or not files.ignores_letter_case(store.policy_dir):
+        return
+    raise CacasError(f"{bundle}: {twins}; the file system of {db_path.parent} does not tell letter case apart (as "
+                     "macOS's and Windows' do by default), so they would share one folder of policy files, and "
+                     f"removing one would delete the other's; valid: {beside}a disk that tells letter case apart "
+                     "(on macOS, a case-sensitive APFS volume); nothing was imported")
+
+
 def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path], bundle: Path) -> Restored:
     """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``;
     the folders it creates for policy files are added to ``made``. A table :func:`restore`
@@ -553,6 +586,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             raise CacasError(f"{db_path}: {exc}") from None
         policy_dir = store.policy_dir
         try:
+            _check_case_twins(store, tables, bundle, db_path)
             try:
                 restored = restore(store, tables, policies)
             except WriteRefused as exc:  # not the bundle's fault (it was named as if it were)

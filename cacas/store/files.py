@@ -80,6 +80,24 @@ def _nearest_existing(path: Path) -> Path:
     return path
 
 
+def ignores_letter_case(folder) -> bool:
+    """Whether the file system holding ``folder`` (or the nearest folder above it that exists)
+    takes names that differ only in letter case for one name, as macOS's and Windows' do by default
+    (``policies/P01`` and ``policies/p01`` are then one folder). Found out by creating a hidden
+    file with a lower-case name and looking for it in upper case; False if none can be created."""
+    where = _nearest_existing(Path(folder).absolute())
+    try:
+        fd, name = tempfile.mkstemp(prefix=".case-probe-", dir=where)
+    except OSError:
+        return False
+    os.close(fd)
+    probe = Path(name)
+    try:
+        return probe.with_name(probe.name.upper()).exists()
+    finally:
+        probe.unlink(missing_ok=True)
+
+
 def writable_folder(folder, what: str) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
     CacasError naming it (``what``: how the user named it, e.g. "--out results") and the problem:

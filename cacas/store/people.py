@@ -203,23 +203,38 @@ class PeopleMixin:
                 conn.close()
         return found, unreadable
 
-    def _files_to_remove(self, code: str) -> tuple[list, int, str]:
+    def _files_to_remove(self, c, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
         names: removing the participant deletes these, and keeps the others'; with the number kept
         and why. A database beside that cannot be read may name any: every file is kept, and those
-        no readable one names are listed for the researcher to delete once they know."""
+        no readable one names are listed for the researcher to delete once they know. On a file
+        system that does not tell letter case apart (macOS's default), P01 and p01 (of an imported
+        study, or of two databases beside each other) share the folder: a file named in any letter
+        case, also by this database for another participant, is kept (safety audit L4)."""
         folder = self._participant_folder(code)
         if not folder.is_dir():
             return [], 0, ""
         every = [f for f in sorted(folder.rglob("*")) if f.is_file()]
         named, unreadable, namers = self._beside(code)
-        unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
+        twins: list[str] = []  # this database's participants whose files share the folder
+        if files.ignores_letter_case(folder):
+            rows = c.execute("SELECT p.code, o.path FROM policies o JOIN participants p ON p.id = o.participant_id "
+                             "WHERE p.code != ?", (code,)).fetchall()
+            folded = {path.casefold() for path in named | {path for _, path in rows}}
+            unused = [f for f in every if f.relative_to(self.policy_dir).as_posix().casefold() not in folded]
+            twins = sorted({who for who, path in rows if path.casefold().startswith(f"{code.casefold()}/")})
+        else:
+            unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
         if unreadable:
             listed = ", ".join(f"policies/{f.relative_to(self.policy_dir).as_posix()}" for f in unused[:3]) + (
                 f" and {len(unused) - 3} more in policies/{code}/" if len(unused) > 3 else "")
             why = f"the study database {unreadable} beside this one cannot be read, and may name these files"
             return [], len(every), why + (f": once you know it does not, delete {listed} by hand" if unused else "")
         kept = len(every) - len(unused)
+        if kept and twins:
+            return unused, kept, (f"participant {', '.join(twins)} of this study database shares the folder "
+                                  f"policies/{code}/ (the codes differ only in letter case, which this disk does not "
+                                  "tell apart): their files are kept")
         which = f"the study database{'s' if len(namers) > 1 else ''} {', '.join(namers)} beside this one"
         return unused, kept, (f"{which} name{'' if len(namers) > 1 else 's'} these files and hold{'' if len(namers) > 1 else 's'} "
                               f"a participant {code} of {'their' if len(namers) > 1 else 'its'} own: if that is the same "
@@ -236,7 +251,7 @@ class PeopleMixin:
         today = 0 if open_day is None else c.execute(
             "SELECT COUNT(*) FROM interactions WHERE participant_id = ? AND day = ?", (pid, open_day)).fetchone()[0]
         events = c.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
-        doomed, kept, why = self._files_to_remove(code) if files is None else files
+        doomed, kept, why = self._files_to_remove(c, code) if files is None else files
         return Footprint(code, count("days"), count("interactions"), count("preferences"), count("policies"),
                          count("adaptations"), count("questionnaires"), events, len(doomed), open_day, today,
                          kept, why)
@@ -279,7 +294,7 @@ class PeopleMixin:
             pid = self._pid(c, code)
             study = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                               "WHERE p.id = ?", (pid,)).fetchone()[0]
-            to_remove = self._files_to_remove(code)  # read the neighbouring databases once
+            to_remove = self._files_to_remove(c, code)  # read the neighbouring databases once
             doomed = to_remove[0]
             removed = self._footprint(c, pid, code, to_remove)
             c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
