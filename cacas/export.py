@@ -83,6 +83,7 @@ class ExportResult:
     tables: dict[str, Path]
     bundle: Path | None  # None: tables only
     removed: tuple[Path, ...] = ()  # an earlier export's zip beside tables it no longer matches
+    remains: str = ""  # what an earlier export stopped part-way left in the folder (files.remains), replaced
 
 
 def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
@@ -368,13 +369,14 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     contents = export_contents(db, study, bundle)
     check_output_folder(out_dir, "export", str(out_dir))
     out = files.writable_folder(out_dir, str(out_dir))
-    paths = files.write_all(out, contents)
+    remains = files.remains(out, [*contents, BUNDLE_NAME])
+    paths = files.write_all(out, contents, checksums=True)
     stale = out / BUNDLE_NAME
     removed = ()
     if not bundle and stale.is_file():  # an earlier export's zip beside these tables would hold other data
         stale.unlink()
         removed = (stale,)
-    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed, remains)
 
 
 def bundle_bytes(db: StudyStore | str | Path, study: str | None = None) -> bytes:
@@ -516,6 +518,20 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     return tables, policies
 
 
+def _check_whole_export(bundle: Path) -> None:
+    """Refuse (CacasError) a zip that :data:`cacas.store.files.CHECKSUMS` beside it lists with
+    other bytes: the export that wrote its folder was stopped part-way (killed, a power cut) before
+    it replaced the zip, so the zip is an earlier export's (or it was changed since). Imported, it
+    would silently bring back the study as it was then (safety audit L1)."""
+    bad = files.mismatched(bundle.parent, {bundle.name})
+    if bad:
+        raise CacasError(f"{bundle}: does not match its sha256 in {files.CHECKSUMS} beside it: the export that wrote "
+                         "this folder was stopped part-way (killed, or a power cut) before it replaced this zip, "
+                         "which is an earlier export's (or it was changed since); run cacas export again and import "
+                         "the new zip (to import this one all the same, copy it out of this folder first); nothing "
+                         "was imported")
+
+
 def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     """Load a bundle written by :func:`export_study` into a NEW database at ``db_path``; returns a
     :class:`~cacas.store.restore.Restored`: the number of interactions imported, and notes on what
@@ -530,6 +546,7 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     if db_path.exists() or Path(f"{db_path}-wal").exists():
         raise CacasError(f"{db_path}: already exists; import only into a new database file")
     tables, policies = read_bundle(bundle)
+    _check_whole_export(Path(bundle))
     made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
     db_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
