@@ -257,7 +257,7 @@ def remains(folder, names) -> str:
     the files that do not match :data:`CHECKSUMS` (two runs' files side by side) and the hidden
     copies of a process no longer running (safety audit L1)."""
     folder = Path(folder)
-    names = [*names, CHECKSUMS]
+    names = list(dict.fromkeys([*names, CHECKSUMS]))  # each once: its hidden copies counted once
     left = _dead_left_overs(folder, names)
     bad = mismatched(folder, names) if left else None  # without hidden copies, a mismatch is a file changed since
     if bad:
