@@ -78,7 +78,8 @@ elif source.startswith("Simulated run: "):
                + (", each in its own closed loop." if run.settings.get("loop") == "each" else "."))
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
-                           "by_preference.csv and interactions.csv to see them too", type=["csv"],
+                           "by_preference.csv and interactions.csv to see them too, and the checksums.sha256 "
+                           "beside them to check they are of one run", type=["csv", "sha256"],
                            accept_multiple_files=True, key="results-upload")
     if not ups:
         st.stop()
@@ -88,7 +89,9 @@ else:
         st.error(str(exc), icon=":material/error:")
         st.stop()
     daily = tables["daily"]
-    st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}.")
+    checked = next((up.name for up in ups if up.name.lower().endswith(".sha256")), None)
+    st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}"
+               + (f", each matching its sha256 in {checked}." if checked else "."))
 
 # a study in progress: participants on different days make each day's mean one of different people
 shown, reached = daily, plots.participants_reached(daily) if len(daily) else pd.Series(dtype=int)

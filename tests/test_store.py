@@ -769,6 +769,52 @@ def test_a_policy_that_is_not_bytes_or_a_read_only_store_writes_no_file(store):
     assert snapshot(store.path) == before and not store.policy_dir.exists()
 
 
+def _clock(monkeypatch, offset_ns: int) -> None:
+    """The damaged-file check's clock moved ``offset_ns`` on (the code before it had none)."""
+    import time
+    from types import SimpleNamespace
+
+    from cacas.store import policies
+    monkeypatch.setattr(policies, "time", SimpleNamespace(time_ns=lambda: time.time_ns() + offset_ns), raising=False)
+
+
+def test_a_same_size_rewrite_keeping_the_modification_time_is_seen_as_damage(store, monkeypatch):
+    """Safety audit L10: the damaged-file check remembered each file's answer by its size and
+    modification time, so a rewrite of the same size within the time granularity (here: the
+    modification time set back, as ``touch -d`` or ``cp -p`` do) was not seen; the Results page
+    offered the zip, and its download failed with the browser's bare "Failed to generate file".
+    The status change time (ctime), which no program sets back, is part of the key now."""
+    import os
+
+    store.open_day("P01")
+    store.save_policy("P01", 1, "cacas", b"the adapted policy")
+    path = store.active_policy("P01").path
+    _clock(monkeypatch, 10**12)  # the file's last change long past: its answer is remembered
+    assert store.damaged_policy_files() == []
+    st = path.stat()
+    path.write_bytes(b"the adapted POLICY")  # same size
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert path.stat().st_size == st.st_size and path.stat().st_mtime_ns == st.st_mtime_ns
+    assert store.damaged_policy_files() == [f"P01/{path.name}"]
+
+
+def test_a_policy_file_changed_just_now_is_read_at_every_check(store, monkeypatch):
+    """A file whose last change is under 2 s old is not remembered (on FAT, HFS+ or a network share
+    a rewrite within the same second or two keeps every time stamp); once settled, it is read once."""
+    from cacas.store import files, policies
+
+    store.open_day("P01")
+    store.save_policy("P01", 1, "cacas", b"the adapted policy")
+    reads = []
+    real = files.sha256
+    monkeypatch.setattr(files, "sha256", lambda data: reads.append(1) or real(data))
+    _clock(monkeypatch, 0)
+    policies._CHECKED.clear()
+    assert store.damaged_policy_files() == [] and store.damaged_policy_files() == [] and len(reads) == 2
+    _clock(monkeypatch, policies._SETTLED_NS)
+    assert store.damaged_policy_files() == [] and store.damaged_policy_files() == [] and len(reads) == 3
+
+
 def test_adaptation_runs(store):
     store.open_day("P01")
     v = store.save_policy("P01", 1, "cacas", b"p")

@@ -199,10 +199,12 @@ def run(args) -> int:
 
     # put in place as one change, and said: Ctrl-C or SIGTERM from here on stops the command after it
     with signals_held():
-        if written_here == out.resolve():  # tables and figures replace an earlier run's together, or not at all
-            written = files.write_all(out, {**tables, **drawn})
+        together = written_here == out.resolve()
+        remains = files.remains(out, [*tables, *(drawn if together else ()), *FIGURES, PLOTLY_JS])
+        if together:  # tables and figures replace an earlier run's together, or not at all
+            written = files.write_all(out, {**tables, **drawn}, checksums=True)
         else:  # the three tables replace an earlier run's together, or not at all; then the figures
-            written = files.write_all(out, tables)
+            written = files.write_all(out, tables, checksums=True)
             if plot_dir is not None:
                 try:
                     files.write_all(plot_dir, drawn)
@@ -210,6 +212,8 @@ def run(args) -> int:
                     raise CacasError(f"{exc}; the tables were written in {out}") from None
         for path in stale:
             path.unlink(missing_ok=True)
+        if remains:
+            print(f"cacas simulate: note: {remains}", file=sys.stderr)
         with pd.option_context("display.width", 120, "display.max_rows", 200):
             print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
         print("wrote " + ", ".join(str(written[name]) for name in tables))
