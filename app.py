@@ -163,8 +163,11 @@ def _sidebar(store, page) -> dict[str, str | None]:
 
 #: What the pages import on first use, which took the first visit of a page after the server's start
 #: 3.5-7.4 s (torch 1.9-2.6 s for Adaptation, torchvision 2.5 s for Sounds & scenes; helper's profile of a
-#: 24 x 7 study), and librosa's features, which the tablet's first proposal needs.
-PRELOADED = ("cacas.adaptation", "torchvision.models", "librosa.feature")
+#: 24 x 7 study), and librosa's features, which the tablet's first proposal needs. librosa's own modules
+#: load lazily: ``librosa.feature`` alone imported a stub, and the tablet's first recognition of a clip
+#: still imported the rest (scipy.signal, soundfile, numba: some 1,000 modules, 3.6 s; profile of the first
+#: proposal), so the module that computes the MFCC is named.
+PRELOADED = ("cacas.adaptation", "torchvision.models", "librosa.feature.spectral")
 
 
 @st.cache_resource(show_spinner=False)
@@ -180,7 +183,12 @@ def _preload() -> threading.Thread:
     "SystemError: AST constructor recursion depth mismatch" (the tests: about one run in eight of a
     page's test file). The two constructions interleave only when a collection in the middle of one
     runs Python code (a finalizer, a weakref callback) and the other thread takes the interpreter;
-    without collections they run one after the other. The collector is on again once the imports end."""
+    without collections they run one after the other. The collector is on again once the imports end.
+
+    Then the saved sound and scene models are loaded into the page's cache (``ui.recognizer``): the first
+    visit of Sounds & scenes loaded them (0.7-1.5 s of its run, the scene model's most, after the imports;
+    profile of a 24 x 7 study), and so did the tablet's first form. A page that needs one meanwhile waits
+    for that load (the cache's lock), never loads it twice."""
     import gc
     import importlib
 
@@ -192,6 +200,11 @@ def _preload() -> threading.Thread:
                 try:
                     importlib.import_module(name)
                 except Exception:  # noqa: BLE001  the page that needs it says what is wrong, in its place
+                    pass
+            for kind in ("sound", "scene"):
+                try:
+                    ui.recognizer(kind)  # None without a model, or one that cannot be read: the pages say why
+                except Exception:  # noqa: BLE001
                     pass
         finally:
             if collecting:

@@ -279,7 +279,8 @@ def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
     from) as SAC transitions (s, a, r, s'): a robot action answered with
     accept / reject; for a user-initiated one the request (+1) and the robot's own action (-1):
     "do nothing" when it stayed quiet (Section V-B), the proposal the participant answered with
-    a request instead otherwise. s' is the
+    a request instead otherwise (none when the request is that proposal, which the tablet records
+    as an accept but the library API takes as it is: D holds it as accepted only). s' is the
     next interaction's state of the day (or s itself at the end of a day). Returns
     (s, a, r, s', day) arrays."""
     empty = (np.zeros((0, spaces.STATE_DIM), np.float32), np.zeros(0, np.int64), np.zeros(0, np.float32),
@@ -297,7 +298,9 @@ def orl_transitions(interactions: pd.DataFrame) -> tuple[np.ndarray, ...]:
         if not recorded[i]:
             continue
         if row["type"] == records.USER_INITIATED:
-            pairs = [(spaces.action_index(row["user_action"]), 1.0), (spaces.action_index(row["robot_action"]), -1.0)]
+            asked, robot = spaces.action_index(row["user_action"]), spaces.action_index(row["robot_action"])
+            # the robot's own action is rejected, unless it is what was asked for (as in D: Table II)
+            pairs = [(asked, 1.0)] + ([(robot, -1.0)] if robot != asked else [])
         else:
             pairs = [(spaces.action_index(row["robot_action"]), spaces.REWARDS[row["response"]])]
         for act, rew in pairs:

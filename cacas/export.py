@@ -83,6 +83,7 @@ class ExportResult:
     tables: dict[str, Path]
     bundle: Path | None  # None: tables only
     removed: tuple[Path, ...] = ()  # an earlier export's zip beside tables it no longer matches
+    remains: str = ""  # what an earlier export stopped part-way left in the folder (files.remains), replaced
 
 
 def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
@@ -379,13 +380,14 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     contents = export_contents(db, study, bundle)
     check_output_folder(out_dir, "export", str(out_dir))
     out = files.writable_folder(out_dir, str(out_dir))
-    paths = files.write_all(out, contents)
+    remains = files.remains(out, [*contents, BUNDLE_NAME])
+    paths = files.write_all(out, contents, checksums=True)
     stale = out / BUNDLE_NAME
     removed = ()
     if not bundle and stale.is_file():  # an earlier export's zip beside these tables would hold other data
         stale.unlink()
         removed = (stale,)
-    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed)
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed, remains)
 
 
 def bundle_bytes(db: StudyStore | str | Path, study: str | None = None) -> bytes:
@@ -527,6 +529,20 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     return tables, policies
 
 
+def _check_whole_export(bundle: Path) -> None:
+    """Refuse (CacasError) a zip that :data:`cacas.store.files.CHECKSUMS` beside it lists with
+    other bytes: the export that wrote its folder was stopped part-way (killed, a power cut) before
+    it replaced the zip, so the zip is an earlier export's (or it was changed since). Imported, it
+    would silently bring back the study as it was then (safety audit L1)."""
+    bad = files.mismatched(bundle.parent, {bundle.name})
+    if bad:
+        raise CacasError(f"{bundle}: does not match its sha256 in {files.CHECKSUMS} beside it: the export that wrote "
+                         "this folder was stopped part-way (killed, or a power cut) before it replaced this zip, "
+                         "which is an earlier export's (or it was changed since); run cacas export again and import "
+                         "the new zip (to import this one all the same, copy it out of this folder first); nothing "
+                         "was imported")
+
+
 def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     """Load a bundle written by :func:`export_study` into a NEW database at ``db_path``; returns a
     :class:`~cacas.store.restore.Restored`: the number of interactions imported, and notes on what
@@ -541,6 +557,7 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     if db_path.exists() or Path(f"{db_path}-wal").exists():
         raise CacasError(f"{db_path}: already exists; import only into a new database file")
     tables, policies = read_bundle(bundle)
+    _check_whole_export(Path(bundle))
     made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
     db_path.parent.mkdir(parents=True, exist_ok=True)
     tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
@@ -550,6 +567,39 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     except BaseException:
         files.remove_empty(made)
         raise
+
+
+def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Path) -> None:
+    """Refuse (CacasError) a bundle whose participant codes differ only in letter case from each
+    other (possible only in an imported study: the forms refuse them) or from a participant of a
+    study database beside ``db_path``, when the file system there does not tell letter case apart
+    (macOS's and Windows' default): the two would share one folder of policy files,
+    ``policies/P01/``, and removing one would delete the other's (safety audit L4)."""
+    codes = [str(c) for c in tables["participants"]["participant"]] if "participants" in tables else []
+    seen: dict[str, str] = {}
+    twins = None
+    for code in codes:
+        first = seen.setdefault(code.casefold(), code)
+        if first != code:
+            twins = f"participants.csv holds participants {first} and {code}, whose codes differ only in letter case"
+            break
+    beside = ""
+    if twins is None:
+        found, _ = store._read_beside("SELECT code FROM participants")
+        for name, theirs in sorted(found.items()):
+            folded = {str(c).casefold(): str(c) for c in theirs}
+            hit = next((c for c in codes if c.casefold() in folded and folded[c.casefold()] != c), None)
+            if hit is not None:
+                twins = (f"participant {hit} differs only in letter case from participant {folded[hit.casefold()]} of "
+                         f"the study database {name} beside {db_path.name}")
+                beside = "another folder for the new database, or "
+                break
+    if twins is None or not files.ignores_letter_case(store.policy_dir):
+        return
+    raise CacasError(f"{bundle}: {twins}; the file system of {db_path.parent} does not tell letter case apart (as "
+                     "macOS's and Windows' do by default), so they would share one folder of policy files, and "
+                     f"removing one would delete the other's; valid: {beside}a disk that tells letter case apart "
+                     "(on macOS, a case-sensitive APFS volume); nothing was imported")
 
 
 def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path], bundle: Path) -> Restored:
@@ -564,6 +614,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             raise CacasError(f"{db_path}: {exc}") from None
         policy_dir = store.policy_dir
         try:
+            _check_case_twins(store, tables, bundle, db_path)
             try:
                 restored = restore(store, tables, policies)
             except WriteRefused as exc:  # not the bundle's fault (it was named as if it were)

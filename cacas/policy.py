@@ -171,7 +171,8 @@ class BanditPolicy:
         """Counts from the recorded user data (:func:`cacas.records.is_recorded`, as every method
         adapts from): accepted actions win; rejected ones lose, and so does the
         robot's own action when the participant asked for something ("do nothing" when it stayed
-        quiet, the proposal they answered with a request otherwise)."""
+        quiet, the proposal they answered with a request otherwise; not when the request is that
+        proposal, as in the user data D)."""
         self.wins[:] = 0
         self.losses[:] = 0
         if len(interactions) == 0:
@@ -185,7 +186,8 @@ class BanditPolicy:
                 continue
             if tp == records.USER_INITIATED:
                 self.wins[act, slot, spaces.action_index(ua)] += 1
-                self.losses[act, slot, spaces.action_index(ra)] += 1
+                if spaces.action_index(ra) != spaces.action_index(ua):  # a request for its own proposal: won only
+                    self.losses[act, slot, spaces.action_index(ra)] += 1
             else:
                 (self.wins if resp == "accept" else self.losses)[act, slot, spaces.action_index(ra)] += 1
         return self

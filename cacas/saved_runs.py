@@ -116,7 +116,15 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     """Uploaded CSV files (name, content) as {"daily": ..., "by_preference": ..., "interactions":
     ...}, each file recognised by its columns (``UPLOADABLE_TABLES``). A daily.csv is required;
     the others are optional. Raises CacasError naming the file at fault: one that is none of
-    these tables, two of the same kind, or no daily.csv."""
+    these tables, two of the same kind, or no daily.csv.
+
+    A ``checksums.sha256`` uploaded with them (:data:`cacas.store.files.CHECKSUMS`, written beside
+    them by ``cacas export`` and ``cacas simulate --out``) is checked against each CSV: a file it lists
+    with other bytes was left by a run stopped part-way (files of two runs side by side), or changed
+    since, and is refused (safety audit L1)."""
+    from cacas.store import files as store_files
+
+    files = _checked_against_checksums(files, store_files)
     tables: dict[str, pd.DataFrame] = {}
     names: dict[str, str] = {}
     places: dict[str, int] = {}  # each kind's file's place among those uploaded (1, 2, ...)
@@ -151,6 +159,33 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     if "interactions" in tables:
         _check_same_run(tables["daily"], tables["interactions"], names["daily"], names["interactions"])
     return {k: tables[k] for k in UPLOADABLE_TABLES if k in tables}
+
+
+def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_files) -> list[tuple[str, bytes]]:
+    """The uploaded CSV files, once each matches the checksums file uploaded with them (if one was:
+    a name ending in ``.sha256``); else CacasError naming the file and what to do."""
+    sums = [(name, data) for name, data in uploaded if str(name).lower().endswith(".sha256")]
+    rest = [(name, data) for name, data in uploaded if not str(name).lower().endswith(".sha256")]
+    if len(sums) > 1:
+        raise CacasError(f"{sums[0][0]} and {sums[1][0]}: two checksums files; upload the one of the folder the "
+                         "tables are from")
+    if not sums:
+        return rest
+    what, listed = sums[0][0], store_files.parse_checksums(sums[0][1])
+    if listed is None:
+        raise CacasError(f"{what}: not a checksums file; valid: the {store_files.CHECKSUMS} cacas export or cacas "
+                         "simulate --out wrote beside the tables (a sha256 and a file name on each line)")
+    for name, data in rest:
+        digest = store_files.sha256(data)
+        if listed.get(name, digest) != digest:
+            raise CacasError(f"{name}: does not match its sha256 in {what}: the run that wrote that folder was "
+                             "stopped part-way (killed, or a power cut) and left files of two runs side by side, or "
+                             "the file was changed since; write the tables again (cacas export, or cacas simulate "
+                             "--out) and upload them")
+        if name not in listed and digest not in listed.values():
+            raise CacasError(f"{name}: is not one of the files {what} lists ({', '.join(sorted(listed))}); upload the "
+                             "tables and the checksums file of one folder")
+    return rest
 
 
 def _check_same_run(daily: pd.DataFrame, interactions: pd.DataFrame, daily_name: str, inter_name: str) -> None:

@@ -6,7 +6,11 @@ activities (S1), 6 scenes (S2), 12 two-hour time slots (S3), 12 repeat-interval 
 
 * The policy state is S1..S7 one-hot and concatenated: 33+6+12+12+14+14+3 = 94 dimensions.
 * The user-model input S_u is S1..S6: 91 dimensions (Section IV-C.1); there S6 is the action
-  being judged.
+  being judged. In the policy state, where the paper says only that S6 is "the action that the
+  robot needs to take", S6 is our reading: the robot's previous action, and S7 the user's
+  response to it (design.md, "State (Table I): our reading"; the action to take is the policy's
+  output, Eq. 4).
+* The number of states, 33*6*12*12*14*14*3, is the paper's 16,765,056 (:data:`N_STATES`).
 
 Names match case-insensitively (surrounding blanks and repeated spaces ignored); an unknown name
 raises :class:`cacas.errors.CacasError` naming it and listing the valid ones.
@@ -31,7 +35,8 @@ ACTIVITIES: tuple[str, ...] = (
 )
 #: S2: the 6 home scenes.
 SCENES: tuple[str, ...] = ("bedroom", "living room", "kitchen", "bathroom", "dining room", "others")
-#: S3: twelve two-hour slots; slot i is [2i, 2i+2) hours.
+#: S3: twelve two-hour slots; slot i is [2i, 2i+2) hours. Section IV-B.1 prints the last as
+#: "[20, 24)" after "[20, 22)", a typo: "12 segments of 2 hours each" end with [22, 24).
 TIME_SLOTS: tuple[tuple[int, int], ...] = tuple((2 * i, 2 * i + 2) for i in range(12))
 #: S4: minutes since the previous activity other than "do nothing" (bin lower edges).
 INTERVAL_BINS: tuple[int, ...] = (0, 1, 2, 5, 10, 15, 20, 30, 60, 90, 120, 200)
@@ -60,6 +65,7 @@ STATE_PARTS: tuple[tuple[str, int], ...] = (
 OFFSETS: tuple[int, ...] = tuple(int(x) for x in np.cumsum([0] + [n for _, n in STATE_PARTS])[:-1])
 STATE_DIM = sum(n for _, n in STATE_PARTS)  # 94
 USER_INPUT_DIM = STATE_DIM - N_RESPONSES  # 91: S_u = S1..S6
+N_STATES = int(np.prod([n for _, n in STATE_PARTS]))  # 16,765,056 (Section IV-B.1)
 
 
 def _canon(name: str) -> str:

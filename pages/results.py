@@ -18,6 +18,23 @@ from cacas.method_comparison import compare_methods
 from cacas.study_day import STUDY_DAYS, day_status, questionnaire_timing
 from pages import ui
 
+
+@st.cache_data(show_spinner=False, max_entries=8)
+def _study_tables(path: str, study: str | None, stamp: tuple[int, int]) -> dict[str, pd.DataFrame]:
+    return export_tables(ui.store(), study)
+
+
+def study_tables(study: str | None) -> dict[str, pd.DataFrame]:
+    """``export_tables(ui.store(), study)``, read again only when the database has changed since
+    (:meth:`StudyStore.data_stamp`: a write by this server, another program or a worker process): the
+    Results page read every table on each of its runs, a third of the run for a 24 x 7 study (a change of
+    participant, of the days shown, a click). The stamp is taken before the tables are read, so tables
+    cached under it are never older than it. Each caller gets its own copy (``st.cache_data``). Here, not in
+    ``ui``: ``app.py`` imports ``ui``, also bare in a Simulation lab worker, where a ``st.cache_data`` made at
+    import wrote a warning to the server's log."""
+    return _study_tables(ui.db_path(), study, ui.store().data_stamp())
+
+
 ui.require_app()
 
 store = ui.store()
@@ -41,7 +58,7 @@ if source == SIMULATED:
                                                help="Saved by the Simulation lab, newest first.")
 
 if source == HUMAN:
-    tables = export_tables(store, study)
+    tables = study_tables(study)
     daily = tables["daily"]
     n_people, n_started = len(tables["participants"]), tables["days"]["participant"].nunique()  # as Overview's "Started"
     st.caption(f"Study **{study}**: {n_people} participant{'s' if n_people != 1 else ''} "
@@ -61,7 +78,8 @@ elif source.startswith("Simulated run: "):
                + (", each in its own closed loop." if run.settings.get("loop") == "each" else "."))
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
-                           "by_preference.csv and interactions.csv to see them too", type=["csv"],
+                           "by_preference.csv and interactions.csv to see them too, and the checksums.sha256 "
+                           "beside them to check they are of one run", type=["csv", "sha256"],
                            accept_multiple_files=True, key="results-upload")
     if not ups:
         st.stop()
@@ -71,7 +89,9 @@ else:
         st.error(str(exc), icon=":material/error:")
         st.stop()
     daily = tables["daily"]
-    st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}.")
+    checked = next((up.name for up in ups if up.name.lower().endswith(".sha256")), None)
+    st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}"
+               + (f", each matching its sha256 in {checked}." if checked else "."))
 
 # a study in progress: participants on different days make each day's mean one of different people
 shown, reached = daily, plots.participants_reached(daily) if len(daily) else pd.Series(dtype=int)

@@ -1,6 +1,7 @@
 """Benchmark of the app's pages through the real server, in headless Chromium (Playwright).
 
     python3 scripts/bench_pages_browser.py DB [--repeats 5] [--participant P000] [--pages ...] [--after S]
+    python3 scripts/bench_pages_browser.py DB --tablet [--repeats 3] [--after S]
 
 Starts ``streamlit run app.py`` on DB (e.g. from ``scripts/bench_pages_db.py``), opens "/" once
 (the server's first request), then for each page: opens it in a new browser tab (a new session) at
@@ -11,21 +12,32 @@ for the Adaptation page, the recognisers for Sounds), "load" the median [min-max
 later visits. Then, on Results, times a change of participant in the sidebar, a change of the
 "Data" source and back, and on Adaptation a change of the "Before" policy, until the page is idle.
 Prints Markdown tables in seconds; the machine's load average is printed with them.
+
+``--tablet`` times the tablet's first proposal after a server's start instead, on a copy of DB with a
+participant of its own (one described preference, day 1 open): a new server for each of ``--repeats``
+rounds; the researcher's first page ("/") is the server's first request, then, ``--after`` seconds later,
+the tablet view opens (its form drawn, then the page's warm-up of the recognisers runs on), a context is
+set at once and "Do it" pressed: "first proposal" is from that press until the proposal's answers are
+shown (the warm-up's end included), "next proposal" the same for a second context.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
+import re
+import shutil
 import socket
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # this checkout's cacas, not an installed one (--tablet's database)
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
          "--disable-sync", "--no-first-run"]
@@ -53,6 +65,7 @@ def free_port() -> int:
 
 
 def start_server(db: str, log: Path):
+    """``streamlit run app.py`` on ``db``: (the process, its base URL), once it answers."""
     port = free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", CACAS_DB=db,
                PYTHONPATH=os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")])))
@@ -110,6 +123,82 @@ def fmt(xs) -> str:
     return f"{statistics.median(xs):.2f} [{min(xs):.2f}-{max(xs):.2f}]"
 
 
+#: The tablet's own participant (``--tablet``), added to the copy of the database.
+TABLET = "TAB01"
+#: The contexts of the first and the next proposal (activity, room).
+TABLET_CONTEXTS = [("cough", "bedroom"), ("use stove", "kitchen")]
+
+
+def tablet_database(db: str, folder: Path) -> str:
+    """A copy of ``db`` in ``folder`` with :data:`TABLET`, who has a described preference and day 1 open."""
+    from cacas.store import StudyStore
+    from cacas.study_day import start_day
+
+    copy = folder / "tablet.sqlite"
+    shutil.copy(db, copy)
+    with StudyStore(copy) as store:
+        store.add_participant(TABLET)
+        store.save_preferences(TABLET, [{"activity": ["cough"], "action": "pain check"}])
+        start_day(store, TABLET)
+    return str(copy)
+
+
+def propose(pg, activity: str, room: str) -> float:
+    """Set a context on the tablet, press "Do it": seconds until the proposal's answers are shown."""
+    def tap(label: str, option: str) -> None:
+        group = pg.locator("[data-testid='stButtonGroup']").filter(has=pg.locator("label", has_text=label)).first
+        group.get_by_role("radio", name=option, exact=True).click()
+
+    tap("Time of day", "08:00-10:00")
+    tap("Time since", "20-30 min")
+    choose(pg, "Activity", activity)
+    tap("Room", room)
+    t = time.perf_counter()
+    pg.locator("button").filter(has_text=re.compile(r"Do it$")).first.click()
+    pg.locator("button").filter(has_text=re.compile(r"(Accept|Nothing needed)$")).first.wait_for(timeout=300_000)
+    return time.perf_counter() - t
+
+
+def bench_tablet(browser, db: str, args) -> None:
+    """``--tablet``: the tablet's first proposal after the server's start, a new server a round."""
+    form, first, later = [], [], []
+    with tempfile.TemporaryDirectory() as tmp:
+        for _ in range(args.repeats):
+            proc, base = start_server(tablet_database(db, Path(tmp)), Path(args.log))
+            try:
+                _, _, pg = visit(browser, f"{base}/")  # the researcher's first page: the server's first request
+                pg.context.close()
+                time.sleep(args.after)
+                ctx = browser.new_context(viewport={"width": 1024, "height": 768})
+                pg = ctx.new_page()
+                pg.set_default_timeout(300_000)
+                t = time.perf_counter()
+                pg.goto(f"{base}/?participant={TABLET}&view=tablet")
+                pg.locator("button").filter(has_text=re.compile(r"Do it$")).first.wait_for()
+                form.append(time.perf_counter() - t)
+                first.append(propose(pg, *TABLET_CONTEXTS[0]))
+                pg.wait_for_selector("[data-testid='stApp'][data-test-script-state='notRunning']")
+                pg.locator("button").filter(has_text=re.compile(r"Choose a different activity$")).first.click()
+                pg.locator("button").filter(has_text=re.compile(r"Do it$")).first.wait_for()
+                later.append(propose(pg, *TABLET_CONTEXTS[1]))
+                ctx.close()
+            finally:
+                stop_server(proc)
+    print(f"load average {os.getloadavg()[0]:.1f}")
+    print("| tablet, after the server's start | form drawn (s) | first proposal (s) | next proposal (s) |")
+    print("|---|---:|---:|---:|")
+    print(f"| researcher's first page, then the tablet {args.after:g} s later | {fmt(form)} | {fmt(first)} "
+          f"| {fmt(later)} |", flush=True)
+
+
+def stop_server(proc) -> None:
+    proc.terminate()
+    try:
+        proc.wait(10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+
+
 def main() -> None:
     from playwright.sync_api import sync_playwright
 
@@ -122,7 +211,15 @@ def main() -> None:
     ap.add_argument("--no-interactions", action="store_true", help="time the page loads only")
     ap.add_argument("--after", type=float, default=0.0, metavar="SECONDS",
                     help="wait this long after the server's first request (a researcher reading the first page)")
+    ap.add_argument("--tablet", action="store_true",
+                    help="time the tablet's first proposal after a server's start instead (see above)")
     args = ap.parse_args()
+    if args.tablet:
+        with sync_playwright() as p:
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
+            bench_tablet(browser, str(Path(args.db).resolve()), args)
+            browser.close()
+        return
     proc, base = start_server(str(Path(args.db).resolve()), Path(args.log))
     print(f"server pid {proc.pid}", file=sys.stderr, flush=True)
     try:
@@ -170,11 +267,7 @@ def main() -> None:
             pg.context.close()
             browser.close()
     finally:
-        proc.terminate()
-        try:
-            proc.wait(10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
+        stop_server(proc)
 
 
 if __name__ == "__main__":

@@ -74,14 +74,26 @@ def test_cacas_moves_from_the_initial_action(small_config, small_initial):
 
 def test_adaptation_never_reads_described_preferences(monkeypatch, small_config, small_initial):
     """No-preference-leak guard: the adaptation sees interactions only (paper: 'the system has no
-    access to them'). Any use of the preference machinery during adaptation fails the test."""
+    access to them'). Any use of the preference machinery during adaptation fails the test:
+    making a preference or participant, any of their methods and properties, any function of
+    cacas.preferences (reading, parsing or validating a persona file or the study database's
+    preferences) and the preference-driven state draws. (Trapping only coverage_mask,
+    preferred_action_table and the parsers let a leak through that built a Preference from a
+    persona file's JSON and read its activity_indices and action_index.)"""
     def leak(*args, **kwargs):
         raise AssertionError("the adaptation read described preferences")
-    for name in ("coverage_mask", "preferred_action_table"):
-        monkeypatch.setattr(preferences.Participant, name, leak, raising=False)
-        monkeypatch.setattr(preferences.Preference, name, leak, raising=False)
-    for name in ("load_personas", "parse_personas", "parse_participant", "parse_preference"):
-        monkeypatch.setattr(preferences, name, leak)
+    trapped = []
+    for cls in (preferences.Preference, preferences.Participant):
+        for name, value in list(vars(cls).items()):
+            if name == "__init__" or not name.startswith("_") and (callable(value) or isinstance(value, property)):
+                monkeypatch.setattr(cls, name, property(leak) if isinstance(value, property) else leak)
+                trapped.append(f"{cls.__name__}.{name}")
+    for name, value in list(vars(preferences).items()):
+        if inspect.isfunction(value) and value.__module__ == preferences.__name__ and not name.startswith("_"):
+            monkeypatch.setattr(preferences, name, leak)
+            trapped.append(name)
+    assert {"Preference.__init__", "Preference.action_index", "Preference.activity_indices",
+            "Participant.preferred_action_table", "persona_json", "parse_participant", "load_personas"} <= set(trapped)
     monkeypatch.setattr(adaptation, "preference_states", leak)
     for method in METHODS:
         adapt_policy(small_initial, stove_days(2), method, seed=0, config=small_config)
@@ -587,3 +599,27 @@ def test_the_edges_of_k_minutes_parallel_days_and_adapt_train_days_are_valid():
         config = adaptation.CACAAConfig(**kw)
         assert all(getattr(config, k) == v for k, v in kw.items())
     assert adaptation.CACAAConfig(k_minutes=720).adapt_updates == 2  # two steps a day: one transition a round
+
+
+def test_a_request_for_the_robots_own_proposal_is_not_also_its_reject():
+    """A type_2 row whose request is the robot's own proposal (the tablet records that as an accept,
+    study_day.request_accepts_proposal, but the library API and a bundle import take it as it is):
+    the user data D hold it as accepted only (Table II: no D_f reject of the proposal), and so do
+    ORL's transitions and the bandit's counts (they made it +1 and -1 for the same action, a win
+    and a loss)."""
+    from cacas.adaptation import orl_transitions
+    from cacas.d4a import load_d4a
+    from cacas.policy import BanditPolicy
+    from cacas.user_model import UserData
+
+    row = {"participant": "P01", "method": "cacas", "day": 1, "index": 1, "time": "08:00", "activity": "cough",
+           "scene": "bedroom", "time_slot": 4, "interval": 10, "task": "do nothing", "previous_action": "do nothing",
+           "previous_response": "others", "type": "type_2", "robot_action": "pain check", "response": "accept",
+           "user_action": "pain check"}
+    rows = pd.DataFrame([row], columns=records.INTERACTION_COLUMNS)
+    su = (spaces.activity_index("cough"), 0, 4, spaces.interval_bin(10), 0, spaces.action_index("pain check"))
+    assert UserData.from_interactions(rows).holds_accept(su)
+    _, a, r, _, _ = orl_transitions(rows)
+    assert [(spaces.ACTIONS[x], float(y)) for x, y in zip(a, r)] == [("pain check", 1.0)]
+    bandit = BanditPolicy(load_d4a().table).fit(rows)
+    assert bandit.wins.sum() == 1 and bandit.losses.sum() == 0

@@ -167,6 +167,41 @@ def test_export_into_a_folder_that_cannot_be_written_exits_2(run, study, tmp_pat
     assert "cannot write in this folder" in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.fixture
+def read_only(study):
+    """``study``'s folder made read-only once the database is closed (no -shm beside it), as on a
+    write-protected USB stick: chattr +i for root (who ignores permission bits), else chmod 555."""
+    import os
+    import subprocess
+
+    folder = study.parent
+    assert not (folder / "study.sqlite-shm").exists()
+    if os.geteuid() == 0:
+        if subprocess.run(["chattr", "+i", str(folder)], capture_output=True).returncode != 0:
+            pytest.skip("cannot make a folder unwritable for root here (no chattr +i)")
+        yield folder
+        subprocess.run(["chattr", "-i", str(folder)], check=True)
+    else:
+        folder.chmod(0o555)
+        yield folder
+        folder.chmod(0o755)
+
+
+def test_an_export_from_read_only_media_says_to_copy_the_folder_somewhere_writable(run, study, read_only, tmp_path,
+                                                                                  capsys):
+    """Safety audit L8: a study database (WAL mode) on read-only media cannot be read without the
+    -shm file SQLite writes beside it, and ``cacas export`` said only "cannot be read (unable to
+    open database file)". It now says why and what to do; nothing is created."""
+    before = tree(read_only)
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 2
+    err = capsys.readouterr().err
+    assert err == (f"cacas: error: {study}: cannot be read (unable to open database file); SQLite writes a -shm file "
+                   "beside a study database to read it, and this folder cannot be written (read-only media such as a "
+                   "write-protected USB stick or a DVD, a read-only network share, or no permission); copy the folder "
+                   "(the database with the policies folder beside it) to a writable place and use the copy\n")
+    assert tree(read_only) == before and not (tmp_path / "out").exists()
+
+
 def test_a_missing_policy_file_stops_the_zip_not_the_tables(run, study, tmp_path, capsys):
     """The zip must hold every checkpoint to be imported; the message says how to get the
     tables out all the same, and --tables-only does."""

@@ -231,7 +231,7 @@ def test_a_failed_write_leaves_the_earlier_run_whole(tmp_path, capsys, monkeypat
     earlier = {name: f"earlier {name}\n" for name in ("daily.csv", "interactions.csv", "by_preference.csv")}
     for name, text in earlier.items():
         (out / name).write_text(text)
-    monkeypatch.setattr(files.os, "fsync", fail_on_call(files.os.fsync, 2))
+    monkeypatch.setattr(files.os, "fsync", fail_on_call(files.os.fsync, 3))  # checksums.sha256, daily.csv, then this
     code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
                  "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out)])
     err = capsys.readouterr().err
@@ -525,8 +525,8 @@ def test_a_signal_while_the_results_are_put_in_place_waits_for_them(tmp_path, ca
     real = files.write_all
     sent = []
 
-    def signalled(folder, contents):
-        written = real(folder, contents)
+    def signalled(folder, contents, **kwargs):
+        written = real(folder, contents, **kwargs)
         if not sent:
             sent.append(signum)
             os.kill(os.getpid(), getattr(signal, signum))
@@ -544,7 +544,7 @@ def test_a_signal_while_the_results_are_put_in_place_waits_for_them(tmp_path, ca
     assert f"wrote {out / 'daily.csv'}" in captured.out and "removed an earlier run's" in captured.out
     assert signal.getsignal(signal.SIGINT) == before
     texts = _texts(out)
-    assert sorted(texts) == ["by_preference.csv", "daily.csv", "interactions.csv"]  # the earlier figures went
+    assert sorted(texts) == ["by_preference.csv", "checksums.sha256", "daily.csv", "interactions.csv"]  # the earlier figures went
     assert texts["daily.csv"].startswith("participant,method,day,")
     assert {"fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "plotly.min.js"} <= \
         {p.name for p in plots.iterdir()}

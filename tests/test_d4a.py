@@ -293,3 +293,14 @@ def test_snore_rejects_every_spoken_action(d4a):
     row = d4a.table[act("snore")]
     spoken = [a for a in range(14) if spaces.ACTIONS[a] not in ("do nothing", "record sound")]
     assert (row[spoken] == R).all()
+
+
+def test_d4a_md_names_every_activity_that_rejects_confirm_or_record_sound(d4a):
+    """study_data/d4a.md's last paragraph lists where `confirm sound` and `record sound` are not
+    neutral; every activity whose table rejects one of them is named there (clear throat, which
+    rejects a recording, was not)."""
+    text = (default_d4a_path().parent / "d4a.md").read_text(encoding="utf-8")
+    paragraph = " ".join(text.split("Across all actions", 1)[1].split())
+    for action in ("confirm sound", "record sound"):
+        rejecting = [a for a in spaces.ACTIVITIES if d4a.response(act(a), spaces.action_index(action)) == R]
+        assert rejecting and all(a in paragraph for a in rejecting), (action, rejecting)

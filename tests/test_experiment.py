@@ -399,3 +399,31 @@ def test_in_a_closed_loop_the_bandit_acts_by_thompson_sampling():
     again, _ = day(0)
     pd.testing.assert_frame_equal(rows, again)  # seeded: the same day again
     assert not rows["robot_action"].equals(day(1)[0]["robot_action"])
+
+
+def test_a_simulated_study_adapts_from_the_interactions_alone(small_config, small_initial):
+    """No-preference-leak guard for the simulated study (test_adaptation guards adapt_policy
+    itself): every method's policy in force on day 2 is exactly the one adapt_policy makes from
+    the day-1 interactions with the study's seed, config and D4A pairs, so nothing else of the
+    participant (whose described preferences drive the simulated person and Fig. 4 only, the
+    paper: "the system has no access to them") reaches the adaptation: no per-participant D4A
+    table, config or policy."""
+    from cacas.adaptation import adapt_policy, evaluation_states
+    from cacas.d4a import load_d4a
+    from cacas.experiment import policies_in_force
+
+    d4a, seed, person = load_d4a(), 5, PEOPLE[0]
+    states = evaluation_states(person, 200, seed=1)
+    checked = []
+    for day, in_force, rows in policies_in_force(small_initial, person, 0, 2, 8, METHODS, seed, 0.1, small_config,
+                                                 d4a):
+        if day < 2:
+            continue
+        data = pd.DataFrame(rows["cacas"], columns=records.INTERACTION_COLUMNS)
+        assert set(data["day"]) == {1} and records.is_recorded(data).sum() > 0
+        for m in METHODS:
+            alone = adapt_policy(small_initial, data, m, seed=adaptation_seed(seed, 0, 1, m), config=small_config,
+                                 d4a=load_d4a()).policy
+            assert np.array_equal(in_force[m].action_probabilities(states), alone.action_probabilities(states)), m
+            checked.append(m)
+    assert checked == list(METHODS)

@@ -43,7 +43,7 @@ def fill(store: StudyStore) -> None:
                                          response=["accept", "reject", "others", "accept"][i], probabilities=p,
                                          recognised_activity="sneeze", sound_model=f"{d}123456789ab"[:12])
             store.record_interaction(who, day, activity="use stove", scene="kitchen", time_slot=8, interval_bin=3,
-                                     robot_action="do nothing", response="reject", type=USER_INITIATED,
+                                     robot_action="do nothing", response="accept", type=USER_INITIATED,
                                      user_action="remind to turn off")
             store.close_day(who, day)
             v = store.save_policy(who, day, "cacas", f"{who} policy after day {day}".encode())
@@ -423,6 +423,10 @@ def _rewrite(bundle, out, table, change):
      r"interactions.csv, row 2: user_action 'chitchat' given for a robot-initiated \(type_1\) interaction; only "
      r"type_2 interactions have one"),
     ("interactions", lambda df: df.assign(user_action=""), "interactions.csv, row 6: user_action is missing"),
+    # a type_2 row is the confirmed request (Table II's D_i): its response is "accept"
+    ("interactions", lambda df: df.assign(response=df["response"].where(df["type"] != "type_2", "reject")),
+     r"interactions.csv, row 6: response 'reject' given for a user-initiated \(type_2\) interaction; valid: "
+     r"'accept'"),
     ("interactions", lambda df: df.assign(time="garbage"),
      r'interactions.csv, row 2, column time: \'garbage\' is invalid; valid: an ISO 8601 time with a time zone, such as '
      r'"2026-11-21T10:00:00Z" \(UTC\)'),
@@ -1295,3 +1299,74 @@ def test_the_size_limits_leave_a_real_bundle_and_other_files_alone(bundle, tmp_p
     with zipfile.ZipFile(odd, "a", zipfile.ZIP_DEFLATED) as zf:  # compressed ~1000 to 1, never read
         zf.writestr("readme.txt", b"\n" * 2**23)
     assert export.import_bundle(odd, tmp_path / "new" / "study.sqlite").interactions == 20
+
+
+def _case_twins(path):
+    """A study database holding P01 and p01 (as add_participant wrote them before its check), each
+    with a policy file."""
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        with s._conn:
+            s._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
+                            "((SELECT id FROM studies WHERE name = 'default'), 'p01', '2026-01-05T10:00:00.000Z', "
+                            "'2026-01-05T10:00:00.000Z')")
+        for who in ("P01", "p01"):
+            s.save_policy(who, 0, "cacas", f"{who}'s initial policy".encode())
+    return path
+
+
+def _case_blind(monkeypatch):
+    """The file system taken for one that does not tell letter case apart (macOS's default), as
+    ``files.ignores_letter_case`` finds out by probing the folder (this one tells it apart)."""
+    from cacas.store import files
+
+    monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+
+
+def test_the_letter_case_probe_finds_what_the_folder_does(tmp_path):
+    from cacas.store import files
+
+    (tmp_path / "probe").write_text("x")
+    assert files.ignores_letter_case(tmp_path) == (tmp_path / "PROBE").exists()
+    assert files.ignores_letter_case(tmp_path / "not" / "made") == (tmp_path / "PROBE").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["probe"]  # the probe's file is gone, nothing made
+
+
+def test_case_twins_are_refused_where_the_file_system_does_not_tell_letter_case_apart(tmp_path, monkeypatch):
+    """Safety audit L4: P01 and p01 (possible only in an imported study) share policies/P01/ on a
+    file system that does not tell letter case apart, and removing one deleted the other's files.
+    Such an import is refused there, in one message, and nothing is made; where letter case is told
+    apart it imports (with its note)."""
+    bundle = export.export_study(_case_twins(tmp_path / "a" / "study.sqlite"), tmp_path / "out").bundle
+    _case_blind(monkeypatch)
+    target = tmp_path / "b" / "moved.sqlite"
+    with pytest.raises(CacasError) as err:
+        export.import_bundle(bundle, target)
+    assert str(err.value) == (
+        f"{bundle}: participants.csv holds participants P01 and p01, whose codes differ only in letter case; the "
+        f"file system of {target.parent} does not tell letter case apart (as macOS's and Windows' do by default), so "
+        "they would share one folder of policy files, and removing one would delete the other's; valid: a disk that "
+        "tells letter case apart (on macOS, a case-sensitive APFS volume); nothing was imported")
+    assert not (tmp_path / "b").exists()
+    monkeypatch.undo()
+    if (tmp_path / "OUT").exists():  # pragma: no cover - this machine's disk does not tell letter case apart
+        return
+    assert export.import_bundle(bundle, target).notes
+
+
+def test_a_code_whose_case_twin_is_in_a_database_beside_is_refused_there(store, tmp_path, monkeypatch):
+    """The databases beside each other share policies/: a pilot's p01 and an imported P01 would
+    share one folder on such a file system too."""
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    target = tmp_path / "b" / "moved.sqlite"
+    with StudyStore(tmp_path / "b" / "pilot.sqlite") as pilot:
+        pilot.add_participant("p01")
+    _case_blind(monkeypatch)
+    with pytest.raises(CacasError) as err:
+        export.import_bundle(bundle, target)
+    assert str(err.value).startswith(
+        f"{bundle}: participant P01 differs only in letter case from participant p01 of the study database "
+        f"pilot.sqlite beside moved.sqlite; the file system of {target.parent} does not tell letter case apart")
+    assert str(err.value).endswith("valid: another folder for the new database, or a disk that tells letter case "
+                                   "apart (on macOS, a case-sensitive APFS volume); nothing was imported")
+    assert sorted(p.name for p in target.parent.iterdir()) == ["pilot.sqlite", "pilot.sqlite-writer.lock"]

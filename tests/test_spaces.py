@@ -9,6 +9,7 @@ def test_table_one_sizes():
     assert (spaces.N_ACTIVITIES, spaces.N_SCENES, spaces.N_SLOTS, spaces.N_INTERVALS) == (33, 6, 12, 12)
     assert (spaces.N_ACTIONS, spaces.N_RESPONSES) == (14, 3)
     assert spaces.STATE_DIM == 94 and spaces.USER_INPUT_DIM == 91
+    assert spaces.N_STATES == 16_765_056  # "The total number of state is 16,765,056" (IV-B.1)
     assert spaces.ACTIVITIES[-1] == "do nothing" and spaces.ACTIONS[0] == "do nothing"
 
 
@@ -28,6 +29,7 @@ def test_interval_bins(minutes, expected):
 
 def test_time_slots():
     assert spaces.time_slot(0) == 0 and spaces.time_slot(1.99) == 0 and spaces.time_slot(23.5) == 11
+    assert spaces.TIME_SLOTS[0] == (0, 2) and spaces.TIME_SLOTS[-1] == (22, 24)  # the paper prints [20, 24): a typo
     with pytest.raises(CacasError, match="hour 24 is outside the day; valid: 0 <= hour < 24"):
         spaces.time_slot(24)
 

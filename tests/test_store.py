@@ -588,7 +588,7 @@ def test_record_interaction_all_fields(store):
     i1 = store.record_interaction("P01", day, **GOOD, probabilities=probs(), recognised_activity="sneeze",
                                   recognised_scene="bedroom", task="chitchat", time="2026-11-21T10:00:00Z")
     i2 = store.record_interaction("P01", day, activity="Use Stove", scene="kitchen", time_slot=3,
-                                  interval_bin=0, robot_action="do nothing", response="reject",
+                                  interval_bin=0, robot_action="do nothing", response="accept",
                                   type=USER_INITIATED, user_action="remind to turn off",
                                   previous_action="pain check", previous_response="accept")
     assert i2 > i1
@@ -620,6 +620,11 @@ BAD_INTERACTIONS = [
     (dict(type="type_3"), "interaction type"),
     (dict(type="type_2"), "user_action is missing"),
     (dict(type="type_2", user_action="do nothing"), "not a request"),
+    (dict(type="type_2", user_action="chitchat", response="reject"),
+     r"response 'reject' given for a user-initiated \(type_2\) interaction; valid: 'accept'"),
+    (dict(type="type_2", user_action="pain check", robot_action="pain check", response="accept"),
+     r"user_action 'pain check' is the robot's own proposal \(robot_action\); valid: a request for another "
+     r"action, or the proposal's accept as a robot-initiated \(type_1\) interaction"),
     (dict(user_action="chitchat"), r"user_action 'chitchat' given for a robot-initiated \(type_1\) interaction; "
                                    "only type_2 interactions have one"),
     (dict(hour=24), "hour 24 is invalid; valid: a number with 0 <= hour < 24"),
@@ -762,6 +767,52 @@ def test_a_policy_that_is_not_bytes_or_a_read_only_store_writes_no_file(store):
         with pytest.raises(CacasError, match=f"^{re.escape(str(store.path))}: opened read-only; nothing was written$"):
             ro.save_policy("P01", 1, "cacas", b"a policy")
     assert snapshot(store.path) == before and not store.policy_dir.exists()
+
+
+def _clock(monkeypatch, offset_ns: int) -> None:
+    """The damaged-file check's clock moved ``offset_ns`` on (the code before it had none)."""
+    import time
+    from types import SimpleNamespace
+
+    from cacas.store import policies
+    monkeypatch.setattr(policies, "time", SimpleNamespace(time_ns=lambda: time.time_ns() + offset_ns), raising=False)
+
+
+def test_a_same_size_rewrite_keeping_the_modification_time_is_seen_as_damage(store, monkeypatch):
+    """Safety audit L10: the damaged-file check remembered each file's answer by its size and
+    modification time, so a rewrite of the same size within the time granularity (here: the
+    modification time set back, as ``touch -d`` or ``cp -p`` do) was not seen; the Results page
+    offered the zip, and its download failed with the browser's bare "Failed to generate file".
+    The status change time (ctime), which no program sets back, is part of the key now."""
+    import os
+
+    store.open_day("P01")
+    store.save_policy("P01", 1, "cacas", b"the adapted policy")
+    path = store.active_policy("P01").path
+    _clock(monkeypatch, 10**12)  # the file's last change long past: its answer is remembered
+    assert store.damaged_policy_files() == []
+    st = path.stat()
+    path.write_bytes(b"the adapted POLICY")  # same size
+    os.utime(path, ns=(st.st_atime_ns, st.st_mtime_ns))
+    assert path.stat().st_size == st.st_size and path.stat().st_mtime_ns == st.st_mtime_ns
+    assert store.damaged_policy_files() == [f"P01/{path.name}"]
+
+
+def test_a_policy_file_changed_just_now_is_read_at_every_check(store, monkeypatch):
+    """A file whose last change is under 2 s old is not remembered (on FAT, HFS+ or a network share
+    a rewrite within the same second or two keeps every time stamp); once settled, it is read once."""
+    from cacas.store import files, policies
+
+    store.open_day("P01")
+    store.save_policy("P01", 1, "cacas", b"the adapted policy")
+    reads = []
+    real = files.sha256
+    monkeypatch.setattr(files, "sha256", lambda data: reads.append(1) or real(data))
+    _clock(monkeypatch, 0)
+    policies._CHECKED.clear()
+    assert store.damaged_policy_files() == [] and store.damaged_policy_files() == [] and len(reads) == 2
+    _clock(monkeypatch, policies._SETTLED_NS)
+    assert store.damaged_policy_files() == [] and store.damaged_policy_files() == [] and len(reads) == 3
 
 
 def test_adaptation_runs(store):
@@ -1143,3 +1194,23 @@ def test_every_wrong_field_of_a_participant_is_said_at_once(store):
     with pytest.raises(CacasError, match=r"age range 'old' is invalid.*; and notes contain what looks like contact"):
         store.update_participant("P09", age_range="old", notes="call 555-1234")
     assert (store.get_participant("P09").age_range, store.get_participant("P09").notes) == ("25-34", "")
+
+
+def test_the_data_stamp_changes_with_every_write_of_any_connection_and_not_with_reads(tmp_path):
+    """The app caches what it reads from the study database under this stamp (``ui.study_tables``): a
+    write by the app's own connection, or by another one (a ``cacas import``, a worker process), must
+    change it, or a page shows tables of before the write."""
+    path = tmp_path / "study.sqlite"
+    with StudyStore(path) as app, StudyStore(path) as other:
+        start = app.data_stamp()
+        app.participants_frame(None), app.interactions_frame(method=None), other.studies()  # reads only
+        assert app.data_stamp() == start
+        app.add_participant("P01")  # the app's own write
+        own = app.data_stamp()
+        assert own != start
+        other.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])  # another connection's
+        theirs = app.data_stamp()
+        assert theirs != own
+        other.add_participant("P02")
+        assert app.data_stamp() not in (start, own, theirs)
+        assert app.data_stamp() == app.data_stamp()

@@ -322,3 +322,122 @@ def test_policy_files_that_cannot_be_deleted_after_the_removal_are_named(store, 
                               f"{trash} could not be deleted: delete that folder by hand")
     assert rows(store.path, "P01")["participants"] == []
     assert len([p for p in trash.rglob("*.pt")]) == 2
+
+
+def test_a_removals_moves_are_synced_to_disk_before_it_commits(store, monkeypatch):
+    """Safety audit L5: the removal moved the participant's policy files aside and committed
+    without syncing the folders: after a power cut the files could be back in policies/P01/ with
+    no row naming them. The participant's folder, the trash folder and the policies folder (the
+    trash's name) are synced while the participant is still in the database (before the commit)."""
+    real_fsync, real_replace = os.fsync, os.replace
+    synced, trash = [], []
+
+    def still_there() -> bool:
+        con = sqlite3.connect(store.path)
+        try:
+            return con.execute("SELECT COUNT(*) FROM participants WHERE code = 'P01'").fetchone()[0] == 1
+        finally:
+            con.close()
+
+    def fsync(fd):
+        st = os.fstat(fd)
+        if st.st_mode & 0o040000:  # a folder
+            synced.append((st.st_ino, still_there()))
+        real_fsync(fd)
+
+    def replace(src, dst, *args, **kwargs):
+        trash.append(os.stat(os.path.dirname(dst)).st_ino)
+        real_replace(src, dst, *args, **kwargs)
+    folder = store.policy_dir / "P01"
+    wanted = {folder.stat().st_ino, store.policy_dir.stat().st_ino}
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(os, "replace", replace)
+    store.remove_participant("P01", "P01")
+    before_commit = {ino for ino, there in synced if there}
+    assert wanted | {trash[0]} <= before_commit and not still_there()
+
+
+def _withdrawn_files_back(store, code="P01"):
+    """Remove ``code`` as a power cut that lost the removal's moves would leave it: the rows gone,
+    the policy files back in policies/<code>/ as they were (their modification times too)."""
+    kept = {p: (p.read_bytes(), p.stat().st_mtime_ns) for p in (store.policy_dir / code).rglob("*") if p.is_file()}
+    store.remove_participant(code, code)
+    for path, (data, mtime) in kept.items():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(data)
+        os.utime(path, ns=(mtime, mtime))
+    return sorted(kept)
+
+
+def test_a_withdrawn_participants_files_brought_back_by_a_power_cut_are_deleted_at_the_next_opening(store):
+    """Safety audit L5: files of a removed participant back in policies/P01/ (the removal's moves
+    lost by a power cut) had no row and no marker, and stayed for good. The next opening for
+    writing deletes them: older than the removal the database recorded, named by no database."""
+    p02 = sorted(p.name for p in (store.policy_dir / "P02").iterdir())
+    assert len(_withdrawn_files_back(store)) == 2
+    store.close()
+    with StudyStore(store.path) as s:
+        assert not (s.policy_dir / "P01").exists()
+        assert sorted(p.name for p in (s.policy_dir / "P02").iterdir()) == p02 and s.load_policy("P02")
+
+
+def test_files_of_a_withdrawn_code_another_database_holds_or_written_after_the_removal_are_kept(store):
+    """policies/ is shared: a code removed here may be another study database's participant (a
+    pilot's P01), or be written later (an import of another P01); such files are never deleted,
+    nor anything while a database beside cannot be read (it may hold the code)."""
+    back = _withdrawn_files_back(store)
+    later = store.policy_dir / "P01" / "day1-cacas-0000abcd.pt"
+    later.write_bytes(b"written after the removal, by a database moved away for now")
+    after = pd.Timestamp(store.events(what="remove_participant")["at"].iloc[-1]).value + 10**9
+    os.utime(later, ns=(after, after))  # a second after it (the log's clock may run ahead by a few ms)
+    store.close()
+    with StudyStore(store.path) as s:  # a newer file: kept; the older ones that were removed: deleted
+        assert [p for p in (s.policy_dir / "P01").rglob("*") if p.is_file()] == [later]
+    for path in back:  # brought back again, beside a database that holds a P01 of its own
+        path.write_bytes(b"x")
+        os.utime(path, ns=(1, 1))
+    pilot = _beside(store, "pilot.sqlite", code="p01")  # in another letter case: one folder on macOS
+    pilot.close()
+    StudyStore(store.path).close()
+    assert all(p.exists() for p in back)
+    (store.path.parent / "pilot.sqlite").unlink()
+    (store.path.parent / "damaged.sqlite").write_bytes(store.path.read_bytes()[:100] + b"\0" * 4000)
+    StudyStore(store.path).close()
+    assert all(p.exists() for p in back)  # a database beside that cannot be read may hold P01
+    (store.path.parent / "damaged.sqlite").unlink()
+    StudyStore(store.path).close()
+    assert not any(p.exists() for p in back) and later.exists()
+
+
+def test_removing_one_of_two_case_twins_keeps_the_others_files_where_they_share_a_folder(tmp_path, monkeypatch):
+    """Safety audit L4: on a file system that does not tell letter case apart (macOS's default),
+    P01 and p01 (of an imported study, or of two databases beside each other) share one folder,
+    and removing p01 deleted P01's files with its own. A link stands in for such a file system here
+    (policies/p01 is policies/P01), and the probe is told so; removing p01 keeps P01's files,
+    whoever names them, and says why."""
+    from cacas.store import files
+
+    s = StudyStore(tmp_path / "study.sqlite")
+    s.add_participant("P01")
+    s.save_policy("P01", 0, "cacas", b"P01's initial policy")
+    s.save_policy("P01", 0, "nn", b"P01's other policy")
+    with s._conn:  # as add_participant wrote codes before its check (kept so by an import)
+        s._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
+                        "((SELECT id FROM studies WHERE name = 'default'), 'p01', '2026-01-05T10:00:00.000Z', "
+                        "'2026-01-05T10:00:00.000Z')")
+    (s.policy_dir / "p01").symlink_to("P01", target_is_directory=True)
+    monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+    s.save_policy("p01", 0, "cacas", b"p01's initial policy")
+    pilot = _beside(s, "pilot.sqlite")  # names a P01 file of its own in the folder
+    pilot.close()
+    footprint = s.participant_footprint("p01")
+    assert (footprint.policy_files, footprint.kept_files) == (1, 3)
+    assert footprint.kept_because == ("participant P01 of this study database shares the folder policies/p01/ (the "
+                                      "codes differ only in letter case, which this disk does not tell apart): their "
+                                      "files are kept")
+    s.remove_participant("p01", "p01")
+    assert [s.load_policy("P01", version=v) for v in (1, 2)] == [b"P01's initial policy", b"P01's other policy"]
+    with StudyStore(tmp_path / "pilot.sqlite") as p:
+        assert p.load_policy("P01") == b"pilot.sqlite's own P01"
+    assert len(list((s.policy_dir / "P01").iterdir())) == 3
+    s.close()

@@ -4,6 +4,9 @@ Paper, IV-A: "The duration of the sound sample is set to 1 second. The sample ra
 The window size of the fast Fourier transform is set to 2,048 and the step size is 1,024. The
 number of the Mel band is set to 64. For each sound sample, the generated feature shape is 64x32."
 
+The paper names 64 Mel bands and a 64 x 32 feature, not the number of cepstral coefficients; we
+keep all 64 of the 64 bands (``N_MFCC``; librosa keeps 20 unless told), which gives its shape.
+
 * :func:`load_clip` reads WAV, FLAC or OGG (any sample rate, mono or multi-channel, 8/16/24-bit
   integer or float) and returns mono float32 at 32 kHz. A file that is missing, empty, not audio,
   corrupt, truncated (a WAV or FLAC; an OGG records no total length and reads as the shorter clip

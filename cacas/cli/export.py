@@ -50,6 +50,8 @@ def register(subparsers) -> None:
 
 def run_export(args: argparse.Namespace) -> int:
     result = export_study(args.db, args.out, study=args.study, bundle=not args.tables_only)
+    if result.remains:
+        print(f"cacas export: note: {result.remains}", file=sys.stderr)
     for name, path in result.tables.items():
         print(f"wrote {path}")
     if result.bundle is not None:

@@ -169,6 +169,16 @@ class StoreBase:
                 self._snapshot = False
                 self._conn.execute("COMMIT")
 
+    def data_stamp(self) -> tuple[int, int]:
+        """A stamp of the database's contents, for a cache of what is read from it: it changes whenever
+        anything is written, by this store or by any other connection or process (a ``cacas import``, a
+        comparison's worker processes), and costs two cheap queries. SQLite's ``PRAGMA data_version``
+        changes when another connection commits; this connection's own writes are counted by
+        ``total_changes`` (rows inserted, updated or deleted since it opened). A write rolled back changes
+        the stamp too (a needless re-read, never a stale one)."""
+        with self._lock:
+            return self._conn.execute("PRAGMA data_version").fetchone()[0], self._conn.total_changes
+
     def _read(self, fn: Callable[[sqlite3.Connection], T]) -> T:
         with self._lock:
             return db.read(self._conn, fn)

@@ -70,7 +70,7 @@ def open_study_file(path: Path) -> sqlite3.Connection:
     try:
         conn = _open_for_reading(path)
     except sqlite3.Error as exc:
-        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
+        raise _unreadable(path, exc) from None
     try:
         app_id = conn.execute("PRAGMA application_id").fetchone()[0]
     except sqlite3.DatabaseError as exc:
@@ -79,7 +79,7 @@ def open_study_file(path: Path) -> sqlite3.Connection:
             raise NotAStudyDatabase(f"{path}: is not a study database (not an SQLite file)") from None
         if _busy(path, exc):
             raise _busy(path, exc) from None
-        raise CacasError(f"{path}: cannot be read ({exc}){_DISK_HINT if disk_trouble(exc) else ''}") from None
+        raise _unreadable(path, exc) from None
     if app_id != APPLICATION_ID:
         conn.close()
         raise NotAStudyDatabase(f"{path}: is not a study database (an SQLite file of another application)")
@@ -103,6 +103,26 @@ def _not_sqlite(exc: sqlite3.Error) -> bool:
 #: What a reading refused by the disk (:func:`disk_trouble`) adds to its message.
 _DISK_HINT = ("; the disk may be full, or the file or its folder cannot be written (SQLite writes its -shm file "
               "beside the database to read it): free some disk space (or check the permissions) and try again")
+
+
+#: What a reading SQLite could not open in a folder that cannot be written adds to its message.
+_READ_ONLY_HINT = ("; SQLite writes a -shm file beside a study database to read it, and this folder cannot be "
+                   "written (read-only media such as a write-protected USB stick or a DVD, a read-only network share, "
+                   "or no permission); copy the folder (the database with the policies folder beside it) to a "
+                   "writable place and use the copy")
+
+
+def _unreadable(path: Path, exc: sqlite3.Error) -> CacasError:
+    """The message for a study database SQLite could not read: with what to do when the disk
+    refused (:func:`disk_trouble`), or when SQLite could not open its -shm file beside the database
+    because the folder cannot be written (safety audit L8: ``cacas export`` of a database on
+    read-only media said only "cannot be read (unable to open database file)")."""
+    hint = ""
+    if disk_trouble(exc):
+        hint = _DISK_HINT
+    elif "unable to open" in str(exc).lower() and not os.access(path.parent, os.W_OK):
+        hint = _READ_ONLY_HINT
+    return CacasError(f"{path}: cannot be read ({exc}){hint}")
 
 
 def disk_trouble(exc: sqlite3.Error) -> bool:

@@ -3,6 +3,12 @@
 A checkpoint (the adapted policy of one participant after one day, CACAA's output, Table III)
 is written to a temporary file in the target folder, flushed and fsynced, renamed into place and
 the folder fsynced: a reader sees the old state or the whole new file, never part of one.
+
+An output folder (``cacas export --out``, ``cacas simulate --out``) is written by :func:`write_all`
+with :data:`CHECKSUMS`: each file's sha256, put in place before the files it lists. A process
+killed between the renames (``kill -9``, a power cut) leaves files that do not match it, which
+:func:`mismatched` finds (``cacas import``, the Results page's upload) and :func:`remains` says
+at the next write.
 """
 
 from __future__ import annotations
@@ -80,6 +86,24 @@ def _nearest_existing(path: Path) -> Path:
     return path
 
 
+def ignores_letter_case(folder) -> bool:
+    """Whether the file system holding ``folder`` (or the nearest folder above it that exists)
+    takes names that differ only in letter case for one name, as macOS's and Windows' do by default
+    (``policies/P01`` and ``policies/p01`` are then one folder). Found out by creating a hidden
+    file with a lower-case name and looking for it in upper case; False if none can be created."""
+    where = _nearest_existing(Path(folder).absolute())
+    try:
+        fd, name = tempfile.mkstemp(prefix=".case-probe-", dir=where)
+    except OSError:
+        return False
+    os.close(fd)
+    probe = Path(name)
+    try:
+        return probe.with_name(probe.name.upper()).exists()
+    finally:
+        probe.unlink(missing_ok=True)
+
+
 def writable_folder(folder, what: str) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
     CacasError naming it (``what``: how the user named it, e.g. "--out results") and the problem:
@@ -139,16 +163,11 @@ def _remove_left_over(folder: Path, names) -> None:
     (``kill -9``, a power cut): ``.<name>.<pid>.tmp`` and ``.<name>.<pid>.old`` of a process that is
     no longer running (data steward's audit: a killed export left hidden full copies of the
     interactions, 28 MB, that no later export removed; they may hold a withdrawn participant)."""
-    if not folder.is_dir():
-        return
-    for name in names:
-        for path in [*folder.glob(f".{name}.*.tmp"), *folder.glob(f".{name}.*.old")]:
-            pid = path.name[len(name) + 2:].rsplit(".", 1)[0]
-            if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
-                try:
-                    path.unlink()
-                except OSError:  # another process removed it first, or the folder is read-only
-                    pass
+    for path in _dead_left_overs(folder, names):
+        try:
+            path.unlink()
+        except OSError:  # another process removed it first, or the folder is read-only
+            pass
 
 
 def _running(pid: int) -> bool:
@@ -162,15 +181,114 @@ def _running(pid: int) -> bool:
     return True
 
 
-def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
+#: The file :func:`write_all` writes beside the files it writes (with ``checksums=True``): each
+#: one's sha256 and name, one a line, as ``sha256sum`` writes them (``sha256sum -c checksums.sha256``
+#: checks a folder by hand).
+CHECKSUMS = "checksums.sha256"
+
+
+def checksums_bytes(contents: dict[str, bytes]) -> bytes:
+    """:data:`CHECKSUMS`'s bytes for ``contents`` (name -> bytes), sorted by name: the same files
+    give the same bytes."""
+    return "".join(f"{sha256(data)}  {name}\n" for name, data in sorted(contents.items())).encode()
+
+
+def parse_checksums(data: bytes) -> dict[str, str] | None:
+    """Name -> sha256 of a :data:`CHECKSUMS` file's bytes; None if they are not such a file."""
+    out = {}
+    try:
+        lines = data.decode("utf-8").splitlines()
+    except UnicodeDecodeError:
+        return None
+    for line in lines:
+        digest, sep, name = line.partition("  ")
+        if not sep or len(digest) != 64 or not all(c in "0123456789abcdef" for c in digest) or not name:
+            return None
+        out[name.lstrip("*")] = digest
+    return out
+
+
+def mismatched(folder, names=None) -> list[str] | None:
+    """The files :data:`CHECKSUMS` in ``folder`` lists (of ``names``, if given) that are missing or
+    do not match their sha256 there: what a write killed between its renames left, or a file
+    changed since. None when the folder has no such file (written before it, or not by
+    :func:`write_all`): nothing is known."""
+    folder = Path(folder)
+    try:
+        listed = parse_checksums((folder / CHECKSUMS).read_bytes())
+    except OSError:
+        return None
+    if listed is None:
+        return None
+    bad = []
+    for name, digest in sorted(listed.items()):
+        if names is not None and name not in names:
+            continue
+        try:
+            ok = sha256((folder / name).read_bytes()) == digest
+        except OSError:
+            ok = False
+        if not ok:
+            bad.append(name)
+    return bad
+
+
+def _dead_left_overs(folder: Path, names) -> list[Path]:
+    """The ``.<name>.<pid>.tmp`` and ``.<name>.<pid>.old`` files of :func:`write_all`s of these
+    ``names`` whose process is no longer running: what a killed one left."""
+    found = []
+    if not folder.is_dir():
+        return found
+    for name in names:
+        for path in [*folder.glob(f".{name}.*.tmp"), *folder.glob(f".{name}.*.old")]:
+            pid = path.name[len(name) + 2:].rsplit(".", 1)[0]
+            if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
+                found.append(path)
+    return sorted(found)
+
+
+def _listed(names: list[str]) -> str:
+    return ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+
+
+def remains(folder, names) -> str:
+    """What an earlier :func:`write_all` of ``names`` into ``folder`` stopped part-way (killed, or a
+    power cut) left there, said in a sentence for the write about to replace it; "" if nothing:
+    the files that do not match :data:`CHECKSUMS` (two runs' files side by side) and the hidden
+    copies of a process no longer running (safety audit L1)."""
+    folder = Path(folder)
+    names = list(dict.fromkeys([*names, CHECKSUMS]))  # each once: its hidden copies counted once
+    left = _dead_left_overs(folder, names)
+    bad = mismatched(folder, names) if left else None  # without hidden copies, a mismatch is a file changed since
+    if bad:
+        return (f"{folder} held what an earlier run stopped part-way (killed, or a power cut) left: {_listed(bad)} "
+                f"did not match {CHECKSUMS} (files of two runs side by side), and {len(left)} hidden temporary "
+                "file(s); all are replaced now")
+    if left:
+        return (f"{folder} held {len(left)} hidden temporary file(s) an earlier run stopped part-way (killed, or a "
+                "power cut) left; its files were still those of the run before it, and are replaced now")
+    return ""
+
+
+def write_all(folder, contents: dict[str, bytes], checksums: bool = False) -> dict[str, Path]:
     """Write several files into ``folder`` as one change: each to a temporary file first
     (flushed and fsynced), and only when all are written are they renamed into place, each file
     it replaces kept aside (a hard link) until all renames are done. A failure (disk full,
     read-only folder, a rename refused) puts back the files already replaced, removes the
     temporary ones and raises a CacasError naming the file: the folder's files are as they were.
     So does Ctrl-C (KeyboardInterrupt, or SIGTERM raised as one), which is then raised again.
-    Returns name -> path."""
+
+    A process killed between two renames cannot put anything back. With ``checksums``,
+    :data:`CHECKSUMS` (the files' sha256) is renamed into place first, and synced, before the
+    files it lists: killed at any point after it, the files that are still the earlier run's do not
+    match it (:func:`mismatched` finds them), and killed before it, the folder is the earlier run's
+    whole. (Swapping in a whole new folder instead would change the folder itself: a shell or file
+    browser in it, ``--out .``, files of the user's beside the outputs.) Its bytes follow from the
+    files', so the same files give the same folder. Returns name -> path (without CHECKSUMS)."""
     folder = Path(folder)
+    written = list(contents)
+    if checksums:
+        contents = {CHECKSUMS: checksums_bytes(contents), **contents}
     _remove_left_over(folder, contents)
     tmps: dict[str, Path] = {}
     kept: dict[str, Path | None] = {}  # name -> the replaced file's copy (None: there was none)
@@ -194,6 +312,8 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
         for name, tmp in tmps.items():
             os.replace(tmp, folder / name)
             done.append(name)
+            if name == CHECKSUMS and checksums:  # on disk before any file it lists is replaced
+                fsync_folder(folder)
     except BaseException as exc:  # an OSError, or Ctrl-C / SIGTERM between two renames
         for n in reversed(done):  # put back what was replaced
             try:
@@ -214,4 +334,4 @@ def write_all(folder, contents: dict[str, bytes]) -> dict[str, Path]:
             except OSError:  # pragma: no cover - the folder went away meanwhile
                 pass
     fsync_folder(folder)
-    return {n: folder / n for n in contents}
+    return {n: folder / n for n in written}

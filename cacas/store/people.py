@@ -167,11 +167,22 @@ class PeopleMixin:
         """The policy paths the readable study databases beside this one name, the name of one
         that cannot be read ("" if none), and the names of those that name a file of ``code``'s
         (each holds a participant ``code`` of its own, maybe the same person: an imported copy)."""
+        named: set[str] = set()
+        namers: list[str] = []
+        found, unreadable = self._read_beside("SELECT path FROM policies")
+        for name, paths in found.items():
+            named |= paths
+            if any(path.startswith(f"{code}/") for path in paths):
+                namers.append(name)
+        return named, unreadable, namers
+
+    def _read_beside(self, sql: str) -> tuple[dict[str, set], str]:
+        """``sql``'s first column in each readable study database beside this one (file name ->
+        the values), and the name of one that cannot be read ("" if none): it may hold anything."""
         from cacas.store import db
 
-        named: set[str] = set()
+        found: dict[str, set] = {}
         unreadable = ""
-        namers: list[str] = []
         for other in sorted(self.path.parent.iterdir()):
             # never opened: this database, and the files SQLite keeps beside a database (opened and
             # closed here, they would drop SQLite's locks on them: see db.open_study_file)
@@ -185,34 +196,45 @@ class PeopleMixin:
                 unreadable = unreadable or other.name  # busy, damaged: it may name any file
                 continue
             try:
-                paths = {r[0] for r in conn.execute("SELECT path FROM policies").fetchall()}
-            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: it may name any file
+                found[other.name] = {r[0] for r in conn.execute(sql).fetchall()}
+            except Exception:  # noqa: BLE001 - unreadable, busy, damaged: it may hold anything
                 unreadable = unreadable or other.name
-            else:
-                named |= paths
-                if any(path.startswith(f"{code}/") for path in paths):
-                    namers.append(other.name)
             finally:
                 conn.close()
-        return named, unreadable, namers
+        return found, unreadable
 
-    def _files_to_remove(self, code: str) -> tuple[list, int, str]:
+    def _files_to_remove(self, c, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
         names: removing the participant deletes these, and keeps the others'; with the number kept
         and why. A database beside that cannot be read may name any: every file is kept, and those
-        no readable one names are listed for the researcher to delete once they know."""
+        no readable one names are listed for the researcher to delete once they know. On a file
+        system that does not tell letter case apart (macOS's default), P01 and p01 (of an imported
+        study, or of two databases beside each other) share the folder: a file named in any letter
+        case, also by this database for another participant, is kept (safety audit L4)."""
         folder = self._participant_folder(code)
         if not folder.is_dir():
             return [], 0, ""
         every = [f for f in sorted(folder.rglob("*")) if f.is_file()]
         named, unreadable, namers = self._beside(code)
-        unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
+        twins: list[str] = []  # this database's participants whose files share the folder
+        if files.ignores_letter_case(folder):
+            rows = c.execute("SELECT p.code, o.path FROM policies o JOIN participants p ON p.id = o.participant_id "
+                             "WHERE p.code != ?", (code,)).fetchall()
+            folded = {path.casefold() for path in named | {path for _, path in rows}}
+            unused = [f for f in every if f.relative_to(self.policy_dir).as_posix().casefold() not in folded]
+            twins = sorted({who for who, path in rows if path.casefold().startswith(f"{code.casefold()}/")})
+        else:
+            unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
         if unreadable:
             listed = ", ".join(f"policies/{f.relative_to(self.policy_dir).as_posix()}" for f in unused[:3]) + (
                 f" and {len(unused) - 3} more in policies/{code}/" if len(unused) > 3 else "")
             why = f"the study database {unreadable} beside this one cannot be read, and may name these files"
             return [], len(every), why + (f": once you know it does not, delete {listed} by hand" if unused else "")
         kept = len(every) - len(unused)
+        if kept and twins:
+            return unused, kept, (f"participant {', '.join(twins)} of this study database shares the folder "
+                                  f"policies/{code}/ (the codes differ only in letter case, which this disk does not "
+                                  "tell apart): their files are kept")
         which = f"the study database{'s' if len(namers) > 1 else ''} {', '.join(namers)} beside this one"
         return unused, kept, (f"{which} name{'' if len(namers) > 1 else 's'} these files and hold{'' if len(namers) > 1 else 's'} "
                               f"a participant {code} of {'their' if len(namers) > 1 else 'its'} own: if that is the same "
@@ -229,7 +251,7 @@ class PeopleMixin:
         today = 0 if open_day is None else c.execute(
             "SELECT COUNT(*) FROM interactions WHERE participant_id = ? AND day = ?", (pid, open_day)).fetchone()[0]
         events = c.execute("SELECT COUNT(*) FROM events WHERE participant = ?", (code,)).fetchone()[0]
-        doomed, kept, why = self._files_to_remove(code) if files is None else files
+        doomed, kept, why = self._files_to_remove(c, code) if files is None else files
         return Footprint(code, count("days"), count("interactions"), count("preferences"), count("policies"),
                          count("adaptations"), count("questionnaires"), events, len(doomed), open_day, today,
                          kept, why)
@@ -272,9 +294,9 @@ class PeopleMixin:
             pid = self._pid(c, code)
             study = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                               "WHERE p.id = ?", (pid,)).fetchone()[0]
-            files = self._files_to_remove(code)  # read the neighbouring databases once
-            doomed = files[0]
-            removed = self._footprint(c, pid, code, files)
+            to_remove = self._files_to_remove(c, code)  # read the neighbouring databases once
+            doomed = to_remove[0]
+            removed = self._footprint(c, pid, code, to_remove)
             c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
             try:
                 for table in PARTICIPANT_TABLES:
@@ -296,6 +318,9 @@ class PeopleMixin:
                     raise CacasError(f"{f}: the participant's policy file cannot be removed "
                                      f"({exc.strerror or exc}); nothing was removed") from None
                 moved.append((f, target))
+            if moved:  # the moves on disk before the commit: a power cut cannot bring the files back without rows
+                for where in sorted({*(f.parent for f, _ in moved), *(t.parent for _, t in moved), trash.parent}):
+                    files.fsync_folder(where)
             return removed
 
         with held:
@@ -324,6 +349,7 @@ class PeopleMixin:
             if trash.exists():
                 raise CacasError(f"participant {code} was removed from the study database, but their policy files "
                                  f"in {trash} could not be deleted: delete that folder by hand")
+            files.fsync_folder(self.policy_dir)  # (a trash folder brought back is deleted at the next opening)
         return removed
 
     def get_participant(self, code: str) -> ParticipantInfo:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from typing import Sequence
 
 import pandas as pd
@@ -13,9 +14,13 @@ from cacas.store import validate as v
 from cacas.store.base import PolicyVersion
 
 
-#: (file, size, modification time, recorded sha256) -> whether the file's bytes match it
-#: (:meth:`PoliciesMixin.damaged_policy_files`), for the life of the process.
+#: (file, inode, size, modification and change times, recorded sha256) -> whether the file's bytes
+#: match it (:meth:`PoliciesMixin.damaged_policy_files`), for the life of the process.
 _CHECKED: dict[tuple, bool] = {}
+#: A file changed less than this long ago (its status change time, ctime) is read again at every
+#: check rather than remembered: a rewrite within the file system's time granularity (2 s on FAT;
+#: 1 s on HFS+ and some network shares) would leave its times as they were.
+_SETTLED_NS = 2_000_000_000
 
 
 class PoliciesMixin:
@@ -253,22 +258,31 @@ class PoliciesMixin:
     def damaged_policy_files(self, study: str | None = None) -> list[str]:
         """Policy files the database names that are there but do not match their recorded sha256
         (changed or damaged: :meth:`load_policy` refuses them, and so does the export's zip).
-        Each file is read once while it stays as it is (its size and modification time): the
-        Results page asks on every run."""
+        The Results page asks on every run, so a file's answer is remembered while the file stays
+        as it is: the same inode, size, modification time and status change time (ctime, which no
+        program can set back, as ``touch -d`` or ``cp -p`` set the modification time), and only once
+        that change is :data:`_SETTLED_NS` old, so a rewrite within the file system's time
+        granularity cannot leave all of them as they were (safety audit L10: on size and
+        modification time alone, a same-size rewrite was missed until the zip's download failed
+        with the browser's bare "Failed to generate file for download")."""
         bad = []
+        now = time.time_ns()
         for rel, digest in zip(*(self.policies_frame(study)[col] for col in ("path", "sha256"))):
             path = self.policy_dir / rel
             try:
                 st = path.stat()
             except OSError:  # missing: missing_policy_files says so
                 continue
-            key = (str(path), st.st_size, st.st_mtime_ns, digest)
-            if key not in _CHECKED:
+            key = (str(path), st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns, digest)
+            ok = _CHECKED.get(key)
+            if ok is None:
                 try:
-                    _CHECKED[key] = files.sha256(path.read_bytes()) == digest
+                    ok = files.sha256(path.read_bytes()) == digest
                 except OSError:
-                    _CHECKED[key] = False
-            if not _CHECKED[key]:
+                    ok = False
+                if now - max(st.st_mtime_ns, st.st_ctime_ns) >= _SETTLED_NS:
+                    _CHECKED[key] = ok
+            if not ok:
                 bad.append(rel)
         return bad
 

@@ -16,6 +16,12 @@ put right when the database is next opened for writing.
   writes (:func:`saving`); a marker left behind names a file whose save was cut short: the file
   is deleted unless a study database in the folder names it. A file no row names without such a
   marker (of a database moved out of the folder, say) is left alone: nothing says it is unused.
+* A removal's moves are synced to disk before its transaction commits, but a power cut on a
+  file system that loses them anyway (or a removal by a version that did not sync them) brings
+  the withdrawn participant's files back to ``policies/<code>/`` with no row naming them. Files
+  there that are older than the removal this database recorded for ``code`` (its
+  "remove_participant" event), when no study database in the folder holds a participant ``code``
+  (in any letter case) or names the file, are deleted (:func:`delete_withdrawn_files`).
 
 Only what is no longer being worked on is touched: a removal or an import holds a kernel lock
 (``flock``) on a lock file of its own while it runs (:func:`busy`), which the kernel releases
@@ -31,12 +37,14 @@ from __future__ import annotations
 
 import contextlib
 import glob
+import json
 import os
 import re
 import shutil
 from pathlib import Path
 
 from cacas.errors import CacasError
+from cacas.store import files
 
 try:
     import fcntl
@@ -189,6 +197,80 @@ def delete_unsaved_policy_files(store) -> list[Path]:
         os.close(fd)
 
 
+def _epoch_ns(stamp: str) -> int | None:
+    """A :func:`cacas.store.validate.now` time stamp (UTC) as nanoseconds since the epoch."""
+    import datetime as dt
+
+    try:
+        when = dt.datetime.fromisoformat(str(stamp).replace("Z", "+00:00"))
+    except ValueError:
+        return None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=dt.timezone.utc)
+    return int(when.timestamp() * 1_000_000) * 1000
+
+
+def delete_withdrawn_files(store) -> list[Path]:
+    """Delete the files a withdrawn participant's removal deleted and a power cut brought back
+    (module docstring): under ``policies/<code>/`` for a code this database recorded a removal of,
+    when no study database in the folder (this one included) holds a participant of that code in
+    any letter case, those no study database names and last modified before the removal. Nothing
+    is deleted while a study database in the folder cannot be read (it may hold the code), or while
+    a policy file is being written (the policies folder's lock). Returns the files deleted."""
+    folder = store.policy_dir
+    if fcntl is None or not folder.is_dir():
+        return []
+    removed: dict[str, int] = {}  # code -> when its latest removal was recorded
+    for at, details in store._read(lambda c: c.execute(
+            "SELECT at, details FROM events WHERE what = 'remove_participant' ORDER BY id").fetchall()):
+        try:
+            code = json.loads(details).get("code")
+        except (TypeError, ValueError, AttributeError):
+            continue
+        when = _epoch_ns(at)
+        if isinstance(code, str) and when is not None:
+            removed[code] = when
+    left = [d for d in sorted(folder.iterdir()) if d.name in removed and d.is_dir() and not d.name.startswith(".")]
+    if not left:  # most openings: no withdrawn participant's folder is there
+        return []
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return []
+    gone: list[Path] = []
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            return []  # a policy file is being written now: left for the next opening
+        codes, unreadable = store._read_beside("SELECT code FROM participants")
+        named, unreadable_too = store._read_beside("SELECT path FROM policies")
+        if unreadable or unreadable_too:
+            return []
+        here = store._read(lambda c: (c.execute("SELECT code FROM participants").fetchall(),
+                                      c.execute("SELECT path FROM policies").fetchall()))
+        held = {str(code).casefold() for found in [*codes.values(), {r[0] for r in here[0]}] for code in found}
+        names = {str(p).casefold() for found in [*named.values(), {r[0] for r in here[1]}] for p in found}
+        for where in left:
+            if where.name.casefold() in held:
+                continue  # a participant of that code (again, or in another database): theirs
+            for f in sorted(p for p in where.rglob("*") if p.is_file()):
+                try:
+                    if (f.relative_to(folder).as_posix().casefold() in names
+                            or f.stat().st_mtime_ns > removed[where.name]):
+                        continue  # named, or written after the removal: not what it deleted
+                    f.unlink()
+                except OSError:
+                    continue
+                gone.append(f)
+            files.remove_empty([*(d for d in where.rglob("*") if d.is_dir()), where])
+        if gone:
+            files.fsync_folder(folder)
+        return gone
+    finally:
+        os.close(fd)
+
+
 def finish_interrupted_removals(store) -> list[Path]:
     """Put back or delete the files of removals killed mid-way (module docstring); returns the
     folders dealt with."""
@@ -256,5 +338,6 @@ def tidy(store) -> None:
         delete_abandoned_imports(store.path.parent)
         finish_interrupted_removals(store)
         delete_unsaved_policy_files(store)  # after the imports: a killed import's database names its files
+        delete_withdrawn_files(store)
     except (OSError, CacasError):
         pass

@@ -250,7 +250,8 @@ def _interaction(r: dict[str, Any], noted: _Notes) -> tuple:
     v.time_slot(hour, slot)
     v.interval(minutes, iv)
     kind = v.conversation_type(r["type"])
-    user = v.user_action(kind, r["user_action"])  # the rule record_interaction keeps
+    user = v.user_action(kind, r["user_action"], v.name("response", r["response"], "response"),
+                         v.name("action", r["robot_action"], "robot_action"))  # the rule record_interaction keeps
     probs = _opt(r["probabilities"])
     if probs is not None:
         v.probabilities(json.loads(_json_text(r, "probabilities")))

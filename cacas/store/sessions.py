@@ -142,7 +142,7 @@ class SessionsMixin:
         )
         values["hour"], values["time_slot"] = v.time_slot(hour, time_slot)
         values["interval_minutes"], values["interval_bin"] = v.interval(interval_minutes, interval_bin)
-        values["user_action"] = v.user_action(values["type"], user_action)
+        values["user_action"] = v.user_action(values["type"], user_action, values["response"], values["robot_action"])
         if method is not None:
             method = v.method(method)
         code, day = str(participant).strip(), v.integer(day, "day", 1)

@@ -209,10 +209,12 @@ def conversation_type(value: Any) -> str:
     return value
 
 
-def user_action(kind: str, value: Any) -> str | None:
+def user_action(kind: str, value: Any, response: str, robot_action: str) -> str | None:
     """The action the participant asked for, by the interaction's ``kind`` (Table II): a
-    user-initiated (type_2) interaction names one other than "do nothing"; a robot-initiated
-    (type_1) one has none (None; "" as an export writes it)."""
+    user-initiated (type_2) interaction names one other than "do nothing" and other than the
+    robot's proposal, and its ``response`` is "accept" (the confirmed request: D_i); a
+    robot-initiated (type_1) one has none (None; "" as an export writes it). ``response`` and
+    ``robot_action`` are the checked names."""
     if kind == USER_INITIATED:
         if value is None or value == "":
             raise CacasError("user_action is missing: a user-initiated (type_2) interaction names the "
@@ -220,6 +222,13 @@ def user_action(kind: str, value: Any) -> str | None:
         action = name("action", value, "user_action")
         if action == "do nothing":
             raise CacasError("user_action 'do nothing' is not a request; valid: one of the 13 other actions")
+        if response != "accept":
+            raise CacasError(f"response {response!r} given for a user-initiated (type_2) interaction; valid: "
+                             "'accept' (the participant's confirmed request, Table II's D_i)")
+        if action == robot_action:
+            raise CacasError(f"user_action {action!r} is the robot's own proposal (robot_action); valid: a "
+                             "request for another action, or the proposal's accept as a robot-initiated "
+                             "(type_1) interaction, as the tablet records it")
         return action
     if value not in (None, ""):
         raise CacasError(f"user_action {value!r} given for a robot-initiated (type_1) "

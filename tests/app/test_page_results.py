@@ -603,3 +603,31 @@ def test_a_closed_table_sends_no_rows_but_keeps_its_download(app, store, downloa
     assert drawn["interactions.csv"] == 0 and drawn["adaptations.csv"] == 0 and drawn["participants.csv"] == 0
     assert {"dl-table-interactions", "dl-table-adaptations", "dl-table-participants"} <= set(downloads)
     assert downloads["dl-table-interactions"].decode().count("\n") == 1 + 3  # the header and the day's 3 rows
+
+
+def test_the_study_tables_are_read_again_only_when_the_database_changes(app, store, monkeypatch):
+    """The page read every table of the study on each run (a third of a run for a 24 x 7 study); it keeps
+    them until the study database changes: through the page (a questionnaire answer), or another program."""
+    import cacas.export
+
+    _study_with_a_day(store)
+    reads = []
+    real = cacas.export.export_tables
+    monkeypatch.setattr(cacas.export, "export_tables", lambda *a, **k: reads.append(1) or real(*a, **k))
+    at = app(PAGE, participant="P01")
+    at.run()
+    no_exception(at)
+    assert len(reads) == 1  # two runs, nothing written: read once
+
+    def label(table: str) -> str:
+        return next(e.label for e in at.expander if e.label.startswith(f"{table}.csv · "))
+
+    assert label("questionnaire") == "questionnaire.csv · 0 rows"
+    at.button_group(key="quest-score-0").set_value(9)  # written by the page's own connection
+    next(b for b in at.button if b.label == "Save answer").click().run()
+    no_exception(at)
+    assert label("questionnaire") == "questionnaire.csv · 1 row" and len(reads) == 2
+    store.add_participant("P02")  # written by another connection
+    at.run()
+    assert "2 participants (1 with a study day)" in texts(at) and label("participants") == "participants.csv · 2 rows"
+    assert len(reads) == 3
