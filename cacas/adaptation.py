@@ -44,11 +44,11 @@ import torch
 
 from cacas import records, spaces
 from cacas.d4a import D4A, load_d4a
-from cacas.errors import CacasError
+from cacas.errors import CacasError, check_fields, each
 from cacas.paths import study_data_dir
 from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, policy_from_bytes
 from cacas.preferences import Participant
-from cacas.sac import DiscreteSAC, SACConfig
+from cacas.sac import DiscreteSAC, SACConfig, number_where, share_rule, whole_from
 from cacas.simulator import ContextSource, ResponseModel, StateGenerator, preference_states, steps_per_day
 from cacas.user_model import UMA, DecisionModel
 
@@ -76,14 +76,6 @@ def greedy(probabilities: Callable[[np.ndarray], np.ndarray]) -> Callable[[np.nd
 K_MINUTES_MAX = 720
 
 
-def _is_whole(value) -> bool:
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
-def _is_number(value) -> bool:
-    return isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-
-
 @dataclass
 class CACAAConfig:
     """Hyper-parameters of Table III (names after the paper where it names them)."""
@@ -104,19 +96,11 @@ class CACAAConfig:
     sac: SACConfig = field(default_factory=SACConfig)
 
     def __post_init__(self) -> None:
-        if self.adapt_actions not in ADAPT_ACTIONS:
-            raise CacasError(f"adapt_actions {self.adapt_actions!r} is invalid; valid: {', '.join(ADAPT_ACTIONS)}")
-        k = self.k_minutes
-        if not _is_number(k) or not np.isfinite(k) or not 0 < k <= K_MINUTES_MAX:
-            # 0 divided by zero in steps_per_day; above 720 a simulated day had one step and no transition to learn from
-            raise CacasError(f"k_minutes {k!r} is invalid; valid: a number of minutes above 0 and at most "
-                             f"{K_MINUTES_MAX} (a simulated day has at least two steps)")
-        if not _is_whole(self.parallel_days) or self.parallel_days < 1:
-            raise CacasError(f"parallel_days {self.parallel_days!r} is invalid; valid: a whole number >= 1 "
-                             "(simulated days stepped side by side)")
-        if not _is_whole(self.adapt_train_days) or self.adapt_train_days < 0:
-            raise CacasError(f"adapt_train_days {self.adapt_train_days!r} is invalid; valid: a whole number >= 0 "
-                             "(rounds of simulated days of step 2; 0: no SAC training)")
+        """Every field checked (also by ``dataclasses.replace``): each wrong one named with its value
+        and what is valid, all in one CacasError (k_minutes 0 divided by zero deep in training,
+        parallel_days 0 failed on an empty batch, beta 1.5 weighed the MLP policy by -0.5 in Eq. 5)."""
+        each(lambda: check_fields(self, CACAA_RULES),
+             lambda: isinstance(self.sac, SACConfig) and check_fields(self.sac, TABLE_I_SAC, prefix="sac."))
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -132,6 +116,35 @@ class CACAAConfig:
     def trains_initial_policy_like(self, other: "CACAAConfig") -> bool:
         """Whether step 1 (:func:`train_initial_policy`) trains the same with both configs."""
         return all(getattr(self, f) == getattr(other, f) for f in STEP1_FIELDS)
+
+
+#: What each :class:`CACAAConfig` field takes (:func:`cacas.errors.check_fields`); ``sac`` is a
+#: :class:`SACConfig` (which checks its own fields) sized for Table I (:data:`TABLE_I_SAC`).
+CACAA_RULES = {
+    # 0 divided by zero in steps_per_day; above 720 a simulated day had one step and no transition to learn from
+    "k_minutes": number_where(lambda v: 0 < v <= K_MINUTES_MAX, f"a number of minutes above 0 and at most "
+                                                                 f"{K_MINUTES_MAX} (a simulated day has at least "
+                                                                 "two steps)"),
+    "parallel_days": whole_from(1, "simulated days stepped side by side"),
+    "initial_train_days": whole_from(0, "rounds of simulated days of step 1; 0: the untrained networks"),
+    "adapt_train_days": whole_from(0, "rounds of simulated days of step 2; 0: no SAC training"),
+    "updates_per_step": whole_from(0, "SAC updates after each simulated step; 0: none"),
+    "threshold": share_rule("DM: the user model answers where its probability is above it, the generic user elsewhere"),
+    "beta": share_rule("Eq. 5's weight of the SAC policy; the MLP policy's is 1 - beta"),
+    "recorded_share": share_rule("share of step 2's simulated steps with an activity recorded in D"),
+    "user_data_updates_per_transition": whole_from(0, "sac-user-data's SAC updates per new recorded "
+                                                      "transition; 0: none"),
+    "user_model_interval": whole_from(1, "Table II's N: f_mu retrained every N interactions"),
+    "adapt_actions": ((lambda v: v in ADAPT_ACTIONS), ", ".join(ADAPT_ACTIONS)),
+    "sac": ((lambda v: isinstance(v, SACConfig)), "a cacas.sac.SACConfig"),
+}
+
+#: What CACAA's SAC must be sized for (its other fields: :data:`cacas.sac.SAC_RULES`).
+TABLE_I_SAC = {
+    "state_dim": ((lambda v: v == spaces.STATE_DIM), f"{spaces.STATE_DIM} (Table I's one-hot state, which CACAA "
+                                                      "acts on)"),
+    "n_actions": ((lambda v: v == spaces.N_ACTIONS), f"{spaces.N_ACTIONS} (Table I's actions)"),
+}
 
 
 #: The fields of :class:`CACAAConfig` that CACAA step 1 reads (the others are step 2's).

@@ -149,7 +149,7 @@ class BenchConfig:
     sac_block: int = 200          # updates per block
     mfcc_clips: int = 64
     initial_train_days: int | None = None  # None: CACAAConfig's default (the real step 1)
-    short_training: bool = False  # smoke runs only: 1 simulated day per adaptation, 30 ORL updates
+    short_training: bool = False  # smoke runs: 1 simulated day an adaptation (ORL makes as many updates)
     threads: int = 1
 
     @classmethod
@@ -163,11 +163,13 @@ class BenchConfig:
         """The CACAA configuration measured: the defaults, or shortened for a smoke run."""
         from cacas.adaptation import CACAAConfig
 
+        from dataclasses import replace
+
         cfg = CACAAConfig()
         if self.initial_train_days is not None:
-            cfg.initial_train_days = self.initial_train_days
-        if self.short_training:
-            cfg.adapt_train_days, cfg.orl_updates = 1, 30
+            cfg = replace(cfg, initial_train_days=self.initial_train_days)
+        if self.short_training:  # ORL makes CACAS's updates (adapt_updates): shortened with it
+            cfg = replace(cfg, adapt_train_days=1)
         return cfg
 
 
@@ -332,8 +334,8 @@ def run_bench(cfg: BenchConfig | None = None, progress: Progress | None = None) 
     d4a = load_d4a()
     cacaa = cfg.cacaa()
     if cfg.short_training:
-        notes.append("note: QUICK run (smoke test): adaptations train 1 simulated day and ORL 30 updates; "
-                     "these figures are not the benchmark")
+        notes.append(f"note: QUICK run (smoke test): adaptations train {cacaa.adapt_train_days} simulated day(s), "
+                     f"{cacaa.adapt_updates} SAC updates (ORL as many); these figures are not the benchmark")
     initial = load_initial_policy()
     person = _example_people(1)[0]
 

@@ -1,5 +1,9 @@
 """The one error type for bad input: its message names what is wrong and what is valid."""
 
+from __future__ import annotations
+
+from typing import Any, Callable, Mapping
+
 
 class CacasError(ValueError):
     """Bad input from a researcher (a file, a name, an argument).
@@ -35,3 +39,33 @@ def did_you_mean(value: object, known) -> str:
     stays exact: a stored code is never changed, nor matched without the researcher's word."""
     twin = case_twin(value, known)
     return f"did you mean {twin!r}? " if twin is not None else ""
+
+
+def each(*checks: Callable[[], Any]) -> list:
+    """Run every check (a function of no argument, such as ``lambda: age_range(x)``): their values in
+    order, or one CacasError saying every problem found, joined by "; and ". A form with two wrong
+    fields is told both at one save (walkthrough: the details form said the age range, then, at the
+    next save, the notes)."""
+    values, problems = [], []
+    for check in checks:
+        try:
+            values.append(check())
+        except CacasError as exc:
+            problems.append(str(exc))
+    if problems:
+        raise CacasError("; and ".join(problems))
+    return values
+
+
+def check_fields(owner: object, rules: Mapping[str, tuple[Callable[[Any], bool], str]], prefix: str = "") -> None:
+    """Every field of ``owner`` (a configuration) that fails its rule, said at once (:func:`each`):
+    ``rules`` maps a field's name to (a test of its value, what is valid), and each failing one
+    reads "<prefix><field> <value> is invalid; valid: <what>", e.g. "beta 1.5 is invalid; valid:
+    a number from 0 to 1 (...)"."""
+    def check(name: str, test: Callable[[Any], bool], valid: str) -> Callable[[], None]:
+        def run() -> None:
+            value = getattr(owner, name)
+            if not test(value):
+                raise CacasError(f"{prefix}{name} {value!r} is invalid; valid: {valid}")
+        return run
+    each(*(check(name, test, valid) for name, (test, valid) in rules.items()))

@@ -275,6 +275,9 @@ def export_tables(store: StudyStore, study: str | None = None) -> dict[str, pd.D
 SIMULATION_TABLES = ("daily.csv", "interactions.csv", "by_preference.csv")
 #: What only a study export writes.
 EXPORT_ONLY = tuple(f"{t}.csv" for t in TABLES if f"{t}.csv" not in SIMULATION_TABLES) + (BUNDLE_NAME,)
+#: The figures ``cacas simulate --plot`` writes (fig3_methods.html only with --loop each and
+#: several methods), beside the plotly.min.js they load.
+SIMULATION_FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html")
 
 
 def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
@@ -284,7 +287,10 @@ def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
     folder mixing two studies. An empty folder, a missing one, or one of the same kind is fine.
     A simulation's figures (``"figures"``: ``cacas simulate --plot`` into a folder other than its
     ``--out``) go into no folder holding tables, a study's export or another run's: they would sit
-    beside results they do not show (and a later export into that folder would keep them)."""
+    beside results they do not show (and a later export into that folder would keep them). Nor does
+    an export go into a folder holding such figures: its tables would sit beside figures of a
+    simulated study, which read as theirs (nothing is lost: an export writes and removes only its
+    own files, and a sub-folder of figures, ``DIR/figures/``, is left as it is and kept apart)."""
     folder = Path(folder)
     if not folder.is_dir():
         return
@@ -311,6 +317,11 @@ def check_output_folder(folder: str | Path, writing: str, what: str) -> None:
             raise CacasError(f"{what}: holds {', '.join(shared)} but no participants.csv: a simulation's tables "
                              "(cacas simulate --out), which this export would replace; valid: an empty folder, "
                              "a new one, or an earlier export's")
+        figures = [n for n in SIMULATION_FIGURES if n in present]
+        if figures:  # (--plot refuses an export's folder: no export of ours holds them)
+            raise CacasError(f"{what}: holds a simulation's figures ({', '.join(figures)}; cacas simulate --plot): "
+                             "this export's tables would sit beside figures that do not show them; valid: an empty "
+                             "folder, a new one, or an earlier export's")
     else:
         raise ValueError(f"writing={writing!r}")
 

@@ -315,6 +315,11 @@ def parse_participant(obj: Any, source: str | None = None, index: int = 0) -> Pa
         raise CacasError(f"{_where(source)}: participant {index + 1}, field 'id': must be a non-empty "
                          f"pseudonymous code such as \"P01\"")
     pid = pid.strip()
+    if "," in pid:  # "Smith, Anna": `cacas simulate --participants` could not name it (comma-separated codes)
+        from cacas.store.validate import CODE_HINT
+
+        raise CacasError(f"{_where(source)}: participant {index + 1}, field 'id': {pid!r} holds a comma, which "
+                         f"separates the codes of `cacas simulate --participants`; valid: {CODE_HINT}")
     unknown = sorted(set(obj) - {"id", "preferences"})
     if unknown:
         raise CacasError(f"{_where(source, pid, fld=unknown[0])}: unknown field; valid fields: id, preferences")

@@ -47,11 +47,42 @@ from torch.nn import functional as F
 
 from cacas import nets, spaces
 from cacas.checkpoints import load_checkpoint
-from cacas.errors import CacasError
+from cacas.errors import CacasError, check_fields
+
+
+def is_whole(value) -> bool:
+    """A whole number (Python's or numpy's; not True or False)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+
+
+def is_number(value) -> bool:
+    """A finite number (Python's or numpy's; not True or False, NaN or infinity)."""
+    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def whole_from(minimum: int, what: str) -> tuple:
+    """The rule of a whole number >= ``minimum`` (:func:`cacas.errors.check_fields`), ``what``
+    saying what it counts."""
+    return (lambda v: is_whole(v) and v >= minimum), f"a whole number >= {minimum} ({what})"
+
+
+def number_where(test, valid: str) -> tuple:
+    """The rule of a finite number that passes ``test`` (:func:`cacas.errors.check_fields`)."""
+    return (lambda v: is_number(v) and bool(test(v))), valid
+
+
+def share_rule(what: str) -> tuple:
+    """The rule of a number from 0 to 1, ``what`` saying what it weighs."""
+    return number_where(lambda v: 0 <= v <= 1, f"a number from 0 to 1 ({what})")
 
 
 @dataclass
 class SACConfig:
+    """Discrete SAC's sizes and hyper-parameters (Eq. 1-4; Table III's values as defaults). Every
+    field is checked where the config is made (also by ``dataclasses.replace`` and a saved
+    policy's config): each wrong one named with its value and what is valid, all at once."""
+
     state_dim: int = spaces.STATE_DIM
     n_actions: int = spaces.N_ACTIONS
     hidden: int = 128
@@ -62,6 +93,26 @@ class SACConfig:
     initial_alpha: float = 0.05
     batch_size: int = 256
     buffer_capacity: int = 50_000
+
+    def __post_init__(self) -> None:
+        check_fields(self, SAC_RULES)
+
+
+#: What each :class:`SACConfig` field takes (:func:`cacas.errors.check_fields`).
+SAC_RULES = {
+    "state_dim": whole_from(1, "the size of a one-hot state"),
+    "n_actions": whole_from(2, "the actions the policy chooses from"),
+    "hidden": whole_from(1, "units of each hidden layer"),
+    "lr": number_where(lambda v: v > 0, "a number above 0 (Adam's learning rate of the critics, actor and "
+                                        "temperature)"),
+    "gamma": number_where(lambda v: 0 <= v < 1, "a number from 0 to below 1 (Eq. 2's discount)"),
+    "tau": number_where(lambda v: 0 < v <= 1, "a number above 0 and at most 1 (the target critics' Polyak "
+                                              "step)"),
+    "target_entropy_ratio": share_rule("the target entropy as a share of log(n_actions), a uniform policy's"),
+    "initial_alpha": number_where(lambda v: v > 0, "a number above 0 (the temperature at the start, Eq. 3)"),
+    "batch_size": whole_from(1, "transitions sampled for each update"),
+    "buffer_capacity": whole_from(1, "transitions the replay buffer holds"),
+}
 
 
 class EnsembleLinear(nn.Module):

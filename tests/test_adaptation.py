@@ -520,6 +520,79 @@ def test_a_bad_k_minutes_parallel_days_or_adapt_train_days_is_one_error_naming_f
         dataclasses.replace(adaptation.CACAAConfig(), **{field: value})
 
 
+@pytest.mark.parametrize("field, value, valid", [
+    ("initial_train_days", -1, "a whole number >= 0 (rounds of simulated days of step 1"),
+    ("initial_train_days", 30.0, "a whole number >= 0"),
+    ("updates_per_step", -1, "a whole number >= 0 (SAC updates after each simulated step"),
+    ("updates_per_step", "1", "a whole number >= 0"),
+    ("threshold", 1.5, "a number from 0 to 1 (DM: the user model answers where its probability is above it"),
+    ("threshold", float("nan"), "a number from 0 to 1"),
+    ("beta", -0.1, "a number from 0 to 1 (Eq. 5's weight of the SAC policy; the MLP policy's is 1 - beta)"),
+    ("beta", 7, "a number from 0 to 1"),
+    ("beta", None, "a number from 0 to 1"),
+    ("recorded_share", 1.01, "a number from 0 to 1 (share of step 2's simulated steps"),
+    ("user_data_updates_per_transition", -2, "a whole number >= 0 (sac-user-data's SAC updates"),
+    ("user_model_interval", 0, "a whole number >= 1 (Table II's N"),
+    ("user_model_interval", True, "a whole number >= 1"),
+    ("sac", {"hidden": 32}, "a cacas.sac.SACConfig"),
+])
+def test_every_other_cacaa_field_is_checked_naming_field_value_and_valid(field, value, valid):
+    """CLI audit: only k_minutes, parallel_days, adapt_train_days (and adapt_actions) were checked;
+    beta 7 mixed Eq. 5's policies with a weight of -6, user_model_interval 0 divided by zero
+    (idx % N), a threshold of 1.5 silently never trusted the user model."""
+    for make in (lambda: adaptation.CACAAConfig(**{field: value}),
+                 lambda: dataclasses.replace(adaptation.CACAAConfig(), **{field: value})):
+        with pytest.raises(CacasError, match=rf"^{field} {re.escape(repr(value))} is invalid; valid: {re.escape(valid)}"):
+            make()
+
+
+@pytest.mark.parametrize("field, value, valid", [
+    ("state_dim", 8, f"{spaces.STATE_DIM} (Table I's one-hot state"),
+    ("n_actions", 4, f"{spaces.N_ACTIONS} (Table I's actions)"),
+])
+def test_cacaas_sac_is_sized_for_table_i(field, value, valid):
+    """SAC alone runs any size (its own tests use 8 x 4); CACAA's acts on Table I's states."""
+    from cacas.sac import SACConfig
+
+    with pytest.raises(CacasError, match=rf"^sac\.{field} {value} is invalid; valid: {re.escape(valid)}"):
+        adaptation.CACAAConfig(sac=SACConfig(**{field: value}))
+
+
+def test_every_wrong_cacaa_field_is_said_at_once():
+    """One message, every wrong field, in the dataclass's order (cacas.errors.each's, as the forms' "; and ")."""
+    from cacas.sac import SACConfig
+
+    with pytest.raises(CacasError) as exc:
+        adaptation.CACAAConfig(k_minutes=0, beta=2.0, threshold=-1, user_model_interval=0,
+                               sac=SACConfig(n_actions=4))
+    parts = str(exc.value).split("; and ")
+    assert [p.split(" ")[0] for p in parts] == ["k_minutes", "threshold", "beta", "user_model_interval",
+                                                "sac.n_actions"], parts
+    assert all(" is invalid; valid: " in p for p in parts)
+
+
+def test_the_defaults_and_every_config_the_project_uses_are_valid(small_config):
+    """The defaults, the tests' small config (conftest), cacas bench's (also --quick), the edges
+    of each range, and a saved policy's SAC config (the shipped initial policy) pass."""
+    from cacas.bench import BenchConfig
+    from cacas.sac import SACConfig
+
+    assert adaptation.CACAAConfig() == dataclasses.replace(adaptation.CACAAConfig())
+    assert small_config == dataclasses.replace(small_config)
+    for bench in (BenchConfig(), BenchConfig.quick()):
+        cfg = bench.cacaa()
+        assert cfg == dataclasses.replace(cfg)
+    assert BenchConfig.quick().cacaa().adapt_train_days == 1
+    edges = dict(initial_train_days=0, updates_per_step=0, threshold=0, beta=1, recorded_share=0.0,
+                 user_data_updates_per_transition=0, user_model_interval=np.int64(3), adapt_actions="argmax")
+    config = adaptation.CACAAConfig(**edges)
+    assert all(getattr(config, k) == v for k, v in edges.items())
+    assert adaptation.CACAAConfig(threshold=1.0, beta=np.float32(0.0), recorded_share=1).beta == 0
+    assert adaptation.CACAAConfig(sac=SACConfig(hidden=32, batch_size=64)).sac.hidden == 32
+    shipped = adaptation.load_initial_policy()
+    assert adaptation.CACAAConfig(sac=shipped.sac.config).sac == SACConfig()
+
+
 def test_the_edges_of_k_minutes_parallel_days_and_adapt_train_days_are_valid():
     for kw in (dict(k_minutes=720), dict(k_minutes=0.5), dict(k_minutes=np.float32(10)), dict(parallel_days=1),
                dict(parallel_days=np.int64(3)), dict(adapt_train_days=0)):

@@ -38,6 +38,12 @@ def test_quick_bench_prints_the_table_and_writes_every_key(tmp_path, capsys, mon
     assert data["machine"]["cores"] >= 1 and data["machine"]["torch"] == torch.__version__
     assert data["sac_speedup"] == pytest.approx(data["sac_updates_per_s"] / data["reference_updates_per_s"])
     assert "machine:" in printed and "QUICK run" in printed
+    # the shortened adaptations said as they are: "ORL 30 updates" named a setting gone since commit 579507d
+    from cacas.bench import BenchConfig
+
+    quick = BenchConfig.quick().cacaa()
+    assert (f"adaptations train 1 simulated day(s), {quick.adapt_updates} SAC updates (ORL as many)" in printed
+            and "ORL 30" not in printed)
     # a 1 x 2-day study with shortened adaptations is not the target's size: never "met"
     for key in ("simulate_study_s", "adapt_day_s"):
         (row,) = [line for line in printed.splitlines() if line.startswith(f"| {key} ")]

@@ -244,6 +244,26 @@ def test_an_export_into_a_simulations_folder_is_refused(run, study, tmp_path, ca
     assert run("export", "--db", study, "--out", tmp_path / "out") == 0
 
 
+def test_an_export_into_a_folder_of_a_simulations_figures_is_refused(run, study, tmp_path, capsys):
+    """CLI audit: `cacas simulate --plot figs` (figures apart from their tables), then `cacas export
+    --out figs`: the study's daily.csv sat beside a simulated study's Fig. 3 and Fig. 4, which read
+    as its own (and a later --plot there is refused, as the folder then holds an export). A folder
+    holding such a folder is fine: the export writes only its own files, the figures stay apart."""
+    figs = tmp_path / "figs"
+    figs.mkdir()
+    for name in ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "plotly.min.js"):
+        (figs / name).write_text(f"a simulation's {name}")
+    before = tree(figs)
+    assert run("export", "--db", study, "--out", figs) == 2
+    err = capsys.readouterr().err
+    assert err == (f"cacas: error: {figs}: holds a simulation's figures (fig3_success.html, fig4_methods.html, "
+                   "fig4_by_preference.html; cacas simulate --plot): this export's tables would sit beside figures "
+                   "that do not show them; valid: an empty folder, a new one, or an earlier export's\n")
+    assert tree(figs) == before
+    assert run("export", "--db", study, "--out", tmp_path) == 0  # figs/ inside the export's folder: kept as it was
+    assert tree(figs) == before and (tmp_path / "daily.csv").is_file() and (tmp_path / "cacas-study.zip").is_file()
+
+
 def test_tables_only_removes_an_earlier_exports_zip(run, study, tmp_path, capsys):
     """A zip left beside newer tables holds older data (one questionnaire answer fewer, say)."""
     assert run("export", "--db", study, "--out", tmp_path / "out") == 0

@@ -113,3 +113,77 @@ def test_an_abbreviated_or_misspelt_option_is_refused_naming_the_full_one(capsys
         err = capsys.readouterr().err
         assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
     assert not any(tmp_path.iterdir())  # nothing run
+
+
+def _help_pages():
+    """(command words, parser) for ``cacas`` and every sub-command and action, at any depth."""
+    import argparse
+
+    from cacas.cli import build_parser
+
+    pages = []
+
+    def walk(words, parser):
+        pages.append((words, parser))
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                for name, sub in action.choices.items():
+                    walk(words + [name], sub)
+    walk(["cacas"], build_parser())
+    return pages
+
+
+def test_every_help_page_fits_80_columns_and_speaks_to_a_researcher(monkeypatch):
+    """CLI audit: `cacas simulate --help` and `cacas bench --help` printed their module's
+    docstring as written: lines of up to 104 columns, ``rst`` markup, "design.md's contract" (a
+    file a researcher does not have) and "(issue 6)"."""
+    monkeypatch.setenv("COLUMNS", "80")
+    for words, parser in _help_pages():
+        text = parser.format_help()
+        wide = [line for line in text.splitlines() if len(line) > 80]
+        assert not wide, (" ".join(words), wide)
+        for internal in ("``", "design.md", "issue "):
+            assert internal not in text, (" ".join(words), internal)
+
+
+def _documented_commands():
+    """Every `cacas ...` command the README and docs/ give (code blocks and inline code), with
+    the file it is in; a line's comment left out."""
+    import re
+    from pathlib import Path
+
+    root = Path(__file__).parents[1]
+    found = []
+    for doc in [root / "README.md", *sorted((root / "docs").glob("*.md"))]:
+        text = doc.read_text()
+        spans = re.findall(r"`(cacas [^`]+)`", text) + [line.strip() for line in text.splitlines()
+                                                         if line.strip().startswith("cacas ")]
+        for span in spans:
+            if span.startswith("cacas simulate: note"):  # a message the command prints, not a command
+                continue
+            first, *rest = span.split("  #")[0].split(" ", 2)[1:] or [""]
+            for sub in first.split("|"):  # "cacas sound|scene train": both
+                found.append((doc.name, " ".join(["cacas", sub, *rest])))
+    return found
+
+
+def test_every_option_the_docs_give_is_one_the_command_has():
+    """README and docs/ name each command's options as its --help does (an option renamed or
+    misspelt in the docs is refused by the command: abbreviations are)."""
+    import re
+
+    pages = {" ".join(words): parser for words, parser in _help_pages()}
+    checked = 0
+    for doc, command in _documented_commands():
+        words = command.split()
+        path = "cacas"
+        for word in words[1:]:  # the deepest sub-command named
+            if f"{path} {word}" not in pages:
+                break
+            path = f"{path} {word}"
+        assert path != "cacas" or words[1:2] == ["--version"], (doc, command)
+        options = {o for a in pages[path]._actions for o in a.option_strings}
+        for option in re.findall(r"(?<![\w-])--[a-z][a-z0-9-]*", command):
+            assert option in options, (doc, command, option, sorted(options))
+            checked += 1
+    assert checked > 30

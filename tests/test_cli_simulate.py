@@ -33,6 +33,10 @@ def bad_pref(**change):
     (dict(GOOD, studdy="typo"), [], ["personas.json", "field 'studdy': unknown field; valid fields: participants"]),
     ('{"participants": [{"id": "P01", "id": "P02", "preferences": []}]}', [],
      ["personas.json", "field 'id' appears twice in one object"]),
+    # a comma in a code: --participants (comma-separated codes) could not pick that participant (CLI audit)
+    ({"participants": [dict(GOOD["participants"][0], id="Smith, Anna")]}, [],
+     ["personas.json: participant 1, field 'id': 'Smith, Anna' holds a comma, which separates the codes of "
+      "`cacas simulate --participants`; valid: a pseudonymous code"]),
     (GOOD, ["--days", "0"], ["--days 0"]),
     (GOOD, ["--methods", "cacas,dqn"], ["--methods cacas,dqn: unknown method 'dqn'", "valid: cacas, cacas-no-pr"]),
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
@@ -106,7 +110,7 @@ def test_same_seed_writes_the_same_daily_csv_byte_for_byte(tmp_path, capsys):
     assert main(args + ["--out", str(tmp_path / "a"), "--plot", str(tmp_path / "plots")]) == 0
     assert main(args + ["--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
-    assert "preference_accuracy" in out and "cacas" in out
+    assert "accuracy" in out and "cacas" in out  # the printed table of means
     a, b = (tmp_path / "a" / "daily.csv").read_bytes(), (tmp_path / "b" / "daily.csv").read_bytes()
     assert a == b and a.startswith(b"participant,method,day,success_rate,preference_accuracy,cumulative_feedback,"
                                    b"interactions")
@@ -587,3 +591,86 @@ def test_simulate_help_says_what_is_valid_and_the_default(option, says):
     text = _option_help("simulate", option)
     for s in says:
         assert s in text, text
+
+
+def _study_of_every_method(days):
+    """A StudyResult as simulate_study returns it: every method, the given days, two participants
+    (the first method in closed loop, a day with no interaction), the other tables empty."""
+    import pandas as pd
+
+    from cacas import records
+    from cacas.experiment import StudyResult
+
+    rows = []
+    for person in ("P01", "P02"):
+        for m_i, method in enumerate(records.METHOD_ORDER):
+            for day in days:
+                acts = m_i == 0 and day != days[0]
+                rows.append(dict(participant=person, method=method, day=day,
+                                 success_rate=0.123456 if acts else float("nan"), preference_accuracy=0.98765,
+                                 cumulative_feedback=1234.5 + day, interactions=15,
+                                 success_ceiling=1.0 if acts else float("nan"), unanswered=1))
+    daily = pd.DataFrame(rows).reindex(columns=records.DAILY_COLUMNS)
+    return StudyResult(daily=daily, interactions=pd.DataFrame(columns=records.INTERACTION_COLUMNS),
+                       by_preference=pd.DataFrame(columns=records.BY_PREFERENCE_COLUMNS))
+
+
+def test_the_printed_table_fits_an_80_column_terminal(tmp_path, capsys, monkeypatch):
+    """CLI audit: the per-method, per-day table printed daily.csv's column names on one line, 91
+    columns wide: it wrapped in an 80-column terminal (and in a log read in one). Every method,
+    a day of three digits: the table's lines fit, its headings name daily.csv's columns, an
+    empty mean is '-', and a piped run (capsys is no terminal) gets the same."""
+    import cacas.experiment
+    from cacas import records
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", lambda *a, **k: _study_of_every_method([1, 365]))
+    assert main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--days", "365",
+                 "--methods", ",".join(records.METHOD_ORDER), "--out", str(tmp_path / "o")]) == 0
+    table = capsys.readouterr().out.split("\nwrote ")[0].splitlines()
+    assert max(len(line) for line in table) <= 80, "\n".join(table)
+    assert len(table) == 2 + 2 * len(records.METHOD_ORDER)
+    assert table[0].split() == ["success", "success", "preference", "cumulative"]
+    assert table[1].split() == ["method", "day", "rate", "ceiling", "accuracy", "feedback"]
+    assert table[2].split() == ["cacas", "1", "-", "-", "0.988", "1235.5"]
+    assert table[3].split() == ["cacas", "365", "0.123", "1.000", "0.988", "1599.5"]
+    assert table[-1].split() == ["sac-user-data", "365", "-", "-", "0.988", "1599.5"]
+
+
+@pytest.mark.parametrize("jobs, cores, gb, runs, says", [
+    # more workers than cores: run as asked, and said (they take turns: no faster)
+    (["--jobs", "6"], 2, 64, 6, ["--jobs 6: 6 worker processes on 2 cores take turns, so the run is not faster"]),
+    # more than the memory holds (0.8 GB each): as many as it holds, and said
+    (["--jobs", "6"], 8, 2.5, 3, ["--jobs 6: 6 worker processes need about 4.8 GB (0.8 GB each) and 2.5 GB of "
+                                  "memory is available; running 3 (the results are the same"]),
+    ([], 8, 2.5, 3, ["one worker process per core: 8 worker processes need about 6.4 GB"]),
+    # one per participant at most, without a word; the default: one per core
+    (["--jobs", "20"], 32, 64, 8, []),
+    ([], 4, 64, 4, []),
+    ([], 4, None, 4, []),  # the available memory unknown (not Linux): one per core
+])
+def test_jobs_beyond_the_cores_or_the_memory_are_said_or_capped(tmp_path, capsys, monkeypatch, jobs, cores, gb,
+                                                                runs, says):
+    """CLI audit: --jobs was bounded by the number of participants only; each worker process
+    takes about 0.8 GB and a core, so --jobs 40 on a laptop was run (swapping, or killed for
+    memory, losing the run) without a word."""
+    import cacas.experiment
+    import cacas.parallel
+
+    asked = {}
+
+    def study(people, **kw):
+        asked.update(kw)
+        return _study_of_every_method([1])
+
+    monkeypatch.setattr(cacas.parallel, "cores", lambda: cores)
+    monkeypatch.setattr(cacas.parallel, "available_memory", lambda: None if gb is None else int(gb * 2**30))
+    monkeypatch.setattr(cacas.experiment, "simulate_study", study)
+    people = {"participants": [dict(GOOD["participants"][0], id=f"P0{i}") for i in range(1, 9)]}
+    assert main(["simulate", "--personas", str(write(tmp_path, people)), "--quiet", *jobs,
+                 "--out", str(tmp_path / "o")]) == 0
+    assert asked["jobs"] == runs
+    notes = [line for line in capsys.readouterr().err.splitlines() if line]
+    assert len(notes) == len(says)
+    for note, said in zip(notes, says):
+        assert note.startswith("cacas simulate: note: ") and said in note, note
+

@@ -246,3 +246,28 @@ def test_worker_processes_end_when_the_main_process_is_killed_outright(tmp_path)
                 os.kill(pid, signal.SIGKILL)
             except ProcessLookupError:
                 pass
+
+
+def test_default_jobs_is_one_per_core_as_far_as_the_memory_holds(monkeypatch):
+    """The app's Simulation lab and Results page run one worker per core too (default_jobs)."""
+    import cacas.parallel as parallel
+
+    monkeypatch.setattr(parallel, "cores", lambda: 8)
+    monkeypatch.setattr(parallel, "available_memory", lambda: 3 * 2**30)
+    assert parallel.default_jobs() == 3
+    monkeypatch.setattr(parallel, "available_memory", lambda: 2**20)
+    assert parallel.default_jobs() == 1
+    monkeypatch.setattr(parallel, "available_memory", lambda: None)
+    assert parallel.default_jobs() == 8
+
+
+def test_available_memory_is_read_from_linux_meminfo():
+    """MemAvailable, in bytes: at most the machine's memory (MemTotal)."""
+    import sys
+
+    import cacas.parallel as parallel
+
+    if not sys.platform.startswith("linux"):
+        pytest.skip("/proc/meminfo is Linux's")
+    total = next(int(line.split()[1]) * 1024 for line in open("/proc/meminfo") if line.startswith("MemTotal:"))
+    assert 0 < parallel.available_memory() <= total

@@ -1,6 +1,10 @@
+import re
+
 import numpy as np
+import pytest
 import torch
 
+from cacas.errors import CacasError
 from cacas.sac import DiscreteSAC, SACConfig
 
 
@@ -172,3 +176,33 @@ def test_zero_updates_leave_the_agent_as_it_was():
     assert agent.update(0) == {}
     assert agent.updates == 0
     assert all(torch.equal(before[k], v) for k, v in agent.actor.state_dict().items())
+
+
+@pytest.mark.parametrize("field, value, valid", [
+    ("state_dim", 0, "a whole number >= 1 (the size of a one-hot state)"),
+    ("n_actions", 1, "a whole number >= 2 (the actions the policy chooses from)"),
+    ("hidden", 12.5, "a whole number >= 1 (units of each hidden layer)"),
+    ("lr", 0, "a number above 0 (Adam's learning rate"),
+    ("lr", float("inf"), "a number above 0"),
+    ("gamma", 1, "a number from 0 to below 1 (Eq. 2's discount)"),
+    ("gamma", -0.1, "a number from 0 to below 1"),
+    ("tau", 0, "a number above 0 and at most 1 (the target critics' Polyak step)"),
+    ("target_entropy_ratio", 1.2, "a number from 0 to 1 (the target entropy as a share of log(n_actions)"),
+    ("initial_alpha", 0.0, "a number above 0 (the temperature at the start, Eq. 3)"),
+    ("batch_size", 0, "a whole number >= 1 (transitions sampled for each update)"),
+    ("buffer_capacity", "50000", "a whole number >= 1 (transitions the replay buffer holds)"),
+])
+def test_a_bad_sac_field_is_one_error_naming_field_value_and_valid(field, value, valid):
+    """CLI audit: SACConfig took anything (lr 0 never learnt, gamma 1 is no discount in a task without end,
+    initial_alpha 0 failed in log(0) when the agent was made)."""
+    with pytest.raises(CacasError, match=rf"^{field} {re.escape(repr(value))} is invalid; valid: {re.escape(valid)}"):
+        SACConfig(**{field: value})
+
+
+def test_every_wrong_sac_field_is_said_at_once_and_the_defaults_pass():
+    with pytest.raises(CacasError) as exc:
+        SACConfig(lr=-1, gamma=2, batch_size=0)
+    assert [p.split(" ")[0] for p in str(exc.value).split("; and ")] == ["lr", "gamma", "batch_size"]
+    assert SACConfig() == SACConfig(**SACConfig().__dict__)
+    assert SACConfig(state_dim=8, n_actions=4, hidden=32, batch_size=64, gamma=0.5, tau=1, lr=np.float32(1e-3),
+                     target_entropy_ratio=0, initial_alpha=np.float64(1)).tau == 1

@@ -79,7 +79,14 @@ def package_version() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(prog="cacas", description="CACAS Studio command line")
+    from cacas.paths import STUDY_DATA_ENV, study_data_dir
+
+    parser = _Parser(prog="cacas", description="CACAS Studio command line: simulated studies, study exports, "
+                                               "sound and scene recognition models, benchmarks.",
+                     epilog="Run 'cacas COMMAND --help' for a command's options. A default under study_data/ is in "
+                            f"the study data folder, now {study_data_dir()} (${STUDY_DATA_ENV} moves it); other "
+                            "relative paths are from the current folder. More: README.md and docs/ in the project "
+                            "folder.")
     parser.add_argument("--version", action="version", version=f"cacas {package_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True

@@ -20,16 +20,32 @@ from cacas.cli import types
 from cacas.errors import CacasError
 
 
+#: ``cacas bench --help``'s text (the module's docstring is for developers), lines of at most 79
+#: columns (RawDescriptionHelpFormatter keeps them as written).
+DESCRIPTION = """\
+Measure how long participants and researchers wait, and print a table of
+medians over repeats, each after a warm-up call: training the initial policy
+(CACAA step 1), one day's CACAS adaptation, one robot decision, recognising a
+1-s clip, a whole simulated study (8 participants x 7 days x 4 methods), SAC
+updates per second of the project's implementation and of a plain reference
+(interleaved in the same run), and MFCC throughput. A full run takes several
+minutes.
+
+--json FILE also writes the figures and the machine (cores, CPU, torch
+version). --quick is a smoke run (fewer repeats, a 1-participant x 2-day
+study, one simulated day of step 1): its figures are not the benchmark."""
+
+
 def register(sub) -> None:
     p = sub.add_parser("bench", help="measure decision, adaptation, recognition, training and simulation times",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=DESCRIPTION, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--json", type=types.path, metavar="FILE", help="also write the figures and the machine as JSON")
     p.add_argument("--quick", action="store_true",
                    help="smoke run: fewer repeats (one of the long measurements, at least 3 of the short ones), "
                         "a 1 x 2-day study, 1 simulated day of initial training")
-    p.add_argument("--repeats", type=types.integer, default=None, help="timed repeats of the short measurements; valid: a whole number >= 1 (default 5, fewer "
+    p.add_argument("--repeats", type=types.integer, default=None, metavar="N", help="timed repeats of the short measurements; valid: a whole number >= 1 (default 5, fewer "
                         "with --quick)")
-    p.add_argument("--threads", type=types.integer, default=1, help="torch threads; valid: a whole number >= 1 (default 1: best for these small networks)")
+    p.add_argument("--threads", type=types.integer, default=1, metavar="N", help="torch threads; valid: a whole number >= 1 (default 1: best for these small networks)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 

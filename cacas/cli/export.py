@@ -27,10 +27,13 @@ def register(subparsers) -> None:
                                           "participants.csv, questionnaire.csv, adaptations.csv (and the "
                                           f"tables needed to move the study) into DIR, and all of them as "
                                           f"DIR/{BUNDLE_NAME}. DIR may be new, empty or an earlier export's "
-                                          "(its files are replaced), not a simulation's.")
-    p.add_argument("--db", required=True, type=types.path, help="the study database (.sqlite)")
-    p.add_argument("--out", required=True, type=types.path, help="output folder (created if missing)")
-    p.add_argument("--study", default=None, help="export one study only (default: all)")
+                                          "(its files are replaced), not a simulation's (its tables or its "
+                                          "figures).")
+    p.add_argument("--db", required=True, type=types.path, metavar="FILE",
+                   help="the study database (.sqlite; the app's: study_data/cacas.sqlite, or $CACAS_DB)")
+    p.add_argument("--out", required=True, type=types.path, metavar="DIR", help="output folder (created if missing)")
+    p.add_argument("--study", default=None, metavar="NAME", help="export the study of this name only (default: every "
+                                                                 "study in the database)")
     p.add_argument("--tables-only", action="store_true",
                    help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file; "
                         "an earlier export's zip in DIR is removed)")
@@ -39,8 +42,9 @@ def register(subparsers) -> None:
     q = subparsers.add_parser("import", help="load an exported bundle into a new study database",
                               description=f"Load a {BUNDLE_NAME} written by `cacas export` into a new "
                                           "database file (an existing file is never overwritten).")
-    q.add_argument("--bundle", required=True, type=types.path, help=f"the {BUNDLE_NAME} to import")
-    q.add_argument("--db", required=True, type=types.database_file, help="the NEW database file to create")
+    q.add_argument("--bundle", required=True, type=types.path, metavar="ZIP", help=f"the {BUNDLE_NAME} to import")
+    q.add_argument("--db", required=True, type=types.database_file, metavar="FILE",
+                   help="the NEW database file to create (open it with CACAS_DB=FILE streamlit run app.py)")
     q.set_defaults(func=run_import)
 
 

@@ -25,7 +25,7 @@ def register(subparsers) -> None:
     g.add_argument("--size", type=size, default=128, help=types.described("image side in pixels", size, 128))
     g.add_argument("--seed", type=types.seed, default=0,
                    help=types.described("seed (a new seed draws new images)", types.seed, 0))
-    g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/scenes)")
+    g.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/scenes)")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own photos (FOLDER/<scene>/<image>) into the library",
                        description="Copy your own photos (FOLDER/<scene>/<image>) into the scene library; if any "
@@ -33,14 +33,14 @@ def register(subparsers) -> None:
     i.add_argument("folder", type=types.path, metavar="FOLDER",
                    help="your photos as FOLDER/<scene>/<image>: a sub-folder per scene, named as in Table I "
                         "(living_room or 'living room'), holding .jpg, .jpeg, .png, .bmp or .webp images")
-    i.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/scenes)")
+    i.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/scenes)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="fine-tune ResNet-18 on the scene library and save it",
                        description="Fine-tune ResNet-18 (Section IV-A) on the scene library, holding out images "
                                    "for the test, and save it. Never downloads weights.")
-    t.add_argument("--data", type=types.path, default=None, help="images folder (default study_data/scenes)")
-    t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/scene_resnet18.pt)")
-    t.add_argument("--weights", default="auto",
+    t.add_argument("--data", type=types.path, default=None, metavar="DIR", help="images folder (default study_data/scenes)")
+    t.add_argument("--model", type=types.path, default=None, metavar="FILE", help="where to save (default study_data/models/scene_resnet18.pt)")
+    t.add_argument("--weights", default="auto", metavar="auto|none|FILE",
                    help="initial weights: 'auto' (torchvision's local cache if present), 'none', or a .pth file "
                         "(default auto)")
     add_training_options(t, epochs=12, patience=4)
@@ -48,9 +48,9 @@ def register(subparsers) -> None:
     e = sub.add_parser("eval", help="test a scene model (default: on its held-out images)",
                        description="Test a scene model: accuracy, per-scene accuracy and confusions, by default on "
                                    "the images held out when it was trained.")
-    e.add_argument("--model", type=types.path, default=None,
+    e.add_argument("--model", type=types.path, default=None, metavar="FILE",
                    help="the model (default study_data/models/scene_resnet18.pt)")
-    e.add_argument("--data", type=types.path, default=None, help="images folder (default study_data/scenes)")
+    e.add_argument("--data", type=types.path, default=None, metavar="DIR", help="images folder (default study_data/scenes)")
     e.add_argument("--all", action="store_true", help="use every image under --data")
     e.add_argument("--confusion-png", type=types.png, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -61,7 +61,7 @@ def register(subparsers) -> None:
                                    "may be of none of the 6 home scenes), on stderr.")
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE",
                    help="image files: .jpg, .jpeg, .png, .bmp or .webp")
-    r.add_argument("--model", type=types.path, default=None,
+    r.add_argument("--model", type=types.path, default=None, metavar="FILE",
                    help="the model (default study_data/models/scene_resnet18.pt)")
     r.set_defaults(func=run_recognize)
     add_put_back(sub, "scene", "study_data/models/scene_resnet18.pt")

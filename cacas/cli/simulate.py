@@ -1,4 +1,5 @@
-"""``cacas simulate``: a whole simulated study (design.md's contract; the persona file: docs/personas.md).
+"""``cacas simulate``: a whole simulated study (design.md's contract; the persona file: docs/personas.md;
+the researcher's help: :data:`DESCRIPTION`).
 
     cacas simulate --personas FILE [--days 7] [--interactions 15]
                    [--methods cacas,cacas-no-pr,orl,nn] [--seed 0] --out DIR [--plot DIR]
@@ -22,10 +23,9 @@ import sys
 from cacas import records
 from cacas.cli import types
 from cacas.errors import CacasError, case_twin
+from cacas.parallel import GB, WORKER_MEMORY
 
 
-#: The figures --plot writes (fig3_methods.html only with --loop each and several methods).
-FIGURES = ("fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html")
 
 
 #: The plotly.js the figures load from their folder (``include_plotlyjs="directory"``).
@@ -48,6 +48,37 @@ def other_plotly_js(folder, script: bytes) -> bool:
     replaces)."""
     earlier = folder / PLOTLY_JS
     return earlier.is_file() and earlier.read_bytes() != script
+
+
+#: The printed table's columns (:func:`cacas.experiment.summary_table`'s, daily.csv's names) as
+#: two-line headings, and each one's decimals: with its names on one line it was 91 columns wide
+#: and wrapped in an 80-column terminal (CLI audit).
+SUMMARY_COLUMNS = {"method": ("", "method", None), "day": ("", "day", None),
+                   "success_rate": ("success", "rate", 3), "success_ceiling": ("success", "ceiling", 3),
+                   "preference_accuracy": ("preference", "accuracy", 3),
+                   "cumulative_feedback": ("cumulative", "feedback", 1)}
+
+
+def summary_text(table) -> str:
+    """``table`` (:func:`cacas.experiment.summary_table`: means per method and day) as the lines
+    ``cacas simulate`` prints: a two-line heading naming daily.csv's columns, the method on the
+    left, numbers right-aligned, an empty mean (no closed loop, no interaction) as ``-``. At most
+    60 columns for every method and up to 365 days, whatever the terminal (or a pipe, a log)."""
+    import math
+
+    columns = [c for c in SUMMARY_COLUMNS if c in table.columns]
+
+    def cell(column, value) -> str:
+        decimals = SUMMARY_COLUMNS[column][2]
+        if decimals is None:
+            return str(value)
+        return "-" if value is None or math.isnan(value) else f"{value:.{decimals}f}"
+
+    rows = [[SUMMARY_COLUMNS[c][0] for c in columns], [SUMMARY_COLUMNS[c][1] for c in columns],
+            *([cell(c, row[c]) for c in columns] for row in table.to_dict("records"))]
+    widths = [max(len(r[i]) for r in rows) for i in range(len(columns))]
+    align = [str.ljust if c == "method" else str.rjust for c in columns]
+    return "\n".join("  ".join(a(text, w) for text, w, a in zip(row, widths, align)).rstrip() for row in rows)
 
 
 def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
@@ -73,9 +104,36 @@ def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
     return [people[i] for i in places], places
 
 
+#: ``cacas simulate --help``'s text: for a researcher (the module's docstring is for developers),
+#: its lines at most 79 columns wide (RawDescriptionHelpFormatter keeps them as written).
+DESCRIPTION = """\
+Run a simulated study: the participants of a persona file (its format:
+docs/personas.md) act in the contexts their described preferences cover, about
+--interactions times a day; the robot acts with the policy in force, and the
+policy is adapted after each day (the paper's Fig. 3 and Fig. 4).
+
+Writes DIR/daily.csv (one row per participant, method and day: success_rate,
+preference_accuracy, cumulative_feedback, interactions, ...),
+DIR/interactions.csv (every simulated interaction) and DIR/by_preference.csv
+(Fig. 4's accuracy per described preference), and prints each method's mean
+of each day. With --plot, also Fig. 3, Fig. 4 and the accuracy by preference
+as Plotly HTML. The same --seed writes the same daily.csv.
+
+The first method acts with the participants and every method adapts from the
+same interactions (the paper's Fig. 4); with --loop each, every method runs a
+closed-loop study of its own (with more than one method, --plot also writes
+fig3_methods.html, Fig. 3 for every method)."""
+
+EPILOG = """\
+examples (from the project folder):
+  cacas simulate --personas study_data/personas/example.json --out results
+  cacas simulate --personas study_data/personas/example.json --days 3 \\
+      --participants P01,P02 --methods cacas,nn --out results --plot results"""
+
+
 def register(sub) -> None:
     p = sub.add_parser("simulate", help="run a simulated study (Fig. 3 / Fig. 4) from a persona file",
-                       description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+                       description=DESCRIPTION, epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--personas", required=True, type=types.path, metavar="FILE", help="persona JSON file (its format: docs/personas.md)")
     p.add_argument("--participants", metavar="CODES",
                    help="comma-separated participant codes of the persona file to simulate (default: all); "
@@ -109,9 +167,12 @@ def register(sub) -> None:
     p.add_argument("--plot", type=types.path, metavar="DIR",
                    help="also write Fig. 3, Fig. 4 and Fig. 4 by described preference as Plotly HTML here: the "
                         "--out folder, or one holding no tables (not a study's export, nor another run's)")
-    p.add_argument("--jobs", type=types.integer, default=None,
-                   help="worker processes; valid: a whole number >= 1 (default: one per core; results do not "
-                        "depend on it)")
+    p.add_argument("--jobs", type=types.integer, default=None, metavar="N",
+                   help="worker processes, participants side by side, each holding about "
+                        f"{WORKER_MEMORY / GB:.1f} GB; valid: a whole number >= 1 (default: one per core); at "
+                        "most one per participant and as many as the available memory holds (fewer are run, "
+                        "with a note); more than the cores is run, with a note (no faster); the results do "
+                        "not depend on it")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -128,12 +189,11 @@ def run(args) -> int:
     except CacasError as exc:
         raise CacasError(f"--methods {args.methods}: {exc}") from None
 
-    import pandas as pd
-
     from cacas.cli.progress import ProgressBar
     from cacas.d4a import load_d4a
-    from cacas.experiment import default_jobs, simulate_study, summary_table
-    from cacas.export import check_output_folder
+    from cacas.experiment import simulate_study, summary_table
+    from cacas.parallel import plan_jobs
+    from cacas.export import SIMULATION_FIGURES, check_output_folder
     from cacas.preferences import load_personas
     from cacas.store import files
     from cacas.store import validate as v
@@ -149,6 +209,9 @@ def run(args) -> int:
             print(f"cacas simulate: note: {args.personas}: {exc}; the study database refuses such codes",
                   file=sys.stderr)
     d4a = load_d4a(args.d4a) if args.d4a else load_d4a()
+    jobs, notes = plan_jobs(args.jobs, len(people))
+    for note in notes:
+        print(f"cacas simulate: note: {note}", file=sys.stderr)
     # the output folders are checked before the (long) simulation, not after it; a refused --plot
     # leaves no --out folder behind, nor the folders above it that it created
     made = [folder for f in (args.out, args.plot) if f for folder in files.missing_folders(f)]
@@ -162,7 +225,7 @@ def run(args) -> int:
         progress = None if args.quiet else ProgressBar("simulate")
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
-                                jobs=args.jobs or default_jobs(), ask_after_reject=args.ask_after_reject,
+                                jobs=jobs, ask_after_reject=args.ask_after_reject,
                                 loop=args.loop, places=places)
     except BaseException:  # a refused --plot, Ctrl-C, a failure: no empty folder of ours is left behind
         files.remove_empty(made)
@@ -192,7 +255,7 @@ def run(args) -> int:
     # and the figures written there are this run's
     folders = {d.resolve(): d for d in (out, plot_dir) if d is not None}
     written_here = plot_dir.resolve() if plot_dir is not None else None
-    stale = [d / name for where, d in folders.items() for name in FIGURES
+    stale = [d / name for where, d in folders.items() for name in SIMULATION_FIGURES
              if (d / name).is_file() and not (where == written_here and name in figures)]
     table = summary_table(result.daily)
     from cacas.cli import signals_held
@@ -200,7 +263,7 @@ def run(args) -> int:
     # put in place as one change, and said: Ctrl-C or SIGTERM from here on stops the command after it
     with signals_held():
         together = written_here == out.resolve()
-        remains = files.remains(out, [*tables, *(drawn if together else ()), *FIGURES, PLOTLY_JS])
+        remains = files.remains(out, [*tables, *(drawn if together else ()), *SIMULATION_FIGURES, PLOTLY_JS])
         if together:  # tables and figures replace an earlier run's together, or not at all
             written = files.write_all(out, {**tables, **drawn}, checksums=True)
         else:  # the three tables replace an earlier run's together, or not at all; then the figures
@@ -214,8 +277,7 @@ def run(args) -> int:
             path.unlink(missing_ok=True)
         if remains:
             print(f"cacas simulate: note: {remains}", file=sys.stderr)
-        with pd.option_context("display.width", 120, "display.max_rows", 200):
-            print(table.to_string(index=False, float_format=lambda v: f"{v:.3f}", na_rep="-"))
+        print(summary_text(table))
         print("wrote " + ", ".join(str(written[name]) for name in tables))
         if plot_dir is not None:
             print("wrote " + ", ".join(str(plot_dir / name) for name in figures) + f" and {plot_dir / PLOTLY_JS}, "

@@ -96,7 +96,7 @@ def register(subparsers) -> None:
     g.add_argument("--seed", type=types.seed, default=0,
                    help=types.described("seed (a new seed adds new clips)", types.seed, 0))
     g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"], help="clip file format (default ogg)")
-    g.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
+    g.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/sounds)")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own recordings (FOLDER/<activity>/<clip>) into the library",
                        description="Copy your own recordings (FOLDER/<activity>/<clip>) into the sound library; "
@@ -104,20 +104,20 @@ def register(subparsers) -> None:
     i.add_argument("folder", type=types.path, metavar="FOLDER",
                    help="your recordings as FOLDER/<activity>/<clip>: a sub-folder per activity, named as in "
                         "Table I (use_stove or 'use stove'), holding .wav, .flac or .ogg clips")
-    i.add_argument("--out", type=types.path, default=None, help="library folder (default study_data/sounds)")
+    i.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/sounds)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="train the sound CNN on the library and save it",
                        description="Train the sound CNN (MFCC of 1-s windows, Section IV-A) on the library, "
                                    "holding out recordings for the test, and save it.")
-    t.add_argument("--data", type=types.path, default=None, help="library folder (default study_data/sounds)")
-    t.add_argument("--model", type=types.path, default=None, help="where to save (default study_data/models/sound_cnn.pt)")
+    t.add_argument("--data", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/sounds)")
+    t.add_argument("--model", type=types.path, default=None, metavar="FILE", help="where to save (default study_data/models/sound_cnn.pt)")
     add_training_options(t, epochs=8, patience=3, augment=1)
     t.set_defaults(func=run_train)
     e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)",
                        description="Test a sound model: accuracy, per-activity accuracy and confusions, by "
                                    "default on the recordings held out when it was trained.")
-    e.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
-    e.add_argument("--data", type=types.path, default=None, help="recordings folder (default study_data/sounds)")
+    e.add_argument("--model", type=types.path, default=None, metavar="FILE", help="the model (default study_data/models/sound_cnn.pt)")
+    e.add_argument("--data", type=types.path, default=None, metavar="DIR", help="recordings folder (default study_data/sounds)")
     e.add_argument("--all", action="store_true", help="use every recording under --data, not only the held-out ones")
     e.add_argument("--confusion-png", type=types.png, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -129,7 +129,7 @@ def register(subparsers) -> None:
                                    f"window) and of a label under {UNSURE_BELOW:.0%} (the sound may be none of the "
                                    "33 activities), on stderr.")
     r.add_argument("files", nargs="+", type=types.path, metavar="FILE", help="sound files: .wav, .flac or .ogg")
-    r.add_argument("--model", type=types.path, default=None, help="the model (default study_data/models/sound_cnn.pt)")
+    r.add_argument("--model", type=types.path, default=None, metavar="FILE", help="the model (default study_data/models/sound_cnn.pt)")
     r.set_defaults(func=run_recognize)
     add_put_back(sub, "sound", "study_data/models/sound_cnn.pt")
 
@@ -140,7 +140,7 @@ def add_put_back(sub, kind: str, default: str) -> None:
                        description=f"Put back the {kind} model the last training replaced (each training keeps the "
                                    "model it replaces beside the new one, as <name>.previous.pt); the model it "
                                    "replaces is kept in its place, so putting back again undoes it.")
-    b.add_argument("--model", type=types.path, default=None, help=f"the saved model (default {default})")
+    b.add_argument("--model", type=types.path, default=None, metavar="FILE", help=f"the saved model (default {default})")
     b.set_defaults(func=lambda args: run_put_back(args, kind))
 
 

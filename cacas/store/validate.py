@@ -11,12 +11,12 @@ import math
 import re
 import threading
 from datetime import datetime, timedelta, timezone
-from typing import Any, Callable, Mapping
+from typing import Any, Mapping
 
 import numpy as np
 
 from cacas import spaces
-from cacas.errors import CacasError
+from cacas.errors import CacasError, each  # noqa: F401 (each: v.each, every problem of a form at once)
 from cacas.privacy import contact_details
 from cacas.records import ROBOT_INITIATED, USER_INITIATED, line_feeds
 
@@ -34,22 +34,6 @@ TYPES = (ROBOT_INITIATED, USER_INITIATED)
 
 _last_now = datetime.min.replace(tzinfo=timezone.utc)
 _now_lock = threading.Lock()
-
-
-def each(*checks: Callable[[], Any]) -> list:
-    """Run every check (a function of no argument, such as ``lambda: age_range(x)``): their values in
-    order, or one CacasError saying every problem found, joined by "; and ". A form with two wrong
-    fields is told both at one save (walkthrough: the details form said the age range, then, at the
-    next save, the notes)."""
-    values, problems = [], []
-    for check in checks:
-        try:
-            values.append(check())
-        except CacasError as exc:
-            problems.append(str(exc))
-    if problems:
-        raise CacasError("; and ".join(problems))
-    return values
 
 
 def now() -> str:
