@@ -91,7 +91,7 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
 def rolled_back_note(events: pd.DataFrame) -> str:
     """For the Results page: what a roll-back on the Adaptation page changes in Fig. 3 and Fig. 4,
     naming the participants who had one ("" if none did)."""
-    who = sorted(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
+    who = records.by_code(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
     if not who:
         return ""
     return (f" After a roll-back ({', '.join(who)}), a day uses the version put in force instead (a day rolled back "
@@ -318,7 +318,7 @@ class _Line:
             return self.own_words
         rank = {m: i for i, m in enumerate(records.METHOD_ORDER)}
         methods = ", ".join(sorted(self.methods, key=lambda m: rank.get(m, len(rank))))
-        codes = sorted(self.codes)
+        codes = records.by_code(self.codes)
         whom = "" if len(codes) == 1 else \
             " for " + ", ".join(codes[:8]) + (f" and {len(codes) - 8} more" if len(codes) > 8 else "")
         if self.kind == "initial":
@@ -597,7 +597,7 @@ def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
     return {"n": int(len(latest)), "mean": float(latest.mean()),
             "sd": float(latest.std(ddof=1)) if len(latest) > 1 else math.nan,
             "share_8_or_more": float((latest >= 8).mean()),
-            "mid_study": sorted(last.loc[early, "participant"])}
+            "mid_study": records.by_code(last.loc[early, "participant"])}
 
 
 # --- interactions as a readable table ------------------------------------------------------------
@@ -646,6 +646,11 @@ def day_ranges(days) -> str:
     return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in out)
 
 
+def _each_participant(df: pd.DataFrame):
+    """(participant, rows) of ``df``, participants as a person reads them (:func:`cacas.records.code_order`)."""
+    return sorted(df.groupby("participant"), key=lambda kv: records.code_order(kv[0]))
+
+
 def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
     """The Fig. 4 caption's sentence on the participant-days left out so that every method is
     averaged over the same participants (:func:`cacas.plots.incomplete_comparisons`); "" if none.
@@ -656,7 +661,7 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
     # days 1-7 (no ORL, NN, CACAS w/o PR)" lumped days 1-2, which had w/o PR, with days 3-7), and the
     # participants whose days read the same named together (19 participants were listed one by one)
     said: dict[str, list[str]] = {}
-    for who, g in left.groupby("participant", sort=True):
+    for who, g in _each_participant(left):
         by_missing: dict[tuple, list[int]] = {}
         for day, missing in zip(g["day"], g["missing"]):
             by_missing.setdefault(tuple(missing), []).append(int(day))
@@ -694,7 +699,7 @@ def uncompared_note(daily: pd.DataFrame, closed_loop: str = "cacas") -> str:
     if not baselines:
         return ""
     parts = []
-    for who, g in d.groupby("participant", sort=True):
+    for who, g in _each_participant(d):
         compared = set(g.loc[g["method"] != closed_loop, "day"].astype(int))
         alone = sorted(set(g.loc[g["method"] == closed_loop, "day"].astype(int)) - compared)
         if compared and alone:
@@ -710,7 +715,8 @@ def next_day_view(ahead: pd.DataFrame) -> pd.DataFrame:
     (:func:`cacas.export.next_day_accuracy`): one row per participant and day, one column per
     method (in the figures' order) with its accuracy in percent, the policy in force marked."""
     rows = []
-    for (who, day), g in ahead.groupby(["participant", "day"], sort=True):
+    for (who, day), g in sorted(ahead.groupby(["participant", "day"]),
+                                key=lambda kv: (records.code_order(kv[0][0]), kv[0][1])):
         row = {"participant": who, "day": int(day)}
         for m in plots.in_method_order(g["method"]):
             r = g[g["method"] == m].iloc[0]

@@ -198,6 +198,23 @@ def test_short_time_of_a_stamp_or_epoch_seconds():
     assert app_support.short_time(1_795_000_000) == "2026-11-18 11:06 UTC"
 
 
+def test_participants_are_said_by_code_whatever_its_letter_case():
+    """Notes and tables name participants as a person reads the codes ("p01, R01, r02"; sorted as stored,
+    capitals first: "R01, p01, r02")."""
+    import pandas as pd
+
+    left = pd.DataFrame([{"participant": who, "day": 1, "missing": ["nn"]} for who in ("r02", "R01")]
+                        + [{"participant": "p01", "day": 2, "missing": ["nn"]}])
+    assert app_support.left_out_note(left).endswith("left out: p01 day 2 (no NN); R01, r02 day 1 (no NN).")
+    left = left.assign(day=1)
+    assert app_support.left_out_note(left).endswith("left out: p01, R01, r02 day 1 (no NN).")
+    ahead = pd.DataFrame([{"participant": who, "day": day, "method": "cacas", "preference_accuracy": 0.5,
+                           "in_force": True} for who in ("r02", "R01", "p01") for day in (3, 2)])
+    view = app_support.next_day_view(ahead)
+    assert list(zip(view["participant"], view["day"])) == [("p01", 2), ("p01", 3), ("R01", 2), ("R01", 3),
+                                                           ("r02", 2), ("r02", 3)]
+
+
 def test_day_ranges_and_the_fig4_left_out_note():
     import pandas as pd
 

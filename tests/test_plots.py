@@ -342,3 +342,11 @@ def test_incomplete_comparisons_agrees_with_a_participant_day_at_a_time_count():
     got = incomplete_comparisons(d)
     assert len(got) > 10 and got.to_dict("records") == expected
     assert all("bandit" not in m for m in got.loc[got["day"] == 2, "missing"])  # not scored that day at all
+
+
+def test_the_heatmaps_list_participants_by_code_whatever_its_letter_case():
+    """Rows by participant as a person reads the codes ("p01, R01, r02"; sorted as stored: "R01, p01, r02")."""
+    rows = pd.concat([by_preference().assign(participant=p) for p in ("r02", "R01", "p01")])
+    heat = preference_days_figure(rows, "nn").data[0]
+    who = [y.split(" · ")[0] for y in heat.y]
+    assert list(dict.fromkeys(who)) == ["p01", "R01", "r02"] and who == sorted(who, key=str.lower)
