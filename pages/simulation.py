@@ -138,12 +138,11 @@ if go:
         lines = str(exc).splitlines()
         st.error(lines[0] if len(lines) == 1 else "\n".join(f"- {line}" for line in lines), icon=":material/error:")
     else:
-        in_place = sorted(chosen, key=place.get)  # run in their places' order, whatever the order chosen in
-        _, started = RUNNER.start(JOB, saved_runs.run_simulation, [by_id[c] for c in in_place],
+        _, started = RUNNER.start(JOB, saved_runs.run_simulation, [by_id[c] for c in chosen],
                                   saved_runs.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source, details=choices,
-                                  places=[place[c] for c in in_place],
+                                  places=[place[c] for c in chosen],
                                   label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
                                         f"{', '.join(methods)} · seed {int(seed)}")
         if not started:

@@ -290,7 +290,7 @@ def test_a_participant_added_to_the_study_since_is_chosen_with_the_others(app, d
 
 def test_the_studys_participants_are_offered_by_code_whatever_its_letter_case(app, db, store, held_run):
     """Offered as the sidebar lists them ("p01, R01, r02"; sorted as stored: "R01, p01, r02"); a run keeps each
-    participant's place (random stream) of the exact code's order, whatever the order they were chosen in."""
+    participant's place (random stream) in the exact code's order, as before."""
     release, calls = held_run
     for code in ("r02", "R01", "p01"):
         store.add_participant(code)
@@ -301,7 +301,7 @@ def test_the_studys_participants_are_offered_by_code_whatever_its_letter_case(ap
     at.multiselect[0].set_value(["r02", "p01"])
     next(b for b in at.button if b.label == "Run simulation").click().run()
     no_exception(at)
-    assert (calls[0]["participants"], calls[0]["places"]) == (["p01", "r02"], [1, 2])  # R01 p01 r02, as before
+    assert (calls[0]["participants"], calls[0]["places"]) == (["r02", "p01"], [2, 1])  # R01 p01 r02, as before
     release()
     assert RUNNER.get(f"simulate:{db}").wait(60)
 
