@@ -635,6 +635,31 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
     }, columns=columns)
 
 
+#: The width (px) the researcher's table of today's interactions has on the Study session page at 1280 x 800,
+#: beside the sidebar (measured in headless Chromium).
+TODAY_TABLE_ROOM = 784
+
+
+def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
+    """How the Study session page draws the researcher's table of today's interactions
+    (:func:`interactions_view` of one day, its columns ``columns``): each column's width (px, or
+    Streamlit's "medium") and the row height (px; None: one line). Without what the robot heard and
+    saw, every value fits on one line beside narrow "#", time and interval columns, the answer
+    given room ("asked for remind to take medicine" whole). With them, nine columns need about
+    1,000 px on one line, more than the page has at 1280 px: the walkthrough saw "robot saw" off the
+    right edge at 1280 px and "use hair dryer", "living room" cut at 1440 px (the data grid's own
+    widths), while the answer had room to spare. Then every column has a width of its own, the
+    widths together fit :data:`TODAY_TABLE_ROOM` (the table stretches them on a wider page), and
+    a row is three lines high, so that what is longer than its column wraps instead of being cut:
+    a name on one line ("use hair dryer", "living room"), a proposal or an answer on two or three."""
+    if "robot heard" not in columns and "robot saw" not in columns:
+        return {"#": 40, "time of day": 90, "since last activity": 80, "answer": "medium"}, None
+    widths = {"#": 32, "activity": 100, "robot proposed": 106, "answer": 106, "time of day": 88,
+              "since last activity": 74, "room": 88, "robot heard": 100, "robot saw": 88}
+    # Streamlit's data grid lets a cell wrap when its rows are more than 4rem (64 px) high
+    return {c: w for c, w in widths.items() if c in columns}, 66
+
+
 def day_ranges(days) -> str:
     """Days as short ranges: [1, 2, 3, 5] -> "1-3, 5"."""
     out: list[list[int]] = []

@@ -583,7 +583,8 @@ if done and not tablet:
         # scrolled out of a 560 px table, behind the time, the interval and the room)
         first = ["#", "activity", "robot proposed", "answer"]
         view = view[first + [c for c in view.columns if c not in first]]
-        st.dataframe(view, hide_index=True, width="stretch", column_config={
-            "#": st.column_config.NumberColumn(width=40), "time of day": st.column_config.TextColumn(width=90),
-            "since last activity": st.column_config.TextColumn("since last", width=80),
-            "answer": st.column_config.TextColumn(width="medium")})
+        # every column in view at 1280 px, names whole (app_support.today_table_layout)
+        widths, row_height = app_support.today_table_layout(view.columns)
+        st.dataframe(view, hide_index=True, width="stretch", row_height=row_height, column_config={
+            c: (st.column_config.NumberColumn if c == "#" else st.column_config.TextColumn)(
+                "since last" if c == "since last activity" else None, width=w) for c, w in widths.items()})
