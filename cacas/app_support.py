@@ -88,15 +88,33 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=cols)
 
 
-def rolled_back_note(events: pd.DataFrame) -> str:
+def rolled_back_note(events: pd.DataFrame, participants: pd.DataFrame | None = None,
+                     policies: pd.DataFrame | None = None) -> str:
     """For the Results page: what a roll-back on the Adaptation page changes in Fig. 3 and Fig. 4,
-    naming the participants who had one ("" if none did)."""
+    naming the participants who had one ("" if none did). Given ``participants`` and ``policies``
+    (participants.csv's ``active_policy``, policies.csv's versions), a roll-back that a later
+    version has ended since (a roll-forward, or a day adapted after it: the newest version is in
+    force) is said as past: it is about the days that used the version it put in force (the note
+    read as if it still held after a roll-forward)."""
     who = records.by_code(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
     if not who:
         return ""
-    return (f" After a roll-back ({', '.join(who)}), a day uses the version put in force instead (a day rolled back "
-            "in its middle, the version most of its interactions had): Fig. 4 scores that version for CACAS, while "
-            "the baselines keep their runs adapted from days 1..d-1.")
+    ended = set()
+    if participants is not None and policies is not None and len(policies):
+        newest = policies.groupby("participant")["version"].max()
+        for code, active in zip(participants["participant"], participants["active_policy"]):
+            if code in who and code in newest.index and pd.notna(active) and int(active) == int(newest[code]):
+                ended.add(code)
+    now, past = [c for c in who if c not in ended], [c for c in who if c in ended]
+    how = "(a day rolled back in its middle, the version most of its interactions had)"
+    scored = ": Fig. 4 scores that version for CACAS, while the baselines keep their runs adapted from days 1..d-1."
+    held = f"while a roll-back held ({', '.join(past)}; a later version is in force again), a day used the version " \
+           "it put in force"
+    if not past:
+        return f" After a roll-back ({', '.join(now)}), a day uses the version put in force instead {how}{scored}"
+    if not now:
+        return f" {held[0].upper()}{held[1:]} {how}{scored}"
+    return f" After a roll-back ({', '.join(now)}), a day uses the version put in force instead; {held} {how}{scored}"
 
 
 def policy_label(in_force: int | None, versions) -> str:

@@ -50,7 +50,8 @@ if source == HUMAN:
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered, or asked for during an "
                "activity), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
-               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"]))
+               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"], tables["participants"],
+                                                                             tables["policies"]))
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
     run = ui.load_run(db, name)
