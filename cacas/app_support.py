@@ -88,15 +88,33 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=cols)
 
 
-def rolled_back_note(events: pd.DataFrame) -> str:
+def rolled_back_note(events: pd.DataFrame, participants: pd.DataFrame | None = None,
+                     policies: pd.DataFrame | None = None) -> str:
     """For the Results page: what a roll-back on the Adaptation page changes in Fig. 3 and Fig. 4,
-    naming the participants who had one ("" if none did)."""
-    who = sorted(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
+    naming the participants who had one ("" if none did). Given ``participants`` and ``policies``
+    (participants.csv's ``active_policy``, policies.csv's versions), a roll-back that a later
+    version has ended since (a roll-forward, or a day adapted after it: the newest version is in
+    force) is said as past: it is about the days that used the version it put in force (the note
+    read as if it still held after a roll-forward)."""
+    who = records.by_code(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
     if not who:
         return ""
-    return (f" After a roll-back ({', '.join(who)}), a day uses the version put in force instead (a day rolled back "
-            "in its middle, the version most of its interactions had): Fig. 4 scores that version for CACAS, while "
-            "the baselines keep their runs adapted from days 1..d-1.")
+    ended = set()
+    if participants is not None and policies is not None and len(policies):
+        newest = policies.groupby("participant")["version"].max()
+        for code, active in zip(participants["participant"], participants["active_policy"]):
+            if code in who and code in newest.index and pd.notna(active) and int(active) == int(newest[code]):
+                ended.add(code)
+    now, past = [c for c in who if c not in ended], [c for c in who if c in ended]
+    how = "(a day rolled back in its middle, the version most of its interactions had)"
+    scored = ": Fig. 4 scores that version for CACAS, while the baselines keep their runs adapted from days 1..d-1."
+    held = f"while a roll-back held ({', '.join(past)}; a later version is in force again), a day used the version " \
+           "it put in force"
+    if not past:
+        return f" After a roll-back ({', '.join(now)}), a day uses the version put in force instead {how}{scored}"
+    if not now:
+        return f" {held[0].upper()}{held[1:]} {how}{scored}"
+    return f" After a roll-back ({', '.join(now)}), a day uses the version put in force instead; {held} {how}{scored}"
 
 
 def policy_label(in_force: int | None, versions) -> str:
@@ -318,7 +336,7 @@ class _Line:
             return self.own_words
         rank = {m: i for i, m in enumerate(records.METHOD_ORDER)}
         methods = ", ".join(sorted(self.methods, key=lambda m: rank.get(m, len(rank))))
-        codes = sorted(self.codes)
+        codes = records.by_code(self.codes)
         whom = "" if len(codes) == 1 else \
             " for " + ", ".join(codes[:8]) + (f" and {len(codes) - 8} more" if len(codes) > 8 else "")
         if self.kind == "initial":
@@ -597,7 +615,7 @@ def questionnaire_summary(answers: pd.DataFrame) -> dict[str, float]:
     return {"n": int(len(latest)), "mean": float(latest.mean()),
             "sd": float(latest.std(ddof=1)) if len(latest) > 1 else math.nan,
             "share_8_or_more": float((latest >= 8).mean()),
-            "mid_study": sorted(last.loc[early, "participant"])}
+            "mid_study": records.by_code(last.loc[early, "participant"])}
 
 
 # --- interactions as a readable table ------------------------------------------------------------
@@ -635,6 +653,31 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
     }, columns=columns)
 
 
+#: The width (px) the researcher's table of today's interactions has on the Study session page at 1280 x 800,
+#: beside the sidebar (measured in headless Chromium).
+TODAY_TABLE_ROOM = 784
+
+
+def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
+    """How the Study session page draws the researcher's table of today's interactions
+    (:func:`interactions_view` of one day, its columns ``columns``): each column's width (px, or
+    Streamlit's "medium") and the row height (px; None: one line). Without what the robot heard and
+    saw, every value fits on one line beside narrow "#", time and interval columns, the answer
+    given room ("asked for remind to take medicine" whole). With them, nine columns need about
+    1,000 px on one line, more than the page has at 1280 px: the walkthrough saw "robot saw" off the
+    right edge at 1280 px and "use hair dryer", "living room" cut at 1440 px (the data grid's own
+    widths), while the answer had room to spare. Then every column has a width of its own, the
+    widths together fit :data:`TODAY_TABLE_ROOM` (the table stretches them on a wider page), and
+    a row is three lines high, so that what is longer than its column wraps instead of being cut:
+    a name on one line ("use hair dryer", "living room"), a proposal or an answer on two or three."""
+    if "robot heard" not in columns and "robot saw" not in columns:
+        return {"#": 40, "time of day": 90, "since last activity": 80, "answer": "medium"}, None
+    widths = {"#": 32, "activity": 100, "robot proposed": 106, "answer": 106, "time of day": 88,
+              "since last activity": 74, "room": 88, "robot heard": 100, "robot saw": 88}
+    # Streamlit's data grid lets a cell wrap when its rows are more than 4rem (64 px) high
+    return {c: w for c, w in widths.items() if c in columns}, 66
+
+
 def day_ranges(days) -> str:
     """Days as short ranges: [1, 2, 3, 5] -> "1-3, 5"."""
     out: list[list[int]] = []
@@ -644,6 +687,11 @@ def day_ranges(days) -> str:
         else:
             out.append([d, d])
     return ", ".join(f"{a}-{b}" if b > a else f"{a}" for a, b in out)
+
+
+def _each_participant(df: pd.DataFrame):
+    """(participant, rows) of ``df``, participants as a person reads them (:func:`cacas.records.code_order`)."""
+    return sorted(df.groupby("participant"), key=lambda kv: records.code_order(kv[0]))
 
 
 def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
@@ -656,7 +704,7 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
     # days 1-7 (no ORL, NN, CACAS w/o PR)" lumped days 1-2, which had w/o PR, with days 3-7), and the
     # participants whose days read the same named together (19 participants were listed one by one)
     said: dict[str, list[str]] = {}
-    for who, g in left.groupby("participant", sort=True):
+    for who, g in _each_participant(left):
         by_missing: dict[tuple, list[int]] = {}
         for day, missing in zip(g["day"], g["missing"]):
             by_missing.setdefault(tuple(missing), []).append(int(day))
@@ -694,7 +742,7 @@ def uncompared_note(daily: pd.DataFrame, closed_loop: str = "cacas") -> str:
     if not baselines:
         return ""
     parts = []
-    for who, g in d.groupby("participant", sort=True):
+    for who, g in _each_participant(d):
         compared = set(g.loc[g["method"] != closed_loop, "day"].astype(int))
         alone = sorted(set(g.loc[g["method"] == closed_loop, "day"].astype(int)) - compared)
         if compared and alone:
@@ -710,7 +758,8 @@ def next_day_view(ahead: pd.DataFrame) -> pd.DataFrame:
     (:func:`cacas.export.next_day_accuracy`): one row per participant and day, one column per
     method (in the figures' order) with its accuracy in percent, the policy in force marked."""
     rows = []
-    for (who, day), g in ahead.groupby(["participant", "day"], sort=True):
+    for (who, day), g in sorted(ahead.groupby(["participant", "day"]),
+                                key=lambda kv: (records.code_order(kv[0][0]), kv[0][1])):
         row = {"participant": who, "day": int(day)}
         for m in plots.in_method_order(g["method"]):
             r = g[g["method"] == m].iloc[0]

@@ -43,12 +43,16 @@ def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | st
                       extensions=SUPPORTED_EXTENSIONS)
 
 
-def long_clip_notes(activity: str, added: Sequence[Path], root: Path | str | None = None) -> list[str]:
+def long_clip_notes(activity: str, added: Sequence[Path], root: Path | str | None = None,
+                    given: Sequence[str] | None = None) -> list[str]:
     """A note for each clip of ``added`` (just added to ``activity``) that gives the sound model more
     training windows than the library's other activities hold each (their median): the model
     learns from windows of :data:`cacas.audio.features.WINDOW_SECONDS`, so one long recording
     weighs its activity more than the others, and the model leans toward it. [] when the clips
-    are of a usual length, or no other activity has clips to compare with."""
+    are of a usual length, or no other activity has clips to compare with. ``given``: each clip's
+    name as the researcher gave it (``added``'s order, as :func:`add_clips` returns them): a note
+    names a clip so, and the name it is stored under where that differs ("my cough.wav (in the
+    library as my_cough.wav)"), to find it there."""
     from statistics import median
 
     from cacas.audio.features import WINDOW_SECONDS
@@ -62,10 +66,12 @@ def long_clip_notes(activity: str, added: Sequence[Path], root: Path | str | Non
     typical = median(others)
     total = sum(clip_windows(p) for p in clip_paths(activity, root))
     notes = []
-    for path in added:
+    for i, path in enumerate(added):
         n = clip_windows(path)
         if n > typical:
-            notes.append(f"{Path(path).name} is {clip_seconds(path):.0f} s long: the sound model learns from "
+            stored = Path(path).name
+            name = stored if given is None or given[i] == stored else f"{given[i]} (in the library as {stored})"
+            notes.append(f"{name} is {clip_seconds(path):.0f} s long: the sound model learns from "
                          f"{WINDOW_SECONDS:g}-s windows, so this one clip gives '{activity}' {n} windows, more "
                          f"than a whole activity has (the other activities' median: {typical:g}). '{activity}' "
                          f"has {total} now and weighs more than the others in training: clips of a few seconds, "
@@ -92,16 +98,20 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
     """Write ``files`` into a temporary ``<slug>/`` folder and import it into the library, all or
     nothing (the library's ``import_folder`` checks every file and refuses copies of files already
     there, saying to press :data:`ADD_BUTTON` again without the copy, as the page's button is
-    called); an error names each file as the researcher gave it, never our temporary copy. A file
-    whose type the library does not take is refused, not left out (the folder's import skipped it,
-    and the others were added as if it had not been given); files of the same name (from two
-    folders, or names that differ only in letters a file name cannot hold) are all kept, numbered
-    (one overwrote the other: "Added 1")."""
+    called); an error names each file as the researcher gave it ("my cough.wav"), never our
+    temporary copy nor the name it would be stored under ("my_cough.wav"), and calls the files by
+    ``what`` ("photos": the scene library's own word, "images", is not the page's). A file whose
+    type the library does not take is refused, not left out (the folder's import skipped it, and
+    the others were added as if it had not been given); files of the same name (from two folders,
+    or names that differ only in letters a file name cannot hold) are all kept, numbered (one
+    overwrote the other: "Added 1"). Returns the library's new files in the order ``files`` gave
+    them (:func:`long_clip_notes` names them as given)."""
     from cacas.media_library import slug
 
     name = spaces.canonical(kind, name)
     if not files:
         raise CacasError(f"no {what} given; {how}")
+    given: dict[Path, str] = {}  # our temporary copy -> the file's name as the researcher gave it
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp) / slug(name)
         folder.mkdir()
@@ -119,10 +129,18 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
                 n += 1
                 target = base.with_name(f"{base.stem}-{n}{base.suffix}")
             target.write_bytes(data)
+            given[target] = fname or target.name
         try:
-            return import_folder(tmp, root, done="added", again=f"press '{ADD_BUTTON}' again")
+            added = import_folder(tmp, root, done="added", again=f"press '{ADD_BUTTON}' again", item=what)
         except CacasError as exc:  # name the file as the researcher gave it, not our temporary copy
-            raise CacasError(str(exc).replace(str(folder) + os.sep, "")) from None
+            said = str(exc)
+            for copy in sorted(given, key=lambda c: len(str(c)), reverse=True):  # "a.wav.wav" before "a.wav"
+                said = said.replace(str(copy), given[copy]).replace(f"(also as {copy.name})",
+                                                                    f"(also as {given[copy]})")
+            raise CacasError(said.replace(str(folder) + os.sep, "")) from None
+    # the import adds them in file-name order (``media_library.import_folder``); given back in the order given
+    by_copy = dict(zip(sorted(given, key=lambda c: c.name), added))
+    return [by_copy[copy] for copy in given]
 
 
 def train_sound(progress: Progress = None, **options):

@@ -20,7 +20,7 @@ import hashlib
 import os
 import re
 import shutil
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -241,7 +241,7 @@ def scan(root: Path, kind: MediaKind) -> list[tuple[Path, str]]:
 
 
 def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Progress = None, *,
-                  done: str = "imported", again: str = "import again") -> list[Path]:
+                  done: str = "imported", again: str = "import again", item: str | None = None) -> list[Path]:
     """Copy ``source/<name or slug>/<file>`` into the library at ``root`` (``root/<slug>/<file>``),
     all or nothing. Refused, with nothing copied: a missing folder, a file beside the name
     folders, a folder that is not a name, a file of another type or one ``kind.check`` refuses,
@@ -249,7 +249,11 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     name) or given twice; the files ``kind.check`` refuses are all said at once, one a line ("- <file>:
     ..."). A name already in the library gets an ``imported_<k>_`` prefix.
     A refusal that nothing was copied says "nothing was <done>", and a copy to leave out, to do it
-    "<again>" (the app's page adds files with a button of its own). Returns the new paths."""
+    "<again>" (the app's page adds files with a button of its own), and calls a file ``item``
+    (default ``kind.item``: the app's page says "photos" where the scene library says "images").
+    Returns the new paths."""
+    if item is not None:
+        kind = replace(kind, item=item)
     source, root = Path(source), Path(root)
     if not source.is_dir():
         raise CacasError(f"{source}: no such folder; expected {kind.layout}")

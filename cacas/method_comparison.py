@@ -134,7 +134,9 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
     try:
         initial = load_initial_policy()
         pieces = []
-        for p in store.list_participants(study):
+        # the exact code's order, as before participants were listed case-blind: the runs are recorded
+        # (and adaptations.csv numbered) in the order they always were
+        for p in sorted(store.list_participants(study), key=lambda p: p.code):
             person, version = described_now(store, p.code)
             closed = [d.day for d in store.days(p.code) if not d.is_open]
             if person is None or not closed:

@@ -135,6 +135,21 @@ def participants_reached(daily: pd.DataFrame) -> pd.Series:
 #: there (at 1.02 a day at 100 % was cut in half by the top of the plot).
 RATE_RANGE = [0, 1.06]
 
+#: The height (px) of the title block above Fig. 3's and Fig. 4's plots: a title and a subtitle's line, whether
+#: or not the figure has a subtitle. Side by side (Simulation lab) Fig. 3, with a subtitle, sat 20 px lower than
+#: Fig. 4, title and plot; every figure now places its title at the same height (:func:`title_block`).
+TITLE_BLOCK = 80
+
+
+def title_block(text: str, subtitle: str | None = None) -> dict:
+    """A figure's title (and subtitle), for a top margin of :data:`TITLE_BLOCK` px: the title's top
+    at the same height in every figure, however tall the figure, with or without a subtitle (its
+    line left empty)."""
+    title = dict(text=text, yref="container", y=1, yanchor="top", pad=dict(t=20))
+    if subtitle:
+        title["subtitle"] = dict(text=subtitle)
+    return title
+
 
 def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None = None) -> go.Figure:
     """Fig. 3: mean success rate per day, a min-max band across participants, the mean success
@@ -194,10 +209,10 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     n = int(s["participants"].max()) if s["participants"].notna().any() else 0
     # who it is about as a subtitle: on one line with the title, half the page's width cut it
     # ("... (CACAS, 1 participa")
-    fig.update_layout(title=dict(text=title) if title else dict(
-                          text="Success rate and cumulative feedback",
-                          subtitle=dict(text=f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}")),
-                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=60, t=80 if not title else 60, b=60),
+    fig.update_layout(title=title_block(title) if title else title_block(
+                          "Success rate and cumulative feedback",
+                          f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}"),
+                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=60, t=TITLE_BLOCK, b=60),
                       template="plotly_white")
     return fig
 
@@ -267,8 +282,9 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
                           "%{customdata[2]:.0f} data points)<extra></extra>"))
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
-    fig.update_layout(title=title or "Success rate by method, each in its own closed loop", template="plotly_white",
-                      legend=dict(orientation="h", y=-0.2), margin=dict(l=60, r=30, t=60, b=60),
+    fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop"),
+                      template="plotly_white", legend=dict(orientation="h", y=-0.2),
+                      margin=dict(l=60, r=30, t=TITLE_BLOCK, b=60),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
@@ -341,8 +357,8 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
                           "%{customdata[2]} participants)<extra></extra>"))
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     below = -0.3 if _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict()) else -0.2
-    fig.update_layout(title=title or "Preference prediction by method", template="plotly_white",
-                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=30, t=60, b=60),
+    fig.update_layout(title=title_block(title or "Preference prediction by method"), template="plotly_white",
+                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=60),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
@@ -358,7 +374,9 @@ def preference_rows(by_preference: pd.DataFrame) -> pd.Series:
 
 def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str) -> go.Figure:
     rows = rows.assign(_row=preference_rows(rows))
-    order = list(dict.fromkeys(rows.sort_values(["participant", "preference"])["_row"]))
+    # participants as a person reads them (records.code_order: "p01, R01, r02"), each one's preferences in order
+    order = list(dict.fromkeys(rows.assign(_who=rows["participant"].astype(str).str.lower())
+                               .sort_values(["_who", "participant", "preference"])["_row"]))
     grid = rows.pivot_table(index="_row", columns=column, values="accuracy", aggfunc="first").reindex(
         index=order, columns=columns)
     info = rows.drop_duplicates("_row").set_index("_row").reindex(order)

@@ -28,6 +28,21 @@ METHOD_ORDER = PAPER_METHODS + ("bandit", "sac-user-data")
 MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
 
 
+def code_order(code: Any) -> tuple[str, str]:
+    """The sort key of a participant code wherever participants are listed to a person (selectors,
+    tables, messages): the code regardless of letter case, then the exact code, so that the order
+    is total and the same on every run ("p01, R01, r02"; sorted as stored it read "R01, p01, r02").
+    SQL's ``ORDER BY lower(code), code`` is the same order (codes are ASCII). The exported CSVs keep
+    their order by the exact code."""
+    code = str(code)
+    return code.lower(), code
+
+
+def by_code(codes) -> list[str]:
+    """``codes`` in :func:`code_order`."""
+    return sorted(codes, key=code_order)
+
+
 def sort_by_method(table: pd.DataFrame, keys: list[str]) -> pd.DataFrame:
     """``table`` sorted by ``keys``, its ``method`` column in :data:`METHOD_ORDER` (any other
     method after those, by name), not by name (a human study's export had NN before ORL)."""

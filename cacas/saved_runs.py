@@ -152,7 +152,7 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     known = set(tables["daily"]["participant"].astype(str))
     for kind in ("by_preference", "interactions"):
         if kind in tables:
-            strangers = sorted(set(tables[kind]["participant"].astype(str)) - known)
+            strangers = records.by_code(set(tables[kind]["participant"].astype(str)) - known)
             if strangers:
                 raise CacasError(f"{names[kind]}: participant(s) {', '.join(strangers[:5])} are not in "
                                  f"{names['daily']}; upload the tables of one study or run")

@@ -67,7 +67,8 @@ if source == HUMAN:
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered, or asked for during an "
                "activity), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
-               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"]))
+               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"], tables["participants"],
+                                                                             tables["policies"]))
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
     run = ui.load_run(db, name)
@@ -134,7 +135,7 @@ with fig3:
         # halves up, as the percentages beside it (25 % -> 38 % is "+13", not round()'s "+12": review)
         change = math.floor(100 * change + 0.5) if paired else 0
         n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["on_day"].max())
-        in_progress = sorted(c for c, d in app_support.open_days(store, study).items() if d == last) \
+        in_progress = records.by_code(c for c, d in app_support.open_days(store, study).items() if d == last) \
             if source == HUMAN else []
         n_first = int(per_day.loc[first, "participants"])
         row.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),

@@ -223,7 +223,8 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
     if user_action and request_accepts_proposal(proposal, user_action):
         what = "accepted: that is what the robot offered"
     else:
-        what = (f"you asked: {dialogue.request_words(user_action)}" + ("" if tablet else f"; recorded as {user_action}")
+        what = (f"{'you' if tablet else code} asked: {dialogue.request_words(user_action)}"
+                + ("" if tablet else f"; recorded as {user_action}")
                 if user_action else RESPONSE_WORDS[ANSWERS[response]] if proposal.robot_speaks else "nothing needed")
     # the participant sees the day's count of recorded interactions, which leaves out unanswered ones: a number
     # here ("Interaction 6" under "5 of about 15") would not match it; the researcher's number is the day's table's
@@ -551,18 +552,22 @@ else:
                       icon=":material/check:")
 
         with st.container(border=True):
-            st.markdown("**Or ask the robot yourself**")
+            # the tablet speaks to the participant; the researcher's view to the researcher, who records what the
+            # participant asked for (it said "Or ask the robot yourself" there too: walkthrough)
+            st.markdown("**Or ask the robot yourself**" if tablet else f"**Or record what {code} asked for**")
             c1, c2 = st.columns([3, 1], vertical_alignment="bottom")
             pick = c1.selectbox("Pick an action", list(dialogue.REQUESTS), index=None, key="request-pick",
-                                format_func=dialogue.REQUESTS.get, placeholder="choose what you would like")
-            ui.button(c2, "Ask", _record, args=(day, index, proposal), kwargs={"user_action": pick},
-                      icon=":material/record_voice_over:", disabled=pick is None, width="stretch")
+                                format_func=dialogue.REQUESTS.get,
+                                placeholder="choose what you would like" if tablet else f"choose what {code} asked for")
+            ui.button(c2, "Ask" if tablet else "Record", _record, args=(day, index, proposal),
+                      kwargs={"user_action": pick}, icon=":material/record_voice_over:", disabled=pick is None,
+                      width="stretch")
             # a form: Enter (a tablet keyboard's Go) says it as the button does (walkthrough: it did nothing),
             # and leaving the field for the list above does not
             with st.form("request-form", border=False, enter_to_submit=True):
                 c3, c4 = st.columns([3, 1], vertical_alignment="bottom")
-                c3.text_input("Or type your request", key="request-text",
-                              placeholder="e.g. remind me to turn off the stove")
+                c3.text_input("Or type your request" if tablet else f"Or type {code}'s request, in their words",
+                              key="request-text", placeholder="e.g. remind me to turn off the stove")
                 ui.button(c4, "Say it", _match_request, args=(day, index, context.to_token()), submit=True,
                           icon=":material/chat:", width="stretch")
             if st.session_state.get("request-error"):
@@ -583,7 +588,8 @@ if done and not tablet:
         # scrolled out of a 560 px table, behind the time, the interval and the room)
         first = ["#", "activity", "robot proposed", "answer"]
         view = view[first + [c for c in view.columns if c not in first]]
-        st.dataframe(view, hide_index=True, width="stretch", column_config={
-            "#": st.column_config.NumberColumn(width=40), "time of day": st.column_config.TextColumn(width=90),
-            "since last activity": st.column_config.TextColumn("since last", width=80),
-            "answer": st.column_config.TextColumn(width="medium")})
+        # every column in view at 1280 px, names whole (app_support.today_table_layout)
+        widths, row_height = app_support.today_table_layout(view.columns)
+        st.dataframe(view, hide_index=True, width="stretch", row_height=row_height, column_config={
+            c: (st.column_config.NumberColumn if c == "#" else st.column_config.TextColumn)(
+                "since last" if c == "since last activity" else None, width=w) for c, w in widths.items()})

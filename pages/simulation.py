@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import streamlit as st
 
-from cacas import plots, saved_runs
+from cacas import plots, records, saved_runs
 from cacas.errors import CacasError
 from cacas.experiment import LOOPS, METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -76,8 +76,10 @@ try:
             people = saved_runs.uploaded_personas(name, data)
             source = saved_runs.persona_source(choice, name, data)
     else:
-        # without their own words: the run's files (by_preference.csv's labels) stay after a participant's removal
-        people = [p.without_words() for p in (store.get_preferences(c.code) for c in store.list_participants(study))
+        # without their own words: the run's files (by_preference.csv's labels) stay after a participant's removal;
+        # in the exact code's order, their places (random streams) as before the list read case-blind
+        people = [p.without_words() for p in (store.get_preferences(c.code) for c in
+                                              sorted(store.list_participants(study), key=lambda c: c.code))
                   if p is not None]
         source = saved_runs.persona_source(choice, study=study)
         if not people:
@@ -88,15 +90,18 @@ if problem:
     st.error(problem, icon=":material/error:")
 
 by_id = {p.id: p for p in people}
+place = {c: i for i, c in enumerate(by_id)}  # a participant's place: their random stream in the run
+# offered as the sidebar lists a study's participants (case-blind by code); a file's, in the file's order
+listed = records.by_code(by_id) if choice == SOURCES[-1] else list(by_id)
 who = f"sim-who:{choice}"  # one choice of participants per persona source
-wanted = list(s.get(who, kept.get(who, list(by_id))))
+wanted = list(s.get(who, kept.get(who, listed)))
 offered = f"{who}:offered"  # the participants the choice was made among: one added to the study since is chosen,
-wanted += [c for c in by_id if c not in kept.get(offered, by_id) and c not in wanted]  # as all are at first
-valid = [c for c in wanted if c in by_id] or ([] if not wanted else list(by_id))  # none left: another file
+wanted += [c for c in listed if c not in kept.get(offered, by_id) and c not in wanted]  # as all are at first
+valid = [c for c in wanted if c in by_id] or ([] if not wanted else listed)  # none left: another file
 if s.get(who) != valid:
     s[who] = valid
 with st.form("simulation", border=True, enter_to_submit=False):  # a run starts only on its button
-    chosen = st.multiselect("Simulated participants", list(by_id), key=who,
+    chosen = st.multiselect("Simulated participants", listed, key=who,
                             help="Each follows their described preferences.")
     c1, c2, c3, c4, c5 = st.columns(5)
     # no bounds on the inputs: a value out of range is named by the check under the button (an input's
@@ -137,7 +142,7 @@ if go:
                                   saved_runs.runs_dir(db), days=int(days), interactions=int(per_day),
                                   methods=tuple(methods), seed=int(seed), no_response_rate=float(silent),
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source, details=choices,
-                                  places=[list(by_id).index(c) for c in chosen],
+                                  places=[place[c] for c in chosen],
                                   label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
                                         f"{', '.join(methods)} · seed {int(seed)}")
         if not started:

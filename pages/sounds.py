@@ -107,7 +107,8 @@ def _add(kind: str) -> None:
         _refuse(kind, str(exc))
         return
     s[f"{kind}-error"], s[f"{kind}-added"] = None, f"Added {app_support.counted(len(added), k['item'], k['items'])} to '{name}'."
-    s[f"{kind}-notes"] = lab.long_clip_notes(name, added) if kind == "sound" else []
+    # a clip named as uploaded ("my cough.wav"), and as stored where that differs
+    s[f"{kind}-notes"] = lab.long_clip_notes(name, added, given=[f for f, _ in files]) if kind == "sound" else []
     s[f"{kind}-round"] = s.get(f"{kind}-round", 0) + 1
     st.cache_data.clear()
 

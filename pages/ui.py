@@ -77,7 +77,7 @@ def keep_preference_forms() -> None:
 
 def unsaved_preference_forms() -> list[str]:
     """The participants whose preference form holds changes not saved yet."""
-    return sorted(code for code, unsaved in st.session_state.get(UNSAVED_FORMS_KEY, {}).items() if unsaved)
+    return records.by_code(code for code, unsaved in st.session_state.get(UNSAVED_FORMS_KEY, {}).items() if unsaved)
 
 
 @st.cache_resource(show_spinner=False)
@@ -351,7 +351,7 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
     st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
                "learnt, and when. A row that stays pale is a preference the method never learnt.")
     whole = by_preference  # the download is the whole table, whoever is shown
-    people = sorted(by_preference["participant"].astype(str).unique())
+    people = records.by_code(by_preference["participant"].astype(str).unique())
     if len(people) > HEATMAP_PARTICIPANTS:  # a row per preference: 24 participants made 120 rows, 3,300 px
         chosen = st.multiselect("Participants", people, default=people[:HEATMAP_PARTICIPANTS], key=f"{key}-who",
                                 help=f"{len(people)} participants have rows here; the first "

@@ -198,6 +198,23 @@ def test_short_time_of_a_stamp_or_epoch_seconds():
     assert app_support.short_time(1_795_000_000) == "2026-11-18 11:06 UTC"
 
 
+def test_participants_are_said_by_code_whatever_its_letter_case():
+    """Notes and tables name participants as a person reads the codes ("p01, R01, r02"; sorted as stored,
+    capitals first: "R01, p01, r02")."""
+    import pandas as pd
+
+    left = pd.DataFrame([{"participant": who, "day": 1, "missing": ["nn"]} for who in ("r02", "R01")]
+                        + [{"participant": "p01", "day": 2, "missing": ["nn"]}])
+    assert app_support.left_out_note(left).endswith("left out: p01 day 2 (no NN); R01, r02 day 1 (no NN).")
+    left = left.assign(day=1)
+    assert app_support.left_out_note(left).endswith("left out: p01, R01, r02 day 1 (no NN).")
+    ahead = pd.DataFrame([{"participant": who, "day": day, "method": "cacas", "preference_accuracy": 0.5,
+                           "in_force": True} for who in ("r02", "R01", "p01") for day in (3, 2)])
+    view = app_support.next_day_view(ahead)
+    assert list(zip(view["participant"], view["day"])) == [("p01", 2), ("p01", 3), ("R01", 2), ("R01", 3),
+                                                           ("r02", 2), ("r02", 3)]
+
+
 def test_day_ranges_and_the_fig4_left_out_note():
     import pandas as pd
 
@@ -438,6 +455,36 @@ def test_the_results_page_says_what_a_roll_back_changes(tmp_path):
             " After a roll-back (P02), a day uses the version put in force instead (a day rolled back in its middle, "
             "the version most of its interactions had): Fig. 4 scores that version for CACAS, while the baselines "
             "keep their runs adapted from days 1..d-1.")
+        tables = (store.participants_frame(), store.policies_frame())
+        assert app_support.rolled_back_note(store.events(), *tables) == app_support.rolled_back_note(store.events())
+
+
+def test_the_roll_back_note_reads_as_past_once_a_later_version_is_in_force(tmp_path):
+    """Walkthrough (Results): after a roll-forward the note still read "After a roll-back (P02), a day uses the
+    version put in force instead": right about the days that used it, but as if it still held. Once the newest
+    version is in force again (a roll-forward, or a day adapted since), it is said as past."""
+    from cacas.store import StudyStore
+
+    with StudyStore(tmp_path / "s.sqlite") as store:
+        for code in ("P01", "P02"):
+            store.add_participant(code)
+            store.close_day(code, store.open_day(code))
+            store.save_policy(code, 1, "cacas", b"policy after day 1")
+            store.set_active_policy(code, None)  # back to the initial policy
+
+        def note():
+            return app_support.rolled_back_note(store.events(), store.participants_frame(), store.policies_frame())
+
+        store.set_active_policy("P02", 1)  # forward again
+        how = ("(a day rolled back in its middle, the version most of its interactions had): Fig. 4 scores that "
+               "version for CACAS, while the baselines keep their runs adapted from days 1..d-1.")
+        assert note() == (" After a roll-back (P01), a day uses the version put in force instead; while a roll-back "
+                          "held (P02; a later version is in force again), a day used the version it put in force "
+                          + how)
+        store.close_day("P01", store.open_day("P01"))
+        store.save_policy("P01", 2, "cacas", b"policy after day 2")  # a day adapted since: the newest is in force
+        assert note() == (" While a roll-back held (P01, P02; a later version is in force again), a day used the "
+                          "version it put in force " + how)
 
 
 

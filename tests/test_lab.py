@@ -1,4 +1,5 @@
 import inspect
+import re
 
 from cacas import lab
 
@@ -208,7 +209,7 @@ def test_add_photos_adds_checked_photos_all_or_nothing(tmp_path):
     assert image_paths("living room", root) == sorted(added)
     for files, message in (([("notes.png", b"this is text")], r"^notes\.png: not a readable image"),
                            ([("empty.png", b"")], r"^empty\.png: is empty \(0 bytes\)$"),
-                           ([("again.png", _png())], r"^again\.png: the same image is already in the library as "
+                           ([("again.png", _png())], r"^again\.png: the same photo is already in the library as "
                                                      r"living_room/our_sofa\.png"),
                            ([], r"^no photo given; upload a JPEG or PNG photo or take one$")):
         new = [("good.png", _png((1, 2, 3)))] + files if files else files
@@ -232,13 +233,43 @@ def test_files_of_the_same_name_are_all_added_and_a_type_not_taken_is_refused(tm
     root = tmp_path / "scenes"
     added = lab.add_photos("kitchen", [("image.png", _png((1, 2, 3))), ("image.png", _png((90, 80, 70))),
                                        ("Küche.png", _png((5, 50, 5))), ("K_che.png", _png((50, 5, 50)))], root)
-    assert [p.name for p in added] == sorted(["image.png", "image-2.png", "K_che.png", "K_che-2.png"])
+    assert [p.name for p in added] == ["image.png", "image-2.png", "K_che.png", "K_che-2.png"]  # in the order given
     assert len(image_paths("kitchen", root)) == 4
     sounds = tmp_path / "sounds"
     with pytest.raises(CacasError, match=r"^clip\.mp3: a \.mp3 file is not taken; valid: \.wav, \.flac, \.ogg "
                                          r"\(upload a WAV, FLAC or OGG file or record one\); nothing was added$"):
         lab.add_clips("cough", [("take.wav", b"RIFF...."), ("clip.mp3", b"ID3....")], sounds)
     assert clip_paths("cough", sounds) == []
+
+
+def test_a_refusal_names_each_file_as_uploaded_and_calls_photos_photos(tmp_path):
+    """Walkthrough (Sounds and scenes): a refusal named an upload "my notes.png" by the name it would be stored
+    under, "my_notes.png", and said "2 of the 3 images cannot be used" on a page that says photos. A file
+    already in the library is named as stored there, where the researcher can find it."""
+    import io
+
+    from PIL import Image
+
+    flat = io.BytesIO()
+    Image.new("RGB", (40, 30), (10, 20, 30)).save(flat, format="PNG")
+    root = tmp_path / "scenes"
+    with pytest.raises(CacasError) as told:
+        lab.add_photos("kitchen", [("my notes.png", b"text"), ("good.png", _png()),
+                                   ("my flat photo.png", flat.getvalue())], root)
+    lines = str(told.value).split("\n- ")
+    assert lines[0] == "2 of the 3 photos cannot be used; nothing was added:"
+    assert [line.split(": ")[0] for line in lines[1:]] == ["my flat photo.png", "my notes.png"]
+    again = f"nothing was added (leave the copy out and press '{lab.ADD_BUTTON}' again)"
+    with pytest.raises(CacasError, match=re.escape(f"our sofa again.png: the same photo is given twice (also as "
+                                                   f"our sofa.png); {again}")):
+        lab.add_photos("kitchen", [("our sofa.png", _png()), ("our sofa again.png", _png())], root)
+    lab.add_photos("kitchen", [("our sofa.png", _png())], root)
+    with pytest.raises(CacasError, match=re.escape(f"sofa copy.png: the same photo is already in the library as "
+                                                   f"kitchen/our_sofa.png; {again}")):
+        lab.add_photos("kitchen", [("sofa copy.png", _png())], root)
+    # the sound library's word is the page's already ("recording")
+    with pytest.raises(CacasError, match=r"^2 of the 2 recordings cannot be used; nothing was added:\n- my notes\.wav: "):
+        lab.add_clips("cough", [("my notes.wav", b"text"), ("my other notes.wav", b"more text")], tmp_path / "s")
 
 
 def test_library_stamp_changes_when_a_folder_gains_a_file(study_data):

@@ -342,3 +342,29 @@ def test_incomplete_comparisons_agrees_with_a_participant_day_at_a_time_count():
     got = incomplete_comparisons(d)
     assert len(got) > 10 and got.to_dict("records") == expected
     assert all("bandit" not in m for m in got.loc[got["day"] == 2, "missing"])  # not scored that day at all
+
+
+def test_fig3_and_fig4_titles_sit_at_one_height_side_by_side():
+    """Simulation lab (Fig. 3 beside Fig. 4): Fig. 3's subtitle put its title and plot 20 px below Fig. 4's
+    (top margins 80 and 60, each title in the middle of its margin). Every figure of the two has the same
+    title block now: the same top margin, the title's top at the same height; what the titles say is as it was."""
+    d = pd.concat([daily(), daily().assign(method="orl")])
+    figs = {"fig3": success_figure(d), "fig4": methods_figure(d), "fig3 each": success_methods_figure(d),
+            "fig3 titled": success_figure(d, title="Success rate"), "fig4 titled": methods_figure(d, title="Fig. 4")}
+    blocks = {name: (f.layout.margin.t, f.layout.title.y, f.layout.title.yanchor, f.layout.title.yref,
+                     f.layout.title.pad.t) for name, f in figs.items()}
+    assert len(set(blocks.values())) == 1, blocks
+    assert blocks["fig3"][:3] == (80, 1, "top")  # the room Fig. 3's title and subtitle take, and from the top down
+    said = {name: (f.layout.title.text, f.layout.title.subtitle.text) for name, f in figs.items()}
+    assert said == {"fig3": ("Success rate and cumulative feedback", "CACAS, 2 participants"),
+                    "fig4": ("Preference prediction by method", None),
+                    "fig3 each": ("Success rate by method, each in its own closed loop", None),
+                    "fig3 titled": ("Success rate", None), "fig4 titled": ("Fig. 4", None)}
+
+
+def test_the_heatmaps_list_participants_by_code_whatever_its_letter_case():
+    """Rows by participant as a person reads the codes ("p01, R01, r02"; sorted as stored: "R01, p01, r02")."""
+    rows = pd.concat([by_preference().assign(participant=p) for p in ("r02", "R01", "p01")])
+    heat = preference_days_figure(rows, "nn").data[0]
+    who = [y.split(" · ")[0] for y in heat.y]
+    assert list(dict.fromkeys(who)) == ["p01", "R01", "r02"] and who == sorted(who, key=str.lower)

@@ -248,6 +248,26 @@ def test_participants_add_update_list(store):
     assert list(store.participants_frame()["participant"]) == ["P01", "P02", "Q1"]
 
 
+def test_participants_are_listed_by_code_whatever_its_letter_case(store, tmp_path):
+    """Walkthrough: the sidebar listed "P01, R01, p02, r03" (sorted as stored, capitals first). A person reads
+    codes case-blind: "P01, p02, R01, r03"; codes that differ only in letter case (a restored backup keeps
+    them) by the exact code, so the order is total. The exports keep the exact code's order."""
+    for code in ("r03", "R01", "p02"):
+        store.add_participant(code)
+    assert [p.code for p in store.list_participants()] == ["P01", "p02", "R01", "r03"]
+    assert [p.code for p in store.list_participants("default")] == ["P01", "p02", "R01", "r03"]
+    with sqlite3.connect(store.path) as c:  # as a restored backup holds them
+        c.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES (1, 'r01', 'x', 'x')")
+    assert [p.code for p in store.list_participants()] == ["P01", "p02", "R01", "r01", "r03"]
+    with pytest.raises(CacasError, match=r"known participants: P01, p02, R01, r01, r03$"):
+        store.get_participant("X9")
+    # what is exported is as it was: participants.csv and the persona file by the exact code
+    assert list(store.participants_frame()["participant"]) == ["P01", "R01", "p02", "r01", "r03"]
+    for code in ("R01", "p02"):
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+    assert [p["id"] for p in json.loads(store.export_personas())["participants"]] == ["R01", "p02"]
+
+
 @pytest.mark.parametrize("code", ["", "   ", "Jane Doe", "P" * 17, "a/b", "-x", None, 7])
 def test_bad_participant_code_is_refused(store, code):
     before = snapshot(store.path)
@@ -360,7 +380,7 @@ def test_no_suggestion_when_a_restored_study_keeps_two_codes_that_differ_only_in
     with sqlite3.connect(store.path) as c:  # as a restored backup holds them
         c.executemany("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES (1, ?, 'x', 'x')",
                       [("Ab",), ("aB",)])
-    with pytest.raises(CacasError, match=r"^unknown participant 'ab'; known participants: Ab, P01, aB$"):
+    with pytest.raises(CacasError, match=r"^unknown participant 'ab'; known participants: Ab, aB, P01$"):
         store.get_participant("ab")
     assert store.get_participant("aB").code == "aB"
 

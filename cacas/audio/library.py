@@ -160,7 +160,7 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     if any folder or file is bad, :class:`CacasError` names it and nothing is copied
     (:func:`cacas.media_library.import_folder`, shared with the scene library). Files keep
     their format; a name already in the library gets an ``imported_`` prefix and a number.
-    ``wording``: ``done`` and ``again`` of a refusal's message (``cacas.media_library.import_folder``).
+    ``wording``: ``done``, ``again`` and ``item`` of a refusal's message (``cacas.media_library.import_folder``).
     Returns the new paths.
     """
     root = Path(root) if root is not None else sounds_dir()

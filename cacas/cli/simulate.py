@@ -97,7 +97,7 @@ def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
         hint = f"did you mean {', '.join(meant)}? " if None not in meant else ""
         raise CacasError(f"--participants: {', '.join(unknown)} {'is' if len(unknown) == 1 else 'are'} not in "
                          f"{source}; {hint}{valid}")
-    twice = sorted({c for c in wanted if wanted.count(c) > 1})
+    twice = records.by_code({c for c in wanted if wanted.count(c) > 1})
     if twice:
         raise CacasError(f"--participants: {', '.join(twice)} given twice; {valid}")
     places = [i for i, c in enumerate(ids) if c in wanted]

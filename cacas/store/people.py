@@ -361,12 +361,14 @@ class PeopleMixin:
         return self._read(fn)
 
     def list_participants(self, study: str | None = None) -> list[ParticipantInfo]:
-        """Participants (of one study, or all), by code."""
+        """Participants (of one study, or all), by code regardless of letter case, as a person reads
+        them (:func:`cacas.records.code_order`); the exported tables keep the exact code's order."""
+        order = " ORDER BY lower(p.code), p.code"
         with self._lock:
             if study is None:
-                rows = self._conn.execute(self._PARTICIPANT_SQL + " ORDER BY p.code")
+                rows = self._conn.execute(self._PARTICIPANT_SQL + order)
             else:
-                rows = self._conn.execute(self._PARTICIPANT_SQL + " WHERE s.name = ? ORDER BY p.code", (study,))
+                rows = self._conn.execute(self._PARTICIPANT_SQL + " WHERE s.name = ?" + order, (study,))
             return [ParticipantInfo(*r) for r in rows]
 
     def participants_frame(self, study: str | None = None) -> pd.DataFrame:
@@ -490,7 +492,8 @@ class PeopleMixin:
     def export_personas(self, codes: Iterable[str] | None = None, study: str | None = None) -> str:
         """The persona file text (design.md) of the latest preferences of these participants
         (default: all, or all of ``study``); participants with no preferences are left out."""
-        wanted = [p.code for p in self.list_participants(study)] if codes is None else list(codes)
+        # an export: the exact code's order, as the file has always had (a list on a page reads case-blind)
+        wanted = sorted(p.code for p in self.list_participants(study)) if codes is None else list(codes)
         people = [p for p in (self.get_preferences(c) for c in wanted) if p is not None]
         return prefs.dumps_personas(people)
 

@@ -181,6 +181,6 @@ def import_folder(source: Path | str, root: Path | str | None = None, progress: 
     or nothing: every file is checked first (:func:`load_image`), and a bad folder or file is a
     CacasError naming it (:func:`cacas.media_library.import_folder`, shared with the sound
     library). A name already in the library gets an ``imported_`` prefix and a number.
-    ``wording``: ``done`` and ``again`` of a refusal's message (``cacas.media_library.import_folder``)."""
+    ``wording``: ``done``, ``again`` and ``item`` of a refusal's message (``cacas.media_library.import_folder``)."""
     root = Path(root) if root is not None else scenes_dir()
     return media_library.import_folder(source, root, SCENE_IMAGES, progress, **wording)

@@ -26,6 +26,20 @@ def test_overview_lists_participants_with_next_step(app, store):
     assert at.query_params["participant"] == ["P02"] or at.query_params["participant"] == "P02"
 
 
+def test_participants_are_listed_by_code_whatever_its_letter_case(app, store):
+    """Walkthrough: the sidebar offered "R01, p01, r02" (sorted as stored, capitals first); a person reads them
+    case-blind, as the Overview's table and the Results page's questionnaire list them too."""
+    for code in ("r02", "R01", "p01"):
+        store.add_participant(code)
+    at = app()
+    no_exception(at)
+    assert at.sidebar.selectbox(key="participant").options == ["p01", "R01", "r02"]
+    assert list(at.dataframe[0].value["participant"]) == ["p01", "R01", "r02"]
+    at.switch_page("pages/results.py").run()
+    no_exception(at)
+    assert next(b for b in at.selectbox if b.label == "Participant").options == ["p01", "R01", "r02"]
+
+
 def test_address_selects_the_participant(app, store):
     store.add_participant("P01")
     store.add_participant("P02")

@@ -65,9 +65,9 @@ def test_reject_no_response_and_user_requests(app, store, p01, quick_policy):
     # a picked request (type_2)
     _choose(at, activity="cough", scene="bedroom")
     at.selectbox(key="request-pick").set_value("pain check").run()
-    _button(at, "Ask").click().run()
+    _button(at, "Record").click().run()  # the researcher records what P01 asked for
     no_exception(at)
-    assert "Interaction 1 saved (you asked: check whether I am in pain; recorded as pain check)." in texts(at)
+    assert "Interaction 1 saved (P01 asked: check whether I am in pain; recorded as pain check)." in texts(at)
     # a typed request, matched and confirmed (type_2)
     _choose(at)
     at.text_input(key="request-text").set_value("please remind me to switch the stove off")
@@ -443,6 +443,26 @@ def test_an_answer_another_tab_gave_first_is_not_written_twice(app, store, p01, 
         "Set what you are doing again for the next one."]
 
 
+def test_the_request_form_speaks_to_the_participant_on_the_tablet_and_to_the_researcher_on_their_view(
+        app, store, p01, quick_policy):
+    """Walkthrough: the researcher's view said "Or ask the robot yourself", "choose what you would like" and
+    "Or type your request", the tablet's words to the participant. There it speaks to the researcher, who
+    records what the participant asked for; the tablet keeps its words."""
+    store.open_day("P01")
+    said = {}
+    for view in (None, "tablet"):  # first: the researcher's view follows a proposal the tablet shows
+        at = app(PAGE, participant="P01", **({"view": view} if view else {}))
+        _choose(at)
+        form = at.text_input(key="request-text")
+        said[view] = ([m.value for m in at.markdown if m.value.startswith("**Or ")],
+                      at.selectbox(key="request-pick").placeholder, form.label,
+                      [b.label for b in at.button if b.label in ("Ask", "Record", "Say it")])
+    assert said["tablet"] == (["**Or ask the robot yourself**"], "choose what you would like", "Or type your request",
+                              ["Ask", "Say it"])
+    assert said[None] == (["**Or record what P01 asked for**"], "choose what P01 asked for",
+                          "Or type P01's request, in their words", ["Record", "Say it"])
+
+
 def test_the_confirmation_names_what_the_request_names(app, store, p01, quick_policy):
     store.open_day("P01")
     at = app(PAGE, participant="P01")
@@ -476,6 +496,28 @@ def test_the_interval_reads_as_its_bin_everywhere(app, store, p01, quick_policy)
     at.run()
     table = at.dataframe[0].value
     assert list(table["robot heard"]) == ["(as set)", "sneeze"] and "robot saw" not in table.columns
+
+
+def test_the_days_table_shows_every_column_at_1280_px_with_names_whole(app, store, p01, quick_policy):
+    """Walkthrough: with what the robot heard and saw, the table of today's interactions had "robot saw" off the
+    right edge at 1280 px and "use hair dryer", "living room" cut at 1440 px (the data grid's own widths), while
+    the answer had room to spare. Every column has a width now, all of them fit the page at 1280 px (the table
+    stretches them on a wider page), and a row is three lines high: what is longer than its column wraps."""
+    room = 784  # the table's width at 1280 x 800 beside the sidebar (headless Chromium; app_support.TODAY_TABLE_ROOM)
+    store.open_day("P01")
+    store.record_interaction("P01", 1, activity="use hair dryer", scene="living room", hour=9, interval_minutes=5,
+                             robot_action="remind to take medicine", response="accept",
+                             recognised_activity="use hair dryer", recognised_scene="dining room")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    grid = at.dataframe[0]
+    widths = {name: config.get("width") for name, config in json.loads(grid.proto.columns).items()
+              if name != "_index"}
+    assert set(widths) == set(grid.value.columns) and None not in widths.values(), widths
+    assert all(isinstance(w, int) for w in widths.values()) and sum(widths.values()) <= room
+    # the names on one line ("use hair dryer", "living room": about 96 and 80 px), the rest wraps (more than 4rem)
+    assert min(widths[c] for c in ("activity", "robot heard")) >= 96 and min(widths["room"], widths["robot saw"]) >= 84
+    assert grid.proto.row_height > 64
 
 
 def test_a_request_the_robot_did_not_understand_is_also_a_toast_on_the_tablet(app, store, p01, quick_policy):
@@ -545,11 +587,12 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
         "Today's interactions (1 recorded, 1 not counted)"]
     # the answer's confirmation: numbered for the researcher (the day's table's index), plain on the tablet,
     # whose count of recorded interactions leaves the unanswered one out ("Interaction 3 saved" under "2 of 15")
-    for view, said in (({"view": "tablet"}, "Saved (you asked: "), ({}, "Interaction 4 saved (you asked: ")):
+    for view, said, label in (({"view": "tablet"}, "Saved (you asked: ", "Ask"),
+                              ({}, "Interaction 4 saved (P01 asked: ", "Record")):
         at = app(PAGE, participant="P01", **view)
         _choose(at)
         at.selectbox(key="request-pick").set_value("set a timer").run()
-        _button(at, "Ask").click().run()
+        _button(at, label).click().run()
         no_exception(at)
         assert [m.value for m in at.success if m.value.startswith(said)], (view, [m.value for m in at.success])
 

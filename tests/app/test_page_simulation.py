@@ -288,6 +288,24 @@ def test_a_participant_added_to_the_study_since_is_chosen_with_the_others(app, d
     assert at.multiselect[0].value == ["P01", "P02", "P04"]
 
 
+def test_the_studys_participants_are_offered_by_code_whatever_its_letter_case(app, db, store, held_run):
+    """Offered as the sidebar lists them ("p01, R01, r02"; sorted as stored: "R01, p01, r02"); a run keeps each
+    participant's place (random stream) in the exact code's order, as before."""
+    release, calls = held_run
+    for code in ("r02", "R01", "p01"):
+        store.add_participant(code)
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+    at = app(PAGE)
+    at.radio(key="sim-source").set_value("This study's participants").run()
+    assert at.multiselect[0].options == ["p01", "R01", "r02"] and at.multiselect[0].value == ["p01", "R01", "r02"]
+    at.multiselect[0].set_value(["r02", "p01"])
+    next(b for b in at.button if b.label == "Run simulation").click().run()
+    no_exception(at)
+    assert (calls[0]["participants"], calls[0]["places"]) == (["r02", "p01"], [2, 1])  # R01 p01 r02, as before
+    release()
+    assert RUNNER.get(f"simulate:{db}").wait(60)
+
+
 def _form(at):
     """What the form shows: the persona source, the participants, the sizes, methods and who acts."""
     sizes = {n.label: n.value for n in at.number_input}

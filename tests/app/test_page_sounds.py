@@ -338,7 +338,8 @@ def test_a_copy_is_refused_in_the_words_of_the_add_button(tmp_path):
 def test_a_long_clip_is_said_to_weigh_its_activity(app, tmp_path, monkeypatch):
     """Review: a 60-s clip was added without a word, though the model learns from it as from as many
     windows as seconds, more than a whole activity of the library holds: the page says so (the window
-    length taken from the features), and says nothing of a clip of usual length."""
+    length taken from the features), and says nothing of a clip of usual length. The clip is named as
+    uploaded, with the name it is stored under (walkthrough: "my_long_take.wav" for "my long take.wav")."""
     from cacas.audio.features import WINDOW_SECONDS
 
     at, data = _library_app(app, tmp_path, monkeypatch)  # cough: one 1-s clip
@@ -349,9 +350,9 @@ def test_a_long_clip_is_said_to_weigh_its_activity(app, tmp_path, monkeypatch):
     assert "Added 1 clip to 'cough'." in texts(at) and not [w for w in at.warning if "s long" in w.value]
     seconds = 12 * WINDOW_SECONDS
     n = round(seconds / WINDOW_SECONDS)
-    _add_clips(at, ("long.wav", _wav(seconds, rate=8000)))
+    _add_clips(at, ("my long take.wav", _wav(seconds, rate=8000)))  # named as uploaded, and as stored
     notes = [w.value for w in at.warning if "s long" in w.value]
-    assert notes == [f"long.wav is {seconds:.0f} s long: the sound model learns from {WINDOW_SECONDS:g}-s windows, "
+    assert notes == [f"my long take.wav (in the library as my_long_take.wav) is {seconds:.0f} s long: the sound model learns from {WINDOW_SECONDS:g}-s windows, "
                      f"so this one clip gives 'cough' {n} windows, more than a whole activity has (the other "
                      f"activities' median: 2). 'cough' has {1 + 2 + n} now and weighs more than the others in training: "
                      "clips of a few seconds, or more clips of the other activities, keep them even."]

@@ -520,7 +520,7 @@ def test_photos_of_a_room_are_added_to_the_scene_library_once(library_server, pa
     upload(page, page.locator("[role='tabpanel']:visible [data-testid='stFileUploaderDropzoneInput']").first, again)
     add.click()
     idle(page)
-    page.get_by_text("the same image is already in the library as kitchen/our_kitchen.png").wait_for(timeout=30_000)
+    page.get_by_text("the same photo is already in the library as kitchen/our_kitchen.png").wait_for(timeout=30_000)
     page.get_by_role("tab", name="Scene library").click()
     idle(page)
     shows(page, "241 photos for 6 of 6 rooms")
