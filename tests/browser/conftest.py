@@ -69,11 +69,21 @@ def _run_app(tmp: Path, port: int | None = None, **env):
     log.close()
 
 
+class AppURL(str):
+    """The app's base URL, with the path of its study database (``db``) for a test that sets up
+    what it needs without depending on an earlier test of its module."""
+
+    db: Path
+
+
 @pytest.fixture(scope="module")
 def server(tmp_path_factory, initial_policy):
-    """The app on a free port with a fresh study database; yields its base URL."""
+    """The app on a free port with a fresh study database; yields its base URL (an :class:`AppURL`)."""
     tmp = tmp_path_factory.mktemp("browser")
-    yield from _run_app(tmp, CACAS_DB=str(tmp / "study.sqlite"))
+    for url in _run_app(tmp, CACAS_DB=str(tmp / "study.sqlite")):
+        app = AppURL(url)
+        app.db = tmp / "study.sqlite"
+        yield app
 
 
 @pytest.fixture(scope="module")

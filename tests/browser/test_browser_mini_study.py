@@ -432,7 +432,17 @@ def test_importing_a_persona_file_says_so(server, page):
     """After an import the page opens the first participant's preferences, so the confirmation
     is a toast: it was drawn in the Import tab, out of sight."""
     from cacas.paths import study_data_dir
+    from cacas.store import StudyStore
 
+    # the mini study's P01 (under way, with preferences of their own), made here when this test runs alone
+    store = StudyStore(server.db)
+    try:
+        if "P01" not in [p.code for p in store.list_participants()]:
+            store.add_participant("P01")
+            store.save_preferences("P01", [{"activity": ["use hair dryer"], "action": "remind to take medicine"}])
+            store.open_day("P01")
+    finally:
+        store.close()
     goto(page, f"{server}/participants")
     page.get_by_role("tab", name="Import / export").click()
     idle(page)
