@@ -584,16 +584,12 @@ def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Pa
             twins = f"participants.csv holds participants {first} and {code}, whose codes differ only in letter case"
             break
     beside = ""
-    if twins is None:
-        found, _ = store._read_beside("SELECT code FROM participants")
-        for name, theirs in sorted(found.items()):
-            folded = {str(c).casefold(): str(c) for c in theirs}
-            hit = next((c for c in codes if c.casefold() in folded and folded[c.casefold()] != c), None)
-            if hit is not None:
-                twins = (f"participant {hit} differs only in letter case from participant {folded[hit.casefold()]} of "
-                         f"the study database {name} beside {db_path.name}")
-                beside = "another folder for the new database, or "
-                break
+    hit = store._case_twin_beside(codes) if twins is None else None
+    if hit is not None:
+        code, twin, name = hit
+        twins = f"participant {code} differs only in letter case from participant {twin} of the study database {name} " \
+                f"beside {db_path.name}"
+        beside = "another folder for the new database, or "
     if twins is None or not files.ignores_letter_case(store.policy_dir):
         return
     raise CacasError(f"{bundle}: {twins}; the file system of {db_path.parent} does not tell letter case apart (as "
