@@ -79,13 +79,17 @@ def _sync_participant(store) -> None:
                                           else latest if latest in studies else studies[0])
 
 
-def _address(store) -> dict[str, str | None]:
-    """The address's participant, day and study (None: left out) for the session's choice."""
+def _address(store, status=None) -> dict[str, str | None]:
+    """The address's participant, day and study (None: left out) for the session's choice;
+    ``status``: the participant's :func:`day_status`, if the caller has it (the sidebar: each is a
+    few queries, and one of the day's interactions)."""
     code = st.session_state.get(ui.PARTICIPANT_KEY)
     study = st.session_state.get(ui.STUDY_KEY)
+    if code and status is None:
+        status = day_status(store, code)
     # "default" too once there are other studies: a reload without it opened the study last active
     # (walkthrough: "default" chosen, a refresh showed another study's participants)
-    return {"participant": code or None, "day": str(day_status(store, code).day_on_screen) if code else None,
+    return {"participant": code or None, "day": str(status.day_on_screen) if code else None,
             "study": study if study is not None and (study != "default" or len(store.studies()) > 1) else None}
 
 
@@ -137,6 +141,7 @@ def _sidebar(store, page) -> dict[str, str | None]:
                      on_change=_on_participant_change,
                      help="Pseudonymous codes only. Add participants on the Participants page.")
         code = st.session_state.get(ui.PARTICIPANT_KEY)
+        status = None
         if code:
             status = day_status(store, code)
             if status.day == 0:
@@ -156,7 +161,7 @@ def _sidebar(store, page) -> dict[str, str | None]:
         if store.created and os.environ.get(DB_ENV) and not codes and studies == [DEFAULT_STUDY]:
             st.info(f"New: this server created it, empty. If you meant an existing database, check ${DB_ENV} and "
                     "start the app again.", icon=":material/new_releases:")
-    address = _address(store)
+    address = _address(store, status)  # the participant's status read above, not again
     _page_links(links, address)
     return address
 

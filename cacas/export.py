@@ -82,8 +82,10 @@ class ExportResult:
 
     tables: dict[str, Path]
     bundle: Path | None  # None: tables only
-    removed: tuple[Path, ...] = ()  # an earlier export's zip beside tables it no longer matches
+    removed: tuple[Path, ...] = ()  # an earlier export's zip beside tables-only tables it does not hold
     remains: str = ""  # what an earlier export stopped part-way left in the folder (files.remains), replaced
+    removed_why: str = ""  # why ``removed`` was: "it no longer matches these tables", or it cannot be read
+    kept: Path | None = None  # an earlier export's zip a tables-only export kept: it holds these same tables
 
 
 def runs_in_force(interactions: pd.DataFrame, adaptations: pd.DataFrame, days: pd.DataFrame) -> pd.DataFrame:
@@ -371,7 +373,9 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
                  bundle: bool = True) -> ExportResult:
     """Write every table as ``<out_dir>/<table>.csv`` and all of them (with the policy
     checkpoints) as ``<out_dir>/cacas-study.zip``; with ``bundle=False`` the tables only (they
-    need no checkpoint file, so a missing or damaged one does not stop them).
+    need no checkpoint file, so a missing or damaged one does not stop them), and an earlier
+    export's zip there is kept if it holds these same tables (:func:`earlier_zip_differs`: it
+    holds every checkpoint they name, maybe one missing now), else removed.
 
     ``db`` is an open StudyStore or the path of a study database; a path is checked and opened
     read-only *before* anything is created, so a missing file or one that is not a study
@@ -381,13 +385,41 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     check_output_folder(out_dir, "export", str(out_dir))
     out = files.writable_folder(out_dir, str(out_dir))
     remains = files.remains(out, [*contents, BUNDLE_NAME])
-    paths = files.write_all(out, contents, checksums=True)
     stale = out / BUNDLE_NAME
-    removed = ()
-    if not bundle and stale.is_file():  # an earlier export's zip beside these tables would hold other data
+    earlier, why = None, ""
+    if not bundle and stale.is_file():  # an earlier export's zip: kept only if it holds these very tables
+        try:
+            earlier = stale.read_bytes()
+        except OSError:
+            earlier = None
+        why = earlier_zip_differs(earlier, contents)
+        if not why:  # a whole bundle of this study as it is (with the policy files these tables need): kept,
+            contents = {**contents, BUNDLE_NAME: earlier}  # listed in checksums.sha256 (rewritten as it is)
+    paths = files.write_all(out, contents, checksums=True)
+    removed: tuple[Path, ...] = ()
+    if why:  # beside these tables it would hold other data
         stale.unlink()
         removed = (stale,)
-    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME), removed, remains)
+    return ExportResult({name: paths[f"{name}.csv"] for name in TABLES}, paths.get(BUNDLE_NAME) if bundle else None,
+                        removed, remains, why, stale if earlier is not None and not why else None)
+
+
+def earlier_zip_differs(data: bytes | None, contents: dict[str, bytes]) -> str:
+    """Why an earlier export's zip (its bytes; None: it cannot be read) does not go with the
+    tables of ``contents`` (:func:`export_contents`, name -> bytes), in words for "removed ... (it
+    ...)"; "" when it does: a whole zip (every member's CRC checked) of this bundle format whose
+    tables are, byte for byte, these (so its policy files are those these tables name)."""
+    unreadable = "it cannot be read as an export's zip (damaged, or not one)"
+    if data is None:
+        return unreadable
+    try:
+        with zipfile.ZipFile(io.BytesIO(data)) as zf:
+            if zf.testzip() is not None or zf.read(MANIFEST_NAME) != manifest_bytes():
+                return unreadable
+            same = all(zf.read(f"{name}.csv") == contents[f"{name}.csv"] for name in TABLES)
+    except (zipfile.BadZipFile, zlib.error, KeyError, OSError, EOFError, NotImplementedError, ValueError):
+        return unreadable
+    return "" if same else "it no longer matches these tables"
 
 
 def bundle_bytes(db: StudyStore | str | Path, study: str | None = None) -> bytes:
@@ -584,16 +616,12 @@ def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Pa
             twins = f"participants.csv holds participants {first} and {code}, whose codes differ only in letter case"
             break
     beside = ""
-    if twins is None:
-        found, _ = store._read_beside("SELECT code FROM participants")
-        for name, theirs in sorted(found.items()):
-            folded = {str(c).casefold(): str(c) for c in theirs}
-            hit = next((c for c in codes if c.casefold() in folded and folded[c.casefold()] != c), None)
-            if hit is not None:
-                twins = (f"participant {hit} differs only in letter case from participant {folded[hit.casefold()]} of "
-                         f"the study database {name} beside {db_path.name}")
-                beside = "another folder for the new database, or "
-                break
+    hit = store._case_twin_beside(codes) if twins is None else None
+    if hit is not None:
+        code, twin, name = hit
+        twins = f"participant {code} differs only in letter case from participant {twin} of the study database {name} " \
+                f"beside {db_path.name}"
+        beside = "another folder for the new database, or "
     if twins is None or not files.ignores_letter_case(store.policy_dir):
         return
     raise CacasError(f"{bundle}: {twins}; the file system of {db_path.parent} does not tell letter case apart (as "

@@ -36,6 +36,36 @@ SYNTHETIC_CLIP_SECONDS = (1.0, 10.0)
 SYNTHETIC_IMAGE_SIDE = (32, 1024)
 
 
+class Generated(list):
+    """The files a SYNTHETIC generator wrote (a list of paths, as before), with those of them that
+    replaced a file of the same name holding other content (``replaced``: the generator's
+    ``replace=True``; without it such a run is refused, :func:`refuse_replacing`), and the files
+    it removed (``removed``: the same clip in another format, which would have been in the library
+    twice)."""
+
+    def __init__(self, paths=(), replaced=(), removed=()):
+        super().__init__(paths)
+        self.replaced = list(replaced)
+        self.removed = list(removed)
+
+
+_SYNTHETIC = re.compile(r"synthetic_(\d+)_\d+\.[^.]+")
+
+
+def refuse_replacing(path: Path, holds: str, seed: int, root: Path, extensions, item: str) -> CacasError:
+    """The refusal of a SYNTHETIC generator's run that would replace ``path`` (a file of the name
+    it writes, which ``holds`` other content: a shipped clip or image, or an earlier run's) without
+    ``replace``: what it holds, and the ways on (a seed the library has no files of yet, another
+    library, or ``--replace``). Nothing is written then (the generator raises it before placing)."""
+    seeds = {int(m[1]) for f in Path(root).glob("*/synthetic_*")
+             if (m := _SYNTHETIC.fullmatch(f.name)) and f.suffix.lower() in extensions}
+    free = next(n for n in range(seed + 1, seed + len(seeds) + 2) if n not in seeds)
+    return CacasError(f"{path}: holds {holds}; a run of seed {seed} writes its {item}s under these names and would "
+                      f"replace the library's (the shipped ones, or an earlier run's); valid: --seed {free} for new "
+                      f"{item}s beside them, --out DIR for a library of its own, or --replace to replace them; "
+                      "nothing was written")
+
+
 def slug(name: str) -> str:
     """Filesystem-safe folder name of a Table I name: "watch TV" -> "watch_tv"."""
     return re.sub(r"[^a-z0-9]+", "_", name.strip().lower()).strip("_")

@@ -16,6 +16,7 @@ import signal
 import threading
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from multiprocessing.managers import SyncManager
+from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from cacas.jobs import Stopped
@@ -37,18 +38,94 @@ def cores() -> int:
     return max(1, os.cpu_count() or 1)
 
 
+#: Where Linux shows the memory of the machine and of this process's control group (a container's
+#: memory limit, a systemd unit's MemoryMax, a job scheduler's share). Tests point these elsewhere.
+PROC_MEMINFO = Path("/proc/meminfo")
+PROC_CGROUP = Path("/proc/self/cgroup")
+CGROUP_ROOT = Path("/sys/fs/cgroup")
+#: A cgroup v1 limit this large is "no limit" (the kernel writes 2**63 rounded down to a page).
+_NO_LIMIT = 2**60
+
+
 def available_memory() -> int | None:
-    """Bytes of memory new processes can take without swapping: Linux's own estimate,
-    MemAvailable in /proc/meminfo; None where it cannot be read (another system). A container's
-    memory limit is not read."""
+    """Bytes of memory new processes can take without swapping or being killed for it: Linux's own
+    estimate, MemAvailable in /proc/meminfo, or less where this process's control group (a
+    container's) has a memory limit that leaves less (:func:`cgroup_available_memory`); None where
+    neither can be read (another system)."""
+    found = []
     try:
-        with open("/proc/meminfo") as f:
+        with open(PROC_MEMINFO) as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
-                    return int(line.split()[1]) * 1024
+                    found.append(int(line.split()[1]) * 1024)
+                    break
     except (OSError, ValueError, IndexError):
         pass
-    return None
+    limited = cgroup_available_memory()
+    if limited is not None:
+        found.append(limited)
+    return min(found) if found else None
+
+
+def _read_number(path: Path) -> int | None:
+    """The whole number a cgroup file holds; None if missing, unreadable or "max" (no limit)."""
+    try:
+        text = path.read_text().strip()
+    except OSError:
+        return None
+    return int(text) if text.isdigit() else None
+
+
+def _reclaimable(folder: Path, keys: tuple[str, ...]) -> int:
+    """The page cache the kernel can drop for new processes (inactive file pages), from the
+    ``memory.stat`` in ``folder``: the first of ``keys`` it holds; 0 if none."""
+    try:
+        stat = dict(line.split()[:2] for line in (folder / "memory.stat").read_text().splitlines()
+                    if len(line.split()) >= 2)
+    except OSError:
+        return 0
+    for key in keys:
+        if stat.get(key, "").isdigit():
+            return int(stat[key])
+    return 0
+
+
+def cgroup_available_memory() -> int | None:
+    """Bytes this process's control group (a container's, a systemd unit's) can still take before
+    its memory limit, at the tightest of its own and its ancestors' limits: the limit less what the
+    group uses, not counting the page cache the kernel drops for new processes (inactive file
+    pages; ``memory.current`` counts all of the cache, which would understate it). cgroup v2:
+    ``memory.max`` ("max": no limit), ``memory.current``, ``memory.stat``'s ``inactive_file``;
+    v1: ``memory.limit_in_bytes``, ``memory.usage_in_bytes``, ``total_inactive_file``. None where
+    no limit is set or none can be read (another system, no cgroup file system)."""
+    try:
+        lines = PROC_CGROUP.read_text().splitlines()
+    except OSError:
+        return None
+    groups = []  # (the hierarchy's folder, this process's group in it, its files' names)
+    for line in lines:
+        parts = line.split(":", 2)
+        if len(parts) != 3:
+            continue
+        _, controllers, where = parts
+        if controllers == "" and (CGROUP_ROOT / "cgroup.controllers").exists():  # v2, mounted at the root
+            groups.append((CGROUP_ROOT, where, ("memory.max", "memory.current", ("inactive_file",))))
+        elif "memory" in controllers.split(","):  # v1's memory controller
+            groups.append((CGROUP_ROOT / "memory", where, ("memory.limit_in_bytes", "memory.usage_in_bytes",
+                                                            ("total_inactive_file", "inactive_file"))))
+    found = []
+    for root, where, (limit_name, usage_name, cache_keys) in groups:
+        # the group and every group above it up to the root (in a container, often the root alone:
+        # its own group is the root of what it sees, and the path named may not be there)
+        folder = root.joinpath(*[part for part in where.split("/") if part not in ("", ".", "..")])
+        chain = [folder, *folder.parents]
+        for level in chain[:chain.index(root) + 1] if root in chain else [root]:
+            limit = _read_number(level / limit_name)
+            usage = _read_number(level / usage_name)
+            if limit is None or usage is None or limit >= _NO_LIMIT:
+                continue
+            found.append(max(0, limit - max(0, usage - _reclaimable(level, cache_keys))))
+    return min(found) if found else None
 
 
 def memory_jobs() -> int | None:

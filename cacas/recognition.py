@@ -290,12 +290,13 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict, str]:
     except Exception as exc:
         raise CacasError(f"{path}: not a readable {kind} model ({' '.join(str(exc).split())[:120]}); "
                          f"{expected}") from None
-    if meta.get("model_id") not in (None, model_id(data)):  # written by save_model since ids were recorded
+    file_id = model_id(data)  # hashed once (the shipped scene model, 11 MB: ~10 ms a hash)
+    if meta.get("model_id") not in (None, file_id):  # written by save_model since ids were recorded
         raise CacasError(f"{path}: its metadata {meta_path.name} belongs to other weights (model id "
-                         f"{meta['model_id']}; this file's is {model_id(data)}): a save was interrupted or one "
+                         f"{meta['model_id']}; this file's is {file_id}): a save was interrupted or one "
                          f"of the two files was copied without the other; put back the previous {kind} model "
                          f"if one is kept (`cacas {kind} put-back`), or train it again")
-    return tensors, meta, model_id(data)
+    return tensors, meta, file_id
 
 
 _TRAINING = threading.Lock()

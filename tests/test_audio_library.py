@@ -50,14 +50,51 @@ def test_generate_and_clip_paths(tmp_path):
 def test_generating_a_seed_again_leaves_its_clips_bytes_alone(tmp_path):
     """The OGG encoder stamps a random serial number: without the check, the same audio would be
     written with other bytes (the shipped clips showed as modified in git). A clip whose audio
-    changed, or an unreadable one, is rewritten."""
+    changed, or an unreadable one, is rewritten with ``replace`` (below: refused without it)."""
     paths = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"])
     before = [p.read_bytes() for p in paths]
-    assert library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"]) == paths
+    again = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"])
+    assert again == paths and again.replaced == []
     assert [p.read_bytes() for p in paths] == before
     paths[0].write_bytes(b"not audio")
-    library.generate_library(2, seconds=2.0, root=tmp_path, activities=["cough"])  # other audio: longer clips
+    # other audio: longer clips
+    assert library.generate_library(2, seconds=2.0, root=tmp_path, activities=["cough"], replace=True).replaced == paths
     assert len(library.load_clip(paths[0])) == 2 * library.SAMPLE_RATE and paths[1].read_bytes() != before[1]
+
+
+def test_generating_other_clips_under_the_names_of_the_librarys_is_refused_without_replace(tmp_path):
+    """CLI audit: `cacas sound generate --seconds 1` (seed 0) replaced the shipped 2-s clips of the
+    same names with 1-s ones without a word ("66 synthetic clips of seed 0 ..."), and `--format
+    flac` put each shipped clip in the library twice (the .ogg and a .flac of the same audio, which
+    a held-out split could put on both sides). Both are refused, naming the file, what it holds and
+    the ways on, and nothing is written; with ``replace`` they are replaced (the other format's
+    removed) and said."""
+    shipped = library.generate_library(2, seconds=2.0, root=tmp_path, activities=["cough", "sneeze"])
+    library.generate_library(1, seconds=2.0, seed=1, root=tmp_path, activities=["cough"])
+
+    def tree():
+        return {p.relative_to(tmp_path).as_posix(): p.read_bytes() for p in sorted(tmp_path.rglob("*")) if p.is_file()}
+
+    before = tree()
+    with pytest.raises(CacasError) as err:
+        library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough", "sneeze"])
+    assert str(err.value) == (
+        f"{shipped[0]}: holds other audio than this run writes there (a 2-s clip; this run's: 1 s); a run of seed 0 "
+        "writes its clips under these names and would replace the library's (the shipped ones, or an earlier "
+        "run's); valid: --seed 2 for new clips beside them, --out DIR for a library of its own, or --replace to "
+        "replace them; nothing was written")
+    with pytest.raises(CacasError, match=r"cough/synthetic_0_000\.ogg: holds the clip this run writes as "
+                                         r"synthetic_0_000\.flac, in another format \(the library would hold it "
+                                         r"twice\); .*nothing was written$"):
+        library.generate_library(2, seconds=2.0, root=tmp_path, activities=["cough", "sneeze"], fmt="flac")
+    assert tree() == before
+    done = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough", "sneeze"], replace=True)
+    assert done == done.replaced == shipped and done.removed == []
+    assert all(len(library.load_clip(p)) == library.SAMPLE_RATE for p in shipped)
+    flac = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough", "sneeze"], fmt="flac",
+                                    replace=True)
+    assert flac.replaced == [] and flac.removed == shipped and not any(p.exists() for p in shipped)
+    assert len(library.scan(tmp_path)) == 5  # 2 x 2 clips of seed 0, once each, and seed 1's
 
 
 def test_generate_refuses_bad_arguments(tmp_path):

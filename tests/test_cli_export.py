@@ -6,6 +6,7 @@ import sqlite3
 import pytest
 
 import cacas.cli as cli
+from cacas import export
 from cacas.store import StudyStore
 from unwritable import unwritable_folder  # noqa: F401
 
@@ -272,9 +273,37 @@ def test_tables_only_removes_an_earlier_exports_zip(run, study, tmp_path, capsys
     capsys.readouterr()
     assert run("export", "--db", study, "--out", tmp_path / "out", "--tables-only") == 0
     assert not (tmp_path / "out" / "cacas-study.zip").exists()
-    assert f"removed an earlier export's {tmp_path / 'out' / 'cacas-study.zip'}" in capsys.readouterr().out
+    assert f"removed an earlier export's {tmp_path / 'out' / 'cacas-study.zip'} (it no longer matches these tables)\n" \
+        in capsys.readouterr().out
     assert (tmp_path / "out" / "questionnaire.csv").read_text().count("\n") == 3  # header and both answers
 
+
+
+def test_tables_only_keeps_an_earlier_exports_zip_that_holds_the_same_tables(run, study, tmp_path, capsys):
+    """CLI audit: --tables-only said the earlier zip "no longer matches these tables" (and removed
+    it) when nothing had changed. A zip holding these same tables is kept (it holds the policy files
+    they name: --tables-only is what to run when one is missing now) and listed in checksums.sha256;
+    one that does not is removed, saying why, only then that it no longer matches."""
+    from cacas.store import files
+
+    out = tmp_path / "out"
+    zipped = out / "cacas-study.zip"
+    assert run("export", "--db", study, "--out", out) == 0
+    before = zipped.read_bytes()
+    with StudyStore(study) as s:
+        s.active_policy("P01").path.unlink()  # the zip cannot be made again now; the tables can
+    capsys.readouterr()
+    assert run("export", "--db", study, "--out", out, "--tables-only") == 0
+    said = capsys.readouterr().out
+    assert "no longer matches" not in said and "removed" not in said
+    assert f"kept an earlier export's {zipped}: it holds these same tables and the policy files they name\n" in said
+    assert zipped.read_bytes() == before and files.mismatched(out) == []
+    assert export.import_bundle(zipped, tmp_path / "back" / "study.sqlite").interactions == 1
+    zipped.write_bytes(before[: len(before) // 2])  # cut short: not a whole zip
+    assert run("export", "--db", study, "--out", out, "--tables-only") == 0
+    assert f"removed an earlier export's {zipped} (it cannot be read as an export's zip (damaged, or not one))\n" in \
+        capsys.readouterr().out
+    assert not zipped.exists() and files.mismatched(out) == []
 
 def test_import_of_a_study_with_a_code_like_a_date_restores_it_and_prints_a_note(run, tmp_path, capsys, monkeypatch):
     """A code added before such codes were refused for new participants is the study's own: its

@@ -378,6 +378,35 @@ def test_sound_generate_reports_the_size_of_the_clips_only(tmp_path, capsys):
     assert int(found.group(1)) == len(clips) == 33 and float(found.group(2)) == round(size, 1)
 
 
+
+@pytest.mark.parametrize("kind,first,other,item", [
+    ("sound", ["--clips", "1", "--seconds", "2"], ["--seconds", "1"], "clip"),
+    ("scene", ["--images", "1", "--size", "48"], ["--size", "32"], "image")])
+def test_a_generate_that_would_replace_the_librarys_files_is_refused_without_replace(kind, first, other, item,
+                                                                                      tmp_path, capsys):
+    """CLI audit: `cacas sound generate --seconds 1` replaced the shipped 2-s clips of seed 0 with
+    1-s ones, saying only "66 synthetic clips of seed 0 ..." (and `scene generate --size 64` the
+    shipped 128-px images). A researcher asking for shorter clips may mean new ones beside these or
+    these replaced: without --replace it is refused (exit 2, one line saying what to do, nothing
+    written); with it, done and said."""
+    lib = tmp_path / "lib"
+    assert main([kind, "generate", *first, "--out", str(lib)]) == 0
+    capsys.readouterr()
+    before = {p: p.read_bytes() for p in lib.rglob("*") if p.is_file()}
+    assert main([kind, "generate", *first[:2], *other, "--out", str(lib)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"cacas: error: {lib}/") and err.endswith(
+        f"valid: --seed 1 for new {item}s beside them, --out DIR for a library of its own, or --replace to replace "
+        "them; nothing was written\n"), err
+    assert {p: p.read_bytes() for p in lib.rglob("*") if p.is_file()} == before
+    n = 33 if kind == "sound" else 6
+    assert main([kind, "generate", *first[:2], *other, "--out", str(lib), "--replace"]) == 0
+    out = capsys.readouterr().out
+    assert f"replaced {n} {item}s of the same name that held " in out
+    assert len([p for p in lib.rglob("*") if p.is_file()]) == len(before)
+    assert main([kind, "generate", *first[:2], *other, "--out", str(lib)]) == 0  # the same again: nothing to replace
+    assert "replaced" not in capsys.readouterr().out
+
 @pytest.mark.parametrize("command", [["sound", "generate", "--clips", "1", "--seconds", "1"],
                                      ["scene", "generate", "--images", "1", "--size", "32"],
                                      ["sound", "import", "MINE"], ["scene", "import", "MINE"]])

@@ -271,3 +271,78 @@ def test_available_memory_is_read_from_linux_meminfo():
         pytest.skip("/proc/meminfo is Linux's")
     total = next(int(line.split()[1]) * 1024 for line in open("/proc/meminfo") if line.startswith("MemTotal:"))
     assert 0 < parallel.available_memory() <= total
+
+
+
+def _fake_linux(tmp_path, monkeypatch, membership: str, available_gb: float = 16):
+    """A fake /proc (meminfo, self/cgroup) and /sys/fs/cgroup under ``tmp_path``; returns the fake
+    cgroup root."""
+    import cacas.parallel as parallel
+
+    (tmp_path / "meminfo").write_text(f"MemTotal:       {32 * 2**20} kB\n"
+                                      f"MemFree:        {2**20} kB\n"
+                                      f"MemAvailable:   {int(available_gb * 2**20)} kB\n")
+    (tmp_path / "cgroup").write_text(membership)
+    root = tmp_path / "sys" / "fs" / "cgroup"
+    root.mkdir(parents=True)
+    monkeypatch.setattr(parallel, "PROC_MEMINFO", tmp_path / "meminfo")
+    monkeypatch.setattr(parallel, "PROC_CGROUP", tmp_path / "cgroup")
+    monkeypatch.setattr(parallel, "CGROUP_ROOT", root)
+    return root
+
+
+def _group(folder, **files):
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in files.items():
+        (folder / name.replace("_", ".", 1)).write_text(f"{text}\n")
+
+
+def test_a_containers_memory_limit_caps_the_available_memory_cgroup_v2(tmp_path, monkeypatch):
+    """CLI audit: --jobs' memory cap read MemAvailable alone, the machine's; in a container limited
+    to 2 GB on a 32 GB machine it planned 16 GB of workers, and the kernel killed them. The limit
+    less the group's use counts, not its page cache the kernel drops (inactive_file): memory.current
+    counts the cache too. The tightest of the group's and its ancestors' limits holds."""
+    import cacas.parallel as parallel
+
+    root = _fake_linux(tmp_path, monkeypatch, "0::/\n")
+    _group(root, cgroup_controllers="cpu memory", memory_max=2 * 2**30, memory_current=int(1.5 * 2**30),
+           memory_stat=f"anon {2**29}\nfile {2**30}\ninactive_file {2**29}\nactive_file {2**29}")
+    assert parallel.available_memory() == 2**30  # 2 GB - (1.5 GB - 0.5 GB of cache it can drop)
+    monkeypatch.setattr(parallel, "cores", lambda: 8)
+    assert parallel.default_jobs() == 1
+    jobs, notes = parallel.plan_jobs(4, 10)
+    assert jobs == 1 and "and 1.0 GB of memory is available; running 1" in notes[0]
+    (root / "memory.max").write_text("max\n")  # no limit: the machine's MemAvailable
+    assert parallel.available_memory() == 16 * 2**30
+    assert parallel.default_jobs() == 8
+    # a systemd unit or a job scheduler's group below the root, limited above it
+    (tmp_path / "cgroup").write_text("0::/user.slice/job-7\n")
+    _group(root / "user.slice", memory_max=3 * 2**30, memory_current=2**30)
+    _group(root / "user.slice" / "job-7", memory_max="max", memory_current=2**29)
+    assert parallel.available_memory() == 2 * 2**30
+    _group(root / "user.slice" / "job-7", memory_max=2**30, memory_current=2**29)
+    assert parallel.available_memory() == 2**29
+
+
+def test_a_containers_memory_limit_caps_the_available_memory_cgroup_v1(tmp_path, monkeypatch):
+    """cgroup v1 (older Docker, this machine): memory.limit_in_bytes, a huge number when there is no
+    limit; inside a container the group's path named in /proc/self/cgroup is often not there (the
+    container sees its own group as the root)."""
+    import cacas.parallel as parallel
+
+    root = _fake_linux(tmp_path, monkeypatch, "5:cpuacct,cpu:/docker/abc\n4:memory:/docker/abc\n0::/\n")
+    _group(root / "memory", memory_limit_in_bytes=3 * 2**30, memory_usage_in_bytes=2**30,
+           memory_stat=f"cache {2**29}\ninactive_file 0\ntotal_inactive_file {2**28}")
+    assert parallel.available_memory() == 2 * 2**30 + 2**28
+    (root / "memory" / "memory.limit_in_bytes").write_text("9223372036854771712\n")  # no limit
+    assert parallel.available_memory() == 16 * 2**30
+
+
+def test_without_a_cgroup_file_system_the_machines_memory_is_used(tmp_path, monkeypatch):
+    import cacas.parallel as parallel
+
+    _fake_linux(tmp_path, monkeypatch, "0::/\n", available_gb=3)  # v2 named, nothing mounted
+    assert parallel.cgroup_available_memory() is None and parallel.available_memory() == 3 * 2**30
+    (tmp_path / "cgroup").unlink()
+    (tmp_path / "meminfo").unlink()
+    assert parallel.available_memory() is None

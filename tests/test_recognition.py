@@ -27,6 +27,22 @@ def test_save_then_load_gives_the_tensors_and_metadata(sound_file):
     assert file_id == hashlib.sha256(sound_file.read_bytes()).hexdigest()[:12] == model_id(sound_file)
 
 
+
+def test_loading_a_model_hashes_its_file_once(sound_file, monkeypatch):
+    """Helper's profile: the model id was computed twice per load (the check against the metadata
+    and the value returned), each a sha256 of the whole file (~10 ms for the shipped scene model)."""
+    data = sound_file.read_bytes()
+    hashed = []
+    real = hashlib.sha256
+
+    def counting(*args, **kwargs):
+        if args and bytes(args[0]) == data:
+            hashed.append(1)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(hashlib, "sha256", counting)
+    assert load_model_file(sound_file, "sound")[2] == real(data).hexdigest()[:12]
+    assert len(hashed) == 1
+
 def test_metadata_that_names_other_weights_is_refused(sound_file, tmp_path):
     """Weights replaced without their metadata (an interrupted save, one file copied over): the
     pair is refused, naming both ids, not loaded with another model's classes and accuracy."""

@@ -431,6 +431,40 @@ def test_notes_that_are_too_long_or_not_text_are_refused(store):
     assert store.add_participant("P03", notes="x" * 2000).notes == "x" * 2000
 
 
+
+def test_a_case_twin_of_a_participant_in_a_database_beside_is_refused_where_letter_case_is_not_told_apart(
+        store, tmp_path, monkeypatch):
+    """Safety audit L4 follow-up: the forms looked at their own database only, so a pilot's p01 was
+    added beside the main study's P01, and on a file system that does not tell letter case apart
+    (macOS's default) the two share policies/P01/. Adding it (by the form, or from a persona file)
+    is refused there with one message, as an import is, and nothing is written; the same code (a
+    copy of the same person, whose files a removal keeps) and a case twin where the file system
+    tells letter case apart are added. The probe is told the disk is case-blind, as in the L4 tests."""
+    from cacas.store import files
+
+    pilot = StudyStore(tmp_path / "pilot.sqlite")
+    before = snapshot(pilot.path)
+    monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+    said = (f"participant p01 differs only in letter case from participant P01 of the study database study.sqlite "
+            f"beside this one; the file system of {tmp_path} does not tell letter case apart (as macOS's and "
+            "Windows' do by default), so they would share one folder of policy files, and removing one would delete "
+            "the other's; valid: a code that differs from P01 in more than letter case; ")
+    with pytest.raises(CacasError) as err:
+        pilot.add_participant("p01")
+    assert str(err.value) == said + "nothing was added"
+    with pytest.raises(CacasError) as err:
+        pilot.import_personas({"participants": [{"id": "P02", "preferences": [COUGH]},
+                                                {"id": "p01", "preferences": [COUGH]}]}, source="personas.json")
+    assert str(err.value) == "personas.json: " + said + "nothing was imported"
+    assert snapshot(pilot.path) == before
+    with StudyStore(tmp_path / "copy.sqlite") as copy:
+        assert copy.add_participant("P01").code == "P01"
+    monkeypatch.undo()
+    if files.ignores_letter_case(tmp_path):  # pragma: no cover - this machine's disk does not tell letter case apart
+        return
+    assert pilot.add_participant("p01").code == "p01"
+    pilot.close()
+
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\); codes must be "

@@ -290,3 +290,35 @@ def test_ctrl_c_while_a_save_waits_for_the_policies_lock_closes_its_descriptor(t
     assert len(opened) == 1
     with pytest.raises(OSError):  # closed again
         os.fstat(opened[0])
+
+
+def test_a_cut_short_save_keeps_a_file_a_case_twin_names_where_letter_case_is_not_told_apart(tmp_path, monkeypatch):
+    """Safety audit L4, the cleanup at opening: where the file system does not tell letter case
+    apart (macOS's default), P01 and p01 share one folder, policies/P01/ as the disk names it. A
+    save of p01's killed after its row was committed (before its marker was removed) left the
+    marker there, and the cleanup compared the marker's path, P01/..., with p01's row, p01/...,
+    letter for letter: it deleted p01's policy in force. A link stands in for such a file system
+    (policies/p01 is policies/P01), and the probe is told so, as in test_store_remove's L4 test."""
+    from cacas.store import files
+
+    path = tmp_path / "study.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        s.save_policy("P01", 0, "cacas", b"P01's policy")
+        with s._conn:  # as add_participant wrote codes before its check (kept so by an import)
+            s._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
+                            "((SELECT id FROM studies WHERE name = 'default'), 'p01', '2026-01-05T10:00:00.000Z', "
+                            "'2026-01-05T10:00:00.000Z')")
+        (s.policy_dir / "p01").symlink_to("P01", target_is_directory=True)
+        monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+        s.save_policy("p01", 0, "cacas", b"p01's policy")
+        (rel,) = s.policies_frame().query("participant == 'p01'")["path"]
+    assert rel.startswith("p01/")
+    name = rel.split("/")[1]
+    (tmp_path / "policies" / "P01" / f".{name}.4242.saving").touch()  # in the folder as the disk names it
+    (tmp_path / "policies" / "P01" / f".{name}.4242.tmp").write_bytes(b"p01's pol")
+    with StudyStore(path) as s:
+        assert s.load_policy("p01") == b"p01's policy"
+        assert s.load_policy("P01") == b"P01's policy"
+    left = sorted(f.name for f in (tmp_path / "policies" / "P01").iterdir())
+    assert len(left) == 2 and name in left and not [n for n in left if n.startswith(".")]  # the marker, its tmp: gone

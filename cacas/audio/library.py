@@ -89,15 +89,21 @@ def scan(root: Path | str | None = None) -> list[Clip]:
 
 def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: int = 0,
                      root: Path | str | None = None, activities=None, progress: Progress = None,
-                     fmt: str = "ogg") -> list[Path]:
+                     fmt: str = "ogg", replace: bool = False) -> media_library.Generated:
     """Write SYNTHETIC clips (:mod:`cacas.audio.synth`) into ``root/<slug>/synthetic_<seed>_<k>.<fmt>``.
 
-    Existing files with the same name are overwritten, unless they already hold the same audio:
-    an OGG encoder stamps each file with a random stream serial number, so rewriting the shipped
-    clips with their own seed would change their bytes (and show them modified in git) for
-    nothing. Other files are left alone, so a new seed adds clips. The clips are written under
-    temporary names and renamed into place when all are written (:class:`cacas.media_library.Staging`):
-    a run stopped before (Ctrl-C) adds none. Returns the clips' paths.
+    A file of the same name that already holds the same audio is left as it is: an OGG encoder
+    stamps each file with a random stream serial number, so rewriting the shipped clips with their
+    own seed would change their bytes (and show them modified in git) for nothing. One that holds
+    other audio (the shipped 2-s clips, asked for 1-s ones of the same seed; an unreadable file),
+    or the same clip in another format (``synthetic_0_000.ogg`` beside a ``--format flac`` run's
+    ``.flac``: the library would hold it twice), is replaced (the other format's removed) only with
+    ``replace``; otherwise the run is refused (:func:`cacas.media_library.refuse_replacing`: a
+    CacasError naming the file, what it holds and what to do) and nothing is written (CLI audit: it
+    replaced the shipped clips without a word). Other files are left alone, so a new seed adds
+    clips. The clips are written under temporary names and renamed into place when all are
+    written (:class:`cacas.media_library.Staging`): a run stopped before (Ctrl-C) adds none.
+    Returns the clips' paths, with those replaced and removed (:class:`cacas.media_library.Generated`).
     """
     import soundfile as sf
 
@@ -114,8 +120,12 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
         raise CacasError(f"unknown clip format {fmt!r}; valid: {', '.join(subtypes)}")
     root = Path(root) if root is not None else sounds_dir()
     names = [spaces.canonical("activity", a) for a in (activities or spaces.ACTIVITIES)]
-    written = []
+    written, replaced, twins = [], [], []
     total = len(names) * clips_per_activity
+
+    def refuse(path: Path, holds: str) -> CacasError:
+        return media_library.refuse_replacing(path, holds, seed, root, SUPPORTED_EXTENSIONS, "clip")
+
     # all placed at the end: stopped before, nothing is added
     with media_library.Staging(root, SUPPORTED_EXTENSIONS) as staging:
         for i, name in enumerate(names):
@@ -125,15 +135,38 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
                 rng = np.random.default_rng([seed, spaces.activity_index(name), k])
                 y = synth.render(name, rng, seconds)
                 path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
+                for other in (folder / f"{path.stem}.{ext}" for ext in subtypes if ext != fmt):
+                    if other.is_file():
+                        if not replace:
+                            raise refuse(other, f"the clip this run writes as {path.name}, in another format (the "
+                                                "library would hold it twice)")
+                        twins.append(other)
                 encoded = io.BytesIO()
                 sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
                 if not _same_audio(path, encoded.getvalue()):
+                    if path.exists():
+                        if not replace:
+                            raise refuse(path, f"other audio than this run writes there ({_audio_words(path)}; "
+                                               f"this run's: {seconds:g} s)")
+                        replaced.append(path)
                     staging.path(path).write_bytes(encoded.getvalue())
                 written.append(path)
                 if progress:
                     progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
         staging.place()
-    return written
+    for twin in twins:  # after the new clips are in place: stopped before, the library keeps the clip
+        twin.unlink(missing_ok=True)
+    return media_library.Generated(written, replaced, twins)
+
+
+def _audio_words(path: Path) -> str:
+    """A clip's length, for a message: "a 2-s clip"; what it is when it cannot be read as audio."""
+    import soundfile as sf
+
+    try:
+        return f"a {round(sf.info(str(path)).duration, 2):g}-s clip"
+    except (RuntimeError, sf.LibsndfileError):
+        return "a file that cannot be read as audio"
 
 
 def _same_audio(path: Path, encoded: bytes) -> bool:

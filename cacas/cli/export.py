@@ -35,8 +35,8 @@ def register(subparsers) -> None:
     p.add_argument("--study", default=None, metavar="NAME", help="export the study of this name only (default: every "
                                                                  "study in the database)")
     p.add_argument("--tables-only", action="store_true",
-                   help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file; "
-                        "an earlier export's zip in DIR is removed)")
+                   help=f"write the CSV tables without {BUNDLE_NAME} (which needs every policy file); "
+                        "an earlier export's zip in DIR is kept if it holds these same tables, else removed")
     p.set_defaults(func=run_export)
 
     q = subparsers.add_parser("import", help="load an exported bundle into a new study database",
@@ -57,7 +57,9 @@ def run_export(args: argparse.Namespace) -> int:
     if result.bundle is not None:
         print(f"wrote {result.bundle}")
     for path in result.removed:
-        print(f"removed an earlier export's {path} (it no longer matches these tables)")
+        print(f"removed an earlier export's {path} ({result.removed_why})")
+    if result.kept is not None:
+        print(f"kept an earlier export's {result.kept}: it holds these same tables and the policy files they name")
     return 0
 
 

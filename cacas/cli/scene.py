@@ -5,7 +5,7 @@ from __future__ import annotations
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.cli.sound import (add_put_back, add_training_options, check_confusion_png, count, library_out,
-                             print_metrics, recognize_each, save_confusion, saved_model_id, say_kept)
+                             print_metrics, recognize_each, save_confusion, saved_model_id, say_kept, say_replaced)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 from cacas.recognition import UNSURE_BELOW
@@ -18,14 +18,18 @@ def register(subparsers) -> None:
     sub.required = True
     g = sub.add_parser("generate", help="write SYNTHETIC scene images into the library",
                        description="Write SYNTHETIC images of the 6 home scenes (Table I), one folder per scene, "
-                                   "into the scene library. The images are placed when all are written: stopped "
-                                   "before, none is added.")
+                                   "into the scene library, named synthetic_<seed>_<k>.jpg; an image already holding "
+                                   "the same picture is left as it is. One of the same name holding another (the "
+                                   "shipped 128-px images of seed 0, asked for --size 64) is replaced only with "
+                                   "--replace; otherwise nothing is written, and the message says what to do. The "
+                                   "images are placed when all are written: stopped before, none is added.")
     g.add_argument("--images", type=types.count, default=40, help=types.described("images per scene", types.count, 40))
     size = types.at_least(*SYNTHETIC_IMAGE_SIDE)
     g.add_argument("--size", type=size, default=128, help=types.described("image side in pixels", size, 128))
     g.add_argument("--seed", type=types.seed, default=0,
                    help=types.described("seed (a new seed draws new images)", types.seed, 0))
     g.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/scenes)")
+    g.add_argument("--replace", action="store_true", help="replace images of the same names that hold other pictures")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own photos (FOLDER/<scene>/<image>) into the library",
                        description="Copy your own photos (FOLDER/<scene>/<image>) into the scene library; if any "
@@ -71,8 +75,10 @@ def run_generate(args) -> int:
     from cacas.vision.library import generate_scenes, scenes_dir
 
     with library_out(args.out, scenes_dir()) as root, ProgressBar() as bar:
-        paths = generate_scenes(args.images, args.size, args.seed, root, progress=bar)
-    print(f"wrote {len(paths)} synthetic scene images to {root}")
+        paths = generate_scenes(args.images, args.size, args.seed, root, progress=bar, replace=args.replace)
+    print(f"wrote {len(paths)} synthetic scene images of seed {args.seed} to {root} (an image already holding the same "
+          "picture is left as it is)")
+    say_replaced(paths, "image", "held another picture")
     return 0
 
 

@@ -88,7 +88,10 @@ def register(subparsers) -> None:
     sub.required = True
     g = sub.add_parser("generate", help="write SYNTHETIC clips into the sound library",
                        description="Write SYNTHETIC clips (one folder per activity, Table I's 33 activities) into "
-                                   "the sound library; a clip already holding the same audio is left as it is. "
+                                   "the sound library, named synthetic_<seed>_<k>; a clip already holding the same "
+                                   "audio is left as it is. A clip of the same name holding other audio (the shipped "
+                                   "2-s clips of seed 0, asked for --seconds 1) or in another format is replaced only "
+                                   "with --replace; otherwise nothing is written, and the message says what to do. "
                                    "The clips are placed when all are written: stopped before, none is added.")
     g.add_argument("--clips", type=types.count, default=24, help=types.described("clips per activity", types.count, 24))
     seconds = types.between(*SYNTHETIC_CLIP_SECONDS)
@@ -97,6 +100,8 @@ def register(subparsers) -> None:
                    help=types.described("seed (a new seed adds new clips)", types.seed, 0))
     g.add_argument("--format", default="ogg", choices=["ogg", "flac", "wav"], help="clip file format (default ogg)")
     g.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/sounds)")
+    g.add_argument("--replace", action="store_true",
+                   help="replace clips of the same names that hold other audio or another format")
     g.set_defaults(func=run_generate)
     i = sub.add_parser("import", help="copy your own recordings (FOLDER/<activity>/<clip>) into the library",
                        description="Copy your own recordings (FOLDER/<activity>/<clip>) into the sound library; "
@@ -161,11 +166,22 @@ def run_generate(args) -> int:
     from cacas.audio.library import generate_library, library_clips, sounds_dir
 
     with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
-        paths = generate_library(args.clips, args.seconds, args.seed, root, progress=bar, fmt=args.format)
+        paths = generate_library(args.clips, args.seconds, args.seed, root, progress=bar, fmt=args.format,
+                                 replace=args.replace)
     n, size = library_clips(root)
     print(f"{len(paths)} synthetic clips of seed {args.seed} in {root} (a clip already holding the same audio "
           f"is left as it is; library now {n} clips, {size / 1e6:.1f} MB)")
+    say_replaced(paths, "clip", "held other audio")
     return 0
+
+
+def say_replaced(paths, item: str, other: str) -> None:
+    """What a generate's ``--replace`` replaced and removed (:class:`cacas.media_library.Generated`)."""
+    if paths.replaced:
+        print(f"replaced {count(len(paths.replaced), item)} of the same name that {other}")
+    if paths.removed:
+        print(f"removed {count(len(paths.removed), item)} of the same name in another format (each is in the library "
+              "once, in the format asked for)")
 
 
 def run_import(args) -> int:

@@ -97,13 +97,16 @@ class PeopleMixin:
                         study: str = DEFAULT_STUDY) -> ParticipantInfo:
         """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
         names, no phone number or date: :func:`validate.new_code`). ``age_range`` like "25-34" or
-        "65+"; a code already in use raises CacasError."""
+        "65+"; a code already in use raises CacasError, as does one that differs only in letter case
+        from a participant of a study database beside this one where the file system does not tell
+        letter case apart (:meth:`_refuse_case_twins_beside`)."""
         code, age_range, notes, study = v.each(lambda: v.new_code(code), lambda: v.age_range(age_range),
                                                lambda: v.text(notes, "notes"), lambda: v.study(study))
 
         def fn(c):
             sid = self._study_id(c, study)
             self._check_new_code(c, code)
+            self._refuse_case_twins_beside([code], "nothing was added")
             at = v.now()
             c.execute("INSERT INTO participants (study_id, code, age_range, notes, created_at, updated_at) "
                       "VALUES (?, ?, ?, ?, ?, ?)", (sid, code, age_range, notes, at, at))
@@ -202,6 +205,40 @@ class PeopleMixin:
             finally:
                 conn.close()
         return found, unreadable
+
+    def _case_twin_beside(self, codes: Iterable[str]) -> tuple[str, str, str] | None:
+        """(code, twin, file name) for the first of ``codes`` that differs only in letter case from
+        a participant ``twin`` of the study database ``file name`` beside this one (they share
+        ``policies/``; the same code is not a twin: a copy of a participant, whose files removal
+        keeps, also where that database holds a twin of it as well); None if none does. A database
+        beside that cannot be read is passed over."""
+        codes = [str(c) for c in codes]
+        found, _ = self._read_beside("SELECT code FROM participants")
+        for name, theirs in sorted(found.items()):
+            theirs = {str(c) for c in theirs}
+            folded = {c.casefold(): c for c in sorted(theirs)}
+            hit = next((c for c in codes if c.casefold() in folded and c not in theirs), None)
+            if hit is not None:
+                return hit, folded[hit.casefold()], name
+        return None
+
+    def _refuse_case_twins_beside(self, codes: list[str], done: str) -> None:
+        """Refuse (CacasError ending in ``done``, e.g. "nothing was added") a new participant whose
+        code differs only in letter case from a participant of a study database beside this one,
+        where the file system does not tell letter case apart (macOS's and Windows' default): the
+        two would share one folder of policy files, and removing one would delete the other's
+        (safety audit L4; an import is refused the same way, :func:`cacas.export.import_bundle`)."""
+        if not files.ignores_letter_case(self.policy_dir):  # probed first: reading the databases beside costs more
+            return
+        hit = self._case_twin_beside(codes)
+        if hit is None:
+            return
+        code, twin, name = hit
+        raise CacasError(f"participant {code} differs only in letter case from participant {twin} of the study "
+                         f"database {name} beside this one; the file system of {self.path.parent} does not tell "
+                         "letter case apart (as macOS's and Windows' do by default), so they would share one folder "
+                         "of policy files, and removing one would delete the other's; valid: a code that differs "
+                         f"from {twin} in more than letter case; {done}")
 
     def _files_to_remove(self, c, code: str) -> tuple[list, int, str]:
         """The files in the participant's policy folder no other study database in this folder
@@ -505,7 +542,8 @@ class PeopleMixin:
         a new version only with ``replace`` (a walkthrough imported the example personas, P01-P08,
         into a study under way: its P01 and P02 silently got the examples' preferences mid-study).
         All or nothing: one invalid participant or preference, a participant of another study, a
-        code that differs from one in use only in letter case, or other preferences without
+        code that differs from one in use only in letter case (or, where the file system does not
+        tell letter case apart, from a participant of a study database beside), or other preferences without
         ``replace`` raises CacasError and nothing is written. Returns what was done with each
         participant: added, preferences replaced, first preferences saved, or unchanged."""
         if isinstance(data, (str, bytes)):
@@ -518,15 +556,22 @@ class PeopleMixin:
 
         def fn(c):
             sid = self._study_id(c, study)
+            adding: list[str] = []
             for p in people:  # check every code first: all or nothing (case twins within the file: parse_personas)
                 row = c.execute("SELECT s.name FROM participants p JOIN studies s ON s.id = p.study_id "
                                 "WHERE p.code = ?", (p.id,)).fetchone()
                 if row is None:
                     self._check_new_code(c, p.id)  # a new participant: not a case twin of a code in use
+                    adding.append(p.id)
                 elif row[0] != study:
                     raise CacasError(f"{source or 'persona file'}: participant {p.id} belongs to study {row[0]!r}, "
                                      f"not {study!r}; nothing was imported. Import into study {row[0]!r}, or give "
                                      "the new participant a code not in use")
+            if adding:
+                try:
+                    self._refuse_case_twins_beside(adding, "nothing was imported")
+                except CacasError as exc:
+                    raise CacasError(f"{source or 'persona file'}: {exc}") from None
             if not replace:
                 others = [f"{code} (day {day})" if day else code for code, day in self._other_preferences(c, people)]
                 if others:

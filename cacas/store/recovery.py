@@ -14,7 +14,8 @@ put right when the database is next opened for writing.
   between, the file stays in ``policies/<code>/`` with no row naming it, where only the
   participant's removal would reach it. Each writer leaves a marker beside the file while it
   writes (:func:`saving`); a marker left behind names a file whose save was cut short: the file
-  is deleted unless a study database in the folder names it. A file no row names without such a
+  is deleted unless a study database in the folder names it (in any letter case, where the file
+  system does not tell letter case apart: ``policies/p01/`` is then ``policies/P01/``). A file no row names without such a
   marker (of a database moved out of the folder, say) is left alone: nothing says it is unused.
 * A removal's moves are synced to disk before its transaction commits, but a power cut on a
   file system that loses them anyway (or a removal by a version that did not sync them) brings
@@ -149,7 +150,8 @@ def saving(policy_dir: Path):
 def delete_unsaved_policy_files(store) -> list[Path]:
     """Delete the policy files whose save or import was killed before a row named them (module
     docstring): those a marker left by :func:`saving` names, unless a study database in the folder
-    names them (none is deleted while one there cannot be read), with the markers and the
+    names them (compared ignoring letter case where the file system does: :func:`files.ignores_letter_case`;
+    none is deleted while one there cannot be read), with the markers and the
     writer's temporary file; returns the files deleted. Nothing is done while a writer holds the
     policies folder's lock (it is left for the next opening)."""
     folder = store.policy_dir
@@ -175,13 +177,17 @@ def delete_unsaved_policy_files(store) -> list[Path]:
         beside = store._named_beside("")
         if beside is None:  # a study database beside that cannot be read may name any of them
             return []
-        named = beside | {row[0] for row in store._read(lambda c: c.execute("SELECT path FROM policies").fetchall())}
+        # where letter case is not told apart, P01's and p01's files share one folder, which a marker's
+        # path names in the disk's letter case, not always its row's (safety audit L4)
+        fold = str.casefold if files.ignores_letter_case(folder) else str
+        named = {fold(path) for path in beside | {row[0] for row in store._read(
+            lambda c: c.execute("SELECT path FROM policies").fetchall())}}
         found = markers()
         for marker in found:
             m = _SAVING.fullmatch(marker.name)
             policy = marker.with_name(m["name"])
             tmp = marker.with_name(f".{m['name']}.{m['pid']}.tmp")  # files.atomic_write's, if killed inside it
-            unsaved = [] if policy.relative_to(folder).as_posix() in named else [policy]
+            unsaved = [] if fold(policy.relative_to(folder).as_posix()) in named else [policy]
             for f in [*unsaved, tmp]:
                 if f.is_file():
                     f.unlink()

@@ -7,6 +7,7 @@ images are SYNTHETIC (:mod:`cacas.vision.synth`); :func:`generate_scenes` makes 
 
 from __future__ import annotations
 
+import io
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -146,10 +147,14 @@ def scan(root: Path | str | None = None) -> list[Photo]:
 
 
 def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, root: Path | str | None = None,
-                    progress: Progress = None) -> list[Path]:
+                    progress: Progress = None, replace: bool = False) -> media_library.Generated:
     """Write SYNTHETIC scene images to ``root/<slug>/synthetic_<seed>_<k>.jpg``, under temporary
     names first, renamed into place when all are written (:class:`cacas.media_library.Staging`):
-    a run stopped before (Ctrl-C) adds none."""
+    a run stopped before (Ctrl-C) adds none. A file of the same name holding the same picture is
+    left as it is; one holding another (the shipped 128-px images, asked for 64-px ones of the same
+    seed; an unreadable file) is replaced only with ``replace``, otherwise the run is refused
+    (:func:`cacas.media_library.refuse_replacing`) and nothing is written. Returns the images'
+    paths, with those replaced (:class:`cacas.media_library.Generated`)."""
     from cacas.vision import synth
 
     if images_per_scene < 1:
@@ -158,7 +163,7 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
     if not low <= size <= high:
         raise CacasError(f"image size must be between {low} and {high} pixels, got {size}")
     root = Path(root) if root is not None else scenes_dir()
-    written = []
+    written, replaced = [], []
     total = len(spaces.SCENES) * images_per_scene
     # all placed at the end: stopped before, nothing is added
     with media_library.Staging(root, IMAGE_EXTENSIONS) as staging:
@@ -167,12 +172,49 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
             for k in range(images_per_scene):
                 img = synth.render(name, np.random.default_rng([seed, j, k]), size)
                 path = folder / f"synthetic_{seed}_{k:03d}.jpg"
-                img.save(staging.path(path), format="JPEG", quality=85)
+                encoded = io.BytesIO()
+                img.save(encoded, format="JPEG", quality=85)
+                if not _same_picture(path, encoded.getvalue()):
+                    if path.exists():
+                        if not replace:
+                            raise media_library.refuse_replacing(
+                                path, f"another picture than this run draws there ({_picture_words(path)}; this "
+                                      f"run's: {size} x {size} pixels)", seed, root, IMAGE_EXTENSIONS, "image")
+                        replaced.append(path)
+                    staging.path(path).write_bytes(encoded.getvalue())
                 written.append(path)
                 if progress:
                     progress(len(written) / total, f"{name}: image {k + 1}/{images_per_scene}")
         staging.place()
-    return written
+    return media_library.Generated(written, replaced)
+
+
+def _same_picture(path: Path, encoded: bytes) -> bool:
+    """``path`` exists and holds ``encoded``'s bytes, or decodes to the same pixels (a JPEG
+    library of another version may encode the same picture in other bytes)."""
+    from PIL import Image
+
+    if not path.is_file():
+        return False
+    old = path.read_bytes()
+    if old == encoded:
+        return True
+    try:
+        with Image.open(io.BytesIO(old)) as a, Image.open(io.BytesIO(encoded)) as b:
+            return a.size == b.size and np.array_equal(np.asarray(a.convert("RGB")), np.asarray(b.convert("RGB")))
+    except (OSError, ValueError, Image.DecompressionBombError):
+        return False
+
+
+def _picture_words(path: Path) -> str:
+    """An image's size, for a message; what it is when it cannot be read as one."""
+    from PIL import Image
+
+    try:
+        with Image.open(path) as img:
+            return f"{img.size[0]} x {img.size[1]} pixels"
+    except (OSError, ValueError, Image.DecompressionBombError):
+        return "a file that cannot be read as an image"
 
 
 def import_folder(source: Path | str, root: Path | str | None = None, progress: Progress = None,

@@ -1,3 +1,5 @@
+from pathlib import Path
+
 from apphelpers import no_exception, texts
 from cacas.paths import PROJECT_ROOT, SHIPPED, study_data_problem
 
@@ -102,6 +104,32 @@ def test_sidebar_counts_the_days_interactions_in_words(app, store):
     at = app(participant="P01")
     assert "Day 1 (open) · 2 interactions that day · policy initial" in [c.value for c in at.sidebar.caption]
 
+
+
+def test_the_sidebar_reads_the_participants_day_once_a_run(app, store, monkeypatch):
+    """Helper's profile: the sidebar's caption and the address's day each read day_status (a few
+    queries, and the day's interactions), twice a run for what one read gives; the caption and the
+    address stay as they were (the tests above)."""
+    import sys
+
+    import cacas.study_day
+
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    real = cacas.study_day.day_status
+    callers = []
+
+    def counting(*args, **kwargs):
+        callers.append(sys._getframe(1).f_code.co_filename)
+        return real(*args, **kwargs)
+    monkeypatch.setattr(cacas.study_day, "day_status", counting)  # app.py imports it on each run
+    at = app(participant="P01")
+    no_exception(at)
+    assert "Day 1 (open) · 1 interaction that day · policy initial" in [c.value for c in at.sidebar.caption]
+    assert at.query_params["day"] in ("1", ["1"])
+    assert sum(Path(c).name == "app.py" for c in callers) == 1
 
 def test_the_address_day_is_the_day_the_tablet_shows(app, store):
     """The address carried the last day recorded (day=1) while the tablet offered "Start day 2"."""
