@@ -381,6 +381,24 @@ def test_a_withdrawn_participants_files_brought_back_by_a_power_cut_are_deleted_
         assert sorted(p.name for p in (s.policy_dir / "P02").iterdir()) == p02 and s.load_policy("P02")
 
 
+def test_files_of_a_withdrawn_code_are_left_while_a_policy_file_is_being_written(store):
+    """A writer holds the policies folder's lock (shared, as recovery.saving does while it writes):
+    the opening leaves the withdrawn files for the next one, which deletes them."""
+    import fcntl
+
+    back = _withdrawn_files_back(store)
+    store.close()
+    fd = os.open(store.policy_dir, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH)
+        StudyStore(store.path).close()
+        assert all(p.is_file() for p in back)
+    finally:
+        os.close(fd)
+    StudyStore(store.path).close()
+    assert not any(p.exists() for p in back)
+
+
 def test_files_of_a_withdrawn_code_another_database_holds_or_written_after_the_removal_are_kept(store):
     """policies/ is shared: a code removed here may be another study database's participant (a
     pilot's P01), or be written later (an import of another P01); such files are never deleted,

@@ -147,6 +147,27 @@ def saving(policy_dir: Path):
             os.close(fd)  # releases the flock
 
 
+@contextlib.contextmanager
+def _policies_locked(folder: Path):
+    """The policies folder's lock (which :func:`saving` holds, shared, while a policy file is
+    written), taken exclusively without waiting; yields whether it was taken (False: a policy
+    file is being written now, or the folder cannot be opened), released on leaving."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        yield False
+        return
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            yield False
+            return
+        yield True
+    finally:
+        os.close(fd)  # releases the flock
+
+
 def delete_unsaved_policy_files(store) -> list[Path]:
     """Delete the policy files whose save or import was killed before a row named them (module
     docstring): those a marker left by :func:`saving` names, unless a study database in the folder
@@ -164,15 +185,9 @@ def delete_unsaved_policy_files(store) -> list[Path]:
 
     if not markers():  # most openings: nothing was cut short
         return []
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return []
     gone: list[Path] = []
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+    with _policies_locked(folder) as locked:
+        if not locked:
             return []  # a policy file is being written now
         beside = store._named_beside("")
         if beside is None:  # a study database beside that cannot be read may name any of them
@@ -199,8 +214,6 @@ def delete_unsaved_policy_files(store) -> list[Path]:
             except OSError:
                 pass
         return gone
-    finally:
-        os.close(fd)
 
 
 def _epoch_ns(stamp: str) -> int | None:
@@ -239,15 +252,9 @@ def delete_withdrawn_files(store) -> list[Path]:
     left = [d for d in sorted(folder.iterdir()) if d.name in removed and d.is_dir() and not d.name.startswith(".")]
     if not left:  # most openings: no withdrawn participant's folder is there
         return []
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return []
     gone: list[Path] = []
-    try:
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+    with _policies_locked(folder) as locked:
+        if not locked:
             return []  # a policy file is being written now: left for the next opening
         codes, unreadable = store._read_beside("SELECT code FROM participants")
         named, unreadable_too = store._read_beside("SELECT path FROM policies")
@@ -273,8 +280,6 @@ def delete_withdrawn_files(store) -> list[Path]:
         if gone:
             files.fsync_folder(folder)
         return gone
-    finally:
-        os.close(fd)
 
 
 def finish_interrupted_removals(store) -> list[Path]:
