@@ -51,3 +51,21 @@ def fail_on_call():
     """``fail_on_call(real, n, error=DISK_FULL)``: a failure part-way through a write (disk full,
     a refused rename), for the "nothing is lost or half-written" tests."""
     return lambda real, n, error=DISK_FULL: FailOnCall(real, n, error)
+
+
+@pytest.fixture
+def case_twin(monkeypatch):
+    """``case_twin(store)``: the store gets a participant p01 beside its P01 (whose policy folder
+    exists), as only an import of an earlier study could make one (adding refuses it), on a file
+    system that does not tell letter case apart (macOS's default): a link stands in for one
+    (policies/p01 is policies/P01), and ``files.ignores_letter_case`` is told so (safety audit L4)."""
+    from cacas.store import files
+
+    def make(store) -> None:
+        with store._conn:
+            store._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
+                                "((SELECT id FROM studies WHERE name = 'default'), 'p01', "
+                                "'2026-01-05T10:00:00.000Z', '2026-01-05T10:00:00.000Z')")
+        (store.policy_dir / "p01").symlink_to("P01", target_is_directory=True)
+        monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+    return make

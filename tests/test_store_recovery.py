@@ -292,25 +292,18 @@ def test_ctrl_c_while_a_save_waits_for_the_policies_lock_closes_its_descriptor(t
         os.fstat(opened[0])
 
 
-def test_a_cut_short_save_keeps_a_file_a_case_twin_names_where_letter_case_is_not_told_apart(tmp_path, monkeypatch):
+def test_a_cut_short_save_keeps_a_file_a_case_twin_names_where_letter_case_is_not_told_apart(tmp_path, case_twin):
     """Safety audit L4, the cleanup at opening: where the file system does not tell letter case
     apart (macOS's default), P01 and p01 share one folder, policies/P01/ as the disk names it. A
     save of p01's killed after its row was committed (before its marker was removed) left the
     marker there, and the cleanup compared the marker's path, P01/..., with p01's row, p01/...,
     letter for letter: it deleted p01's policy in force. A link stands in for such a file system
     (policies/p01 is policies/P01), and the probe is told so, as in test_store_remove's L4 test."""
-    from cacas.store import files
-
     path = tmp_path / "study.sqlite"
     with StudyStore(path) as s:
         s.add_participant("P01")
         s.save_policy("P01", 0, "cacas", b"P01's policy")
-        with s._conn:  # as add_participant wrote codes before its check (kept so by an import)
-            s._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
-                            "((SELECT id FROM studies WHERE name = 'default'), 'p01', '2026-01-05T10:00:00.000Z', "
-                            "'2026-01-05T10:00:00.000Z')")
-        (s.policy_dir / "p01").symlink_to("P01", target_is_directory=True)
-        monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+        case_twin(s)
         s.save_policy("p01", 0, "cacas", b"p01's policy")
         (rel,) = s.policies_frame().query("participant == 'p01'")["path"]
     assert rel.startswith("p01/")

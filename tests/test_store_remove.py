@@ -427,24 +427,17 @@ def test_files_of_a_withdrawn_code_another_database_holds_or_written_after_the_r
     assert not any(p.exists() for p in back) and later.exists()
 
 
-def test_removing_one_of_two_case_twins_keeps_the_others_files_where_they_share_a_folder(tmp_path, monkeypatch):
+def test_removing_one_of_two_case_twins_keeps_the_others_files_where_they_share_a_folder(tmp_path, case_twin):
     """Safety audit L4: on a file system that does not tell letter case apart (macOS's default),
     P01 and p01 (of an imported study, or of two databases beside each other) share one folder,
     and removing p01 deleted P01's files with its own. A link stands in for such a file system here
     (policies/p01 is policies/P01), and the probe is told so; removing p01 keeps P01's files,
     whoever names them, and says why."""
-    from cacas.store import files
-
     s = StudyStore(tmp_path / "study.sqlite")
     s.add_participant("P01")
     s.save_policy("P01", 0, "cacas", b"P01's initial policy")
     s.save_policy("P01", 0, "nn", b"P01's other policy")
-    with s._conn:  # as add_participant wrote codes before its check (kept so by an import)
-        s._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
-                        "((SELECT id FROM studies WHERE name = 'default'), 'p01', '2026-01-05T10:00:00.000Z', "
-                        "'2026-01-05T10:00:00.000Z')")
-    (s.policy_dir / "p01").symlink_to("P01", target_is_directory=True)
-    monkeypatch.setattr(files, "ignores_letter_case", lambda folder: True)
+    case_twin(s)
     s.save_policy("p01", 0, "cacas", b"p01's initial policy")
     pilot = _beside(s, "pilot.sqlite")  # names a P01 file of its own in the folder
     pilot.close()
