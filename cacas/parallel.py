@@ -153,9 +153,12 @@ def plan_jobs(requested: int | None, pieces: int, option: str = "--jobs") -> tup
     asked = f"{option} {requested}" if requested is not None else "one worker process per core"
     fit, available = memory_jobs(), available_memory()
     if fit is not None and jobs > fit:
+        # a container's (control group's) limit is not what `free` shows: say when it is the one that holds
+        where = " under this process's control group (container) memory limit" \
+            if cgroup_available_memory() == available else ""
         notes.append(f"{asked}: {jobs} worker processes need about {jobs * WORKER_MEMORY / GB:.1f} GB "
-                     f"({WORKER_MEMORY / GB:.1f} GB each) and {available / GB:.1f} GB of memory is available; "
-                     f"running {fit} (the results are the same whatever the number)")
+                     f"({WORKER_MEMORY / GB:.1f} GB each) and {available / GB:.1f} GB of memory is available"
+                     f"{where}; running {fit} (the results are the same whatever the number)")
         jobs = fit
     n_cores = cores()
     if jobs > n_cores:

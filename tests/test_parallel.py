@@ -311,10 +311,13 @@ def test_a_containers_memory_limit_caps_the_available_memory_cgroup_v2(tmp_path,
     monkeypatch.setattr(parallel, "cores", lambda: 8)
     assert parallel.default_jobs() == 1
     jobs, notes = parallel.plan_jobs(4, 10)
-    assert jobs == 1 and "and 1.0 GB of memory is available; running 1" in notes[0]
+    assert jobs == 1 and ("and 1.0 GB of memory is available under this process's control group (container) "
+                          "memory limit; running 1") in notes[0]
     (root / "memory.max").write_text("max\n")  # no limit: the machine's MemAvailable
     assert parallel.available_memory() == 16 * 2**30
     assert parallel.default_jobs() == 8
+    jobs, notes = parallel.plan_jobs(40, 40)  # the machine's memory holds: said without the container
+    assert jobs == 20 and "and 16.0 GB of memory is available; running 20" in notes[0]
     # a systemd unit or a job scheduler's group below the root, limited above it
     (tmp_path / "cgroup").write_text("0::/user.slice/job-7\n")
     _group(root / "user.slice", memory_max=3 * 2**30, memory_current=2**30)
