@@ -565,7 +565,20 @@ def _check_whole_export(bundle: Path) -> None:
     """Refuse (CacasError) a zip that :data:`cacas.store.files.CHECKSUMS` beside it lists with
     other bytes: the export that wrote its folder was stopped part-way (killed, a power cut) before
     it replaced the zip, so the zip is an earlier export's (or it was changed since). Imported, it
-    would silently bring back the study as it was then (safety audit L1)."""
+    would silently bring back the study as it was then (safety audit L1). So is the export's zip
+    when that file does not list it: a ``--tables-only`` export killed before it removed an
+    earlier export's zip that no longer goes with its tables."""
+    try:
+        listed = files.parse_checksums((bundle.parent / files.CHECKSUMS).read_bytes())
+    except OSError:
+        listed = None
+    if listed is not None and bundle.name == BUNDLE_NAME and bundle.name not in listed:
+        # `cacas export --tables-only` lists no zip: one there is an earlier export's it was killed before removing
+        raise CacasError(f"{bundle}: {files.CHECKSUMS} beside it does not list it: the export that wrote this folder "
+                         "wrote its tables only (--tables-only) and was stopped (killed, or a power cut) before it "
+                         "removed this zip, which is an earlier export's; run cacas export again and import the "
+                         "new zip (to import this one all the same, copy it out of this folder first); nothing was "
+                         "imported")
     bad = files.mismatched(bundle.parent, {bundle.name})
     if bad:
         raise CacasError(f"{bundle}: does not match its sha256 in {files.CHECKSUMS} beside it: the export that wrote "

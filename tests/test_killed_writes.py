@@ -135,6 +135,31 @@ def test_an_export_killed_at_each_rename_is_found_by_import_upload_and_the_next_
     assert files.mismatched(out) == []
 
 
+def test_a_tables_only_export_killed_before_it_removed_an_earlier_zip_is_found_by_import(runs, tmp_path):
+    """cacas export --tables-only removes an earlier export's zip that no longer goes with its tables
+    after it has written them: killed in between, the zip stayed beside a checksums.sha256 that does
+    not list it, and cacas import took it, bringing back the study as it was then."""
+    from cacas.cli import main
+
+    db, first, second = runs
+    out = tmp_path / "out"
+    files.write_all(out, first, checksums=True)  # the earlier export, with its zip
+    killed(12, "after", "export", "--db", db, "--out", out, "--tables-only")  # its last rename: the 11 tables
+    assert (out / export.BUNDLE_NAME).read_bytes() == first[export.BUNDLE_NAME]
+    assert files.mismatched(out) == []  # what checksums.sha256 lists is whole: the tables of the second export
+    target = tmp_path / "moved" / "study.sqlite"
+    with pytest.raises(CacasError) as err:
+        export.import_bundle(out / export.BUNDLE_NAME, target)
+    assert str(err.value) == (
+        f"{out / export.BUNDLE_NAME}: checksums.sha256 beside it does not list it: the export that wrote this folder "
+        "wrote its tables only (--tables-only) and was stopped (killed, or a power cut) before it removed this zip, "
+        "which is an earlier export's; run cacas export again and import the new zip (to import this one all the "
+        "same, copy it out of this folder first); nothing was imported")
+    assert not target.parent.exists()
+    assert main(["export", "--db", str(db), "--out", str(out), "--tables-only"]) == 0  # the next one removes it
+    assert not (out / export.BUNDLE_NAME).exists()
+
+
 def test_a_simulation_killed_between_its_renames_is_found_by_the_upload_and_the_next_run(tmp_path, capsys):
     from cacas.cli import main
 
