@@ -657,6 +657,25 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
 #: beside the sidebar (measured in headless Chromium).
 TODAY_TABLE_ROOM = 784
 
+#: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
+#: headless Chromium: 820 px, its 1-px borders included).
+OVERVIEW_TABLE_ROOM = 818
+
+#: The row height (px) at which Streamlit's data grid lets a cell's text wrap (only in rows over 4rem, 64 px):
+#: three lines, so that what is longer than its column wraps instead of being cut.
+WRAPPING_ROW = 66
+
+
+def fitted_layout(widths: dict[str, int], columns, room: int) -> tuple[dict[str, int], int]:
+    """A data grid's layout in which every column is in view: the pixel widths of the ``columns``
+    shown (``widths``: each column's, chosen so that a name stays whole on one line), which together
+    fit ``room`` (the table stretches them on a wider page), and rows of :data:`WRAPPING_ROW`, so
+    that a longer value wraps instead of being cut. Raises ValueError when they do not fit."""
+    chosen = {c: w for c, w in widths.items() if c in columns}
+    if sum(chosen.values()) > room:
+        raise ValueError(f"columns of {sum(chosen.values())} px in all do not fit {room} px")
+    return chosen, WRAPPING_ROW
+
 
 def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
     """How the Study session page draws the researcher's table of today's interactions
@@ -667,15 +686,26 @@ def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
     1,000 px on one line, more than the page has at 1280 px: the walkthrough saw "robot saw" off the
     right edge at 1280 px and "use hair dryer", "living room" cut at 1440 px (the data grid's own
     widths), while the answer had room to spare. Then every column has a width of its own, the
-    widths together fit :data:`TODAY_TABLE_ROOM` (the table stretches them on a wider page), and
-    a row is three lines high, so that what is longer than its column wraps instead of being cut:
-    a name on one line ("use hair dryer", "living room"), a proposal or an answer on two or three."""
+    widths together fit :data:`TODAY_TABLE_ROOM` (:func:`fitted_layout`): a name on one line ("use
+    hair dryer", "living room"), a proposal or an answer on two or three."""
     if "robot heard" not in columns and "robot saw" not in columns:
         return {"#": 40, "time of day": 90, "since last activity": 80, "answer": "medium"}, None
     widths = {"#": 32, "activity": 100, "robot proposed": 106, "answer": 106, "time of day": 88,
               "since last activity": 74, "room": 88, "robot heard": 100, "robot saw": 88}
-    # Streamlit's data grid lets a cell wrap when its rows are more than 4rem (64 px) high
-    return {c: w for c, w in widths.items() if c in columns}, 66
+    return fitted_layout(widths, columns, TODAY_TABLE_ROOM)
+
+
+def overview_table_layout(columns) -> tuple[dict[str, int], int]:
+    """How the Overview page draws its table of participants (:func:`overview_frame`'s ``columns``
+    that it shows): each column's width (px) and the row height (px). On one line the six columns
+    need about 870 px ("Start day 1 on the tablet (Study session)", "version 1 (newest: 2)",
+    "2026-11-21 09:47 UTC", the "success rate so far" bar), more than the table has at 1280 px: the
+    ui helper saw "last recorded" cut at the right edge. The widths fit :data:`OVERVIEW_TABLE_ROOM`
+    (:func:`fitted_layout`): a code, a day, a next step and a header on one line, the policy's
+    "(newest: 2)" and the time of "last recorded" on a second."""
+    widths = {"participant": 85, "next step": 250, "day": 100, "success rate so far": 140, "policy": 110,
+              "last recorded": 110}
+    return fitted_layout(widths, columns, OVERVIEW_TABLE_ROOM)
 
 
 def day_ranges(days) -> str:

@@ -31,14 +31,14 @@ ADD_BUTTON = "Add to the library"
 
 
 def add_clips(activity: str, files: Sequence[tuple[str, bytes]], root: Path | str | None = None) -> list[Path]:
-    """Add recordings of ``activity`` to the sound library: ``files`` are (file name, bytes) from an
+    """Add clips of ``activity`` to the sound library (the page's word, in its messages too): ``files`` are (file name, bytes) from an
     upload or a microphone recording. Every file is checked first (WAV / FLAC / OGG, not empty,
     not silent, no NaN, at least half a second: :func:`cacas.audio.library.library_clip`); one bad file
     and nothing is added."""
     from cacas.audio.features import SUPPORTED_EXTENSIONS
     from cacas.audio.library import import_folder
 
-    return _add_files("activity", activity, files, import_folder, root, what="recording",
+    return _add_files("activity", activity, files, import_folder, root, what="clip",
                       how="upload a WAV, FLAC or OGG file or record one", default_name="recording_{}.wav",
                       extensions=SUPPORTED_EXTENSIONS)
 
@@ -248,7 +248,7 @@ def library_problem(kind: str) -> str | None:
 
     if kind == "sound":
         from cacas.audio.library import scan, sounds_dir as root_of
-        names, what, item, name_of = spaces.ACTIVITIES, "activities", "recording", lambda clip: clip.activity
+        names, what, item, name_of = spaces.ACTIVITIES, "activities", "clip", lambda clip: clip.activity
     elif kind == "scene":
         from cacas.vision.library import scan, scenes_dir as root_of
         names, what, item, name_of = spaces.SCENES, "scenes", "image", lambda photo: photo.scene

@@ -141,6 +141,23 @@ RATE_RANGE = [0, 1.06]
 TITLE_BLOCK = 80
 
 
+#: The height (px) of the block below Fig. 3's and Fig. 4's plots: the day axis (its labels on two lines when they
+#: say how many participants a day averages) with its title, and a legend of four rows (Fig. 3 with the dashed
+#: line of where a preference names an action), or of methods. Side by side (Simulation lab) Fig. 3's legend of
+#: three or four rows pushed its bottom margin past Fig. 4's one row: its x axis sat 30-45 px above Fig. 4's.
+#: Every figure now reserves this block, and its legend sits at the block's bottom (:func:`legend_block`).
+LEGEND_BLOCK = 165
+
+
+def legend_block() -> dict:
+    """A figure's horizontal legend at the bottom of a bottom margin of :data:`LEGEND_BLOCK` px
+    (``margin.b``): in the figure's own coordinates, so that it never pushes the margin (a legend
+    below the plot, in the plot's, took what room it needed: the plot's bottom moved with the
+    number of its rows). It keeps 2 % of the figure's height below it (9 px of 450): flush with
+    the bottom, the standalone page (``cacas simulate --plot``) cut its last row."""
+    return dict(orientation="h", yref="container", y=0.02, yanchor="bottom")
+
+
 def title_block(text: str, subtitle: str | None = None) -> dict:
     """A figure's title (and subtitle), for a top margin of :data:`TITLE_BLOCK` px: the title's top
     at the same height in every figure, however tall the figure, with or without a subtitle (its
@@ -205,14 +222,14 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     top = float(s["cumulative_feedback"].max()) if s["cumulative_feedback"].notna().any() else 1.0
     fig.update_yaxes(title_text="cumulative feedback", range=[0, max(top, 1.0) * 1.1], showgrid=False,
                      tickmode="auto", nticks=6, secondary_y=True)
-    below = -0.3 if _day_axis(fig, s["day"], dict(zip(s["day"], s["on_day"]))) else -0.2
+    _day_axis(fig, s["day"], dict(zip(s["day"], s["on_day"])))
     n = int(s["participants"].max()) if s["participants"].notna().any() else 0
     # who it is about as a subtitle: on one line with the title, half the page's width cut it
     # ("... (CACAS, 1 participa")
     fig.update_layout(title=title_block(title) if title else title_block(
                           "Success rate and cumulative feedback",
                           f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}"),
-                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=60, t=TITLE_BLOCK, b=60),
+                      legend=legend_block(), margin=dict(l=60, r=60, t=TITLE_BLOCK, b=LEGEND_BLOCK),
                       template="plotly_white")
     return fig
 
@@ -283,8 +300,8 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop"),
-                      template="plotly_white", legend=dict(orientation="h", y=-0.2),
-                      margin=dict(l=60, r=30, t=TITLE_BLOCK, b=60),
+                      template="plotly_white", legend=legend_block(),
+                      margin=dict(l=60, r=30, t=TITLE_BLOCK, b=LEGEND_BLOCK),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
@@ -356,9 +373,9 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]} participants)<extra></extra>"))
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
-    below = -0.3 if _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict()) else -0.2
+    _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict())
     fig.update_layout(title=title_block(title or "Preference prediction by method"), template="plotly_white",
-                      legend=dict(orientation="h", y=below), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=60),
+                      legend=legend_block(), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=LEGEND_BLOCK),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 

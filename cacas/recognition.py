@@ -49,8 +49,8 @@ def short_clip_warning(seconds: float) -> str:
 
 def evaluated_on(metrics: "Metrics", what: str) -> str:
     """What an evaluation's accuracy is on, for ``cacas sound/scene eval`` and the app's "Evaluate
-    the saved ... model" alike: "on 10 held-out recordings (56 of the model's 66 held-out ones are
-    not in the library)", or "on all 33 recordings (training ones included)" when the model's
+    the saved ... model" alike: "on 10 held-out clips (56 of the model's 66 held-out ones are
+    not in the library)", or "on all 33 clips (training ones included)" when the model's
     held-out ones were not found (``metrics.extra["set"]``). The page said "held-out" of both."""
     if metrics.extra.get("set", "held-out") != "held-out":
         return f"on all {metrics.n} {what} (training ones included)"

@@ -51,29 +51,28 @@ row.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) el
 
 st.subheader("Participants")
 small = st.column_config.TextColumn
-# widths in pixels so that the table fits beside the sidebar at 1360 px (the age range is on
-# Participants; today's count is in the next step and the metric above); "next step" comes second,
-# so that a narrower window (1280 px, or 800 beside the sidebar) cuts or scrolls the other columns,
-# not what to do next (walkthrough: "Start day 2 on the tablet (Study sessi")
+# "next step" comes second, so that a narrower window (800 px beside the sidebar) scrolls the other columns, not
+# what to do next (walkthrough: "Start day 2 on the tablet (Study sessi"); the age range is on Participants,
+# today's count in the next step and the metric above. Every column in view at 1280 px, names whole
+# (app_support.overview_table_layout: "last recorded" was cut at the right edge)
+shown = ["participant", "next step"] + [c for c in table.columns
+                                        if c not in ("participant", "next step", "age range", "interactions today")]
+widths, row_height = app_support.overview_table_layout(shown)
 st.dataframe(
     table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
-    column_order=["participant", "next step"] + [c for c in table.columns
-                                                 if c not in ("participant", "next step", "age range",
-                                                              "interactions today")],
+    column_order=shown, row_height=row_height,
     column_config={
-        "participant": small("participant", width=85), "day": small("day", width=95),
-        "policy": small("policy", width=135), "last recorded": small("last recorded", width=145,
+        "participant": small("participant", width=widths["participant"]), "day": small("day", width=widths["day"]),
+        "policy": small("policy", width=widths["policy"]),
+        "last recorded": small("last recorded", width=widths["last recorded"],
                                help="When the participant's last interaction was recorded"),
         "success rate so far": st.column_config.ProgressColumn(
-            "success rate so far", width=140, help="Robot-initiated actions the participant accepted, of the "
-            "interactions so far that count: proposals answered and requests (Fig. 3; as in the paper, an "
-            "unanswered proposal, the robot quiet with nothing asked, or a request while doing nothing (no sound "
-            "activity, IV-C.1), is saved but not counted)",
+            "success rate so far", width=widths["success rate so far"], help="Robot-initiated actions the "
+            "participant accepted, of the interactions so far that count: proposals answered and requests (Fig. 3; "
+            "as in the paper, an unanswered proposal, the robot quiet with nothing asked, or a request while doing "
+            "nothing (no sound activity, IV-C.1), is saved but not counted)",
             min_value=0.0, max_value=100.0, format="%.0f%%"),
-        "interactions today": st.column_config.NumberColumn(
-            "today", help=f"Interactions on the open day that count (answered, or asked for; 0 once the day is "
-                          f"closed); target: about {TARGET_INTERACTIONS} a day", width=60),
-        "next step": st.column_config.TextColumn("next step", width=320),
+        "next step": st.column_config.TextColumn("next step", width=widths["next step"]),
     })
 
 code = ui.participant()

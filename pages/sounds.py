@@ -22,7 +22,7 @@ ui.require_app()
 st.title("Sounds and scenes")
 st.caption("The robot knows the context from what it hears (33 sound activities; MFCC 64 x 32 and a 3-layer CNN) "
            "and what it sees (6 home scenes; ResNet-18). The shipped library is synthetic (generated "
-           "procedurally; no real household recordings can be downloaded here): add your own recordings and "
+           "procedurally; no real household recordings can be downloaded here): add your own clips and "
            "photos of the participant's rooms for a real study. The paper's 94.7% sound accuracy is on real "
            "recordings.")
 
@@ -198,7 +198,7 @@ with sound_library:
             st.caption(f"The first 40 of {len(every)} clips, by file name.")
 
 with add_clip:
-    _add_tab("sound", "Add recordings of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, "
+    _add_tab("sound", "Add clips of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, "
                       "mixed to mono). Every file is checked before anything is added.")
 
 with scene_library:
@@ -221,7 +221,7 @@ with add_photo:
 
 
 def _metrics_view(metrics, kind: str) -> None:
-    on = evaluated_on(metrics, "recordings" if kind == "Sound" else "images")
+    on = evaluated_on(metrics, "clips" if kind == "Sound" else "images")
     held_out = metrics.extra.get("set", "held-out") == "held-out"
     st.metric(f"{kind} {'test ' if held_out else ''}accuracy", f"{100 * metrics.accuracy:.1f}%", help=on)
     if not held_out or metrics.extra.get("held_out_missing"):  # not the figure the model was saved with: said

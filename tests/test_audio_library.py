@@ -136,7 +136,7 @@ def test_import_folder_copies_checked_recordings(tmp_path):
     lib = tmp_path / "lib"
     copied = library.import_folder(src, root=lib)
     assert sorted(p.relative_to(lib).as_posix() for p in copied) == ["cough/c1.flac", "watch_tv/tv.wav"]
-    with pytest.raises(CacasError, match=r"tv\.wav: the same recording is already in the library as "
+    with pytest.raises(CacasError, match=r"tv\.wav: the same clip is already in the library as "
                                           r"watch_tv/tv\.wav; nothing was imported"):
         library.import_folder(src, root=lib)  # the same clips again: copies would flatter a model's test
     assert len(library.scan(lib)) == 2
@@ -149,7 +149,7 @@ def test_import_refuses_a_clip_given_twice_under_two_names(tmp_path):
     src = _researcher_folder(tmp_path)
     (src / "sneeze").mkdir()
     (src / "sneeze" / "s.flac").write_bytes((src / "cough" / "c1.flac").read_bytes())
-    with pytest.raises(CacasError, match=r"s\.flac: the same recording is given twice \(also as c1\.flac\)"):
+    with pytest.raises(CacasError, match=r"s\.flac: the same clip is given twice \(also as c1\.flac\)"):
         library.import_folder(src, root=tmp_path / "lib")
     assert not (tmp_path / "lib").exists() or not library.scan(tmp_path / "lib")
 
@@ -170,7 +170,7 @@ def test_import_refuses_a_bad_file_and_copies_nothing(tmp_path):
     with pytest.raises(CacasError, match="broken.wav"):
         library.import_folder(src, root=lib)
     assert not lib.exists()
-    with pytest.raises(CacasError, match=r"absent: no such folder; expected <folder>/<activity>/<recording>"
+    with pytest.raises(CacasError, match=r"absent: no such folder; expected <folder>/<activity>/<clip>"
                                          r"\.wav\|\.flac\|\.ogg$"):
         library.import_folder(tmp_path / "absent", root=lib)
 
@@ -193,9 +193,9 @@ def test_import_of_a_folder_with_no_recording_is_refused(tmp_path):
     src = tmp_path / "mine"
     (src / "cough").mkdir(parents=True)
     (src / "cough" / ".DS_Store").write_bytes(b"x")  # hidden files are not recordings
-    with pytest.raises(CacasError, match=r"mine: no recordings found; expected <folder>/<activity>/<recording>"):
+    with pytest.raises(CacasError, match=r"mine: no clips found; expected <folder>/<activity>/<clip>"):
         library.import_folder(src, root=tmp_path / "lib")
-    with pytest.raises(CacasError, match="no recordings found"):
+    with pytest.raises(CacasError, match="no clips found"):
         library.import_folder(tmp_path / "mine" / "cough", root=tmp_path / "lib")  # nothing inside: not usable
 
 
@@ -229,7 +229,7 @@ def test_scan_refuses_what_it_cannot_read_and_leaves_notes_beside_the_folders(tm
     (tmp_path / "make_coffee").mkdir()
     with pytest.raises(CacasError, match=r"folder name 'make_coffee' is not an activity; valid: .*watch_tv"):
         library.scan(tmp_path)
-    with pytest.raises(CacasError, match=r"absent: no such sound folder; expected <folder>/<activity>/<recording>"):
+    with pytest.raises(CacasError, match=r"absent: no such sound folder; expected <folder>/<activity>/<clip>"):
         library.scan(tmp_path / "absent")
 
 
@@ -253,7 +253,7 @@ def test_import_refuses_a_clip_shorter_than_half_a_second_and_copies_nothing(tmp
     sf.write(src / "cough" / "half.wav", 0.3 * rng.standard_normal(16000).astype(np.float32), 32000)
     lib = tmp_path / "lib"
     with pytest.raises(CacasError, match=r"short\.wav: is 0\.20 s long, mostly the silence that pads it to the "
-                                         r"model's 1-s window; valid: a recording of at least 0\.5 s"):
+                                         r"model's 1-s window; valid: a clip of at least 0\.5 s"):
         library.import_folder(src, root=lib)
     assert not lib.exists()
     (src / "cough" / "short.wav").unlink()

@@ -117,16 +117,16 @@ def test_training_refuses_thin_or_missing_data(tmp_path):
     with pytest.raises(CacasError, match="no such sound folder"):
         train_sound_model(tmp_path / "absent")
     library.generate_library(1, seconds=1.0, root=tmp_path, activities=["cough", "cry"])
-    with pytest.raises(CacasError, match="single recording"):
+    with pytest.raises(CacasError, match="single clip"):
         train_sound_model(tmp_path, epochs=1)
 
 
 def test_a_folder_without_recordings_is_refused_for_training_and_evaluation(tiny, tmp_path):
     _, result, _ = tiny
     (tmp_path / "cough").mkdir()
-    with pytest.raises(CacasError, match=f"^{tmp_path}: no recordings; generate the library with `cacas sound generate`$"):
+    with pytest.raises(CacasError, match=f"^{tmp_path}: no clips; generate the library with `cacas sound generate`$"):
         train_sound_model(tmp_path, epochs=1)
-    with pytest.raises(CacasError, match=f"^{tmp_path}: no recordings to evaluate$"):
+    with pytest.raises(CacasError, match=f"^{tmp_path}: no clips to evaluate$"):
         evaluate_sound_model(result.recognizer, tmp_path)
     # a model of fewer classes than the library's activities (one trained on a subset, or older)
     unknown = [a for a in spaces.ACTIVITIES if a not in TINY][:2]

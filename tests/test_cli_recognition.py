@@ -82,7 +82,7 @@ def test_sound_generate_train_eval_on_a_tiny_library(tmp_path, capsys):
     assert "accuracy:" in out and model.exists() and model.with_suffix(".json").exists()
     assert "(1 epoch)" in out  # not "1 epochs"
     assert main(["sound", "eval", "--model", str(model), "--data", str(lib), "--quiet"]) == 0
-    assert "on 33 held-out recordings" in capsys.readouterr().out
+    assert "on 33 held-out clips" in capsys.readouterr().out
     clip = next(lib.rglob("*.ogg"))
     assert main(["sound", "recognize", "--model", str(model), str(clip)]) == 0
 

@@ -267,8 +267,8 @@ def test_a_refusal_names_each_file_as_uploaded_and_calls_photos_photos(tmp_path)
     with pytest.raises(CacasError, match=re.escape(f"sofa copy.png: the same photo is already in the library as "
                                                    f"kitchen/our_sofa.png; {again}")):
         lab.add_photos("kitchen", [("sofa copy.png", _png())], root)
-    # the sound library's word is the page's already ("recording")
-    with pytest.raises(CacasError, match=r"^2 of the 2 recordings cannot be used; nothing was added:\n- my notes\.wav: "):
+    # the sound library's files are "clips", as the page calls them ("Add clips"; it said "recordings")
+    with pytest.raises(CacasError, match=r"^2 of the 2 clips cannot be used; nothing was added:\n- my notes\.wav: "):
         lab.add_clips("cough", [("my notes.wav", b"text"), ("my other notes.wav", b"more text")], tmp_path / "s")
 
 
@@ -325,9 +325,9 @@ def test_every_bad_file_of_an_add_is_said_at_once(tmp_path):
     with pytest.raises(CacasError) as told:
         lab.add_clips("cough", files, root)
     lines = str(told.value).split("\n- ")
-    assert lines[0] == "3 of the 4 recordings cannot be used; nothing was added:"
+    assert lines[0] == "3 of the 4 clips cannot be used; nothing was added:"
     assert [line.split(":")[0] for line in lines[1:]] == ["notes.wav", "silent.wav", "tiny.wav"]
-    assert "is all silence" in lines[2] and "valid: a recording of at least 0.5 s" in lines[3]
+    assert "is all silence" in lines[2] and "valid: a clip of at least 0.5 s" in lines[3]
     assert clip_paths("cough", root) == []
     # one bad file: said as before
     with pytest.raises(CacasError, match=r"^notes\.wav: not a readable WAV/FLAC/OGG audio file"):

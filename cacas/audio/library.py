@@ -51,12 +51,12 @@ def library_clip(path) -> np.ndarray:
     y = load_clip(path)
     if len(y) < SHORT_CLIP_SECONDS * SAMPLE_RATE:
         raise CacasError(f"{path}: is {clip_length(len(y) / SAMPLE_RATE)} long, mostly the silence that pads it to the "
-                         f"model's 1-s window; valid: a recording of at least {SHORT_CLIP_SECONDS:g} s (1 s or more "
+                         f"model's 1-s window; valid: a clip of at least {SHORT_CLIP_SECONDS:g} s (1 s or more "
                          "is best)")
     return y
 
 
-SOUNDS = media_library.MediaKind(what="sound", label="activity", item="recording", names=spaces.ACTIVITIES,
+SOUNDS = media_library.MediaKind(what="sound", label="activity", item="clip", names=spaces.ACTIVITIES,
                                  extensions=SUPPORTED_EXTENSIONS, name_of_folder=activity_of_folder,
                                  check=library_clip)
 

@@ -113,7 +113,7 @@ def recording_probabilities(recognizer: SoundRecognizer, signals: Sequence[np.nd
 def evaluate_signals(recognizer: SoundRecognizer, signals: Sequence[np.ndarray], labels: Sequence[str]) -> Metrics:
     """Per-recording metrics (probabilities pooled over windows) plus window-level accuracy."""
     if not len(signals):
-        raise CacasError("no recordings to evaluate")
+        raise CacasError("no clips to evaluate")
     idx = {c: i for i, c in enumerate(recognizer.classes)}
     missing = sorted({lab for lab in labels if lab not in idx})
     if missing:
@@ -146,14 +146,14 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
     root = Path(root) if root is not None else sounds_dir()
     clips = scan(root)
     if not clips:
-        raise CacasError(f"{root}: no recordings; generate the library with `cacas sound generate`")
+        raise CacasError(f"{root}: no clips; generate the library with `cacas sound generate`")
     classes = list(spaces.ACTIVITIES)
     labels = np.array([classes.index(c.activity) for c in clips])
-    train, val, test = training_split(labels, classes, test_fraction, seed, root, "activities", "recording")
+    train, val, test = training_split(labels, classes, test_fraction, seed, root, "activities", "clip")
     if len(np.unique(labels)) < 2:
-        raise CacasError(f"{root}: recordings of at least 2 activities are needed to train")
+        raise CacasError(f"{root}: clips of at least 2 activities are needed to train")
 
-    tell(progress, 0.0, f"loading {len(clips)} recordings")
+    tell(progress, 0.0, f"loading {len(clips)} clips")
     signals = load_recordings(clips, progress, (0.0, 0.12))
 
     tell(progress, 0.13, "computing MFCC with augmentation")
@@ -172,7 +172,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
     Yt = torch.from_numpy(Y).long()
     val_signals = [signals[i] for i in val]
     val_feats, val_owner = mfcc_batch(val_signals, return_groups=True)
-    tell(progress, 0.25, f"training on {len(X)} windows from {len(train)} recordings")
+    tell(progress, 0.25, f"training on {len(X)} windows from {len(train)} clips")
 
     opt = torch.optim.AdamW(model.parameters(), lr=lr, weight_decay=1e-4)
     steps = max(1, epochs * int(np.ceil(len(Xn) / batch_size)))
@@ -212,7 +212,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
             break
     stopping.restore_best(model)
 
-    tell(progress, 0.96, f"testing on {len(test)} held-out recordings")
+    tell(progress, 0.96, f"testing on {len(test)} held-out clips")
     if len(test):
         metrics = evaluate_signals(recognizer, [signals[i] for i in test], [classes[labels[i]] for i in test])
     else:  # pragma: no cover - guarded by the 2-recordings rule above
@@ -262,11 +262,11 @@ def evaluate_sound_model(recognizer: SoundRecognizer, root: Path | str | None = 
             clips, which = chosen, "held-out"
             missing = len(wanted) - len(chosen)  # said beside the accuracy: it is on the ones found only
     if not clips:
-        raise CacasError(f"{root}: no recordings to evaluate")
+        raise CacasError(f"{root}: no clips to evaluate")
     signals = load_recordings(clips, progress, (0.0, 0.9))
     metrics = evaluate_signals(recognizer, signals, [c.activity for c in clips])
     metrics.extra["set"] = which
     if which == "held-out":
         metrics.extra["held_out_missing"] = missing
-    tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(clips)} recordings")
+    tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(clips)} clips")
     return metrics

@@ -17,7 +17,7 @@ def count(n: int, noun: str) -> str:
     return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
 
 
-def print_metrics(metrics, what: str = "recordings") -> None:
+def print_metrics(metrics, what: str = "clips") -> None:
     """Accuracy, the per-class table and the confusion pairs that are off the diagonal."""
     from cacas.recognition import evaluated_on
 
@@ -103,27 +103,27 @@ def register(subparsers) -> None:
     g.add_argument("--replace", action="store_true",
                    help="replace clips of the same names that hold other audio or another format")
     g.set_defaults(func=run_generate)
-    i = sub.add_parser("import", help="copy your own recordings (FOLDER/<activity>/<clip>) into the library",
-                       description="Copy your own recordings (FOLDER/<activity>/<clip>) into the sound library; "
+    i = sub.add_parser("import", help="copy your own clips (FOLDER/<activity>/<clip>) into the library",
+                       description="Copy your own clips (FOLDER/<activity>/<clip>) into the sound library; "
                                    "if any folder or file is bad, nothing is copied.")
     i.add_argument("folder", type=types.path, metavar="FOLDER",
-                   help="your recordings as FOLDER/<activity>/<clip>: a sub-folder per activity, named as in "
+                   help="your clips as FOLDER/<activity>/<clip>: a sub-folder per activity, named as in "
                         "Table I (use_stove or 'use stove'), holding .wav, .flac or .ogg clips")
     i.add_argument("--out", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/sounds)")
     i.set_defaults(func=run_import)
     t = sub.add_parser("train", help="train the sound CNN on the library and save it",
                        description="Train the sound CNN (MFCC of 1-s windows, Section IV-A) on the library, "
-                                   "holding out recordings for the test, and save it.")
+                                   "holding out clips for the test, and save it.")
     t.add_argument("--data", type=types.path, default=None, metavar="DIR", help="library folder (default study_data/sounds)")
     t.add_argument("--model", type=types.path, default=None, metavar="FILE", help="where to save (default study_data/models/sound_cnn.pt)")
     add_training_options(t, epochs=8, patience=3, augment=1)
     t.set_defaults(func=run_train)
-    e = sub.add_parser("eval", help="test a sound model (default: on its held-out recordings)",
+    e = sub.add_parser("eval", help="test a sound model (default: on its held-out clips)",
                        description="Test a sound model: accuracy, per-activity accuracy and confusions, by "
-                                   "default on the recordings held out when it was trained.")
+                                   "default on the clips held out when it was trained.")
     e.add_argument("--model", type=types.path, default=None, metavar="FILE", help="the model (default study_data/models/sound_cnn.pt)")
-    e.add_argument("--data", type=types.path, default=None, metavar="DIR", help="recordings folder (default study_data/sounds)")
-    e.add_argument("--all", action="store_true", help="use every recording under --data, not only the held-out ones")
+    e.add_argument("--data", type=types.path, default=None, metavar="DIR", help="clips folder (default study_data/sounds)")
+    e.add_argument("--all", action="store_true", help="use every clip under --data, not only the held-out ones")
     e.add_argument("--confusion-png", type=types.png, default=None, metavar="FILE", help="also draw the confusion matrix")
     e.add_argument("--quiet", action="store_true", help="no progress bar")
     e.set_defaults(func=run_eval)
@@ -189,7 +189,7 @@ def run_import(args) -> int:
 
     with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
         paths = import_folder(args.folder, root, progress=bar)
-    print(f"imported {len(paths)} recordings into {root}")
+    print(f"imported {len(paths)} clips into {root}")
     return 0
 
 

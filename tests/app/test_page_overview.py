@@ -1,3 +1,4 @@
+import json
 from pathlib import Path
 
 from apphelpers import no_exception, texts
@@ -26,6 +27,31 @@ def test_overview_lists_participants_with_next_step(app, store):
     # the sidebar picked the participant last worked with (P02's preferences, saved last); the address carries it
     assert at.session_state["participant"] == "P02"
     assert at.query_params["participant"] == ["P02"] or at.query_params["participant"] == "P02"
+
+
+def test_the_participants_table_shows_every_column_at_1280_px_with_names_whole(app, store):
+    """The ui helper saw "last recorded" cut at the right edge at 1280 px (six columns of 920 px in a table of
+    820). Every column shown has a width now, all of them fit the page at 1280 px (the table stretches them on a
+    wider page), and a row is three lines high: the policy's "(newest: 2)" and the time of "last recorded" wrap."""
+    room = 818  # the table's width at 1280 x 800 beside the sidebar (headless Chromium; app_support.OVERVIEW_TABLE_ROOM)
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    store.open_day("P01")
+    store.record_interaction("P01", 1, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    at = app()
+    no_exception(at)
+    grid = at.dataframe[0]
+    shown = list(grid.proto.column_order)
+    widths = {name: config.get("width") for name, config in json.loads(grid.proto.columns).items()
+              if name in shown}
+    assert set(widths) == set(shown) and all(isinstance(w, int) for w in widths.values()), widths
+    assert sum(widths.values()) <= room, widths
+    # on one line: the header "participant" (about 80 px), "1 of 7 (open)" (about 100), "Start day 1 on the tablet
+    # (Study session)" (about 245), the header "success rate so far" (about 136); the rest wraps (rows over 4rem)
+    assert widths["participant"] >= 80 and widths["day"] >= 100 and widths["next step"] >= 245
+    assert widths["success rate so far"] >= 136 and min(widths["policy"], widths["last recorded"]) >= 100
+    assert grid.proto.row_height > 64
 
 
 def test_participants_are_listed_by_code_whatever_its_letter_case(app, store):

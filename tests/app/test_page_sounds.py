@@ -56,7 +56,7 @@ def test_add_clips_valid_and_invalid(tmp_path, monkeypatch):
     for files, message in (([("silence.wav", _wav(silent=True))], "silence.wav: is all silence"),
                            ([("notes.wav", b"this is text")], "notes.wav: not a readable WAV/FLAC/OGG audio file"),
                            ([("empty.wav", b"")], "empty.wav: is empty (0 bytes)"),
-                           ([], "no recording given")):
+                           ([], "no clip given")):
         try:
             lab.add_clips("cough", [("good.wav", _wav())] + files if files else files, root)
         except CacasError as exc:
@@ -106,8 +106,8 @@ def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, mo
     at.run()
     no_exception(at)
     shown = next(m for m in at.metric if m.label.startswith("Sound"))
-    assert (shown.label, shown.help) == ("Sound accuracy", "on all 4 recordings (training ones included)")
-    assert "Accuracy on all 4 recordings (training ones included)." in texts(at)
+    assert (shown.label, shown.help) == ("Sound accuracy", "on all 4 clips (training ones included)")
+    assert "Accuracy on all 4 clips (training ones included)." in texts(at)
     RUNNER.forget("eval-sound")
 
 
@@ -281,6 +281,20 @@ def _errors(at) -> list[str]:
     return [e.value for e in at.error if not e.value.startswith("Set-up:")]  # a folder without the D4A pairs
 
 
+def test_the_page_calls_sound_files_clips_in_its_messages_too(app, tmp_path, monkeypatch):
+    """The page calls them clips ("Add clips", "Sound library": "No clips yet."), but its messages, from the
+    library and the lab, said "recordings": "2 of the 2 recordings cannot be used", "the same recording is given
+    twice", "Add recordings of one activity". The page's word now, in the messages too."""
+    at, data = _library_app(app, tmp_path, monkeypatch)
+    assert "Add clips of one activity:" in texts(at)
+    _add_clips(at, ("my notes.wav", b"text"), ("my other notes.wav", b"more text"))
+    assert _errors(at)[0].startswith("2 of the 2 clips cannot be used; nothing was added:"), _errors(at)
+    _add_clips(at, ("a.wav", _wav(0.8)), ("a again.wav", _wav(0.8)))
+    assert _errors(at) and _errors(at)[0].startswith("a again.wav: the same clip is given twice"), _errors(at)
+    # the page's caption keeps "real (household) recordings": the paper's sounds, not the library's files
+    assert "recording" not in texts(at).replace("real household recordings", "").replace("real recordings", "")
+
+
 def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_path, monkeypatch):
     """Review: the refusal stayed on the Add tab after the researcher had chosen other files (until the
     next Add), as if the new files had been refused too."""
@@ -288,7 +302,7 @@ def test_a_refused_add_is_said_until_the_files_or_the_activity_change(app, tmp_p
     _add_clips(at, ("b.wav", _wav(0.8)))
     assert "Added 1 clip to 'cough'." in texts(at)
     _add_clips(at, ("b2.wav", _wav(0.8)))  # the same bytes: refused, in the words of the page's button
-    assert _errors(at) == ["b2.wav: the same recording is already in the library as cough/b.wav; nothing was added "
+    assert _errors(at) == ["b2.wav: the same clip is already in the library as cough/b.wav; nothing was added "
                            "(leave the copy out and press 'Add to the library' again)"]
     at.run()  # anything else on the page: the same files are still the ones refused
     assert any("already in the library" in e for e in _errors(at))
@@ -487,7 +501,7 @@ def test_the_sound_library_tab_says_an_activity_with_a_single_clip(app, tmp_path
     no_exception(at)
     said = [w.value for w in at.warning if "would refuse" in w.value]
     assert len(said) == 1 and said[0].endswith(
-        "activities with a single recording cannot be split 9:1 into training and test: cough; valid: 2 recordings "
+        "activities with a single clip cannot be split 9:1 into training and test: cough; valid: 2 clips "
         "or more of each activity that has any (add another, or remove the one)"), said
     (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
     at.run()
@@ -502,7 +516,7 @@ def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, mon
     assert at.button(key="btn-train-sound").disabled
     assert not at.button(key="btn-train-scene").disabled  # the shipped scenes: fine
     said = [e.value for e in at.warning if e.value.startswith("Cannot train the sound model on this library: ")]
-    assert len(said) == 1 and "cough; valid: 2 recordings or more" in said[0], said
+    assert len(said) == 1 and "cough; valid: 2 clips or more" in said[0], said
     (data / "sounds" / "cough" / "b.wav").write_bytes(_wav(0.9))
     at.run()
     assert not at.button(key="btn-train-sound").disabled
