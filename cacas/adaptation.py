@@ -44,11 +44,11 @@ import torch
 
 from cacas import records, spaces
 from cacas.d4a import D4A, load_d4a
-from cacas.errors import CacasError, check_fields, each
+from cacas.errors import CacasError, check_fields, each, number_where, share_rule, whole_from
 from cacas.paths import study_data_dir
 from cacas.policy import BanditPolicy, MLPPolicy, ReshapedPolicy, accept_pairs, policy_from_bytes
 from cacas.preferences import Participant
-from cacas.sac import DiscreteSAC, SACConfig, number_where, share_rule, whole_from
+from cacas.sac import DiscreteSAC, SACConfig
 from cacas.simulator import ContextSource, ResponseModel, StateGenerator, preference_states, steps_per_day
 from cacas.user_model import UMA, DecisionModel
 

@@ -47,34 +47,7 @@ from torch.nn import functional as F
 
 from cacas import nets, spaces
 from cacas.checkpoints import load_checkpoint
-from cacas.errors import CacasError, check_fields
-
-
-def is_whole(value) -> bool:
-    """A whole number (Python's or numpy's; not True or False)."""
-    return isinstance(value, (int, np.integer)) and not isinstance(value, bool)
-
-
-def is_number(value) -> bool:
-    """A finite number (Python's or numpy's; not True or False, NaN or infinity)."""
-    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
-            and math.isfinite(value))
-
-
-def whole_from(minimum: int, what: str) -> tuple:
-    """The rule of a whole number >= ``minimum`` (:func:`cacas.errors.check_fields`), ``what``
-    saying what it counts."""
-    return (lambda v: is_whole(v) and v >= minimum), f"a whole number >= {minimum} ({what})"
-
-
-def number_where(test, valid: str) -> tuple:
-    """The rule of a finite number that passes ``test`` (:func:`cacas.errors.check_fields`)."""
-    return (lambda v: is_number(v) and bool(test(v))), valid
-
-
-def share_rule(what: str) -> tuple:
-    """The rule of a number from 0 to 1, ``what`` saying what it weighs."""
-    return number_where(lambda v: 0 <= v <= 1, f"a number from 0 to 1 ({what})")
+from cacas.errors import CacasError, check_fields, number_where, share_rule, whole_from
 
 
 @dataclass
