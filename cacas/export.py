@@ -561,6 +561,11 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     return tables, policies
 
 
+#: How on from a zip an export stopped part-way left (:func:`_check_whole_export`).
+_EXPORT_AGAIN = ("run cacas export again and import the new zip (to import this one all the same, copy it out of "
+                 "this folder first); nothing was imported")
+
+
 def _check_whole_export(bundle: Path) -> None:
     """Refuse (CacasError) a zip that :data:`cacas.store.files.CHECKSUMS` beside it lists with
     other bytes: the export that wrote its folder was stopped part-way (killed, a power cut) before
@@ -576,16 +581,12 @@ def _check_whole_export(bundle: Path) -> None:
         # `cacas export --tables-only` lists no zip: one there is an earlier export's it was killed before removing
         raise CacasError(f"{bundle}: {files.CHECKSUMS} beside it does not list it: the export that wrote this folder "
                          "wrote its tables only (--tables-only) and was stopped (killed, or a power cut) before it "
-                         "removed this zip, which is an earlier export's; run cacas export again and import the "
-                         "new zip (to import this one all the same, copy it out of this folder first); nothing was "
-                         "imported")
+                         f"removed this zip, which is an earlier export's; {_EXPORT_AGAIN}")
     bad = files.mismatched(bundle.parent, {bundle.name})
     if bad:
         raise CacasError(f"{bundle}: does not match its sha256 in {files.CHECKSUMS} beside it: the export that wrote "
                          "this folder was stopped part-way (killed, or a power cut) before it replaced this zip, "
-                         "which is an earlier export's (or it was changed since); run cacas export again and import "
-                         "the new zip (to import this one all the same, copy it out of this folder first); nothing "
-                         "was imported")
+                         f"which is an earlier export's (or it was changed since); {_EXPORT_AGAIN}")
 
 
 def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:

@@ -46,6 +46,19 @@ def hidden(folder: Path) -> list[str]:
     return sorted(p.name for p in folder.iterdir() if p.name.startswith("."))
 
 
+#: The end of both refusals of a zip an export stopped part-way left (spelt out: the test checks the words).
+EXPORT_AGAIN = ("run cacas export again and import the new zip (to import this one all the same, copy it out of this "
+                "folder first); nothing was imported")
+
+
+def import_refused(zip_path: Path, target: Path) -> str:
+    """cacas import's refusal of ``zip_path`` (its message), with nothing made at ``target``."""
+    with pytest.raises(CacasError) as err:
+        export.import_bundle(zip_path, target)
+    assert not target.parent.exists()
+    return str(err.value)
+
+
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory):
     """A study database and its export's files (name -> bytes) before and after a change that
@@ -98,14 +111,10 @@ def test_an_export_killed_at_each_rename_is_found_by_import_upload_and_the_next_
         with StudyStore(target, readonly=True) as s:
             assert len(s.list_participants()) == (2 if runs_of(export.BUNDLE_NAME) == {2} else 1)
     else:
-        with pytest.raises(CacasError) as err:
-            export.import_bundle(zip_path, target)
-        assert str(err.value) == (
+        assert import_refused(zip_path, target) == (
             f"{zip_path}: does not match its sha256 in checksums.sha256 beside it: the export that wrote this folder "
             "was stopped part-way (killed, or a power cut) before it replaced this zip, which is an earlier export's "
-            "(or it was changed since); run cacas export again and import the new zip (to import this one all the "
-            "same, copy it out of this folder first); nothing was imported")
-        assert not target.parent.exists()
+            "(or it was changed since); " + EXPORT_AGAIN)
 
     # the Results page's upload: the three tables it shows, with the checksums file beside them
     shown = ["daily.csv", "interactions.csv", "by_preference.csv"]
@@ -148,14 +157,10 @@ def test_a_tables_only_export_killed_before_it_removed_an_earlier_zip_is_found_b
     assert (out / export.BUNDLE_NAME).read_bytes() == first[export.BUNDLE_NAME]
     assert files.mismatched(out) == []  # what checksums.sha256 lists is whole: the tables of the second export
     target = tmp_path / "moved" / "study.sqlite"
-    with pytest.raises(CacasError) as err:
-        export.import_bundle(out / export.BUNDLE_NAME, target)
-    assert str(err.value) == (
+    assert import_refused(out / export.BUNDLE_NAME, target) == (
         f"{out / export.BUNDLE_NAME}: checksums.sha256 beside it does not list it: the export that wrote this folder "
         "wrote its tables only (--tables-only) and was stopped (killed, or a power cut) before it removed this zip, "
-        "which is an earlier export's; run cacas export again and import the new zip (to import this one all the "
-        "same, copy it out of this folder first); nothing was imported")
-    assert not target.parent.exists()
+        "which is an earlier export's; " + EXPORT_AGAIN)
     assert main(["export", "--db", str(db), "--out", str(out), "--tables-only"]) == 0  # the next one removes it
     assert not (out / export.BUNDLE_NAME).exists()
 
