@@ -187,7 +187,7 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
                    places: Sequence[int] | None = None) -> StudyResult:
     """Run a whole simulated study; the same seed gives the same tables whatever ``jobs``, the
     number of worker processes (default 1; more need the caller's script to guard its entry
-    point with ``if __name__ == "__main__":``, as worker processes are spawned). ``loop``: see
+    point with ``if __name__ == "__main__":``, which the workers' fork server imports). ``loop``: see
     :data:`LOOPS` and the module's docstring.
 
     ``places``: each participant's place in the persona file they come from (default 0, 1, 2, ...

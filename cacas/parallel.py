@@ -1,8 +1,9 @@
 """Independent pieces of long work (one participant each) in worker processes, one per core.
 
 :func:`run_parallel` serves the simulated study (``cacas simulate``, the Simulation lab) and the
-human study's method comparison (Results): each piece runs in a spawned process (safe with
-torch's thread pools), reports through a queue that the main process drains into ``tick``, and
+human study's method comparison (Results): each piece runs in a worker process that a fork server
+forks (:func:`worker_context`; safe with torch's thread pools, which the fork server never starts),
+reports through a queue that the main process drains into ``tick``, and
 ends at its next report once the main process asks it to stop (``tick`` raised: a Stop button,
 :class:`cacas.jobs.Stopped`, or Ctrl-C). Work kept by the main process as the reports arrive
 (a comparison's runs) stays; pieces not started never start.
@@ -177,7 +178,7 @@ def _exit_with_parent() -> None:
     """End this worker or manager process when the main process is gone: killed outright
     (``kill -9``, the kernel's out-of-memory killer, a crashed app server) it cannot stop them, and
     they stayed for good, orphans holding a Python with torch each (a daemon thread waits on the
-    parent's sentinel, which a spawned process has)."""
+    parent's sentinel, which a worker process has, spawned or forked by the fork server)."""
     parent = mp.parent_process()
     if parent is None:
         return
@@ -189,11 +190,44 @@ def _exit_with_parent() -> None:
     threading.Thread(target=watch, name="exit-with-parent", daemon=True).start()
 
 
-def start_process() -> None:
+def start_process(environ: dict[str, str] | None = None) -> None:
     """The initializer of the worker and manager processes: Ctrl-C left to the main process
-    (:func:`ignore_interrupt`), and the process ends when the main process is gone."""
+    (:func:`ignore_interrupt`), and the process ends when the main process is gone. ``environ``: the
+    main process's environment when the pool started, which a process the fork server forks would
+    not have otherwise (it has the fork server's, of its own start; e.g. a ``CACAS_STUDY_DATA`` set
+    since). The working directory and ``sys.path`` come with every process started
+    (multiprocessing's preparation data)."""
     ignore_interrupt()
+    if environ is not None and environ != os.environ:
+        os.environ.clear()
+        os.environ.update(environ)
     _exit_with_parent()
+
+
+#: The modules whose functions run in the worker processes (a simulated study's participants, a
+#: comparison's), imported once by the fork server (:func:`worker_context`), with torch and pandas.
+WORKER_MODULES = ("cacas.experiment", "cacas.method_comparison")
+
+
+def worker_context():
+    """The multiprocessing context the workers start in: a fork server that imports the main module
+    and :data:`WORKER_MODULES` once, then forks each worker and manager process from itself, where
+    the system has one (Linux, macOS); spawn elsewhere.
+
+    Spawned, every worker imported torch, pandas and cacas (and, in the app, the Streamlit script)
+    itself, on every run: a simulated study of 2 participants x 1 day in the app's process took
+    35-37 s a run against 2.5-5 s with the fork server, which stays for the process's later runs
+    (load 6-10, docs/performance.md). A fork server is a process of its own, started fresh and
+    single-threaded, so, unlike a plain fork of the main process, its children inherit no thread (the
+    app server's, torch's intra-op pool) nor lock held by one. The pieces' random streams are seeded
+    from their arguments, so the results are the same with either start method. The fork server's
+    modules are those of its start: a change of the code on disk reaches the workers once the
+    process (the app server, ``cacas simulate``) starts again."""
+    if "forkserver" not in mp.get_all_start_methods():
+        return mp.get_context("spawn")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(["__main__", *WORKER_MODULES])  # in effect when the server starts, once
+    return ctx
 
 
 class InterruptHeld:
@@ -262,7 +296,7 @@ def _piece(worker: Callable, shared: bytes, piece: Any, queue, stop):
 def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: int,
                  tick: Callable[..., None], what: str = "pieces of work",
                  keep: Callable[..., None] | None = None) -> list:
-    """``worker(shared, piece, queue, stop)`` for every piece in ``jobs`` spawned worker processes
+    """``worker(shared, piece, queue, stop)`` for every piece in ``jobs`` worker processes
     (``worker`` a module-level function; ``shared`` bytes every piece needs, e.g. a policy);
     every item a worker puts on ``queue`` (:func:`reporter`) comes to ``tick(*item)`` in the main
     process as it runs. If ``tick`` raises, or a worker fails, every worker ends at its next
@@ -270,12 +304,13 @@ def run_parallel(worker: Callable, shared: bytes, pieces: Sequence[Any], jobs: i
     ``keep(*item)`` (work already made, e.g. a comparison's runs, is kept); the exception goes on
     with a note of how many pieces (``what``) ended early.
     Returns the workers' results in the order of ``pieces``."""
-    ctx = mp.get_context("spawn")
+    ctx = worker_context()
     manager = SyncManager(ctx=ctx)
     held = InterruptHeld()
     try:
         manager.start(start_process)
-        with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=start_process) as pool:
+        with manager, ProcessPoolExecutor(jobs, mp_context=ctx, initializer=start_process,
+                                          initargs=(dict(os.environ),)) as pool:
             queue, stop = manager.Queue(), manager.Event()
             futures = []
             try:

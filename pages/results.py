@@ -41,6 +41,7 @@ store = ui.store()
 study = ui.study()
 db = ui.db_path()
 HUMAN = "Human study (this database)"
+TAB = "results-tab"  #: the open tab's key
 
 st.title("Results")
 
@@ -109,113 +110,120 @@ if common is not None and common < int(reached.max()):
                           "many each day averages. The tables are whole either way.") == "every"
     shown = daily if whole else daily[daily["day"].astype(int) <= common]
 
-fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"])
+# Only the open figure tab runs (Fig. 4 with its heatmap was over half of a rerun of a 24 x 7 study); a change of
+# tab reruns the page. Their widgets keep their values meanwhile (persist_state). The questionnaire's form and
+# the tables' expanders are drawn in every run: a form keeps what was typed, and an expander its state, only
+# while drawn, and both are quick.
+fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods", "Questionnaire", "Tables"],
+                                  key=TAB, on_change="rerun")
 
-with fig3:
-    method, looped = plots.loop_method(shown), plots.closed_loop_methods(shown)
-    if method is None:
-        st.info("No study day with interactions yet. Run a day on the **Study session** page." if source == HUMAN
-                else "No success rate in this daily.csv: no method acted with the participants (its accuracies are "
-                     "under Fig. 4).")
-    else:
-        if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
-            human = source == HUMAN
-            st.plotly_chart(plots.success_methods_figure(
-                shown, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
-            method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method",
-                                  format_func=lambda m: plots.METHOD_LABELS.get(m, m),
-                                  help=("Participants' days count under the method whose policy was in force that "
-                                        "day; Fig. 3 below shows one method." if human else
-                                        "Each of these methods acted in a study of its own; Fig. 3 below shows one."))
-        per_day = plots.success_by_day(shown, method).set_index("day")
-        last = per_day.index.max()
-        row = ui.metric_row()
-        first = per_day.index.min()
-        change, paired = plots.success_change(shown, method, first, last)
-        # halves up, as the percentages beside it (25 % -> 38 % is "+13", not round()'s "+12": review)
-        change = math.floor(100 * change + 0.5) if paired else 0
-        n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["on_day"].max())
-        in_progress = records.by_code(c for c, d in app_support.open_days(store, study).items() if d == last) \
-            if source == HUMAN else []
-        n_first = int(per_day.loc[first, "participants"])
-        row.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
-                  ui.percent(per_day.loc[last, "mean"]),
-                  # a day begun with nothing recorded yet: "–" alone read as a missing figure (walkthrough)
-                  "nothing recorded yet" if n_last == 0 else
-                  None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}"
-                  # paired: over the participants with both days, not the difference of the two plotted means
-                  + ("" if paired == n_first == n_last else f" ({paired} with both days)"),
-                  delta_color="normal" if change and n_last else "off", delta_arrow="auto" if n_last else "off",
-                  help=" ".join(filter(None, [
-                      f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with a "
-                      f"success rate that day; the change is over the {paired} with both day {first} and day {last}."
-                      if len(per_day) > 1 else None,
-                      f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the day "
-                      "is closed." if in_progress else None])) or None)
-        row.metric(f"Mean cumulative feedback, day {last}", plots.data_points(per_day.loc[last, "cumulative_feedback"]))
-        on_day = int(per_day.loc[last, "on_day"])  # also those with nothing recorded yet that day
-        row.metric(f"Participants on day {last}", on_day if on_day == n_all else f"{on_day} of {n_all}",
-                  help=None if on_day == n_all else f"{n_all} participants have a day in the figure; "
-                  f"{on_day} {'has' if on_day == 1 else 'have'} reached day {last}.")
-        if in_progress:
-            st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
-                       "are so far, and change until the day is closed.")
-        st.plotly_chart(plots.success_figure(shown, method=method), width="stretch")
-        st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
-                   "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
-                   "and requests, which are not successes); as in the paper, a proposal left unanswered, the robot "
-                   "quiet with nothing asked, or a request while doing nothing (no sound activity), is not recorded."
-                   + (" The dashed line (daily.csv's success_ceiling) is the share of the interactions where a "
-                      "described preference names an action: the success rate proposing the described preferences "
-                      "reaches there. It is not a bound: where no preference names an action (or the participant "
-                      "wants the robot to do nothing) a participant may still accept what the robot offers."
-                      if per_day["ceiling"].notna().any() else ""))
+if fig3.open:
+    with fig3:
+        method, looped = plots.loop_method(shown), plots.closed_loop_methods(shown)
+        if method is None:
+            st.info("No study day with interactions yet. Run a day on the **Study session** page." if source == HUMAN
+                    else "No success rate in this daily.csv: no method acted with the participants (its accuracies are "
+                         "under Fig. 4).")
+        else:
+            if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
+                human = source == HUMAN
+                st.plotly_chart(plots.success_methods_figure(
+                    shown, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
+                method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method", persist_state="page",
+                                      format_func=lambda m: plots.METHOD_LABELS.get(m, m),
+                                      help=("Participants' days count under the method whose policy was in force that "
+                                            "day; Fig. 3 below shows one method." if human else
+                                            "Each of these methods acted in a study of its own; Fig. 3 below shows one."))
+            per_day = plots.success_by_day(shown, method).set_index("day")
+            last = per_day.index.max()
+            row = ui.metric_row()
+            first = per_day.index.min()
+            change, paired = plots.success_change(shown, method, first, last)
+            # halves up, as the percentages beside it (25 % -> 38 % is "+13", not round()'s "+12": review)
+            change = math.floor(100 * change + 0.5) if paired else 0
+            n_last, n_all = int(per_day.loc[last, "participants"]), int(per_day["on_day"].max())
+            in_progress = records.by_code(c for c, d in app_support.open_days(store, study).items() if d == last) \
+                if source == HUMAN else []
+            n_first = int(per_day.loc[first, "participants"])
+            row.metric(f"Day {last} mean success rate" + (" so far" if in_progress else ""),
+                      ui.percent(per_day.loc[last, "mean"]),
+                      # a day begun with nothing recorded yet: "–" alone read as a missing figure (walkthrough)
+                      "nothing recorded yet" if n_last == 0 else
+                      None if len(per_day) < 2 or not paired else f"{change:+d} points since day {first}"
+                      # paired: over the participants with both days, not the difference of the two plotted means
+                      + ("" if paired == n_first == n_last else f" ({paired} with both days)"),
+                      delta_color="normal" if change and n_last else "off", delta_arrow="auto" if n_last else "off",
+                      help=" ".join(filter(None, [
+                          f"Day {last}: the mean over the {n_last} participant{'s' if n_last != 1 else ''} with a "
+                          f"success rate that day; the change is over the {paired} with both day {first} and day {last}."
+                          if len(per_day) > 1 else None,
+                          f"Day {last} is still open for {', '.join(in_progress)}: its figures change until the day "
+                          "is closed." if in_progress else None])) or None)
+            row.metric(f"Mean cumulative feedback, day {last}", plots.data_points(per_day.loc[last, "cumulative_feedback"]))
+            on_day = int(per_day.loc[last, "on_day"])  # also those with nothing recorded yet that day
+            row.metric(f"Participants on day {last}", on_day if on_day == n_all else f"{on_day} of {n_all}",
+                      help=None if on_day == n_all else f"{n_all} participants have a day in the figure; "
+                      f"{on_day} {'has' if on_day == 1 else 'have'} reached day {last}.")
+            if in_progress:
+                st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
+                           "are so far, and change until the day is closed.")
+            st.plotly_chart(plots.success_figure(shown, method=method), width="stretch")
+            st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
+                       "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
+                       "and requests, which are not successes); as in the paper, a proposal left unanswered, the robot "
+                       "quiet with nothing asked, or a request while doing nothing (no sound activity), is not recorded."
+                       + (" The dashed line (daily.csv's success_ceiling) is the share of the interactions where a "
+                          "described preference names an action: the success rate proposing the described preferences "
+                          "reaches there. It is not a bound: where no preference names an action (or the participant "
+                          "wants the robot to do nothing) a participant may still accept what the robot offers."
+                          if per_day["ceiling"].notna().any() else ""))
 
-with fig4:
-    if source == HUMAN:
-        st.markdown("The paper did not rerun the study with each method: it adapted each one from the same "
-                    "daily interactions and scored it on states generated from the described preferences.")
-        key = f"compare:{db}:{study}"
-        job = ui.job_progress(key, stoppable=True, when_stopped="the runs recorded so far are kept, and comparing "
-                                                                "again goes on from where it stopped.")
-        if job is None or not job.running:
-            if st.button("Compare methods on this study's data", icon=":material/compare_arrows:",
-                         help="Adapts CACAS w/o PR, ORL and NN (and CACAS, for a participant adapted with "
-                              "another method) day by day from each participant's interactions, where a day has no "
-                              "run yet (in the background, participants side by side, one worker process per "
-                              "core; a few seconds per participant, method and day)."):
-                RUNNER.start(key, compare_methods, db, study=study, jobs=default_jobs(), label="Comparing methods")
-                st.rerun()
-            if job is not None and job.status == FAILED:
-                st.error(f"The comparison failed: {job.error}")
-            elif job is not None and job.status == DONE:  # said, not only drawn: a figure may change little
-                st.success(app_support.comparison_done(job.result, job.elapsed, job.finished), icon=":material/check_circle:")
-    # Fig. 4 is daily.csv's, whatever the source: the day a policy was in force (re-plotting the export
-    # draws the same figure); policies adapted for a day not started yet are listed below it
-    accuracy, by_pref = shown, tables.get("by_preference")
-    summary = plots.accuracy_table(accuracy)
-    if summary.empty:
-        st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
-                "described preferences.")
-    else:
-        st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
-        st.dataframe(100 * summary, width="stretch", placeholder="–",  # "–": a method without a score that day
-                     column_config={"_index": st.column_config.TextColumn("method", width="medium"),
-                                    **{day: st.column_config.NumberColumn(format="%.0f%%") for day in summary}})
-        left = plots.incomplete_comparisons(accuracy)
-        st.caption("Mean preference accuracy over participants, per method and day (Fig. 4): each day's "
-                   "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN)
-                   + (app_support.uncompared_note(accuracy) if source == HUMAN else ""))
-    ahead = next_day_accuracy(tables) if source == HUMAN else []
-    if len(ahead):
-        st.markdown("**Adapted for the next day, not started yet**")
-        st.dataframe(app_support.next_day_view(ahead), hide_index=True, width="stretch")
-        st.caption("Each method's policy adapted after the participant's last day, scored as in Fig. 4; \"in "
-                   "force\" marks the policy the robot will use (after a roll-back, an earlier one). Fig. 4 and "
-                   "daily.csv take these in once the day has begun.")
-    if not summary.empty and by_pref is not None and len(by_pref):
-        st.subheader("Which preferences each method learnt")
-        ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}")  # each source's own day and method
+if fig4.open:
+    with fig4:
+        if source == HUMAN:
+            st.markdown("The paper did not rerun the study with each method: it adapted each one from the same "
+                        "daily interactions and scored it on states generated from the described preferences.")
+            key = f"compare:{db}:{study}"
+            job = ui.job_progress(key, stoppable=True, when_stopped="the runs recorded so far are kept, and comparing "
+                                                                    "again goes on from where it stopped.")
+            if job is None or not job.running:
+                if st.button("Compare methods on this study's data", icon=":material/compare_arrows:",
+                             help="Adapts CACAS w/o PR, ORL and NN (and CACAS, for a participant adapted with "
+                                  "another method) day by day from each participant's interactions, where a day has no "
+                                  "run yet (in the background, participants side by side, one worker process per "
+                                  "core; a few seconds per participant, method and day)."):
+                    RUNNER.start(key, compare_methods, db, study=study, jobs=default_jobs(), label="Comparing methods")
+                    st.rerun()
+                if job is not None and job.status == FAILED:
+                    st.error(f"The comparison failed: {job.error}")
+                elif job is not None and job.status == DONE:  # said, not only drawn: a figure may change little
+                    st.success(app_support.comparison_done(job.result, job.elapsed, job.finished), icon=":material/check_circle:")
+        # Fig. 4 is daily.csv's, whatever the source: the day a policy was in force (re-plotting the export
+        # draws the same figure); policies adapted for a day not started yet are listed below it
+        accuracy, by_pref = shown, tables.get("by_preference")
+        summary = plots.accuracy_table(accuracy)
+        if summary.empty:
+            st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
+                    "described preferences.")
+        else:
+            st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
+            st.dataframe(100 * summary, width="stretch", placeholder="–",  # "–": a method without a score that day
+                         column_config={"_index": st.column_config.TextColumn("method", width="medium"),
+                                        **{day: st.column_config.NumberColumn(format="%.0f%%") for day in summary}})
+            left = plots.incomplete_comparisons(accuracy)
+            st.caption("Mean preference accuracy over participants, per method and day (Fig. 4): each day's "
+                       "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN)
+                       + (app_support.uncompared_note(accuracy) if source == HUMAN else ""))
+        ahead = next_day_accuracy(tables) if source == HUMAN else []
+        if len(ahead):
+            st.markdown("**Adapted for the next day, not started yet**")
+            st.dataframe(app_support.next_day_view(ahead), hide_index=True, width="stretch")
+            st.caption("Each method's policy adapted after the participant's last day, scored as in Fig. 4; \"in "
+                       "force\" marks the policy the robot will use (after a roll-back, an earlier one). Fig. 4 and "
+                       "daily.csv take these in once the day has begun.")
+        if not summary.empty and by_pref is not None and len(by_pref):
+            st.subheader("Which preferences each method learnt")
+            ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}")  # each source's own day and method
 
 with quest:
     if source != HUMAN:

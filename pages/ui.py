@@ -347,13 +347,14 @@ HEATMAP_PARTICIPANTS = 8
 
 def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
     """Fig. 4 by described preference (``by_preference.csv``): every method side by side on one
-    day, or one method day by day; then the table's download."""
+    day, or one method day by day; then the table's download. The choices are kept while the page's tab
+    that holds them is not drawn (Results runs only its open tab)."""
     st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
                "learnt, and when. A row that stays pale is a preference the method never learnt.")
     whole = by_preference  # the download is the whole table, whoever is shown
     people = records.by_code(by_preference["participant"].astype(str).unique())
     if len(people) > HEATMAP_PARTICIPANTS:  # a row per preference: 24 participants made 120 rows, 3,300 px
-        chosen = st.multiselect("Participants", people, default=people[:HEATMAP_PARTICIPANTS], key=f"{key}-who",
+        chosen = st.multiselect("Participants", people, default=people[:HEATMAP_PARTICIPANTS], key=f"{key}-who", persist_state="page",
                                 help=f"{len(people)} participants have rows here; the first "
                                      f"{HEATMAP_PARTICIPANTS} are shown at first.")
         if not chosen:
@@ -364,12 +365,13 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
     methods = plots.in_method_order(by_preference["method"])
     days = sorted(int(d) for d in by_preference["day"].unique())
     by_method, by_day = "Methods on one day", "One method, day by day"
-    view = st.segmented_control("Show", [by_method, by_day], default=by_method, key=f"{key}-view") or by_method
+    view = st.segmented_control("Show", [by_method, by_day], default=by_method, key=f"{key}-view",
+                                persist_state="page") or by_method
     if view == by_method:
-        day = st.select_slider("Day", days, value=days[-1], key=f"{key}-day") if len(days) > 1 else days[0]
+        day = st.select_slider("Day", days, value=days[-1], key=f"{key}-day", persist_state="page") if len(days) > 1 else days[0]
         fig = plots.preference_methods_figure(by_preference, day)
     else:
-        method = st.selectbox("Method", methods, key=f"{key}-method",
+        method = st.selectbox("Method", methods, key=f"{key}-method", persist_state="page",
                               format_func=lambda m: plots.METHOD_LABELS.get(m, m))
         fig = plots.preference_days_figure(by_preference, method)
     st.plotly_chart(fig, width="stretch", key=f"{key}-chart")

@@ -73,7 +73,9 @@ def build(path: Path, participants: int = 24, days: int = 7, interactions: int =
                     store.record_interaction(code, day, response=resp, **kw)
                 elif u < 0.2:
                     resp = "accept"
-                    want = spaces.ACTIONS[int(rng.integers(1, spaces.N_ACTIONS))]
+                    # a request for another action than the robot's proposal (an import refuses the proposal)
+                    others = [a for a in spaces.ACTIONS[1:] if a != action]
+                    want = others[int(rng.integers(len(others)))]
                     store.record_interaction(code, day, type="type_2", response=resp, user_action=want, **kw)
                 else:
                     resp = "accept" if rng.random() < 0.4 + 0.08 * day else "reject"

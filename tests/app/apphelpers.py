@@ -37,3 +37,10 @@ def save_runs(db, days: dict[str, int]) -> None:
             accuracy=0.5)
         saved_runs.save_run(saved_runs.runs_dir(db), name, daily, pd.DataFrame({"participant": ["P01"]}), {},
                              by_pref)
+
+
+def open_tab(at: AppTest, key: str, label: str) -> AppTest:
+    """Open the tab ``label`` of the ``st.tabs`` with key ``key`` (tabs that run only when open) and
+    rerun the page, as a click on the tab does."""
+    at.session_state[key] = label
+    return at.run()

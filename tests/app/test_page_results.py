@@ -1,8 +1,9 @@
 import json
 
-from apphelpers import no_exception, save_runs, texts
+from apphelpers import no_exception, open_tab, save_runs, texts
 
 PAGE = "pages/results.py"
+FIG4, TABLES = "Fig. 4 · methods", "Tables"
 
 
 def _study_with_a_day(store):
@@ -161,6 +162,9 @@ def test_results_of_a_simulated_run(app, db):
     assert at.metric[0].label == "Day 2 mean success rate" and at.metric[0].value == "60%"
     assert at.metric[0].delta == "+30 points since day 1"
     assert at.metric[1].value == "15 data points" and at.metric[2].value == "1"
+    assert not any("Which preferences" in t for t in texts(at).splitlines())  # only the open tab runs
+    open_tab(at, "results-tab", FIG4)
+    no_exception(at)
     fig4 = at.dataframe[0].value  # the per-method, per-day means under Fig. 4
     assert list(fig4.index) == ["CACAS"] and list(fig4.columns) == ["day 1", "day 2"]
     assert fig4.loc["CACAS"].tolist() == [20, 50]
@@ -179,6 +183,7 @@ def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     at.selectbox(key="results-run").set_value("run-c").run()
+    open_tab(at, "results-tab", FIG4)
     slider = "results-prefs:Simulated run: {}-day"
     assert at.select_slider(key=slider.format("run-c")).value == 3
     at.select_slider(key=slider.format("run-c")).set_value(1).run()
@@ -238,7 +243,7 @@ def test_human_study_accuracy_by_described_preference(app, store):
     store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.5, "by_preference": [
         {"preference": 1, "label": "cough -> pain check", "activity": "cough", "action": "pain check",
          "states": 400, "correct": 200}]})
-    at = app(PAGE, participant="P01")
+    at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
     no_exception(at)
     assert "Which preferences each method learnt" in texts(at)
     heat = [c for c in at.get("plotly_chart") if "Accuracy by described preference" in c.proto.spec]
@@ -332,6 +337,28 @@ def test_a_broken_simulated_run_is_named_not_a_crash(app, db):
     assert "run-b: no interactions.csv; not a complete run" in texts(at)
 
 
+def test_only_the_open_figure_tab_runs_and_its_choices_are_kept_meanwhile(app, db):
+    """Profile (24 x 7 study): Fig. 4's tab, with its heatmap, was over half of every rerun of the page, shown
+    or not. Only the open figure tab runs; a day picked on Fig. 4's heatmap is still picked after a visit to
+    Fig. 3."""
+    save_runs(db, {"run-c": 3})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert at.metric[0].label == "Day 3 mean success rate"  # Fig. 3, the open tab
+    assert "Which preferences each method learnt" not in texts(at) and len(at.get("plotly_chart")) == 1
+    slider = "results-prefs:Simulated run: run-c-day"
+    open_tab(at, "results-tab", FIG4)
+    no_exception(at)
+    assert "Which preferences each method learnt" in texts(at) and not at.metric  # Fig. 3 not run
+    at.select_slider(key=slider).set_value(1).run()
+    open_tab(at, "results-tab", "Fig. 3 · success rate")
+    assert at.metric[0].label == "Day 3 mean success rate" and "Which preferences" not in texts(at)
+    open_tab(at, "results-tab", FIG4)
+    no_exception(at)
+    assert at.select_slider(key=slider).value == 1  # kept while its tab was not drawn
+
+
 def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, store, monkeypatch):
     """Compare methods records each run as it goes (and skips recorded ones when started again),
     so a stopped comparison keeps its runs: the page says so, not "nothing was saved"."""
@@ -354,7 +381,7 @@ def test_comparing_methods_can_be_stopped_and_keeps_the_runs_recorded(app, db, s
             threading.Event().wait(0.01)
 
     monkeypatch.setattr(cacas.method_comparison, "compare_methods", compare)
-    at = app(PAGE, participant="P01")
+    at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
     next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
     job = RUNNER.get(f"compare:{db}:default")
     assert job is not None and reported.wait(30)
@@ -381,7 +408,7 @@ def test_a_finished_comparison_says_what_it_recorded(app, db, store, monkeypatch
     for runs, said in ((12, "12 runs recorded, in Fig. 4 and the tables below"),
                        (0, "no new run; each method has one for every closed day")):
         monkeypatch.setattr(cacas.method_comparison, "compare_methods", lambda *a, runs=runs, **k: runs)
-        at = app(PAGE, participant="P01")
+        at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
         next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
         assert RUNNER.get(f"compare:{db}:default").wait(30)
         at.run()
@@ -398,6 +425,9 @@ def test_right_after_an_adaptation_the_policies_for_the_next_day_are_listed_apar
     store.record_adaptation("P01", 1, "cacas", {}, 1.0, {"preference_accuracy": 0.75})  # after day 1
     at = app(PAGE)
     no_exception(at)
+    assert at.metric[0].label == "Day 1 mean success rate"  # Fig. 3 stays with the days that happened
+    open_tab(at, "results-tab", FIG4)
+    no_exception(at)
     fig4 = at.dataframe[0].value
     # Fig. 4 is daily.csv's (the walkthrough's export drew another figure than the page), the day ahead
     # a table of its own
@@ -405,7 +435,6 @@ def test_right_after_an_adaptation_the_policies_for_the_next_day_are_listed_apar
     ahead = at.dataframe[1].value
     assert ahead.to_dict("records") == [{"participant": "P01", "day": 2, "CACAS": "75%"}]
     assert any("Fig. 4 and daily.csv take these in once the day has begun." in c.value for c in at.caption)
-    assert at.metric[0].label == "Day 1 mean success rate"  # Fig. 3 stays with the days that happened
 
 
 def test_human_study_compares_on_the_same_participants(app, store):
@@ -427,14 +456,16 @@ def test_human_study_compares_on_the_same_participants(app, store):
     store.record_adaptation("W02", 0, "cacas", {}, 0.0, {"preference_accuracy": 0.95})
     at = app(PAGE, participant="P01")
     no_exception(at)
-    table = next(d.value for d in at.dataframe if "day 1" in list(d.value.columns))
-    assert table.loc["CACAS", "day 1"] == 25 and table.loc["NN", "day 1"] == 25  # not (25% + 95%) / 2
-    assert table.loc["NN", "day 2"] == 50
-    assert "so these are left out: W02 day 1 (no NN); compare methods again to add them." in texts(at)
     values = {m.label: m for m in at.metric}
     rate = values["Day 2 mean success rate so far"]
     assert rate.value == "100%" and rate.delta == "+33 points since day 1 (1 with both days)"  # P01: 67% -> 100%, not the means
     assert values["Participants on day 2"].value == "1 of 2"
+    open_tab(at, "results-tab", FIG4)
+    no_exception(at)
+    table = next(d.value for d in at.dataframe if "day 1" in list(d.value.columns))
+    assert table.loc["CACAS", "day 1"] == 25 and table.loc["NN", "day 1"] == 25  # not (25% + 95%) / 2
+    assert table.loc["NN", "day 2"] == 50
+    assert "so these are left out: W02 day 1 (no NN); compare methods again to add them." in texts(at)
 
 
 def test_days_recorded_since_the_comparison_are_said_to_need_it(app, store):
@@ -443,7 +474,7 @@ def test_days_recorded_since_the_comparison_are_said_to_need_it(app, store):
     store.record_adaptation("P01", 0, "nn", {}, 0.0, {"preference_accuracy": 0.25})
     store.record_adaptation("P01", 1, "cacas", {}, 0.0, {"preference_accuracy": 0.75})
     _a_cough(store, store.open_day("P01"))
-    at = app(PAGE, participant="P01")
+    at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
     no_exception(at)
     assert "Not compared yet, so CACAS alone: P01 day 2; compare methods again to add them." in texts(at)
 
@@ -473,6 +504,7 @@ def test_tables_show_empty_cells_empty(app, db):
     saved_runs.save_run(saved_runs.runs_dir(db), "run-b", two, pd.DataFrame({"participant": ["P01"]}), {})
     at.run()
     at.selectbox(key="results-run").set_value("run-b").run()
+    open_tab(at, "results-tab", FIG4)
     element = next(d for d in at.dataframe if "day 2" in d.value.columns)
     fig4 = element.value
     assert element.proto.placeholder == "–"
@@ -530,6 +562,7 @@ def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, d
                          by_pref)
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
+    open_tab(at, "results-tab", FIG4)
     no_exception(at)
     who = at.multiselect(key="results-prefs:Simulated run: run-many-who")
     assert who.value == people[:8]
