@@ -220,8 +220,11 @@ def run(args) -> int:
     if args.plot and args.plot.resolve() != args.out.resolve():  # figures beside their own tables are fine
         check_output_folder(args.plot, "figures", f"--plot {args.plot}")
     try:
-        out = files.writable_folder(args.out, f"--out {args.out}")
-        plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
+        # checked, not made: a new folder is put in place whole, or not at all (files.write_all)
+        out = files.writable_folder(args.out, f"--out {args.out}", create=False)
+        together = args.plot is not None and args.plot.resolve() == args.out.resolve()  # (a link to it, say)
+        plot_dir = args.plot if together or not args.plot else \
+            files.writable_folder(args.plot, f"--plot {args.plot}", create=False)
         progress = None if args.quiet else ProgressBar("simulate")
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
