@@ -564,8 +564,6 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
     gives each the rows ``cacas simulate`` gives them from the whole file.
     Participants run side by side in ``jobs`` worker processes (default: one per core, as
     ``cacas simulate``); the tables are the same whatever ``jobs``."""
-    from datetime import datetime, timezone
-
     from cacas.experiment import default_jobs, simulate_study
 
     methods = check_simulation(participants, methods, days, interactions, seed, no_response_rate, ask_after_reject)
@@ -573,9 +571,41 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
                             ask_after_reject=ask_after_reject, loop=loop,
                             jobs=default_jobs() if jobs is None else jobs, places=places)
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
-    name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
+    name = new_run_name(out_root, f"{_stamp()}-seed{seed}-{len(participants)}p-{days}d")
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,
                 "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate,
                 "ask_after_reject": ask_after_reject, "loop": loop, "personas": personas}
-    return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)
+    try:
+        return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)
+    except BaseException:  # the folder claimed for it is left empty: not a run
+        from cacas.store import files
+
+        files.remove_empty([Path(out_root) / name])
+        raise
+
+
+def _stamp() -> str:
+    """A run's time in its folder name (UTC, to the second)."""
+    from datetime import datetime, timezone
+
+    return datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+
+
+def new_run_name(root, base: str) -> str:
+    """``base``, or ``base-2``, ``base-3``, ... the first name no run under ``root`` has, claimed by
+    making its (empty) folder: two runs of the same seed and size that finished in the same second
+    (two tabs, two researchers, two servers on one study) got one name, and the second run's
+    tables replaced the first's."""
+    from cacas.store import files
+
+    root = files.writable_folder(root, f"runs folder {root}")
+    for k in range(1, 10_000):
+        name = base if k == 1 else f"{base}-{k}"
+        try:
+            (root / name).mkdir()
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise CacasError(f"{root / name}: cannot be made ({exc.strerror or exc}); the run was not saved") from None
+        return name
+    raise CacasError(f"{root}: holds runs {base} to {base}-9999; remove some")

@@ -311,3 +311,36 @@ def test_bad_uploads_name_the_file(files, message):
     with pytest.raises(CacasError, match=message):
         saved_runs.load_uploaded_tables(files)
 
+
+
+def test_two_runs_finished_in_the_same_second_keep_both(tmp_path, monkeypatch):
+    """Adversarial audit: the Simulation lab names a run by its time to the second, seed and size:
+    two runs (two tabs, two researchers on one study) of one seed and size that finished in the same
+    second got one folder, and the second's tables replaced the first's."""
+    import cacas.experiment
+    from cacas.experiment import StudyResult
+    from cacas.preferences import parse_participant
+
+    people = [parse_participant({"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check"}]})]
+    made = iter(["first", "second"])
+
+    def simulate_study(*args, **kwargs):
+        which = next(made)
+        daily = _daily().assign(method=which)  # each run's own rows, told apart by their method column
+        return StudyResult(daily, pd.DataFrame({"participant": ["P01"], "method": [which]}), _by_pref())
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", simulate_study)
+    import datetime
+
+    class Frozen(datetime.datetime):  # both runs finish at 08:00:00
+        @classmethod
+        def now(cls, tz=None):
+            return datetime.datetime(2026, 11, 27, 8, 0, 0, 400_000, tzinfo=tz)
+
+    monkeypatch.setattr(datetime, "datetime", Frozen)
+    one = saved_runs.run_simulation(people, tmp_path, methods=("nn",), jobs=1)
+    two = saved_runs.run_simulation(people, tmp_path, methods=("nn",), jobs=1)
+    assert (one.name, two.name) == ("20261127-080000-seed0-1p-7d", "20261127-080000-seed0-1p-7d-2")
+    assert saved_runs.load_run(one).daily["method"].tolist() == ["first"]
+    assert saved_runs.load_run(two).daily["method"].tolist() == ["second"]
+    assert saved_runs.run_label(tmp_path, two.name).startswith("27 Nov 2026 08:00:00 · 1 participant")
