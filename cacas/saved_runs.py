@@ -224,47 +224,51 @@ def _keyed(df: pd.DataFrame, name: str) -> pd.DataFrame:
                      day=_whole_column(df, "day", name, 1))
 
 
-def _daily_from(interactions: pd.DataFrame, daily: pd.DataFrame) -> list[pd.DataFrame]:
+def _daily_from(interactions: pd.DataFrame, daily: pd.DataFrame):
     """daily.csv as :func:`cacas.records.daily_table` makes it from ``interactions``, with the rows of
     the uploaded ``daily`` (its keys and preference accuracies), in each way a daily.csv of ours is
-    written: a participant's interactions one stream (``cacas simulate``, the paper's protocol, and a
-    study database's export), or every method a closed loop of its own (``cacas simulate --loop
-    each``); and each also as tables written before commit 1c1999b counted them (a request made with
-    no sound activity was recorded, two data points)."""
+    written (made one by one, as asked for): a participant's interactions one stream (``cacas
+    simulate``, the paper's protocol, and a study database's export), or every method a closed loop
+    of its own (``cacas simulate --loop each``); and each also as tables written before commit 1c1999b
+    counted them (a request made with no sound activity was recorded, two data points)."""
     accuracy = daily[_KEY + ["preference_accuracy"]]
     idle_request = (interactions["type"] == records.USER_INITIATED) & (interactions["activity"] == "do nothing")
-    before = interactions.assign(activity=interactions["activity"].where(~idle_request, "(a request, doing nothing)"))
     methods = list(dict.fromkeys([*daily["method"], *interactions["method"]]))
-    made = []
-    for rows in (interactions, before):
-        made.append(records.daily_table(rows, accuracy))
+    variants = [interactions]
+    if idle_request.any():  # (without one, the same tables as now)
+        variants.append(interactions.assign(activity=interactions["activity"].where(~idle_request,
+                                                                                  "(a request, doing nothing)")))
+    for rows in variants:
+        yield records.daily_table(rows, accuracy)
         if len(methods) > 1:
-            made.append(pd.concat([records.daily_table(rows[rows["method"] == m], accuracy[accuracy["method"] == m])
-                                   for m in methods], ignore_index=True))
-    return made
+            yield pd.concat([records.daily_table(rows[rows["method"] == m], accuracy[accuracy["method"] == m])
+                             for m in methods], ignore_index=True)
 
 
 def _differences(daily: pd.DataFrame, made: pd.DataFrame) -> list[tuple]:
     """Where ``made`` (:func:`_daily_from`) differs from the uploaded ``daily``: (participant, method,
-    day, column, made's value, daily's value), column None for a row daily.csv does not have."""
+    day, column, made's value, daily's value), column None for a row daily.csv does not have; a row's
+    first differing column only."""
     columns = [c for c in SAME_RUN_COLUMNS if c in daily.columns]
     both = made[_KEY + columns].merge(daily[_KEY + columns], on=_KEY, how="left", suffixes=("", " said"),
                                       indicator=True)
+    lacking = (both["_merge"] == "left_only").to_numpy()
+    first = np.full(len(both), -1)  # each row's first differing column (its place in ``columns``)
+    for k, col in reversed(list(enumerate(columns))):
+        have = pd.to_numeric(both[col], errors="coerce").astype(float).to_numpy()
+        said = pd.to_numeric(both[f"{col} said"], errors="coerce").astype(float).to_numpy()
+        tolerance = SHARE_TOLERANCE if col == "success_rate" else 0
+        with np.errstate(invalid="ignore"):
+            differ = (np.isnan(have) != np.isnan(said)) | (np.abs(have - said) > tolerance)
+        first[differ] = k
     out = []
-    for row in both.itertuples(index=False):
-        row = dict(zip(both.columns, row))
-        where = (row["participant"], row["method"], int(row["day"]))
-        if row["_merge"] == "left_only":
+    for i in np.flatnonzero(lacking | (first >= 0)):
+        where = (both["participant"].iat[i], both["method"].iat[i], int(both["day"].iat[i]))
+        if lacking[i]:
             out.append((*where, None, None, None))
-            continue
-        for col in columns:
-            have, said = pd.to_numeric(pd.Series([row[col], row[f"{col} said"]]), errors="coerce")
-            if pd.isna(have) and pd.isna(said):
-                continue
-            tolerance = SHARE_TOLERANCE if col == "success_rate" else 0
-            if pd.isna(have) or pd.isna(said) or abs(float(have) - float(said)) > tolerance:
-                out.append((*where, col, have, said))
-                break
+        else:
+            col = columns[first[i]]
+            out.append((*where, col, both[col].iat[i], both[f"{col} said"].iat[i]))
     return sorted(out, key=lambda d: d[3] is not None)  # a row daily.csv lacks is said first
 
 
@@ -316,28 +320,32 @@ def _check_by_preference(daily: pd.DataFrame, by_preference: pd.DataFrame, daily
         raise CacasError(f"{name}, row {row + 2}: correct {rows['correct'].iloc[row]} is more than states "
                          f"{rows['states'].iloc[row]}; valid: at most the test states the preference covers")
     accuracy = _keyed(daily, daily_name).drop_duplicates(_KEY).set_index(_KEY)["preference_accuracy"]
-    groups = rows.groupby(_KEY, sort=False)
+    groups = rows.assign(wrong=rows["states"] - rows["correct"]).groupby(_KEY, sort=False)
     for who, method, day in groups.groups:
         if (who, method, day) not in accuracy.index:
             raise CacasError(f"{_same_run(name, who, day, method)} is not in {daily_name}; upload the tables of one "
                              "study or run")
-    for (who, method, day), group in groups:
-        said = pd.to_numeric(pd.Series([accuracy.loc[(who, method, day)]]), errors="coerce").iloc[0]
-        correct, wrong = group["correct"], group["states"] - group["correct"]
-        if pd.isna(said) or not group["states"].sum():
-            continue
-        activities = [{a.strip().lower() for a in str(acts).split("/")} for acts in group["activity"]]
-        apart = sum(map(len, activities)) == len(set().union(*activities))
-        if apart:
-            low = high = correct.sum() / group["states"].sum()
-        else:
-            low = correct.max() / max(correct.max() + wrong.sum(), 1)
-            high = correct.sum() / max(correct.sum() + wrong.max(), 1)
-        if not low - SHARE_TOLERANCE <= said <= high + SHARE_TOLERANCE:
-            gives = f"{low:.3f}" if apart else f"from {low:.3f} to {high:.3f} (preferences with activities in common)"
-            raise CacasError(f"{_same_run(name, who, day, method)}: its preferences' correct of states give a "
-                             f"preference accuracy of {gives}, {daily_name} says {said:.3f}; upload the tables of "
-                             "one study or run")
+
+    def apart(activities) -> bool:  # no activity in two of these preferences
+        sets = [{a.strip().lower() for a in str(acts).split("/")} for acts in activities]
+        return sum(map(len, sets)) == len(set().union(*sets))
+
+    g = groups.agg(states=("states", "sum"), correct=("correct", "sum"), most_correct=("correct", "max"),
+                   wrong=("wrong", "sum"), most_wrong=("wrong", "max"), apart=("activity", apart))
+    said = pd.to_numeric(accuracy.reindex(g.index), errors="coerce").astype(float).to_numpy()
+    exact = g["correct"] / g["states"].where(g["states"] > 0)
+    low = np.where(g["apart"], exact, g["most_correct"] / (g["most_correct"] + g["wrong"]).clip(lower=1))
+    high = np.where(g["apart"], exact, g["correct"] / (g["correct"] + g["most_wrong"]).clip(lower=1))
+    with np.errstate(invalid="ignore"):
+        outside = ~np.isnan(said) & (g["states"].to_numpy() > 0) & \
+            ((said < low - SHARE_TOLERANCE) | (said > high + SHARE_TOLERANCE))
+    if outside.any():
+        i = int(np.flatnonzero(outside)[0])
+        who, method, day = g.index[i]
+        gives = f"of {low[i]:.3f}" if g["apart"].iat[i] else \
+            f"between {low[i]:.3f} and {high[i]:.3f} (preferences with activities in common)"
+        raise CacasError(f"{_same_run(name, who, day, method)}: its preferences' correct of states give a preference "
+                         f"accuracy {gives}, {daily_name} says {said[i]:.3f}; upload the tables of one study or run")
 
 
 def _check_one_row_each(daily: pd.DataFrame, name: str) -> None:

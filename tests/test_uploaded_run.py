@@ -167,7 +167,7 @@ def test_a_by_preference_csv_of_another_run_is_refused():
     shared = by_pref.assign(activity="cough")
     assert list(upload({**tables, "by_preference.csv": shared}))
     wrong = shared.assign(correct=20)
-    assert "give a preference accuracy of from 1.000 to 1.000 (preferences with activities in common), daily.csv " \
+    assert "give a preference accuracy between 1.000 and 1.000 (preferences with activities in common), daily.csv " \
            "says 0.250" in refused({**tables, "by_preference.csv": wrong})
 
 
