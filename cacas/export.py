@@ -383,7 +383,7 @@ def export_study(db: StudyStore | str | Path, out_dir: str | Path, study: str | 
     """
     contents = export_contents(db, study, bundle)
     check_output_folder(out_dir, "export", str(out_dir))
-    out = files.writable_folder(out_dir, str(out_dir))
+    out = files.writable_folder(out_dir, str(out_dir), create=False)  # a new folder is put in place whole
     remains = files.remains(out, [*contents, BUNDLE_NAME])
     stale = out / BUNDLE_NAME
     earlier, why = None, ""

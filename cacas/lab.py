@@ -128,7 +128,7 @@ def _add_files(kind: str, name: str, files: Sequence[tuple[str, bytes]], import_
             while target.exists():  # another file of the same name in this upload: take-2.wav, take-3.wav
                 n += 1
                 target = base.with_name(f"{base.stem}-{n}{base.suffix}")
-            target.write_bytes(data)
+            _write_temporary(target, data, fname or target.name, "nothing was added")
             given[target] = fname or target.name
         try:
             added = import_folder(tmp, root, done="added", again=f"press '{ADD_BUTTON}' again", item=what)
@@ -197,6 +197,17 @@ def photo_to_show(name: str, data: bytes):
     return _on_upload(name, data, "photo.jpg", load_image)
 
 
+def _write_temporary(path: Path, data: bytes, name: str, outcome: str) -> None:
+    """An upload's bytes written to our temporary copy ``path``; a full disk (or a temporary folder
+    that cannot be written) is a CacasError naming the upload, not a traceback on the page."""
+    try:
+        path.write_bytes(data)
+    except OSError as exc:
+        raise CacasError(f"{name}: cannot be taken in: the temporary folder {tempfile.gettempdir()} cannot be written "
+                         f"({exc.strerror or exc}); {outcome}. Free some disk space there (or set TMPDIR to a "
+                         "folder with room) and try again") from None
+
+
 def _recognize_bytes(recognizer, name: str, data: bytes, default_name: str):
     """The recognizer on ``data`` written to a temporary file named like the upload; its
     messages name the upload, not the temporary file."""
@@ -212,7 +223,7 @@ def _on_upload(name: str, data: bytes, default_name: str, read):
         path = Path(tmp) / _safe_name(name, default_name)
         if path.suffix == "":
             path = path.with_suffix(Path(default_name).suffix)
-        path.write_bytes(data)
+        _write_temporary(path, data, name, "nothing was read")
         try:
             return read(path)
         except CacasError as exc:

@@ -156,8 +156,11 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
             if strangers:
                 raise CacasError(f"{names[kind]}: participant(s) {', '.join(strangers[:5])} are not in "
                                  f"{names['daily']}; upload the tables of one study or run")
+    _check_one_row_each(tables["daily"], names["daily"])
     if "interactions" in tables:
         _check_same_run(tables["daily"], tables["interactions"], names["daily"], names["interactions"])
+    if "by_preference" in tables:
+        _check_by_preference(tables["daily"], tables["by_preference"], names["daily"], names["by_preference"])
     return {k: tables[k] for k in UPLOADABLE_TABLES if k in tables}
 
 
@@ -188,30 +191,194 @@ def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_file
     return rest
 
 
+#: daily.csv's columns that follow from its interactions.csv (:func:`cacas.records.daily_table`), in
+#: the order a mismatch is said: design.md's contract ones, and the others where the upload has them.
+SAME_RUN_COLUMNS = ("interactions", "successes", "success_rate", "user_initiated", "feedback",
+                    "cumulative_feedback", "unanswered")
+#: How far a share in an uploaded daily.csv may be from the one its other tables give: the tables
+#: write six decimals, and a spreadsheet may keep fewer; two runs' shares differ by at least 1/400
+#: (Fig. 4's test states) or 1/interactions where their counts are the same.
+SHARE_TOLERANCE = 5e-4
+_KEY = ["participant", "method", "day"]
+
+
+def _same_run(what: str, who, day, method) -> str:
+    return f"{what}: {who} day {day} ({method})"
+
+
+def _whole_column(df: pd.DataFrame, col: str, name: str, least: int) -> pd.Series:
+    """``df[col]`` as whole numbers >= ``least``; else CacasError naming the file, column and row."""
+    value = pd.to_numeric(df[col], errors="coerce")
+    bad = ~(value.notna() & (value >= least) & (value == value.round()))
+    if bad.any():
+        row = int(np.flatnonzero(bad.to_numpy())[0])
+        raise CacasError(f"{name}, row {row + 2}: {col} {_shown(df[col].iloc[row])} is invalid; valid: a whole "
+                         f"number >= {least}")
+    return value.astype("int64")
+
+
+def _keyed(df: pd.DataFrame, name: str) -> pd.DataFrame:
+    """``df`` with its participant and method as text and its day a whole number >= 1 (else
+    CacasError naming the file and row): the keys by which two uploaded tables are matched."""
+    return df.assign(participant=df["participant"].astype(str), method=df["method"].astype(str),
+                     day=_whole_column(df, "day", name, 1))
+
+
+def _daily_from(interactions: pd.DataFrame, daily: pd.DataFrame):
+    """daily.csv as :func:`cacas.records.daily_table` makes it from ``interactions``, with the rows of
+    the uploaded ``daily`` (its keys and preference accuracies), in each way a daily.csv of ours is
+    written (made one by one, as asked for): a participant's interactions one stream (``cacas
+    simulate``, the paper's protocol, and a study database's export), or every method a closed loop
+    of its own (``cacas simulate --loop each``); and each also as tables written before commit 1c1999b
+    counted them (a request made with no sound activity was recorded, two data points)."""
+    accuracy = daily[_KEY + ["preference_accuracy"]]
+    idle_request = (interactions["type"] == records.USER_INITIATED) & (interactions["activity"] == "do nothing")
+    methods = list(dict.fromkeys([*daily["method"], *interactions["method"]]))
+    variants = [interactions]
+    if idle_request.any():  # (without one, the same tables as now)
+        variants.append(interactions.assign(activity=interactions["activity"].where(~idle_request,
+                                                                                  "(a request, doing nothing)")))
+    for rows in variants:
+        yield records.daily_table(rows, accuracy)
+        if len(methods) > 1:
+            yield pd.concat([records.daily_table(rows[rows["method"] == m], accuracy[accuracy["method"] == m])
+                             for m in methods], ignore_index=True)
+
+
+def _differences(daily: pd.DataFrame, made: pd.DataFrame) -> list[tuple]:
+    """Where ``made`` (:func:`_daily_from`) differs from the uploaded ``daily``: (participant, method,
+    day, column, made's value, daily's value), column None for a row daily.csv does not have; a row's
+    first differing column only."""
+    columns = [c for c in SAME_RUN_COLUMNS if c in daily.columns]
+    both = made[_KEY + columns].merge(daily[_KEY + columns], on=_KEY, how="left", suffixes=("", " said"),
+                                      indicator=True)
+    lacking = (both["_merge"] == "left_only").to_numpy()
+    first = np.full(len(both), -1)  # each row's first differing column (its place in ``columns``)
+    for k, col in reversed(list(enumerate(columns))):
+        have = pd.to_numeric(both[col], errors="coerce").astype(float).to_numpy()
+        said = pd.to_numeric(both[f"{col} said"], errors="coerce").astype(float).to_numpy()
+        tolerance = SHARE_TOLERANCE if col == "success_rate" else 0
+        with np.errstate(invalid="ignore"):
+            differ = (np.isnan(have) != np.isnan(said)) | (np.abs(have - said) > tolerance)
+        first[differ] = k
+    out = []
+    for i in np.flatnonzero(lacking | (first >= 0)):
+        where = (both["participant"].iat[i], both["method"].iat[i], int(both["day"].iat[i]))
+        if lacking[i]:
+            out.append((*where, None, None, None))
+        else:
+            col = columns[first[i]]
+            out.append((*where, col, both[col].iat[i], both[f"{col} said"].iat[i]))
+    return sorted(out, key=lambda d: d[3] is not None)  # a row daily.csv lacks is said first
+
+
 def _check_same_run(daily: pd.DataFrame, interactions: pd.DataFrame, daily_name: str, inter_name: str) -> None:
-    """An interactions.csv belongs to the daily.csv beside it: each of its participant-method-days
-    is a row of daily.csv with as many recorded interactions (:func:`cacas.records.is_recorded`,
-    as daily.csv counts them, or as it counted them before a request made with no sound activity
-    was left out). Another run's file with the same participant codes was shown beside it
-    unchecked."""
-    key = ["participant", "method", "day"]
-    recorded = records.is_recorded(interactions)
-    # tables written before commit 1c1999b counted a request made with no sound activity too
-    before = recorded | (interactions["type"] == records.USER_INITIATED)
-    rows = interactions.assign(day=interactions["day"].astype(int),
-                               participant=interactions["participant"].astype(str),
-                               _recorded=recorded.astype(int), _before=before.astype(int))
-    counts = rows.groupby(key)[["_recorded", "_before"]].sum()
-    listed = daily.assign(day=daily["day"].astype(int), participant=daily["participant"].astype(str)).set_index(key)
-    for (who, method, day), (n, n_before) in counts.iterrows():
-        if (who, method, day) not in listed.index:
-            raise CacasError(f"{inter_name}: {who} day {day} ({method}) is not in {daily_name}; upload the tables "
-                             "of one study or run")
-        said = listed.loc[(who, method, day), "interactions"]
-        said = said.iloc[0] if isinstance(said, pd.Series) else said
-        if int(said) not in (int(n), int(n_before)):
-            raise CacasError(f"{inter_name}: {who} day {day} ({method}) has {int(n)} recorded interactions, "
-                             f"{daily_name} says {int(said)}; upload the tables of one study or run")
+    """An interactions.csv belongs to the daily.csv beside it: daily.csv is what
+    :func:`cacas.records.daily_table` makes of it (:func:`_daily_from`), in one of the ways our
+    daily.csv files are written. Every participant-method-day of its interactions is a row of
+    daily.csv, and each row's counts of design.md's contract (interactions, cumulative_feedback) and
+    success_rate, and the other counts the upload has (successes, user_initiated, feedback,
+    unanswered), are its interactions': another run's file with the same participants, methods and
+    days, a run of fewer days or participants with the same seed, or one of the two files cut short,
+    is refused (with no checksums.sha256 uploaded, this is what shows them to be of one run)."""
+    interactions = _keyed(interactions, inter_name)
+    daily = _keyed(daily, daily_name)
+    best = None
+    for made in _daily_from(interactions, daily):
+        found = _differences(daily, made)
+        if not found:
+            return
+        if best is None or len(found) < len(best):
+            best = found
+    who, method, day, col, have, said = best[0]
+    if col is None:
+        raise CacasError(f"{_same_run(inter_name, who, day, method)} is not in {daily_name}; upload the tables of "
+                         "one study or run")
+    if col == "interactions":
+        raise CacasError(f"{_same_run(inter_name, who, day, method)} has {int(have)} recorded interactions, "
+                         f"{daily_name} says {said if pd.isna(said) else int(said)}; upload the tables of one "
+                         "study or run")
+    shown = (lambda x: "empty" if pd.isna(x) else f"{float(x):.6g}")
+    raise CacasError(f"{_same_run(inter_name, who, day, method)}: its interactions give {col} {shown(have)}, "
+                     f"{daily_name} says {shown(said)}; upload the tables of one study or run")
+
+
+def _check_by_preference(daily: pd.DataFrame, by_preference: pd.DataFrame, daily_name: str, name: str) -> None:
+    """A by_preference.csv belongs to the daily.csv beside it: each of its participant-method-days is a
+    row of daily.csv, and that row's preference_accuracy (Fig. 4) is what its preferences' ``correct``
+    of ``states`` give. Where no two of the participant's preferences share an activity they cover
+    none of the same test states, and the accuracy is sum(correct) / sum(states) exactly; where some
+    do, a state covered twice is counted twice, and the accuracy lies between
+    max(correct) / (max(correct) + sum(wrong)) and sum(correct) / (sum(correct) + max(wrong)), wrong =
+    states - correct (:func:`cacas.adaptation.accuracy_by_preference`,
+    :func:`cacas.adaptation.preference_accuracy`)."""
+    rows = _keyed(by_preference, name).assign(states=_whole_column(by_preference, "states", name, 0),
+                                correct=_whole_column(by_preference, "correct", name, 0))
+    over = rows["correct"] > rows["states"]
+    if over.any():
+        row = int(np.flatnonzero(over.to_numpy())[0])
+        raise CacasError(f"{name}, row {row + 2}: correct {rows['correct'].iloc[row]} is more than states "
+                         f"{rows['states'].iloc[row]}; valid: at most the test states the preference covers")
+    accuracy = _keyed(daily, daily_name).drop_duplicates(_KEY).set_index(_KEY)["preference_accuracy"]
+    groups = rows.assign(wrong=rows["states"] - rows["correct"]).groupby(_KEY, sort=False)
+    for who, method, day in groups.groups:
+        if (who, method, day) not in accuracy.index:
+            raise CacasError(f"{_same_run(name, who, day, method)} is not in {daily_name}; upload the tables of one "
+                             "study or run")
+
+    def apart(activities) -> bool:  # no activity in two of these preferences
+        sets = [{a.strip().lower() for a in str(acts).split("/")} for acts in activities]
+        return sum(map(len, sets)) == len(set().union(*sets))
+
+    g = groups.agg(states=("states", "sum"), correct=("correct", "sum"), most_correct=("correct", "max"),
+                   wrong=("wrong", "sum"), most_wrong=("wrong", "max"), apart=("activity", apart))
+    said = pd.to_numeric(accuracy.reindex(g.index), errors="coerce").astype(float).to_numpy()
+    exact = g["correct"] / g["states"].where(g["states"] > 0)
+    low = np.where(g["apart"], exact, g["most_correct"] / (g["most_correct"] + g["wrong"]).clip(lower=1))
+    high = np.where(g["apart"], exact, g["correct"] / (g["correct"] + g["most_wrong"]).clip(lower=1))
+    with np.errstate(invalid="ignore"):
+        outside = ~np.isnan(said) & (g["states"].to_numpy() > 0) & \
+            ((said < low - SHARE_TOLERANCE) | (said > high + SHARE_TOLERANCE))
+    if outside.any():
+        i = int(np.flatnonzero(outside)[0])
+        who, method, day = g.index[i]
+        gives = f"of {low[i]:.3f}" if g["apart"].iat[i] else \
+            f"between {low[i]:.3f} and {high[i]:.3f} (preferences with activities in common)"
+        raise CacasError(f"{_same_run(name, who, day, method)}: its preferences' correct of states give a preference "
+                         f"accuracy {gives}, {daily_name} says {said[i]:.3f}; upload the tables of one study or run")
+
+
+def _check_one_row_each(daily: pd.DataFrame, name: str) -> None:
+    """daily.csv has one row per participant, method and day (design.md): two rows of one are two
+    studies' or runs' tables put together, which every mean would count twice."""
+    keys = _keyed(daily, name)[_KEY]
+    twice = keys.duplicated(keep=False).to_numpy()
+    if twice.any():
+        rows = np.flatnonzero(twice)
+        who, method, day = keys.iloc[rows[0]]
+        same = [int(r) + 2 for r in rows if tuple(keys.iloc[r]) == (who, method, day)]
+        times = "twice" if len(same) == 2 else f"{len(same)} times"
+        raise CacasError(f"{name}: {who} day {day} ({method}) is listed {times} (rows {', '.join(map(str, same[:-1]))} "
+                         f"and {same[-1]}); valid: one row per participant, method and day, as cacas "
+                         "simulate and an export write it")
+
+
+def upload_caption(kinds: Sequence[str], checksums: str | None) -> tuple[str, str | None]:
+    """What the Results page says of uploaded tables (their kinds, as :func:`load_uploaded_tables`
+    returns them) and of the checksums file uploaded with them (its name; None if none was): what
+    was checked, and, without a checksums file, a note that the files' bytes were not (None with one)."""
+    from cacas.store.files import CHECKSUMS
+
+    names = ", ".join(f"{k}.csv" for k in kinds)
+    together = " checked against each other (participants, methods, days and what they count)" \
+        if len(kinds) > 1 else ""
+    if checksums:
+        return f"Uploaded: {names}, each matching its sha256 in {checksums}" + (f", and{together}" if together else "") \
+            + ".", None
+    return (f"Uploaded: {names}" + (f",{together}" if together else "") + ".",
+            f"Checksums not checked: no {CHECKSUMS} was uploaded with {'them' if len(kinds) > 1 else 'it'}. Add the "
+            "one beside the tables (cacas export and cacas simulate --out write it) to check that each file is whole "
+            "and of that folder's run.")
 
 
 def load_by_preference(folder) -> pd.DataFrame | None:
@@ -405,8 +572,6 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
     gives each the rows ``cacas simulate`` gives them from the whole file.
     Participants run side by side in ``jobs`` worker processes (default: one per core, as
     ``cacas simulate``); the tables are the same whatever ``jobs``."""
-    from datetime import datetime, timezone
-
     from cacas.experiment import default_jobs, simulate_study
 
     methods = check_simulation(participants, methods, days, interactions, seed, no_response_rate, ask_after_reject)
@@ -414,9 +579,41 @@ def run_simulation(participants, out_root, days: int = 7, interactions: int = 15
                             seed=seed, no_response_rate=no_response_rate, progress=progress,
                             ask_after_reject=ask_after_reject, loop=loop,
                             jobs=default_jobs() if jobs is None else jobs, places=places)
-    stamp = datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
-    name = f"{stamp}-seed{seed}-{len(participants)}p-{days}d"
+    name = new_run_name(out_root, f"{_stamp()}-seed{seed}-{len(participants)}p-{days}d")
     settings = {"participants": [p.id for p in participants], "days": days, "interactions": interactions,
                 "methods": list(methods), "seed": seed, "no_response_rate": no_response_rate,
                 "ask_after_reject": ask_after_reject, "loop": loop, "personas": personas}
-    return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)
+    try:
+        return save_run(out_root, name, result.daily, result.interactions, settings, result.by_preference)
+    except BaseException:  # the folder claimed for it is left empty: not a run
+        from cacas.store import files
+
+        files.remove_empty([Path(out_root) / name])
+        raise
+
+
+def _stamp() -> str:
+    """A run's time in its folder name (UTC, to the second)."""
+    from datetime import datetime, timezone
+
+    return datetime.now(timezone.utc).strftime("%Y%m%d-%H%M%S")
+
+
+def new_run_name(root, base: str) -> str:
+    """``base``, or ``base-2``, ``base-3``, ... the first name no run under ``root`` has, claimed by
+    making its (empty) folder: two runs of the same seed and size that finished in the same second
+    (two tabs, two researchers, two servers on one study) got one name, and the second run's
+    tables replaced the first's."""
+    from cacas.store import files
+
+    root = files.writable_folder(root, f"runs folder {root}")
+    for k in range(1, 10_000):
+        name = base if k == 1 else f"{base}-{k}"
+        try:
+            (root / name).mkdir()
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise CacasError(f"{root / name}: cannot be made ({exc.strerror or exc}); the run was not saved") from None
+        return name
+    raise CacasError(f"{root}: holds runs {base} to {base}-9999; remove some")

@@ -92,8 +92,10 @@ else:
         st.stop()
     daily = tables["daily"]
     checked = next((up.name for up in ups if up.name.lower().endswith(".sha256")), None)
-    st.caption(f"Uploaded: {', '.join(f'{k}.csv' for k in tables)}"
-               + (f", each matching its sha256 in {checked}." if checked else "."))
+    said, unchecked = saved_runs.upload_caption(list(tables), checked)
+    st.caption(said)
+    if unchecked:
+        st.caption(f":material/info: {unchecked}")
 
 # a study in progress: participants on different days make each day's mean one of different people
 shown, reached = daily, plots.participants_reached(daily) if len(daily) else pd.Series(dtype=int)

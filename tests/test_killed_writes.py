@@ -193,3 +193,58 @@ def test_a_simulation_killed_between_its_renames_is_found_by_the_upload_and_the_
         "by_preference.csv, interactions.csv did not match checksums.sha256 (files of two runs side by side), and 6 "
         "hidden temporary file(s); all are replaced now\n")
     assert files.mismatched(out) == [] and not hidden(out)
+
+
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_an_export_into_a_new_folder_killed_leaves_it_whole_or_not_there(runs, tmp_path, capsys, when):
+    """L1, for a folder that does not exist yet: the export is built in a hidden folder beside it and
+    renamed into place (one rename), so a kill leaves no folder at all, or the whole export: never
+    a part of one (before, a kill part-way left the tables written so far, and no zip)."""
+    from cacas.cli import main
+
+    db, _, second = runs
+    out = tmp_path / "new" / "out"
+    killed(1, when, "export", "--db", db, "--out", out)
+    whole = {**second, files.CHECKSUMS: files.checksums_bytes(second)}
+    if when == "before":
+        assert not out.exists()
+        staged = [p.name for p in out.parent.iterdir()]
+        assert len(staged) == 1 and staged[0].startswith(".out.") and staged[0].endswith(".new")
+    else:
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == whole and os.listdir(out.parent) == ["out"]
+    capsys.readouterr()
+    assert main(["export", "--db", str(db), "--out", str(out)]) == 0
+    note = capsys.readouterr().err
+    assert note == ("" if when == "after" else
+                    f"cacas export: note: {out} was not written: an earlier run into it was stopped part-way (killed, "
+                    f"or a power cut) while it built it in {staged[0]} beside it, which is removed now\n")
+    assert {p.name: p.read_bytes() for p in out.iterdir()} == whole and os.listdir(out.parent) == ["out"]
+
+
+def test_figures_killed_between_their_renames_in_a_folder_of_their_own_are_found(tmp_path, capsys):
+    """--plot DIR into a folder of figures only writes checksums.sha256 there too, so figures of two
+    runs side by side (a run killed between their renames) are found, and said by the next run."""
+    from cacas.cli import main
+
+    personas = tmp_path / "personas.json"
+    personas.write_text('{"participants": [{"id": "S01", "preferences": [{"activity": ["cough"], '
+                        '"action": "pain check"}]}]}')
+    out, plots = tmp_path / "out", tmp_path / "plots"
+    args = ["simulate", "--personas", personas, "--days", "1", "--interactions", "2", "--methods", "nn", "--jobs",
+            "1", "--quiet", "--out", out, "--plot", plots]
+    assert main([str(a) for a in args + ["--seed", "1"]]) == 0
+    assert files.mismatched(plots) == [] and files.CHECKSUMS in os.listdir(plots)
+    earlier = {p.name: p.read_bytes() for p in plots.iterdir()}
+    # the renames: the tables' four, then the figures' checksums.sha256 and fig3_success.html; not the others
+    killed(6, "after", *args, "--seed", "2")
+    assert (plots / "fig3_success.html").read_bytes() != earlier["fig3_success.html"]
+    assert (plots / "fig4_methods.html").read_bytes() == earlier["fig4_methods.html"]
+    assert files.mismatched(plots) == ["fig4_by_preference.html", "fig4_methods.html"]
+    left = len(hidden(plots))  # the killed write's temporary files and kept copies
+    capsys.readouterr()
+    assert main([str(a) for a in args + ["--seed", "2"]]) == 0
+    assert capsys.readouterr().err == (
+        f"cacas simulate: note: {plots} held what an earlier run stopped part-way (killed, or a power cut) left: "
+        "fig4_by_preference.html, fig4_methods.html did not match checksums.sha256 (files of two runs side by side), "
+        f"and {left} hidden temporary file(s); all are replaced now\n")
+    assert files.mismatched(plots) == [] and not hidden(plots) and files.mismatched(out) == []

@@ -332,3 +332,33 @@ def test_every_bad_file_of_an_add_is_said_at_once(tmp_path):
     # one bad file: said as before
     with pytest.raises(CacasError, match=r"^notes\.wav: not a readable WAV/FLAC/OGG audio file"):
         lab.add_clips("cough", files[:1] + files[2:3], root)
+
+
+def test_an_upload_on_a_full_temporary_disk_is_one_message_and_adds_nothing(tmp_path, monkeypatch):
+    """Adversarial audit: an upload is written to a temporary folder first; a full disk there (a
+    small /tmp, a large upload) raised OSError, a traceback on the Sounds page."""
+    import errno
+    from pathlib import Path
+
+    import pytest
+
+    from cacas.errors import CacasError
+
+    real = Path.write_bytes
+
+    def full(self, data):
+        if str(self).startswith(str(tmp_path / "temporary")):
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, data)
+
+    (tmp_path / "temporary").mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp_path / "temporary"))
+    monkeypatch.setattr("tempfile.tempdir", None)
+    monkeypatch.setattr(Path, "write_bytes", full)
+    with pytest.raises(CacasError, match=rf"^my cough.wav: cannot be taken in: the temporary folder "
+                                         rf"{tmp_path / 'temporary'} cannot be written \(No space left on device\); "
+                                         r"nothing was added\. Free some disk space there"):
+        lab.add_clips("cough", [("my cough.wav", b"RIFF....")], root=tmp_path / "library")
+    assert not (tmp_path / "library").exists() or not any((tmp_path / "library").rglob("*.wav"))
+    with pytest.raises(CacasError, match=r"^photo.jpg: cannot be taken in: .*; nothing was read\."):
+        lab.recognize_scene_bytes(type("Sees", (), {"recognize": lambda self, path: path})(), "photo.jpg", b"\xff\xd8")

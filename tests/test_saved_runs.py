@@ -175,7 +175,7 @@ def test_participant_codes_of_digits_keep_their_leading_zeros(tmp_path):
     """Codes such as 007 and 012 were read as the numbers 7 and 12 from a run's or an uploaded
     daily.csv, by_preference.csv and interactions.csv."""
     daily = pd.DataFrame({c: [1, 1] for c in records.DAILY_COLUMNS}).assign(participant=["007", "012"], method="cacas")
-    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="007")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="007", method="cacas")
     tables = saved_runs.load_uploaded_tables([("d.csv", _csv(daily)), ("b.csv", _csv(by_pref))])
     assert tables["daily"]["participant"].tolist() == ["007", "012"]
     assert tables["by_preference"]["participant"].tolist() == ["007"]
@@ -230,8 +230,10 @@ def _csv(df: pd.DataFrame) -> bytes:
 
 
 def test_uploaded_tables_are_recognised_by_their_columns():
-    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas")
-    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
+    # one accepted proposal: its day's counts (user_initiated and unanswered 0)
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas",
+                                                                         user_initiated=0, unanswered=0)
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01", method="cacas")
     inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(
         participant="P01", method="cacas", day=1, type=records.ROBOT_INITIATED, robot_action="chitchat",
         response="accept")
@@ -249,16 +251,20 @@ def test_uploaded_tables_are_recognised_by_their_columns():
     with pytest.raises(CacasError, match=r"i\.csv: P01 day 3 \(cacas\) is not in d\.csv"):
         saved_runs.load_uploaded_tables([("i.csv", _csv(inter.assign(day=3))), ("d.csv", _csv(daily))])
     unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
-    loaded = saved_runs.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily))])
+    loaded = saved_runs.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily.assign(unanswered=1)))])
     assert len(loaded["interactions"]) == 2
-    # a request made while doing nothing is not recorded now; tables exported before counted it: both upload
+    # a request made while doing nothing is not recorded now; tables exported before counted it (one
+    # interaction, two data points): both upload
     idle = inter.assign(activity="do nothing", type=records.USER_INITIATED, user_action="chitchat")
-    for said in (0, 1):
-        said_so = _csv(daily.assign(interactions=said))
-        tables = saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", said_so)])
+    now = daily.assign(interactions=0, successes=0, success_rate=None, feedback=0, cumulative_feedback=0,
+                       unanswered=1)
+    before = daily.assign(interactions=1, successes=0, success_rate=0.0, user_initiated=1, feedback=2,
+                          cumulative_feedback=2)
+    for said in (now, before):
+        tables = saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(said))])
         assert len(tables["interactions"]) == 1
     with pytest.raises(CacasError, match=r"has 0 recorded interactions, d\.csv says 2"):
-        saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(daily.assign(interactions=2)))])
+        saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(now.assign(interactions=2)))])
 
 
 def test_an_upload_near_a_table_names_the_columns_it_lacks():
@@ -305,3 +311,36 @@ def test_bad_uploads_name_the_file(files, message):
     with pytest.raises(CacasError, match=message):
         saved_runs.load_uploaded_tables(files)
 
+
+
+def test_two_runs_finished_in_the_same_second_keep_both(tmp_path, monkeypatch):
+    """Adversarial audit: the Simulation lab names a run by its time to the second, seed and size:
+    two runs (two tabs, two researchers on one study) of one seed and size that finished in the same
+    second got one folder, and the second's tables replaced the first's."""
+    import cacas.experiment
+    from cacas.experiment import StudyResult
+    from cacas.preferences import parse_participant
+
+    people = [parse_participant({"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check"}]})]
+    made = iter(["first", "second"])
+
+    def simulate_study(*args, **kwargs):
+        which = next(made)
+        daily = _daily().assign(method=which)  # each run's own rows, told apart by their method column
+        return StudyResult(daily, pd.DataFrame({"participant": ["P01"], "method": [which]}), _by_pref())
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", simulate_study)
+    import datetime
+
+    class Frozen(datetime.datetime):  # both runs finish at 08:00:00
+        @classmethod
+        def now(cls, tz=None):
+            return datetime.datetime(2026, 11, 27, 8, 0, 0, 400_000, tzinfo=tz)
+
+    monkeypatch.setattr(datetime, "datetime", Frozen)
+    one = saved_runs.run_simulation(people, tmp_path, methods=("nn",), jobs=1)
+    two = saved_runs.run_simulation(people, tmp_path, methods=("nn",), jobs=1)
+    assert (one.name, two.name) == ("20261127-080000-seed0-1p-7d", "20261127-080000-seed0-1p-7d-2")
+    assert saved_runs.load_run(one).daily["method"].tolist() == ["first"]
+    assert saved_runs.load_run(two).daily["method"].tolist() == ["second"]
+    assert saved_runs.run_label(tmp_path, two.name).startswith("27 Nov 2026 08:00:00 · 1 participant")

@@ -217,3 +217,76 @@ def test_a_policy_file_that_cannot_be_written_names_it_and_saves_nothing(tmp_pat
     assert not [p for p in (tmp_path / "policies").rglob("*") if p.is_file()]  # no file, no temporary file
     assert store.save_adapted_policy("P01", 1, "nn", b"a policy", {}, 1.0, {}) == 1  # with space again: saved
     store.close()
+
+
+def test_a_new_folder_is_put_in_place_whole_or_not_at_all(tmp_path, monkeypatch, fail_on_call):
+    """A folder that does not exist is built beside it (hidden) and renamed into place: a disk that
+    fills part-way, or Ctrl-C, leaves neither the folder nor the hidden one (it was made with the
+    files it got so far, as an earlier run's mix would be)."""
+    import os
+
+    folder = tmp_path / "deep" / "out"
+    contents = {"checksums.sha256": b"sums", "daily.csv": b"rows", "interactions.csv": b"more rows"}
+    monkeypatch.setattr(os, "fsync", fail_on_call(os.fsync, 2))  # the second file's fsync: disk full
+    with pytest.raises(CacasError, match=rf"^{folder / 'daily.csv'}: cannot be written \(No space left on device\); "
+                                         rf"{folder} was not made$"):
+        files.write_all(folder, contents)
+    assert os.listdir(tmp_path / "deep") == []
+    monkeypatch.setattr(os, "replace", fail_on_call(os.replace, 1, KeyboardInterrupt()))
+    with pytest.raises(KeyboardInterrupt):
+        files.write_all(folder, contents)
+    assert os.listdir(tmp_path / "deep") == []
+    monkeypatch.undo()
+    assert files.write_all(folder, contents) == {n: folder / n for n in contents}
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == contents and os.listdir(tmp_path / "deep") == ["out"]
+
+
+def test_a_folder_made_while_the_new_one_was_built_is_written_into_not_replaced(tmp_path, monkeypatch):
+    """Someone makes the folder (and puts a file in it) while the files are written beside it: the
+    rename would replace it (or fail); the files are written into it instead, the other file kept."""
+    import os
+
+    folder = tmp_path / "out"
+    real = os.fsync
+
+    def fsync(fd):  # the hidden folder's sync, after its files: the user's folder appears then
+        if not folder.exists():
+            folder.mkdir()
+            (folder / "notes.txt").write_text("mine")
+        return real(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    files.write_all(folder, {"daily.csv": b"rows"})
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == {"daily.csv": b"rows", "notes.txt": b"mine"}
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+
+
+def test_a_writable_folder_checked_without_creating_it_is_left_missing(tmp_path):
+    folder = tmp_path / "a" / "b"
+    assert files.writable_folder(folder, "--out a/b", create=False) == folder
+    assert not folder.exists() and (tmp_path / "a").is_dir()  # the folders above it are made, as before
+    with pytest.raises(CacasError, match="--out x: is a file"):
+        (tmp_path / "x").write_text("")
+        files.writable_folder(tmp_path / "x", "--out x", create=False)
+
+
+def test_what_a_write_killed_while_it_built_a_new_folder_left_is_removed_and_said(tmp_path):
+    """A process killed before it renamed the new folder into place left ``.<name>.<pid>.new`` beside
+    it: the next write into that folder says so and removes it; one holding a folder (not ours) or of a
+    running process is kept."""
+    import os
+
+    folder = tmp_path / "out"
+    dead = tmp_path / ".out.999999999.new"  # no process has this id
+    dead.mkdir()
+    (dead / "daily.csv").write_bytes(b"half")
+    running = tmp_path / f".out.{os.getppid()}.new"
+    running.mkdir()
+    odd = tmp_path / ".out.999999998.new"
+    (odd / "sub").mkdir(parents=True)
+    assert files.remains(folder, ["daily.csv"]) == (
+        f"{folder} was not written: an earlier run into it was stopped part-way (killed, or a power cut) while it "
+        f"built it in .out.999999999.new beside it, which is removed now")
+    files.write_all(folder, {"daily.csv": b"rows"})
+    assert not dead.exists() and running.is_dir() and odd.is_dir()
+    assert (folder / "daily.csv").read_bytes() == b"rows" and files.remains(folder, ["daily.csv"]) == ""

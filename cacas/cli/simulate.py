@@ -220,8 +220,11 @@ def run(args) -> int:
     if args.plot and args.plot.resolve() != args.out.resolve():  # figures beside their own tables are fine
         check_output_folder(args.plot, "figures", f"--plot {args.plot}")
     try:
-        out = files.writable_folder(args.out, f"--out {args.out}")
-        plot_dir = files.writable_folder(args.plot, f"--plot {args.plot}") if args.plot else None
+        # checked, not made: a new folder is put in place whole, or not at all (files.write_all)
+        out = files.writable_folder(args.out, f"--out {args.out}", create=False)
+        together = args.plot is not None and args.plot.resolve() == args.out.resolve()  # (a link to it, say)
+        plot_dir = args.plot if together or not args.plot else \
+            files.writable_folder(args.plot, f"--plot {args.plot}", create=False)
         progress = None if args.quiet else ProgressBar("simulate")
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
@@ -263,20 +266,22 @@ def run(args) -> int:
     # put in place as one change, and said: Ctrl-C or SIGTERM from here on stops the command after it
     with signals_held():
         together = written_here == out.resolve()
-        remains = files.remains(out, [*tables, *(drawn if together else ()), *SIMULATION_FIGURES, PLOTLY_JS])
+        remains = [files.remains(out, [*tables, *(drawn if together else ()), *SIMULATION_FIGURES, PLOTLY_JS])]
+        if plot_dir is not None and not together:
+            remains.append(files.remains(plot_dir, [*drawn, *SIMULATION_FIGURES]))
         if together:  # tables and figures replace an earlier run's together, or not at all
             written = files.write_all(out, {**tables, **drawn}, checksums=True)
         else:  # the three tables replace an earlier run's together, or not at all; then the figures
             written = files.write_all(out, tables, checksums=True)
             if plot_dir is not None:
                 try:
-                    files.write_all(plot_dir, drawn)
+                    files.write_all(plot_dir, drawn, checksums=True)  # a folder of figures checked as one too
                 except CacasError as exc:
                     raise CacasError(f"{exc}; the tables were written in {out}") from None
         for path in stale:
             path.unlink(missing_ok=True)
-        if remains:
-            print(f"cacas simulate: note: {remains}", file=sys.stderr)
+        for note in filter(None, remains):
+            print(f"cacas simulate: note: {note}", file=sys.stderr)
         print(summary_text(table))
         print("wrote " + ", ".join(str(written[name]) for name in tables))
         if plot_dir is not None:

@@ -4,15 +4,17 @@ A checkpoint (the adapted policy of one participant after one day, CACAA's outpu
 is written to a temporary file in the target folder, flushed and fsynced, renamed into place and
 the folder fsynced: a reader sees the old state or the whole new file, never part of one.
 
-An output folder (``cacas export --out``, ``cacas simulate --out``) is written by :func:`write_all`
-with :data:`CHECKSUMS`: each file's sha256, put in place before the files it lists. A process
-killed between the renames (``kill -9``, a power cut) leaves files that do not match it, which
-:func:`mismatched` finds (``cacas import``, the Results page's upload) and :func:`remains` says
-at the next write.
+An output folder (``cacas export --out``, ``cacas simulate --out`` and ``--plot``) is written by
+:func:`write_all` with :data:`CHECKSUMS`: each file's sha256, put in place before the files it
+lists. A process killed between the renames (``kill -9``, a power cut) leaves files that do not
+match it, which :func:`mismatched` finds (``cacas import``, the Results page's upload) and
+:func:`remains` says at the next write. A folder that does not exist yet is built beside it and
+renamed into place whole: killed, it is not there at all.
 """
 
 from __future__ import annotations
 
+import glob
 import hashlib
 import os
 import tempfile
@@ -104,12 +106,15 @@ def ignores_letter_case(folder) -> bool:
         probe.unlink(missing_ok=True)
 
 
-def writable_folder(folder, what: str) -> Path:
+def writable_folder(folder, what: str, create: bool = True) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
     CacasError naming it (``what``: how the user named it, e.g. "--out results") and the problem:
     it is a file, a file stands where a folder above it would be, it cannot be created (under
-    /proc, say) or files cannot be created in it."""
+    /proc, say) or files cannot be created in it. With ``create=False`` a missing ``folder`` is
+    checked the same way (created, written in) and removed again, the folders above it kept: a
+    :func:`write_all` into it then puts it in place whole, or not at all."""
     folder = Path(folder)
+    missing = not os.path.lexists(folder)
     if folder.exists() and not folder.is_dir():
         raise CacasError(f"{what}: is a file; valid: a folder (created if missing)")
     valid = "valid: a folder you can write to (created if missing)"
@@ -125,7 +130,11 @@ def writable_folder(folder, what: str) -> Path:
         with tempfile.TemporaryFile(dir=folder):
             pass
     except OSError as exc:
+        if missing and not create:
+            remove_empty([folder])
         raise CacasError(f"{what}: cannot write in this folder ({exc.strerror or exc}); {valid}") from None
+    if missing and not create:
+        remove_empty([folder])
     return folder
 
 
@@ -247,6 +256,41 @@ def _dead_left_overs(folder: Path, names) -> list[Path]:
     return sorted(found)
 
 
+def _staging(folder: Path) -> Path:
+    """The hidden folder beside ``folder`` in which :func:`write_all` builds a new ``folder`` whole
+    (``.<name>.<pid>.new``), before renaming it into place."""
+    return folder.parent / f".{folder.name}.{os.getpid()}.new"
+
+
+def _dead_stagings(folder: Path) -> list[Path]:
+    """The :func:`_staging` folders beside ``folder`` of a process no longer running (killed while it
+    built ``folder``): a real folder (not a link) of files only, as only :func:`write_all` makes them."""
+    found = []
+    if not folder.parent.is_dir():
+        return found
+    for path in folder.parent.glob(f".{glob.escape(folder.name)}.*.new"):  # (a name may hold [ ] * ?)
+        pid = path.name[len(folder.name) + 2:].rsplit(".", 1)[0]
+        if not (pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid))):
+            continue
+        try:
+            if path.is_symlink() or not path.is_dir() or any(not p.is_file() or p.is_symlink() for p in path.iterdir()):
+                continue
+        except OSError:
+            continue
+        found.append(path)
+    return sorted(found)
+
+
+def _remove_folder_of_files(path: Path) -> None:
+    """Remove ``path``, a folder of files only (a :func:`_staging` folder), as far as it can."""
+    try:
+        for entry in path.iterdir():
+            entry.unlink(missing_ok=True)
+        path.rmdir()
+    except OSError:  # another process removed it first, or it cannot be written
+        pass
+
+
 def _listed(names: list[str]) -> str:
     return ", ".join(names[:3]) + (f" and {len(names) - 3} more" if len(names) > 3 else "")
 
@@ -257,6 +301,10 @@ def remains(folder, names) -> str:
     the files that do not match :data:`CHECKSUMS` (two runs' files side by side) and the hidden
     copies of a process no longer running (safety audit L1)."""
     folder = Path(folder)
+    staged = _dead_stagings(folder)
+    if staged and not os.path.lexists(folder):
+        return (f"{folder} was not written: an earlier run into it was stopped part-way (killed, or a power cut) "
+                f"while it built it in {_listed([p.name for p in staged])} beside it, which is removed now")
     names = list(dict.fromkeys([*names, CHECKSUMS]))  # each once: its hidden copies counted once
     left = _dead_left_overs(folder, names)
     bad = mismatched(folder, names) if left else None  # without hidden copies, a mismatch is a file changed since
@@ -268,6 +316,45 @@ def remains(folder, names) -> str:
         return (f"{folder} held {len(left)} hidden temporary file(s) an earlier run stopped part-way (killed, or a "
                 "power cut) left; its files were still those of the run before it, and are replaced now")
     return ""
+
+
+def _write_new_folder(folder: Path, contents: dict[str, bytes]) -> bool:
+    """Make ``folder``, which does not exist, with ``contents`` whole: built in a hidden folder
+    beside it (:func:`_staging`), each file fsynced, then renamed into place and the folder above
+    synced. A process killed before the rename leaves no ``folder`` (the hidden one is removed by the
+    next :func:`write_all` into it, and :func:`remains` says so), and after it the whole folder: no
+    mix of two runs and no half-written folder. False (nothing made) when ``folder`` has come into
+    being meanwhile (the caller then writes into it); a failure raises CacasError, nothing made."""
+    staging = _staging(folder)
+    where = folder
+    try:
+        folder.parent.mkdir(parents=True, exist_ok=True)
+        if os.path.lexists(staging):  # this process's, from a write that could not clean up
+            _remove_folder_of_files(staging)
+        staging.mkdir()
+        for name, data in contents.items():
+            where = folder / name
+            with open(staging / name, "wb") as fh:
+                fh.write(data)
+                fh.flush()
+                os.fsync(fh.fileno())
+        fsync_folder(staging)
+        where = folder
+        if os.path.lexists(folder):
+            return False
+        try:
+            os.replace(staging, folder)
+        except OSError:
+            if os.path.lexists(folder):  # made meanwhile, with files in it (ENOTEMPTY): not replaced
+                return False
+            raise
+    except OSError as exc:
+        raise CacasError(f"{where}: cannot be written ({exc.strerror or exc}); {folder} was not made") from None
+    finally:  # also on Ctrl-C (KeyboardInterrupt, or SIGTERM raised as one), which goes on up
+        if os.path.lexists(staging):
+            _remove_folder_of_files(staging)
+    fsync_folder(folder.parent)
+    return True
 
 
 def write_all(folder, contents: dict[str, bytes], checksums: bool = False) -> dict[str, Path]:
@@ -284,11 +371,17 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False) -> di
     match it (:func:`mismatched` finds them), and killed before it, the folder is the earlier run's
     whole. (Swapping in a whole new folder instead would change the folder itself: a shell or file
     browser in it, ``--out .``, files of the user's beside the outputs.) Its bytes follow from the
-    files', so the same files give the same folder. Returns name -> path (without CHECKSUMS)."""
+    files', so the same files give the same folder. A ``folder`` that does not exist yet is built
+    beside it and renamed into place whole (:func:`_write_new_folder`): killed, it is not there at
+    all. Returns name -> path (without CHECKSUMS)."""
     folder = Path(folder)
     written = list(contents)
     if checksums:
         contents = {CHECKSUMS: checksums_bytes(contents), **contents}
+    for staged in _dead_stagings(folder):
+        _remove_folder_of_files(staged)
+    if not os.path.lexists(folder) and _write_new_folder(folder, contents):
+        return {n: folder / n for n in written}
     _remove_left_over(folder, contents)
     tmps: dict[str, Path] = {}
     kept: dict[str, Path | None] = {}  # name -> the replaced file's copy (None: there was none)

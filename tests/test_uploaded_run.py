@@ -1,0 +1,200 @@
+"""The Results page's upload of a run's tables without its checksums.sha256: daily.csv, interactions.csv
+and by_preference.csv are checked against each other (participants, methods, days and what each
+row counts), so tables of two runs side by side (a folder a run stopped part-way left, or files of
+two folders) are refused one by one, and the page says that the files' bytes were not checked.
+Tables of one run, simulated either way or exported from a study database, upload."""
+
+import pandas as pd
+import pytest
+
+from cacas import records, saved_runs
+from cacas.errors import CacasError
+from cacas.experiment import combine_daily
+from cacas.export import export_tables
+from cacas.store import StudyStore
+
+T1, T2 = records.ROBOT_INITIATED, records.USER_INITIATED
+
+
+def _row(who, method, day, index, type_, action, response, activity="cough", user_action=""):
+    return {"participant": who, "method": method, "day": day, "index": index, "time": "", "activity": activity,
+            "scene": "kitchen", "time_slot": 3, "interval": 2, "task": "do nothing",
+            "previous_action": "do nothing", "previous_response": "others", "type": type_,
+            "robot_action": action, "response": response, "user_action": user_action}
+
+
+def _interactions(methods=("cacas",), participants=("P01", "P02"), days=(1, 2)):
+    """Each participant-method-day: an accepted and a rejected proposal, one left unanswered, a
+    request during an activity and one while doing nothing (not recorded), and the participant's
+    second day one more accepted proposal."""
+    rows = []
+    for who in participants:
+        for method in methods:
+            for day in days:
+                day_rows = [(T1, "pain check", "accept"), (T1, "chitchat", "reject"), (T1, "set a timer", "others"),
+                            (T2, "do nothing", "accept"), (T2, "do nothing", "accept")]
+                day_rows += [(T1, "pain check", "accept")] * (day - 1)
+                for i, (type_, action, response) in enumerate(day_rows):
+                    idle = i == 4
+                    rows.append(_row(who, method, day, i, type_, action, response,
+                                     activity="do nothing" if idle else "cough",
+                                     user_action="pain check" if type_ == T2 else ""))
+    return pd.DataFrame(rows, columns=records.INTERACTION_COLUMNS)
+
+
+def _accuracy(methods, participants=("P01", "P02"), days=(1, 2)):
+    return pd.DataFrame([{"participant": p, "method": m, "day": d, "preference_accuracy": 0.25 * d}
+                         for p in participants for m in methods for d in days])
+
+
+def _by_preference(accuracy):
+    """Two preferences of activities of their own, 20 test states each, whose correct give each
+    row's accuracy (sum(correct) / sum(states))."""
+    rows = []
+    for who, method, day, acc in accuracy.itertuples(index=False):
+        for pref, activity in ((1, "cough"), (2, "use stove")):
+            correct = round(acc * 20)
+            rows.append({"participant": who, "method": method, "day": day, "preference": pref,
+                         "label": f"preference {pref}", "activity": activity, "action": "pain check", "states": 20,
+                         "correct": correct, "accuracy": correct / 20})
+    return pd.DataFrame(rows, columns=records.BY_PREFERENCE_COLUMNS)
+
+
+def _run(loop="first", methods=("cacas", "orl", "nn")):
+    """A simulated run's three tables, daily.csv made as ``cacas simulate`` makes it (with ``loop``)."""
+    acting = methods if loop == "each" else methods[:1]
+    inter = _interactions(acting)
+    accuracy = _accuracy(methods)
+    daily = combine_daily(inter, accuracy, list(methods), loop=loop)
+    return {"daily.csv": daily, "interactions.csv": inter, "by_preference.csv": _by_preference(accuracy)}
+
+
+def upload(tables: dict[str, pd.DataFrame]) -> dict:
+    return saved_runs.load_uploaded_tables([(name, records.csv_bytes(df)) for name, df in tables.items()])
+
+
+def refused(tables: dict[str, pd.DataFrame]) -> str:
+    with pytest.raises(CacasError) as err:
+        upload(tables)
+    return str(err.value)
+
+
+@pytest.mark.parametrize("loop", ["first", "each"])
+def test_the_tables_of_one_simulated_run_upload_without_checksums(loop):
+    tables = _run(loop)
+    assert list(upload(tables)) == ["daily", "by_preference", "interactions"]
+    # design.md's columns alone (a daily.csv cut down in a spreadsheet) are checked as far as they go
+    contract = {**tables, "daily.csv": tables["daily.csv"][records.DAILY_CONTRACT_COLUMNS]}
+    assert list(upload(contract)) == ["daily", "by_preference", "interactions"]
+
+
+def test_the_tables_of_a_study_databases_export_upload_without_checksums(tmp_path):
+    """A human study: a request while doing nothing, a proposal left unanswered, two methods in force
+    on a participant's two days, a day begun with nothing recorded yet (scored for Fig. 4), and
+    preferences sharing an activity (their accuracy is bounded, not exact)."""
+    by_pref = [{"preference": 1, "label": "a", "activity": "cough", "action": "pain check", "states": 30,
+                "correct": 12},
+               {"preference": 2, "label": "b", "activity": "cough/sneeze", "action": "pain check", "states": 25,
+                "correct": 10}]
+    with StudyStore(tmp_path / "study.sqlite") as s:
+        for code in ("P01", "P02"):
+            s.add_participant(code)
+            s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+        for code, methods in (("P01", ("orl", "cacas")), ("P02", ("cacas",))):  # adapted with orl: in force on day 2
+            for day_number, method in enumerate(methods, 1):
+                day = s.open_day(code)
+                s.record_interaction(code, day, activity="cough", scene="kitchen", hour=8, interval_minutes=3,
+                                     robot_action="pain check", response="accept")
+                s.record_interaction(code, day, activity="cough", scene="kitchen", hour=8, interval_minutes=3,
+                                     robot_action="chitchat", response="others")
+                s.record_interaction(code, day, activity="do nothing", scene="kitchen", hour=9, interval_minutes=3,
+                                     robot_action="do nothing", response="accept", type=T2,
+                                     user_action="pain check")
+                s.close_day(code, day)
+                s.save_adapted_policy(code, day, method, f"{code} {day}".encode(), {}, 1.0,
+                                      {"preference_accuracy": 22 / 55, "by_preference": by_pref})
+        s.open_day("P02")  # begun, nothing recorded: its row counts nothing, and carries the feedback so far
+        tables = export_tables(s)
+    uploaded = {f"{k}.csv": tables[k] for k in ("daily", "interactions", "by_preference")}
+    assert set(tables["interactions"]["method"]) == {"cacas", "orl"} and len(tables["by_preference"])
+    assert list(upload(uploaded)) == ["daily", "by_preference", "interactions"]
+
+
+def test_interactions_of_a_run_of_fewer_days_are_refused():
+    """With the same seed a run of fewer days has the same first days: each count of those matches."""
+    tables = _run()
+    inter = tables["interactions.csv"]
+    message = refused({**tables, "interactions.csv": inter[inter["day"] == 1]})
+    assert message == ("interactions.csv: P01 day 2 (cacas) has 0 recorded interactions, daily.csv says 4; upload "
+                       "the tables of one study or run")
+
+
+def test_interactions_cut_short_are_refused():
+    tables = _run()
+    assert "P02 day 2 (cacas) has 3 recorded interactions, daily.csv says 4" in \
+        refused({**tables, "interactions.csv": tables["interactions.csv"].iloc[:-1]})
+
+
+def test_another_runs_interactions_with_the_same_counts_are_refused_by_what_they_count():
+    tables = _run()
+    inter = tables["interactions.csv"].copy()
+    first = inter.index[0]
+    inter.loc[first, "response"] = "reject"  # the same recorded interactions, one success fewer
+    assert refused({**tables, "interactions.csv": inter}) == (
+        "interactions.csv: P01 day 1 (cacas): its interactions give successes 0, daily.csv says 1; upload the tables "
+        "of one study or run")
+    contract = tables["daily.csv"][records.DAILY_CONTRACT_COLUMNS]
+    assert "its interactions give success_rate 0, daily.csv says 0.333333" in \
+        refused({**tables, "daily.csv": contract, "interactions.csv": inter})
+    # a rejected proposal that was a request instead: the same interactions and success rate, one more data point
+    asked = tables["interactions.csv"].copy()
+    rejected = asked.index[1]
+    asked.loc[rejected, ["type", "robot_action", "response", "user_action"]] = [T2, "do nothing", "accept", "pain check"]
+    assert "P01 day 1 (cacas): its interactions give cumulative_feedback 5, daily.csv says 4" in \
+        refused({**tables, "daily.csv": contract, "interactions.csv": asked})
+
+
+def test_a_by_preference_csv_of_another_run_is_refused():
+    tables = _run()
+    by_pref = tables["by_preference.csv"]
+    other = by_pref.assign(correct=by_pref["correct"] + 1)
+    assert refused({**tables, "by_preference.csv": other}) == (
+        "by_preference.csv: P01 day 1 (cacas): its preferences' correct of states give a preference accuracy of 0.300, "
+        "daily.csv says 0.250; upload the tables of one study or run")
+    assert refused({**tables, "by_preference.csv": by_pref.assign(day=by_pref["day"] + 1)}) == (
+        "by_preference.csv: P01 day 3 (cacas) is not in daily.csv; upload the tables of one study or run")
+    # preferences sharing an activity count some states twice: the accuracy is bounded, and outside it refused
+    shared = by_pref.assign(activity="cough")
+    assert list(upload({**tables, "by_preference.csv": shared}))
+    wrong = shared.assign(correct=20)
+    assert "give a preference accuracy between 1.000 and 1.000 (preferences with activities in common), daily.csv " \
+           "says 0.250" in refused({**tables, "by_preference.csv": wrong})
+
+
+@pytest.mark.parametrize("table, change, message", [
+    ("daily.csv", lambda df: pd.concat([df, df.iloc[[0]]]),
+     "daily.csv: P01 day 1 (cacas) is listed twice (rows 2 and 14); valid: one row per participant, method and day"),
+    ("interactions.csv", lambda df: df.assign(day=df["day"].astype(str).where(df.index > 0, "two")),
+     "interactions.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
+    ("by_preference.csv", lambda df: df.assign(correct=df["correct"].where(df.index > 0, 21)),
+     "by_preference.csv, row 2: correct 21 is more than states 20; valid: at most the test states"),
+    ("by_preference.csv", lambda df: df.assign(states=df["states"].astype(str).where(df.index > 0, "many")),
+     "by_preference.csv, row 2: states 'many' is invalid; valid: a whole number >= 0"),
+])
+def test_tables_that_cannot_be_of_one_run_are_refused_naming_the_row(table, change, message):
+    tables = _run()
+    assert refused({**tables, table: change(tables[table])}).startswith(message)
+
+
+def test_the_page_says_whether_the_checksums_were_checked():
+    assert saved_runs.upload_caption(["daily", "interactions"], None) == (
+        "Uploaded: daily.csv, interactions.csv, checked against each other (participants, methods, days and what "
+        "they count).",
+        "Checksums not checked: no checksums.sha256 was uploaded with them. Add the one beside the tables (cacas "
+        "export and cacas simulate --out write it) to check that each file is whole and of that folder's run.")
+    said, unchecked = saved_runs.upload_caption(["daily"], None)
+    assert said == "Uploaded: daily.csv." and unchecked.startswith("Checksums not checked: no checksums.sha256 was "
+                                                                   "uploaded with it.")
+    assert saved_runs.upload_caption(["daily", "by_preference"], "checksums.sha256") == (
+        "Uploaded: daily.csv, by_preference.csv, each matching its sha256 in checksums.sha256, and checked against "
+        "each other (participants, methods, days and what they count).", None)
