@@ -199,26 +199,31 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     belong together). With ``keep_previous``, a model saved at ``path`` before is kept beside it
     first (:func:`cacas.previous_model.keep`), to be put back if the new one serves worse.
 
-    Both are written to temporary names first and then renamed, so nothing is half-written; the
-    metadata is renamed first, and the file time of the weights (the app's cache key) changes last.
+    Both are written as one change (:func:`cacas.store.files.write_all`, inside the model's lock
+    that saves and put-backs take turns on): each to a temporary file of this process, fsynced, then
+    renamed, the metadata first and the weights (whose file time is the app's cache key) last. A
+    failure (disk full, a folder that cannot be written) is a CacasError naming the file, with the
+    model saved before as it was and no temporary file left (safety round: fixed temporary names,
+    written before the lock and never synced, let two trainings at once rename each other's files,
+    and a full disk left a bare OSError and a 45-MB temporary file).
     """
     import torch
 
     from cacas import previous_model
+    from cacas.store.files import write_all
 
     path = model_weights_path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp_pt, tmp_js = path.with_suffix(".pt.tmp"), path.with_suffix(".json.tmp")
-    torch.save(tensors, tmp_pt)
-    metadata = {**metadata, "model_id": model_id(tmp_pt)}
-    tmp_js.write_text(json.dumps(metadata, indent=1, default=_json_default) + "\n")
+    buffer = io.BytesIO()
+    torch.save(tensors, buffer)
+    weights = buffer.getvalue()
+    metadata = {**metadata, "model_id": model_id(weights)}
+    meta_bytes = (json.dumps(metadata, indent=1, default=_json_default) + "\n").encode()
     with previous_model.writing(path):  # a put-back or another save meanwhile waits
         if keep_previous:
             previous_model.keep(path)
         # metadata first: it names its weights, so until they follow the pair is refused, never used
         # (weights first left new weights beside the old, id-less metadata of the shipped models: loaded)
-        tmp_js.replace(path.with_suffix(".json"))
-        tmp_pt.replace(path)
+        write_all(path.parent, {path.with_suffix(".json").name: meta_bytes, path.name: weights})
     return path
 
 

@@ -68,8 +68,6 @@ def test_a_save_cut_between_its_renames_is_refused_even_over_metadata_with_no_id
     """The shipped models' metadata records no id: a save whose weights were renamed before its
     metadata, cut between the two, loaded the new weights with the old classes and accuracy. The
     metadata goes first, and it names its weights: the cut pair is refused."""
-    import cacas.recognition
-
     path = _save(tmp_path / "m.pt", 3)
     meta = json.loads(path.with_suffix(".json").read_text())
     del meta["model_id"]
@@ -77,11 +75,11 @@ def test_a_save_cut_between_its_renames_is_refused_even_over_metadata_with_no_id
     real, calls = os.replace, []
 
     def replace_once(src, dst):
-        if calls:
-            raise KeyboardInterrupt  # killed before the second rename
+        if calls:  # killed before the second rename: nothing after it runs, the put-back neither
+            raise KeyboardInterrupt
         calls.append(dst)
         return real(src, dst)
-    monkeypatch.setattr(cacas.recognition.Path, "replace", lambda self, dst: replace_once(self, dst))
+    monkeypatch.setattr(os, "replace", replace_once)
     with pytest.raises(KeyboardInterrupt):
         _save(path, 4)
     monkeypatch.undo()

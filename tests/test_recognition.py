@@ -203,3 +203,46 @@ def test_what_an_evaluation_is_on_is_said_as_it_was_made():
                                              "in the library)")
     m.extra = {"set": "all"}
     assert evaluated_on(m, "images") == "on all 2 images (training ones included)"
+
+
+def test_a_save_writes_nothing_before_it_holds_the_model_s_lock(sound_file, monkeypatch):
+    """Safety round: the temporary files had fixed names (m.pt.tmp, m.json.tmp) and were written
+    before the lock that saves and put-backs take turns on, so two trainings at once (the app's and
+    `cacas sound train`) wrote and renamed each other's. What the folder holds as the lock is taken
+    is what an earlier save left: the model, its metadata and the lock file."""
+    from contextlib import contextmanager
+
+    from cacas import previous_model
+
+    real = previous_model.writing
+    seen = []
+
+    @contextmanager
+    def watching(path):
+        seen.append(sorted(p.name for p in sound_file.parent.iterdir()))
+        with real(path):
+            yield
+    monkeypatch.setattr(previous_model, "writing", watching)
+    save_model(sound_file, {"w": torch.arange(5.0)}, {"kind": "sound", "classes": ["cough"]})
+    assert seen == [[".m.lock", "m.json", "m.pt"]]
+    assert torch.equal(load_model_file(sound_file, "sound")[0]["w"], torch.arange(5.0))
+
+
+def test_a_save_on_a_full_disk_says_so_and_keeps_the_model_saved_before(sound_file, monkeypatch):
+    """Safety round: a full disk raised a bare OSError and left a 45-MB temporary file. Now one
+    message names the file, and the model saved before loads as it did, nothing left beside it."""
+    import errno
+    import os
+
+    before = sound_file.read_bytes(), sound_file.with_suffix(".json").read_bytes()
+
+    def full(fd):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    monkeypatch.setattr(os, "fsync", full)
+    with pytest.raises(CacasError, match=rf"^{sound_file.with_suffix('.json')}: cannot be written \(No space left on "
+                                         r"device\); the folder's files are unchanged$"):
+        save_model(sound_file, {"w": torch.arange(5.0)}, {"kind": "sound", "classes": ["cough"]})
+    monkeypatch.undo()
+    assert (sound_file.read_bytes(), sound_file.with_suffix(".json").read_bytes()) == before
+    assert sorted(p.name for p in sound_file.parent.iterdir()) == [".m.lock", "m.json", "m.pt"]
+    assert torch.equal(load_model_file(sound_file, "sound")[0]["w"], torch.arange(3.0))
