@@ -155,6 +155,12 @@ def _set_context() -> None:
     status = _status_or_gone()
     if status is None:
         return
+    if not status.open:  # the form was drawn on an open day: the researcher closed it meanwhile (a tablet left
+        # on the form overnight showed "Start day 2" at "Do it" with not a word about the context just set)
+        s["session-error"] = (f"That was not used: day {status.day} was closed meanwhile."
+                              + (" Ask the researcher whether to start the next day." if tablet else ""))
+        _cancel()
+        return
     # the proposal belongs to one interaction: the browser's Back button brings its address back after
     # it was answered, and the page must not take it for the next interaction (a second answer)
     ui.set_address(ctx=ctx.to_token(), at=_interaction_mark(status.day, status.interactions_today + 1))
