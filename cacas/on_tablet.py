@@ -25,9 +25,10 @@ from dataclasses import dataclass, field, replace
 @dataclass(frozen=True)
 class Shown:
     """A proposal on a participant's tablet: for interaction ``index`` of ``day``, in the context
-    the participant set (activity, room, time of day), the robot's ``action`` and ``line``;
-    ``since`` is when it was first shown (seconds since the epoch; not part of equality, so a
-    tablet drawing the same proposal again changes nothing)."""
+    the participant set (activity, room, time of day; ``interval``: the time since their last
+    activity, S4, as the tablet says it), the robot's ``action`` and ``line``; ``since`` is when
+    it was first shown (seconds since the epoch; not part of equality, so a tablet drawing the
+    same proposal again changes nothing)."""
 
     day: int
     index: int
@@ -36,6 +37,7 @@ class Shown:
     time_slot: str
     action: str
     line: str
+    interval: str = ""
     since: float = field(default=0.0, compare=False)
 
     @property

@@ -71,7 +71,8 @@ def _rollback(who: str, key: str) -> None:
         st.session_state["rollback-error"] = str(exc)
     else:
         st.session_state["rollback-error"] = None
-        st.toast("Policy in force changed.", icon=":material/history:")
+        st.toast(f"{'The initial policy' if choice == 0 else f'Version {choice}'} is in force from {who}'s next "
+                 "interaction.", icon=":material/history:")
 
 
 status = day_status(store, code)
@@ -153,8 +154,11 @@ else:
                f"{in_force_words(res.day)}." if status.policy_version == res.policy_version else
                f"Adapted with {res.method} in {res.duration_s:.1f} s into policy version {res.policy_version}; "
                f"since then the {now} policy was put in force (Roll back, below).")
-        if res.preference_accuracy is not None:
-            msg += f" Preference accuracy (Fig. 4): {ui.percent(res.preference_accuracy)}."
+        if res.preference_accuracy is not None:  # the run's, named as version N's once another is in force
+            msg += (f" Preference accuracy (Fig. 4): {ui.percent(res.preference_accuracy)}."
+                    if status.policy_version == res.policy_version else
+                    f" Version {res.policy_version}'s preference accuracy (Fig. 4): "
+                    f"{ui.percent(res.preference_accuracy)}.")
         st.success(msg, icon=":material/check_circle:")
         with st.expander("Adaptation log"):
             st.code("\n".join(res.log) or "(no log)", language=None)

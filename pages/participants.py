@@ -473,7 +473,8 @@ if code:
             bad = sorted(errors)
             st.error(f"Not saved: preference{'s' if len(bad) > 1 else ''} {', '.join(map(str, bad))} "
                      f"need{'' if len(bad) > 1 else 's'} fixing (the message is under "
-                     f"{'each' if len(bad) > 1 else 'it'} above).", icon=":material/error:")
+                     f"{'each' if len(bad) > 1 else 'it'} above)"
+                     + (", and so does the overlap just above." if overall else "."), icon=":material/error:")
         c1, c2 = st.columns([1, 1])
         ui.button(c1, "Save preferences", _save_preferences, args=(code, version, count, tasks), type="primary",
                   icon=":material/save:", key=f"save-prefs-{code}")

@@ -155,6 +155,12 @@ def _set_context() -> None:
     status = _status_or_gone()
     if status is None:
         return
+    if not status.open:  # the form was drawn on an open day: the researcher closed it meanwhile (a tablet left
+        # on the form overnight showed "Start day 2" at "Do it" with not a word about the context just set)
+        s["session-error"] = (f"That was not used: day {status.day} was closed meanwhile."
+                              + (" Ask the researcher whether to start the next day." if tablet else ""))
+        _cancel()
+        return
     # the proposal belongs to one interaction: the browser's Back button brings its address back after
     # it was answered, and the page must not take it for the next interaction (a second answer)
     ui.set_address(ctx=ctx.to_token(), at=_interaction_mark(status.day, status.interactions_today + 1))
@@ -312,7 +318,8 @@ def _on_the_tablet(shown: Shown) -> None:
     with st.container(border=True):
         st.markdown(f"**On {code}'s tablet now** · interaction {shown.index}, shown at "
                     f"{shown.shown_at}")
-        st.caption(f"{shown.activity} {spaces.in_scene(shown.scene)} · {shown.time_slot}")
+        st.caption(f"{shown.activity} {spaces.in_scene(shown.scene)} · {shown.time_slot}"
+                   + (f" · {shown.interval} since {code}'s last activity" if shown.interval else ""))
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(shown.line)
         asked = board.pending(db, code)
@@ -483,7 +490,8 @@ else:
                        draws=proposal_draws(code, day, index, in_force.sha256 if in_force else None))
     if tablet:  # the researcher's view shows it, and offers no second form for this interaction
         board.show(db, code, Shown(day, index, context.activity, context.scene,
-                                   spaces.time_slot_label(context.time_slot), proposal.action, proposal.line))
+                                   spaces.time_slot_label(context.time_slot), proposal.action, proposal.line,
+                                   spaces.interval_label(context.interval_bin)))
 
     left, right = st.columns([1, 1])
     # each card says what it is about and its name on one line: the name under a heading of its own took the

@@ -87,6 +87,9 @@ def test_close_day_and_adapt(app, store, quick_policy):
     assert (shown.value, shown.delta) == ("initial", f"rolled back; newest: version {active.version}")
     assert f"policy version {active.version} is in force" not in texts(at)
     assert "since then the initial policy was put in force" in texts(at)
+    # the run's accuracy is named as the new version's, not read as the policy's now in force (walkthrough)
+    assert f"Version {active.version}'s preference accuracy (Fig. 4): " in texts(at)
+    assert "The initial policy is in force from P01's next interaction." in texts(at)  # the toast names it
     assert next(s for s in at.selectbox if s.label == "After").value == 0
     assert next(s for s in at.selectbox if s.label == "Before").value == active.version
 

@@ -144,7 +144,9 @@ def test_an_overlap_is_said_with_another_preferences_error_in_one_save(app, stor
     msgs = [e.value for e in at.error]
     assert any(m.startswith("Preference 3: choose an action: ") for m in msgs)
     assert any(m.startswith("preferences 1 and 4 both cover") for m in msgs)
-    assert msgs[-1] == "Not saved: preference 3 needs fixing (the message is under it above)."
+    # the summary beside the button names both: it named preference 3 alone, as if mending it would save (walkthrough)
+    assert msgs[-1] == ("Not saved: preference 3 needs fixing (the message is under it above), and so does the "
+                        "overlap just above.")
     assert store.get_preferences("P01") is None
 
 

@@ -777,7 +777,8 @@ def test_the_researchers_view_shows_the_tablets_proposal_instead_of_a_form_of_it
     desk = app(PAGE, participant="P01")
     no_exception(desk)
     assert "On P01's tablet now" in texts(desk) and line in texts(desk)
-    assert "use stove in the kitchen · 06:00-08:00" in texts(desk)
+    # the whole context the participant set, S4 too, as the tablet says it (walkthrough: it was left out)
+    assert "use stove in the kitchen · 06:00-08:00 · 20-30 min since P01's last activity" in texts(desk)
     assert not [b for b in desk.button if b.label == "Do it"]  # no form of its own for interaction 1
     _button(desk, "Run it from here instead").click().run()
     assert [b for b in desk.button if b.label == "Do it"]
@@ -999,3 +1000,19 @@ def test_a_full_disk_tells_the_participant_plainly_that_their_answer_was_not_sav
     no_exception(at)
     assert len(store.interactions_frame("P01", method=None)) == 1
     assert "Interaction 1 saved" in texts(at)
+
+
+def test_a_context_set_after_the_day_was_closed_meanwhile_says_it_was_not_used(app, store, p01, quick_policy):
+    """A tablet left on the context form while the researcher closed the day (overnight, say): "Do it"
+    showed "Start day 2" (or the wait for the adaptation) with not a word about the context just set
+    (walkthrough), where an answer given then says it was not saved."""
+    day = store.open_day("P01")
+    at = app(PAGE, participant="P01", view="tablet")
+    no_exception(at)
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)  # the researcher closes the day while the form is on the tablet
+    _choose(at)
+    assert f"That was not used: day {day} was closed meanwhile." in texts(at)
+    assert "ctx" not in at.query_params  # no proposal for the closed day
+    assert len(store.interactions_frame("P01", method=None)) == 1
