@@ -188,11 +188,19 @@ class Staging:
         return tmp
 
     def place(self) -> None:
-        """Rename every staged file into place."""
+        """Rename every staged file into place: each fsynced first and the folders after, so a
+        power cut soon after cannot leave empty or cut files under the new names (safety round:
+        the copies were renamed unsynced)."""
+        from cacas.store import files
+
+        for tmp, _, _ in self.staged:
+            files.fsync_file(tmp)
         for tmp, target, existed in self.staged:
             os.replace(tmp, target)
             if not existed:
                 self.placed.append(target)
+        for folder in dict.fromkeys(target.parent for _, target, _ in self.staged):
+            files.fsync_folder(folder)
         self.done = True
 
     def discard(self) -> None:
@@ -306,23 +314,41 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     if bad:  # one at a time took a try for each (walkthrough: three bad clips, three presses)
         raise CacasError(f"{len(bad)} of the {len(plan)} {kind.item}s cannot be used; nothing was {done}:"
                          + "".join(f"\n- {b}" for b in bad))
-    _refuse_copies(plan, root, kind, done, again)
-    targets, taken = [], set()
-    for f, name in plan:
-        folder = root / slug(name)
-        target, k = folder / f.name, 1
-        while target.exists() or target in taken:
-            target, k = folder / f"imported_{k}_{f.name}", k + 1
-        taken.add(target)
-        targets.append(target)
-    try:  # new names only (taken ones get a prefix), so removing them undoes the import
-        with Staging(root, kind.extensions) as staging:
-            for i, ((f, _), target) in enumerate(zip(plan, targets)):
-                shutil.copy2(f, staging.path(target))
-                if progress:
-                    progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
-            staging.place()
+    try:
+        with adding(root):  # two adds at once take turns: the copy check sees what the other placed
+            _refuse_copies(plan, root, kind, done, again)
+            targets, taken = [], set()
+            for f, name in plan:
+                folder = root / slug(name)
+                target, k = folder / f.name, 1
+                while target.exists() or target in taken:
+                    target, k = folder / f"imported_{k}_{f.name}", k + 1
+                taken.add(target)
+                targets.append(target)
+            # new names only (taken ones get a prefix), so removing them undoes the import
+            with Staging(root, kind.extensions) as staging:
+                for i, ((f, _), target) in enumerate(zip(plan, targets)):
+                    shutil.copy2(f, staging.path(target))
+                    if progress:
+                        progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
+                staging.place()
     except OSError as exc:
         raise CacasError(f"{root}: cannot copy into the {kind.what} library ({exc.strerror or exc}); "
                          f"nothing was {done}") from None
     return targets
+
+
+def adding_lock(root: Path) -> Path:
+    """The lock file of adding to the library at ``root``: hidden, beside it."""
+    return root.with_name(f".{root.name}.adding.lock")
+
+
+def adding(root: Path):
+    """An exclusive lock (``flock``) for adding files to the library at ``root``, from the check
+    for copies to the last rename: two researchers adding the same clip at one moment (two
+    browsers, or the app and `cacas sound import`) each found it new and both copies went in,
+    counted twice in training (safety round). The lock file stays."""
+    from cacas.store.recovery import busy
+
+    root.parent.mkdir(parents=True, exist_ok=True)
+    return busy(adding_lock(root))
