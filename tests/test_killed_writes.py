@@ -248,3 +248,33 @@ def test_figures_killed_between_their_renames_in_a_folder_of_their_own_are_found
         "fig4_by_preference.html, fig4_methods.html did not match checksums.sha256 (files of two runs side by side), "
         f"and {left} hidden temporary file(s); all are replaced now\n")
     assert files.mismatched(plots) == [] and not hidden(plots) and files.mismatched(out) == []
+
+
+@pytest.mark.parametrize("when", ["before", "after"])
+def test_an_earlier_runs_figure_is_not_left_unlisted_beside_a_killed_runs(tmp_path, capsys, when):
+    """Safety round: a --loop each run's fig3_methods.html was removed after the new figures were
+    in place, so a run without it killed in between left it beside them, listed by no
+    checksums.sha256: nothing found it. It is taken away before the new checksums.sha256 is put in
+    place: killed before that rename the earlier checksums still list it (missing: found), after it
+    it is gone. The next run says what it found and leaves no hidden copy."""
+    from cacas.cli import main
+
+    personas = tmp_path / "personas.json"
+    personas.write_text('{"participants": [{"id": "S01", "preferences": [{"activity": ["cough"], '
+                        '"action": "pain check"}]}]}')
+    out, plots = tmp_path / "out", tmp_path / "plots"
+    args = ["simulate", "--personas", personas, "--days", "1", "--interactions", "2", "--methods", "nn,bandit",
+            "--jobs", "1", "--quiet", "--out", out, "--plot", plots, "--seed", "1"]
+    assert main([str(a) for a in args + ["--loop", "each"]]) == 0
+    assert (plots / "fig3_methods.html").is_file()
+    killed(5, when, *args)  # the tables' four renames, then the figures' checksums.sha256
+    assert not (plots / "fig3_methods.html").exists()
+    bad = files.mismatched(plots)
+    assert ("fig3_methods.html" in bad) == (when == "before")  # listed by the earlier checksums: missing
+    assert set(files.parse_checksums((plots / files.CHECKSUMS).read_bytes())) == (
+        {"fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "fig3_methods.html", "plotly.min.js"}
+        if when == "before" else {"fig3_success.html", "fig4_methods.html", "fig4_by_preference.html", "plotly.min.js"})
+    capsys.readouterr()
+    assert main([str(a) for a in args]) == 0
+    assert "did not match checksums.sha256" in capsys.readouterr().err
+    assert files.mismatched(plots) == [] and not hidden(plots) and not (plots / "fig3_methods.html").exists()

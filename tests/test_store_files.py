@@ -290,3 +290,29 @@ def test_what_a_write_killed_while_it_built_a_new_folder_left_is_removed_and_sai
     files.write_all(folder, {"daily.csv": b"rows"})
     assert not dead.exists() and running.is_dir() and odd.is_dir()
     assert (folder / "daily.csv").read_bytes() == b"rows" and files.remains(folder, ["daily.csv"]) == ""
+
+
+def test_write_all_takes_away_the_files_named_to_remove_in_the_same_change(tmp_path, monkeypatch):
+    """``remove``: an earlier run's file this write does not make (cacas simulate's fig3_methods.html)
+    goes with the change, before checksums.sha256 is put in place; a failure puts it back too."""
+    import errno
+
+    files.write_all(tmp_path, {"a.txt": b"a1", "old.html": b"earlier"}, checksums=True)
+    real, calls = os.replace, []
+
+    def refuse_second(src, dst):
+        calls.append(dst)
+        if len(calls) == 2:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(src, dst)
+    monkeypatch.setattr(os, "replace", refuse_second)
+    with pytest.raises(CacasError, match=r"a\.txt: cannot be written \(No space left on device\); the folder's files "
+                                         r"are unchanged$"):
+        files.write_all(tmp_path, {"a.txt": b"a2"}, checksums=True, remove=["old.html", "never.html"])
+    monkeypatch.undo()
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir() if p.name != files.CHECKSUMS} == {
+        "a.txt": b"a1", "old.html": b"earlier"}
+    assert files.mismatched(tmp_path) == []
+    files.write_all(tmp_path, {"a.txt": b"a2"}, checksums=True, remove=["old.html", "never.html"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", files.CHECKSUMS]
+    assert files.mismatched(tmp_path) == []

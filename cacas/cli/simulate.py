@@ -253,33 +253,32 @@ def run(args) -> int:
             figures["fig3_methods.html"] = success_methods_figure(result.daily)
     drawn = figure_files(figures) if figures else {}
     replaced = plot_dir is not None and other_plotly_js(plot_dir, drawn[PLOTLY_JS])
-    # an earlier run's figures beside these tables would show other results: removed, and said. The
-    # folders compared as resolved: --plot may name --out another way (absolute, x/../out, a link),
-    # and the figures written there are this run's
-    folders = {d.resolve(): d for d in (out, plot_dir) if d is not None}
-    written_here = plot_dir.resolve() if plot_dir is not None else None
-    stale = [d / name for where, d in folders.items() for name in SIMULATION_FIGURES
-             if (d / name).is_file() and not (where == written_here and name in figures)]
+    # an earlier run's figures beside these tables would show other results: taken away in the same
+    # change as the folder's new files (files.write_all's remove: a kill cannot leave one unlisted
+    # beside them), and said. The folders compared as resolved: --plot may name --out another way
+    # (absolute, x/../out, a link), and the figures written there are this run's
+    # (every figure name not drawn there is given to remove: a killed run's hidden copy of one goes too)
+    together = plot_dir is not None and plot_dir.resolve() == out.resolve()
+    stale_out = [n for n in SIMULATION_FIGURES if not (together and n in figures)]
+    stale_plot = [n for n in SIMULATION_FIGURES if n not in figures] if plot_dir is not None and not together else []
+    stale = [d / n for d, names in ((out, stale_out), (plot_dir, stale_plot)) for n in names if (d / n).is_file()]
     table = summary_table(result.daily)
     from cacas.cli import signals_held
 
     # put in place as one change, and said: Ctrl-C or SIGTERM from here on stops the command after it
     with signals_held():
-        together = written_here == out.resolve()
         remains = [files.remains(out, [*tables, *(drawn if together else ()), *SIMULATION_FIGURES, PLOTLY_JS])]
         if plot_dir is not None and not together:
             remains.append(files.remains(plot_dir, [*drawn, *SIMULATION_FIGURES]))
         if together:  # tables and figures replace an earlier run's together, or not at all
-            written = files.write_all(out, {**tables, **drawn}, checksums=True)
+            written = files.write_all(out, {**tables, **drawn}, checksums=True, remove=stale_out)
         else:  # the three tables replace an earlier run's together, or not at all; then the figures
-            written = files.write_all(out, tables, checksums=True)
+            written = files.write_all(out, tables, checksums=True, remove=stale_out)
             if plot_dir is not None:
-                try:
-                    files.write_all(plot_dir, drawn, checksums=True)  # a folder of figures checked as one too
+                try:  # a folder of figures checked as one too
+                    files.write_all(plot_dir, drawn, checksums=True, remove=stale_plot)
                 except CacasError as exc:
                     raise CacasError(f"{exc}; the tables were written in {out}") from None
-        for path in stale:
-            path.unlink(missing_ok=True)
         for note in filter(None, remains):
             print(f"cacas simulate: note: {note}", file=sys.stderr)
         print(summary_text(table))

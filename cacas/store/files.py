@@ -366,7 +366,8 @@ def _write_new_folder(folder: Path, contents: dict[str, bytes]) -> bool:
     return True
 
 
-def write_all(folder, contents: dict[str, bytes], checksums: bool = False) -> dict[str, Path]:
+def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
+              remove: tuple[str, ...] | list[str] = ()) -> dict[str, Path]:
     """Write several files into ``folder`` as one change: each to a temporary file first
     (flushed and fsynced), and only when all are written are they renamed into place, each file
     it replaces kept aside (a hard link) until all renames are done. A failure (disk full,
@@ -382,19 +383,24 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False) -> di
     browser in it, ``--out .``, files of the user's beside the outputs.) Its bytes follow from the
     files', so the same files give the same folder. A ``folder`` that does not exist yet is built
     beside it and renamed into place whole (:func:`_write_new_folder`): killed, it is not there at
-    all. Returns name -> path (without CHECKSUMS)."""
+    all. ``remove``: files of an earlier write to take away in the same change (an earlier run's
+    figure this one does not draw), removed before :data:`CHECKSUMS` is renamed, so that one left by
+    a kill is listed by the earlier file and missing (found), never unlisted beside the new files;
+    put back on a failure. Returns name -> path (without CHECKSUMS)."""
     folder = Path(folder)
     written = list(contents)
+    remove = [n for n in dict.fromkeys(remove) if n not in contents and n != CHECKSUMS]
     if checksums:
         contents = {CHECKSUMS: checksums_bytes(contents), **contents}
     for staged in _dead_stagings(folder):
         _remove_folder_of_files(staged)
     if not os.path.lexists(folder) and _write_new_folder(folder, contents):
         return {n: folder / n for n in written}
-    _remove_left_over(folder, contents)
+    _remove_left_over(folder, [*contents, *remove])
     tmps: dict[str, Path] = {}
     kept: dict[str, Path | None] = {}  # name -> the replaced file's copy (None: there was none)
     done: list[str] = []
+    gone: list[str] = []  # of ``remove``, taken away so far (a copy kept until the end)
     name = ""
     try:
         folder.mkdir(parents=True, exist_ok=True)
@@ -411,13 +417,21 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False) -> di
                 kept[name] = folder / f".{name}.{os.getpid()}.old"
                 kept[name].unlink(missing_ok=True)
                 os.link(target, kept[name])
+        for name in remove:
+            target = folder / name
+            if os.path.isfile(target):
+                kept[name] = folder / f".{name}.{os.getpid()}.old"
+                kept[name].unlink(missing_ok=True)
+                os.link(target, kept[name])
+                target.unlink()
+                gone.append(name)
         for name, tmp in tmps.items():
             os.replace(tmp, folder / name)
             done.append(name)
             if name == CHECKSUMS and checksums:  # on disk before any file it lists is replaced
                 fsync_folder(folder)
     except BaseException as exc:  # an OSError, or Ctrl-C / SIGTERM between two renames
-        for n in reversed(done):  # put back what was replaced
+        for n in [*reversed(done), *gone]:  # put back what was replaced or taken away
             try:
                 if kept[n] is None:
                     (folder / n).unlink(missing_ok=True)
