@@ -131,11 +131,11 @@ def persona_summary(participants, d4a: D4A | None = None) -> pd.DataFrame:
 
 
 def save_d4a(d4a: D4A, path: str | Path) -> None:
-    """Write a D4A table as CSV (atomically: a temporary file renamed into place)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(d4a.to_csv_text(), encoding="utf-8")
-    tmp.replace(path)
+    """Write a D4A table as CSV, atomically (:func:`cacas.store.files.atomic_write`); a failure is a
+    CacasError naming the file, which is left as it was."""
+    from cacas.store.files import atomic_write
+
+    atomic_write(Path(path), d4a.to_csv_text().encode("utf-8"))
 
 
 def _canon_or_none(kind: str, name: str) -> str | None:

@@ -405,8 +405,9 @@ def dumps_personas(participants: Iterable[Participant]) -> str:
 
 
 def save_personas(participants: Iterable[Participant], path: str | Path) -> None:
-    """Write a persona file atomically (a temporary file renamed into place)."""
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(dumps_personas(participants), encoding="utf-8")
-    tmp.replace(path)
+    """Write a persona file atomically (:func:`cacas.store.files.atomic_write`: a temporary file of
+    this process, fsynced, renamed into place); a failure is a CacasError naming the file, which is
+    left as it was."""
+    from cacas.store.files import atomic_write
+
+    atomic_write(Path(path), dumps_personas(participants).encode("utf-8"))
