@@ -308,6 +308,20 @@ def _wait_for_the_researcher(drawn: tuple | None) -> None:
         st.rerun()
 
 
+@st.fragment(run_every=WAIT_EVERY_SECONDS)
+def _follow_the_day(drawn_day: int) -> None:
+    """The tablet on an open day (its context form, or a proposal) is drawn again once the researcher has
+    closed that day (or adapted the robot from it, or removed the participant) on their own screen: it kept
+    asking "What are you doing?" for a closed day, and what was set then was not used (walkthrough). It
+    reruns only then, so what the participant is tapping is never redrawn under their hands meanwhile."""
+    try:
+        now = day_status(store, code)
+    except CacasError:  # the participant was removed meanwhile: the whole page says so
+        st.rerun()
+    if not now.open or now.day != drawn_day:
+        st.rerun()
+
+
 def _run_here() -> None:
     st.session_state["run-here"] = True
 
@@ -398,6 +412,8 @@ if not status.open:
     st.stop()
 
 day = status.day
+if tablet:
+    _follow_the_day(day)
 done = status.interactions_today  # saved today: the next interaction's number is done + 1
 # the ~15 a day are interactions the paper records (answered, or asked for): an unanswered one is saved apart,
 # and said apart on the researcher's view only (a participant who tapped "Nothing needed" read that their tap

@@ -19,7 +19,7 @@ pytestmark = pytest.mark.browser
 
 @pytest.fixture(scope="module")
 def waiting_server(tmp_path_factory):
-    """The app over P01, whose day 1 is closed and not adapted yet."""
+    """The app over P01, whose day 1 is closed and not adapted yet, and P02, on day 1."""
     tmp = tmp_path_factory.mktemp("tablet-waits")
     db = tmp / "study.sqlite"
     with StudyStore(db) as s:
@@ -29,6 +29,9 @@ def waiting_server(tmp_path_factory):
         s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="accept")
         s.close_day("P01", day)
+        s.add_participant("P02")  # on day 1, open
+        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+        s.open_day("P02")
     for url in _run_app(tmp, CACAS_DB=str(db)):  # the server stops once the module's tests are done
         yield db, url
 
@@ -44,4 +47,20 @@ def test_the_tablet_shows_start_day_2_once_the_day_is_adapted_without_a_reload(b
     expect(page.get_by_role("button", name="Start day 2")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("Day 1 is finished").count() == 0
+    page.close()
+
+
+def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(browser, waiting_server):
+    """Walkthrough: a tablet left on the context form kept asking "What are you doing?" after the
+    researcher had closed (and adapted) the day on their own screen; what was set there was not used."""
+    db, url = waiting_server
+    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    goto(page, f"{url}/?participant=P02&view=tablet")
+    expect(page.get_by_text("What are you doing?")).to_be_visible(timeout=30_000)
+    page.evaluate("window.notReloaded = true")
+    with StudyStore(db) as s:  # the researcher closes the day, on their own screen
+        s.close_day("P02", 1)
+    expect(page.get_by_text("Day 1 is finished. The robot is learning from it")).to_be_visible(timeout=30_000)
+    assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
+    assert page.get_by_text("What are you doing?").count() == 0
     page.close()
