@@ -72,17 +72,13 @@ def test_to_frame_is_tidy_and_round_trips(d4a, tmp_path):
     assert path.read_text() == default_d4a_path().read_text()
 
 
-def test_a_save_on_a_full_disk_says_so_and_keeps_the_file(d4a, tmp_path, monkeypatch):
+def test_a_save_on_a_full_disk_says_so_and_keeps_the_file(d4a, tmp_path, monkeypatch, fail_on_call):
     """Safety round: a fixed '.tmp' name, no fsync, and a bare OSError on a full disk."""
-    import errno
     import os
 
     path = tmp_path / "d4a.csv"
     path.write_text("earlier\n")
-
-    def full(fd):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-    monkeypatch.setattr(os, "fsync", full)
+    monkeypatch.setattr(os, "fsync", fail_on_call(os.fsync, 1))
     with pytest.raises(CacasError, match=rf"^{path}: cannot be written \(No space left on device\); nothing was saved"):
         save_d4a(d4a, path)
     assert path.read_text() == "earlier\n" and os.listdir(tmp_path) == ["d4a.csv"]

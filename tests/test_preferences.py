@@ -179,18 +179,14 @@ def test_save_load_round_trip(tmp_path):
     assert json.loads(path.read_text())["participants"][0]["preferences"][2] == chat  # the task (S5) kept
 
 
-def test_a_save_on_a_full_disk_says_so_and_keeps_the_file(tmp_path, monkeypatch):
+def test_a_save_on_a_full_disk_says_so_and_keeps_the_file(tmp_path, monkeypatch, fail_on_call):
     """Safety round: a fixed '.tmp' name, no fsync, and a bare OSError on a full disk."""
-    import errno
     import os
 
     people = prefs.parse_personas(doc(STOVE))
     path = tmp_path / "p.json"
     path.write_text("earlier\n")
-
-    def full(fd):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-    monkeypatch.setattr(os, "fsync", full)
+    monkeypatch.setattr(os, "fsync", fail_on_call(os.fsync, 1))
     with pytest.raises(CacasError, match=rf"^{path}: cannot be written \(No space left on device\); nothing was saved"):
         prefs.save_personas(people, path)
     assert path.read_text() == "earlier\n" and os.listdir(tmp_path) == ["p.json"]

@@ -228,17 +228,13 @@ def test_a_save_writes_nothing_before_it_holds_the_model_s_lock(sound_file, monk
     assert torch.equal(load_model_file(sound_file, "sound")[0]["w"], torch.arange(5.0))
 
 
-def test_a_save_on_a_full_disk_says_so_and_keeps_the_model_saved_before(sound_file, monkeypatch):
+def test_a_save_on_a_full_disk_says_so_and_keeps_the_model_saved_before(sound_file, monkeypatch, fail_on_call):
     """Safety round: a full disk raised a bare OSError and left a 45-MB temporary file. Now one
     message names the file, and the model saved before loads as it did, nothing left beside it."""
-    import errno
     import os
 
     before = sound_file.read_bytes(), sound_file.with_suffix(".json").read_bytes()
-
-    def full(fd):
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
-    monkeypatch.setattr(os, "fsync", full)
+    monkeypatch.setattr(os, "fsync", fail_on_call(os.fsync, 1))
     with pytest.raises(CacasError, match=rf"^{sound_file.with_suffix('.json')}: cannot be written \(No space left on "
                                          r"device\); the folder's files are unchanged$"):
         save_model(sound_file, {"w": torch.arange(5.0)}, {"kind": "sound", "classes": ["cough"]})

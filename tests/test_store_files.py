@@ -292,20 +292,11 @@ def test_what_a_write_killed_while_it_built_a_new_folder_left_is_removed_and_sai
     assert (folder / "daily.csv").read_bytes() == b"rows" and files.remains(folder, ["daily.csv"]) == ""
 
 
-def test_write_all_takes_away_the_files_named_to_remove_in_the_same_change(tmp_path, monkeypatch):
+def test_write_all_takes_away_the_files_named_to_remove_in_the_same_change(tmp_path, monkeypatch, fail_on_call):
     """``remove``: an earlier run's file this write does not make (cacas simulate's fig3_methods.html)
     goes with the change, before checksums.sha256 is put in place; a failure puts it back too."""
-    import errno
-
     files.write_all(tmp_path, {"a.txt": b"a1", "old.html": b"earlier"}, checksums=True)
-    real, calls = os.replace, []
-
-    def refuse_second(src, dst):
-        calls.append(dst)
-        if len(calls) == 2:
-            raise OSError(errno.ENOSPC, "No space left on device")
-        return real(src, dst)
-    monkeypatch.setattr(os, "replace", refuse_second)
+    monkeypatch.setattr(os, "replace", fail_on_call(os.replace, 2))  # a.txt's rename, after checksums.sha256's
     with pytest.raises(CacasError, match=r"a\.txt: cannot be written \(No space left on device\); the folder's files "
                                          r"are unchanged$"):
         files.write_all(tmp_path, {"a.txt": b"a2"}, checksums=True, remove=["old.html", "never.html"])
