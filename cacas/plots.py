@@ -435,9 +435,10 @@ def preference_rows(by_preference: pd.DataFrame) -> pd.Series:
 
 def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str) -> go.Figure:
     rows = rows.assign(_row=preference_rows(rows))
-    # participants as a person reads them (records.code_order: "p01, R01, r02"), each one's preferences in order
-    order = list(dict.fromkeys(rows.assign(_who=rows["participant"].astype(str).str.lower())
-                               .sort_values(["_who", "participant", "preference"])["_row"]))
+    # participants as a person reads them (records.code_order: "p01, R01, r02", "P2, P10"), each one's
+    # preferences in order
+    order = list(dict.fromkeys(rows.assign(_who=rows["participant"].map(records.code_order))
+                               .sort_values(["_who", "preference"], kind="stable")["_row"]))
     grid = rows.pivot_table(index="_row", columns=column, values="accuracy", aggfunc="first").reindex(
         index=order, columns=columns)
     info = rows.drop_duplicates("_row").set_index("_row").reindex(order)
