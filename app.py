@@ -267,7 +267,10 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: chips to tap are at least 48 px high, and the robot's words, the labels and the buttons' words larger,
 #: for participants of 65 and more (walkthrough at tablet sizes: 40 px buttons, 14 px words, the robot's
 #: line at 16 px). Toasts come at the bottom: at the top they covered "Choose a different activity". The
-#: sound's player is as tall as a button: a tablet that blocks autoplay leaves its play button to tap.
+#: sound's player is as tall as a button: a tablet that blocks autoplay leaves its play button to tap. On a phone
+#: (390 x 844: Streamlit stacks columns under 640 px) the three answers stay side by side, in view under the
+#: proposal (stacked, "No response" was below the screen's edge), each icon above its words, as do "Yes, please"
+#: and "No" (keys ``tablet-row-*``), and a chip's padding is smaller, three times of day to a row (two: six rows to scroll past).
 TABLET_STYLE = """
 [data-testid='stMainBlockContainer'] { padding-top: 1.5rem; }
 [data-testid='InputInstructions'] { display: none; }
@@ -286,6 +289,15 @@ TABLET_STYLE = """
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
 [data-testid='stToastContainer'] { top: auto; bottom: 1rem; }
 [data-testid='stMain'] audio { width: 100%; height: 3.25rem; }
+@media (max-width: 640px) {
+  [data-testid='stMainBlockContainer'] { padding-top: 1rem; }
+  [data-testid='stMain'] button[data-variant='pills'] { padding: 0 0.55rem; }
+  [class*='st-key-tablet-row'] [data-testid='stHorizontalBlock'] { flex-wrap: nowrap; gap: 0.5rem; }
+  [class*='st-key-tablet-row'] [data-testid='stColumn'] { min-width: 0 !important; width: auto !important;
+                                                         flex: 1 1 0 !important; }
+  [class*='st-key-tablet-row'] button { padding: 0.4rem 0.25rem; }
+  [class*='st-key-tablet-row'] button > div > span { flex-direction: column; gap: 0.1rem; }
+}
 """
 
 

@@ -661,6 +661,11 @@ TODAY_TABLE_ROOM = 784
 #: headless Chromium: 820 px, its 1-px borders included).
 OVERVIEW_TABLE_ROOM = 818
 
+#: The width (px) of the Participants page's table of saved preferences at 1280 x 800, beside the sidebar, and of
+#: an earlier version's inside its expander (measured in headless Chromium: 820 and 786 px, borders included).
+PREFERENCES_TABLE_ROOM = 818
+EARLIER_PREFERENCES_ROOM = 784
+
 #: The row height (px) at which Streamlit's data grid lets a cell's text wrap (only in rows over 4rem, 64 px):
 #: three lines, so that what is longer than its column wraps instead of being cut.
 WRAPPING_ROW = 66
@@ -706,6 +711,25 @@ def overview_table_layout(columns) -> tuple[dict[str, int], int]:
     widths = {"participant": 85, "next step": 250, "day": 100, "success rate so far": 140, "policy": 110,
               "last recorded": 110}
     return fitted_layout(widths, columns, OVERVIEW_TABLE_ROOM)
+
+
+#: The headings of :func:`preferences_table`'s columns as the page shows them: short where the column is narrow.
+PREFERENCES_HEADINGS = {"since last activity": "since last", "covered states": "states"}
+
+
+def preferences_table_layout(columns, room: int = PREFERENCES_TABLE_ROOM) -> tuple[dict[str, int], int]:
+    """How the Participants page draws :func:`preferences_table` (its ``columns``) in ``room`` px: each
+    column's width (px) and the row height (px). On one line its eight columns need about 1,100 px
+    (three activities, "bathroom, living room", the participant's words), more than the page has at
+    1280 px: the table scrolled sideways, "covered states" and the participant's words off its right
+    edge. Each column has a width of its own (:func:`fitted_layout`): a heading ("since last", "states":
+    :data:`PREFERENCES_HEADINGS`), an action, hours and a room on one line, the activities and the
+    rooms on two or three, the participant's words taking what is left (wrapping to three lines)."""
+    widths = {"#": 32, "activities": 130, "action": 125, "rooms": 105, "hours": 96, "since last activity": 80,
+              "covered states": 70}
+    shown = [c for c in widths if c in columns]
+    widths["in their words"] = room - sum(widths[c] for c in shown)
+    return fitted_layout(widths, columns, room)
 
 
 def day_ranges(days) -> str:

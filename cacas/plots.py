@@ -141,21 +141,65 @@ RATE_RANGE = [0, 1.06]
 TITLE_BLOCK = 80
 
 
-#: The height (px) of the block below Fig. 3's and Fig. 4's plots: the day axis (its labels on two lines when they
-#: say how many participants a day averages) with its title, and a legend of four rows (Fig. 3 with the dashed
-#: line of where a preference names an action), or of methods. Side by side (Simulation lab) Fig. 3's legend of
-#: three or four rows pushed its bottom margin past Fig. 4's one row: its x axis sat 30-45 px above Fig. 4's.
-#: Every figure now reserves this block, and its legend sits at the block's bottom (:func:`legend_block`).
-LEGEND_BLOCK = 165
-
-
 def legend_block() -> dict:
-    """A figure's horizontal legend at the bottom of a bottom margin of :data:`LEGEND_BLOCK` px
-    (``margin.b``): in the figure's own coordinates, so that it never pushes the margin (a legend
-    below the plot, in the plot's, took what room it needed: the plot's bottom moved with the
-    number of its rows). It keeps 2 % of the figure's height below it (9 px of 450): flush with
-    the bottom, the standalone page (``cacas simulate --plot``) cut its last row."""
-    return dict(orientation="h", yref="container", y=0.02, yanchor="bottom")
+    """A figure's legend at the bottom of the figure, in the figure's own coordinates: Plotly then
+    makes the bottom margin as tall as the day axis and the legend need at the width drawn, the legend
+    ~10 px below the axis title (measured in Chromium: one row or four, 400 to 1000 px wide, in the app
+    and in ``cacas simulate --plot``'s page). Fig. 3 and Fig. 4 reserved one block of 165 px, Fig. 3's
+    four rows: Fig. 4's one row sat ~80 px below its axis title. Side by side, :func:`side_by_side`."""
+    return dict(yref="container", y=0, yanchor="bottom", x=0, xanchor="left")
+
+
+#: The bottom margin (px) a figure asks for: Plotly makes it what the day axis and the legend need (:func:`legend_block`).
+BOTTOM = 20
+
+#: What Plotly's bottom margin holds above a legend (px): the day axis, its title and ~10 px, in the app (Streamlit's
+#: theme; 53 in a page of its own), 16 px more with the day labels on two lines ("3<br>n = 1"). Then the legend:
+#: rows of :data:`LEGEND_ROW` and :data:`LEGEND_PAD` around them (one row 29 px, four 86). Measured in Chromium.
+DAY_AXIS = {False: 67, True: 83}
+LEGEND_ROW = 19
+LEGEND_PAD = 10
+
+#: The width (px) of each of two figures side by side: the Simulation lab's columns at 1280 px (402; 274 at 1024).
+SIDE_BY_SIDE_WIDTH = 400
+
+
+def _text_width(text: str) -> float:
+    """A legend entry's text width (px) in Plotly's 12-px Open Sans, from above: capitals and digits
+    8.5 px, other characters 6.5 (measured: "CACAS w/o PR" 84 px, estimated 89.5; the app's font is
+    narrower)."""
+    return sum(8.5 if c.isupper() or c.isdigit() else 6.5 for c in text)
+
+
+def legend_rows(fig: go.Figure, width: float) -> int:
+    """How many rows ``fig``'s legend takes in a figure ``width`` px wide: one entry a row in a
+    vertical legend; a horizontal one takes one row if every entry fits at its own width across the
+    plot, else a grid of columns as wide as its widest entry (plotly.js's legend layout; an entry is
+    40 px of line and marker and its text, 5 px apart): Fig. 3's four long entries take two rows at
+    1000 px, four at 560."""
+    names = [t.name for t in fig.data if t.showlegend is not False and t.name]
+    if fig.layout.legend.orientation == "v" or not names:
+        return len(names)
+    across = width - (fig.layout.margin.l or 0) - (fig.layout.margin.r or 0)
+    entries = [40 + _text_width(str(n)) for n in names]
+    if sum(entries) + 5 * len(entries) < across:
+        return 1
+    per_row = max(1, int(across // (max(entries) + 5)))
+    return -(-len(entries) // per_row)
+
+
+def side_by_side(*figs: go.Figure, width: float = SIDE_BY_SIDE_WIDTH) -> tuple[go.Figure, ...]:
+    """``figs`` (built here, each with :func:`legend_block`) to be drawn side by side, each ``width``
+    px wide (Simulation lab: Fig. 3 beside Fig. 4): one bottom margin, the tallest their day axes and
+    legends need there (:data:`DAY_AXIS`, :func:`legend_rows`), so that their plot areas are at one
+    height (Fig. 3's legend of three or four rows lifted its plot 40-60 px above Fig. 4's). Narrower, a
+    legend of more rows than counted makes its figure's margin taller: never over the axis title.
+    Their titles are at one height already (:func:`title_block`)."""
+    bottom = max(DAY_AXIS[any("<br>" in str(t) for t in (f.layout.xaxis.ticktext or ()))]
+                 + LEGEND_ROW * legend_rows(f, width) + LEGEND_PAD for f in figs)
+    for f in figs:
+        f.update_layout(margin=dict(b=bottom))
+    return figs
 
 
 def title_block(text: str, subtitle: str | None = None) -> dict:
@@ -229,8 +273,8 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.update_layout(title=title_block(title) if title else title_block(
                           "Success rate and cumulative feedback",
                           f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}"),
-                      legend=legend_block(), margin=dict(l=60, r=60, t=TITLE_BLOCK, b=LEGEND_BLOCK),
-                      template="plotly_white")
+                      legend=dict(orientation="h", **legend_block()),
+                      margin=dict(l=60, r=60, t=TITLE_BLOCK, b=BOTTOM), template="plotly_white")
     return fig
 
 
@@ -300,8 +344,8 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop"),
-                      template="plotly_white", legend=legend_block(),
-                      margin=dict(l=60, r=30, t=TITLE_BLOCK, b=LEGEND_BLOCK),
+                      template="plotly_white", legend=dict(orientation="h", **legend_block()),
+                      margin=dict(l=60, r=30, t=TITLE_BLOCK, b=BOTTOM),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
@@ -375,7 +419,7 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict())
     fig.update_layout(title=title_block(title or "Preference prediction by method"), template="plotly_white",
-                      legend=legend_block(), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=LEGEND_BLOCK),
+                      legend=dict(orientation="h", **legend_block()), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=BOTTOM),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig
 
@@ -391,9 +435,10 @@ def preference_rows(by_preference: pd.DataFrame) -> pd.Series:
 
 def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str) -> go.Figure:
     rows = rows.assign(_row=preference_rows(rows))
-    # participants as a person reads them (records.code_order: "p01, R01, r02"), each one's preferences in order
-    order = list(dict.fromkeys(rows.assign(_who=rows["participant"].astype(str).str.lower())
-                               .sort_values(["_who", "participant", "preference"])["_row"]))
+    # participants as a person reads them (records.code_order: "p01, R01, r02", "P2, P10"), each one's
+    # preferences in order
+    order = list(dict.fromkeys(rows.assign(_who=rows["participant"].map(records.code_order))
+                               .sort_values(["_who", "preference"], kind="stable")["_row"]))
     grid = rows.pivot_table(index="_row", columns=column, values="accuracy", aggfunc="first").reindex(
         index=order, columns=columns)
     info = rows.drop_duplicates("_row").set_index("_row").reindex(order)

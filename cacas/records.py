@@ -11,6 +11,7 @@ action, two interaction data points are recorded".
 
 from __future__ import annotations
 
+import itertools
 import re
 from typing import Any, Mapping
 
@@ -28,14 +29,24 @@ METHOD_ORDER = PAPER_METHODS + ("bandit", "sac-user-data")
 MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
 
 
-def code_order(code: Any) -> tuple[str, str]:
+def _code_piece(c: str) -> int:
+    """:func:`code_order`'s kind of character: 1 a digit, 2 a letter, 0 anything else (a separator)."""
+    return 1 if c.isdecimal() else 2 if c.isalpha() else 0
+
+
+def code_order(code: Any) -> tuple:
     """The sort key of a participant code wherever participants are listed to a person (selectors,
-    tables, messages): the code regardless of letter case, then the exact code, so that the order
-    is total and the same on every run ("p01, R01, r02"; sorted as stored it read "R01, p01, r02").
-    SQL's ``ORDER BY lower(code), code`` is the same order (codes are ASCII). The exported CSVs keep
-    their order by the exact code."""
+    tables, figures, messages), as a researcher reads codes and a file manager lists names: letter
+    case ignored ("p01, R01, r02"), numbers by their value ("P2, P10"; "P01" and "P1" side by side),
+    and a separator ("_", "-", ...) before digits and letters, one as another ("P_1, P-2, P1, PA";
+    compared character by character, "-" came before digits and "_" after them, and ignoring case put
+    "_" before letters only). Then the code ignoring case, then the exact code, so that the order is
+    total and the same on every run ("P01, p01, P1"). The exported CSVs, and what is recorded in turn
+    (a run's random streams, adaptations.csv), keep the exact code's order."""
     code = str(code)
-    return code.lower(), code
+    runs = ((kind, "".join(run)) for kind, run in itertools.groupby(code, _code_piece))
+    pieces = tuple((kind, int(run) if kind == 1 else 0, run.casefold() if kind == 2 else "") for kind, run in runs)
+    return pieces, code.casefold(), code
 
 
 def by_code(codes) -> list[str]:

@@ -338,6 +338,19 @@ def _removal_section(who: str) -> None:
 
 # --- page -------------------------------------------------------------------------------------------
 
+def preferences_grid(table, room: int) -> None:
+    """A participant's saved preferences (:func:`app_support.preferences_table`) with every column in
+    view in ``room`` px at 1280 px (:func:`app_support.preferences_table_layout`): it scrolled sideways."""
+    widths, row_height = app_support.preferences_table_layout(table.columns, room)
+    headings = app_support.PREFERENCES_HEADINGS
+    st.dataframe(table, hide_index=True, width="stretch", row_height=row_height, column_config={
+        c: (st.column_config.NumberColumn if c in ("#", "covered states") else st.column_config.TextColumn)(
+            headings.get(c), width=w, **({"format": "%d"} if c == "covered states" else {}),
+            help={"since last activity": "Since the last activity (S4)",
+                  "covered states": "The S1-S4 states the preference covers"}.get(c))
+        for c, w in widths.items()})
+
+
 people = store.list_participants(study)
 removed = st.session_state.pop("removed", None)
 if removed:
@@ -368,8 +381,7 @@ if code:
             st.markdown(f"**Saved (version {version})** · {n_prefs} preference{'s' if n_prefs != 1 else ''} covering "
                         f"**{saved.covered_count():,}** of the {states:,} S1-S4 states "
                         "(the paper counts 1,564 on average for 5 preferences).")
-            st.dataframe(app_support.preferences_table(saved), hide_index=True, width="stretch",
-                         column_config={"covered states": st.column_config.NumberColumn(format="%d")})
+            preferences_grid(app_support.preferences_table(saved), app_support.PREFERENCES_TABLE_ROOM)
             for note in app_support.redundancy_notes(saved):
                 st.warning(note, icon=":material/content_copy:")
             earlier = [v for v in versions if v["version"] != version]
@@ -380,7 +392,7 @@ if code:
                               for v in reversed(earlier)}
                     old = st.selectbox("Version", list(labels), format_func=labels.get, key=f"old-version-{code}")
                     before = store.get_preferences(code, version=old)
-                    st.dataframe(app_support.preferences_table(before), hide_index=True, width="stretch")
+                    preferences_grid(app_support.preferences_table(before), app_support.EARLIER_PREFERENCES_ROOM)
                     if any(p.task for p in before.preferences):
                         st.caption("This version has preferences limited to robot tasks (from an imported file), "
                                    "which the form cannot hold: import that file again to restore it.")

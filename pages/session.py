@@ -556,14 +556,15 @@ else:
             st.markdown(said)
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(dialogue.confirmation_line(matched, proposal.heard, said))
-        y, n, _ = st.columns([1, 1, 2])
+        # side by side also on a phone (app.TABLET_STYLE: tablet-row-*)
+        y, n, _ = st.container(key="tablet-row-confirm").columns([1, 1, 2])
         # ui.button: a tap is not lost after a server restart (a new session's first click runs no callback)
         ui.button(y, "Yes, please", _record, args=(day, index, proposal), kwargs={"user_action": matched},
                   type="primary", icon=":material/check:", width="stretch")
         ui.button(n, "No", _reject_match, icon=":material/close:", width="stretch")
     else:
         if proposal.robot_speaks:
-            b1, b2, b3 = st.columns(3)
+            b1, b2, b3 = st.container(key="tablet-row-answers").columns(3)  # side by side on a phone too
             # the three answers look alike: a highlighted "Accept" would nudge the participant's feedback
             ui.button(b1, "Accept", _record, args=(day, index, proposal, "accept"), icon=":material/thumb_up:",
                       width="stretch")

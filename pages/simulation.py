@@ -175,12 +175,11 @@ if runs:
     if settings:
         st.caption(saved_runs.run_caption(settings))
     c1, c2 = st.columns(2)
-    if len(plots.closed_loop_methods(daily)) > 1:
-        c1.plotly_chart(plots.success_methods_figure(daily), width="stretch")
-    else:
-        c1.plotly_chart(plots.success_figure(daily, method=plots.loop_method(daily) or daily["method"].iloc[0]),
-                        width="stretch")
-    c2.plotly_chart(plots.methods_figure(daily), width="stretch")
+    fig3 = plots.success_methods_figure(daily) if len(plots.closed_loop_methods(daily)) > 1 else \
+        plots.success_figure(daily, method=plots.loop_method(daily) or daily["method"].iloc[0])
+    fig3, fig4 = plots.side_by_side(fig3, plots.methods_figure(daily))  # their plot areas at one height
+    c1.plotly_chart(fig3, width="stretch")
+    c2.plotly_chart(fig4, width="stretch")
     summary = summary_table(daily)
     shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]
     # "–" where a method has no success rate (it did not act: the Fig. 4 protocol)

@@ -368,3 +368,6 @@ def test_the_heatmaps_list_participants_by_code_whatever_its_letter_case():
     heat = preference_days_figure(rows, "nn").data[0]
     who = [y.split(" · ")[0] for y in heat.y]
     assert list(dict.fromkeys(who)) == ["p01", "R01", "r02"] and who == sorted(who, key=str.lower)
+    rows = pd.concat([by_preference().assign(participant=p) for p in ("P10", "P_1", "p2", "PA")])
+    who = [y.split(" · ")[0] for y in preference_days_figure(rows, "nn").data[0].y]
+    assert list(dict.fromkeys(who)) == ["P_1", "p2", "P10", "PA"]  # natural order (records.code_order)

@@ -223,3 +223,18 @@ def test_text_that_would_start_a_spreadsheet_formula_is_escaped_and_read_back_ex
     from cacas.records import unescape_formula
     assert unescape_formula("'twas fine") == "'twas fine"  # not written by escape_formula: left as it is
     assert unescape_formula("''twas fine") == "'twas fine" and unescape_formula("'=1+1") == "=1+1"
+
+
+def test_codes_are_listed_as_a_researcher_reads_them():
+    """Natural order (records.code_order): letter case ignored, numbers by value (sorted as text, "P10" came
+    before "P2"), every separator before digits and letters (ignoring case put "P_1" before "PA" but after
+    "P1", and "P-1" before "P1": "-" and "_" sit on either side of the digits), then the exact code."""
+    from cacas.records import by_code
+
+    assert by_code(["P10", "P2", "p1", "P1"]) == ["P1", "p1", "P2", "P10"]
+    assert by_code(["PA", "P1", "P_1", "P-2", "P_3"]) == ["P_1", "P-2", "P_3", "P1", "PA"]
+    assert by_code(["r02", "R01", "p01"]) == ["p01", "R01", "r02"]
+    assert by_code(["P1", "p01", "P01", "P001"]) == ["P001", "P01", "p01", "P1"]  # one number: by the code then
+    assert by_code(["S2a", "S2", "S10", "S2_b"]) == ["S2", "S2_b", "S2a", "S10"]
+    codes = ["P10", "p2", "P_1", "PA", "pa", "P-3", "P01", "p01", "1", "x"]
+    assert by_code(codes) == by_code(reversed(codes)) == by_code(sorted(codes))  # total: the same whatever came in

@@ -268,6 +268,19 @@ def test_participants_are_listed_by_code_whatever_its_letter_case(store, tmp_pat
     assert [p["id"] for p in json.loads(store.export_personas())["participants"]] == ["R01", "p02"]
 
 
+def test_participants_are_listed_in_natural_order(store):
+    """As a researcher reads codes (records.code_order): "P2" before "P10" (as text, "P10, P2"), and "P_1"
+    and "P-3" before "P01" and "PA" (ignoring case, "-" came before the digits and "_" between them and
+    letters: "P-3, P01, P10, P2, P_1, PA"); the message naming the known participants lists them so too; the exports by the exact code."""
+    for code in ("P10", "P2", "PA", "P_1", "P-3"):
+        store.add_participant(code)
+    natural = ["P_1", "P-3", "P01", "P2", "P10", "PA"]
+    assert [p.code for p in store.list_participants()] == natural
+    with pytest.raises(CacasError, match=r"known participants: " + ", ".join(natural) + "$"):
+        store.get_participant("X9")
+    assert list(store.participants_frame()["participant"]) == sorted(natural)
+
+
 @pytest.mark.parametrize("code", ["", "   ", "Jane Doe", "P" * 17, "a/b", "-x", None, 7])
 def test_bad_participant_code_is_refused(store, code):
     before = snapshot(store.path)

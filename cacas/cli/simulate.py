@@ -39,8 +39,22 @@ def figure_files(figures: dict) -> dict[str, bytes]:
     and the figures then load it; written with these files, it is replaced by this plotly's."""
     from plotly.offline import get_plotlyjs
 
-    return {**{name: fig.to_html(include_plotlyjs="directory").encode("utf-8") for name, fig in figures.items()},
+    return {**{name: _whole_window(fig.to_html(include_plotlyjs="directory")).encode("utf-8")
+               for name, fig in figures.items()},
             PLOTLY_JS: get_plotlyjs().encode("utf-8")}
+
+
+#: Plotly's page style: the figure fills the window (its height 100 %)
+_PAGE_STYLE = "<style>html, body {height: 100%;}</style>"
+
+
+def _whole_window(page: str) -> str:
+    """A figure's page (Plotly's ``to_html``) without the browser's 8-px body margin: with it the
+    figure, as tall as the window, began 8 px down and its bottom 8 px (Fig. 3's and Fig. 4's legend,
+    :func:`cacas.plots.legend_block`) were below the window."""
+    if _PAGE_STYLE not in page:
+        raise AssertionError("plotly's page has changed: see _whole_window")
+    return page.replace(_PAGE_STYLE, "<style>html, body {height: 100%; margin: 0;}</style>", 1)
 
 
 def other_plotly_js(folder, script: bytes) -> bool:

@@ -14,6 +14,7 @@ from typing import Any, Callable, Sequence, TypeVar
 
 import pandas as pd
 
+from cacas import records
 from cacas.errors import CacasError, did_you_mean
 from cacas.paths import study_data_dir
 from cacas.store import db
@@ -198,7 +199,7 @@ class StoreBase:
     def _pid(c: sqlite3.Connection, code: Any) -> int:
         row = c.execute("SELECT id FROM participants WHERE code = ?", (str(code).strip(),)).fetchone()
         if row is None:
-            known = [r[0] for r in c.execute("SELECT code FROM participants ORDER BY lower(code), code LIMIT 21")]
+            known = records.by_code(r[0] for r in c.execute("SELECT code FROM participants"))[:21]
             more = ", ..." if len(known) > 20 else ""
             listed = ", ".join(known[:20]) + more if known else "none yet; add one first"
             twins = [r[0] for r in c.execute("SELECT code FROM participants WHERE code = ? COLLATE NOCASE",

@@ -13,6 +13,7 @@ from typing import Any, Iterable
 import pandas as pd
 
 from cacas import preferences as prefs
+from cacas import records
 from cacas.errors import CacasError
 from cacas.store import files, recovery
 from cacas.store import validate as v
@@ -259,7 +260,7 @@ class PeopleMixin:
                              "WHERE p.code != ?", (code,)).fetchall()
             folded = {path.casefold() for path in named | {path for _, path in rows}}
             unused = [f for f in every if f.relative_to(self.policy_dir).as_posix().casefold() not in folded]
-            twins = sorted({who for who, path in rows if path.casefold().startswith(f"{code.casefold()}/")})
+            twins = records.by_code({who for who, path in rows if path.casefold().startswith(f"{code.casefold()}/")})
         else:
             unused = [f for f in every if f.relative_to(self.policy_dir).as_posix() not in named]
         if unreadable:
@@ -398,15 +399,15 @@ class PeopleMixin:
         return self._read(fn)
 
     def list_participants(self, study: str | None = None) -> list[ParticipantInfo]:
-        """Participants (of one study, or all), by code regardless of letter case, as a person reads
-        them (:func:`cacas.records.code_order`); the exported tables keep the exact code's order."""
-        order = " ORDER BY lower(p.code), p.code"
+        """Participants (of one study, or all) in the order a person reads their codes
+        (:func:`cacas.records.code_order`: "P2" before "P10", letter case ignored); the exported tables
+        keep the exact code's order."""
         with self._lock:
             if study is None:
-                rows = self._conn.execute(self._PARTICIPANT_SQL + order)
+                rows = self._conn.execute(self._PARTICIPANT_SQL)
             else:
-                rows = self._conn.execute(self._PARTICIPANT_SQL + " WHERE s.name = ?" + order, (study,))
-            return [ParticipantInfo(*r) for r in rows]
+                rows = self._conn.execute(self._PARTICIPANT_SQL + " WHERE s.name = ?", (study,))
+            return sorted((ParticipantInfo(*r) for r in rows), key=lambda p: records.code_order(p.code))
 
     def participants_frame(self, study: str | None = None) -> pd.DataFrame:
         """participants.csv: participant, study, age_range, notes, active_policy, created_at,

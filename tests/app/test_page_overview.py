@@ -68,6 +68,16 @@ def test_participants_are_listed_by_code_whatever_its_letter_case(app, store):
     assert next(b for b in at.selectbox if b.label == "Participant").options == ["p01", "R01", "r02"]
 
 
+def test_participants_are_listed_in_natural_order(app, store):
+    """P2 before P10 in the sidebar and the Overview's table (as text: "P10, P2"; records.code_order)."""
+    for code in ("P10", "P2", "P1"):
+        store.add_participant(code)
+    at = app()
+    no_exception(at)
+    assert at.sidebar.selectbox(key="participant").options == ["P1", "P2", "P10"]
+    assert list(at.dataframe[0].value["participant"]) == ["P1", "P2", "P10"]
+
+
 def test_address_selects_the_participant(app, store):
     store.add_participant("P01")
     store.add_participant("P02")

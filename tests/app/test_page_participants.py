@@ -826,3 +826,28 @@ def test_the_interval_slider_names_the_bins_as_the_tablet_does(app, store):
     next(b for b in at.button if b.label == "Save preferences").click().run()
     no_exception(at)
     assert store.get_preferences("P01").preferences[0].interval == (0, 60)
+
+
+def test_the_preferences_table_shows_every_column_at_1280_px(app, store):
+    """The ui helpers saw the saved preferences' table scroll sideways at 1280 px: eight columns of about
+    1,100 px on one line in a table of 820, "covered states" and the participant's words off its right edge.
+    Every column has a width now, together the table's at 1280 px (818; 784 in the earlier versions'
+    expander), rows three lines high, so that the activities and the participant's words wrap."""
+    store.add_participant("P01")
+    words = "When I dry my hair in the morning, remind me to take my heart pills before breakfast"
+    store.save_preferences("P01", [{"description": "stove", "activity": ["use stove"], "action": "remind to turn off"}])
+    store.save_preferences("P01", [{"description": words, "activity": ["use hair dryer", "brush teeth", "wash dishes"],
+                                    "scene": ["bathroom", "living room"], "hours": [[6, 10]],
+                                    "action": "remind to take medicine"}])
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert len(at.dataframe) == 2  # the saved version and the earlier one
+    for grid, room in zip(at.dataframe, (818, 784)):
+        columns = json.loads(grid.proto.columns)
+        widths = {name: config.get("width") for name, config in columns.items() if name in grid.value.columns}
+        assert set(widths) == set(grid.value.columns) and all(isinstance(w, int) for w in widths.values()), widths
+        assert sum(widths.values()) <= room, widths
+        assert grid.proto.row_height > 64
+        # on one line: "remind to take medicine" wraps, but "06:00-10:00" (about 80 px), "0-60 min" and a heading do not
+        assert widths["hours"] >= 90 and widths["in their words"] >= 140, widths
+    assert grid.value["in their words"].iloc[0] == "stove"

@@ -1,7 +1,9 @@
-"""Fig. 3 beside Fig. 4 as the Simulation lab shows them, drawn by plotly.js in Chromium: Fig. 3's legend
+"""Fig. 3 and Fig. 4 drawn by plotly.js in Chromium. Beside each other (Simulation lab): Fig. 3's legend
 of three or four rows pushed its bottom margin past Fig. 4's one row, so that its x axis sat 30-45 px above
-Fig. 4's (the titles were aligned already: ``plots.title_block``). Both now reserve one legend block
-(``plots.LEGEND_BLOCK``): the plot areas are at one height, and no legend overlaps its axis."""
+Fig. 4's (the titles were aligned already: ``plots.title_block``); ``plots.side_by_side`` gives them one
+bottom margin. Alone (Results, ``cacas simulate --plot``): one block shared by every figure left Fig. 4's
+one-row legend ~80 px below its axis title; Plotly now makes each margin what its legend needs
+(``plots.legend_block``)."""
 
 from __future__ import annotations
 
@@ -21,33 +23,78 @@ BOXES_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => {
 })"""
 
 
-def _daily(ceiling: bool, uneven: bool) -> pd.DataFrame:
-    """A run of CACAS, ORL and NN; ``ceiling``: daily.csv's success ceiling (Fig. 3's fourth legend row);
+def _daily(ceiling: bool, uneven: bool, methods=("cacas", "orl", "nn")) -> pd.DataFrame:
+    """A run of ``methods`` (CACAS, ORL and NN); ``ceiling``: daily.csv's success ceiling (Fig. 3's fourth legend row);
     ``uneven``: days averaging different numbers of participants (day labels on two lines)."""
     rows = [{"participant": who, "method": m, "day": d, "success_rate": 0.5 + 0.1 * d if m == "cacas" else None,
              "preference_accuracy": 0.4 + 0.1 * d, "cumulative_feedback": 15 * d, "interactions": 15,
              **({"success_ceiling": 0.9 if m == "cacas" else None} if ceiling else {})}
-            for who in (("P01", "P02") if uneven else ("P01",)) for m in ("cacas", "orl", "nn")
+            for who in (("P01", "P02") if uneven else ("P01",)) for m in methods
             for d in range(1, 4 if who == "P01" else 3)]
     return pd.DataFrame(rows)
 
 
-@pytest.mark.parametrize("ceiling, uneven, width", [(False, False, 560), (True, False, 560), (True, True, 440)])
-def test_fig3_and_fig4_plot_areas_sit_at_one_height_side_by_side(browser, ceiling, uneven, width):
+def _boxes(browser, figs, width: int, height: int = 450) -> list[dict]:
+    """BOXES_JS of ``figs`` drawn side by side, each ``width`` px wide and ``height`` px tall."""
     from plotly.offline import get_plotlyjs
 
-    daily = _daily(ceiling, uneven)
-    figs = [plots.success_figure(daily), plots.methods_figure(daily)]
-    each = "".join(f'<div style="width:{width}px;display:inline-block">'
-                   f'{f.to_html(full_html=False, include_plotlyjs=False, default_height=450)}</div>' for f in figs)
-    page = browser.new_page(viewport={"width": 2 * width + 20, "height": 480})
+    each = "".join(f'<div style="width:{width}px;display:inline-block;vertical-align:top">'
+                   f'{f.to_html(full_html=False, include_plotlyjs=False, default_height=height)}</div>' for f in figs)
+    page = browser.new_page(viewport={"width": len(figs) * width + 20, "height": height + 30})
     try:
         page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'>{each}"
                          "</body></html>")
-        page.wait_for_function("document.querySelectorAll('.js-plotly-plot .legend').length == 2")
-        fig3, fig4 = page.evaluate(BOXES_JS)
+        page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot .legend').length == {len(figs)}")
+        return page.evaluate(BOXES_JS)
     finally:
         page.close()
+
+
+@pytest.mark.parametrize("ceiling, uneven, width", [(False, False, 560), (True, False, 560), (True, True, 400)])
+def test_fig3_and_fig4_plot_areas_sit_at_one_height_side_by_side(browser, ceiling, uneven, width):
+    daily = _daily(ceiling, uneven)
+    figs = plots.side_by_side(plots.success_figure(daily), plots.methods_figure(daily), width=width)
+    fig3, fig4 = _boxes(browser, figs, width)
     assert fig3["plot"] == fig4["plot"], (fig3, fig4)
     for fig in (fig3, fig4):  # each legend below its axis' title, inside the figure
         assert fig["axis_title"] <= fig["legend"][0] and fig["legend"][1] <= fig["height"], fig
+
+
+#: the methods of a run, fewest to most (a method legend of one to two rows)
+RUNS = [("cacas", "orl"), ("cacas", "cacas-no-pr", "orl", "nn"),
+        ("cacas", "cacas-no-pr", "orl", "nn", "bandit", "sac-user-data")]
+
+
+@pytest.mark.parametrize("width", [400, 560, 820, 1000])
+@pytest.mark.parametrize("methods", RUNS, ids=len)
+def test_a_figure_alone_keeps_its_legend_just_below_its_axis_title(browser, methods, width):
+    """Fig. 3 and Fig. 4 alone, two to six methods (a legend of one to four rows), on a narrow page to a
+    wide one: the legend is about 10 px below the axis title, never on it, never cut. Before, Fig. 4's one
+    row of CACAS, ORL and NN was 84 px below its axis title (the block kept for Fig. 3's four rows)."""
+    daily = _daily(True, False, methods)
+    figs = [plots.success_figure(daily), plots.methods_figure(daily)]
+    if len(methods) > 1:
+        figs.append(plots.success_methods_figure(daily.assign(success_rate=0.5)))
+    for fig in _boxes(browser, figs, width):
+        gap = fig["legend"][0] - fig["axis_title"]
+        assert 5 <= gap <= 16, fig
+        assert fig["legend"][1] <= fig["height"], fig
+
+
+def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
+    """``cacas simulate --plot``'s page, as tall as the window: the legend at the figure's bottom
+    is in view (the browser's body margin put the figure's last 8 px below the window)."""
+    from cacas.cli.simulate import figure_files
+
+    files = figure_files({"fig4.html": plots.methods_figure(_daily(False, False))})
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    page = browser.new_page(viewport={"width": 1000, "height": 568})
+    try:
+        page.goto((tmp_path / "fig4.html").as_uri())
+        page.wait_for_selector(".js-plotly-plot .legend")
+        legend = page.evaluate("() => document.querySelector('.legend').getBoundingClientRect().bottom")
+        scrolls = page.evaluate("() => document.documentElement.scrollHeight > innerHeight")
+    finally:
+        page.close()
+    assert legend <= 568 and not scrolls, (legend, scrolls)

@@ -282,6 +282,17 @@ def test_mini_study(server, page, tmp_path):
     for name in ("Accept", "Reject", "No response", "Ask", "Say it", "Choose a different activity"):
         assert button(page, name).bounding_box()["height"] >= 48, name
     assert page.locator("audio").first.bounding_box()["height"] >= 48  # its play button, if autoplay is blocked
+    # on a phone (390 x 844) the three answers stay side by side under the proposal, in view (Streamlit stacks
+    # columns under 640 px: "No response" was below the screen's edge), each word whole; nothing wider than the screen
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_timeout(500)
+    answers = [button(page, name) for name in ("Accept", "Reject", "No response")]
+    boxes = [a.bounding_box() for a in answers]
+    assert all(b["y"] + b["height"] <= 844 and b["height"] >= 48 for b in boxes), boxes
+    assert len({round(b["y"]) for b in boxes}) == 1, boxes
+    assert all(a.locator("p").evaluate("p => p.scrollWidth <= p.clientWidth") for a in answers)  # not cut
+    assert page.evaluate("() => { const m = document.querySelector('[data-testid=stMain]');"
+                         " return m.scrollWidth <= m.clientWidth; }")
     page.set_viewport_size({"width": 1360, "height": 900})
     # the researcher's view shows the proposal the participant is answering, not a form of its own
     watch.get_by_text("On P01's tablet now").wait_for(timeout=30_000)
