@@ -46,6 +46,15 @@ def next_step(has_preferences: bool, status, questionnaire_recorded: bool = Fals
     return f"Start day {status.day_on_screen} on the tablet (Study session)"
 
 
+def day_count(recorded: int) -> str:
+    """The day's count of recorded interactions (answered, or asked for) beside the paper's "around 15
+    times a day": "5 of about 15 interactions today"; once past it, "54 interactions today (about 15
+    planned)" (walkthrough: "54 of about 15 interactions today" said what was not true)."""
+    if recorded > TARGET_INTERACTIONS:
+        return f"{recorded} interactions today (about {TARGET_INTERACTIONS} planned)"
+    return f"{recorded} of about {TARGET_INTERACTIONS} interactions today"
+
+
 def latest_study(store) -> str | None:
     """The study a visit without one in its address opens: the one whose participant was the
     subject of the latest event (the study being run), None if no event is about a participant.

@@ -403,10 +403,13 @@ done = status.interactions_today  # saved today: the next interaction's number i
 # and said apart on the researcher's view only (a participant who tapped "Nothing needed" read that their tap
 # was "without an answer")
 unanswered = status.unanswered_today
+# the researcher's view says the count of all the day's interactions too: the number an interaction has here
+# ("On P01's tablet now · interaction 4", "Interaction 4 saved") and in the day's table counts them all
+# (walkthrough: "interaction 4" beside "2 of about 15" with nothing saying where the other one went)
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
-            text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
-                 "today" + (f" (and {unanswered} not counted: no response, nothing needed while the robot was "
-                            "quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
+            text=f"Day {day} of {STUDY_DAYS} · {app_support.day_count(status.recorded_today)}"
+                 + (f"; {done} in all with {unanswered} not counted (no response, nothing needed while the robot "
+                    "was quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
 
 token_ctx = st.query_params.get("ctx")
 context = None
