@@ -717,6 +717,21 @@ def overview_table_layout(columns) -> tuple[dict[str, int], int]:
     return fitted_layout(widths, columns, OVERVIEW_TABLE_ROOM)
 
 
+#: The width (px) of the Adaptation page's table of described preferences at 1280 x 800, beside the sidebar
+#: (measured in headless Chromium: as the Overview's table).
+LEARNT_TABLE_ROOM = 818
+
+
+def learnt_table_layout(columns) -> tuple[dict[str, int], int]:
+    """How the Adaptation page draws each described preference before and after
+    (:func:`cacas.adaptation.preferences_learnt` with the states each covers; its ``columns``): each
+    column's width (px) and the row height (px). The participant's words wrap on up to three lines (at
+    1280 px they were cut: "When I drink water in the morning, remind me to take m", walkthrough); the two
+    counts of states, "states covered" and "Fig. 4 draws", keep their names whole."""
+    widths = {"label": 250, "action": 125, "covers": 115, "states": 110, "before": 105, "after": 105}
+    return fitted_layout(widths, columns, LEARNT_TABLE_ROOM)
+
+
 def day_ranges(days) -> str:
     """Days as short ranges: [1, 2, 3, 5] -> "1-3, 5"."""
     out: list[list[int]] = []
