@@ -772,18 +772,19 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
             + ("; compare methods again to add them." if again else "."))
 
 
-def comparison_done(runs: int, elapsed: float, finished: float | None = None) -> str:
-    """What the Results page says when "Compare methods" has ended: the runs it recorded (0: every
-    closed day had every method's run already), how long it took and, given ``finished`` (epoch
-    seconds), when it ended: the server keeps the last comparison for every session, and a session
-    opened later read it as news (walkthrough)."""
+def comparison_done(runs, elapsed: float, finished: float | None = None) -> str:
+    """What the Results page says when "Compare methods" has ended: the runs it recorded
+    (:class:`cacas.method_comparison.Compared`, said as what they are: adaptations after study days and
+    scores of the initial policy; none: every closed day had every method's run already), how long it
+    took and, given ``finished`` (epoch seconds), when it ended: the server keeps the last comparison
+    for every session, and a session opened later read it as news (walkthrough)."""
     took = f"{elapsed:.0f} s" if elapsed < 120 else f"{elapsed / 60:.0f} min"
     if finished is not None:
         took += f", ended {short_time(finished)}"
-    if not runs:
+    if not runs.runs:
         return (f"Methods compared ({took}): no new run; each method has one for every closed day of the participants "
                 "with described preferences already (a day is compared once it is closed).")
-    return f"Methods compared ({took}): {runs} run{'' if runs == 1 else 's'} recorded, in Fig. 4 and the tables below."
+    return f"Methods compared ({took}): {runs.words()} recorded, in Fig. 4 and the tables below."
 
 
 def uncompared_note(daily: pd.DataFrame, closed_loop: str = "cacas") -> str:

@@ -412,8 +412,13 @@ def test_a_finished_comparison_says_what_it_recorded(app, db, store, monkeypatch
     from cacas.jobs import RUNNER
 
     _study_with_a_day(store)
-    for runs, said in ((12, "12 runs recorded, in Fig. 4 and the tables below"),
-                       (0, "no new run; each method has one for every closed day")):
+    from cacas.method_comparison import Compared
+
+    # what the runs are: "15 runs recorded" said neither (walkthrough)
+    for runs, said in ((Compared(9, 6), "9 adaptations after study days and 6 scores of the initial policy (day 0) "
+                                        "recorded, in Fig. 4 and the tables below"),
+                       (Compared(1, 0), "1 adaptation after study days recorded"),
+                       (Compared(), "no new run; each method has one for every closed day")):
         monkeypatch.setattr(cacas.method_comparison, "compare_methods", lambda *a, runs=runs, **k: runs)
         at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
         next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
