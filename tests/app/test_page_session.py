@@ -619,6 +619,22 @@ def test_the_days_counter_past_its_plan_says_so_and_the_researcher_reads_the_tab
     assert "**On P01's tablet now** · interaction 18, shown at" in texts(desk)
 
 
+def test_the_tablets_headings_have_no_anchor_link_icons(app, store, p01, quick_policy):
+    """Walkthrough: a link icon beside the tablet's "What are you doing?" (Streamlit's anchor link of a
+    Markdown heading, shown when hovered or tapped near it), of no use to a participant; nor beside the
+    proposal's headings, nor on the researcher's view."""
+    store.open_day("P01")
+    for view in ({}, {"view": "tablet"}):  # the researcher's first: the tablet's proposal would take its form's place
+        at = app(PAGE, participant="P01", **view)
+        no_exception(at)
+        form = [m for m in at.main.markdown if m.value.startswith("#")]
+        _choose(at)
+        headings = form + [m for m in at.main.markdown if m.value.startswith("#")]
+        assert {"#### What are you doing?", "#### What is P01 doing?"} & {m.value for m in form}, view
+        assert any(m.value.startswith("##### The robot heard") for m in headings), view
+        assert [m.value for m in headings if not m.proto.hide_anchors] == [], view
+
+
 def test_the_tablet_address_is_a_whole_address_to_copy(app, store, p01):
     from pages.ui import tablet_address
 
