@@ -46,6 +46,15 @@ def next_step(has_preferences: bool, status, questionnaire_recorded: bool = Fals
     return f"Start day {status.day_on_screen} on the tablet (Study session)"
 
 
+def day_count(recorded: int) -> str:
+    """The day's count of recorded interactions (answered, or asked for) beside the paper's "around 15
+    times a day": "5 of about 15 interactions today"; once past it, "54 interactions today (about 15
+    planned)" (walkthrough: "54 of about 15 interactions today" said what was not true)."""
+    if recorded > TARGET_INTERACTIONS:
+        return f"{recorded} interactions today (about {TARGET_INTERACTIONS} planned)"
+    return f"{recorded} of about {TARGET_INTERACTIONS} interactions today"
+
+
 def latest_study(store) -> str | None:
     """The study a visit without one in its address opens: the one whose participant was the
     subject of the latest event (the study being run), None if no event is about a participant.
@@ -732,6 +741,21 @@ def preferences_table_layout(columns, room: int = PREFERENCES_TABLE_ROOM) -> tup
     return fitted_layout(widths, columns, room)
 
 
+#: The width (px) of the Adaptation page's table of described preferences at 1280 x 800, beside the sidebar
+#: (measured in headless Chromium: as the Overview's table).
+LEARNT_TABLE_ROOM = 818
+
+
+def learnt_table_layout(columns) -> tuple[dict[str, int], int]:
+    """How the Adaptation page draws each described preference before and after
+    (:func:`cacas.adaptation.preferences_learnt` with the states each covers; its ``columns``): each
+    column's width (px) and the row height (px). The participant's words wrap on up to three lines (at
+    1280 px they were cut: "When I drink water in the morning, remind me to take m", walkthrough); the two
+    counts of states, "states covered" and "Fig. 4 draws", keep their names whole."""
+    widths = {"label": 250, "action": 125, "covers": 115, "states": 110, "before": 105, "after": 105}
+    return fitted_layout(widths, columns, LEARNT_TABLE_ROOM)
+
+
 def day_ranges(days) -> str:
     """Days as short ranges: [1, 2, 3, 5] -> "1-3, 5"."""
     out: list[list[int]] = []
@@ -772,18 +796,19 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
             + ("; compare methods again to add them." if again else "."))
 
 
-def comparison_done(runs: int, elapsed: float, finished: float | None = None) -> str:
-    """What the Results page says when "Compare methods" has ended: the runs it recorded (0: every
-    closed day had every method's run already), how long it took and, given ``finished`` (epoch
-    seconds), when it ended: the server keeps the last comparison for every session, and a session
-    opened later read it as news (walkthrough)."""
+def comparison_done(runs, elapsed: float, finished: float | None = None) -> str:
+    """What the Results page says when "Compare methods" has ended: the runs it recorded
+    (:class:`cacas.method_comparison.Compared`, said as what they are: adaptations after study days and
+    scores of the initial policy; none: every closed day had every method's run already), how long it
+    took and, given ``finished`` (epoch seconds), when it ended: the server keeps the last comparison
+    for every session, and a session opened later read it as news (walkthrough)."""
     took = f"{elapsed:.0f} s" if elapsed < 120 else f"{elapsed / 60:.0f} min"
     if finished is not None:
         took += f", ended {short_time(finished)}"
-    if not runs:
+    if not runs.runs:
         return (f"Methods compared ({took}): no new run; each method has one for every closed day of the participants "
                 "with described preferences already (a day is compared once it is closed).")
-    return f"Methods compared ({took}): {runs} run{'' if runs == 1 else 's'} recorded, in Fig. 4 and the tables below."
+    return f"Methods compared ({took}): {runs.words()} recorded, in Fig. 4 and the tables below."
 
 
 def uncompared_note(daily: pd.DataFrame, closed_loop: str = "cacas") -> str:

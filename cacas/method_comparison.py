@@ -42,6 +42,29 @@ class ComparisonPiece:
         return sum(1 + len(days) for days in self.chains.values())
 
 
+@dataclass(frozen=True)
+class Compared:
+    """What :func:`compare_methods` recorded: ``adapted``, policies adapted after a study day and
+    scored (Fig. 4's day d+1), and ``initial``, scores of the initial policy (day 0: Fig. 4's day 1),
+    one per method and participant. "15 runs recorded" said neither (walkthrough)."""
+
+    adapted: int = 0
+    initial: int = 0
+
+    @property
+    def runs(self) -> int:
+        return self.adapted + self.initial
+
+    def words(self) -> str:
+        """"9 adaptations after study days and 6 scores of the initial policy (day 0)"; "" for none."""
+        def counted(n: int, word: str) -> str:
+            return f"{n:,} {word}{'' if n == 1 else 's'}"
+
+        said = ([counted(self.adapted, "adaptation") + " after study days"] if self.adapted else []) \
+            + ([counted(self.initial, "score") + " of the initial policy (day 0)"] if self.initial else [])
+        return " and ".join(said)
+
+
 def compare_participant(initial, piece: ComparisonPiece, report: Callable, record: Callable) -> None:
     """The comparison runs of one participant: for each method, the initial policy scored (day 0)
     and its chain adapted day by day (seeded ``seed + day``), every run not yet recorded handed to
@@ -109,7 +132,7 @@ def scoring_versions(store, code: str, runs: pd.DataFrame, days: list[int], late
 
 def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                     study: str | None = None, seed: int = 0, progress: Progress | None = None,
-                    jobs: int = 1) -> int:
+                    jobs: int = 1) -> Compared:
     """Fig. 4 on the human study (Section V-B.1): "we used the interaction data each day to adapt
     those models and tested them by generating data using the described preferences".
 
@@ -119,7 +142,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
     adaptations of that method (day 0: the initial policy), so the exported daily.csv and
     by_preference.csv have each method's. Runs already recorded are kept: the method the study
     adapted with (CACAS, or another a researcher chose) has its days already, and a method is
-    adapted only as far as its last day without a run. Returns the number of runs recorded.
+    adapted only as far as its last day without a run. Returns the runs recorded (:class:`Compared`).
     Participants run side by side in ``jobs`` worker processes (the Results page: one per core;
     the runs are the same whatever ``jobs``, and each is recorded as soon as it is made, so a
     stopped comparison keeps them).
@@ -159,12 +182,11 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
                 pieces.append(ComparisonPiece(p.code, scoring, frozenset(have), chains,
                                               store.interactions_frame(p.code, method=None), seed))
         total = max(1, sum(piece.units for piece in pieces))
-        recorded = 0
+        recorded = {"adapted": 0, "initial": 0}
 
         def record(code, day, method, parameters, duration_s, metrics) -> None:
-            nonlocal recorded
             store.record_adaptation(code, day, method, parameters, duration_s, metrics)
-            recorded += 1
+            recorded["initial" if int(day) == 0 else "adapted"] += 1
 
         jobs = max(1, min(jobs, len(pieces)))
         if jobs == 1:
@@ -188,7 +210,8 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
             parallel.run_parallel(_comparison_worker, initial.to_bytes(), pieces, jobs, tick,
                                   what="participants' comparisons",
                                   keep=lambda kind, *item: record(*item) if kind == "run" else None)
-        say(1.0, f"{recorded} comparison runs recorded")
-        return recorded
+        done = Compared(**recorded)
+        say(1.0, f"Recorded {done.words()}." if done.runs else "No new run recorded.")
+        return done
     finally:
         store.close()

@@ -203,23 +203,39 @@ else:
         described = store.get_preferences(code)
         if described is not None and described.preferences:
             latest = store.preference_versions(code)[-1]
+            # two counts of states side by side, each said where it is shown (walkthrough: "128 test states" here
+            # for a preference the Participants page says "Covers 72 states", explained only in a hover help)
             st.markdown(f"**{code}'s described preferences** (version {latest['version']}, the latest, saved "
-                        f"{app_support.short_time(latest['created_at'])}): how often "
-                        "each policy chooses the preferred action on states the preference covers (Fig. 4's test "
-                        "states; evaluation only).")
-            learnt = preferences_learnt(p_before, p_after, described).drop(columns="preference")
+                        f"{app_support.short_time(latest['created_at'])}): how often each policy chooses the "
+                        "preferred action (Fig. 4; evaluation only). **States covered**: the S1-S4 states the "
+                        "preference covers, as the Participants page counts them. **Fig. 4 draws**: how many of "
+                        "Fig. 4's 400 test states fell in it (drawn from all the described preferences, with the "
+                        "robot's task, previous action and answer, and repeats); before and after are shares of "
+                        "these.")
+            learnt = preferences_learnt(p_before, p_after, described)
+            learnt.insert(learnt.columns.get_loc("states"), "covers",
+                          [described.preferences[k - 1].covered_count() for k in learnt["preference"]])
+            learnt = learnt.drop(columns="preference")
             learnt[["before", "after"]] *= 100
             bar = {"format": "%.0f%%", "min_value": 0, "max_value": 100}
-            st.dataframe(learnt, hide_index=True, width="stretch",
-                         column_config={"label": st.column_config.TextColumn("preference", width=330),
-                                        "action": st.column_config.TextColumn("action", width=150),
+            widths, row_height = app_support.learnt_table_layout(learnt.columns)
+            st.dataframe(learnt, hide_index=True, width="stretch", row_height=row_height,
+                         column_config={"label": st.column_config.TextColumn("preference", width=widths["label"]),
+                                        "action": st.column_config.TextColumn("action", width=widths["action"]),
+                                        "covers": st.column_config.NumberColumn(
+                                            "states covered", width=widths["covers"], format="%d",
+                                            help="S1-S4 states (activity, room, time of day, time since the "
+                                                 "last activity) the preference covers, as on the Participants "
+                                                 "page"),
                                         "states": st.column_config.NumberColumn(
-                                            "test states", width=85,
+                                            "Fig. 4 draws", width=widths["states"],
                                             help="Of Fig. 4's 400 test states, drawn from the described "
                                                  "preferences, those in this preference (a state can be drawn "
-                                                 "more than once: this is not its covered-state count)"),
-                                        "before": st.column_config.ProgressColumn("before", width=130, **bar),
-                                        "after": st.column_config.ProgressColumn("after", width=130, **bar)})
+                                                 "more than once)"),
+                                        "before": st.column_config.ProgressColumn("before", width=widths["before"],
+                                                                                  **bar),
+                                        "after": st.column_config.ProgressColumn("after", width=widths["after"],
+                                                                                 **bar)})
 
 def _named(table):
     """The table's columns, without "scored on" where no run names its preferences' version (runs

@@ -479,6 +479,10 @@ if code:
                     st.error(f"Preference {n}: {errors[n]}", icon=":material/error:")
                 elif old is not None:
                     st.caption(f"Covers {old.covered_count():,} states.")
+                elif existing:  # the paper's 5 slots after fewer saved: said what they are (walkthrough: after
+                    # saving 3, "Preferences on the form: 5" and two blank blocks, as if something was left undone)
+                    st.caption(f"A slot for one more preference ({app_support.counted(len(existing), 'preference')} "
+                               "saved; the paper asks for 5): saved if filled in, left out if empty.")
         if overall:  # an overlap among the valid ones, said with the others' errors (one round of fixes)
             st.error(overall, icon=":material/error:")
         if errors:  # the messages sit with their preferences, maybe far above this button

@@ -58,6 +58,17 @@ if source == SIMULATED:
                                                format_func=lambda r: saved_runs.run_label(runs_root, r),
                                                help="Saved by the Simulation lab, newest first.")
 
+def table_file_name(table: str) -> str:
+    """A table's download named as the zip is, after the study (the simulated run) it is of: two studies'
+    "interactions.csv" met in a Downloads folder as "interactions (1).csv" (walkthrough). The tables of an
+    upload keep their plain names: they are the researcher's own files."""
+    if source == HUMAN:
+        return app_support.study_file_name(table, study, ".csv")
+    if source.startswith("Simulated run: "):
+        return app_support.study_file_name(table, source.removeprefix("Simulated run: "), ".csv")
+    return f"{table}.csv"
+
+
 if source == HUMAN:
     tables = study_tables(study)
     daily = tables["daily"]
@@ -225,7 +236,8 @@ if fig4.open:
                        "daily.csv take these in once the day has begun.")
         if not summary.empty and by_pref is not None and len(by_pref):
             st.subheader("Which preferences each method learnt")
-            ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}")  # each source's own day and method
+            ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}",  # each source's own day and method
+                                   file_name=table_file_name("by_preference"))
 
 with quest:
     if source != HUMAN:
@@ -281,7 +293,8 @@ with quest:
         if len(answers):
             st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
                          .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
-            ui.download_csv(lambda: ui.store().questionnaire_frame(study), "questionnaire.csv")  # as at the click
+            ui.download_csv(lambda: ui.store().questionnaire_frame(study),  # as at the click
+                            table_file_name("questionnaire"), "Download questionnaire.csv", key="dl-questionnaire.csv")
 
 with data:
     st.markdown("Long-format tables, the same columns as `cacas simulate` and `cacas export` write.")
@@ -298,7 +311,7 @@ with data:
             # the study's tables as the database holds them at the click (a participant removed since the page
             # was drawn is not in them); a simulated or uploaded run's as shown
             ui.download_csv((lambda name=name: export_tables(ui.store(), study)[name]) if source == HUMAN else df,
-                            f"{name}.csv", key=f"dl-table-{name}")
+                            table_file_name(name), f"Download {name}.csv", key=f"dl-table-{name}")
     if source == HUMAN:
         def _bundle() -> bytes:  # made in memory: no copy of the study left on disk by a server killed meanwhile
             return bundle_bytes(ui.store(), study)

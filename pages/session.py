@@ -359,7 +359,9 @@ if not tablet:
 # [3, 1] cut "Choose a different activity" at 768 px, and [2, 1] the tablet's larger words ("Hello, P01" is short)
 head, back = st.columns([1, 1] if tablet else [2, 1], vertical_alignment="center")
 if tablet:
-    head.markdown(f"## :material/smart_toy: Hello, {code}")
+    # no anchor-link icons beside the headings (a heading's link, shown when hovered or tapped near it, is of no
+    # use on a tablet: walkthrough)
+    head.markdown(f"## :material/smart_toy: Hello, {code}", anchors=False)
 else:
     head.title(f"Study session · {code}")
 back = back.empty()  # "Choose a different activity" while a proposal is shown: in view, not below the request form
@@ -419,10 +421,13 @@ done = status.interactions_today  # saved today: the next interaction's number i
 # and said apart on the researcher's view only (a participant who tapped "Nothing needed" read that their tap
 # was "without an answer")
 unanswered = status.unanswered_today
+# the researcher's view says the count of all the day's interactions too: the number an interaction has here
+# ("On P01's tablet now · interaction 4", "Interaction 4 saved") and in the day's table counts them all
+# (walkthrough: "interaction 4" beside "2 of about 15" with nothing saying where the other one went)
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
-            text=f"Day {day} of {STUDY_DAYS} · {status.recorded_today} of about {TARGET_INTERACTIONS} interactions "
-                 "today" + (f" (and {unanswered} not counted: no response, nothing needed while the robot was "
-                            "quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
+            text=f"Day {day} of {STUDY_DAYS} · {app_support.day_count(status.recorded_today)}"
+                 + (f"; {done} in all with {unanswered} not counted (no response, nothing needed while the robot "
+                    "was quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
 
 token_ctx = st.query_params.get("ctx")
 context = None
@@ -456,7 +461,8 @@ elif context is None:
                    f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a proposal, let "
                    f"{code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
-        st.markdown("#### What are you doing?" if tablet else f"#### What is {code} doing?")  # the researcher sets it
+        st.markdown("#### What are you doing?" if tablet else f"#### What is {code} doing?",  # the researcher sets it
+                    anchors=False)
         # all four chosen every time (Section VI-B: the participant sets S3, S4 and S1): a preset value
         # (the time since the last activity at 20 min; the time of day at the previous interaction's) was kept
         # unnoticed by participants and recorded as theirs. Chips to tap where there are a dozen choices or
@@ -513,7 +519,7 @@ else:
     # each card says what it is about and its name on one line: the name under a heading of its own took the
     # room the tablet's larger buttons need at 1024 x 768 (walkthrough)
     with left.container(border=True):
-        st.markdown(f"##### {'Your' if tablet else _whose()} activity: {context.activity}")
+        st.markdown(f"##### {'Your' if tablet else _whose()} activity: {context.activity}", anchors=False)
         st.caption(f"{spaces.in_scene(context.scene)} · {spaces.time_slot_label(context.time_slot)} · "
                    f"{spaces.interval_label(context.interval_bin)} since {_whose()} last activity")
         if clip:
@@ -523,7 +529,7 @@ else:
     with right.container(border=True):
         if heard:
             mark = ":material/check:" if heard.label == context.activity else ":material/help:"
-            st.markdown(f"##### The robot heard: {heard.label} {mark}")
+            st.markdown(f"##### The robot heard: {heard.label} {mark}", anchors=False)
             if heard.unsure:  # under a check mark, "not sure it heard that right" read as a contradiction
                 st.caption(":material/help: " + ("The robot was not sure, but it heard that right."
                                                  if heard.label == context.activity else
@@ -532,7 +538,7 @@ else:
                 st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard.top3[1:]) +
                            f" · confidence {100 * heard.confidence:.0f}%")
         else:
-            st.markdown(f"##### The robot heard: {context.activity}")
+            st.markdown(f"##### The robot heard: {context.activity}", anchors=False)
             st.caption("No sound model: the robot uses the activity as chosen.")
         if seen:
             mark = ":material/check:" if seen.label == context.scene else ":material/help:"

@@ -345,10 +345,10 @@ def _job_fragment(key: str, stoppable: bool = False, when_stopped: str = NOTHING
 HEATMAP_PARTICIPANTS = 8
 
 
-def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
+def preference_heatmaps(by_preference: pd.DataFrame, key: str, file_name: str = "by_preference.csv") -> None:
     """Fig. 4 by described preference (``by_preference.csv``): every method side by side on one
-    day, or one method day by day; then the table's download. The choices are kept while the page's tab
-    that holds them is not drawn (Results runs only its open tab)."""
+    day, or one method day by day; then the table's download (as ``file_name``). The choices are kept while
+    the page's tab that holds them is not drawn (Results runs only its open tab)."""
     st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
                "learnt, and when. A row that stays pale is a preference the method never learnt.")
     whole = by_preference  # the download is the whole table, whoever is shown
@@ -359,7 +359,7 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
                                      f"{HEATMAP_PARTICIPANTS} are shown at first.")
         if not chosen:
             st.info("Choose at least one participant.")
-            download_csv(whole, "by_preference.csv", key=f"{key}-dl")
+            download_csv(whole, file_name, "Download by_preference.csv", key=f"{key}-dl")
             return
         by_preference = by_preference[by_preference["participant"].astype(str).isin(chosen)]
     methods = plots.in_method_order(by_preference["method"])
@@ -375,4 +375,4 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str) -> None:
                               format_func=lambda m: plots.METHOD_LABELS.get(m, m))
         fig = plots.preference_days_figure(by_preference, method)
     st.plotly_chart(fig, width="stretch", key=f"{key}-chart")
-    download_csv(whole, "by_preference.csv", key=f"{key}-dl")
+    download_csv(whole, file_name, "Download by_preference.csv", key=f"{key}-dl")

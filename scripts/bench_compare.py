@@ -44,7 +44,7 @@ def main() -> None:
             shutil.copytree(Path(tmp) / "policies", copy.parent / "policies")
             t = time.perf_counter()
             n = compare_methods(copy, methods=BASELINES, jobs=jobs)
-            print(f"| {args.participants} x {args.days} | {', '.join(BASELINES)} | {jobs} | {n} "
+            print(f"| {args.participants} x {args.days} | {', '.join(BASELINES)} | {jobs} | {n.runs} "
                   f"| {time.perf_counter() - t:.1f} |")
 
 

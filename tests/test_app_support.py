@@ -284,6 +284,12 @@ def test_the_next_step_once_a_day_has_its_interactions_is_to_close_and_adapt():
     assert app_support.next_step(True, status(20, 20)) == "Close day 2 and adapt (Adaptation)"
 
 
+def test_the_days_count_says_the_plan_apart_once_past_it():
+    assert app_support.day_count(0) == "0 of about 15 interactions today"
+    assert app_support.day_count(15) == "15 of about 15 interactions today"
+    assert app_support.day_count(54) == "54 interactions today (about 15 planned)"
+
+
 def test_the_sidebar_starts_at_the_participant_last_worked_with(tmp_path):
     with StudyStore(tmp_path / "s.sqlite") as store:
         assert app_support.last_participant(store) is None

@@ -47,14 +47,15 @@ def test_compare_methods_scores_each_method_per_day(tmp_path, monkeypatch, polic
         progress(0.5, "round 1/2")
         return real_adapt(*args, **kw)
     monkeypatch.setattr(cacas.adaptation, "adapt_policy", adapt_reporting_halfway)
-    assert compare_methods(path, methods=("nn",), progress=lambda f, m: seen.append((f, m))) == 3  # days 0, 1, 2
+    done = compare_methods(path, methods=("nn",), progress=lambda f, m: seen.append((f, m)))
+    assert (done.adapted, done.initial) == (2, 1)  # days 1, 2 adapted; the initial policy scored (day 0)
     monkeypatch.setattr(cacas.adaptation, "adapt_policy", real_adapt)
     # 3 units (initial policy, day 1, day 2): each adaptation's own progress shows between its ends,
     # so a stop request acts within an adaptation
     assert seen == [(1 / 3, "P01: nn after day 1"), (1.5 / 3, "P01: nn after day 1"),
                     (2 / 3, "P01: nn after day 2"), (2.5 / 3, "P01: nn after day 2"),
-                    (1.0, "3 comparison runs recorded")]
-    assert compare_methods(path, methods=("nn",)) == 0  # already there: nothing recorded twice
+                    (1.0, "Recorded 2 adaptations after study days and 1 score of the initial policy (day 0).")]
+    assert compare_methods(path, methods=("nn",)).runs == 0  # already there: nothing recorded twice
     with StudyStore(path) as s:
         runs = s.adaptations_frame("P01")
         nn = runs[runs["method"] == "nn"]
@@ -97,7 +98,7 @@ def test_every_methods_run_of_a_day_is_scored_on_the_preferences_of_its_time(tmp
             s.record_adaptation("P01", day, "cacas", {}, 1.0, {"preference_accuracy": 0.5,
                                                                 "preferences_version": 1 if day < 3 else 2},
                                 s.save_policy("P01", day, "cacas", policy.to_bytes(), activate=True))
-    assert compare_methods(path, methods=("nn",)) == 4
+    assert compare_methods(path, methods=("nn",)).runs == 4
     with StudyStore(path) as s:
         runs = s.adaptations_frame("P01")
         nn = runs[runs["method"] == "nn"]
@@ -124,7 +125,7 @@ def test_compare_methods_leaves_out_who_has_no_described_preferences_or_closed_d
         s.add_participant("P03")  # a closed day, no described preferences
         s.open_day("P03")
         s.close_day("P03", 1)
-    assert compare_methods(path, methods=("nn",)) == 0
+    assert compare_methods(path, methods=("nn",)).runs == 0
     with StudyStore(path) as s:
         assert s.adaptations_frame("P02").empty and s.adaptations_frame("P03").empty
 
@@ -158,7 +159,7 @@ def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, mon
         s.record_adaptation("E05", 1, "cacas-no-pr", {}, 1.0, {"preference_accuracy": 0.5})
         s.record_adaptation("E05", 2, "cacas-no-pr", {}, 1.0, {"preference_accuracy": 0.5})
     assert PAPER_METHODS == ("cacas", "cacas-no-pr", "orl", "nn")
-    assert compare_methods(path) == 4  # CACAS days 0, 1, 2; ORL day 2
+    assert compare_methods(path).runs == 4  # CACAS days 0, 1, 2; ORL day 2
     assert sorted(adapted) == [("cacas", 1), ("cacas", 2), ("orl", 1), ("orl", 2)]  # ORL's chain through day 2
     with StudyStore(path) as s:
         runs = s.adaptations_frame("E05")
@@ -166,7 +167,7 @@ def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, mon
         daily = export_tables(s)["daily"]
     assert incomplete_comparisons(daily).empty  # E05 is in Fig. 4 on every day
     adapted.clear()
-    assert compare_methods(path) == 0 and adapted == []  # all there: nothing adapted again
+    assert compare_methods(path).runs == 0 and adapted == []  # all there: nothing adapted again
     # a day closed and waiting for the study's own adaptation (NN's here) gets no NN comparison run,
     # which Results would show as that day's policy; the other methods are compared on it
     with StudyStore(path) as s:
@@ -174,7 +175,7 @@ def test_compare_methods_fills_in_every_method_a_participant_lacks(tmp_path, mon
         s.record_interaction("E05", 3, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                              robot_action="pain check", response="accept")
         s.close_day("E05", 3)
-    assert compare_methods(path) == 3
+    assert compare_methods(path).runs == 3
     assert sorted(m for m, day in adapted if day == 3) == ["cacas", "cacas-no-pr", "orl"]
     with StudyStore(path) as s:
         assert day_status(s, "E05").waiting_for_adaptation
@@ -196,10 +197,10 @@ def test_compare_methods_in_worker_processes_records_the_same_runs(tmp_path, mon
             two_adapted_days(path, code, "cacas", policy, robot_action="do nothing", response="accept",
                              type="type_2", user_action="pain check")
     seen = []
-    assert compare_methods(paths[0], methods=("nn", "cacas-no-pr")) == 18  # 3 x 2 methods x days 0-2
+    assert compare_methods(paths[0], methods=("nn", "cacas-no-pr")).runs == 18  # 3 x 2 methods x days 0-2
     assert compare_methods(paths[1], methods=("nn", "cacas-no-pr"), jobs=2,
-                           progress=lambda f, m: seen.append((f, m))) == 18
-    assert seen[-1] == (1.0, "18 comparison runs recorded") and all(0 <= f <= 1 for f, _ in seen)
+                           progress=lambda f, m: seen.append((f, m))).runs == 18
+    assert seen[-1] == (1.0, "Recorded 12 adaptations after study days and 6 scores of the initial policy (day 0).") and all(0 <= f <= 1 for f, _ in seen)
     assert any(m.startswith("P02: cacas-no-pr after day") for _, m in seen)  # the workers' progress came through
     frames = []
     for path in paths:
@@ -230,4 +231,4 @@ def test_a_stopped_comparison_in_worker_processes_keeps_the_runs_recorded(tmp_pa
     with StudyStore(path) as s:
         kept = int((s.adaptations_frame()["method"] == "nn").sum())
     assert 2 <= kept <= 6  # what was made before the stop is recorded; the rest is made by comparing again
-    assert compare_methods(path, methods=("nn",)) == 6 - kept
+    assert compare_methods(path, methods=("nn",)).runs == 6 - kept

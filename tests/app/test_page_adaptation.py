@@ -1,3 +1,5 @@
+import json
+
 import numpy as np
 import pytest
 
@@ -76,6 +78,18 @@ def test_close_day_and_adapt(app, store, quick_policy):
     expected = preferences_learnt(quick_policy, adapted, described)
     np.testing.assert_allclose(learnt[["before", "after"]].to_numpy(dtype=float),
                                100 * expected[["before", "after"]].to_numpy(dtype=float))
+    # beside Fig. 4's draws, the states each covers as the Participants page counts them, each said where shown
+    # (walkthrough: "128 test states" for a preference the Participants page said covers 72)
+    assert list(learnt["covers"]) == [p.covered_count() for p in described.preferences]
+    assert list(learnt["states"]) == list(expected["states"])
+    assert "**States covered**: the S1-S4 states the preference covers, as the Participants page" in texts(at)
+    assert "**Fig. 4 draws**: how many of Fig. 4's 400 test states fell in it" in texts(at)
+    # every column in view at 1280 px, the participant's words wrapping instead of cut (walkthrough: "When I
+    # drink water in the morning, remind me to take m")
+    grid = next(d for d in at.dataframe if "covers" in d.value.columns)
+    widths = {name: c.get("width") for name, c in json.loads(grid.proto.columns).items()}
+    assert set(widths) >= set(learnt.columns) and sum(widths[c] for c in learnt.columns) <= 818, widths
+    assert grid.proto.row_height > 64
     saved = store.preference_versions("P01")[0]["created_at"]  # which version is scored, and when it was saved
     assert f"P01's described preferences** (version 1, the latest, saved {saved[:10]} {saved[11:16]} UTC)" in texts(at)
     # roll back: the banner no longer claims the new version is in force; What changed shows the step back

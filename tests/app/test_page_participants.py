@@ -98,6 +98,12 @@ def test_save_valid_preferences(app, store):
     # the saved preferences show with their covered-state counts
     table = at.dataframe[0].value
     assert list(table["covered states"]) == [p.covered_count() for p in saved.preferences]
+    # the paper's 5 slots stay on the form; the 3 not saved say what they are (walkthrough: after saving 3,
+    # two blank blocks under "Preferences on the form: 5", as if something was left undone)
+    assert at.number_input(key="pf-P01-v1-0-count").value == 5
+    assert [c.value for c in at.caption if c.value.startswith("A slot for one more preference")] == [
+        "A slot for one more preference (2 preferences saved; the paper asks for 5): saved if filled in, left out "
+        "if empty."] * 3
 
 
 def test_invalid_preferences_show_messages_in_place_and_save_nothing(app, store):

@@ -39,8 +39,11 @@ def test_results_show_day_one_and_downloads(app, store, downloads):
     from cacas import records
     from cacas.export import export_tables
     written = export_tables(store, "default")
+    # named as the zip is, after the study (walkthrough: two studies' "interactions.csv" met in a Downloads
+    # folder as "interactions (1).csv"); the labels keep the table's name, as cacas export writes it
     for name in ("interactions", "daily", "participants", "questionnaire", "adaptations"):
-        assert downloads[f"{name}.csv"] == records.csv_bytes(written[name]), name
+        assert downloads[f"{name}-default.csv"] == records.csv_bytes(written[name]), name
+    assert not [f for f in downloads.at_click if f.endswith(".csv") and not f.endswith("-default.csv")]
     # a download reruns nothing: a rerun replaced the prepared files of the other buttons, and a
     # download right after another one found its file gone (MediaFileStorageError)
     assert [b.label for b in at.get("download_button") if not b.proto.ignore_rerun] == []
@@ -141,7 +144,7 @@ def test_a_run_with_no_success_rate_is_not_sent_to_the_study_session(app, db):
     assert "Study session" not in texts(at)
 
 
-def test_results_of_a_simulated_run(app, db):
+def test_results_of_a_simulated_run(app, db, downloads):
     import pandas as pd
 
     from cacas import saved_runs
@@ -171,6 +174,9 @@ def test_results_of_a_simulated_run(app, db):
     assert at.select_slider(key="results-prefs:Simulated run: run-a-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
+    # a run's tables named after the run, as the study's after the study
+    assert {"daily-run_a.csv", "by_preference-run_a.csv"} <= set(downloads.at_click)
+    assert "daily.csv" not in downloads.at_click
     assert any("Simulated participants answer no questionnaire" in i.value for i in at.info)
     # and no human-study form or summary beside that note
     assert "Save answer" not in [b.label for b in at.button]
@@ -317,7 +323,8 @@ def test_a_participant_removed_after_the_page_was_drawn_is_not_in_its_downloads(
     at = app(PAGE, participant="P01")
     no_exception(at)
     store.remove_participant("P02", "P02")  # another tab, after this page was drawn
-    for name in ("interactions.csv", "daily.csv", "participants.csv", "questionnaire.csv"):
+    for name in ("interactions-default.csv", "daily-default.csv", "participants-default.csv",
+                 "questionnaire-default.csv"):
         table = pd.read_csv(io.BytesIO(made[name]()))
         assert "P02" not in set(table["participant"]), name
 
@@ -405,8 +412,13 @@ def test_a_finished_comparison_says_what_it_recorded(app, db, store, monkeypatch
     from cacas.jobs import RUNNER
 
     _study_with_a_day(store)
-    for runs, said in ((12, "12 runs recorded, in Fig. 4 and the tables below"),
-                       (0, "no new run; each method has one for every closed day")):
+    from cacas.method_comparison import Compared
+
+    # what the runs are: "15 runs recorded" said neither (walkthrough)
+    for runs, said in ((Compared(9, 6), "9 adaptations after study days and 6 scores of the initial policy (day 0) "
+                                        "recorded, in Fig. 4 and the tables below"),
+                       (Compared(1, 0), "1 adaptation after study days recorded"),
+                       (Compared(), "no new run; each method has one for every closed day")):
         monkeypatch.setattr(cacas.method_comparison, "compare_methods", lambda *a, runs=runs, **k: runs)
         at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
         next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()

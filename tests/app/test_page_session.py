@@ -573,8 +573,8 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
     kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
     store.record_interaction("P01", day, robot_action="pain check", response="accept", **kw)
     store.record_interaction("P01", day, robot_action="chitchat", response="others", **kw)
-    for view, apart in (({}, " (and 1 not counted: no response, nothing needed while the robot was quiet, "
-                             "or a request while doing nothing)"),
+    for view, apart in (({}, "; 2 in all with 1 not counted (no response, nothing needed while the robot was "
+                             "quiet, or a request while doing nothing)"),
                         ({"view": "tablet"}, "")):  # the participant is not told their tap did not count
         at = app(PAGE, participant="P01", **view)
         no_exception(at)
@@ -595,6 +595,44 @@ def test_the_days_counter_counts_answered_interactions(app, store, p01, quick_po
         _button(at, label).click().run()
         no_exception(at)
         assert [m.value for m in at.success if m.value.startswith(said)], (view, [m.value for m in at.success])
+
+
+def test_the_days_counter_past_its_plan_says_so_and_the_researcher_reads_the_tablets_number_in_it(
+        app, store, p01, quick_policy):
+    """Walkthrough: "54 of about 15 interactions today" once a participant carried on past the plan (the
+    info box says they may), and "On H01's tablet now · interaction 4" beside "2 of about 15" (the number
+    counts the unanswered ones too). Past the plan the counter says the plan apart; the researcher's view
+    says how many the day has in all, which the tablet's proposal's number follows."""
+    day = store.open_day("P01")
+    kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5)
+    for _ in range(16):
+        store.record_interaction("P01", day, robot_action="pain check", response="accept", **kw)
+    store.record_interaction("P01", day, robot_action="chitchat", response="others", **kw)  # not counted
+    tab = app(PAGE, participant="P01", view="tablet")
+    assert tab.get("progress")[0].proto.text == "Day 1 of 7 · 16 interactions today (about 15 planned)"
+    _choose(tab)
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert desk.get("progress")[0].proto.text == (
+        "Day 1 of 7 · 16 interactions today (about 15 planned); 17 in all with 1 not counted (no response, "
+        "nothing needed while the robot was quiet, or a request while doing nothing)")
+    assert "**On P01's tablet now** · interaction 18, shown at" in texts(desk)
+
+
+def test_the_tablets_headings_have_no_anchor_link_icons(app, store, p01, quick_policy):
+    """Walkthrough: a link icon beside the tablet's "What are you doing?" (Streamlit's anchor link of a
+    Markdown heading, shown when hovered or tapped near it), of no use to a participant; nor beside the
+    proposal's headings, nor on the researcher's view."""
+    store.open_day("P01")
+    for view in ({}, {"view": "tablet"}):  # the researcher's first: the tablet's proposal would take its form's place
+        at = app(PAGE, participant="P01", **view)
+        no_exception(at)
+        form = [m for m in at.main.markdown if m.value.startswith("#")]
+        _choose(at)
+        headings = form + [m for m in at.main.markdown if m.value.startswith("#")]
+        assert {"#### What are you doing?", "#### What is P01 doing?"} & {m.value for m in form}, view
+        assert any(m.value.startswith("##### The robot heard") for m in headings), view
+        assert [m.value for m in headings if not m.proto.hide_anchors] == [], view
 
 
 def test_the_tablet_address_is_a_whole_address_to_copy(app, store, p01):

@@ -418,3 +418,15 @@ def test_a_run_of_some_participants_seeds_each_by_its_place_in_the_file(app, db,
     assert calls[0]["participants"] == ["P03", "P01"] and calls[0]["places"] == [2, 0]
     release()
     assert RUNNER.get(f"simulate:{db}").wait(60)
+
+
+def test_a_runs_downloads_are_named_after_the_run(app, db, downloads):
+    """Walkthrough: the tables downloaded as plain "daily.csv", "interactions.csv" ..., and two runs' files
+    met in a Downloads folder as "daily (1).csv"; named after the run now, as Results names them."""
+    save_runs(db, {"run-a": 2})
+    at = app(PAGE)
+    no_exception(at)
+    assert {"daily-run_a.csv", "interactions-run_a.csv", "summary-run_a.csv",
+            "by_preference-run_a.csv"} <= set(downloads.at_click)
+    assert not [f for f in downloads.at_click if f in ("daily.csv", "interactions.csv", "summary.csv")]
+    assert {"Download daily.csv", "Download by_preference.csv"} <= {b.label for b in at.get("download_button")}

@@ -363,6 +363,7 @@ def test_mini_study(server, page, tmp_path):
     idle(page)  # the expander opens (and the page settles) before its button is clicked
     with page.expect_download() as dl:
         button(page, "Download interactions.csv").click()
+    assert dl.value.suggested_filename == "interactions-default.csv"  # the study's, as the zip is named
     path = tmp_path / "interactions.csv"
     dl.value.save_as(path)
     rows = list(csv.DictReader(io.StringIO(path.read_text())))
