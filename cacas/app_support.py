@@ -39,7 +39,7 @@ def next_step(has_preferences: bool, status, questionnaire_recorded: bool = Fals
     if status.open:
         left = TARGET_INTERACTIONS - status.recorded_today  # answered or asked for: as the tablet counts
         if left > 0:
-            return f"Day {status.day}: {left} more interactions on the tablet"
+            return f"Day {status.day}: {counted(left, 'more interaction')} on the tablet"
         return f"Close day {status.day} and adapt (Adaptation)"
     if status.waiting_for_adaptation:
         return f"Adapt after day {status.day} (Adaptation)"

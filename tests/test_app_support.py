@@ -279,7 +279,7 @@ def test_the_next_step_once_a_day_has_its_interactions_is_to_close_and_adapt():
         return DayStatus(day=2, open=True, interactions_today=saved, total_interactions=20 + saved,
                          policy_version=1, waiting_for_adaptation=False, finished=False, recorded_today=recorded)
 
-    assert app_support.next_step(True, status(16, 14)) == "Day 2: 1 more interactions on the tablet"
+    assert app_support.next_step(True, status(16, 14)) == "Day 2: 1 more interaction on the tablet"  # one, not "1 more interactions"
     assert app_support.next_step(True, status(17, 15)) == "Close day 2 and adapt (Adaptation)"
     assert app_support.next_step(True, status(20, 20)) == "Close day 2 and adapt (Adaptation)"
 
