@@ -273,4 +273,7 @@ if len(runs):
         st.dataframe(table, hide_index=True, width="stretch", column_order=_named(table),
                      column_config={"duration (s)": st.column_config.NumberColumn(format="%.1f"),
                                     "preference accuracy": st.column_config.NumberColumn(format="%.0f%%")})
-        ui.download_csv(lambda: ui.store().adaptations_frame(code), f"adaptations-{code}.csv")  # as at the click
+        # as at the click; named after the study too, as Results' tables are (two studies' P01 met in Downloads)
+        ui.download_csv(lambda: ui.store().adaptations_frame(code),
+                        app_support.study_file_name("adaptations", ui.study() or "", f"-{code}.csv"),
+                        f"Download adaptations-{code}.csv")

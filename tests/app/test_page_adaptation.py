@@ -376,3 +376,21 @@ def test_what_changed_over_one_context_says_it_in_the_singular(app, store, quick
     no_exception(at)
     assert "The robot's action in P01's **1 context** (most frequent first" in texts(at)
     assert "1 contexts" not in texts(at)
+
+
+def test_the_adaptation_runs_download_is_named_after_the_study_and_the_participant(app, store, quick_policy,
+                                                                                   downloads):
+    """Walkthrough: Results' tables are named after the study (interactions-default.csv), this page's
+    'adaptations-P01.csv' was not: two studies' P01 met in a Downloads folder."""
+    import io
+
+    import pandas as pd
+
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    store.record_adaptation("P01", day, "nn", {"comparison": True}, 0.1, {"preference_accuracy": 0.5})
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    table = pd.read_csv(io.BytesIO(downloads["adaptations-default-P01.csv"]))
+    assert list(table["day"]) == [day] and list(table["method"]) == ["nn"]
+    assert "Download adaptations-P01.csv" in [b.label for b in at.get("download_button")]
