@@ -322,6 +322,7 @@ def _route(store) -> None:
             (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
     ui.set_address(**address)
     ui.click_not_done()  # a click whose callback met a busy or unreadable database, said above the page
+    ui.routed()
     page.run()
 
 

@@ -4,6 +4,7 @@ background-job progress. Layout only; everything that computes or stores is in `
 from __future__ import annotations
 
 import sqlite3
+import threading
 import time
 
 import pandas as pd
@@ -16,15 +17,31 @@ from cacas.on_tablet import TabletBoard
 from cacas.store import StudyStore, default_db_path
 from cacas.study_day import day_status
 
+#: Whether this script thread's run went through ``app.py``'s navigation (:func:`routed`), read once
+#: by :func:`require_app`.
+_ROUTED = threading.local()
+
+
+def routed() -> None:
+    """``app.py``, just before it runs the page: this run is the app's, with its sidebar and the
+    participant from the address."""
+    _ROUTED.run = True
+
+
 def require_app() -> None:
     """Run this page through ``app.py``. Streamlit treats a ``pages/`` folder as old-style pages
     until the first ``st.navigation`` call of a server process, so a first request straight to
     e.g. ``/results`` after a restart would run the page alone (no sidebar, no participant from
     the address). Then switch the old mode off and rerun: ``app.py`` runs and routes to the same
-    page. Called first thing by every page."""
+    page. Called first thing by every page. Whether this run is the app's is known from
+    :func:`routed`, not from the old mode's flag, which is the server's: two pages reconnecting to a
+    restarted server at once (a page with a fragment that reruns by itself asks for a run on
+    reconnecting) both started alone, the first switched the flag off, and the second, reading it
+    off, went on alone: "Select a participant in the sidebar" under an address naming one."""
     from streamlit.runtime.pages_manager import PagesManager
 
-    if PagesManager.uses_pages_directory:
+    was_routed, _ROUTED.run = getattr(_ROUTED, "run", False), False
+    if not was_routed:
         PagesManager.uses_pages_directory = False
         st.rerun()
 

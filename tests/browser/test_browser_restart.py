@@ -12,7 +12,7 @@ import pytest
 
 from cacas.store import StudyStore
 from conftest import _free_port, _run_app
-from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context
+from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context, text_of
 
 CONNECTS = "() => window.__cacasConnects"  # the page's connections to the server so far (goto counts them)
 RECONNECTED = "n => window.__cacasConnects > n"
@@ -82,3 +82,39 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
         with StudyStore(db, readonly=True) as s:
             assert [p.code for p in s.list_participants()] == ["P01", "P02"]
     page.close()
+
+
+def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant(tmp_path, browser):
+    """Pages that rerun by themselves (the researcher's Study session follows the tablet, a tablet
+    waits for the researcher) ask the restarted server for a run as they reconnect. Two at once: the
+    first switched Streamlit's old-style pages mode off, and the second page, reading it off, ran
+    alone, without the app's sidebar: "Select a participant in the sidebar" under an address naming
+    P01 (pages.ui.require_app)."""
+    db = tmp_path / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        s.open_day("P01")
+        s.add_participant("P02")
+        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+        day = s.open_day("P02")
+        s.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+        s.close_day("P02", day)
+    researcher = browser.new_page(viewport={"width": 1280, "height": 800})
+    tablet = browser.new_page(viewport={"width": 1024, "height": 768})
+    with app_to_restart(tmp_path, db) as (url, restart):
+        goto(researcher, f"{url}/session?participant=P01")
+        goto(tablet, f"{url}/?participant=P02&view=tablet")
+        shows(researcher, "Study session · P01")
+        shows(tablet, "Day 1 is finished")
+        connects = researcher.evaluate(CONNECTS), tablet.evaluate(CONNECTS)
+        restart()
+        for page, n in zip((researcher, tablet), connects):
+            page.wait_for_function(RECONNECTED, arg=n, timeout=60_000)
+        shows(researcher, "Study session · P01", "Day 1 of 7")
+        shows(tablet, "Day 1 is finished")
+        idle(researcher)
+        assert "Select a participant" not in text_of(researcher)
+    researcher.close()
+    tablet.close()
