@@ -33,9 +33,9 @@ def idle(page, timeout: int = 60_000, started: bool = False) -> None:
     showed the proposal after "Accept"). A run that starts after the 2 s is not waited for: what a
     test reads next is waited for itself (``shows``, ``expect``), or the action is a ``click``,
     which knows that a run follows. On a page opened with ``goto`` a run counts as started once
-    the page has started one since the last wait (``COUNTERS``, ``STARTED``): a run over before
-    the wait began waited the whole 2 s for "running" (13 times in the mini study, and 4 runs were
-    over between two looks at the page), then went on as if none had been. ``started``: the run is
+    the page has started one since the last wait (``COUNTERS``, ``STARTED``): a run over between
+    two looks at the page waited the whole 2 s for "running" (4 times in the mini study), then went
+    on as if none had been. ``started``: the run is
     known to have begun (what it draws is in view): only its end is waited for."""
     try:
         if not started:
