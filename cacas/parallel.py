@@ -205,8 +205,11 @@ def start_process(environ: dict[str, str] | None = None) -> None:
 
 
 #: The modules whose functions run in the worker processes (a simulated study's participants, a
-#: comparison's), imported once by the fork server (:func:`worker_context`), with torch and pandas.
-WORKER_MODULES = ("cacas.experiment", "cacas.method_comparison")
+#: comparison's), imported once by the fork server (:func:`worker_context`), with torch and pandas;
+#: and torch._dynamo, which torch.optim imports at the first optimizer a process makes (every SAC and
+#: MLP training), in each worker of each run otherwise (1.4 s idle; a later 2-participant, 1-day study
+#: run in one process took 1.0-1.7 s with it, 0.3-0.4 s without, at load 4-5).
+WORKER_MODULES = ("cacas.experiment", "cacas.method_comparison", "torch._dynamo")
 
 
 def worker_context():

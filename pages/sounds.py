@@ -188,14 +188,16 @@ sound_library, add_clip, scene_library, add_photo, train, tryit = st.tabs(
 
 with sound_library:
     _library_grid("sound", "activities", lambda path: st.audio(str(path), format=lab.audio_mime(path)))
-    with st.expander("Every clip of one activity"):
-        act = st.selectbox("Activity", spaces.ACTIVITIES, key="lib-activity")
-        every = clip_paths(act)
-        for p in every[:40]:
-            st.caption(p.name)
-            st.audio(str(p), format=lab.audio_mime(p))
-        if len(every) > 40:  # said, as for the photos (clips past the 40th were left out without a word)
-            st.caption(f"The first 40 of {len(every)} clips, by file name.")
+    # drawn only while open (as Results' tables): closed, its 40 players were sent on every run of the tab
+    with st.expander("Every clip of one activity", key="lib-every-clip", on_change="rerun") as every_clip:
+        if every_clip.open is not False:
+            act = st.selectbox("Activity", spaces.ACTIVITIES, key="lib-activity", persist_state="page")
+            every = clip_paths(act)
+            for p in every[:40]:
+                st.caption(p.name)
+                st.audio(str(p), format=lab.audio_mime(p))
+            if len(every) > 40:  # said, as for the photos (clips past the 40th were left out without a word)
+                st.caption(f"The first 40 of {len(every)} clips, by file name.")
 
 with add_clip:
     _add_tab("sound", "Add clips of one activity: WAV, FLAC or OGG, any sample rate (resampled to 32 kHz, "
@@ -205,14 +207,15 @@ with scene_library:
     _library_grid("scene", "rooms", lambda path: st.image(str(path), width=160),
                   " In a study, the robot's camera \"sees\" one of the room's photos (the same one for the same "
                   "interaction): photos of the participant's own rooms make it real.")
-    with st.expander("Every photo of one room"):
-        room = st.selectbox("Room", spaces.SCENES, key="lib-room")
-        photos = image_paths(room)[:48]
-        grid = st.columns(6)
-        for j, p in enumerate(photos):
-            grid[j % 6].image(str(p), caption=p.name, width="stretch")
-        if len(image_paths(room)) > len(photos):
-            st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
+    with st.expander("Every photo of one room", key="lib-every-photo", on_change="rerun") as every_photo:
+        if every_photo.open is not False:  # drawn only while open, as the clips (48 photos)
+            room = st.selectbox("Room", spaces.SCENES, key="lib-room", persist_state="page")
+            photos = image_paths(room)[:48]
+            grid = st.columns(6)
+            for j, p in enumerate(photos):
+                grid[j % 6].image(str(p), caption=p.name, width="stretch")
+            if len(image_paths(room)) > len(photos):
+                st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
 
 with add_photo:
     _add_tab("scene", "Add photos of one room: JPEG, PNG, BMP or WebP, up to 89 megapixels (each is resized for the "

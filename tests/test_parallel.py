@@ -353,15 +353,19 @@ def test_without_a_cgroup_file_system_the_machines_memory_is_used(tmp_path, monk
 
 def _what_the_worker_has(shared: bytes, piece: int, queue, stop) -> tuple:
     """What a worker process has when its piece begins: the simulated study's module imported (before
-    anything in the piece imports it), and the environment variable ``shared`` names."""
-    return "cacas.experiment" in sys.modules and "torch" in sys.modules, os.environ.get(shared.decode())
+    anything in the piece imports it), what torch.optim imports at a process's first optimizer, and the
+    environment variable ``shared`` names."""
+    return ("cacas.experiment" in sys.modules and "torch" in sys.modules, "torch._dynamo" in sys.modules,
+            os.environ.get(shared.decode()))
 
 
 def test_the_workers_start_with_the_studys_modules_imported_and_the_callers_environment(monkeypatch):
     """Profile: every worker process was spawned and imported torch, pandas and cacas itself, on every run
     (a 2-participant, 1-day study in one process: 35-37 s a run, 2.5-5 s with a fork server that imports
-    them once). The fork server's workers still see the environment of the run, not of its own start."""
+    them once). The fork server's workers still see the environment of the run, not of its own start.
+    Each worker also imported torch._dynamo at its first SAC or MLP training (torch.optim's first optimizer,
+    1.4 s idle); the fork server imports it once too."""
     for run in ("first", "second"):
         monkeypatch.setenv("CACAS_TEST_RUN", run)  # set after the first run started the fork server
         got = parallel.run_parallel(_what_the_worker_has, b"CACAS_TEST_RUN", [0, 1], 2, lambda *item: None)
-        assert got == [(True, run), (True, run)]
+        assert got == [(True, True, run), (True, True, run)]

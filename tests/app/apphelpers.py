@@ -44,3 +44,10 @@ def open_tab(at: AppTest, key: str, label: str) -> AppTest:
     rerun the page, as a click on the tab does."""
     at.session_state[key] = label
     return at.run()
+
+
+def open_expander(at: AppTest, key: str, opened: bool = True) -> AppTest:
+    """Open (or close) the expander with key ``key`` (one drawn only while open: ``on_change="rerun"``)
+    and rerun the page, as a click on its label does."""
+    at.session_state[key] = opened
+    return at.run()

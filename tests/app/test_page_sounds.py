@@ -3,7 +3,7 @@ import io
 import numpy as np
 import soundfile as sf
 
-from apphelpers import no_exception, texts
+from apphelpers import no_exception, open_expander, texts
 
 PAGE = "pages/sounds.py"
 
@@ -248,10 +248,44 @@ def test_every_clip_of_an_activity_says_when_it_shows_the_first_40(app, tmp_path
     for i in range(41):
         (data / "sounds" / "cough" / f"c{i:02d}.wav").write_bytes(_wav())
     monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
-    at = app(PAGE)
+    at = open_expander(app(PAGE), "lib-every-clip")
     no_exception(at)
     assert "The first 40 of 41 clips, by file name." in [c.value for c in at.caption]
     assert len(at.get("audio")) >= 40
+
+
+def test_every_clip_and_every_photo_are_drawn_only_once_opened(app, tmp_path, monkeypatch):
+    """Helper's profile: the closed "Every clip of one activity" and "Every photo of one room" expanders
+    sent their 40 audio players and 48 photos on every run of the page. They are drawn once opened, the
+    activity and the room chosen there kept while closed."""
+    import shutil
+
+    from cacas.paths import PROJECT_ROOT
+
+    data = tmp_path / "data"
+    shutil.copytree(PROJECT_ROOT / "study_data" / "scenes", data / "scenes")
+    for activity in ("cough", "sneeze"):
+        (data / "sounds" / activity).mkdir(parents=True)
+        for i in range(3):
+            (data / "sounds" / activity / f"{activity}{i}.wav").write_bytes(_wav(0.6))
+    monkeypatch.setenv("CACAS_STUDY_DATA", str(data))
+    at = app(PAGE)
+    no_exception(at)
+    grid = lambda: (len(at.get("audio")), len(at.get("image")))  # noqa: E731
+    assert grid() == (2, 6)  # the libraries' cards: a clip of each of 2 activities, a photo of each of 6 rooms
+    assert not [s for s in at.selectbox if s.key in ("lib-activity", "lib-room")]
+    at = open_expander(at, "lib-every-clip")
+    no_exception(at)
+    at.selectbox(key="lib-activity").set_value("sneeze").run()
+    assert grid() == (2 + 3, 6) and [c.value for c in at.caption if c.value.startswith("sneeze")] == \
+        ["sneeze0.wav", "sneeze1.wav", "sneeze2.wav"]
+    at = open_expander(at, "lib-every-photo")
+    photos = len(at.get("image")) - 6
+    assert photos == min(48, len(list((data / "scenes" / "bedroom").iterdir()))) and photos > 6
+    at = open_expander(at, "lib-every-clip", False)
+    at = open_expander(at, "lib-every-photo", False)
+    assert grid() == (2, 6)
+    assert open_expander(at, "lib-every-clip").selectbox(key="lib-activity").value == "sneeze"
 
 
 def _library_app(app, tmp_path, monkeypatch):

@@ -26,19 +26,25 @@ IDLE = "[data-testid='stApp'][data-test-script-state='notRunning']"
 RUNNING = "[data-testid='stApp'][data-test-script-state='running']"
 
 
-def idle(page, timeout: int = 60_000) -> None:
+def idle(page, timeout: int = 60_000, started: bool = False) -> None:
     """Wait until the script run that the last action started has finished: first for it to
-    start (up to 2 s; an action that reruns nothing, or a run over before it is seen, goes on),
-    then for it to end. A fixed pause before the wait read a busy server's page before its run
-    began (a CI run: the tablet still showed the proposal after "Accept"). A run that starts
-    after the 2 s is not waited for: what a test reads next is waited for itself (``shows``,
-    ``expect``), or the action is a ``click``, which knows that a run follows."""
+    start (up to 2 s; an action that reruns nothing goes on), then for it to end. A fixed pause
+    before the wait read a busy server's page before its run began (a CI run: the tablet still
+    showed the proposal after "Accept"). A run that starts after the 2 s is not waited for: what a
+    test reads next is waited for itself (``shows``, ``expect``), or the action is a ``click``,
+    which knows that a run follows. On a page opened with ``goto`` a run counts as started once
+    the page has started one since the last wait (``COUNTERS``, ``STARTED``): a run over between
+    two looks at the page waited the whole 2 s for "running" (4 times in the mini study), then went
+    on as if none had been. ``started``: the run is
+    known to have begun (what it draws is in view): only its end is waited for."""
     try:
-        page.wait_for_selector(RUNNING, timeout=2_000)
+        if not started:
+            page.wait_for_function(STARTED, arg=RUNNING, timeout=2_000, polling=20)
     except PlaywrightTimeout:
         pass
     page.wait_for_selector(IDLE, timeout=timeout)
     page.wait_for_timeout(200)
+    _seen(page)
 
 
 #: counts the script runs a page starts (Streamlit's stApp turns data-test-script-state to "running" for each)
@@ -62,6 +68,16 @@ if (window.__cacasRuns === undefined) {
 }"""
 
 
+#: a run has started since the page's last wait (``idle``, ``ran``), or one runs now
+STARTED = ("running => (window.__cacasRuns || 0) > (window.__cacasSeen || 0) || "
+           "document.querySelector(running) !== null")
+
+
+def _seen(page) -> None:
+    """The runs started so far are waited for: the next ``idle`` waits for a later one."""
+    page.evaluate("() => { window.__cacasSeen = window.__cacasRuns; }")
+
+
 def runs(page) -> int:
     """The script runs the page has started so far (``COUNTERS``)."""
     n = page.evaluate("() => window.__cacasRuns")
@@ -75,6 +91,7 @@ def ran(page, since: int, timeout: int = 60_000) -> None:
         "n => window.__cacasRuns > n && document.querySelector(\"[data-testid='stApp']\")"
         ".getAttribute('data-test-script-state') === 'notRunning'", arg=since, timeout=timeout)
     page.wait_for_timeout(200)
+    _seen(page)
 
 
 def goto(page, url: str) -> None:
@@ -114,6 +131,11 @@ def _widget(page, testid: str, label: str):
         has=page.locator("label", has_text=re.compile(rf"^{re.escape(label)}"))).first
 
 
+def in_form(widget) -> bool:
+    """Whether ``widget`` is in a form (st.form): changing it reruns nothing until the form's button."""
+    return widget.locator("xpath=ancestor::*[@data-testid='stForm']").count() > 0
+
+
 def choose(page, label: str, option: str, testid: str = "stSelectbox") -> None:
     """Pick ``option`` in the select box (or multiselect) labelled ``label``."""
     box = _widget(page, testid, label)
@@ -122,7 +144,8 @@ def choose(page, label: str, option: str, testid: str = "stSelectbox") -> None:
     page.get_by_role("option", name=option, exact=True).first.click()
     if testid == "stMultiSelect":
         page.keyboard.press("Escape")
-    idle(page)  # outside a form a choice reruns the page, as a person waits for it
+    if not in_form(box):  # in a form no run follows (idle waited 2 s for one: 8 times in the mini study)
+        idle(page)  # outside a form a choice reruns the page, as a person waits for it
 
 
 def tap(page, label: str, option: str) -> None:
@@ -134,9 +157,11 @@ def tap(page, label: str, option: str) -> None:
 
 def fill(page, label: str, text: str, first: bool = False) -> None:
     box = page.get_by_role("textbox", name=label, exact=True)
-    (box.first if first else box).fill(text)
-    (box.first if first else box).press("Tab")  # outside a form leaving the box sends the text: a rerun
-    idle(page)
+    box = box.first if first else box
+    box.fill(text)
+    box.press("Tab")  # outside a form leaving the box sends the text: a rerun
+    if not in_form(box):  # in a form nothing is sent, no run follows
+        idle(page)
 
 
 def text_of(page) -> str:
@@ -183,7 +208,7 @@ def interact(page, activity: str, room: str, slot: str = "08:00-10:00") -> bool:
     # background (the page says the robot is getting ready meanwhile)
     answers = page.locator("button").filter(has_text=re.compile(r"(Accept|Nothing needed)$"))
     expect(answers.first).to_be_visible(timeout=600_000)
-    idle(page)  # the run that draws them is over
+    idle(page, started=True)  # the run that draws them is over
     return button(page, "Accept").count() > 0
 
 
