@@ -13,6 +13,7 @@ import pytest
 from cacas.store import StudyStore
 from conftest import _free_port, _run_app
 from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context, text_of
+from test_browser_tablet_waits import on_day_1
 
 CONNECTS = "() => window.__cacasConnects"  # the page's connections to the server so far (goto counts them)
 RECONNECTED = "n => window.__cacasConnects > n"
@@ -92,15 +93,8 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
     P01 (pages.ui.require_app)."""
     db = tmp_path / "study.sqlite"
     with StudyStore(db) as s:
-        s.add_participant("P01")
-        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-        s.open_day("P01")
-        s.add_participant("P02")
-        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
-        day = s.open_day("P02")
-        s.record_interaction("P02", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="pain check", response="accept")
-        s.close_day("P02", day)
+        on_day_1(s, "P01", closed=False)
+        on_day_1(s, "P02", closed=True)  # its tablet waits for the researcher
     researcher = browser.new_page(viewport={"width": 1280, "height": 800})
     tablet = browser.new_page(viewport={"width": 1024, "height": 768})
     with app_to_restart(tmp_path, db) as (url, restart):

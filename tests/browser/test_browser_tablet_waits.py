@@ -17,21 +17,25 @@ from test_browser_mini_study import goto
 pytestmark = pytest.mark.browser
 
 
+def on_day_1(s: StudyStore, code: str, closed: bool) -> None:
+    """``code`` added with a preference, on day 1: open, or closed (one interaction) and not adapted yet."""
+    s.add_participant(code)
+    s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+    day = s.open_day(code)
+    if closed:
+        s.record_interaction(code, day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+        s.close_day(code, day)
+
+
 @pytest.fixture(scope="module")
 def waiting_server(tmp_path_factory):
     """The app over P01, whose day 1 is closed and not adapted yet, and P02, on day 1."""
     tmp = tmp_path_factory.mktemp("tablet-waits")
     db = tmp / "study.sqlite"
     with StudyStore(db) as s:
-        s.add_participant("P01")
-        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-        day = s.open_day("P01")
-        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="pain check", response="accept")
-        s.close_day("P01", day)
-        s.add_participant("P02")  # on day 1, open
-        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
-        s.open_day("P02")
+        on_day_1(s, "P01", closed=True)
+        on_day_1(s, "P02", closed=False)
     for url in _run_app(tmp, CACAS_DB=str(db)):  # the server stops once the module's tests are done
         yield db, url
 
