@@ -358,11 +358,20 @@ if removed:
                + (f"; {code} is selected now." if code else "."), icon=":material/check_circle:")
     if removed[1]:
         st.warning(removed[1], icon=":material/folder_open:")
-tab_names = ([f"Preferences of {code}", f"Details of {code}"] if code else []) + ["Add a participant",
-                                                                                  "Import / export"]
+# Always four tabs, in the same places, with or without a participant. After adding or importing
+# participants the callbacks open the first one's preferences tab, and the browser's tabs follow a
+# tab the page opens only when it stands at another place than the one the page opened last: it
+# keeps the tab it shows if a tab of that name is still there. With no participant, the tabs were
+# only "Add a participant" and "Import / export", so adding the first participant asked for place 0
+# ("Preferences of P01"), the place "Add a participant" had had, and a browser that drew the new
+# tabs in one go stayed on "Add a participant" (CI; a page of these tabs alone did so in 5 of 12 tries
+# with the browser slowed 20x, and 0 of 12 with the tabs always four).
+tab_names = ([f"Preferences of {code}", f"Details of {code}"] if code else ["Preferences", "Details"]) + [
+    "Add a participant", "Import / export"]
 if st.session_state.get(OPEN_TAB) not in tab_names:  # e.g. another participant chosen in the sidebar
     st.session_state.pop(OPEN_TAB, None)
-# after adding or importing participants, the callbacks open their preferences tab
+if not code:  # nobody to show: the next step is adding someone
+    st.session_state.setdefault(OPEN_TAB, "Add a participant")
 tabs = dict(zip(tab_names, st.tabs(tab_names, key=OPEN_TAB, on_change="rerun")))
 
 if code:
@@ -517,6 +526,12 @@ if code:
         ui.tablet_address_note(code)
         with st.expander(f"Remove {code}", icon=":material/person_remove:"):
             _removal_section(code)
+
+if not code:
+    for name in ("Preferences", "Details"):
+        with tabs[name]:
+            st.info("No participant is selected: add one (Add a participant) or import a persona file (Import / "
+                    f"export){' or choose one in the sidebar' if people else ''}.", icon=":material/person_search:")
 
 with tabs["Add a participant"]:
     with st.form("add-participant", border=True):

@@ -42,6 +42,33 @@ def test_add_participant_valid_and_invalid(app, store):
     assert [t.label for t in at.tabs][0] == "Preferences of P01"
 
 
+def test_the_tabs_keep_their_places_so_the_browser_opens_the_tab_the_page_opens(app, store):
+    """CI: after adding the first participant, the browser stayed on 'Add a participant' while the
+    page had opened 'Preferences of P01'. Streamlit's browser tabs follow a tab the page opens only
+    when it stands at another place than the tab the page opened before, and keep the tab they show
+    when a tab of its name is still there: with no participant there were two tabs, 'Add a
+    participant' first, and 'Preferences of P01' came at that same place. Now the tabs are always
+    four, in the same places, and the page opens 'Add a participant' while nobody is selected."""
+    at = app(PAGE)
+    no_exception(at)
+    labels = [t.label for t in at.tabs]
+    assert labels == ["Preferences", "Details", "Add a participant", "Import / export"]
+    assert at.session_state["participants-open-tab"] == "Add a participant"
+    assert "No participant is selected: add one (Add a participant) or import a persona file" in texts(at)
+    before = labels.index(at.session_state["participants-open-tab"])
+    at.text_input(key="new-code").set_value("P01")
+    next(b for b in at.button if b.label == "Add participant").click().run()
+    no_exception(at)
+    labels = [t.label for t in at.tabs]
+    assert labels == ["Preferences of P01", "Details of P01", "Add a participant", "Import / export"]
+    assert labels.index(at.session_state["participants-open-tab"]) != before
+    # once nobody is left (removed elsewhere), the same four places, and 'Add a participant' opens again
+    store.remove_participant("P01", "P01")
+    at.run()
+    assert [t.label for t in at.tabs][:2] == ["Preferences", "Details"]
+    assert at.session_state["participants-open-tab"] == "Add a participant"
+
+
 def test_a_double_click_on_add_participant_adds_once_and_opens_their_preferences(app, store):
     """Walkthrough: the second click of a double click on 'Add participant' sent the same form again
     and said 'participant P03 already exists' in red, on the Add tab: the add looked failed. The same
@@ -367,7 +394,7 @@ def test_a_new_study_is_created_and_selected(app, store):
     assert at.selectbox(key="study").value == "pilot-2026"  # the sidebar shows it at once
     assert "pilot-2026" in at.selectbox(key="study").options
     assert at.session_state["participant"] is None
-    assert [t.label for t in at.tabs][0] == "Add a participant"
+    assert at.session_state["participants-open-tab"] == "Add a participant"
     at.text_input(key="new-study-name").set_value("pilot-2026")
     next(b for b in at.button if b.label == "Create study").click().run()
     assert "study 'pilot-2026' already exists" in texts(at)
