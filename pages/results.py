@@ -189,7 +189,8 @@ if fig3.open:
                           "described preference names an action: the success rate proposing the described preferences "
                           "reaches there. It is not a bound: where no preference names an action (or the participant "
                           "wants the robot to do nothing) a participant may still accept what the robot offers."
-                          if per_day["ceiling"].notna().any() else ""))
+                          if per_day["ceiling"].notna().any() else "")
+                       + (" " + few if (few := plots.few_interactions_note(shown, method)) else ""))
 
 if fig4.open:
     with fig4:
