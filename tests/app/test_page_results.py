@@ -696,3 +696,21 @@ def test_fig3s_hollow_points_are_said_under_it(app, store):
     at.run()
     no_exception(at)
     assert "A hollow point" not in texts(at) and "Mean over participants; the band spans" in texts(at)
+
+
+def test_comparing_a_study_with_no_closed_day_says_there_was_nothing_to_compare(app, db, store):
+    """Walkthrough: "Compare methods" on a study of imported participants, none with a closed day, said
+    "no new run; each method has one for every closed day ... already", as if all were compared."""
+    from cacas.jobs import RUNNER
+
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
+    next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
+    assert RUNNER.get(f"compare:{db}:default").wait(60)
+    at.run()
+    no_exception(at)
+    said = [i.value for i in at.info if i.value.startswith("Nothing compared (")]
+    assert said and "no participant with described preferences has a closed study day yet" in said[0]
+    assert not [s.value for s in at.success]  # not a success: nothing was done
+    RUNNER.forget(f"compare:{db}:default")
