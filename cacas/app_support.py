@@ -799,12 +799,17 @@ def left_out_note(left: pd.DataFrame, again: bool = False) -> str:
 def comparison_done(runs, elapsed: float, finished: float | None = None) -> str:
     """What the Results page says when "Compare methods" has ended: the runs it recorded
     (:class:`cacas.method_comparison.Compared`, said as what they are: adaptations after study days and
-    scores of the initial policy; none: every closed day had every method's run already), how long it
+    scores of the initial policy; none: every closed day had every method's run already, or there was no
+    closed day of a participant with described preferences), how long it
     took and, given ``finished`` (epoch seconds), when it ended: the server keeps the last comparison
     for every session, and a session opened later read it as news (walkthrough)."""
     took = f"{elapsed:.0f} s" if elapsed < 120 else f"{elapsed / 60:.0f} min"
     if finished is not None:
         took += f", ended {short_time(finished)}"
+    if not runs.runs and runs.participants == 0:  # nothing there to compare
+        return (f"Nothing compared ({took}): no participant with described preferences has a closed study day yet. "
+                "Each method is adapted from a participant's closed days: compare again once a day is closed "
+                "(Adaptation page).")
     if not runs.runs:
         return (f"Methods compared ({took}): no new run; each method has one for every closed day of the participants "
                 "with described preferences already (a day is compared once it is closed).")

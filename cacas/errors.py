@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import difflib
 import math
 from typing import Any, Callable, Mapping
 
@@ -42,6 +43,20 @@ def did_you_mean(value: object, known) -> str:
     stays exact: a stored code is never changed, nor matched without the researcher's word."""
     twin = case_twin(value, known)
     return f"did you mean {twin!r}? " if twin is not None else ""
+
+
+def nearest(value: object, known) -> str:
+    """``"did you mean 'use scissor'? "`` when one name of ``known`` is close to ``value`` (letter
+    case and repeated blanks ignored; difflib's ratio of at least 0.8: a letter added, dropped or
+    changed, a missing space), else ``""``: the hint of an unknown-name message, before its list of
+    valid names (walkthrough: "unknown activity 'use scissors'" was followed by 33 names to search
+    for the one meant). Only a hint: the name is still refused, never replaced."""
+    if not isinstance(value, str):
+        return ""
+    canon = lambda text: " ".join(str(text).casefold().split())  # noqa: E731
+    names = {canon(k): str(k) for k in known}
+    close = difflib.get_close_matches(canon(value), list(names), n=1, cutoff=0.8)
+    return f"did you mean {names[close[0]]!r}? " if close else ""
 
 
 def each(*checks: Callable[[], Any]) -> list:

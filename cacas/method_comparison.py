@@ -50,6 +50,9 @@ class Compared:
 
     adapted: int = 0
     initial: int = 0
+    #: the participants with described preferences and a closed day (what there was to compare; None: not
+    #: counted): 0 said "no new run; each method has one for every closed day" of a study with no closed day
+    participants: int | None = None
 
     @property
     def runs(self) -> int:
@@ -156,7 +159,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
     store = StudyStore(db_path)
     try:
         initial = load_initial_policy()
-        pieces = []
+        pieces, eligible = [], 0
         # the exact code's order, as before participants were listed case-blind: the runs are recorded
         # (and adaptations.csv numbered) in the order they always were
         for p in sorted(store.list_participants(study), key=lambda p: p.code):
@@ -164,6 +167,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
             closed = [d.day for d in store.days(p.code) if not d.is_open]
             if person is None or not closed:
                 continue
+            eligible += 1
             runs = store.adaptations_frame(p.code)
             have = set(zip(runs["method"], runs["day"].astype(int)))
             # a closed day waiting for its adaptation is the study's own method's to adapt (and put in
@@ -210,7 +214,7 @@ def compare_methods(db_path: str | Path, methods: tuple[str, ...] | None = None,
             parallel.run_parallel(_comparison_worker, initial.to_bytes(), pieces, jobs, tick,
                                   what="participants' comparisons",
                                   keep=lambda kind, *item: record(*item) if kind == "run" else None)
-        done = Compared(**recorded)
+        done = Compared(**recorded, participants=eligible)
         say(1.0, f"Recorded {done.words()}." if done.runs else "No new run recorded.")
         return done
     finally:

@@ -84,6 +84,18 @@ def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
 FEW_INTERACTIONS = 5
 
 
+def few_interactions_note(daily: pd.DataFrame, method: str) -> str:
+    """The sentence that says what Fig. 3's hollow points and their labels are, for the caption under
+    the figure ("" when no day of ``method`` has one): a day where some participant's success rate
+    rests on fewer than :data:`FEW_INTERACTIONS` recorded interactions, labelled with the fewest
+    (walkthrough: "fewest 2 interactions" beside a hollow point was said nowhere but in its hover)."""
+    s = success_by_day(daily, method)
+    if not (s["fewest"] < FEW_INTERACTIONS).any():
+        return ""
+    return (f"A hollow point is a day where a participant's success rate rests on fewer than {FEW_INTERACTIONS} "
+            "recorded interactions (its label gives the fewest): one answer more or less moves it a lot.")
+
+
 def success_change(daily: pd.DataFrame, method: str, first: int, last: int) -> tuple[float, int]:
     """The mean change in success rate from day ``first`` to day ``last``, paired: over the
     participants who have both days (one who has not reached ``last`` yet does not move it), and

@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from cacas import spaces
-from cacas.errors import CacasError
+from cacas.errors import CacasError, nearest
 from cacas.privacy import contact_details
 
 FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
@@ -225,7 +225,8 @@ def parse_preference(obj: Any, source: str | None = None, pid: str | None = None
         raise CacasError(f"{w()}: must be an object with fields {', '.join(FIELDS)}")
     unknown = sorted(set(obj) - set(FIELDS))
     if unknown:
-        raise CacasError(f"{w(unknown[0])}: unknown field; valid fields: {', '.join(FIELDS)}")
+        raise CacasError(f"{w(unknown[0])}: unknown field; {nearest(unknown[0], FIELDS)}"
+                         f"valid fields: {', '.join(FIELDS)}")
     desc = obj.get("description", "")
     if desc is None:
         desc = ""
@@ -322,7 +323,8 @@ def parse_participant(obj: Any, source: str | None = None, index: int = 0) -> Pa
                          f"separates the codes of `cacas simulate --participants`; valid: {CODE_HINT}")
     unknown = sorted(set(obj) - {"id", "preferences"})
     if unknown:
-        raise CacasError(f"{_where(source, pid, fld=unknown[0])}: unknown field; valid fields: id, preferences")
+        raise CacasError(f"{_where(source, pid, fld=unknown[0])}: unknown field; "
+                         f"{nearest(unknown[0], ('id', 'preferences'))}valid fields: id, preferences")
     raw = obj.get("preferences")
     if not isinstance(raw, list) or not raw:
         raise CacasError(f"{_where(source, pid, fld='preferences')}: must be a non-empty list of preferences")
@@ -337,7 +339,8 @@ def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
         raise CacasError(f"{_where(source)}: must be a JSON object with a list 'participants'")
     unknown = sorted(set(data) - {"participants"})
     if unknown:  # a misspelt key was passed over without a word, as participants' and preferences' are not
-        raise CacasError(f"{_where(source, fld=unknown[0])}: unknown field; valid fields: participants")
+        raise CacasError(f"{_where(source, fld=unknown[0])}: unknown field; {nearest(unknown[0], ('participants',))}"
+                         "valid fields: participants")
     if not data["participants"]:
         raise CacasError(f"{_where(source)}: 'participants' is empty; add at least one participant")
     people = [parse_participant(p, source, i) for i, p in enumerate(data["participants"])]

@@ -13,7 +13,8 @@ activities (S1), 6 scenes (S2), 12 two-hour time slots (S3), 12 repeat-interval 
 * The number of states, 33*6*12*12*14*14*3, is the paper's 16,765,056 (:data:`N_STATES`).
 
 Names match case-insensitively (surrounding blanks and repeated spaces ignored); an unknown name
-raises :class:`cacas.errors.CacasError` naming it and listing the valid ones.
+raises :class:`cacas.errors.CacasError` naming it (and the valid name it is close to, if one is)
+and listing the valid ones.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from typing import Iterable
 
 import numpy as np
 
-from cacas.errors import CacasError
+from cacas.errors import CacasError, nearest
 
 #: S1: the paper's 33 sound events, in its order (Section III), "do nothing" last.
 ACTIVITIES: tuple[str, ...] = (
@@ -89,7 +90,7 @@ def index_of(kind: str, name: str) -> int:
     if isinstance(name, str) and _canon(name) in table:
         return table[_canon(name)]
     valid = ", ".join(_NAMES[kind])
-    raise CacasError(f"unknown {kind} {name!r}; valid: {valid}")
+    raise CacasError(f"unknown {kind} {name!r}; {nearest(name, _NAMES[kind])}valid: {valid}")
 
 
 def canonical(kind: str, name: str) -> str:

@@ -189,7 +189,8 @@ if fig3.open:
                           "described preference names an action: the success rate proposing the described preferences "
                           "reaches there. It is not a bound: where no preference names an action (or the participant "
                           "wants the robot to do nothing) a participant may still accept what the robot offers."
-                          if per_day["ceiling"].notna().any() else ""))
+                          if per_day["ceiling"].notna().any() else "")
+                       + (" " + few if (few := plots.few_interactions_note(shown, method)) else ""))
 
 if fig4.open:
     with fig4:
@@ -210,7 +211,11 @@ if fig4.open:
                 if job is not None and job.status == FAILED:
                     st.error(f"The comparison failed: {job.error}")
                 elif job is not None and job.status == DONE:  # said, not only drawn: a figure may change little
-                    st.success(app_support.comparison_done(job.result, job.elapsed, job.finished), icon=":material/check_circle:")
+                    said = app_support.comparison_done(job.result, job.elapsed, job.finished)
+                    if job.result.participants == 0:  # nothing there was to compare
+                        st.info(said, icon=":material/info:")
+                    else:
+                        st.success(said, icon=":material/check_circle:")
         # Fig. 4 is daily.csv's, whatever the source: the day a policy was in force (re-plotting the export
         # draws the same figure); policies adapted for a day not started yet are listed below it
         accuracy, by_pref = shown, tables.get("by_preference")

@@ -175,11 +175,13 @@ if runs:
     if settings:
         st.caption(saved_runs.run_caption(settings))
     c1, c2 = st.columns(2)
-    fig3 = plots.success_methods_figure(daily) if len(plots.closed_loop_methods(daily)) > 1 else \
-        plots.success_figure(daily, method=plots.loop_method(daily) or daily["method"].iloc[0])
+    one = None if len(plots.closed_loop_methods(daily)) > 1 else plots.loop_method(daily) or daily["method"].iloc[0]
+    fig3 = plots.success_methods_figure(daily) if one is None else plots.success_figure(daily, method=one)
     fig3, fig4 = plots.side_by_side(fig3, plots.methods_figure(daily))  # their plot areas at one height
     c1.plotly_chart(fig3, width="stretch")
     c2.plotly_chart(fig4, width="stretch")
+    if one is not None and (few := plots.few_interactions_note(daily, one)):  # Fig. 3's hollow points
+        c1.caption(few)
     summary = summary_table(daily)
     shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]
     # "–" where a method has no success rate (it did not act: the Fig. 4 protocol)

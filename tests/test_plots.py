@@ -371,3 +371,14 @@ def test_the_heatmaps_list_participants_by_code_whatever_its_letter_case():
     rows = pd.concat([by_preference().assign(participant=p) for p in ("P10", "P_1", "p2", "PA")])
     who = [y.split(" · ")[0] for y in preference_days_figure(rows, "nn").data[0].y]
     assert list(dict.fromkeys(who)) == ["P_1", "p2", "P10", "PA"]  # natural order (records.code_order)
+
+
+def test_the_note_on_fig3s_hollow_points_is_there_while_one_is():
+    from cacas.plots import few_interactions_note
+
+    d = daily()
+    assert few_interactions_note(d, "cacas") == ""
+    d.loc[(d["day"] == 3) & (d["method"] == "cacas"), "interactions"] = [15, 4]
+    assert few_interactions_note(d, "cacas").startswith("A hollow point is a day where a participant's success "
+                                                        "rate rests on fewer than 5 recorded interactions")
+    assert few_interactions_note(d, "nn") == ""  # another method's days

@@ -54,7 +54,12 @@ def test_preferred_action_table():
     ({"interval": [40, 50]}, "interval", "covering at least one"),
     ({"interval": [30, 0]}, "interval", "min <= max"),
     ({"task": ["bake"]}, "task", "'bake'"),
-    ({"colour": "red"}, "colour", "unknown field"),
+    ({"colour": "red"}, "colour", "unknown field; valid fields: description, activity"),
+    # a near miss is named (walkthrough: 'use scissors' was followed by the 33 names to search)
+    ({"activity": ["use scissors"]}, "activity", "unknown activity 'use scissors'; did you mean 'use scissor'? valid: "),
+    ({"scene": ["Livingroom"]}, "scene", "unknown scene 'Livingroom'; did you mean 'living room'? valid: bedroom"),
+    ({"action": "remind to turn of"}, "action", "; did you mean 'remind to turn off'? valid: do nothing"),
+    ({"secne": ["kitchen"]}, "secne", "unknown field; did you mean 'scene'? valid fields: description"),
     ({"hours": [[6.0, 10]]}, "hours", "hours are whole numbers, written without a decimal point: 6, not 6.0"),
     ({"hours": []}, "hours", "must be a list of [start, end) pairs in whole even hours 0-24 with start < end"),
     ({"description": 7}, "description", "must be text (the participant's own words)"),
@@ -147,6 +152,9 @@ COUGH = {"activity": ["cough"], "action": "pain check"}
     ({"participants": ["P01"]}, "people.json: participant 1 must be an object with 'id' and 'preferences'"),
     ({"participants": [{"id": "P01", "name": "Anna", "preferences": [COUGH]}]},
      "people.json, participant P01, field 'name': unknown field; valid fields: id, preferences"),
+    ({"participants": [{"id": "P01", "preferences": [COUGH], "preferenses": []}]},
+     "people.json, participant P01, field 'preferenses': unknown field; did you mean 'preferences'? valid fields: "
+     "id, preferences"),
     ({"participants": [{"id": "P01", "preferences": []}]},
      "people.json, participant P01, field 'preferences': must be a non-empty list of preferences"),
     ({"participants": [{"id": "P01", "preferences": [COUGH, "cough -> pain check"]}]},

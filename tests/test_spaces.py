@@ -19,6 +19,17 @@ def test_names_case_insensitive_and_unknown_named():
     with pytest.raises(CacasError) as err:
         spaces.action_index("make coffee")
     assert "'make coffee'" in str(err.value) and "remind to unplug" in str(err.value)
+    assert "did you mean" not in str(err.value)  # nothing close to it: no guess
+
+
+def test_an_unknown_name_close_to_a_valid_one_names_it_first():
+    """The hint before the list (walkthrough: "unknown activity 'use scissors'" and 33 names); the name
+    is still refused."""
+    with pytest.raises(CacasError) as err:
+        spaces.activity_index("use scissors")
+    assert str(err.value).startswith("unknown activity 'use scissors'; did you mean 'use scissor'? valid: cough, ")
+    with pytest.raises(CacasError, match="unknown action 'Remind to turn of'; did you mean 'remind to turn off'"):
+        spaces.action_index("Remind to turn of")
 
 
 @pytest.mark.parametrize("minutes,expected", [(0, 0), (0.5, 0), (1, 1), (4, 2), (5, 3), (59, 7),

@@ -676,3 +676,41 @@ def test_the_study_tables_are_read_again_only_when_the_database_changes(app, sto
     at.run()
     assert "2 participants (1 with a study day)" in texts(at) and label("participants") == "participants.csv · 2 rows"
     assert len(reads) == 3
+
+
+HOLLOW = ("A hollow point is a day where a participant's success rate rests on fewer than 5 recorded interactions "
+          "(its label gives the fewest)")
+
+
+def test_fig3s_hollow_points_are_said_under_it(app, store):
+    """Walkthrough: a hollow point labelled "fewest 2 interactions" was explained only in its hover; the
+    caption says what it is while the figure has one."""
+    store.add_participant("P01")
+    day = store.open_day("P01")
+    for _ in range(4):
+        _a_cough(store, day)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert HOLLOW in texts(at)
+    _a_cough(store, day)  # the fifth: no hollow point left
+    at.run()
+    no_exception(at)
+    assert "A hollow point" not in texts(at) and "Mean over participants; the band spans" in texts(at)
+
+
+def test_comparing_a_study_with_no_closed_day_says_there_was_nothing_to_compare(app, db, store):
+    """Walkthrough: "Compare methods" on a study of imported participants, none with a closed day, said
+    "no new run; each method has one for every closed day ... already", as if all were compared."""
+    from cacas.jobs import RUNNER
+
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    at = open_tab(app(PAGE, participant="P01"), "results-tab", FIG4)
+    next(b for b in at.button if b.label == "Compare methods on this study's data").click().run()
+    assert RUNNER.get(f"compare:{db}:default").wait(60)
+    at.run()
+    no_exception(at)
+    said = [i.value for i in at.info if i.value.startswith("Nothing compared (")]
+    assert said and "no participant with described preferences has a closed study day yet" in said[0]
+    assert not [s.value for s in at.success]  # not a success: nothing was done
+    RUNNER.forget(f"compare:{db}:default")

@@ -430,3 +430,24 @@ def test_a_runs_downloads_are_named_after_the_run(app, db, downloads):
             "by_preference-run_a.csv"} <= set(downloads.at_click)
     assert not [f for f in downloads.at_click if f in ("daily.csv", "interactions.csv", "summary.csv")]
     assert {"Download daily.csv", "Download by_preference.csv"} <= {b.label for b in at.get("download_button")}
+
+
+def test_fig3s_hollow_points_are_said_under_it(app, db):
+    """Walkthrough: "fewest 2 interactions" beside a hollow point on Fig. 3, said nowhere on the page but
+    in its hover: a caption under the figure says what it is while the run has one."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    save_runs(db, {"run-a": 2})  # 15 interactions a day: nothing hollow
+    at = app(PAGE)
+    no_exception(at)
+    assert "A hollow point" not in texts(at)
+    daily = pd.DataFrame({"participant": ["P01", "P01"], "method": ["cacas", "cacas"], "day": [1, 2],
+                          "success_rate": [0.5, 1.0], "preference_accuracy": [0.2, 0.4],
+                          "cumulative_feedback": [15, 17], "interactions": [15, 2]})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-b", daily, pd.DataFrame({"participant": ["P01"]}), {})
+    at.run().selectbox(key="sim-run").set_value("run-b").run()
+    no_exception(at)
+    assert ("A hollow point is a day where a participant's success rate rests on fewer than 5 recorded "
+            "interactions (its label gives the fewest)") in texts(at)

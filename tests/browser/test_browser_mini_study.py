@@ -447,8 +447,12 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     (folder / "notes.csv").write_text("a,b\n1,2\n")
 
     goto(page, f"{server}/results")
+    # the choice's run waited for by the run counter, as click() waits for a button's: in two full suites at load
+    # 5-7 upload() below waited 60 s for the run after its files (never alone, even with the CPU kept busy); a
+    # choice whose run starts after idle's 2 s left the upload to a page still running it (the likely cause)
+    before = runs(page)
     page.get_by_text("Upload CSV files", exact=True).click()
-    idle(page)
+    ran(page, before)
     uploader = page.locator("[data-testid='stFileUploaderDropzoneInput']")
     upload(page, uploader, folder / "daily.csv", folder / "notes.csv")
     shows(page, "notes.csv: not a daily.csv, by_preference.csv or interactions.csv")
