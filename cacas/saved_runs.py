@@ -33,9 +33,12 @@ def runs_dir(db_path) -> Path:
 def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, settings: dict,
              by_preference: pd.DataFrame | None = None) -> Path:
     """Write a simulated run as ``cacas simulate`` does (daily.csv, interactions.csv and, when
-    given, by_preference.csv) plus settings.json, into ``root/name``, all or nothing
-    (:func:`cacas.store.files.write_all`): a failure part-way leaves an earlier run of that name
-    as it was. daily.csv, by which :func:`list_runs` knows a run, is put in place last."""
+    given, by_preference.csv, with their checksums.sha256) plus settings.json, into ``root/name``,
+    all or nothing (:func:`cacas.store.files.write_all`): a failure part-way leaves an earlier run
+    of that name as it was, and a kill between two renames leaves files that do not match the
+    checksums (:func:`load_run` refuses them). daily.csv, by which :func:`list_runs` knows a run,
+    is put in place last. An earlier run's by_preference.csv that this run has none of is taken
+    away in the same change."""
     from cacas.store import files
 
     folder = files.writable_folder(Path(root) / name, f"run folder {Path(root) / name}")
@@ -44,9 +47,7 @@ def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, s
         contents["by_preference.csv"] = records.csv_bytes(by_preference)
     contents["settings.json"] = json.dumps(settings, indent=2, default=str).encode("utf-8")
     contents["daily.csv"] = records.csv_bytes(daily)
-    files.write_all(folder, contents)
-    if by_preference is None:  # an earlier run of this name had one: it is not this run's
-        (folder / "by_preference.csv").unlink(missing_ok=True)
+    files.write_all(folder, contents, checksums=True, remove=() if by_preference is not None else ("by_preference.csv",))
     return folder
 
 
@@ -410,8 +411,11 @@ class Run:
 def load_run(folder) -> Run:
     """A run folder of :func:`save_run` (or ``cacas simulate --out``): daily.csv (checked,
     :func:`load_daily`), interactions.csv, by_preference.csv when there is one and settings.json
-    when there is one. A missing folder or table, or unreadable settings, is a CacasError
-    naming it."""
+    when there is one. A missing folder or table, unreadable settings, or a file that does not
+    match the folder's checksums.sha256 (a run killed between its renames left files of two runs
+    side by side, or a file was changed since) is a CacasError naming it."""
+    from cacas.store import files
+
     folder = Path(folder)
     if not folder.is_dir():
         raise CacasError(f"{folder}: no such run folder")
@@ -419,6 +423,12 @@ def load_run(folder) -> Run:
         if not (folder / table).is_file():
             raise CacasError(f"{folder}: no {table}; not a complete run (valid: a folder the Simulation lab "
                              "or `cacas simulate --out` wrote)")
+    bad = files.mismatched(folder, {"daily.csv", "interactions.csv", "by_preference.csv", "settings.json"})
+    if bad:
+        raise CacasError(f"{folder}: {', '.join(bad)} {'does' if len(bad) == 1 else 'do'} not match "
+                         f"{files.CHECKSUMS}: the run that wrote the folder was stopped part-way (killed, or a "
+                         "power cut) and left files of two runs side by side, or a file was changed since; run it "
+                         "again")
     return Run(name=folder.name, daily=load_daily(folder / "daily.csv"),
                interactions=records.read_csv(folder / "interactions.csv"),
                by_preference=load_by_preference(folder), settings=run_settings(folder))

@@ -28,19 +28,45 @@ def test_load_run_reads_what_save_run_wrote(tmp_path):
     assert run.name == "run1" and run.settings == {"seed": 4, "methods": ["cacas"]}
     assert run.daily.equals(_daily()) and run.interactions.equals(inter) and run.by_preference.equals(_by_pref())
     assert list(run.tables) == ["daily", "interactions", "by_preference"]
-    assert sorted(p.name for p in folder.iterdir()) == ["by_preference.csv", "daily.csv", "interactions.csv",
-                                                        "settings.json"]  # no temporary file left
+    assert sorted(p.name for p in folder.iterdir()) == ["by_preference.csv", "checksums.sha256", "daily.csv",
+                                                        "interactions.csv", "settings.json"]  # no temporary file left
+    # the checksums list the run's files, as cacas simulate --out's do (the Results upload checks them)
+    assert sorted(files.parse_checksums((folder / files.CHECKSUMS).read_bytes())) == [
+        "by_preference.csv", "daily.csv", "interactions.csv", "settings.json"]
     # the same name saved again without by_preference: the earlier one is not left behind as this run's
     saved_runs.save_run(root, "run1", _daily(0.6), inter, {})
     run = saved_runs.load_run(folder)
     assert run.by_preference is None and "by_preference" not in run.tables and run.settings == {}
     assert run.daily["success_rate"].tolist() == [0.6]
+    assert not (folder / "by_preference.csv").exists()
+    assert "by_preference.csv" not in files.parse_checksums((folder / files.CHECKSUMS).read_bytes())
+
+
+def test_a_run_whose_files_do_not_match_its_checksums_is_refused_by_name(tmp_path):
+    """Walkthrough: the Simulation lab's run folders had no checksums.sha256 (cacas simulate --out's
+    have one), so a run killed between two renames, files of two runs side by side, read as one run."""
+    root = tmp_path / "runs"
+    inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    folder = saved_runs.save_run(root, "run1", _daily(0.3), inter, {"seed": 1}, _by_pref())
+    earlier = (folder / "daily.csv").read_bytes()
+    saved_runs.save_run(root, "run1", _daily(0.6), inter, {"seed": 2}, _by_pref())
+    (folder / "daily.csv").write_bytes(earlier)  # as a kill before daily.csv's rename leaves it
+    with pytest.raises(CacasError, match=r"run1: daily\.csv does not match checksums\.sha256: the run that wrote "
+                                         r"the folder was stopped part-way .* run it again"):
+        saved_runs.load_run(folder)
+    (folder / "by_preference.csv").unlink()
+    with pytest.raises(CacasError, match=r"by_preference\.csv, daily\.csv do not match"):
+        saved_runs.load_run(folder)
+    # a folder written without checksums (an older version's run) is read as before
+    (folder / files.CHECKSUMS).unlink()
+    assert saved_runs.load_run(folder).daily["success_rate"].tolist() == [0.3]
 
 
 def test_load_run_names_what_is_missing_or_unreadable(tmp_path):
     with pytest.raises(CacasError, match="no such run folder"):
         saved_runs.load_run(tmp_path / "absent")
     folder = saved_runs.save_run(tmp_path, "r", _daily(), pd.DataFrame({"participant": ["P01"]}), {})
+    (folder / files.CHECKSUMS).unlink()  # settings written by hand (with them, a changed file is said first)
     (folder / "settings.json").write_text("{not json")
     with pytest.raises(CacasError, match=r"settings\.json: not readable JSON"):
         saved_runs.load_run(folder)
@@ -114,8 +140,10 @@ def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
                          {"participants": ["P01"], "days": 1, "methods": ["bandit"], "seed": 3,
                           "personas": "the described preferences of the participants of study 'pilot'"})
     saved_runs.save_run(tmp_path, "from-the-command-line", daily, inter, {})
-    (tmp_path / "from-the-command-line" / "settings.json").unlink()
+    for made_by_hand in ("settings.json", files.CHECKSUMS):  # as an older version's command wrote it
+        (tmp_path / "from-the-command-line" / made_by_hand).unlink()
     saved_runs.save_run(tmp_path, "broken", daily, inter, {})
+    (tmp_path / "broken" / files.CHECKSUMS).unlink()
     (tmp_path / "broken" / "settings.json").write_text("{not json")
     assert saved_runs.run_label(tmp_path, "20261126-081502-seed0-8p-7d") == \
         "26 Nov 2026 08:15:02 · 8 participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0"
