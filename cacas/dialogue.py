@@ -21,7 +21,7 @@ import re
 from dataclasses import dataclass
 
 from cacas import spaces
-from cacas.errors import CacasError
+from cacas.errors import CacasError, shortened
 
 # --- what the robot heard (S1) -------------------------------------------------------------------
 
@@ -412,7 +412,7 @@ def match_request(text: str) -> RequestMatch:
                              "want, or 'Nothing needed' if it stayed quiet.")
         examples = " or ".join(f"'{request_words(a)}'" for a in ("pain check", "set a timer"))
         said = text.strip()
-        said = said if len(said) <= 60 else said[:57].rstrip() + "..."  # a long text is not echoed whole
+        said = shortened(said, 60)  # a long text is not echoed whole
         raise CacasError(f"Sorry, the robot did not understand {said!r}. Try other words, for example "
                          f"{examples}, or pick what you would like from the list above.")
     best, score, hits = ranked[0]

@@ -59,6 +59,20 @@ def nearest(value: object, known) -> str:
     return f"did you mean {names[close[0]]!r}? " if close else ""
 
 
+def shortened(text: str, limit: int) -> str:
+    """``text`` whole when it has at most ``limit`` characters, else its start cut at the last
+    blank that keeps it and "..." within ``limit`` (a hard cut when one word is longer): a
+    participant's words quoted in a message ("tell me to be careful...", not "tell me to be
+    caref..."; walkthrough)."""
+    text = str(text).strip()
+    if len(text) <= limit:
+        return text
+    room = max(limit - 3, 1)
+    head = text[:room + 1]  # one more: a blank just after the cut means the last word is whole
+    cut = head.rfind(" ")
+    return (head[:cut] if cut > 0 else text[:room]).rstrip(" ,;:.") + "..."
+
+
 def each(*checks: Callable[[], Any]) -> list:
     """Run every check (a function of no argument, such as ``lambda: age_range(x)``): their values in
     order, or one CacasError saying every problem found, joined by "; and ". A form with two wrong

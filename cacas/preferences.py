@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from cacas import spaces
-from cacas.errors import CacasError, nearest
+from cacas.errors import CacasError, nearest, shortened
 from cacas.privacy import contact_details
 
 FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
@@ -161,7 +161,7 @@ def _where(source: str | None, pid: str | None = None, pref: int | None = None,
         desc = ""
         if isinstance(pref_obj, dict) and isinstance(pref_obj.get("description"), str) and pref_obj["description"]:
             d = pref_obj["description"]
-            desc = f' ("{d[:40]}{"..." if len(d) > 40 else ""}")'
+            desc = f' ("{shortened(d, 43)}")'
         parts.append(f"preference {pref + 1}{desc}")
     if fld is not None:
         parts.append(f"field '{fld}'")
