@@ -50,6 +50,9 @@ class Job:
     exception: BaseException | None = field(default=None, repr=False)  # what ``error`` says, for its type
     started: float = field(default_factory=time.time)
     finished: float | None = None
+    #: (elapsed s, fraction) at the first report of some work done: what came before it (starting
+    #: worker processes, a first optimizer) is no measure of the pace (:func:`cacas.app_support.time_left`)
+    first_step: tuple[float, float] | None = None
     _done: threading.Event = field(default_factory=threading.Event, repr=False)
     _stop: threading.Event = field(default_factory=threading.Event, repr=False)
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
@@ -69,6 +72,8 @@ class Job:
             raise Stopped(f"{self.label}: stopped on request")
         with self._lock:
             self.fraction = min(1.0, max(0.0, float(fraction)))
+            if self.first_step is None and self.fraction > 0:
+                self.first_step = (self.elapsed, self.fraction)
             if message:
                 self.message = str(message)
                 if not self.log or self.log[-1] != self.message:
@@ -91,7 +96,7 @@ class Job:
         with self._lock:
             return {"key": self.key, "label": self.label, "status": self.status,
                     "fraction": self.fraction, "message": self.message, "log": list(self.log),
-                    "error": self.error, "elapsed": self.elapsed}
+                    "error": self.error, "elapsed": self.elapsed, "first_step": self.first_step}
 
 
 class JobRunner:

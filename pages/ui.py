@@ -345,7 +345,7 @@ def _job_fragment(key: str, stoppable: bool = False, when_stopped: str = NOTHING
     snap = job.snapshot()
     st.progress(snap["fraction"], text=f"{snap['label']}: {snap['message'] or 'starting'} "
                                        f"({snap['elapsed']:.0f} s"
-                                       f"{app_support.time_left(snap['elapsed'], snap['fraction'])})")
+                                       f"{app_support.time_left(snap['elapsed'], snap['fraction'], snap['first_step'])})")
     if stoppable and job.running:
         st.button("Stopping..." if job.stopping else "Stop", key=f"stop-{key}", icon=":material/stop:",
                   disabled=job.stopping, on_click=RUNNER.stop, args=(key,),

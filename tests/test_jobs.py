@@ -19,6 +19,23 @@ def test_job_reports_progress_and_result():
     assert job.label == "Counting" and runner.get("k") is job
 
 
+def test_a_job_keeps_when_its_first_work_was_reported():
+    """The time left is measured from the first report of work done, not from the job's start."""
+    runner = JobRunner()
+
+    def work(progress):
+        progress(0.0, "starting the worker processes")
+        progress(0.25, "participant P01: day 1 of 4 done")
+        progress(0.5, "participant P01: day 2 of 4 done")
+
+    job, _ = runner.start("k", work)
+    assert job.wait(10)
+    elapsed, fraction = job.first_step
+    assert fraction == 0.25 and 0 <= elapsed <= job.elapsed
+    assert job.snapshot()["first_step"] == (elapsed, 0.25)
+    assert JobRunner().start("idle", lambda progress: None)[0].snapshot()["first_step"] is None
+
+
 def test_second_start_while_running_returns_the_same_job():
     runner = JobRunner()
     gate = threading.Event()
