@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from typing import Any, Sequence
 
 import numpy as np
@@ -181,6 +182,19 @@ def study_file_name(prefix: str, study: str, suffix: str) -> str:
     from cacas.media_library import slug
 
     return f"{prefix}-{slug(study) or 'study'}{suffix}"
+
+
+#: A run folder's name that a download may carry as it is: what :func:`cacas.saved_runs.new_run_name` makes
+#: ("20260301-101500-seed0-8p-7d", "...-2" for a second run in that second), no character a shell trips on.
+_RUN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+
+
+def run_file_name(prefix: str, run: str, suffix: str) -> str:
+    """A simulated run's download named after its folder, as the folder is named: "daily-" plus
+    "20260301-101500-seed0-8p-7d.csv" (:func:`study_file_name` made it "20260301_101500_seed0_8p_7d",
+    which matched no folder on disk). A folder renamed by hand to something a shell trips on ("my run")
+    is made safe as a study's name is."""
+    return f"{prefix}-{run}{suffix}" if _RUN_NAME.fullmatch(run) else study_file_name(prefix, run, suffix)
 
 
 def synthetic_words(training_data: dict) -> str:
