@@ -770,6 +770,31 @@ def learnt_table_layout(columns) -> tuple[dict[str, int], int]:
     return fitted_layout(widths, columns, LEARNT_TABLE_ROOM)
 
 
+#: The width (px) of the Sounds and scenes page's "Every photo of one room" grid at 1280 x 800, inside its
+#: expander beside the sidebar (measured in headless Chromium: 6 columns of 118 px, 16 px apart).
+PHOTO_GRID_ROOM = 786
+PHOTO_GRID_GAP = 16
+
+
+def caption_width(text: str) -> float:
+    """A photo caption's width (px) in Streamlit's 16-px Source Sans, from above: 8.1 px a character,
+    4.5 for the narrow ones ("." "i" "l" ...), 5 for "-" (measured in Chromium: "synthetic_0_000.jpg" 134.6 px,
+    estimated 143; "IMG_20260301_101500.jpg" 178.3, estimated 182.7)."""
+    return sum(4.5 if c in ".,:;'|!iljI" else 5.0 if c == "-" else 8.1 for c in text)
+
+
+def photo_grid_columns(names, most: int = 6, fewest: int = 2, room: int = PHOTO_GRID_ROOM) -> int:
+    """How many columns the grid of every photo of a room has: as many as ``most`` in which the longest of
+    the photos' file ``names`` (their captions) stays on one line at 1280 px, ``fewest`` at least. In six
+    columns of 118 px the shipped "synthetic_0_000.jpg" broke mid-name ("synthetic_0_000.jp" / "g", the ui
+    helper); five keep it whole. A name longer than two columns hold wraps as before."""
+    widest = max((caption_width(str(n)) for n in names), default=0.0)
+    for k in range(most, fewest, -1):
+        if (room - PHOTO_GRID_GAP * (k - 1)) / k >= widest:
+            return k
+    return fewest
+
+
 def day_ranges(days) -> str:
     """Days as short ranges: [1, 2, 3, 5] -> "1-3, 5"."""
     out: list[list[int]] = []
