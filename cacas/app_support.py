@@ -680,6 +680,12 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
 #: beside the sidebar (measured in headless Chromium).
 TODAY_TABLE_ROOM = 784
 
+#: The widths (px) of the Overview's recent activity (:func:`recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
+#: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
+#: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
+#: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.
+RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110, "what": 640}
+
 #: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
 #: headless Chromium: 820 px, its 1-px borders included).
 OVERVIEW_TABLE_ROOM = 818
