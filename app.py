@@ -297,6 +297,10 @@ TABLET_STYLE = """
                                                          flex: 1 1 0 !important; }
   [class*='st-key-tablet-row'] button { padding: 0.4rem 0.25rem; }
   [class*='st-key-tablet-row'] button > div > span { flex-direction: column; gap: 0.1rem; }
+  /* the context form (30 chips, a list) is taller than a phone's screen: "Do it" stays at the screen's bottom
+     edge while the form is scrolled, in its place once the form's end is in view */
+  [data-testid='stForm'] .st-key-button-Do-it { position: sticky; bottom: 0.75rem; z-index: 2; }
+  [data-testid='stForm'] .st-key-button-Do-it button { box-shadow: 0 0.25rem 0.75rem rgba(0, 0, 0, 0.25); }
 }
 """
 

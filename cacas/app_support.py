@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from typing import Any, Sequence
 
 import numpy as np
@@ -181,6 +182,19 @@ def study_file_name(prefix: str, study: str, suffix: str) -> str:
     from cacas.media_library import slug
 
     return f"{prefix}-{slug(study) or 'study'}{suffix}"
+
+
+#: A run folder's name that a download may carry as it is: what :func:`cacas.saved_runs.new_run_name` makes
+#: ("20260301-101500-seed0-8p-7d", "...-2" for a second run in that second), no character a shell trips on.
+_RUN_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]*")
+
+
+def run_file_name(prefix: str, run: str, suffix: str) -> str:
+    """A simulated run's download named after its folder, as the folder is named: "daily-" plus
+    "20260301-101500-seed0-8p-7d.csv" (:func:`study_file_name` made it "20260301_101500_seed0_8p_7d",
+    which matched no folder on disk). A folder renamed by hand to something a shell trips on ("my run")
+    is made safe as a study's name is."""
+    return f"{prefix}-{run}{suffix}" if _RUN_NAME.fullmatch(run) else study_file_name(prefix, run, suffix)
 
 
 def synthetic_words(training_data: dict) -> str:
@@ -666,6 +680,12 @@ def interactions_view(df: pd.DataFrame) -> pd.DataFrame:
 #: beside the sidebar (measured in headless Chromium).
 TODAY_TABLE_ROOM = 784
 
+#: The widths (px) of the Overview's recent activity (:func:`recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
+#: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
+#: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
+#: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.
+RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110, "what": 640}
+
 #: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
 #: headless Chromium: 820 px, its 1-px borders included).
 OVERVIEW_TABLE_ROOM = 818
@@ -754,6 +774,31 @@ def learnt_table_layout(columns) -> tuple[dict[str, int], int]:
     counts of states, "states covered" and "Fig. 4 draws", keep their names whole."""
     widths = {"label": 250, "action": 125, "covers": 115, "states": 110, "before": 105, "after": 105}
     return fitted_layout(widths, columns, LEARNT_TABLE_ROOM)
+
+
+#: The width (px) of the Sounds and scenes page's "Every photo of one room" grid at 1280 x 800, inside its
+#: expander beside the sidebar (measured in headless Chromium: 6 columns of 118 px, 16 px apart).
+PHOTO_GRID_ROOM = 786
+PHOTO_GRID_GAP = 16
+
+
+def caption_width(text: str) -> float:
+    """A photo caption's width (px) in Streamlit's 16-px Source Sans, from above: 8.1 px a character,
+    4.5 for the narrow ones ("." "i" "l" ...), 5 for "-" (measured in Chromium: "synthetic_0_000.jpg" 134.6 px,
+    estimated 143; "IMG_20260301_101500.jpg" 178.3, estimated 182.7)."""
+    return sum(4.5 if c in ".,:;'|!iljI" else 5.0 if c == "-" else 8.1 for c in text)
+
+
+def photo_grid_columns(names, most: int = 6, fewest: int = 2, room: int = PHOTO_GRID_ROOM) -> int:
+    """How many columns the grid of every photo of a room has: as many as ``most`` in which the longest of
+    the photos' file ``names`` (their captions) stays on one line at 1280 px, ``fewest`` at least. In six
+    columns of 118 px the shipped "synthetic_0_000.jpg" broke mid-name ("synthetic_0_000.jp" / "g", the ui
+    helper); five keep it whole. A name longer than two columns hold wraps as before."""
+    widest = max((caption_width(str(n)) for n in names), default=0.0)
+    for k in range(most, fewest, -1):
+        if (room - PHOTO_GRID_GAP * (k - 1)) / k >= widest:
+            return k
+    return fewest
 
 
 def day_ranges(days) -> str:

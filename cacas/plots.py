@@ -172,8 +172,10 @@ DAY_AXIS = {False: 67, True: 83}
 LEGEND_ROW = 19
 LEGEND_PAD = 10
 
-#: The width (px) of each of two figures side by side: the Simulation lab's columns at 1280 px (402; 274 at 1024).
+#: The width (px) of each of two figures side by side: the Simulation lab's columns at 1280 px (402; 482 at 1440),
+#: and the narrowest it draws them at, its columns at 1024 px (274).
 SIDE_BY_SIDE_WIDTH = 400
+NARROWEST_SIDE_BY_SIDE = 274
 
 
 def _text_width(text: str) -> float:
@@ -200,15 +202,26 @@ def legend_rows(fig: go.Figure, width: float) -> int:
     return -(-len(entries) // per_row)
 
 
-def side_by_side(*figs: go.Figure, width: float = SIDE_BY_SIDE_WIDTH) -> tuple[go.Figure, ...]:
+def side_by_side(*figs: go.Figure, width: float = SIDE_BY_SIDE_WIDTH,
+                 narrowest: float = NARROWEST_SIDE_BY_SIDE) -> tuple[go.Figure, ...]:
     """``figs`` (built here, each with :func:`legend_block`) to be drawn side by side, each ``width``
     px wide (Simulation lab: Fig. 3 beside Fig. 4): one bottom margin, the tallest their day axes and
     legends need there (:data:`DAY_AXIS`, :func:`legend_rows`), so that their plot areas are at one
     height (Fig. 3's legend of three or four rows lifted its plot 40-60 px above Fig. 4's). Narrower, a
-    legend of more rows than counted makes its figure's margin taller: never over the axis title.
+    legend of more rows than counted makes its figure's margin taller, never over the axis title: the
+    plots stay at one height if every figure's margin grows alike. Where they would not at ``narrowest``
+    (the lab at 1024 px: Fig. 4's four methods took four rows, Fig. 3's legend without a success ceiling
+    three, and Fig. 4's plot sat 19 px above Fig. 3's; 38 px with six methods: the ui helper), the margin
+    is what they need there, the most, and a wider figure leaves room between axis title and legend.
     Their titles are at one height already (:func:`title_block`)."""
-    bottom = max(DAY_AXIS[any("<br>" in str(t) for t in (f.layout.xaxis.ticktext or ()))]
-                 + LEGEND_ROW * legend_rows(f, width) + LEGEND_PAD for f in figs)
+    def needs(w: float) -> list[int]:
+        return [DAY_AXIS[any("<br>" in str(t) for t in (f.layout.xaxis.ticktext or ()))]
+                + LEGEND_ROW * legend_rows(f, w) + LEGEND_PAD for f in figs]
+
+    bottom = max(needs(width))
+    narrow = needs(min(width, narrowest))
+    if len({max(bottom, n) for n in narrow}) > 1:  # there the margins would grow apart
+        bottom = max(narrow)
     for f in figs:
         f.update_layout(margin=dict(b=bottom))
     return figs

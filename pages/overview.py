@@ -15,10 +15,10 @@ def recent_activity(events) -> None:
     if events.empty:
         st.caption("Nothing recorded yet.")
         return
+    # each time and "2 participants" whole (app_support.RECENT_ACTIVITY_WIDTHS)
     st.dataframe(events, hide_index=True, width="stretch",
-                 column_config={"when": st.column_config.TextColumn("when", width=165),
-                                "participant": st.column_config.TextColumn("participant", width=85),
-                                "what": st.column_config.TextColumn("what", width=640)})
+                 column_config={c: st.column_config.TextColumn(c, width=w)
+                                for c, w in app_support.RECENT_ACTIVITY_WIDTHS.items()})
 
 
 store = ui.store()

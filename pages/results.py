@@ -65,7 +65,7 @@ def table_file_name(table: str) -> str:
     if source == HUMAN:
         return app_support.study_file_name(table, study, ".csv")
     if source.startswith("Simulated run: "):
-        return app_support.study_file_name(table, source.removeprefix("Simulated run: "), ".csv")
+        return app_support.run_file_name(table, source.removeprefix("Simulated run: "), ".csv")
     return f"{table}.csv"
 
 

@@ -424,10 +424,11 @@ unanswered = status.unanswered_today
 # the researcher's view says the count of all the day's interactions too: the number an interaction has here
 # ("On P01's tablet now · interaction 4", "Interaction 4 saved") and in the day's table counts them all
 # (walkthrough: "interaction 4" beside "2 of about 15" with nothing saying where the other one went)
+# One line at 1024-1440 px: which interactions are not counted is said in "Today's interactions", which lists them
+# (the reasons in the counter took it to two lines at 1280 px: the ui helper)
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
             text=f"Day {day} of {STUDY_DAYS} · {app_support.day_count(status.recorded_today)}"
-                 + (f"; {done} in all with {unanswered} not counted (no response, nothing needed while the robot "
-                    "was quiet, or a request while doing nothing)" if unanswered and not tablet else ""))
+                 + (f"; {done} in all with {unanswered} not counted" if unanswered and not tablet else ""))
 
 token_ctx = st.query_params.get("ctx")
 context = None
@@ -609,6 +610,9 @@ if done and not tablet:
     # a key keeps it open while the count in its label follows the tablet
     with st.expander(f"Today's interactions ({status.recorded_today} recorded"
                      + (f", {unanswered} not counted)" if unanswered else ")"), key="today-interactions"):
+        if unanswered:  # what the counter above leaves out, and why (Section V-B, IV-C.1)
+            st.caption(f"Not counted toward the ~{TARGET_INTERACTIONS}: no response, nothing needed while the robot "
+                       "was quiet, or a request while doing nothing.")
         today = store.interactions_frame(code, method=None, extra=True)
         view = app_support.interactions_view(today[today["day"] == day]).drop(columns="day")  # one day: room for
         # the answer. The words first: a number needs little room, an answer ("asked for remind to take medicine")

@@ -203,15 +203,15 @@ if runs:
                                          "it adapted from the interactions of the first method, so it shows "
                                          "that method's count.")})
     d1, d2, d3 = st.columns(3)
-    # named after the run, as Results names them (two runs' "daily.csv" met in a Downloads folder)
+    # named after the run's folder, as Results names them (two runs' "daily.csv" met in a Downloads folder)
     for where, table, df, key in ((d1, "daily", daily, "sim-dl-daily"), (d2, "interactions", run.interactions,
                                                                          "sim-dl-inter"),
                                   (d3, "summary", summary, "sim-dl-summary")):
         with where:
-            ui.download_csv(df, app_support.study_file_name(table, name, ".csv"), f"Download {table}.csv", key=key)
+            ui.download_csv(df, app_support.run_file_name(table, name, ".csv"), f"Download {table}.csv", key=key)
     if run.by_preference is not None:
         st.subheader("Which preferences each method learnt")
         # keyed by run: one key for every run kept the day picked (or last shown) for the run before, so a 7-day
         # run that ended after a 2-day one opened on day 2 (walkthrough); the Results page keys it by run too
         ui.preference_heatmaps(run.by_preference, key=f"sim-prefs:{name}",
-                               file_name=app_support.study_file_name("by_preference", name, ".csv"))
+                               file_name=app_support.run_file_name("by_preference", name, ".csv"))

@@ -44,7 +44,7 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
         st.image(lab.photo_to_show(name, data), width=280)  # as the model sees it (a 16-bit PNG could not be drawn)
     else:  # hear what the model heard
         st.audio(data, format=lab.audio_mime(name))
-    st.markdown(f"### {r.label}")
+    st.markdown(f"### {r.label}", anchors=False)  # no anchor-link icon beside it, as on the tablet's headings
     if r.short:
         st.warning(f"The clip {short_clip_warning(r.seconds)}.", icon=":material/timer:")
     if r.unsure:
@@ -211,9 +211,11 @@ with scene_library:
         if every_photo.open is not False:  # drawn only while open, as the clips (48 photos)
             room = st.selectbox("Room", spaces.SCENES, key="lib-room", persist_state="page")
             photos = image_paths(room)[:48]
-            grid = st.columns(6)
+            # as many columns as keep each name on one line at 1280 px (in six "synthetic_0_000.jp" broke before "g")
+            n = app_support.photo_grid_columns(p.name for p in photos)
+            grid = st.columns(n)
             for j, p in enumerate(photos):
-                grid[j % 6].image(str(p), caption=p.name, width="stretch")
+                grid[j % n].image(str(p), caption=p.name, width="stretch")
             if len(image_paths(room)) > len(photos):
                 st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
 

@@ -410,6 +410,17 @@ def test_a_studys_download_names_have_no_spaces():
     assert app_support.study_file_name("personas", "?? ", ".json") == "personas-study.json"
 
 
+def test_a_runs_download_names_are_its_folders_name():
+    """A simulated run's tables are named after its folder as it is named on disk: "-" was made "_" (the ui
+    helper), so that "daily-20260301_101500_seed0_8p_7d.csv" matched no folder. A name a shell trips on
+    (a folder renamed by hand) is made safe as a study's is."""
+    assert app_support.run_file_name("daily", "20260301-101500-seed0-8p-7d-2", ".csv") == \
+        "daily-20260301-101500-seed0-8p-7d-2.csv"
+    assert app_support.run_file_name("daily", "Pilot_B.v2", ".csv") == "daily-Pilot_B.v2.csv"
+    assert app_support.run_file_name("daily", "my run", ".csv") == "daily-my_run.csv"
+    assert app_support.run_file_name("daily", "-x", ".csv") == "daily-x.csv"  # no name that reads as an option
+
+
 def test_short_time_and_answers_in_words():
     assert app_support.short_time("2026-11-21T09:47:34.123Z") == "2026-11-21 09:47 UTC"
     assert app_support.short_time("?") == "?"

@@ -368,3 +368,22 @@ def test_a_disk_that_refuses_a_read_is_not_called_damage_to_restore_from_a_backu
     assert any("cannot be read from the disk now (disk I/O error). The disk may be full or failing: free some disk "
                "space (or check the disk) and reload the page. The file is not known to be damaged: do not replace "
                "it with a backup, which would lose what was saved since" in e for e in said), said
+
+
+def test_recent_activity_shows_a_comparisons_participants_whole(app, store):
+    """The ui helpers saw "2 participants" (a method comparison's line in the recent activity) cut at its "s"
+    in a participant column of 85 px; the data grid draws text on a canvas, so it is measured in Chromium: in
+    the grid's 14-px Source Sans "999 participants" is 94 px, "2026-11-27 10:55 UTC" 125 px, each with 8 px of
+    padding a side (app_support.RECENT_ACTIVITY_WIDTHS)."""
+    for code in ("P01", "P02"):
+        store.add_participant(code)
+    for code in ("P01", "P02"):  # the initial policy scored for a comparison of both: one line
+        store.record_adaptation(code, 0, "orl", {"initial": True}, 1.0, {})
+    at = app(participant="P01")
+    no_exception(at)
+    recent = at.dataframe[-1]
+    assert recent.value["participant"].iloc[0] == "2 participants"
+    widths = {name: config.get("width") for name, config in json.loads(recent.proto.columns).items()
+              if name in recent.value.columns}
+    assert widths["participant"] >= 94 + 16 and widths["when"] >= 125 + 16, widths
+    assert sum(widths.values()) <= 165 + 85 + 640 + 5, widths  # "what" where it was at 1024 px (sideways scroll)

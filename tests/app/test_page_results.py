@@ -174,8 +174,8 @@ def test_results_of_a_simulated_run(app, db, downloads):
     assert at.select_slider(key="results-prefs:Simulated run: run-a-day").value == 2  # the last day first
     assert "Which preferences each method learnt" in texts(at)
     assert "Download by_preference.csv" in [b.label for b in at.get("download_button")]
-    # a run's tables named after the run, as the study's after the study
-    assert {"daily-run_a.csv", "by_preference-run_a.csv"} <= set(downloads.at_click)
+    # a run's tables named after the run as its folder is named ("run_a" before), as the study's after the study
+    assert {"daily-run-a.csv", "by_preference-run-a.csv"} <= set(downloads.at_click)
     assert "daily.csv" not in downloads.at_click
     assert any("Simulated participants answer no questionnaire" in i.value for i in at.info)
     # and no human-study form or summary beside that note

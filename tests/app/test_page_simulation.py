@@ -422,12 +422,15 @@ def test_a_run_of_some_participants_seeds_each_by_its_place_in_the_file(app, db,
 
 def test_a_runs_downloads_are_named_after_the_run(app, db, downloads):
     """Walkthrough: the tables downloaded as plain "daily.csv", "interactions.csv" ..., and two runs' files
-    met in a Downloads folder as "daily (1).csv"; named after the run now, as Results names them."""
-    save_runs(db, {"run-a": 2})
+    met in a Downloads folder as "daily (1).csv"; named after the run now, as Results names them, and as its
+    folder is named (the ui helper: "daily-20260301_101500_seed0_1p_2d.csv" of the folder
+    20260301-101500-seed0-1p-2d, its "-" made "_")."""
+    run = "20260301-101500-seed0-1p-2d"  # as saved_runs.new_run_name names a run
+    save_runs(db, {run: 2})
     at = app(PAGE)
     no_exception(at)
-    assert {"daily-run_a.csv", "interactions-run_a.csv", "summary-run_a.csv",
-            "by_preference-run_a.csv"} <= set(downloads.at_click)
+    assert {f"daily-{run}.csv", f"interactions-{run}.csv", f"summary-{run}.csv",
+            f"by_preference-{run}.csv"} <= set(downloads.at_click)
     assert not [f for f in downloads.at_click if f in ("daily.csv", "interactions.csv", "summary.csv")]
     assert {"Download daily.csv", "Download by_preference.csv"} <= {b.label for b in at.get("download_button")}
 

@@ -555,3 +555,54 @@ def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, mon
     at.run()
     assert not at.button(key="btn-train-sound").disabled
     assert not [e.value for e in at.warning if e.value.startswith("Cannot train")]
+
+
+def test_every_photo_of_a_room_keeps_each_name_on_one_line_at_1280_px(app):
+    """The ui helpers saw the shipped photos' captions break mid-name at 1280 px ("synthetic_0_000.jp" / "g"):
+    six columns of 118 px for a name 135 px wide. The grid has as many columns as keep the longest name whole
+    (app_support.photo_grid_columns): five for the shipped names, fewer for longer ones."""
+    from cacas import app_support
+    from cacas.paths import PROJECT_ROOT
+
+    at = open_expander(app(PAGE), "lib-every-photo")
+    no_exception(at)
+    grid = [c for c in at.columns if c.children and all(type(k).__name__ == "Image" for k in c.children.values())]
+    assert sum(len(c.children) for c in grid) == min(48, len(list((PROJECT_ROOT / "study_data" / "scenes" /
+                                                                  "bedroom").glob("*.jpg"))))  # every photo
+    assert len(grid) == 5  # six before
+    # "synthetic_0_000.jpg" is 134.6 px wide in the caption's font (Chromium); each column is 144 px
+    assert (app_support.PHOTO_GRID_ROOM - app_support.PHOTO_GRID_GAP * 4) / 5 >= 135
+    # a study's own photos, named by a phone: fewer columns, each name whole
+    names = ["PXL_20260301_101500123.jpg", "IMG_20260301_101500.jpg"]
+    assert app_support.photo_grid_columns(names) == 3
+    assert app_support.photo_grid_columns(["a.jpg"]) == 6 and app_support.photo_grid_columns(["x" * 200]) == 2
+
+
+def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
+    """The Try tab's result ("### kitchen") kept Streamlit's anchor-link icon beside it, of no use there (the
+    tablet's headings dropped theirs). AppTest cannot upload: the uploader is given a photo, the model a label."""
+    from types import SimpleNamespace
+
+    import streamlit as st
+
+    from cacas import lab
+    from cacas.paths import PROJECT_ROOT
+    from pages import ui
+
+    photo = sorted((PROJECT_ROOT / "study_data" / "scenes" / "kitchen").glob("*.jpg"))[0]
+    real = st.file_uploader
+
+    def uploader(label, *args, **kwargs):
+        if kwargs.get("key") == "try-photo":
+            return SimpleNamespace(name=photo.name, getvalue=photo.read_bytes)
+        return real(label, *args, **kwargs)
+    monkeypatch.setattr(st, "file_uploader", uploader)
+    monkeypatch.setattr(ui, "recognizer", lambda kind: SimpleNamespace(metadata={}, model_id="m1"))
+    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: SimpleNamespace(
+        label="kitchen", short=False, unsure=False, seconds=None,
+        top3=[("kitchen", 0.8), ("living room", 0.15), ("others", 0.05)]))
+    at = app(PAGE)
+    no_exception(at)
+    headings = [m for m in at.main.markdown if m.value.startswith("#")]
+    assert [m.value for m in headings] == ["### kitchen"]
+    assert all(m.proto.hide_anchors for m in headings)

@@ -81,6 +81,22 @@ def test_a_figure_alone_keeps_its_legend_just_below_its_axis_title(browser, meth
         assert fig["legend"][1] <= fig["height"], fig
 
 
+@pytest.mark.parametrize("ceiling", [False, True])
+@pytest.mark.parametrize("methods", RUNS, ids=len)
+def test_the_labs_two_figures_sit_at_one_height_at_every_width_it_draws_them(browser, methods, ceiling):
+    """The Simulation lab draws Fig. 3 beside Fig. 4 in columns of 274 px at 1024, 402 at 1280 and 482 at 1440
+    (``side_by_side`` counted their legends at 400): at 1024 px the ui helpers saw Fig. 4's plot 19 px above
+    Fig. 3's (four methods without a success ceiling: its legend took four rows, Fig. 3's three), 38 px with
+    six methods. The lab's figures, as the page makes them (Fig. 3 of the looping method), at each width."""
+    daily = _daily(ceiling, False, methods)
+    for width in (274, 402, 482):
+        fig3, fig4 = _boxes(browser, plots.side_by_side(plots.success_figure(daily), plots.methods_figure(daily)),
+                            width)
+        assert fig3["plot"] == fig4["plot"], (width, fig3, fig4)
+        for fig in (fig3, fig4):
+            assert fig["axis_title"] <= fig["legend"][0] and fig["legend"][1] <= fig["height"], (width, fig)
+
+
 def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
     """``cacas simulate --plot``'s page, as tall as the window: the legend at the figure's bottom
     is in view (the browser's body margin put the figure's last 8 px below the window)."""

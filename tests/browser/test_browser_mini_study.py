@@ -286,6 +286,19 @@ def test_mini_study(server, page, tmp_path):
     assert min(chips.nth(i).bounding_box()["height"] for i in range(chips.count())) >= 44
     box = button(page, "Do it").bounding_box()
     assert box["height"] >= 48 and box["y"] + box["height"] <= 768, box
+    # on a phone (390 x 844) the form is taller than the screen: "Do it" is in view at its top, without a scroll
+    # (it was at 943-995 px, the ui helpers), and in its place under the rooms at its end
+    page.set_viewport_size({"width": 390, "height": 844})
+    page.wait_for_timeout(500)
+    main = page.locator("[data-testid='stMain']")
+    main.evaluate("m => m.scrollTo(0, 0)")
+    page.wait_for_timeout(300)
+    box = button(page, "Do it").bounding_box()
+    assert box["height"] >= 48 and box["y"] + box["height"] <= 844, box
+    main.evaluate("m => m.scrollTo(0, m.scrollHeight)")
+    page.wait_for_timeout(300)
+    rooms = page.locator("[data-testid='stButtonGroup']").filter(has=page.get_by_role("radio", name="bedroom")).first
+    assert button(page, "Do it").bounding_box()["y"] >= rooms.bounding_box()["y"] + rooms.bounding_box()["height"]
     page.set_viewport_size({"width": 1360, "height": 900})
 
     # the researcher's own view of the session, in another tab, follows the tablet without a reload

@@ -6,6 +6,7 @@ does not fit goes on to the next line whole, and at 1280 px every row is one lin
 from __future__ import annotations
 
 import random
+import re
 
 import pytest
 
@@ -28,7 +29,8 @@ METRICS_JS = """() => [...document.querySelectorAll('[data-testid=stMetric]')].f
 
 @pytest.fixture(scope="module")
 def study_server(tmp_path_factory, initial_policy):
-    """The app over a study: 4 participants on day 1 with 12 interactions each, 2 of the days closed."""
+    """The app over a study: 4 participants on day 1 with 12 interactions each, 2 of the days closed; on the 2
+    open days one more, not counted."""
     from cacas.study_day import Context, answer, policy_in_force, previous_interaction, propose, start_day
 
     tmp = tmp_path_factory.mktemp("narrow")
@@ -48,6 +50,9 @@ def study_server(tmp_path_factory, initial_policy):
                        index=k + 1)
             if i < 2:
                 s.close_day(code, day)
+            else:  # and one not counted (no response): the researcher's counter says it apart
+                p = propose(policy, ctx, previous_interaction(s, code, day), policy_version=version)
+                answer(s, code, day, p, response="no response", index=13)
     yield from _run_app(tmp, CACAS_DB=str(db))
 
 
@@ -74,5 +79,31 @@ def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
                                                           "Mean success rate so far"]
         if width == 1280:  # room enough: each page's metrics side by side on one line
             assert all(len({m["top"] for m in ms}) == 1 for ms in seen.values()), seen
+    finally:
+        context.close()
+
+
+#: the Study session's counter: its text and the lines it takes (the distinct tops of its text's boxes)
+COUNTER_JS = """() => { const p = document.querySelector('[data-testid=stProgress] p');
+  const r = document.createRange(); r.selectNodeContents(p);
+  return {text: p.innerText, lines: new Set([...r.getClientRects()].map(b => Math.round(b.top))).size}; }"""
+
+
+@pytest.mark.parametrize("width", [1024, 1280, 1440])
+def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_counted(browser, study_server, width):
+    """The ui helpers saw the Study session's counter run to two lines at 1280 px (and 1024) when some of the
+    day's interactions were not counted: it gave the reasons too ("(no response, nothing needed while the
+    robot was quiet, or a request while doing nothing)"), which the day's table now gives."""
+    context = browser.new_context(viewport={"width": width, "height": 900})
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/session?participant=P03")
+        page.wait_for_function("() => [...document.querySelectorAll('[data-testid=stProgress] p')]"
+                               ".some(p => p.innerText.includes('not counted'))")
+        counter = page.evaluate(COUNTER_JS)
+        assert counter["lines"] == 1, counter
+        assert re.fullmatch(r"Day 1 of 7 · \d+ of about 15 interactions today; 13 in all with \d+ not counted",
+                            counter["text"]), counter
     finally:
         context.close()
