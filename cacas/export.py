@@ -357,7 +357,9 @@ def _check_manifest(path: Path, data: bytes) -> None:
                          "Studio, then import it; nothing was imported")
 
 
-def _zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
+def zip_entry(zf: zipfile.ZipFile, name: str, data: bytes) -> None:
+    """Put ``data`` in ``zf`` as ``name`` with a fixed time stamp and mode: the same files give the
+    same zip (an export's bundle, a simulated run's zip)."""
     info = zipfile.ZipInfo(name, date_time=_ZIP_TIME)
     info.compress_type = zipfile.ZIP_DEFLATED
     info.external_attr = 0o644 << 16
@@ -462,11 +464,11 @@ def export_contents(db: StudyStore | str | Path, study: str | None = None, bundl
     if bundle:
         buf = io.BytesIO()
         with zipfile.ZipFile(buf, "w") as zf:
-            _zip_entry(zf, MANIFEST_NAME, manifest_bytes())
+            zip_entry(zf, MANIFEST_NAME, manifest_bytes())
             for name, data in contents.items():
-                _zip_entry(zf, name, data)
+                zip_entry(zf, name, data)
             for rel in sorted(policies):
-                _zip_entry(zf, f"policies/{rel}", policies[rel])
+                zip_entry(zf, f"policies/{rel}", policies[rel])
         contents[BUNDLE_NAME] = buf.getvalue()
     return contents
 

@@ -51,6 +51,29 @@ def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, s
     return folder
 
 
+#: A run folder's files, as :func:`save_run` and ``cacas simulate --out`` write them (those it has).
+RUN_FILES = ("daily.csv", "interactions.csv", "by_preference.csv", "settings.json", "checksums.sha256")
+
+
+def run_zip(folder) -> bytes:
+    """A run folder's files (:data:`RUN_FILES`, those it has) in one zip, under the folder's name:
+    the Simulation lab's download of a whole run, to keep or to upload on Results (its
+    checksums.sha256 with it). Checked first (:func:`load_run`): a run killed part-way is refused
+    by name, as when it is opened."""
+    import zipfile
+
+    from cacas.export import zip_entry
+
+    folder = Path(folder)
+    load_run(folder)
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for name in RUN_FILES:
+            if (folder / name).is_file():
+                zip_entry(zf, f"{folder.name}/{name}", (folder / name).read_bytes())
+    return buf.getvalue()
+
+
 def list_runs(root) -> list[str]:
     """Names of the saved runs, newest first."""
     root = Path(root)

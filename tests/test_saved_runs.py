@@ -42,6 +42,26 @@ def test_load_run_reads_what_save_run_wrote(tmp_path):
     assert "by_preference.csv" not in files.parse_checksums((folder / files.CHECKSUMS).read_bytes())
 
 
+def test_a_runs_zip_holds_its_folders_files_under_its_name_the_same_each_time(tmp_path):
+    import io
+    import time
+    import zipfile
+
+    inter = pd.DataFrame({"participant": ["P01"], "day": [1]})
+    folder = saved_runs.save_run(tmp_path, "run1", _daily(), inter, {"seed": 1}, _by_pref())
+    (folder / "notes.txt").write_text("mine")  # a researcher's file beside the run's is not the run's
+    data = saved_runs.run_zip(folder)
+    with zipfile.ZipFile(io.BytesIO(data)) as zf:
+        assert zf.namelist() == [f"run1/{n}" for n in ("daily.csv", "interactions.csv", "by_preference.csv",
+                                                       "settings.json", "checksums.sha256")]
+        assert zf.read("run1/daily.csv") == (folder / "daily.csv").read_bytes()
+    time.sleep(1.1)
+    assert saved_runs.run_zip(folder) == data  # no time stamps of the moment in it
+    (folder / "daily.csv").write_bytes(records.csv_bytes(_daily(0.9)))
+    with pytest.raises(CacasError, match=r"daily\.csv does not match checksums\.sha256"):
+        saved_runs.run_zip(folder)
+
+
 def test_a_run_whose_files_do_not_match_its_checksums_is_refused_by_name(tmp_path):
     """Walkthrough: the Simulation lab's run folders had no checksums.sha256 (cacas simulate --out's
     have one), so a run killed between two renames, files of two runs side by side, read as one run."""

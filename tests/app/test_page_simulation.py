@@ -435,6 +435,26 @@ def test_a_runs_downloads_are_named_after_the_run(app, db, downloads):
     assert {"Download daily.csv", "Download by_preference.csv"} <= {b.label for b in at.get("download_button")}
 
 
+def test_a_whole_run_downloads_as_a_zip_of_its_folder_with_its_checksums(app, db, downloads):
+    """Walkthrough: the run's files came one by one, without the checksums.sha256 Results' upload asks
+    for; the whole folder is one zip now, named after it."""
+    import io
+    import zipfile
+
+    from cacas import saved_runs
+
+    run = "20260301-101500-seed0-1p-2d"
+    save_runs(db, {run: 2})
+    at = app(PAGE)
+    no_exception(at)
+    assert "Download the whole run (zip of its folder)" in [b.label for b in at.get("download_button")]
+    with zipfile.ZipFile(io.BytesIO(downloads[f"cacas-run-{run}.zip"])) as zf:
+        names = zf.namelist()
+        folder = saved_runs.runs_dir(db) / run
+        assert f"{run}/checksums.sha256" in names and f"{run}/daily.csv" in names
+        assert all(zf.read(n) == (folder / n.split("/", 1)[1]).read_bytes() for n in names)
+
+
 def test_fig3s_hollow_points_are_said_under_it(app, db):
     """Walkthrough: "fewest 2 interactions" beside a hollow point on Fig. 3, said nowhere on the page but
     in its hover: a caption under the figure says what it is while the run has one."""
