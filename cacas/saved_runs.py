@@ -51,6 +51,10 @@ def save_run(root, name: str, daily: pd.DataFrame, interactions: pd.DataFrame, s
     return folder
 
 
+#: Why a table does not match the checksums.sha256 written with it (an upload's, a run folder's).
+STOPPED_PART_WAY = ("the run that wrote that folder was stopped part-way (killed, or a power cut) and left files of "
+                    "two runs side by side, or the file was changed since")
+
 #: A run folder's files, as :func:`save_run` and ``cacas simulate --out`` write them (those it has).
 RUN_FILES = ("daily.csv", "interactions.csv", "by_preference.csv", "settings.json", "checksums.sha256")
 
@@ -205,10 +209,8 @@ def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_file
     for name, data in rest:
         digest = store_files.sha256(data)
         if listed.get(name, digest) != digest:
-            raise CacasError(f"{name}: does not match its sha256 in {what}: the run that wrote that folder was "
-                             "stopped part-way (killed, or a power cut) and left files of two runs side by side, or "
-                             "the file was changed since; write the tables again (cacas export, or cacas simulate "
-                             "--out) and upload them")
+            raise CacasError(f"{name}: does not match its sha256 in {what}: {STOPPED_PART_WAY}; write the tables "
+                             "again (cacas export, or cacas simulate --out) and upload them")
         if name not in listed and digest not in listed.values():
             raise CacasError(f"{name}: is not one of the files {what} lists ({', '.join(sorted(listed))}); upload the "
                              "tables and the checksums file of one folder")
@@ -446,12 +448,10 @@ def load_run(folder) -> Run:
         if not (folder / table).is_file():
             raise CacasError(f"{folder}: no {table}; not a complete run (valid: a folder the Simulation lab "
                              "or `cacas simulate --out` wrote)")
-    bad = files.mismatched(folder, {"daily.csv", "interactions.csv", "by_preference.csv", "settings.json"})
+    bad = files.mismatched(folder, set(RUN_FILES) - {files.CHECKSUMS})
     if bad:
         raise CacasError(f"{folder}: {', '.join(bad)} {'does' if len(bad) == 1 else 'do'} not match "
-                         f"{files.CHECKSUMS}: the run that wrote the folder was stopped part-way (killed, or a "
-                         "power cut) and left files of two runs side by side, or a file was changed since; run it "
-                         "again")
+                         f"{files.CHECKSUMS}: {STOPPED_PART_WAY}; run it again")
     return Run(name=folder.name, daily=load_daily(folder / "daily.csv"),
                interactions=records.read_csv(folder / "interactions.csv"),
                by_preference=load_by_preference(folder), settings=run_settings(folder))

@@ -72,7 +72,7 @@ def test_a_run_whose_files_do_not_match_its_checksums_is_refused_by_name(tmp_pat
     saved_runs.save_run(root, "run1", _daily(0.6), inter, {"seed": 2}, _by_pref())
     (folder / "daily.csv").write_bytes(earlier)  # as a kill before daily.csv's rename leaves it
     with pytest.raises(CacasError, match=r"run1: daily\.csv does not match checksums\.sha256: the run that wrote "
-                                         r"the folder was stopped part-way .* run it again"):
+                                         r"that folder was stopped part-way .* run it again"):
         saved_runs.load_run(folder)
     (folder / "by_preference.csv").unlink()
     with pytest.raises(CacasError, match=r"by_preference\.csv, daily\.csv do not match"):
