@@ -117,6 +117,16 @@ def click(page, text: str) -> None:
     ran(page, before)
 
 
+def open_tab(page, name: str) -> None:
+    """Open the tab ``name`` of a page's tabs that rerun it (st.tabs with on_change="rerun"), not the one
+    open, and wait for that run by the run counter. With ``idle`` its run could begin after idle's 2 s and
+    still be going at the next step: an upload's rerun then merged into it, and ``upload`` waited 60 s for
+    a run of its own (CI)."""
+    before = runs(page)
+    page.get_by_role("tab", name=name).click()
+    ran(page, before)
+
+
 def upload(page, uploader, *files) -> None:
     """Give the file uploader's input ``uploader`` the ``files`` and wait until each is uploaded (its chip's
     button reads "Remove <name>"; "Cancel upload of <name>" meanwhile), then for the run that the uploader
@@ -398,9 +408,7 @@ def test_mini_study(server, page, tmp_path):
     goto(page, f"{server}/results?participant=P01")
     shows(page, "Day 1 mean success rate")
     shot(page, "results")
-    before = runs(page)
-    page.get_by_role("tab", name="Tables").click()
-    ran(page, before)  # the tab's run draws its tables
+    open_tab(page, "Tables")  # its run draws the tables
     table = page.locator("[data-testid='stExpander']", has_text="interactions.csv").first
     before = runs(page)
     table.click()
@@ -483,8 +491,7 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     upload(page, uploader, folder / "by_preference.csv")
     shows(page, "Uploaded: daily.csv, by_preference.csv, checked against each other")
     shows(page, "Checksums not checked: no checksums.sha256 was uploaded with them.")
-    page.get_by_role("tab", name="Fig. 4 · methods").click()
-    idle(page)
+    open_tab(page, "Fig. 4 · methods")
     shows(page, "Which preferences each method learnt")
     # two charts or more, waited for (plotly draws a chart after its element is on the page): the second is there
     expect(page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").nth(1)
@@ -508,8 +515,7 @@ def test_importing_a_persona_file_says_so(server, page):
     finally:
         store.close()
     goto(page, f"{server}/participants")
-    page.get_by_role("tab", name="Import / export").click()
-    idle(page)
+    open_tab(page, "Import / export")
     upload(page, page.locator("[data-testid='stFileUploaderDropzoneInput']"),
            study_data_dir() / "personas" / "example.json")
     click(page, "Import")
