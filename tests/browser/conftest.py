@@ -8,6 +8,7 @@ import shutil
 import socket
 import subprocess
 import sys
+import tempfile
 import time
 import urllib.request
 from pathlib import Path
@@ -17,6 +18,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 CHROMIUM = "/usr/bin/chromium"
+#: where a failed browser test leaves a screenshot of each page it had open (set CACAS_BROWSER_FAILURES to keep them)
+FAILURES = Path(os.environ.get("CACAS_BROWSER_FAILURES") or Path(tempfile.gettempdir()) / "cacas-browser-failures")
+#: the log files of the apps running now (``_run_app``), for a failed test's report
+RUNNING_LOGS: list[Path] = []
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
          "--disable-sync", "--no-first-run"]
 
@@ -60,6 +65,7 @@ def _run_app(tmp: Path, port: int | None = None, **env):
             proc.kill()
             raise RuntimeError(f"streamlit did not start: {(tmp / 'streamlit.log').read_text()[-2000:]}")
         time.sleep(0.3)
+    RUNNING_LOGS.append(tmp / "streamlit.log")
     yield base
     proc.terminate()
     try:
@@ -67,6 +73,7 @@ def _run_app(tmp: Path, port: int | None = None, **env):
     except subprocess.TimeoutExpired:
         proc.kill()
     log.close()
+    RUNNING_LOGS.remove(tmp / "streamlit.log")
 
 
 class AppURL(str):
@@ -117,3 +124,61 @@ def page(browser, tmp_path):
     pg.set_default_timeout(30_000)
     yield pg
     context.close()
+
+
+#: what a failed test's report says of a page: its address, Streamlit's script and connection states, the
+#: runs it has started and those the helpers waited for (test_browser_mini_study's COUNTERS), and its text
+PAGE_STATE = """() => {
+  const app = document.querySelector("[data-testid='stApp']");
+  return {url: location.href, script: app && app.getAttribute('data-test-script-state'),
+          connection: app && app.getAttribute('data-test-connection-state'),
+          runs: window.__cacasRuns === undefined ? null : window.__cacasRuns,
+          seen: window.__cacasSeen === undefined ? null : window.__cacasSeen,
+          text: document.body ? document.body.innerText : ''};
+}"""
+
+
+def describe_page(page, screenshot: Path, text_chars: int = 3000) -> str:
+    """A page as a failed test left it, for the test's report: where it is, what state Streamlit's
+    script and connection are in, the run counters, the end of its text (``text_chars``), and a
+    full-page screenshot saved to ``screenshot``. A page that cannot be read says why, in one line."""
+    try:
+        state = page.evaluate(PAGE_STATE)
+    except Exception as e:  # a closed or crashed page: the report says so and goes on
+        return f"{page.url}: the page could not be read ({type(e).__name__}: {str(e).splitlines()[0]})"
+    try:
+        screenshot.parent.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(screenshot), full_page=True, timeout=10_000)
+        saved = f"screenshot: {screenshot}"
+    except Exception as e:
+        saved = f"no screenshot ({type(e).__name__})"
+    text = state["text"]
+    if len(text) > text_chars:
+        text = "..." + text[-text_chars:]
+    return (f"{state['url']}\nscript {state['script']}, connection {state['connection']}, runs started "
+            f"{state['runs']}, waited for {state['seen']}; {saved}\n--- page text ---\n{text}")
+
+
+def log_tail(path: Path, lines: int = 40) -> str:
+    """The last ``lines`` lines of an app's log."""
+    try:
+        return "\n".join(path.read_text(errors="replace").splitlines()[-lines:])
+    except OSError as e:
+        return f"{path}: not readable ({e.strerror})"
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    """A browser test that fails reports every page it has open (``describe_page``) and the end of each
+    running app's log: what a failure in CI looked like, which its traceback alone does not say."""
+    outcome = yield
+    report = outcome.get_result()
+    if report.when != "call" or not report.failed:
+        return
+    browser = item.funcargs.get("browser")
+    pages = [pg for context in (browser.contexts if browser is not None else []) for pg in context.pages]
+    for i, pg in enumerate(pages, 1):
+        name = f"{item.name}-{i}.png".replace("/", "_")
+        report.sections.append((f"browser page {i} of {len(pages)}", describe_page(pg, FAILURES / name)))
+    for log in RUNNING_LOGS:
+        report.sections.append((f"app log {log}", log_tail(log)))
