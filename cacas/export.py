@@ -477,13 +477,13 @@ def _size(n: int) -> str:
     return f"{n} bytes ({n / 2**20:.1f} MiB)" if n >= 2**20 else f"{n} bytes"
 
 
-def check_sizes(path: Path, members: list[zipfile.ZipInfo]) -> None:
-    """Refuse (CacasError naming the bundle, the member and the limit) before anything is read: a
-    member larger than :data:`MAX_MEMBER_BYTES` uncompressed, or compressed more than
+def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = None) -> None:
+    """Refuse (CacasError naming the bundle, the member and the limit, then ``valid``) before anything
+    is read: a member larger than :data:`MAX_MEMBER_BYTES` uncompressed, or compressed more than
     :data:`MAX_COMPRESSION_RATIO` to 1 (a zip bomb), or members larger together than
     :data:`MAX_BUNDLE_BYTES`. The sizes are the zip's own word; zipfile never reads more than the
     size a member's header gives (it stops there, and a CRC that does not match is a damage)."""
-    valid = f"valid: the {BUNDLE_NAME} cacas export wrote; nothing was imported"
+    valid = valid or f"valid: the {BUNDLE_NAME} cacas export wrote; nothing was imported"
     total = 0
     for info in members:
         if info.file_size > MAX_MEMBER_BYTES:
@@ -501,15 +501,15 @@ def check_sizes(path: Path, members: list[zipfile.ZipInfo]) -> None:
                              f"{valid}")
 
 
-def _member(path: Path, zf: zipfile.ZipFile, name: str) -> bytes:
+def read_member(path: Path, zf: zipfile.ZipFile, name: str, valid: str | None = None) -> bytes:
     """The bytes of the bundle's member ``name`` (its size checked by :func:`check_sizes` first); a
     damaged one (bytes changed in its compressed data: zlib.error; a bad CRC; cut short: EOFError)
-    is a CacasError naming the bundle and it."""
+    is a CacasError naming the bundle and it, then ``valid``."""
     try:
         return zf.read(name)
     except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
-        raise CacasError(f"{path}: {name} in the bundle is damaged ({exc}); valid: "
-                         f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)") from None
+        raise CacasError(f"{path}: {name} in the bundle is damaged ({exc}); " + (valid or f"valid: "
+                         f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)")) from None
 
 
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
@@ -532,12 +532,12 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
                                or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
                                or (i.filename.startswith("policies/") and not i.filename.endswith("/"))])
             if MANIFEST_NAME in names:  # none in bundles written before it: version 1
-                _check_manifest(path, _member(path, zf, MANIFEST_NAME))
+                _check_manifest(path, read_member(path, zf, MANIFEST_NAME))
             tables = {}
             for name in RESTORE_COLUMNS:
                 if f"{name}.csv" not in names:
                     raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
-                tables[name] = pd.read_csv(io.BytesIO(_member(path, zf, f"{name}.csv")), dtype=str,
+                tables[name] = pd.read_csv(io.BytesIO(read_member(path, zf, f"{name}.csv")), dtype=str,
                                            keep_default_na=False).map(records.unescape_formula)
             policies = {}
             for name in sorted(names):
@@ -545,7 +545,7 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
                     rel = name[len("policies/"):]
                     if not _POLICY_PATH.match(rel):
                         raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
-                    policies[rel] = _member(path, zf, name)
+                    policies[rel] = read_member(path, zf, name)
     except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
     try:

@@ -126,6 +126,13 @@ UPLOADABLE_TABLES = {
     "by_preference": list(records.BY_PREFERENCE_COLUMNS),
     "interactions": list(records.INTERACTION_COLUMNS),
 }
+#: The Simulation lab's summary.csv (:func:`cacas.experiment.summary_table`: the means of daily.csv per method
+#: and day; success_ceiling where the run has one), recognised by these columns and no participant column: it
+#: uploads beside its daily.csv, checked against it (:func:`_check_summary`), and is not needed without one.
+SUMMARY_COLUMNS = ["method", "day", "success_rate", "preference_accuracy", "cumulative_feedback"]
+#: What an uploaded zip gives the Results page: the tables of :data:`UPLOADABLE_TABLES` and the checksums of
+#: the folder its daily.csv is in (a run's zip, :func:`run_zip`; a study's, ``cacas export``'s bundle).
+ZIP_MEMBERS = ("daily.csv", "by_preference.csv", "interactions.csv", "checksums.sha256")
 
 
 def _missing_columns(columns) -> str:
@@ -140,11 +147,52 @@ def _missing_columns(columns) -> str:
     return f" (as a {kind}.csv it lacks the column{'s' if len(lacks) > 1 else ''} {', '.join(lacks)})"
 
 
+def unpacked_uploads(files: Sequence[tuple[str, bytes]]) -> list[tuple[str, bytes]]:
+    """The uploaded files (name, content), each zip among them replaced by its daily.csv and the
+    by_preference.csv, interactions.csv and checksums.sha256 in the same folder (:data:`ZIP_MEMBERS`,
+    under their own names): the zip of a run (the Simulation lab's "Download the whole run",
+    :func:`run_zip`) or of a study (``cacas export``, the Results page's "Download everything"). Its
+    other files (settings.json, a study's other tables, policy files) are not read. A zip that is not
+    readable, holds no daily.csv or more than one, or whose members are too large
+    (:func:`cacas.export.check_sizes`) is a CacasError naming it and what is valid."""
+    import zipfile
+    import zlib
+    from pathlib import PurePosixPath
+
+    from cacas.export import check_sizes, read_member
+
+    valid = ("valid: the zip of a run (the Simulation lab's 'Download the whole run') or of a study (cacas export, "
+             "'Download everything')")
+    out: list[tuple[str, bytes]] = []
+    for name, data in files:
+        if not str(name).lower().endswith(".zip"):
+            out.append((name, data))
+            continue
+        try:
+            with zipfile.ZipFile(io.BytesIO(data)) as zf:
+                members = [i for i in zf.infolist() if not i.is_dir()]
+                dailies = [i.filename for i in members if PurePosixPath(i.filename).name == "daily.csv"]
+                if len(dailies) != 1:
+                    raise CacasError(f"{name}: holds no daily.csv; {valid}" if not dailies else
+                                     f"{name}: holds {len(dailies)} daily.csv files ({', '.join(dailies[:3])}"
+                                     f"{', ...' if len(dailies) > 3 else ''}); upload the zip of one run or study")
+                folder = PurePosixPath(dailies[0]).parent
+                chosen = [i for i in members if PurePosixPath(i.filename).parent == folder
+                          and PurePosixPath(i.filename).name in ZIP_MEMBERS]
+                check_sizes(name, chosen, valid)
+                out.extend((PurePosixPath(i.filename).name, read_member(name, zf, i.filename, valid)) for i in chosen)
+        except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as exc:
+            raise CacasError(f"{name}: not a readable zip file ({exc}); {valid}") from None
+    return out
+
+
 def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.DataFrame]:
     """Uploaded CSV files (name, content) as {"daily": ..., "by_preference": ..., "interactions":
-    ...}, each file recognised by its columns (``UPLOADABLE_TABLES``). A daily.csv is required;
-    the others are optional. Raises CacasError naming the file at fault: one that is none of
-    these tables, two of the same kind, or no daily.csv.
+    ..., "summary": ...}, each file recognised by its columns (``UPLOADABLE_TABLES``,
+    ``SUMMARY_COLUMNS``). A daily.csv is required; the others are optional (a summary.csv is checked
+    to be its means, :func:`_check_summary`). Raises CacasError naming the file at fault: one that
+    is none of these tables, two of the same kind, or no daily.csv. Zips are read by
+    :func:`unpacked_uploads` first.
 
     A ``checksums.sha256`` uploaded with them (:data:`cacas.store.files.CHECKSUMS`, written beside
     them by ``cacas export`` and ``cacas simulate --out``) is checked against each CSV: a file it lists
@@ -162,6 +210,8 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
             raise CacasError(f"{name}: not a readable CSV file ({str(exc).splitlines()[0] if str(exc) else exc})")
         kind = next((k for k, cols in UPLOADABLE_TABLES.items() if set(cols) <= set(df.columns)), None)
+        if kind is None and set(SUMMARY_COLUMNS) <= set(df.columns) and "participant" not in df.columns:
+            kind = "summary"
         if kind is None:
             raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv"
                              f"{_missing_columns(df.columns)}; a daily.csv needs the columns "
@@ -189,7 +239,33 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
         _check_same_run(tables["daily"], tables["interactions"], names["daily"], names["interactions"])
     if "by_preference" in tables:
         _check_by_preference(tables["daily"], tables["by_preference"], names["daily"], names["by_preference"])
-    return {k: tables[k] for k in UPLOADABLE_TABLES if k in tables}
+    if "summary" in tables:
+        _check_summary(tables["daily"], tables["summary"], names["daily"], names["summary"])
+    return {k: tables[k] for k in [*UPLOADABLE_TABLES, "summary"] if k in tables}
+
+
+def _check_summary(daily: pd.DataFrame, summary: pd.DataFrame, daily_name: str, name: str) -> None:
+    """A summary.csv belongs to the daily.csv beside it: each of its rows is the mean of daily.csv's
+    rows of that method and day (:func:`cacas.experiment.summary_table`), within
+    :data:`SHARE_TOLERANCE`, and it has a row for each method and day of daily.csv; else CacasError
+    naming the method, day and column."""
+    from cacas.experiment import summary_table
+
+    made = summary_table(_keyed(daily, daily_name))
+    said = summary.assign(method=summary["method"].astype(str), day=_whole_column(summary, "day", name, 1))
+    columns = [c for c in made.columns if c in said.columns and c not in ("method", "day")]
+    both = made.merge(said, on=["method", "day"], how="outer", suffixes=("", " said"), indicator=True)
+    for _, row in both.iterrows():
+        where = f"{name}: {row['method']} day {row['day']}"
+        if row["_merge"] != "both":
+            raise CacasError(f"{where} is {'not in' if row['_merge'] == 'left_only' else 'in it but not in'} "
+                             f"{name if row['_merge'] == 'left_only' else daily_name}; upload the tables of one run")
+        for col in columns:
+            have, told = (pd.to_numeric(pd.Series([row[col], row[f"{col} said"]]), errors="coerce").astype(float))
+            if np.isnan(have) != np.isnan(told) or abs(have - told) > SHARE_TOLERANCE:
+                shown = (lambda x: "empty" if np.isnan(x) else f"{x:.6g}")
+                raise CacasError(f"{where}: {col} {shown(told)}, the mean of {daily_name}'s rows is {shown(have)}; "
+                                 "upload the tables of one run")
 
 
 def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_files) -> list[tuple[str, bytes]]:

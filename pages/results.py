@@ -48,7 +48,7 @@ st.title("Results")
 # --- which data ------------------------------------------------------------------------------------
 runs_root = saved_runs.runs_dir(db)
 runs = saved_runs.list_runs(runs_root)
-SIMULATED, UPLOAD = "A simulated run", "Upload CSV files"
+SIMULATED, UPLOAD = "A simulated run", "Upload CSV files or a zip"
 source = st.segmented_control("Data", [HUMAN, SIMULATED, UPLOAD], default=HUMAN, key="results-source") or HUMAN
 if source == SIMULATED:
     if not runs:
@@ -92,17 +92,18 @@ elif source.startswith("Simulated run: "):
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
                            "by_preference.csv and interactions.csv to see them too, and the checksums.sha256 "
-                           "beside them to check they are of one run", type=["csv", "sha256"],
-                           accept_multiple_files=True, key="results-upload")
+                           "beside them to check they are of one run. Or the zip of a run or a study",
+                           type=["csv", "sha256", "zip"], accept_multiple_files=True, key="results-upload")
     if not ups:
         st.stop()
     try:
-        tables = saved_runs.load_uploaded_tables([(up.name, up.getvalue()) for up in ups])
+        uploaded = saved_runs.unpacked_uploads([(up.name, up.getvalue()) for up in ups])
+        tables = saved_runs.load_uploaded_tables(uploaded)
     except CacasError as exc:
         st.error(str(exc), icon=":material/error:")
         st.stop()
     daily = tables["daily"]
-    checked = next((up.name for up in ups if up.name.lower().endswith(".sha256")), None)
+    checked = next((name for name, _ in uploaded if name.lower().endswith(".sha256")), None)
     said, unchecked = saved_runs.upload_caption(list(tables), checked)
     st.caption(said)
     if unchecked:

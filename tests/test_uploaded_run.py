@@ -198,3 +198,95 @@ def test_the_page_says_whether_the_checksums_were_checked():
     assert saved_runs.upload_caption(["daily", "by_preference"], "checksums.sha256") == (
         "Uploaded: daily.csv, by_preference.csv, each matching its sha256 in checksums.sha256, and checked against "
         "each other (participants, methods, days and what they count).", None)
+
+
+def _zip(members: dict[str, bytes]) -> bytes:
+    import io
+    import zipfile
+
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w") as zf:
+        for name, data in members.items():
+            zf.writestr(name, data)
+    return buf.getvalue()
+
+
+def test_the_zip_of_a_simulated_run_uploads_checked_by_its_checksums(tmp_path):
+    """The Simulation lab's 'Download the whole run' is a zip of the run's folder: uploaded as it is, its
+    tables and checksums.sha256 are read (its settings.json is not a table), and a table changed in it is
+    refused as the loose files are."""
+    tables = _run()
+    folder = saved_runs.save_run(tmp_path, "run1", tables["daily.csv"], tables["interactions.csv"], {"seed": 1},
+                                 tables["by_preference.csv"])
+    files = saved_runs.unpacked_uploads([("cacas-run-run1.zip", saved_runs.run_zip(folder))])
+    assert sorted(name for name, _ in files) == ["by_preference.csv", "checksums.sha256", "daily.csv",
+                                                 "interactions.csv"]
+    uploaded = saved_runs.load_uploaded_tables(files)
+    assert list(uploaded) == ["daily", "by_preference", "interactions"]
+    pd.testing.assert_frame_equal(uploaded["daily"], saved_runs.load_run(folder).daily, check_dtype=False)
+    # a CSV beside the zip goes through as it is
+    assert saved_runs.unpacked_uploads([("daily.csv", b"x"), ("r.zip", saved_runs.run_zip(folder))])[0] == \
+        ("daily.csv", b"x")
+    changed = _zip({"run1/daily.csv": records.csv_bytes(_run(methods=("cacas", "orl"))["daily.csv"]),
+                    "run1/checksums.sha256": (folder / "checksums.sha256").read_bytes()})
+    with pytest.raises(CacasError, match=r"^daily\.csv: does not match its sha256 in checksums\.sha256: the run"):
+        saved_runs.load_uploaded_tables(saved_runs.unpacked_uploads([("run1.zip", changed)]))
+
+
+def test_the_zip_of_a_study_uploads_its_daily_by_preference_and_interactions(tmp_path):
+    from cacas.export import bundle_bytes
+
+    with StudyStore(tmp_path / "study.sqlite") as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="kitchen", hour=8, interval_minutes=3,
+                             robot_action="pain check", response="accept")
+        s.close_day("P01", day)
+        s.save_adapted_policy("P01", day, "cacas", b"policy", {}, 1.0, {"preference_accuracy": 0.5})
+        bundle = bundle_bytes(s)
+        exported = export_tables(s)
+    files = saved_runs.unpacked_uploads([("cacas-study-default.zip", bundle)])
+    assert sorted(name for name, _ in files) == ["by_preference.csv", "daily.csv", "interactions.csv"]
+    uploaded = saved_runs.load_uploaded_tables(files)
+    assert uploaded["daily"]["success_rate"].tolist() == exported["daily"]["success_rate"].tolist() == [1.0]
+
+
+@pytest.mark.parametrize("data, message", [
+    (b"not a zip at all", r"^run\.zip: not a readable zip file \(File is not a zip file\); valid: the zip of a run"),
+    (_zip({"run1/settings.json": b"{}", "run1/notes.txt": b"mine"}), r"^run\.zip: holds no daily\.csv; valid: the zip"),
+    (_zip({"a/daily.csv": b"x", "b/daily.csv": b"y"}),
+     r"^run\.zip: holds 2 daily\.csv files \(a/daily\.csv, b/daily\.csv\); upload the zip of one run or study$"),
+])
+def test_a_zip_that_is_not_of_one_run_or_study_is_refused_by_name(data, message):
+    with pytest.raises(CacasError, match=message):
+        saved_runs.unpacked_uploads([("run.zip", data)])
+
+
+def test_a_zip_member_too_large_is_refused_before_it_is_read(monkeypatch):
+    from cacas import export
+
+    monkeypatch.setattr(export, "MAX_MEMBER_BYTES", 10)
+    with pytest.raises(CacasError, match=r"^run\.zip: r/daily\.csv in the bundle is 11 bytes uncompressed, over the "
+                                         r"limit of 10 bytes .*; valid: the zip of a run"):
+        saved_runs.unpacked_uploads([("run.zip", _zip({"r/daily.csv": b"01234567890", "r/settings.json": b"{}"}))])
+
+
+def test_the_labs_summary_csv_uploads_beside_its_daily_csv_checked_against_it():
+    """The Simulation lab's four downloads uploaded together: its summary.csv was refused as none of the
+    tables, and nothing was shown. It is the means of daily.csv per method and day, and is checked to be."""
+    from cacas.experiment import summary_table
+
+    tables = _run()
+    summary = summary_table(tables["daily.csv"])
+    uploaded = upload({**tables, "summary-run1.csv": summary})
+    assert list(uploaded) == ["daily", "by_preference", "interactions", "summary"]
+    assert uploaded["summary"]["method"].tolist() == summary["method"].tolist()
+    off = summary.assign(preference_accuracy=summary["preference_accuracy"].where(summary.index != 2, 0.9))
+    assert refused({**tables, "summary-run1.csv": off}) == (
+        f"summary-run1.csv: {summary['method'][2]} day {summary['day'][2]}: preference_accuracy 0.9, the mean of "
+        f"daily.csv's rows is {summary['preference_accuracy'][2]:.6g}; upload the tables of one run")
+    assert refused({**tables, "summary-run1.csv": summary.iloc[1:]}) == (
+        f"summary-run1.csv: {summary['method'][0]} day {summary['day'][0]} is not in summary-run1.csv; upload the "
+        "tables of one run")
+    assert refused({"summary-run1.csv": summary}).startswith("summary-run1.csv: upload a daily.csv as well")

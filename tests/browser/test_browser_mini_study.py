@@ -12,6 +12,7 @@ import io
 import os
 import re
 import tempfile
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -481,7 +482,7 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     # 5-7 upload() below waited 60 s for the run after its files (never alone, even with the CPU kept busy); a
     # choice whose run starts after idle's 2 s left the upload to a page still running it (the likely cause)
     before = runs(page)
-    page.get_by_text("Upload CSV files", exact=True).click()
+    page.get_by_text("Upload CSV files or a zip", exact=True).click()
     ran(page, before)
     uploader = page.locator("[data-testid='stFileUploaderDropzoneInput']")
     upload(page, uploader, folder / "daily.csv", folder / "notes.csv")
@@ -497,6 +498,18 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
     expect(page.locator("[data-testid='stTabPanel'] .js-plotly-plot, [role='tabpanel'] .js-plotly-plot").nth(1)
            ).to_be_attached(timeout=30_000)
     shot(page, "results-upload")
+
+    # the same run as the zip of its folder (the Simulation lab's "Download the whole run"), its settings beside
+    with zipfile.ZipFile(tmp_path / "cacas-run-elsewhere.zip", "w") as zf:
+        for name in ("daily.csv", "by_preference.csv"):
+            zf.write(folder / name, f"elsewhere/{name}")
+        zf.writestr("elsewhere/settings.json", "{}")
+    for name in ("daily.csv", "by_preference.csv"):
+        page.get_by_role("button", name=f"Remove {name}").click()
+        idle(page)
+    upload(page, uploader, tmp_path / "cacas-run-elsewhere.zip")
+    shows(page, "Uploaded: daily.csv, by_preference.csv, checked against each other")
+    shot(page, "results-upload-zip")
 
 
 def test_importing_a_persona_file_says_so(server, page):
