@@ -318,6 +318,8 @@ with data:
             # was drawn is not in them); a simulated or uploaded run's as shown
             ui.download_csv((lambda name=name: export_tables(ui.store(), study)[name]) if source == HUMAN else df,
                             table_file_name(name), f"Download {name}.csv", key=f"dl-table-{name}")
+    if source.startswith("Simulated run: "):  # as the Simulation lab offers it
+        ui.run_zip_button(db, source.removeprefix("Simulated run: "), key="results-dl-run-zip")
     if source == HUMAN:
         def _bundle() -> bytes:  # made in memory: no copy of the study left on disk by a server killed meanwhile
             return bundle_bytes(ui.store(), study)

@@ -210,9 +210,7 @@ if runs:
         with where:
             ui.download_csv(df, app_support.run_file_name(table, name, ".csv"), f"Download {table}.csv", key=key)
     # the whole folder, with its settings and checksums.sha256 (the Results upload checks the tables by it)
-    st.download_button("Download the whole run (zip of its folder)", lambda: saved_runs.run_zip(runs_root / name),
-                       file_name=app_support.run_file_name("cacas-run", name, ".zip"), mime="application/zip",
-                       key="sim-dl-zip", icon=":material/folder_zip:", on_click="ignore")
+    ui.run_zip_button(db, name, key="sim-dl-zip")
     if run.by_preference is not None:
         st.subheader("Which preferences each method learnt")
         # keyed by run: one key for every run kept the day picked (or last shown) for the run before, so a 7-day

@@ -305,6 +305,16 @@ def download_csv(df, file_name: str, label: str | None = None, key: str | None =
                        on_click="ignore")  # no rerun: a download right after another one found its file gone
 
 
+def run_zip_button(db: str, name: str, key: str) -> None:
+    """"Download the whole run (zip of its folder)": the Simulation lab's run ``name`` with its
+    settings.json and checksums.sha256 (:func:`cacas.saved_runs.run_zip`, made at the click), named as
+    its folder; the Results page's upload takes it as it is."""
+    st.download_button("Download the whole run (zip of its folder)",
+                       lambda: saved_runs.run_zip(saved_runs.runs_dir(db) / name),
+                       file_name=app_support.run_file_name("cacas-run", name, ".zip"), mime="application/zip",
+                       key=key, icon=":material/folder_zip:", on_click="ignore")
+
+
 def metric_row():
     """A row for ``st.metric``s side by side (``row.metric(...)``): on a narrow page (800 px beside
     the sidebar) a metric that does not fit goes on to the next line whole. In ``st.columns``

@@ -177,6 +177,9 @@ def test_results_of_a_simulated_run(app, db, downloads):
     # a run's tables named after the run as its folder is named ("run_a" before), as the study's after the study
     assert {"daily-run-a.csv", "by_preference-run-a.csv"} <= set(downloads.at_click)
     assert "daily.csv" not in downloads.at_click
+    # and the whole run, as the Simulation lab offers it (its upload here takes it as it is)
+    assert downloads["results-dl-run-zip"] == downloads["cacas-run-run-a.zip"] == \
+        saved_runs.run_zip(saved_runs.runs_dir(db) / "run-a")
     assert any("Simulated participants answer no questionnaire" in i.value for i in at.info)
     # and no human-study form or summary beside that note
     assert "Save answer" not in [b.label for b in at.button]
