@@ -88,15 +88,15 @@ def test_the_tables_of_one_simulated_run_upload_without_checksums(loop):
     assert list(upload(contract)) == ["daily", "by_preference", "interactions"]
 
 
-def test_the_tables_of_a_study_databases_export_upload_without_checksums(tmp_path):
-    """A human study: a request while doing nothing, a proposal left unanswered, two methods in force
-    on a participant's two days, a day begun with nothing recorded yet (scored for Fig. 4), and
-    preferences sharing an activity (their accuracy is bounded, not exact)."""
+def _human_study(path):
+    """A human study's database at ``path``: a request while doing nothing, a proposal left unanswered, two
+    methods in force on a participant's two days, a day begun with nothing recorded yet (scored for Fig. 4),
+    and preferences sharing an activity (their accuracy is bounded, not exact)."""
     by_pref = [{"preference": 1, "label": "a", "activity": "cough", "action": "pain check", "states": 30,
                 "correct": 12},
                {"preference": 2, "label": "b", "activity": "cough/sneeze", "action": "pain check", "states": 25,
                 "correct": 10}]
-    with StudyStore(tmp_path / "study.sqlite") as s:
+    with StudyStore(path) as s:
         for code in ("P01", "P02"):
             s.add_participant(code)
             s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
@@ -114,6 +114,11 @@ def test_the_tables_of_a_study_databases_export_upload_without_checksums(tmp_pat
                 s.save_adapted_policy(code, day, method, f"{code} {day}".encode(), {}, 1.0,
                                       {"preference_accuracy": 22 / 55, "by_preference": by_pref})
         s.open_day("P02")  # begun, nothing recorded: its row counts nothing, and carries the feedback so far
+    return path
+
+
+def test_the_tables_of_a_study_databases_export_upload_without_checksums(tmp_path):
+    with StudyStore(_human_study(tmp_path / "study.sqlite")) as s:
         tables = export_tables(s)
     uploaded = {f"{k}.csv": tables[k] for k in ("daily", "interactions", "by_preference")}
     assert set(tables["interactions"]["method"]) == {"cacas", "orl"} and len(tables["by_preference"])
@@ -236,20 +241,14 @@ def test_the_zip_of_a_simulated_run_uploads_checked_by_its_checksums(tmp_path):
 def test_the_zip_of_a_study_uploads_its_daily_by_preference_and_interactions(tmp_path):
     from cacas.export import bundle_bytes
 
-    with StudyStore(tmp_path / "study.sqlite") as s:
-        s.add_participant("P01")
-        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-        day = s.open_day("P01")
-        s.record_interaction("P01", day, activity="cough", scene="kitchen", hour=8, interval_minutes=3,
-                             robot_action="pain check", response="accept")
-        s.close_day("P01", day)
-        s.save_adapted_policy("P01", day, "cacas", b"policy", {}, 1.0, {"preference_accuracy": 0.5})
-        bundle = bundle_bytes(s)
-        exported = export_tables(s)
+    with StudyStore(_human_study(tmp_path / "study.sqlite")) as s:
+        bundle, exported = bundle_bytes(s), export_tables(s)
     files = saved_runs.unpacked_uploads([("cacas-study-default.zip", bundle)])
     assert sorted(name for name, _ in files) == ["by_preference.csv", "daily.csv", "interactions.csv"]
     uploaded = saved_runs.load_uploaded_tables(files)
-    assert uploaded["daily"]["success_rate"].tolist() == exported["daily"]["success_rate"].tolist() == [1.0]
+    assert list(uploaded) == ["daily", "by_preference", "interactions"]
+    pd.testing.assert_frame_equal(uploaded["daily"][records.DAILY_CONTRACT_COLUMNS],
+                                  exported["daily"][records.DAILY_CONTRACT_COLUMNS], check_dtype=False)
 
 
 @pytest.mark.parametrize("data, message", [
