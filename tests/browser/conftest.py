@@ -76,6 +76,50 @@ def _run_app(tmp: Path, port: int | None = None, **env):
     RUNNING_LOGS.remove(tmp / "streamlit.log")
 
 
+class ScriptRuns:
+    """The script runs of a page's session, counted from the messages its Streamlit server sends over the
+    websocket, as the browser receives them (:func:`watch_runs`): ``started`` (a NewSession message opens
+    each run, a fragment's too), ``finished`` (ScriptFinished), and ``seen``, the runs a test helper has
+    waited for. The page's ``data-test-script-state`` alone missed runs: a run of ~100 ms whose first and
+    last messages the loaded browser handled in one go never turned it "running" (CI: the Results page's
+    upload choice was drawn, and the helper waited 60 s for its run)."""
+
+    def __init__(self):
+        self.started = self.finished = self.seen = 0
+        self.rerun_follows = False  # the last run stopped early for a rerun, whose NewSession is still to come
+
+    def frame(self, payload) -> None:
+        if isinstance(payload, str):
+            return
+        from streamlit.proto.ForwardMsg_pb2 import ForwardMsg
+
+        msg = ForwardMsg.FromString(payload)
+        kind = msg.WhichOneof("type")
+        if kind == "new_session":
+            self.started += 1
+            self.rerun_follows = False
+        elif kind == "script_finished":
+            self.finished += 1
+            self.rerun_follows = msg.script_finished == ForwardMsg.FINISHED_EARLY_FOR_RERUN
+
+    @property
+    def busy(self) -> bool:
+        """A run is going, or one stopped for a rerun that has not begun yet."""
+        return self.finished < self.started or self.rerun_follows
+
+    def __str__(self) -> str:
+        return f"runs started {self.started}, finished {self.finished}, waited for {self.seen}"
+
+
+def watch_runs(page) -> ScriptRuns:
+    """The page's :class:`ScriptRuns`, counting from now on (every websocket the page opens, a
+    reconnection's too); the same one on a second call."""
+    if getattr(page, "_cacas_runs", None) is None:
+        page._cacas_runs = ScriptRuns()
+        page.on("websocket", lambda ws: ws.on("framereceived", page._cacas_runs.frame))
+    return page._cacas_runs
+
+
 class AppURL(str):
     """The app's base URL, with the path of its study database (``db``) for a test that sets up
     what it needs without depending on an earlier test of its module."""
@@ -119,29 +163,32 @@ def browser():
 
 @pytest.fixture
 def page(browser, tmp_path):
+    """A new page at 1360 x 900 in a context of its own (downloads accepted); with
+    ``CACAS_BROWSER_SLOWDOWN=N`` its CPU is slowed N times (Chrome DevTools' throttling), as on a loaded machine."""
     context = browser.new_context(viewport={"width": 1360, "height": 900}, accept_downloads=True)
     pg = context.new_page()
+    if os.environ.get("CACAS_BROWSER_SLOWDOWN"):  # Chromium's CPU slowed N times: a loaded CI machine, to reproduce
+        context.new_cdp_session(pg).send("Emulation.setCPUThrottlingRate",
+                                         {"rate": float(os.environ["CACAS_BROWSER_SLOWDOWN"])})
     pg.set_default_timeout(30_000)
     yield pg
     context.close()
 
 
-#: what a failed test's report says of a page: its address, Streamlit's script and connection states, the
-#: runs it has started and those the helpers waited for (test_browser_mini_study's COUNTERS), and its text
+#: what a failed test's report says of a page: its address, Streamlit's script and connection states, and its text
 PAGE_STATE = """() => {
   const app = document.querySelector("[data-testid='stApp']");
   return {url: location.href, script: app && app.getAttribute('data-test-script-state'),
           connection: app && app.getAttribute('data-test-connection-state'),
-          runs: window.__cacasRuns === undefined ? null : window.__cacasRuns,
-          seen: window.__cacasSeen === undefined ? null : window.__cacasSeen,
           text: document.body ? document.body.innerText : ''};
 }"""
 
 
 def describe_page(page, screenshot: Path, text_chars: int = 3000) -> str:
     """A page as a failed test left it, for the test's report: where it is, what state Streamlit's
-    script and connection are in, the run counters, the end of its text (``text_chars``), and a
-    full-page screenshot saved to ``screenshot``. A page that cannot be read says why, in one line."""
+    script and connection are in, its runs (:class:`ScriptRuns`, if counted), the end of its text
+    (``text_chars``), and a full-page screenshot saved to ``screenshot``. A page that cannot be read
+    says why, in one line."""
     try:
         state = page.evaluate(PAGE_STATE)
     except Exception as e:  # a closed or crashed page: the report says so and goes on
@@ -155,8 +202,9 @@ def describe_page(page, screenshot: Path, text_chars: int = 3000) -> str:
     text = state["text"]
     if len(text) > text_chars:
         text = "..." + text[-text_chars:]
-    return (f"{state['url']}\nscript {state['script']}, connection {state['connection']}, runs started "
-            f"{state['runs']}, waited for {state['seen']}; {saved}\n--- page text ---\n{text}")
+    runs = getattr(page, "_cacas_runs", None) or "runs not counted"
+    return (f"{state['url']}\nscript {state['script']}, connection {state['connection']}, {runs}; {saved}\n"
+            f"--- page text ---\n{text}")
 
 
 def log_tail(path: Path, lines: int = 40) -> str:

@@ -23,7 +23,8 @@ def test_fails_on_a_running_page(page, tmp_path):
     log.write_text("Starting up\nError executing deferred callable\n")
     conftest.RUNNING_LOGS.append(log)
     page.set_content("<div data-testid='stApp' data-test-script-state='running'>Waiting for the robot</div>")
-    page.evaluate("() => { window.__cacasRuns = 3; window.__cacasSeen = 2; }")
+    runs = conftest.watch_runs(page)
+    runs.started, runs.finished, runs.seen = 3, 2, 2
     assert False, "the test's own message"
 
 
@@ -42,7 +43,7 @@ def test_a_failed_browser_test_reports_its_pages(tmp_path):
     assert "1 failed, 1 passed" in out, out
     assert "the test's own message" in out  # the failure as before, the page's state after it
     assert "browser page 1 of 1" in out
-    assert "script running, connection None, runs started 3, waited for 2" in out
+    assert "script running, connection None, runs started 3, finished 2, waited for 2" in out
     assert "Waiting for the robot" in out
     assert "Nothing to report" not in out  # a passing test reports nothing
     assert "app log " in out and "Starting up\nError executing deferred callable" in out

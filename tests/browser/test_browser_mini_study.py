@@ -12,10 +12,12 @@ import io
 import os
 import re
 import tempfile
+import time
 import zipfile
 from pathlib import Path
 
 import pytest
+from conftest import watch_runs
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
 
@@ -24,7 +26,6 @@ SCREENSHOTS = Path(os.environ.get("CACAS_SCREENSHOTS") or Path(tempfile.gettempd
 pytestmark = pytest.mark.browser
 
 IDLE = "[data-testid='stApp'][data-test-script-state='notRunning']"
-RUNNING = "[data-testid='stApp'][data-test-script-state='running']"
 
 
 def idle(page, timeout: int = 60_000, started: bool = False) -> None:
@@ -33,44 +34,46 @@ def idle(page, timeout: int = 60_000, started: bool = False) -> None:
     before the wait read a busy server's page before its run began (a CI run: the tablet still
     showed the proposal after "Accept"). A run that starts after the 2 s is not waited for: what a
     test reads next is waited for itself (``shows``, ``expect``), or the action is a ``click``,
-    which knows that a run follows. On a page opened with ``goto`` a run counts as started once
-    the page has started one since the last wait (``COUNTERS``, ``STARTED``): a run over between
-    two looks at the page waited the whole 2 s for "running" (4 times in the mini study), then went
-    on as if none had been. ``started``: the run is
-    known to have begun (what it draws is in view): only its end is waited for."""
-    try:
-        if not started:
-            page.wait_for_function(STARTED, arg=RUNNING, timeout=2_000, polling=20)
-    except PlaywrightTimeout:
-        pass
+    which knows that a run follows. A run counts as started once the server has begun one since
+    the last wait (``ScriptRuns``, from the page's websocket): one over between two looks at the
+    page went by unseen. ``started``: the run is known to have begun (what it draws is in view):
+    only its end is waited for."""
+    runs = watch_runs(page)
+    if not started:
+        _wait(page, lambda: runs.started > runs.seen or runs.busy, 2_000, fail=False)
+    _wait(page, lambda: not runs.busy, timeout)
     page.wait_for_selector(IDLE, timeout=timeout)
     _settle(page)
 
 
-#: counts the script runs a page starts (Streamlit's stApp turns data-test-script-state to "running" for each)
-#: and its connections to the server (data-test-connection-state turns "CONNECTED"), as they happen, from the page's
-#: load on: a helper can then wait for the run its action started, however late it starts and however fast it is
-#: over, or for the page to reconnect (installed by ``goto``, for every document the page loads)
+def _wait(page, done, timeout: int, fail: bool = True) -> bool:
+    """Poll ``done()`` every 20 ms for up to ``timeout`` ms (the page's websocket messages are counted
+    meanwhile); False when it never held and not ``fail``, else AssertionError naming the runs."""
+    deadline = time.monotonic() + timeout / 1000
+    while not done():
+        if time.monotonic() > deadline:
+            if fail:
+                raise AssertionError(f"the page's script runs did not end within {timeout / 1000:g} s "
+                                     f"({watch_runs(page)})")
+            return False
+        page.wait_for_timeout(20)
+    return True
+
+
+#: counts the page's connections to the server (data-test-connection-state turns "CONNECTED") as they happen,
+#: from the page's load on: a test can wait for the page to reconnect (installed by ``goto``, for every
+#: document the page loads). Script runs are counted from the websocket (conftest's ``ScriptRuns``).
 COUNTERS = """
-if (window.__cacasRuns === undefined) {
-  window.__cacasRuns = 0;
+if (window.__cacasConnects === undefined) {
   window.__cacasConnects = 0;
-  const counts = {'data-test-script-state': ['running', '__cacasRuns'],
-                  'data-test-connection-state': ['CONNECTED', '__cacasConnects']};
   new MutationObserver(records => records.forEach((r, i) => {
     // the value this change set: the next change's old value, or the attribute's now
     const next = records.slice(i + 1).find(o => o.target === r.target && o.attributeName === r.attributeName);
     const now = next ? next.oldValue : r.target.getAttribute(r.attributeName);
-    const [value, counter] = counts[r.attributeName];
-    if (now === value && r.oldValue !== value) window[counter] += 1;
+    if (now === 'CONNECTED' && r.oldValue !== 'CONNECTED') window.__cacasConnects += 1;
   })).observe(document, {subtree: true, attributes: true, attributeOldValue: true,
-                         attributeFilter: Object.keys(counts)});
+                         attributeFilter: ['data-test-connection-state']});
 }"""
-
-
-#: a run has started since the page's last wait (``idle``, ``ran``), or one runs now
-STARTED = ("running => (window.__cacasRuns || 0) > (window.__cacasSeen || 0) || "
-           "document.querySelector(running) !== null")
 
 
 def _settle(page) -> None:
@@ -78,22 +81,22 @@ def _settle(page) -> None:
     later one), then a 200-ms pause for the page to draw. Counted before the pause: a run that starts
     in it (a tab's or an expander's rerun that begins late on a loaded machine) is one the next
     ``idle`` waits for; counted after it, it passed for waited for while still going (flaky helper)."""
-    page.evaluate("() => { window.__cacasSeen = window.__cacasRuns; }")
+    runs = watch_runs(page)
+    runs.seen = runs.started
     page.wait_for_timeout(200)
 
 
 def runs(page) -> int:
-    """The script runs the page has started so far (``COUNTERS``)."""
-    n = page.evaluate("() => window.__cacasRuns")
-    assert n is not None, "the page does not count its runs: open it with goto()"
-    return n
+    """The script runs the page's server has started so far (``ScriptRuns``)."""
+    assert getattr(page, "_cacas_runs", None) is not None, "the page does not count its runs: open it with goto()"
+    return page._cacas_runs.started
 
 
 def ran(page, since: int, timeout: int = 60_000) -> None:
     """Wait until a run has started since the page's ``since``-th (``runs``) and the page is idle."""
-    page.wait_for_function(
-        "n => window.__cacasRuns > n && document.querySelector(\"[data-testid='stApp']\")"
-        ".getAttribute('data-test-script-state') === 'notRunning'", arg=since, timeout=timeout)
+    runs = watch_runs(page)
+    _wait(page, lambda: runs.started > since and not runs.busy, timeout)
+    page.wait_for_selector(IDLE, timeout=timeout)
     _settle(page)
 
 
@@ -101,6 +104,7 @@ def goto(page, url: str) -> None:
     if not getattr(page, "_cacas_counts_runs", False):
         page.add_init_script(COUNTERS)
         page._cacas_counts_runs = True
+    watch_runs(page)
     page.goto(url)
     page.wait_for_selector("[data-testid='stApp']")
     idle(page)
