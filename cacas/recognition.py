@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,8 +67,9 @@ CLASS_WORDS = {"sound": "sound activities", "scene": "home scenes"}
 def unsure_words(recognition: "Recognition", kind: str) -> str:
     """What the app's "Try a clip or a photo" and ``cacas sound/scene recognize`` say of an unsure
     recognition (:attr:`Recognition.unsure`) of a ``kind`` ("sound", "scene") recogniser: one rule
-    and one wording for both."""
-    return (f"{100 * recognition.confidence:.0f}% for {recognition.label}. It may be none of the "
+    and one wording for both. The share is rounded down (to 6 places first: 100 x 0.29 is 28.999...),
+    so that one just under :data:`UNSURE_BELOW` does not read as 50 %."""
+    return (f"{math.floor(round(100 * recognition.confidence, 6))}% for {recognition.label}. It may be none of the "
             f"{len(recognition.probabilities)} {CLASS_WORDS[kind]} the model knows")
 
 
