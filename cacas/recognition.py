@@ -13,6 +13,7 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -66,8 +67,8 @@ CLASS_WORDS = {"sound": "sound activities", "scene": "home scenes"}
 def unsure_words(recognition: "Recognition", kind: str) -> str:
     """What the app's "Try a clip or a photo" and ``cacas sound/scene recognize`` say of an unsure
     recognition (:attr:`Recognition.unsure`) of a ``kind`` ("sound", "scene") recogniser: one rule
-    and one wording for both."""
-    return (f"{100 * recognition.confidence:.0f}% for {recognition.label}. It may be none of the "
+    and one wording for both (the share as :attr:`Recognition.percent` gives it)."""
+    return (f"{recognition.percent}% for {recognition.label}. It may be none of the "
             f"{len(recognition.probabilities)} {CLASS_WORDS[kind]} the model knows")
 
 
@@ -91,6 +92,14 @@ class Recognition:
     @property
     def confidence(self) -> float:
         return self.probabilities[self.label]
+
+    @property
+    def percent(self) -> int:
+        """The confidence as a whole percentage, as the pages and the CLI show it: rounded, but
+        rounded down where :attr:`unsure` (after rounding to 6 places: 100 x 0.29 is 28.999...), so
+        that a share just under :data:`UNSURE_BELOW` never reads as 50 % beside "not sure"."""
+        share = round(100 * self.confidence, 6)
+        return math.floor(share) if self.unsure else round(share)
 
     @property
     def unsure(self) -> bool:

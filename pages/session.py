@@ -537,7 +537,7 @@ else:
                                                  "The robot is not sure it heard that right."))
             if not tablet:  # the participant sees plain labels; the researcher the numbers
                 st.caption("Also possible: " + ", ".join(f"{a} {100 * p:.0f}%" for a, p in heard.top3[1:]) +
-                           f" · confidence {100 * heard.confidence:.0f}%")
+                           f" · confidence {heard.percent}%")
         else:
             st.markdown(f"##### The robot heard: {context.activity}", anchors=False)
             st.caption("No sound model: the robot uses the activity as chosen.")
@@ -545,7 +545,7 @@ else:
             mark = ":material/check:" if seen.label == context.scene else ":material/help:"
             unsure = " (not sure)" if seen.unsure else ""
             st.markdown(f"and sees the **{seen.label}** {mark}{unsure}" +
-                        ("" if tablet else f" ({100 * seen.confidence:.0f}%)"))
+                        ("" if tablet else f" ({seen.percent}%)"))
 
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")

@@ -234,6 +234,20 @@ def _actions(command):
     return next(a for a in sub._actions if isinstance(a, argparse._SubParsersAction)).choices
 
 
+def test_cacas_help_names_every_sound_and_scene_action():
+    """README audit: `cacas --help` listed sound's and scene's actions as "(generate, import, train,
+    eval, recognize)", without put-back, which the README's commands and the Sounds page name."""
+    import argparse
+
+    from cacas.cli import build_parser
+
+    top = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    for command in ("sound", "scene"):
+        said = next(c.help for c in top._choices_actions if c.dest == command)
+        listed = said[said.index("(") + 1:said.index(")")].split(", ")
+        assert sorted(listed) == sorted(_actions(command)), (command, said)
+
+
 def test_sound_and_scene_help_has_a_description_and_every_default():
     """`cacas sound|scene ACTION --help`: a description line, and every option that takes a value
     and has a default (a number, a choice, a library folder or model file in study_data) says it

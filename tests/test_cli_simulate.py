@@ -214,10 +214,14 @@ def test_an_earlier_runs_figures_do_not_stay_beside_new_tables(tmp_path, capsys)
     capsys.readouterr()
     assert main(run + ["--plot", str(tmp_path / "o")]) == 0  # one closed loop: no fig3_methods.html
     assert not (tmp_path / "o" / "fig3_methods.html").exists() and (tmp_path / "o" / "fig3_success.html").exists()
-    assert f"removed an earlier run's {tmp_path / 'o' / 'fig3_methods.html'}" in capsys.readouterr().out
+    # one file is 'it', not 'they' (README audit: "removed an earlier run's .../fig3_methods.html (they no longer
+    # match these tables)")
+    assert (f"removed an earlier run's {tmp_path / 'o' / 'fig3_methods.html'} (it no longer matches these tables)"
+            in capsys.readouterr().out)
     (tmp_path / "o" / "notes.html").write_text("mine")
     assert main(run) == 0  # no figures asked for: none of an earlier run's stays
     assert not figures & {p.name for p in (tmp_path / "o").iterdir()}
+    assert "(they no longer match these tables)" in capsys.readouterr().out  # three of them
     assert (tmp_path / "o" / "notes.html").read_text() == "mine"  # only the command's own figures go
 
 

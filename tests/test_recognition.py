@@ -173,6 +173,16 @@ def test_a_recognition_below_half_the_probability_is_unsure():
     assert make_recognition([1 - UNSURE_BELOW, UNSURE_BELOW], ["a", "b"]).unsure is False
 
 
+def test_an_unsure_recognition_never_reads_as_half_or_more():
+    """README audit: `cacas sound recognize` on a 0.25-s clip said "unsure: 50% for eat chips" of a
+    0.495 top probability, unsure because under 50 %. The share is rounded down where it is unsure."""
+    from cacas.recognition import make_recognition, unsure_words
+
+    rec = make_recognition([0.495, 0.385, 0.12], ["eat chips", "do nothing", "drink soup"])
+    assert rec.unsure and unsure_words(rec, "sound").startswith("49% for eat chips. ")
+    assert unsure_words(make_recognition([0.29, 0.71 / 3, 0.71 / 3, 0.71 / 3], list("abcd")), "scene").startswith("29% for a")
+
+
 def test_a_sound_shorter_than_half_a_second_is_short():
     from cacas.recognition import SHORT_CLIP_SECONDS, make_recognition
 

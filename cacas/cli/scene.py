@@ -12,7 +12,7 @@ from cacas.recognition import UNSURE_BELOW
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("scene", help="scene images and the ResNet-18 scene model (generate, import, train, eval, recognize)",
+    p = subparsers.add_parser("scene", help="scene images and the ResNet-18 scene model (generate, import, train, put-back, eval, recognize)",
                               description="Image-based home-scene recognition (paper Section IV-A).")
     sub = p.add_subparsers(dest="scene_command", metavar="ACTION")
     sub.required = True

@@ -303,5 +303,6 @@ def run(args) -> int:
             if replaced:
                 print(f"replaced an earlier {plot_dir / PLOTLY_JS}: it was not the plotly.js these figures need")
         if stale:
-            print("removed an earlier run's " + ", ".join(str(p) for p in stale) + " (they no longer match these tables)")
+            print("removed an earlier run's " + ", ".join(str(p) for p in stale)
+                  + (" (it no longer matches these tables)" if len(stale) == 1 else " (they no longer match these tables)"))
     return 0

@@ -82,7 +82,7 @@ def add_training_options(t, epochs: int, patience: int, augment: int | None = No
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("sound", help="sound library and sound-activity CNN (generate, import, train, eval, recognize)",
+    p = subparsers.add_parser("sound", help="sound library and sound-activity CNN (generate, import, train, put-back, eval, recognize)",
                               description="Sound-based activity recognition (paper Section IV-A).")
     sub = p.add_subparsers(dest="sound_command", metavar="ACTION")
     sub.required = True

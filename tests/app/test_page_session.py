@@ -262,11 +262,13 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     assert row["recognised_scene"] and row["scene_model"] == model_id(default_model_path())
 
 
-@pytest.mark.parametrize("cough_probability, unsure", [(0.35, True), (0.9, False)])
+@pytest.mark.parametrize("cough_probability, unsure, shown", [(0.35, True, "35%"), (0.4951, True, "49%"),
+                                                               (0.9, False, "90%")])
 def test_the_robot_says_when_it_is_not_sure_what_it_heard(app, store, p01, quick_policy, monkeypatch, tmp_path,
-                                                         cough_probability, unsure):
+                                                         cough_probability, unsure, shown):
     """Below recognition.UNSURE_BELOW (50 %) both views say the robot is not sure, as the Sounds
-    page flags it; above, neither does."""
+    page flags it; above, neither does. The researcher's view gives the confidence, rounded down
+    where the robot is not sure: 0.4951 read "not sure ... confidence 50%" (README audit)."""
     import numpy as np
 
     import cacas.audio
@@ -294,6 +296,7 @@ def test_the_robot_says_when_it_is_not_sure_what_it_heard(app, store, p01, quick
         assert "##### The robot heard: cough :material/check:" in texts(at)
         assert ("The robot was not sure, but it heard that right." in texts(at)) == unsure
         assert "The robot is not sure it heard that right." not in texts(at)  # not under a check mark
+        assert (f"· confidence {shown}" in texts(at)) == (not view)  # the numbers on the researcher's view only
         at = app(PAGE, participant="P01", ctx="4.6.1.0", at="1.1", **view)  # crying chosen, a cough heard
         assert "##### The robot heard: cough :material/help:" in texts(at)
         assert ("The robot is not sure it heard that right." in texts(at)) == unsure
