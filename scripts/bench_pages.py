@@ -84,6 +84,11 @@ def main() -> None:
     warm = open_page("overview", args.participant)  # imports (torch, pandas, plotly, the pages' modules)
     timed_run(warm)
     print(f"warm-up (imports, first ever run): {time.perf_counter() - t:.2f} s", file=sys.stderr)
+    # Streamlit's "No runtime found" / "missing ScriptRunContext" warnings (the caches cleared outside a server,
+    # open_page) came between the table's rows (README audit); set once its loggers exist, after the warm-up
+    import streamlit.logger
+
+    streamlit.logger.set_log_level("error")
     if args.profile:  # the script runs in AppTest's script thread: profiled there
         from streamlit.runtime.scriptrunner import script_runner
 
