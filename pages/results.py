@@ -9,7 +9,7 @@ import math
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, plots, records, saved_runs
+from cacas import app_support, plots, records, saved_runs, uploaded_run
 from cacas.errors import CacasError
 from cacas.export import bundle_bytes, export_tables, next_day_accuracy
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -97,14 +97,14 @@ else:
     if not ups:
         st.stop()
     try:
-        uploaded = saved_runs.unpacked_uploads([(up.name, up.getvalue()) for up in ups])
-        tables = saved_runs.load_uploaded_tables(uploaded)
+        uploaded = uploaded_run.unpacked_uploads([(up.name, up.getvalue()) for up in ups])
+        tables = uploaded_run.load_uploaded_tables(uploaded)
     except CacasError as exc:
         st.error(str(exc), icon=":material/error:")
         st.stop()
     daily = tables["daily"]
     checked = next((name for name, _ in uploaded if name.lower().endswith(".sha256")), None)
-    said, unchecked = saved_runs.upload_caption(list(tables), checked)
+    said, unchecked = uploaded_run.upload_caption(list(tables), checked)
     st.caption(said)
     if unchecked:
         st.caption(f":material/info: {unchecked}")

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from cacas import export, saved_runs
+from cacas import export, uploaded_run
 from cacas.errors import CacasError
 from cacas.store import StudyStore, files
 
@@ -122,9 +122,9 @@ def test_an_export_killed_at_each_rename_is_found_by_import_upload_and_the_next_
     if not one_run([*shown, files.CHECKSUMS]):
         with pytest.raises(CacasError, match=r"does not match its sha256 in checksums\.sha256: the run that wrote "
                                              r"that folder was stopped part-way"):
-            saved_runs.load_uploaded_tables(uploaded)
+            uploaded_run.load_uploaded_tables(uploaded)
     else:
-        assert "daily" in saved_runs.load_uploaded_tables(uploaded)
+        assert "daily" in uploaded_run.load_uploaded_tables(uploaded)
 
     # the next export says what it found, and leaves the folder whole
     left = len(hidden(out))
@@ -181,7 +181,7 @@ def test_a_simulation_killed_between_its_renames_is_found_by_the_upload_and_the_
     assert (out / "interactions.csv").read_bytes() == earlier["interactions.csv"]
     uploaded = [(name, (out / name).read_bytes()) for name in ("daily.csv", "interactions.csv", files.CHECKSUMS)]
     with pytest.raises(CacasError) as err:
-        saved_runs.load_uploaded_tables(uploaded)
+        uploaded_run.load_uploaded_tables(uploaded)
     assert str(err.value) == (
         "interactions.csv: does not match its sha256 in checksums.sha256: the run that wrote that folder was stopped "
         "part-way (killed, or a power cut) and left files of two runs side by side, or the file was changed since; "

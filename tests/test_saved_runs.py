@@ -1,11 +1,11 @@
 """saved_runs: simulated runs saved all or nothing and read back in one call, named in words, made
-for a background job; uploaded result tables recognised and checked."""
+for a background job (the Results page's uploads: test_uploaded_run)."""
 
 
 import pandas as pd
 import pytest
 
-from cacas import records, saved_runs
+from cacas import records, saved_runs, uploaded_run
 from cacas.errors import CacasError
 from cacas.store import files
 
@@ -224,10 +224,11 @@ def test_participant_codes_of_digits_keep_their_leading_zeros(tmp_path):
     daily.csv, by_preference.csv and interactions.csv."""
     daily = pd.DataFrame({c: [1, 1] for c in records.DAILY_COLUMNS}).assign(participant=["007", "012"], method="cacas")
     by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="007", method="cacas")
-    tables = saved_runs.load_uploaded_tables([("d.csv", _csv(daily)), ("b.csv", _csv(by_pref))])
+    tables = uploaded_run.load_uploaded_tables([("d.csv", records.csv_bytes(daily)),
+                                                ("b.csv", records.csv_bytes(by_pref))])
     assert tables["daily"]["participant"].tolist() == ["007", "012"]
     assert tables["by_preference"]["participant"].tolist() == ["007"]
-    (tmp_path / "daily.csv").write_bytes(_csv(daily))
+    (tmp_path / "daily.csv").write_bytes(records.csv_bytes(daily))
     assert saved_runs.load_daily(tmp_path / "daily.csv")["participant"].tolist() == ["007", "012"]
     # a caller's own column types keep it too
     assert records.read_csv(tmp_path / "daily.csv", dtype={"day": int})["participant"].tolist() == ["007", "012"]
@@ -271,94 +272,6 @@ def test_runs_round_trip_and_bad_daily(tmp_path):
     (tmp_path / "bad.csv").write_text("a,b\n1,2\n")
     with pytest.raises(CacasError, match="not a daily.csv; missing columns: participant"):
         saved_runs.load_daily(tmp_path / "bad.csv")
-
-
-def _csv(df: pd.DataFrame) -> bytes:
-    return df.to_csv(index=False).encode()
-
-
-def test_uploaded_tables_are_recognised_by_their_columns():
-    # one accepted proposal: its day's counts (user_initiated and unanswered 0)
-    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas",
-                                                                         user_initiated=0, unanswered=0)
-    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01", method="cacas")
-    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(
-        participant="P01", method="cacas", day=1, type=records.ROBOT_INITIATED, robot_action="chitchat",
-        response="accept")
-    tables = saved_runs.load_uploaded_tables([("b.csv", _csv(by_pref)), ("i.csv", _csv(inter)),
-                                               ("d.csv", _csv(daily))])
-    assert list(tables) == ["daily", "by_preference", "interactions"]
-    assert list(tables["daily"].columns) == records.DAILY_COLUMNS
-    assert tables["by_preference"]["participant"].tolist() == ["P01"]
-    assert list(saved_runs.load_uploaded_tables([("d.csv", _csv(daily))])) == ["daily"]
-    # an interactions.csv of another run with the same codes: named, not shown beside it
-    more = pd.concat([inter, inter.assign(response="reject")])
-    with pytest.raises(CacasError, match=r"i\.csv: P01 day 1 \(cacas\) has 2 recorded interactions, d\.csv says 1; "
-                                         r"upload the tables of one study or run"):
-        saved_runs.load_uploaded_tables([("i.csv", _csv(more)), ("d.csv", _csv(daily))])
-    with pytest.raises(CacasError, match=r"i\.csv: P01 day 3 \(cacas\) is not in d\.csv"):
-        saved_runs.load_uploaded_tables([("i.csv", _csv(inter.assign(day=3))), ("d.csv", _csv(daily))])
-    unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
-    loaded = saved_runs.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily.assign(unanswered=1)))])
-    assert len(loaded["interactions"]) == 2
-    # a request made while doing nothing is not recorded now; tables exported before counted it (one
-    # interaction, two data points): both upload
-    idle = inter.assign(activity="do nothing", type=records.USER_INITIATED, user_action="chitchat")
-    now = daily.assign(interactions=0, successes=0, success_rate=None, feedback=0, cumulative_feedback=0,
-                       unanswered=1)
-    before = daily.assign(interactions=1, successes=0, success_rate=0.0, user_initiated=1, feedback=2,
-                          cumulative_feedback=2)
-    for said in (now, before):
-        tables = saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(said))])
-        assert len(tables["interactions"]) == 1
-    with pytest.raises(CacasError, match=r"has 0 recorded interactions, d\.csv says 2"):
-        saved_runs.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(now.assign(interactions=2)))])
-
-
-def test_an_upload_near_a_table_names_the_columns_it_lacks():
-    """Walkthrough: a daily.csv whose day column had been dropped (by hand, in a spreadsheet) was told it is "not a
-    daily.csv, by_preference.csv or interactions.csv" and every column a daily.csv needs: which one lacked, it did
-    not say. A file with most of a table's columns is told the ones it lacks; one near none, as before."""
-    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
-    with pytest.raises(CacasError) as err:
-        saved_runs.load_uploaded_tables([("daily.csv", _csv(daily.drop(columns="day")))])
-    assert str(err.value).startswith("daily.csv: not a daily.csv, by_preference.csv or interactions.csv (as a "
-                                     "daily.csv it lacks the column day); a daily.csv needs the columns participant, ")
-    with pytest.raises(CacasError, match=r"\(as a daily.csv it lacks the columns day, interactions\)"):
-        saved_runs.load_uploaded_tables([("d.csv", _csv(daily.drop(columns=["day", "interactions"])))])
-    with pytest.raises(CacasError) as err:
-        saved_runs.load_uploaded_tables([("notes.csv", b"a,b\n1,2\n")])
-    assert "lacks" not in str(err.value)
-
-
-@pytest.mark.parametrize("files, message", [
-    ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
-                                     r"a daily.csv needs the columns participant, method, day"),
-    ([("d1.csv", "daily"), ("d2.csv", "daily")], r"d2.csv and d1.csv are both a daily.csv; upload one of each kind"),
-    # two files of one name (from two folders): "daily.csv and daily.csv are both ..." said which? (lab walkthrough)
-    ([("daily.csv", "daily"), ("b.csv", "by_preference"), ("daily.csv", "daily")],
-     r"^two files named daily.csv \(files 1 and 3 of those uploaded\) are both a daily.csv; upload one of each kind$"),
-    ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
-    ([], r"nothing uploaded: upload a daily.csv as well"),
-    ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),
-    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: not a readable CSV file"),
-    ([("d.csv", "daily_day_two")], r"d.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
-    ([("d.csv", "daily_rate_percent")], r"d.csv, row 2: success_rate 85.0 is invalid; valid: a share from 0 to 1"),
-    ([("d.csv", "daily_ceiling_percent")], r"d.csv, row 2: success_ceiling 90.0 is invalid; valid: a share from 0 "),
-    ([("d.csv", "daily_header_only")], r"d.csv: has the daily.csv columns but no rows; valid: a daily.csv with at "
-                                       r"least one participant-day"),
-])
-def test_bad_uploads_name_the_file(files, message):
-    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
-    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
-    made = {"daily": _csv(daily), "by_preference": _csv(by_pref), "stranger": _csv(by_pref.assign(participant="Q09")),
-            "daily_day_two": _csv(daily.assign(day="two")), "daily_rate_percent": _csv(daily.assign(success_rate=85.0)),
-            "daily_ceiling_percent": _csv(daily.assign(success_rate=0.5, success_ceiling=90.0)),
-            "daily_header_only": _csv(daily.iloc[:0])}
-    files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
-    with pytest.raises(CacasError, match=message):
-        saved_runs.load_uploaded_tables(files)
-
 
 
 def test_two_runs_finished_in_the_same_second_keep_both(tmp_path, monkeypatch):

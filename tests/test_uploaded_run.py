@@ -1,13 +1,15 @@
-"""The Results page's upload of a run's tables without its checksums.sha256: daily.csv, interactions.csv
-and by_preference.csv are checked against each other (participants, methods, days and what each
-row counts), so tables of two runs side by side (a folder a run stopped part-way left, or files of
-two folders) are refused one by one, and the page says that the files' bytes were not checked.
-Tables of one run, simulated either way or exported from a study database, upload."""
+"""cacas.uploaded_run: the Results page's uploads. A run's tables without its checksums.sha256: daily.csv,
+interactions.csv and by_preference.csv are checked against each other (participants, methods, days and
+what each row counts), so tables of two runs side by side (a folder a run stopped part-way left, or files
+of two folders) are refused one by one, and the page says that the files' bytes were not checked. Tables
+of one run, simulated either way or exported from a study database, upload; so do the zip of a run or a
+study, and the lab's summary.csv beside its daily.csv. Each table is recognised by its columns, and a
+file that is none names what it lacks."""
 
 import pandas as pd
 import pytest
 
-from cacas import records, saved_runs
+from cacas import records, saved_runs, uploaded_run
 from cacas.errors import CacasError
 from cacas.experiment import combine_daily
 from cacas.export import export_tables
@@ -70,7 +72,7 @@ def _run(loop="first", methods=("cacas", "orl", "nn")):
 
 
 def upload(tables: dict[str, pd.DataFrame]) -> dict:
-    return saved_runs.load_uploaded_tables([(name, records.csv_bytes(df)) for name, df in tables.items()])
+    return uploaded_run.load_uploaded_tables([(name, records.csv_bytes(df)) for name, df in tables.items()])
 
 
 def refused(tables: dict[str, pd.DataFrame]) -> str:
@@ -192,15 +194,15 @@ def test_tables_that_cannot_be_of_one_run_are_refused_naming_the_row(table, chan
 
 
 def test_the_page_says_whether_the_checksums_were_checked():
-    assert saved_runs.upload_caption(["daily", "interactions"], None) == (
+    assert uploaded_run.upload_caption(["daily", "interactions"], None) == (
         "Uploaded: daily.csv, interactions.csv, checked against each other (participants, methods, days and what "
         "they count).",
         "Checksums not checked: no checksums.sha256 was uploaded with them. Add the one beside the tables (cacas "
         "export and cacas simulate --out write it) to check that each file is whole and of that folder's run.")
-    said, unchecked = saved_runs.upload_caption(["daily"], None)
+    said, unchecked = uploaded_run.upload_caption(["daily"], None)
     assert said == "Uploaded: daily.csv." and unchecked.startswith("Checksums not checked: no checksums.sha256 was "
                                                                    "uploaded with it.")
-    assert saved_runs.upload_caption(["daily", "by_preference"], "checksums.sha256") == (
+    assert uploaded_run.upload_caption(["daily", "by_preference"], "checksums.sha256") == (
         "Uploaded: daily.csv, by_preference.csv, each matching its sha256 in checksums.sha256, and checked against "
         "each other (participants, methods, days and what they count).", None)
 
@@ -223,19 +225,19 @@ def test_the_zip_of_a_simulated_run_uploads_checked_by_its_checksums(tmp_path):
     tables = _run()
     folder = saved_runs.save_run(tmp_path, "run1", tables["daily.csv"], tables["interactions.csv"], {"seed": 1},
                                  tables["by_preference.csv"])
-    files = saved_runs.unpacked_uploads([("cacas-run-run1.zip", saved_runs.run_zip(folder))])
+    files = uploaded_run.unpacked_uploads([("cacas-run-run1.zip", saved_runs.run_zip(folder))])
     assert sorted(name for name, _ in files) == ["by_preference.csv", "checksums.sha256", "daily.csv",
                                                  "interactions.csv"]
-    uploaded = saved_runs.load_uploaded_tables(files)
+    uploaded = uploaded_run.load_uploaded_tables(files)
     assert list(uploaded) == ["daily", "by_preference", "interactions"]
     pd.testing.assert_frame_equal(uploaded["daily"], saved_runs.load_run(folder).daily, check_dtype=False)
     # a CSV beside the zip goes through as it is
-    assert saved_runs.unpacked_uploads([("daily.csv", b"x"), ("r.zip", saved_runs.run_zip(folder))])[0] == \
+    assert uploaded_run.unpacked_uploads([("daily.csv", b"x"), ("r.zip", saved_runs.run_zip(folder))])[0] == \
         ("daily.csv", b"x")
     changed = _zip({"run1/daily.csv": records.csv_bytes(_run(methods=("cacas", "orl"))["daily.csv"]),
                     "run1/checksums.sha256": (folder / "checksums.sha256").read_bytes()})
     with pytest.raises(CacasError, match=r"^daily\.csv: does not match its sha256 in checksums\.sha256: the run"):
-        saved_runs.load_uploaded_tables(saved_runs.unpacked_uploads([("run1.zip", changed)]))
+        uploaded_run.load_uploaded_tables(uploaded_run.unpacked_uploads([("run1.zip", changed)]))
 
 
 def test_the_zip_of_a_study_uploads_its_daily_by_preference_and_interactions(tmp_path):
@@ -243,9 +245,9 @@ def test_the_zip_of_a_study_uploads_its_daily_by_preference_and_interactions(tmp
 
     with StudyStore(_human_study(tmp_path / "study.sqlite")) as s:
         bundle, exported = bundle_bytes(s), export_tables(s)
-    files = saved_runs.unpacked_uploads([("cacas-study-default.zip", bundle)])
+    files = uploaded_run.unpacked_uploads([("cacas-study-default.zip", bundle)])
     assert sorted(name for name, _ in files) == ["by_preference.csv", "daily.csv", "interactions.csv"]
-    uploaded = saved_runs.load_uploaded_tables(files)
+    uploaded = uploaded_run.load_uploaded_tables(files)
     assert list(uploaded) == ["daily", "by_preference", "interactions"]
     pd.testing.assert_frame_equal(uploaded["daily"][records.DAILY_CONTRACT_COLUMNS],
                                   exported["daily"][records.DAILY_CONTRACT_COLUMNS], check_dtype=False)
@@ -259,7 +261,7 @@ def test_the_zip_of_a_study_uploads_its_daily_by_preference_and_interactions(tmp
 ])
 def test_a_zip_that_is_not_of_one_run_or_study_is_refused_by_name(data, message):
     with pytest.raises(CacasError, match=message):
-        saved_runs.unpacked_uploads([("run.zip", data)])
+        uploaded_run.unpacked_uploads([("run.zip", data)])
 
 
 def test_a_zip_member_too_large_is_refused_before_it_is_read(monkeypatch):
@@ -268,7 +270,7 @@ def test_a_zip_member_too_large_is_refused_before_it_is_read(monkeypatch):
     monkeypatch.setattr(export, "MAX_MEMBER_BYTES", 10)
     with pytest.raises(CacasError, match=r"^run\.zip: r/daily\.csv in the bundle is 11 bytes uncompressed, over the "
                                          r"limit of 10 bytes .*; valid: the zip of a run"):
-        saved_runs.unpacked_uploads([("run.zip", _zip({"r/daily.csv": b"01234567890", "r/settings.json": b"{}"}))])
+        uploaded_run.unpacked_uploads([("run.zip", _zip({"r/daily.csv": b"01234567890", "r/settings.json": b"{}"}))])
 
 
 def test_the_labs_summary_csv_uploads_beside_its_daily_csv_checked_against_it():
@@ -289,3 +291,90 @@ def test_the_labs_summary_csv_uploads_beside_its_daily_csv_checked_against_it():
         f"summary-run1.csv: {summary['method'][0]} day {summary['day'][0]} is not in summary-run1.csv; upload the "
         "tables of one run")
     assert refused({"summary-run1.csv": summary}).startswith("summary-run1.csv: upload a daily.csv as well")
+
+
+def _csv(df: pd.DataFrame) -> bytes:
+    return df.to_csv(index=False).encode()
+
+
+def test_uploaded_tables_are_recognised_by_their_columns():
+    # one accepted proposal: its day's counts (user_initiated and unanswered 0)
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas",
+                                                                         user_initiated=0, unanswered=0)
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01", method="cacas")
+    inter = pd.DataFrame({c: ["x"] for c in records.INTERACTION_COLUMNS}).assign(
+        participant="P01", method="cacas", day=1, type=records.ROBOT_INITIATED, robot_action="chitchat",
+        response="accept")
+    tables = uploaded_run.load_uploaded_tables([("b.csv", _csv(by_pref)), ("i.csv", _csv(inter)),
+                                               ("d.csv", _csv(daily))])
+    assert list(tables) == ["daily", "by_preference", "interactions"]
+    assert list(tables["daily"].columns) == records.DAILY_COLUMNS
+    assert tables["by_preference"]["participant"].tolist() == ["P01"]
+    assert list(uploaded_run.load_uploaded_tables([("d.csv", _csv(daily))])) == ["daily"]
+    # an interactions.csv of another run with the same codes: named, not shown beside it
+    more = pd.concat([inter, inter.assign(response="reject")])
+    with pytest.raises(CacasError, match=r"i\.csv: P01 day 1 \(cacas\) has 2 recorded interactions, d\.csv says 1; "
+                                         r"upload the tables of one study or run"):
+        uploaded_run.load_uploaded_tables([("i.csv", _csv(more)), ("d.csv", _csv(daily))])
+    with pytest.raises(CacasError, match=r"i\.csv: P01 day 3 \(cacas\) is not in d\.csv"):
+        uploaded_run.load_uploaded_tables([("i.csv", _csv(inter.assign(day=3))), ("d.csv", _csv(daily))])
+    unanswered = pd.concat([inter, inter.assign(response="others")])  # saved, not recorded: daily.csv's count
+    loaded = uploaded_run.load_uploaded_tables([("i.csv", _csv(unanswered)), ("d.csv", _csv(daily.assign(unanswered=1)))])
+    assert len(loaded["interactions"]) == 2
+    # a request made while doing nothing is not recorded now; tables exported before counted it (one
+    # interaction, two data points): both upload
+    idle = inter.assign(activity="do nothing", type=records.USER_INITIATED, user_action="chitchat")
+    now = daily.assign(interactions=0, successes=0, success_rate=None, feedback=0, cumulative_feedback=0,
+                       unanswered=1)
+    before = daily.assign(interactions=1, successes=0, success_rate=0.0, user_initiated=1, feedback=2,
+                          cumulative_feedback=2)
+    for said in (now, before):
+        tables = uploaded_run.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(said))])
+        assert len(tables["interactions"]) == 1
+    with pytest.raises(CacasError, match=r"has 0 recorded interactions, d\.csv says 2"):
+        uploaded_run.load_uploaded_tables([("i.csv", _csv(idle)), ("d.csv", _csv(now.assign(interactions=2)))])
+
+
+def test_an_upload_near_a_table_names_the_columns_it_lacks():
+    """Walkthrough: a daily.csv whose day column had been dropped (by hand, in a spreadsheet) was told it is "not a
+    daily.csv, by_preference.csv or interactions.csv" and every column a daily.csv needs: which one lacked, it did
+    not say. A file with most of a table's columns is told the ones it lacks; one near none, as before."""
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
+    with pytest.raises(CacasError) as err:
+        uploaded_run.load_uploaded_tables([("daily.csv", _csv(daily.drop(columns="day")))])
+    assert str(err.value).startswith("daily.csv: not a daily.csv, by_preference.csv or interactions.csv (as a "
+                                     "daily.csv it lacks the column day); a daily.csv needs the columns participant, ")
+    with pytest.raises(CacasError, match=r"\(as a daily.csv it lacks the columns day, interactions\)"):
+        uploaded_run.load_uploaded_tables([("d.csv", _csv(daily.drop(columns=["day", "interactions"])))])
+    with pytest.raises(CacasError) as err:
+        uploaded_run.load_uploaded_tables([("notes.csv", b"a,b\n1,2\n")])
+    assert "lacks" not in str(err.value)
+
+
+@pytest.mark.parametrize("files, message", [
+    ([("notes.csv", b"a,b\n1,2\n")], r"notes.csv: not a daily.csv, by_preference.csv or interactions.csv; "
+                                     r"a daily.csv needs the columns participant, method, day"),
+    ([("d1.csv", "daily"), ("d2.csv", "daily")], r"d2.csv and d1.csv are both a daily.csv; upload one of each kind"),
+    # two files of one name (from two folders): "daily.csv and daily.csv are both ..." said which? (lab walkthrough)
+    ([("daily.csv", "daily"), ("b.csv", "by_preference"), ("daily.csv", "daily")],
+     r"^two files named daily.csv \(files 1 and 3 of those uploaded\) are both a daily.csv; upload one of each kind$"),
+    ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
+    ([], r"nothing uploaded: upload a daily.csv as well"),
+    ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),
+    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: not a readable CSV file"),
+    ([("d.csv", "daily_day_two")], r"d.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
+    ([("d.csv", "daily_rate_percent")], r"d.csv, row 2: success_rate 85.0 is invalid; valid: a share from 0 to 1"),
+    ([("d.csv", "daily_ceiling_percent")], r"d.csv, row 2: success_ceiling 90.0 is invalid; valid: a share from 0 "),
+    ([("d.csv", "daily_header_only")], r"d.csv: has the daily.csv columns but no rows; valid: a daily.csv with at "
+                                       r"least one participant-day"),
+])
+def test_bad_uploads_name_the_file(files, message):
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="P01")
+    by_pref = pd.DataFrame({c: [1] for c in records.BY_PREFERENCE_COLUMNS}).assign(participant="P01")
+    made = {"daily": _csv(daily), "by_preference": _csv(by_pref), "stranger": _csv(by_pref.assign(participant="Q09")),
+            "daily_day_two": _csv(daily.assign(day="two")), "daily_rate_percent": _csv(daily.assign(success_rate=85.0)),
+            "daily_ceiling_percent": _csv(daily.assign(success_rate=0.5, success_ceiling=90.0)),
+            "daily_header_only": _csv(daily.iloc[:0])}
+    files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
+    with pytest.raises(CacasError, match=message):
+        uploaded_run.load_uploaded_tables(files)
