@@ -389,19 +389,21 @@ def _check_one_row_each(daily: pd.DataFrame, name: str) -> None:
                          "simulate and an export write it")
 
 
-def upload_caption(kinds: Sequence[str], checksums: str | None) -> tuple[str, str | None]:
+def upload_caption(kinds: Sequence[str], checksums: str | None, zips: Sequence[str] = ()) -> tuple[str, str | None]:
     """What the Results page says of uploaded tables (their kinds, as :func:`load_uploaded_tables`
-    returns them) and of the checksums file uploaded with them (its name; None if none was): what
-    was checked, and, without a checksums file, a note that the files' bytes were not (None with one)."""
+    returns them; read from the ``zips`` named, if any) and of the checksums file uploaded with them (its
+    name; None if none was): what was checked, and, without a checksums file, a note that the files'
+    bytes were not (None with one)."""
     from cacas.store.files import CHECKSUMS
 
     names = ", ".join(f"{k}.csv" for k in kinds)
+    uploaded = f"Uploaded from {', '.join(zips)}" if zips else "Uploaded"
     together = " checked against each other (participants, methods, days and what they count)" \
         if len(kinds) > 1 else ""
     if checksums:
-        return f"Uploaded: {names}, each matching its sha256 in {checksums}" + (f", and{together}" if together else "") \
+        return f"{uploaded}: {names}, each matching its sha256 in {checksums}" + (f", and{together}" if together else "") \
             + ".", None
-    return (f"Uploaded: {names}" + (f",{together}" if together else "") + ".",
+    return (f"{uploaded}: {names}" + (f",{together}" if together else "") + ".",
             f"Checksums not checked: no {CHECKSUMS} was uploaded with {'them' if len(kinds) > 1 else 'it'}. Add the "
             "one beside the tables (cacas export and cacas simulate --out write it) to check that each file is whole "
             "and of that folder's run.")

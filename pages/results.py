@@ -104,7 +104,8 @@ else:
         st.stop()
     daily = tables["daily"]
     checked = next((name for name, _ in uploaded if name.lower().endswith(".sha256")), None)
-    said, unchecked = uploaded_run.upload_caption(list(tables), checked)
+    said, unchecked = uploaded_run.upload_caption(list(tables), checked,
+                                                  [up.name for up in ups if up.name.lower().endswith(".zip")])
     st.caption(said)
     if unchecked:
         st.caption(f":material/info: {unchecked}")

@@ -202,6 +202,10 @@ def test_the_page_says_whether_the_checksums_were_checked():
     said, unchecked = uploaded_run.upload_caption(["daily"], None)
     assert said == "Uploaded: daily.csv." and unchecked.startswith("Checksums not checked: no checksums.sha256 was "
                                                                    "uploaded with it.")
+    # tables read from a zip say so (a run's zip, as the Simulation lab downloads it)
+    assert uploaded_run.upload_caption(["daily", "interactions"], "checksums.sha256", ["cacas-run-x.zip"])[0] == (
+        "Uploaded from cacas-run-x.zip: daily.csv, interactions.csv, each matching its sha256 in checksums.sha256, "
+        "and checked against each other (participants, methods, days and what they count).")
     assert uploaded_run.upload_caption(["daily", "by_preference"], "checksums.sha256") == (
         "Uploaded: daily.csv, by_preference.csv, each matching its sha256 in checksums.sha256, and checked against "
         "each other (participants, methods, days and what they count).", None)

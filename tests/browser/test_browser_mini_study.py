@@ -512,7 +512,7 @@ def test_results_upload_daily_and_by_preference(server, page, tmp_path):
         page.get_by_role("button", name=f"Remove {name}").click()
         idle(page)
     upload(page, uploader, tmp_path / "cacas-run-elsewhere.zip")
-    shows(page, "Uploaded: daily.csv, by_preference.csv, checked against each other")
+    shows(page, "Uploaded from cacas-run-elsewhere.zip: daily.csv, by_preference.csv, checked against each other")
     shot(page, "results-upload-zip")
 
 
