@@ -2,7 +2,7 @@
 
 import streamlit as st
 
-from cacas import app_support, spaces
+from cacas import app_support, preference_form, spaces
 from cacas.preferences import persona_json
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER
@@ -126,9 +126,9 @@ def _form_start(existing: list, version: int, who: str) -> dict:
     for n in range(1, max(10, len(existing)) + 1):
         old = existing[n - 1] if n <= len(existing) else None
         values = ((old.description or "", list(old.activity), list(old.scene or []),
-                   app_support.hours_to_slots(old.hours), app_support.interval_to_bins(old.interval),
+                   preference_form.hours_to_slots(old.hours), preference_form.interval_to_bins(old.interval),
                    old.action) if old is not None else
-                  ("", [], [], [], app_support.interval_to_bins(None), ANY))
+                  ("", [], [], [], preference_form.interval_to_bins(None), ANY))
         start.update({_form_key(who, version, n, f): v for f, v in zip(FIELDS, values)})
     return start
 
@@ -140,7 +140,7 @@ def _form_items(values, who: str, version: int, count: int, tasks: dict) -> tupl
     for n in range(1, count + 1):
         k = lambda f: _form_key(who, version, n, f)  # noqa: E731
         action = values[k("action")]
-        item = app_support.preference_from_form(
+        item = preference_form.preference_from_form(
             values[k("words")], values[k("activity")], values[k("scene")], values[k("slots")], values[k("interval")],
             None if action == ANY else action, tasks.get(n))
         if item is not None:
@@ -173,7 +173,7 @@ def _form_values(who: str, version) -> dict:
 def _save_preferences(who: str, version: int, count: int, tasks: dict) -> None:
     s = st.session_state
     items, numbers = _form_items(s, who, version, count, tasks)
-    person, errors, overall = app_support.check_preferences(who, items, numbers)
+    person, errors, overall = preference_form.check_preferences(who, items, numbers)
     # shown on this participant's form only, and only while the form holds what was checked
     s["pref-check"] = (who, errors, overall, _form_values(who, version))
     if person is None:
@@ -339,7 +339,7 @@ def _removal_section(who: str) -> None:
 # --- page -------------------------------------------------------------------------------------------
 
 def preferences_grid(table, room: int) -> None:
-    """A participant's saved preferences (:func:`app_support.preferences_table`) with every column in
+    """A participant's saved preferences (:func:`preference_form.preferences_table`) with every column in
     view in ``room`` px at 1280 px (:func:`app_support.preferences_table_layout`): it scrolled sideways."""
     widths, row_height = app_support.preferences_table_layout(table.columns, room)
     headings = app_support.PREFERENCES_HEADINGS
@@ -390,8 +390,8 @@ if code:
             st.markdown(f"**Saved (version {version})** · {n_prefs} preference{'s' if n_prefs != 1 else ''} covering "
                         f"**{saved.covered_count():,}** of the {states:,} S1-S4 states "
                         "(the paper counts 1,564 on average for 5 preferences).")
-            preferences_grid(app_support.preferences_table(saved), app_support.PREFERENCES_TABLE_ROOM)
-            for note in app_support.redundancy_notes(saved):
+            preferences_grid(preference_form.preferences_table(saved), app_support.PREFERENCES_TABLE_ROOM)
+            for note in preference_form.redundancy_notes(saved):
                 st.warning(note, icon=":material/content_copy:")
             earlier = [v for v in versions if v["version"] != version]
             if earlier:
@@ -401,7 +401,7 @@ if code:
                               for v in reversed(earlier)}
                     old = st.selectbox("Version", list(labels), format_func=labels.get, key=f"old-version-{code}")
                     before = store.get_preferences(code, version=old)
-                    preferences_grid(app_support.preferences_table(before), app_support.EARLIER_PREFERENCES_ROOM)
+                    preferences_grid(preference_form.preferences_table(before), app_support.EARLIER_PREFERENCES_ROOM)
                     if any(p.task for p in before.preferences):
                         st.caption("This version has preferences limited to robot tasks (from an imported file), "
                                    "which the form cannot hold: import that file again to restore it.")

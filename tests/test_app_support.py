@@ -4,7 +4,6 @@ import pandas as pd
 import pytest
 
 from cacas import app_support, records
-from cacas.preferences import Preference
 from cacas.store import StudyStore
 from cacas.study_day import STUDY_DAYS
 
@@ -31,53 +30,6 @@ def test_answers_given_before_the_last_day_are_named():
                             "satisfaction": [9, 10, 6, 8]})
     s = app_support.questionnaire_summary(answers)
     assert s["n"] == 3 and s["mid_study"] == ["P02"]
-
-
-def test_slots_and_hours():
-    assert app_support.slots_to_hours([3, 4, 8, 9]) == [[6, 10], [16, 20]]
-    assert app_support.slots_to_hours([]) is None and app_support.slots_to_hours(range(12)) is None
-    assert app_support.hours_to_slots([[6, 10], [16, 20]]) == [3, 4, 8, 9]
-    assert app_support.interval_to_bins([0, 25]) == (0, 20)
-    assert app_support.interval_to_bins(None) == (0, 200)
-
-
-def test_preference_form_and_checks():
-    stove = app_support.preference_from_form(" Turn it off ", ["use stove"], ["kitchen"], [3], (0, 30),
-                                             "remind to turn off")
-    assert stove == {"description": "Turn it off", "activity": ["use stove"], "scene": ["kitchen"],
-                     "hours": [[6, 8]], "interval": [0, 30], "action": "remind to turn off"}
-    assert app_support.preference_from_form("", [], [], [], (0, 200), None) is None
-    # an imported preference's task (S5; the form has no field for it) is kept when the form saves it
-    assert app_support.preference_from_form("", ["cough"], [], [], (0, 200), "pain check", ["chitchat"]) == {
-        "activity": ["cough"], "task": ["chitchat"], "action": "pain check"}
-    chat = app_support.preference_from_form("", ["use stove"], [], [], (0, 200), "chitchat")
-    person, errors, overall = app_support.check_preferences("P01", [stove, chat], numbers=[1, 4])
-    assert person is None and not errors and overall.startswith("preferences 1 and 4 both cover")
-    bad = app_support.preference_from_form("", ["use stove"], [], [], (0, 200), None)
-    person, errors, overall = app_support.check_preferences("P01", [stove, bad], numbers=[1, 2])
-    assert person is None and list(errors) == [2] and errors[2].startswith("choose an action: ") and overall is None
-    # an overlap among the valid ones is said in the same check as another preference's error, named
-    # by their numbers on the form (walkthrough: it was said only on the save after the error was mended)
-    person, errors, overall = app_support.check_preferences("P01", [stove, bad, chat], numbers=[1, 2, 3])
-    assert person is None and list(errors) == [2] and overall.startswith("preferences 1 and 3 both cover")
-    person, errors, overall = app_support.check_preferences("P01", [stove])
-    # 1 activity (use stove) x 1 room (kitchen) x 1 time slot (06:00-08:00) x 8 interval bins in
-    # 0-30 min (0, 1, 2, 5, 10, 15, 20, 30) = 8 S1-S4 states
-    assert person.covered_count() == 8 and not errors and overall is None
-    assert app_support.check_preferences("P01", [])[2].startswith("describe at least one")
-    # what is missing, in the form's words; a wrong value gets the library's message naming the field
-    nothing = app_support.preference_from_form("just words", [], [], [], (0, 200), None)
-    assert app_support.check_preferences("P01", [nothing])[1] == {
-        1: "choose at least one activity and an action: a preference says which activities lead to which action"}
-    typo = {"activity": ["coughing"], "action": "pain check"}
-    assert app_support.check_preferences("P01", [typo])[1][1].startswith("field 'activity': unknown activity 'coughing'")
-    # a missing field and contact details in the words: both at once (walkthrough: the words' problem
-    # was said only once the activity had been chosen)
-    mailed = app_support.preference_from_form("mail me at a@b.org", [], [], [], (0, 200), "pain check")
-    assert app_support.check_preferences("P01", [mailed])[1] == {
-        1: "choose at least one activity: a preference says which activities lead to which action; and field "
-           "'description': holds what looks like contact details ('a@b.org'); valid: the participant's words "
-           "without e-mail addresses or phone numbers (study data are pseudonymous)"}
 
 
 def test_overview_says_who_still_owes_the_questionnaire(tmp_path):
@@ -340,15 +292,6 @@ def test_the_participant_last_worked_with_is_found_behind_any_number_of_other_ev
         assert store.latest_participant("pilot 7") == "Q01" and store.latest_participant("walk 3") is None
 
 
-def test_a_preferences_hours_read_as_the_tablet_writes_a_time_of_day():
-    """The Participants table said "06-12 h", its form "06-08 h", the tablet "06:00-08:00"."""
-    from cacas import spaces
-
-    assert app_support.hours_label([(6, 12), (20, 24)]) == "06:00-12:00, 20:00-24:00"
-    assert app_support.hours_label([(6, 8)]) == spaces.time_slot_label(3)
-    assert app_support.hours_label(None) == "any time"
-
-
 def test_open_days_names_each_participant_whose_latest_day_is_open(tmp_path):
     """From the days table (it asked each participant's status): the open day of each participant
     whose latest day is open, of the study asked for."""
@@ -394,14 +337,6 @@ def test_a_long_jobs_time_left_is_estimated_once_there_is_enough_to_tell():
     assert app_support.time_left(25, 0.388) == ", about 39 s left"
     assert app_support.time_left(25, 0.388, (10.15, 0.002)) == ", about 24 s left"
     assert app_support.time_left(20, 0.25, (10, 0.2)) == ", about 60 s left"  # a tenth more not yet done: from the start
-
-
-@pytest.mark.parametrize("hours", [[[6, 10], [16, 20]], [[7, 11]], [[0, 24]], [[22, 24], [0, 2]], [[9, 10]]])
-def test_hours_to_slots_counts_slots_as_a_preference_does(hours):
-    expected = Preference(activity=("cough",), action="pain check", hours=tuple(map(tuple, hours))).slot_indices()
-    assert app_support.hours_to_slots(hours) == expected
-    assert app_support.hours_to_slots([[7, 11]]) == [4]  # only the slots wholly inside: 08-10
-    assert app_support.hours_to_slots(None) == [] and app_support.hours_to_slots([]) == []  # any time
 
 
 def test_a_studys_download_names_have_no_spaces():
@@ -507,7 +442,6 @@ def test_the_roll_back_note_reads_as_past_once_a_later_version_is_in_force(tmp_p
         store.save_policy("P01", 2, "cacas", b"policy after day 2")  # a day adapted since: the newest is in force
         assert note() == (" While a roll-back held (P01, P02; a later version is in force again), a day used the "
                           "version it put in force " + how)
-
 
 
 def test_an_import_of_personas_is_said_group_by_group():
@@ -690,24 +624,6 @@ def test_recent_events_with_details_that_are_not_a_json_object():
     assert list(app_support.recent_events(store)["what"]) == [
         "day 2 started", "record adaptation (its details are not readable)",
         "close day (its details are not readable)"]
-
-
-def test_a_preferences_interval_reads_as_the_minutes_its_bins_cover():
-    """Walkthrough: the preferences table said "5-30" for the interval [5, 30], read as "up to 30 minutes", while
-    the preference takes in the S4 bin the tablet offers as "30-60 min" (the file holds bins' lower ends, Table I).
-    The table says the minutes covered, in the tablet's words for the bins."""
-    from cacas import app_support
-    from cacas.preferences import Participant, Preference
-
-    label = app_support.preference_interval_label
-    assert label((5, 30)) == "5-60 min" and label((0, 30)) == "0-60 min"
-    assert label((60, 200)) == "60+ min" and label((0, 0)) == "0-1 min" and label((200, 200)) == "200+ min"
-    assert label((7, 45)) == "10-60 min"  # bins 10, 15, 20 and 30 lie in [7, 45]
-    assert label(None) == "any" and label((0, 200)) == "any"
-    table = app_support.preferences_table(Participant("P01", (
-        Preference(activity=("cough",), action="pain check", interval=(5, 30)),
-        Preference(activity=("use stove",), action="remind to turn off"))))
-    assert list(table["since last activity"]) == ["5-60 min", "any"]
 
 
 def test_the_initial_policys_fig4_scores_name_their_method(tmp_path):
