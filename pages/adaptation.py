@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import streamlit as st
 
-from cacas import app_support
+from cacas import app_support, table_layouts
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -218,7 +218,7 @@ else:
             learnt = learnt.drop(columns="preference")
             learnt[["before", "after"]] *= 100
             bar = {"format": "%.0f%%", "min_value": 0, "max_value": 100}
-            widths, row_height = app_support.learnt_table_layout(learnt.columns)
+            widths, row_height = table_layouts.learnt_table_layout(learnt.columns)
             st.dataframe(learnt, hide_index=True, width="stretch", row_height=row_height,
                          column_config={"label": st.column_config.TextColumn("preference", width=widths["label"]),
                                         "action": st.column_config.TextColumn("action", width=widths["action"]),

@@ -2,7 +2,7 @@
 
 import streamlit as st
 
-from cacas import app_support, preference_form, spaces
+from cacas import app_support, preference_form, spaces, table_layouts
 from cacas.preferences import persona_json
 from cacas.errors import CacasError
 from cacas.jobs import RUNNER
@@ -340,9 +340,9 @@ def _removal_section(who: str) -> None:
 
 def preferences_grid(table, room: int) -> None:
     """A participant's saved preferences (:func:`preference_form.preferences_table`) with every column in
-    view in ``room`` px at 1280 px (:func:`app_support.preferences_table_layout`): it scrolled sideways."""
-    widths, row_height = app_support.preferences_table_layout(table.columns, room)
-    headings = app_support.PREFERENCES_HEADINGS
+    view in ``room`` px at 1280 px (:func:`table_layouts.preferences_table_layout`): it scrolled sideways."""
+    widths, row_height = table_layouts.preferences_table_layout(table.columns, room)
+    headings = table_layouts.PREFERENCES_HEADINGS
     st.dataframe(table, hide_index=True, width="stretch", row_height=row_height, column_config={
         c: (st.column_config.NumberColumn if c in ("#", "covered states") else st.column_config.TextColumn)(
             headings.get(c), width=w, **({"format": "%d"} if c == "covered states" else {}),
@@ -390,7 +390,7 @@ if code:
             st.markdown(f"**Saved (version {version})** · {n_prefs} preference{'s' if n_prefs != 1 else ''} covering "
                         f"**{saved.covered_count():,}** of the {states:,} S1-S4 states "
                         "(the paper counts 1,564 on average for 5 preferences).")
-            preferences_grid(preference_form.preferences_table(saved), app_support.PREFERENCES_TABLE_ROOM)
+            preferences_grid(preference_form.preferences_table(saved), table_layouts.PREFERENCES_TABLE_ROOM)
             for note in preference_form.redundancy_notes(saved):
                 st.warning(note, icon=":material/content_copy:")
             earlier = [v for v in versions if v["version"] != version]
@@ -401,7 +401,7 @@ if code:
                               for v in reversed(earlier)}
                     old = st.selectbox("Version", list(labels), format_func=labels.get, key=f"old-version-{code}")
                     before = store.get_preferences(code, version=old)
-                    preferences_grid(preference_form.preferences_table(before), app_support.EARLIER_PREFERENCES_ROOM)
+                    preferences_grid(preference_form.preferences_table(before), table_layouts.EARLIER_PREFERENCES_ROOM)
                     if any(p.task for p in before.preferences):
                         st.caption("This version has preferences limited to robot tasks (from an imported file), "
                                    "which the form cannot hold: import that file again to restore it.")

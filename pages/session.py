@@ -13,7 +13,7 @@ import time
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, dialogue, lab, spaces
+from cacas import app_support, dialogue, lab, spaces, table_layouts
 from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
@@ -623,8 +623,8 @@ if done and not tablet:
         # scrolled out of a 560 px table, behind the time, the interval and the room)
         first = ["#", "activity", "robot proposed", "answer"]
         view = view[first + [c for c in view.columns if c not in first]]
-        # every column in view at 1280 px, names whole (app_support.today_table_layout)
-        widths, row_height = app_support.today_table_layout(view.columns)
+        # every column in view at 1280 px, names whole (table_layouts.today_table_layout)
+        widths, row_height = table_layouts.today_table_layout(view.columns)
         st.dataframe(view, hide_index=True, width="stretch", row_height=row_height, column_config={
             c: (st.column_config.NumberColumn if c == "#" else st.column_config.TextColumn)(
                 "since last" if c == "since last activity" else None, width=w) for c, w in widths.items()})

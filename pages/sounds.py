@@ -7,7 +7,7 @@ from __future__ import annotations
 import pandas as pd
 import streamlit as st
 
-from cacas import app_support, lab, spaces
+from cacas import app_support, lab, spaces, table_layouts
 from cacas.audio.library import clip_paths
 from cacas.vision.library import image_paths
 from cacas.errors import CacasError
@@ -212,7 +212,7 @@ with scene_library:
             room = st.selectbox("Room", spaces.SCENES, key="lib-room", persist_state="page")
             photos = image_paths(room)[:48]
             # as many columns as keep each name on one line at 1280 px (in six "synthetic_0_000.jp" broke before "g")
-            n = app_support.photo_grid_columns(p.name for p in photos)
+            n = table_layouts.photo_grid_columns(p.name for p in photos)
             grid = st.columns(n)
             for j, p in enumerate(photos):
                 grid[j % n].image(str(p), caption=p.name, width="stretch")

@@ -33,7 +33,7 @@ def test_the_participants_table_shows_every_column_at_1280_px_with_names_whole(a
     """The ui helper saw "last recorded" cut at the right edge at 1280 px (six columns of 920 px in a table of
     820). Every column shown has a width now, all of them fit the page at 1280 px (the table stretches them on a
     wider page), and a row is three lines high: the policy's "(newest: 2)" and the time of "last recorded" wrap."""
-    room = 818  # the table's width at 1280 x 800 beside the sidebar (headless Chromium; app_support.OVERVIEW_TABLE_ROOM)
+    room = 818  # the table's width at 1280 x 800 beside the sidebar (headless Chromium; table_layouts.OVERVIEW_TABLE_ROOM)
     store.add_participant("P01")
     store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
     store.open_day("P01")
@@ -374,7 +374,7 @@ def test_recent_activity_shows_a_comparisons_participants_whole(app, store):
     """The ui helpers saw "2 participants" (a method comparison's line in the recent activity) cut at its "s"
     in a participant column of 85 px; the data grid draws text on a canvas, so it is measured in Chromium: in
     the grid's 14-px Source Sans "999 participants" is 94 px, "2026-11-27 10:55 UTC" 125 px, each with 8 px of
-    padding a side (app_support.RECENT_ACTIVITY_WIDTHS)."""
+    padding a side (table_layouts.RECENT_ACTIVITY_WIDTHS)."""
     for code in ("P01", "P02"):
         store.add_participant(code)
     for code in ("P01", "P02"):  # the initial policy scored for a comparison of both: one line

@@ -506,7 +506,7 @@ def test_the_days_table_shows_every_column_at_1280_px_with_names_whole(app, stor
     right edge at 1280 px and "use hair dryer", "living room" cut at 1440 px (the data grid's own widths), while
     the answer had room to spare. Every column has a width now, all of them fit the page at 1280 px (the table
     stretches them on a wider page), and a row is three lines high: what is longer than its column wraps."""
-    room = 784  # the table's width at 1280 x 800 beside the sidebar (headless Chromium; app_support.TODAY_TABLE_ROOM)
+    room = 784  # the table's width at 1280 x 800 beside the sidebar (headless Chromium; table_layouts.TODAY_TABLE_ROOM)
     store.open_day("P01")
     store.record_interaction("P01", 1, activity="use hair dryer", scene="living room", hour=9, interval_minutes=5,
                              robot_action="remind to take medicine", response="accept",

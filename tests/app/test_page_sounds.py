@@ -560,8 +560,8 @@ def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, mon
 def test_every_photo_of_a_room_keeps_each_name_on_one_line_at_1280_px(app):
     """The ui helpers saw the shipped photos' captions break mid-name at 1280 px ("synthetic_0_000.jp" / "g"):
     six columns of 118 px for a name 135 px wide. The grid has as many columns as keep the longest name whole
-    (app_support.photo_grid_columns): five for the shipped names, fewer for longer ones."""
-    from cacas import app_support
+    (table_layouts.photo_grid_columns): five for the shipped names, fewer for longer ones."""
+    from cacas import table_layouts
     from cacas.paths import PROJECT_ROOT
 
     at = open_expander(app(PAGE), "lib-every-photo")
@@ -571,11 +571,11 @@ def test_every_photo_of_a_room_keeps_each_name_on_one_line_at_1280_px(app):
                                                                   "bedroom").glob("*.jpg"))))  # every photo
     assert len(grid) == 5  # six before
     # "synthetic_0_000.jpg" is 134.6 px wide in the caption's font (Chromium); each column is 144 px
-    assert (app_support.PHOTO_GRID_ROOM - app_support.PHOTO_GRID_GAP * 4) / 5 >= 135
+    assert (table_layouts.PHOTO_GRID_ROOM - table_layouts.PHOTO_GRID_GAP * 4) / 5 >= 135
     # a study's own photos, named by a phone: fewer columns, each name whole
     names = ["PXL_20260301_101500123.jpg", "IMG_20260301_101500.jpg"]
-    assert app_support.photo_grid_columns(names) == 3
-    assert app_support.photo_grid_columns(["a.jpg"]) == 6 and app_support.photo_grid_columns(["x" * 200]) == 2
+    assert table_layouts.photo_grid_columns(names) == 3
+    assert table_layouts.photo_grid_columns(["a.jpg"]) == 6 and table_layouts.photo_grid_columns(["x" * 200]) == 2
 
 
 def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):

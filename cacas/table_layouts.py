@@ -1,0 +1,132 @@
+"""How wide the pages draw their tables and grids (Streamlit's data grid, the photo grid): each column's
+width in px from its longest heading or cell, fitted to the room a page has beside the sidebar at
+1280 x 800 (measured in headless Chromium), and rows tall enough to wrap where a column cannot fit.
+No streamlit: the pages pass these to ``st.dataframe``'s column_config and ``st.columns``.
+"""
+
+from __future__ import annotations
+
+
+#: The width (px) the researcher's table of today's interactions has on the Study session page at 1280 x 800,
+#: beside the sidebar (measured in headless Chromium).
+TODAY_TABLE_ROOM = 784
+
+#: The widths (px) of the Overview's recent activity (:func:`cacas.app_support.recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
+#: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
+#: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
+#: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.
+RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110, "what": 640}
+
+#: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
+#: headless Chromium: 820 px, its 1-px borders included).
+OVERVIEW_TABLE_ROOM = 818
+
+#: The width (px) of the Participants page's table of saved preferences at 1280 x 800, beside the sidebar, and of
+#: an earlier version's inside its expander (measured in headless Chromium: 820 and 786 px, borders included).
+PREFERENCES_TABLE_ROOM = 818
+EARLIER_PREFERENCES_ROOM = 784
+
+#: The row height (px) at which Streamlit's data grid lets a cell's text wrap (only in rows over 4rem, 64 px):
+#: three lines, so that what is longer than its column wraps instead of being cut.
+WRAPPING_ROW = 66
+
+
+def fitted_layout(widths: dict[str, int], columns, room: int) -> tuple[dict[str, int], int]:
+    """A data grid's layout in which every column is in view: the pixel widths of the ``columns``
+    shown (``widths``: each column's, chosen so that a name stays whole on one line), which together
+    fit ``room`` (the table stretches them on a wider page), and rows of :data:`WRAPPING_ROW`, so
+    that a longer value wraps instead of being cut. Raises ValueError when they do not fit."""
+    chosen = {c: w for c, w in widths.items() if c in columns}
+    if sum(chosen.values()) > room:
+        raise ValueError(f"columns of {sum(chosen.values())} px in all do not fit {room} px")
+    return chosen, WRAPPING_ROW
+
+
+def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
+    """How the Study session page draws the researcher's table of today's interactions
+    (:func:`cacas.app_support.interactions_view` of one day, its columns ``columns``): each column's width (px, or
+    Streamlit's "medium") and the row height (px; None: one line). Without what the robot heard and
+    saw, every value fits on one line beside narrow "#", time and interval columns, the answer
+    given room ("asked for remind to take medicine" whole). With them, nine columns need about
+    1,000 px on one line, more than the page has at 1280 px: the walkthrough saw "robot saw" off the
+    right edge at 1280 px and "use hair dryer", "living room" cut at 1440 px (the data grid's own
+    widths), while the answer had room to spare. Then every column has a width of its own, the
+    widths together fit :data:`TODAY_TABLE_ROOM` (:func:`fitted_layout`): a name on one line ("use
+    hair dryer", "living room"), a proposal or an answer on two or three."""
+    if "robot heard" not in columns and "robot saw" not in columns:
+        return {"#": 40, "time of day": 90, "since last activity": 80, "answer": "medium"}, None
+    widths = {"#": 32, "activity": 100, "robot proposed": 106, "answer": 106, "time of day": 88,
+              "since last activity": 74, "room": 88, "robot heard": 100, "robot saw": 88}
+    return fitted_layout(widths, columns, TODAY_TABLE_ROOM)
+
+
+def overview_table_layout(columns) -> tuple[dict[str, int], int]:
+    """How the Overview page draws its table of participants (:func:`overview_frame`'s ``columns``
+    that it shows): each column's width (px) and the row height (px). On one line the six columns
+    need about 870 px ("Start day 1 on the tablet (Study session)", "version 1 (newest: 2)",
+    "2026-11-21 09:47 UTC", the "success rate so far" bar), more than the table has at 1280 px: the
+    ui helper saw "last recorded" cut at the right edge. The widths fit :data:`OVERVIEW_TABLE_ROOM`
+    (:func:`fitted_layout`): a code, a day, a next step and a header on one line, the policy's
+    "(newest: 2)" and the time of "last recorded" on a second."""
+    widths = {"participant": 85, "next step": 250, "day": 100, "success rate so far": 140, "policy": 110,
+              "last recorded": 110}
+    return fitted_layout(widths, columns, OVERVIEW_TABLE_ROOM)
+
+
+#: The headings of :func:`cacas.preference_form.preferences_table`'s columns as the page shows them: short where the column is narrow.
+PREFERENCES_HEADINGS = {"since last activity": "since last", "covered states": "states"}
+
+
+def preferences_table_layout(columns, room: int = PREFERENCES_TABLE_ROOM) -> tuple[dict[str, int], int]:
+    """How the Participants page draws :func:`cacas.preference_form.preferences_table` (its ``columns``) in ``room`` px: each
+    column's width (px) and the row height (px). On one line its eight columns need about 1,100 px
+    (three activities, "bathroom, living room", the participant's words), more than the page has at
+    1280 px: the table scrolled sideways, "covered states" and the participant's words off its right
+    edge. Each column has a width of its own (:func:`fitted_layout`): a heading ("since last", "states":
+    :data:`PREFERENCES_HEADINGS`), an action, hours and a room on one line, the activities and the
+    rooms on two or three, the participant's words taking what is left (wrapping to three lines)."""
+    widths = {"#": 32, "activities": 130, "action": 125, "rooms": 105, "hours": 96, "since last activity": 80,
+              "covered states": 70}
+    shown = [c for c in widths if c in columns]
+    widths["in their words"] = room - sum(widths[c] for c in shown)
+    return fitted_layout(widths, columns, room)
+
+
+#: The width (px) of the Adaptation page's table of described preferences at 1280 x 800, beside the sidebar
+#: (measured in headless Chromium: as the Overview's table).
+LEARNT_TABLE_ROOM = 818
+
+
+def learnt_table_layout(columns) -> tuple[dict[str, int], int]:
+    """How the Adaptation page draws each described preference before and after
+    (:func:`cacas.adaptation.preferences_learnt` with the states each covers; its ``columns``): each
+    column's width (px) and the row height (px). The participant's words wrap on up to three lines (at
+    1280 px they were cut: "When I drink water in the morning, remind me to take m", walkthrough); the two
+    counts of states, "states covered" and "Fig. 4 draws", keep their names whole."""
+    widths = {"label": 250, "action": 125, "covers": 115, "states": 110, "before": 105, "after": 105}
+    return fitted_layout(widths, columns, LEARNT_TABLE_ROOM)
+
+
+#: The width (px) of the Sounds and scenes page's "Every photo of one room" grid at 1280 x 800, inside its
+#: expander beside the sidebar (measured in headless Chromium: 6 columns of 118 px, 16 px apart).
+PHOTO_GRID_ROOM = 786
+PHOTO_GRID_GAP = 16
+
+
+def caption_width(text: str) -> float:
+    """A photo caption's width (px) in Streamlit's 16-px Source Sans, from above: 8.1 px a character,
+    4.5 for the narrow ones ("." "i" "l" ...), 5 for "-" (measured in Chromium: "synthetic_0_000.jpg" 134.6 px,
+    estimated 143; "IMG_20260301_101500.jpg" 178.3, estimated 182.7)."""
+    return sum(4.5 if c in ".,:;'|!iljI" else 5.0 if c == "-" else 8.1 for c in text)
+
+
+def photo_grid_columns(names, most: int = 6, fewest: int = 2, room: int = PHOTO_GRID_ROOM) -> int:
+    """How many columns the grid of every photo of a room has: as many as ``most`` in which the longest of
+    the photos' file ``names`` (their captions) stays on one line at 1280 px, ``fewest`` at least. In six
+    columns of 118 px the shipped "synthetic_0_000.jpg" broke mid-name ("synthetic_0_000.jp" / "g", the ui
+    helper); five keep it whole. A name longer than two columns hold wraps as before."""
+    widest = max((caption_width(str(n)) for n in names), default=0.0)
+    for k in range(most, fewest, -1):
+        if (room - PHOTO_GRID_GAP * (k - 1)) / k >= widest:
+            return k
+    return fewest
