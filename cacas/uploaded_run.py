@@ -15,6 +15,7 @@ import pandas as pd
 
 from cacas import records
 from cacas.errors import CacasError
+from cacas.store.files import CHECKSUMS
 
 #: Why a table does not match the checksums.sha256 written with it (an upload's, a run folder's).
 STOPPED_PART_WAY = ("the run that wrote that folder was stopped part-way (killed, or a power cut) and left files of "
@@ -56,7 +57,7 @@ UPLOADABLE_TABLES = {
 SUMMARY_COLUMNS = ["method", "day", "success_rate", "preference_accuracy", "cumulative_feedback"]
 #: What an uploaded zip gives the Results page: the tables of :data:`UPLOADABLE_TABLES` and the checksums of
 #: the folder its daily.csv is in (a run's zip, :func:`run_zip`; a study's, ``cacas export``'s bundle).
-ZIP_MEMBERS = ("daily.csv", "by_preference.csv", "interactions.csv", "checksums.sha256")
+ZIP_MEMBERS = (*(f"{kind}.csv" for kind in UPLOADABLE_TABLES), CHECKSUMS)
 
 
 def _missing_columns(columns) -> str:

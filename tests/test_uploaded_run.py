@@ -294,6 +294,9 @@ def test_the_labs_summary_csv_uploads_beside_its_daily_csv_checked_against_it():
     assert refused({**tables, "summary-run1.csv": summary.iloc[1:]}) == (
         f"summary-run1.csv: {summary['method'][0]} day {summary['day'][0]} is not in summary-run1.csv; upload the "
         "tables of one run")
+    extra = pd.concat([summary, summary.iloc[[0]].assign(day=9)])  # a day daily.csv does not have
+    assert refused({**tables, "summary-run1.csv": extra}) == (
+        f"summary-run1.csv: {summary['method'][0]} day 9 is in it but not in daily.csv; upload the tables of one run")
     assert refused({"summary-run1.csv": summary}).startswith("summary-run1.csv: upload a daily.csv as well")
 
 
