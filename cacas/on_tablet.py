@@ -28,7 +28,9 @@ class Shown:
     the participant set (activity, room, time of day; ``interval``: the time since their last
     activity, S4, as the tablet says it), the robot's ``action`` and ``line``; ``since`` is when
     it was first shown (seconds since the epoch; not part of equality, so a tablet drawing the
-    same proposal again changes nothing)."""
+    same proposal again changes nothing). ``context`` is the context's address token: a tablet
+    reopened at its plain address (the browser closed, or the address typed again) returns to
+    this proposal instead of dropping it for an empty form."""
 
     day: int
     index: int
@@ -38,6 +40,7 @@ class Shown:
     action: str
     line: str
     interval: str = ""
+    context: str = ""
     since: float = field(default=0.0, compare=False)
 
     @property

@@ -191,6 +191,8 @@ def _clear_request() -> None:
 def _cancel() -> None:
     ui.set_address(ctx=None, at=None)
     _clear_request()
+    if tablet:  # the participant left the proposal: a reopened tablet must not return to it
+        board.clear(db, code)
     st.session_state.pop("run-here", None)  # the researcher's view follows the tablet again
 
 
@@ -445,6 +447,13 @@ if token_ctx:
             st.info("That proposal was answered already. Set what you are doing now"
                     + ("." if tablet else f" for interaction {done + 1}."), icon=":material/info:")
 
+reopened = board.shown(db, code, day, done + 1) if tablet and not token_ctx else None
+if reopened is not None and reopened.context:
+    # the tablet opened again at its plain address (closed and reopened, the address typed again) while its
+    # proposal for this interaction awaits an answer: it returns to it (it showed the empty form, and the
+    # researcher's view lost the proposal the participant had not answered yet)
+    context = Context.from_token(reopened.context)
+    ui.set_address(ctx=reopened.context, at=_interaction_mark(day, done + 1))
 on_tablet = None if tablet else board.shown(db, code, day, done + 1)
 if context is None and on_tablet is not None and not st.session_state.get("run-here"):
     _on_the_tablet(on_tablet)
@@ -514,7 +523,7 @@ else:
     if tablet:  # the researcher's view shows it, and offers no second form for this interaction
         board.show(db, code, Shown(day, index, context.activity, context.scene,
                                    spaces.time_slot_label(context.time_slot), proposal.action, proposal.line,
-                                   spaces.interval_label(context.interval_bin)))
+                                   spaces.interval_label(context.interval_bin), context.to_token()))
 
     left, right = st.columns([1, 1])
     # each card says what it is about and its name on one line: the name under a heading of its own took the

@@ -943,6 +943,41 @@ def test_a_reload_of_the_tablet_keeps_a_typed_request_awaiting_its_yes(app, stor
     assert "Yes, please" not in {b.label for b in researcher.button}
 
 
+def test_a_tablet_reopened_at_its_plain_address_returns_to_the_proposal_awaiting_an_answer(app, store, p01,
+                                                                                         quick_policy):
+    """A note of earlier sessions: a tablet closed and opened again at its plain address (no context in it)
+    while its proposal awaited the participant's answer showed the empty form and dropped the proposal, and
+    the researcher's view lost it too. It returns to the proposal; once the participant chose a different
+    activity, or answered, the plain address opens the form."""
+    store.open_day("P01")
+    tab = app(PAGE, participant="P01", view="tablet")
+    _choose(tab)
+    line = tab.chat_message[0].children[0].value
+    address = {k: tab.query_params[k] for k in ("ctx", "at")}
+
+    reopened = app(PAGE, participant="P01", view="tablet")  # a new session at the plain address
+    no_exception(reopened)
+    assert [m.children[0].value for m in reopened.chat_message] == [line]
+    assert not [b for b in reopened.button if b.label == "Do it"]
+    assert {k: reopened.query_params[k] for k in ("ctx", "at")} == address  # a reload keeps it from here on
+    desk = app(PAGE, participant="P01")
+    assert "On P01's tablet now" in texts(desk)  # the researcher's view still follows it
+    label = next(b.label for b in reopened.button if b.label in ("Accept", "Nothing needed"))
+    _button(reopened, label).click().run()
+    no_exception(reopened)
+    assert len(store.interactions_frame("P01", method=None)) == 1
+    answered = app(PAGE, participant="P01", view="tablet")  # answered: the form for the next one
+    assert [b for b in answered.button if b.label == "Do it"] and not answered.chat_message
+
+    # left for a different activity: the plain address does not bring it back
+    _choose(answered, activity="cough", scene="bedroom")
+    _button(answered, "Choose a different activity").click().run()
+    no_exception(answered)
+    again = app(PAGE, participant="P01", view="tablet")
+    assert [b for b in again.button if b.label == "Do it"] and not again.chat_message
+    assert "On P01's tablet now" not in texts(app(PAGE, participant="P01"))
+
+
 def test_the_researchers_view_shows_a_typed_request_awaiting_the_participants_yes(app, store, p01, quick_policy):
     """Walkthrough: the researcher's view followed the tablet's proposal but not the request the
     participant had typed and was about to confirm."""
