@@ -477,38 +477,40 @@ def _size(n: int) -> str:
     return f"{n} bytes ({n / 2**20:.1f} MiB)" if n >= 2**20 else f"{n} bytes"
 
 
-def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = None) -> None:
+def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = None, what: str = "bundle") -> None:
     """Refuse (CacasError naming the bundle, the member and the limit, then ``valid``) before anything
     is read: a member larger than :data:`MAX_MEMBER_BYTES` uncompressed, or compressed more than
     :data:`MAX_COMPRESSION_RATIO` to 1 (a zip bomb), or members larger together than
     :data:`MAX_BUNDLE_BYTES`. The sizes are the zip's own word; zipfile never reads more than the
-    size a member's header gives (it stops there, and a CRC that does not match is a damage)."""
+    size a member's header gives (it stops there, and a CRC that does not match is a damage).
+    ``what`` names the zip in the messages: "bundle" (cacas import's), "zip" (a run's, uploaded)."""
     valid = valid or f"valid: the {BUNDLE_NAME} cacas export wrote; nothing was imported"
     total = 0
     for info in members:
         if info.file_size > MAX_MEMBER_BYTES:
-            raise CacasError(f"{path}: {info.filename} in the bundle is {_size(info.file_size)} uncompressed, over "
-                             f"the limit of {_size(MAX_MEMBER_BYTES)} for one file of a bundle; {valid}")
+            raise CacasError(f"{path}: {info.filename} in the {what} is {_size(info.file_size)} uncompressed, over "
+                             f"the limit of {_size(MAX_MEMBER_BYTES)} for one file of a {what}; {valid}")
         ratio = info.file_size / max(info.compress_size, 1)
         if info.file_size > RATIO_FROM_BYTES and ratio > MAX_COMPRESSION_RATIO:
-            raise CacasError(f"{path}: {info.filename} in the bundle is compressed {ratio:.0f} to 1 "
+            raise CacasError(f"{path}: {info.filename} in the {what} is compressed {ratio:.0f} to 1 "
                              f"({_size(info.file_size)} from {_size(info.compress_size)}), over the limit of "
                              f"{MAX_COMPRESSION_RATIO} to 1 (a study's tables come to about 30 at most); {valid}")
         total += info.file_size
         if total > MAX_BUNDLE_BYTES:
-            raise CacasError(f"{path}: the bundle's tables and policy files are {_size(total)} uncompressed "
-                             f"by {info.filename}, over the limit of {_size(MAX_BUNDLE_BYTES)} for a whole bundle; "
+            contents = "the bundle's tables and policy files" if what == "bundle" else f"the {what}'s files"
+            raise CacasError(f"{path}: {contents} are {_size(total)} uncompressed "
+                             f"by {info.filename}, over the limit of {_size(MAX_BUNDLE_BYTES)} for a whole {what}; "
                              f"{valid}")
 
 
-def read_member(path: Path, zf: zipfile.ZipFile, name: str, valid: str | None = None) -> bytes:
+def read_member(path: Path, zf: zipfile.ZipFile, name: str, valid: str | None = None, what: str = "bundle") -> bytes:
     """The bytes of the bundle's member ``name`` (its size checked by :func:`check_sizes` first); a
     damaged one (bytes changed in its compressed data: zlib.error; a bad CRC; cut short: EOFError)
-    is a CacasError naming the bundle and it, then ``valid``."""
+    is a CacasError naming the bundle (``what``: "bundle", or "zip" for a run's) and it, then ``valid``."""
     try:
         return zf.read(name)
     except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
-        raise CacasError(f"{path}: {name} in the bundle is damaged ({exc}); " + (valid or f"valid: "
+        raise CacasError(f"{path}: {name} in the {what} is damaged ({exc}); " + (valid or f"valid: "
                          f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)")) from None
 
 

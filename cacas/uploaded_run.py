@@ -104,8 +104,9 @@ def unpacked_uploads(files: Sequence[tuple[str, bytes]]) -> list[tuple[str, byte
                 folder = PurePosixPath(dailies[0]).parent
                 chosen = [i for i in members if PurePosixPath(i.filename).parent == folder
                           and PurePosixPath(i.filename).name in ZIP_MEMBERS]
-                check_sizes(name, chosen, valid)
-                out.extend((PurePosixPath(i.filename).name, read_member(name, zf, i.filename, valid)) for i in chosen)
+                check_sizes(name, chosen, valid, what="zip")
+                out.extend((PurePosixPath(i.filename).name, read_member(name, zf, i.filename, valid, what="zip"))
+                           for i in chosen)
         except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as exc:
             raise CacasError(f"{name}: not a readable zip file ({exc}); {valid}") from None
     return out
@@ -193,9 +194,21 @@ def _check_summary(daily: pd.DataFrame, summary: pd.DataFrame, daily_name: str, 
                                  "upload the tables of one run")
 
 
+def _is_summary(data: bytes) -> bool:
+    """Whether a CSV's header is the lab's summary.csv's (:data:`SUMMARY_COLUMNS`, no participant column):
+    it is not in the run's folder, so no checksums file lists it; it is checked against daily.csv instead
+    (:func:`_check_summary`)."""
+    try:
+        columns = set(records.read_csv(io.BytesIO(data), nrows=0).columns)
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
+        return False
+    return set(SUMMARY_COLUMNS) <= columns and "participant" not in columns
+
+
 def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_files) -> list[tuple[str, bytes]]:
     """The uploaded CSV files, once each matches the checksums file uploaded with them (if one was:
-    a name ending in ``.sha256``); else CacasError naming the file and what to do."""
+    a name ending in ``.sha256``) and is one it lists (by name or by its bytes; a summary.csv,
+    :func:`_is_summary`, need not be); else CacasError naming the file and what to do."""
     sums = [(name, data) for name, data in uploaded if str(name).lower().endswith(".sha256")]
     rest = [(name, data) for name, data in uploaded if not str(name).lower().endswith(".sha256")]
     if len(sums) > 1:
@@ -212,7 +225,7 @@ def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_file
         if listed.get(name, digest) != digest:
             raise CacasError(f"{name}: does not match its sha256 in {what}: {STOPPED_PART_WAY}; write the tables "
                              "again (cacas export, or cacas simulate --out) and upload them")
-        if name not in listed and digest not in listed.values():
+        if name not in listed and digest not in listed.values() and not _is_summary(data):
             raise CacasError(f"{name}: is not one of the files {what} lists ({', '.join(sorted(listed))}); upload the "
                              "tables and the checksums file of one folder")
     return rest

@@ -272,9 +272,19 @@ def test_a_zip_member_too_large_is_refused_before_it_is_read(monkeypatch):
     from cacas import export
 
     monkeypatch.setattr(export, "MAX_MEMBER_BYTES", 10)
-    with pytest.raises(CacasError, match=r"^run\.zip: r/daily\.csv in the bundle is 11 bytes uncompressed, over the "
-                                         r"limit of 10 bytes .*; valid: the zip of a run"):
+    with pytest.raises(CacasError, match=r"^run\.zip: r/daily\.csv in the zip is 11 bytes uncompressed, over the "
+                                         r"limit of 10 bytes for one file of a zip; valid: the zip of a run"):
         uploaded_run.unpacked_uploads([("run.zip", _zip({"r/daily.csv": b"01234567890", "r/settings.json": b"{}"}))])
+
+
+def test_a_damaged_member_of_a_runs_zip_is_refused_naming_it_and_the_zip():
+    """A run's zip whose daily.csv's bytes were changed (its CRC no longer matches): the message names the
+    zip and the member, as a zip (it said "in the bundle", cacas import's word for a study's export)."""
+    data = _zip({"r/daily.csv": b"participant,method\n", "r/settings.json": b"{}"})
+    damaged = data.replace(b"participant,method", b"participant,METHOD", 1)
+    with pytest.raises(CacasError, match=r"^run\.zip: r/daily\.csv in the zip is damaged \(Bad CRC-32.*\); valid: the "
+                                         r"zip of a run"):
+        uploaded_run.unpacked_uploads([("run.zip", damaged)])
 
 
 def test_the_labs_summary_csv_uploads_beside_its_daily_csv_checked_against_it():
@@ -298,6 +308,28 @@ def test_the_labs_summary_csv_uploads_beside_its_daily_csv_checked_against_it():
     assert refused({**tables, "summary-run1.csv": extra}) == (
         f"summary-run1.csv: {summary['method'][0]} day 9 is in it but not in daily.csv; upload the tables of one run")
     assert refused({"summary-run1.csv": summary}).startswith("summary-run1.csv: upload a daily.csv as well")
+
+
+def test_the_labs_summary_csv_uploads_beside_the_zip_of_its_run_though_its_checksums_do_not_list_it(tmp_path):
+    """The lab's 'Download the whole run' and its summary.csv uploaded together: the summary, which is not in
+    the run's folder (the lab makes it from daily.csv), was refused as 'not one of the files checksums.sha256
+    lists'. A summary is checked against daily.csv instead; any other file the checksums do not list still
+    is refused."""
+    from cacas.experiment import summary_table
+
+    tables = _run()
+    folder = saved_runs.save_run(tmp_path, "run1", tables["daily.csv"], tables["interactions.csv"], {"seed": 1},
+                                 tables["by_preference.csv"])
+    summary = records.csv_bytes(summary_table(saved_runs.load_run(folder).daily))
+    files = uploaded_run.unpacked_uploads([("cacas-run-run1.zip", saved_runs.run_zip(folder)),
+                                           ("summary-run1.csv", summary)])
+    assert list(uploaded_run.load_uploaded_tables(files)) == ["daily", "by_preference", "interactions", "summary"]
+    off = records.csv_bytes(summary_table(tables["daily.csv"]).assign(success_rate=0.5))
+    with pytest.raises(CacasError, match=r"^summary-run1\.csv: cacas day 1: success_rate 0\.5, the mean of daily\.csv"):
+        uploaded_run.load_uploaded_tables([*files[:-1], ("summary-run1.csv", off)])
+    other = records.csv_bytes(tables["daily.csv"].assign(day=tables["daily.csv"]["day"] + 1))
+    with pytest.raises(CacasError, match=r"^daily-other\.csv: is not one of the files checksums\.sha256 lists"):
+        uploaded_run.load_uploaded_tables([*files, ("daily-other.csv", other)])
 
 
 def _csv(df: pd.DataFrame) -> bytes:
