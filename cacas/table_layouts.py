@@ -11,7 +11,7 @@ from __future__ import annotations
 #: beside the sidebar (measured in headless Chromium).
 TODAY_TABLE_ROOM = 784
 
-#: The widths (px) of the Overview's recent activity (:func:`cacas.app_support.recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
+#: The widths (px) of the Overview's recent activity (:func:`cacas.recent_activity.recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
 #: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
 #: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
 #: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.

@@ -3,6 +3,7 @@
 import streamlit as st
 
 from cacas import app_support, table_layouts
+from cacas.recent_activity import recent_events
 from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS
 from pages import ui
 
@@ -10,7 +11,7 @@ ui.require_app()
 
 
 def recent_activity(events) -> None:
-    """The study's latest events in words (``app_support.recent_events``)."""
+    """The study's latest events in words (``cacas.recent_activity.recent_events``)."""
     st.subheader("Recent activity")
     if events.empty:
         st.caption("Nothing recorded yet.")
@@ -29,7 +30,7 @@ st.caption(f"Study **{study}** · each participant runs {STUDY_DAYS} days of abo
            "interactions with the robot; the robot is adapted after each day (Su & Sheng, Section V-B).")
 
 table = app_support.overview_frame(store, study)
-events = app_support.recent_events(store, limit=10, study=study)
+events = recent_events(store, limit=10, study=study)
 if table.empty:
     st.info(f"No participants {'yet' if events.empty else 'now'}. Start on the **Participants** page: add a "
             "participant with a pseudonymous code and the 5 preferences they describe, or import a persona file.")
