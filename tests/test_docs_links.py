@@ -55,3 +55,21 @@ def test_the_readme_points_to_every_page_under_docs():
     readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
     for page in DOCUMENTS[1:]:
         assert f"](docs/{page.name}" in readme, page.name
+
+
+def test_every_screenshot_the_mini_study_takes_is_shown_or_counted_as_not_shown():
+    """The README said the mini study 'also takes four pictures not shown here' when it took five: each
+    picture under docs/screenshots is shown in the README, and the README's count of the others is the
+    number of the mini study's pictures that are not there."""
+    import ast
+
+    module = PROJECT_ROOT / "tests" / "browser" / "test_browser_mini_study.py"
+    taken = {node.args[1].value for node in ast.walk(ast.parse(module.read_text(encoding="utf-8")))
+             if isinstance(node, ast.Call) and getattr(node.func, "id", None) == "shot"}
+    readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
+    tracked = {p.stem for p in (PROJECT_ROOT / "docs" / "screenshots").glob("*.png")}
+    assert tracked <= taken, f"pictures no test takes: {sorted(tracked - taken)}"
+    assert not [name for name in tracked if f"docs/screenshots/{name}.png" not in readme]
+    words = ["no", "one", "two", "three", "four", "five", "six", "seven", "eight"]
+    said = re.search(r"it also takes (\w+) pictures? not shown here", readme.replace("\n", " "))
+    assert said and words.index(said.group(1)) == len(taken - tracked), sorted(taken - tracked)
