@@ -6,16 +6,56 @@ No streamlit: the pages pass these to ``st.dataframe``'s column_config and ``st.
 
 from __future__ import annotations
 
+import math
+
+from cacas.store.validate import CODE_RE
+
 
 #: The width (px) the researcher's table of today's interactions has on the Study session page at 1280 x 800,
 #: beside the sidebar (measured in headless Chromium).
 TODAY_TABLE_ROOM = 784
+
+#: The padding (px) of a data grid's cell, 8 px a side: a column shows its width less this of text.
+CELL_PADDING = 16
+
+#: The width (px) of each character a participant code may hold (store.validate.CODE_RE) in the data grid's 14-px
+#: Source Sans, rounded up by group (measured in headless Chromium, ten of each with canvas measureText: "m" 11.61,
+#: "W" 11.004, "O" 9.30, "d" 7.77, digits and "_" 6.96-7.00, "r" 4.86, "i" 3.44); another character counts as the widest.
+_CODE_CHARACTERS = ((3.7, "Iijl"), (4.9, "frt-"), (7.0, "0123456789_FJLYceksvxyz"), (8.0, "ACEPRSTVXZabdghnopqu"),
+                    (9.3, "BDGHKNOQU"), (11.1, "MWw"), (11.7, "m"))
+_CODE_CHARACTER_WIDTH = {c: w for w, chars in _CODE_CHARACTERS for c in chars}
+
+
+def code_width(code: str) -> float:
+    """A participant code's width (px) in the data grid's 14-px Source Sans: never less than Chromium draws it, each
+    character rounded up within its group (the widest 16-character code, "mmmmmmmmmmmmmmmm", 185.7 px measured,
+    187.2 estimated; "participant_0001" 99.3, 104.1; "P01" 21.8, 22.0)."""
+    return sum(_CODE_CHARACTER_WIDTH.get(c, 11.7) for c in str(code))
+
+
+def code_column(codes, least: int) -> int:
+    """The width (px) of a participant column that keeps each of ``codes`` whole on one line, ``least`` at least
+    (what the column's heading and other values need)."""
+    return max([least] + [math.ceil(code_width(c)) + CELL_PADDING for c in codes])
+
 
 #: The widths (px) of the Overview's recent activity (:func:`cacas.app_support.recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
 #: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
 #: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
 #: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.
 RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110, "what": 640}
+
+
+def recent_activity_widths(participants) -> dict[str, int]:
+    """The widths (px) of the Overview's recent activity whose participant column holds ``participants`` (codes,
+    or "2 participants" for a line of several): :data:`RECENT_ACTIVITY_WIDTHS`, the participant column widened to
+    keep a longer code whole (:func:`code_column`; 16 characters: up to 204 px) and "what" narrowed as much, so the
+    table is as wide as before."""
+    widths = dict(RECENT_ACTIVITY_WIDTHS)
+    wider = code_column([p for p in participants if CODE_RE.fullmatch(str(p))], widths["participant"])
+    widths["what"] -= wider - widths["participant"]
+    widths["participant"] = wider
+    return widths
 
 #: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
 #: headless Chromium: 820 px, its 1-px borders included).
@@ -60,16 +100,22 @@ def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
     return fitted_layout(widths, columns, TODAY_TABLE_ROOM)
 
 
-def overview_table_layout(columns) -> tuple[dict[str, int], int]:
+def overview_table_layout(columns, codes=()) -> tuple[dict[str, int], int]:
     """How the Overview page draws its table of participants (:func:`overview_frame`'s ``columns``
-    that it shows): each column's width (px) and the row height (px). On one line the six columns
-    need about 870 px ("Start day 1 on the tablet (Study session)", "version 1 (newest: 2)",
+    that it shows, its participants' ``codes``): each column's width (px) and the row height (px). On one
+    line the six columns need about 870 px ("Start day 1 on the tablet (Study session)", "version 1 (newest: 2)",
     "2026-11-21 09:47 UTC", the "success rate so far" bar), more than the table has at 1280 px: the
     ui helper saw "last recorded" cut at the right edge. The widths fit :data:`OVERVIEW_TABLE_ROOM`
     (:func:`fitted_layout`): a code, a day, a next step and a header on one line, the policy's
-    "(newest: 2)" and the time of "last recorded" on a second."""
+    "(newest: 2)" and the time of "last recorded" on a second. A code longer than the 85 px of "P01"'s column
+    hold ("participant_0001" was cut, 16 characters "m" wrapped mid-code) widens its column (:func:`code_column`),
+    and the next step gives the room: it wraps on two lines."""
     widths = {"participant": 85, "next step": 250, "day": 100, "success rate so far": 140, "policy": 110,
               "last recorded": 110}
+    wider = code_column(codes, widths["participant"])
+    spare = OVERVIEW_TABLE_ROOM - sum(w for c, w in widths.items() if c in columns)
+    widths["next step"] -= max(0, wider - widths["participant"] - spare)
+    widths["participant"] = wider
     return fitted_layout(widths, columns, OVERVIEW_TABLE_ROOM)
 
 
