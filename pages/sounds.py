@@ -50,9 +50,10 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
     if r.unsure:
         st.warning(f"Unsure: {unsure_words(r, kind)}.",
                    icon=":material/help:")
-    st.dataframe(pd.DataFrame(r.top3, columns=["activity" if kind == "sound" else "scene", "probability"]),
+    # whole percents, as the warning above says its share ("percent" gave "49.96%" beside "Unsure: 49%")
+    st.dataframe(pd.DataFrame(r.top3_percent, columns=["activity" if kind == "sound" else "scene", "probability"]),
                  hide_index=True, column_config={"probability": st.column_config.ProgressColumn(
-                     min_value=0.0, max_value=1.0, format="percent")})
+                     min_value=0, max_value=100, format="%d%%")})
 
 
 #: What each library's pages say and use: the Table I names, the page's words, the file types.
