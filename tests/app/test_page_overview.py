@@ -82,18 +82,6 @@ def test_the_longest_participant_code_is_whole_in_every_table_of_the_overview(ap
     assert sum(recent_widths.values()) <= 165 + 85 + 640 + 5, recent_widths  # as wide as before
 
 
-def test_a_code_s_width_is_measured_from_its_characters():
-    """table_layouts.code_width against Chromium's measures (14-px Source Sans, canvas measureText): never
-    less, so that a column fitted to it keeps the code whole, and not much more, so that a short code's
-    column takes no room from the others."""
-    from cacas import table_layouts
-
-    measured = {"mmmmmmmmmmmmmmmm": 185.7, "WWWWWWWWWWWWWWWW": 176.1, "participant_0001": 99.3,
-                "PARTICIPANT-0001": 108.1, "P-2026-HOSP-0001": 109.6, "0000000000000000": 111.3, "P01": 21.8}
-    for code, px in measured.items():
-        assert px <= table_layouts.code_width(code) <= px * 1.1 + 1, (code, table_layouts.code_width(code))
-
-
 def test_participants_are_listed_by_code_whatever_its_letter_case(app, store):
     """Walkthrough: the sidebar offered "R01, p01, r02" (sorted as stored, capitals first); a person reads them
     case-blind, as the Overview's table and the Results page's questionnaire list them too."""

@@ -558,25 +558,43 @@ def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, mon
     assert not [e.value for e in at.warning if e.value.startswith("Cannot train")]
 
 
-def test_every_photo_of_a_room_keeps_each_name_on_one_line_at_1280_px(app):
-    """The ui helpers saw the shipped photos' captions break mid-name at 1280 px ("synthetic_0_000.jp" / "g"):
-    six columns of 118 px for a name 135 px wide. The grid has as many columns as keep the longest name whole
-    (table_layouts.photo_grid_columns): five for the shipped names, fewer for longer ones."""
+def test_every_photo_of_a_room_stands_in_a_row_that_wraps_each_as_wide_as_its_name(app, monkeypatch):
+    """The ui helpers saw the shipped photos' captions break mid-name at 1280 px ("synthetic_0_000.jp" / "g", six
+    columns) and, with five columns fitted to 1280 px, at 1024 ("synthetic_0_00" / "0.jpg"): the page cannot know
+    the window's width. The photos stand in a row that wraps (st.container(horizontal=True)), each as wide as keeps
+    the longest name on one line (table_layouts.photo_width), as many side by side as the window holds (the
+    browser test measures the captions at 1024, 1280 and 1440 px)."""
+    import streamlit as st
+
     from cacas import table_layouts
     from cacas.paths import PROJECT_ROOT
 
+    drawn = []
+    real = st.image
+
+    def image(picture, caption=None, width="content", **kwargs):
+        drawn.append((caption, width))
+        return real(picture, caption=caption, width=width, **kwargs)
+    monkeypatch.setattr(st, "image", image)
     at = open_expander(app(PAGE), "lib-every-photo")
     no_exception(at)
-    grid = [c for c in at.columns if c.children and all(type(k).__name__ == "Image" for k in c.children.values())]
-    assert sum(len(c.children) for c in grid) == min(48, len(list((PROJECT_ROOT / "study_data" / "scenes" /
-                                                                  "bedroom").glob("*.jpg"))))  # every photo
-    assert len(grid) == 5  # six before
-    # "synthetic_0_000.jpg" is 134.6 px wide in the caption's font (Chromium); each column is 144 px
-    assert (table_layouts.PHOTO_GRID_ROOM - table_layouts.PHOTO_GRID_GAP * 4) / 5 >= 135
-    # a study's own photos, named by a phone: fewer columns, each name whole
-    names = ["PXL_20260301_101500123.jpg", "IMG_20260301_101500.jpg"]
-    assert table_layouts.photo_grid_columns(names) == 3
-    assert table_layouts.photo_grid_columns(["a.jpg"]) == 6 and table_layouts.photo_grid_columns(["x" * 200]) == 2
+    grid = next(b for b in _blocks(at.main) if "every-photo-grid" in str(getattr(getattr(b, "proto", None), "id", "")))
+    assert grid.proto.flex_container.wrap and grid.proto.flex_container.direction == 2  # HORIZONTAL
+    names = sorted(p.name for p in (PROJECT_ROOT / "study_data" / "scenes" / "bedroom").glob("*.jpg"))[:48]
+    assert [c for k in grid.children.values() for c in k.captions] == names  # every photo, by name
+    widths = {w for c, w in drawn if c in names}
+    # "synthetic_0_000.jpg" is 117.7 px in the caption's 14-px Source Sans (Chromium), 2 px of padding a side
+    assert widths == {table_layouts.PHOTO_WIDTH} and table_layouts.PHOTO_WIDTH >= 117.7 + 4
+    # a study's own photos, named by a phone (176.0 px): wider photos, each name whole
+    assert table_layouts.photo_width(["PXL_20260301_101500123.jpg", "IMG_20260301_101500.jpg"]) >= 176.0 + 4
+    assert table_layouts.photo_width(["a.jpg"]) == table_layouts.PHOTO_WIDTH
+
+
+def _blocks(node):
+    """``node`` and every block under it (AppTest's element tree)."""
+    yield node
+    for child in (getattr(node, "children", None) or {}).values():
+        yield from _blocks(child)
 
 
 def test_the_top_3_says_shares_as_the_unsure_warning_does(app, monkeypatch):
