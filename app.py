@@ -167,7 +167,7 @@ def _sidebar(store, page) -> dict[str, str | None]:
 
 
 #: What the pages import on first use, which took the first visit of a page after the server's start
-#: 3.5-7.4 s (torch 1.9-2.6 s for Adaptation, torchvision 2.5 s for Sounds & scenes; helper's profile of a
+#: 3.5-7.4 s (torch 1.9-2.6 s for Adaptation, torchvision 2.5 s for Sounds and scenes; helper's profile of a
 #: 24 x 7 study), and librosa's features, which the tablet's first proposal needs. librosa's own modules
 #: load lazily: ``librosa.feature`` alone imported a stub, and the tablet's first recognition of a clip
 #: still imported the rest (scipy.signal, soundfile, numba: some 1,000 modules, 3.6 s; profile of the first
@@ -191,7 +191,7 @@ def _preload() -> threading.Thread:
     without collections they run one after the other. The collector is on again once the imports end.
 
     Then the saved sound and scene models are loaded into the page's cache (``ui.recognizer``): the first
-    visit of Sounds & scenes loaded them (0.7-1.5 s of its run, the scene model's most, after the imports;
+    visit of Sounds and scenes loaded them (0.7-1.5 s of its run, the scene model's most, after the imports;
     profile of a 24 x 7 study), and so did the tablet's first form. A page that needs one meanwhile waits
     for that load (the cache's lock), never loads it twice."""
     import gc

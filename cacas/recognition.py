@@ -60,6 +60,15 @@ def evaluated_on(metrics: "Metrics", what: str) -> str:
         f" ({missing} of the model's {metrics.n + missing} held-out ones are not in the library)" if missing else "")
 
 
+def whole_percent(share: float) -> int:
+    """A class's share of a recognition (0-1) as a whole percentage, as the pages and the CLI say every share:
+    rounded, halves up (as :func:`cacas.app_support.percent`), but rounded down under :data:`UNSURE_BELOW`
+    (after rounding to 6 places: 100 x 0.29 is 28.999...), so that a share just under half never reads as 50 %
+    beside "not sure" (0.4996: "49%")."""
+    share = round(100 * share, 6)
+    return math.floor(share) if share < 100 * UNSURE_BELOW else math.floor(share + 0.5)
+
+
 #: What a recogniser's classes are called, by kind ("sound", "scene").
 CLASS_WORDS = {"sound": "sound activities", "scene": "home scenes"}
 
@@ -95,11 +104,15 @@ class Recognition:
 
     @property
     def percent(self) -> int:
-        """The confidence as a whole percentage, as the pages and the CLI show it: rounded, but
-        rounded down where :attr:`unsure` (after rounding to 6 places: 100 x 0.29 is 28.999...), so
-        that a share just under :data:`UNSURE_BELOW` never reads as 50 % beside "not sure"."""
-        share = round(100 * self.confidence, 6)
-        return math.floor(share) if self.unsure else round(share)
+        """The confidence as a whole percentage, as the pages and the CLI show it (:func:`whole_percent`:
+        rounded down where :attr:`unsure`)."""
+        return whole_percent(self.confidence)
+
+    @property
+    def top3_percent(self) -> list[tuple[str, int]]:
+        """:attr:`top3` with each share as a whole percentage (:func:`whole_percent`), as the Sounds page's
+        top 3, the researcher's view and ``cacas sound/scene recognize`` say them: the first is :attr:`percent`."""
+        return [(label, whole_percent(p)) for label, p in self.top3]
 
     @property
     def unsure(self) -> bool:

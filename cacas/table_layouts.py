@@ -1,21 +1,67 @@
 """How wide the pages draw their tables and grids (Streamlit's data grid, the photo grid): each column's
 width in px from its longest heading or cell, fitted to the room a page has beside the sidebar at
 1280 x 800 (measured in headless Chromium), and rows tall enough to wrap where a column cannot fit.
-No streamlit: the pages pass these to ``st.dataframe``'s column_config and ``st.columns``.
+A participant column or a photo is as wide as keeps the longest code or file name on one line (:func:`text_width`).
+No streamlit: the pages pass these to ``st.dataframe``'s column_config and ``st.image``.
 """
 
 from __future__ import annotations
+
+import math
+import unicodedata
+
+from cacas.store.validate import CODE_RE
 
 
 #: The width (px) the researcher's table of today's interactions has on the Study session page at 1280 x 800,
 #: beside the sidebar (measured in headless Chromium).
 TODAY_TABLE_ROOM = 784
 
+#: The padding (px) of a data grid's cell, 8 px a side: a column shows its width less this of text.
+CELL_PADDING = 16
+
+#: The width (px) of each character in Streamlit's 14-px Source Sans (the data grid's cells, a photo's caption), rounded
+#: up by group (measured in headless Chromium, ten of each with canvas measureText: "m" 11.61, "W" 11.004, "O" 9.30,
+#: "d" 7.77, digits and "_" 6.96-7.00, "r" 4.86, "(" 4.24, "i" 3.44, "." 3.49, " " 2.80); an accented letter
+#: counts as its letter ("é" 6.94, "e" 6.94), another character as the widest ("@" 11.86).
+_CHARACTERS = ((3.7, "Iijl.,;' !"), (4.9, "frt-()[]{}"), (7.0, "0123456789_FJLYceksvxyz+=#~$^"),
+               (8.0, "ACEPRSTVXZabdghnopqu`"), (9.3, "BDGHKNOQU&"), (11.1, "MWw"), (11.7, "m%"))
+_CHARACTER_WIDTH = {c: w for w, chars in _CHARACTERS for c in chars}
+_WIDEST_CHARACTER = 12.0
+
+
+def text_width(text: str) -> float:
+    """A text's width (px) in Streamlit's 14-px Source Sans (a participant code in the data grid, a photo's file name
+    under it), never less than Chromium draws it, each character rounded up within its group: the widest
+    16-character code, "mmmmmmmmmmmmmmmm", 185.7 px measured, 187.2 estimated; "participant_0001" 99.3, 104.1;
+    "P01" 21.8, 22.0; "synthetic_0_000.jpg" 117.7, 122.9; "IMG_20260301_101500.jpg" 156.0, 159.5."""
+    return sum(_CHARACTER_WIDTH.get(c) or _CHARACTER_WIDTH.get(unicodedata.normalize("NFKD", c)[:1], _WIDEST_CHARACTER)
+               for c in str(text))
+
+
+def code_column(codes, least: int) -> int:
+    """The width (px) of a participant column that keeps each of ``codes`` whole on one line, ``least`` at least
+    (what the column's heading and other values need)."""
+    return max([least] + [math.ceil(text_width(c)) + CELL_PADDING for c in codes])
+
+
 #: The widths (px) of the Overview's recent activity (:func:`cacas.recent_activity.recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
 #: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
 #: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
 #: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.
 RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110, "what": 640}
+
+
+def recent_activity_widths(participants) -> dict[str, int]:
+    """The widths (px) of the Overview's recent activity whose participant column holds ``participants`` (codes,
+    or "2 participants" for a line of several): :data:`RECENT_ACTIVITY_WIDTHS`, the participant column widened to
+    keep a longer code whole (:func:`code_column`; 16 characters: up to 204 px) and "what" narrowed as much, so the
+    table is as wide as before."""
+    widths = dict(RECENT_ACTIVITY_WIDTHS)
+    wider = code_column([p for p in participants if CODE_RE.fullmatch(str(p))], widths["participant"])
+    widths["what"] -= wider - widths["participant"]
+    widths["participant"] = wider
+    return widths
 
 #: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
 #: headless Chromium: 820 px, its 1-px borders included).
@@ -60,16 +106,22 @@ def today_table_layout(columns) -> tuple[dict[str, int | str], int | None]:
     return fitted_layout(widths, columns, TODAY_TABLE_ROOM)
 
 
-def overview_table_layout(columns) -> tuple[dict[str, int], int]:
+def overview_table_layout(columns, codes=()) -> tuple[dict[str, int], int]:
     """How the Overview page draws its table of participants (:func:`overview_frame`'s ``columns``
-    that it shows): each column's width (px) and the row height (px). On one line the six columns
-    need about 870 px ("Start day 1 on the tablet (Study session)", "version 1 (newest: 2)",
+    that it shows, its participants' ``codes``): each column's width (px) and the row height (px). On one
+    line the six columns need about 870 px ("Start day 1 on the tablet (Study session)", "version 1 (newest: 2)",
     "2026-11-21 09:47 UTC", the "success rate so far" bar), more than the table has at 1280 px: the
     ui helper saw "last recorded" cut at the right edge. The widths fit :data:`OVERVIEW_TABLE_ROOM`
     (:func:`fitted_layout`): a code, a day, a next step and a header on one line, the policy's
-    "(newest: 2)" and the time of "last recorded" on a second."""
+    "(newest: 2)" and the time of "last recorded" on a second. A code longer than the 85 px of "P01"'s column
+    hold ("participant_0001" was cut, 16 characters "m" wrapped mid-code) widens its column (:func:`code_column`),
+    and the next step gives the room: it wraps on two lines."""
     widths = {"participant": 85, "next step": 250, "day": 100, "success rate so far": 140, "policy": 110,
               "last recorded": 110}
+    wider = code_column(codes, widths["participant"])
+    spare = OVERVIEW_TABLE_ROOM - sum(w for c, w in widths.items() if c in columns)
+    widths["next step"] -= max(0, wider - widths["participant"] - spare)
+    widths["participant"] = wider
     return fitted_layout(widths, columns, OVERVIEW_TABLE_ROOM)
 
 
@@ -107,26 +159,20 @@ def learnt_table_layout(columns) -> tuple[dict[str, int], int]:
     return fitted_layout(widths, columns, LEARNT_TABLE_ROOM)
 
 
-#: The width (px) of the Sounds and scenes page's "Every photo of one room" grid at 1280 x 800, inside its
-#: expander beside the sidebar (measured in headless Chromium: 6 columns of 118 px, 16 px apart).
-PHOTO_GRID_ROOM = 786
-PHOTO_GRID_GAP = 16
+#: The least width (px) of a photo in the Sounds and scenes page's "Every photo of one room" grid: as the grid's five
+#: columns drew the shipped 128-px photos at 1280 x 800 (measured in headless Chromium).
+PHOTO_WIDTH = 144
+#: What a photo's caption has less than its photo (px): 2 px of padding a side (Chromium: a caption of 117.7 px broke
+#: under a photo of 118).
+CAPTION_PADDING = 4
 
 
-def caption_width(text: str) -> float:
-    """A photo caption's width (px) in Streamlit's 16-px Source Sans, from above: 8.1 px a character,
-    4.5 for the narrow ones ("." "i" "l" ...), 5 for "-" (measured in Chromium: "synthetic_0_000.jpg" 134.6 px,
-    estimated 143; "IMG_20260301_101500.jpg" 178.3, estimated 182.7)."""
-    return sum(4.5 if c in ".,:;'|!iljI" else 5.0 if c == "-" else 8.1 for c in text)
-
-
-def photo_grid_columns(names, most: int = 6, fewest: int = 2, room: int = PHOTO_GRID_ROOM) -> int:
-    """How many columns the grid of every photo of a room has: as many as ``most`` in which the longest of
-    the photos' file ``names`` (their captions) stays on one line at 1280 px, ``fewest`` at least. In six
-    columns of 118 px the shipped "synthetic_0_000.jpg" broke mid-name ("synthetic_0_000.jp" / "g", the ui
-    helper); five keep it whole. A name longer than two columns hold wraps as before."""
-    widest = max((caption_width(str(n)) for n in names), default=0.0)
-    for k in range(most, fewest, -1):
-        if (room - PHOTO_GRID_GAP * (k - 1)) / k >= widest:
-            return k
-    return fewest
+def photo_width(names) -> int:
+    """The width (px) of each photo of the grid of every photo of a room, whose file ``names`` are their captions:
+    :data:`PHOTO_WIDTH`, or wider where the longest name needs it to stay on one line (:func:`text_width`).
+    The page puts the photos in a row that wraps (st.container(horizontal=True)), so that as many stand side by
+    side as the window has room for: it cannot know the window's width. In columns fitted to 1280 px the shipped
+    "synthetic_0_000.jpg" broke mid-name at 1024 px ("synthetic_0_00" / "0.jpg", five columns of 93 px; the ui
+    helper), and in six at 1280 ("synthetic_0_000.jp" / "g"). A name wider than the page still wraps."""
+    widest = max((text_width(n) for n in names), default=0.0)
+    return max(PHOTO_WIDTH, math.ceil(widest) + CAPTION_PADDING)

@@ -16,10 +16,10 @@ def recent_activity(events) -> None:
     if events.empty:
         st.caption("Nothing recorded yet.")
         return
-    # each time and "2 participants" whole (table_layouts.RECENT_ACTIVITY_WIDTHS)
+    # each time, "2 participants" and a code whole (table_layouts.recent_activity_widths)
     st.dataframe(events, hide_index=True, width="stretch",
                  column_config={c: st.column_config.TextColumn(c, width=w)
-                                for c, w in table_layouts.RECENT_ACTIVITY_WIDTHS.items()})
+                                for c, w in table_layouts.recent_activity_widths(events["participant"]).items()})
 
 
 store = ui.store()
@@ -55,10 +55,10 @@ small = st.column_config.TextColumn
 # "next step" comes second, so that a narrower window (800 px beside the sidebar) scrolls the other columns, not
 # what to do next (walkthrough: "Start day 2 on the tablet (Study sessi"); the age range is on Participants,
 # today's count in the next step and the metric above. Every column in view at 1280 px, names whole
-# (table_layouts.overview_table_layout: "last recorded" was cut at the right edge)
+# (table_layouts.overview_table_layout: "last recorded" was cut at the right edge; a 16-character code whole)
 shown = ["participant", "next step"] + [c for c in table.columns
                                         if c not in ("participant", "next step", "age range", "interactions today")]
-widths, row_height = table_layouts.overview_table_layout(shown)
+widths, row_height = table_layouts.overview_table_layout(shown, table["participant"])
 st.dataframe(
     table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
     column_order=shown, row_height=row_height,

@@ -50,9 +50,10 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
     if r.unsure:
         st.warning(f"Unsure: {unsure_words(r, kind)}.",
                    icon=":material/help:")
-    st.dataframe(pd.DataFrame(r.top3, columns=["activity" if kind == "sound" else "scene", "probability"]),
+    # whole percents, as the warning above says its share ("percent" gave "49.96%" beside "Unsure: 49%")
+    st.dataframe(pd.DataFrame(r.top3_percent, columns=["activity" if kind == "sound" else "scene", "probability"]),
                  hide_index=True, column_config={"probability": st.column_config.ProgressColumn(
-                     min_value=0.0, max_value=1.0, format="percent")})
+                     min_value=0, max_value=100, format="%d%%")})
 
 
 #: What each library's pages say and use: the Table I names, the page's words, the file types.
@@ -211,11 +212,12 @@ with scene_library:
         if every_photo.open is not False:  # drawn only while open, as the clips (48 photos)
             room = st.selectbox("Room", spaces.SCENES, key="lib-room", persist_state="page")
             photos = image_paths(room)[:48]
-            # as many columns as keep each name on one line at 1280 px (in six "synthetic_0_000.jp" broke before "g")
-            n = table_layouts.photo_grid_columns(p.name for p in photos)
-            grid = st.columns(n)
-            for j, p in enumerate(photos):
-                grid[j % n].image(str(p), caption=p.name, width="stretch")
+            # a row that wraps, of photos each as wide as keeps every name on one line: as many side by side as the
+            # window holds (columns fitted to 1280 px broke "synthetic_0_00" / "0.jpg" at 1024; table_layouts.photo_width)
+            width = table_layouts.photo_width(p.name for p in photos)
+            with st.container(horizontal=True, gap="small", key="every-photo-grid"):
+                for p in photos:
+                    st.image(str(p), caption=p.name, width=width)
             if len(image_paths(room)) > len(photos):
                 st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
 

@@ -541,6 +541,8 @@ def test_an_unsure_recognition_is_warned_of_as_the_app_does(kind, classes, what,
     assert main([kind, "recognize", str(given)]) == 0
     cap = capsys.readouterr()
     assert cap.out.startswith(f"{given}: {classes[1]}\n")
+    # its shares as the warning says its own, whole percents (recognition.whole_percent; it printed "0.200")
+    assert cap.out.splitlines()[1].split() == [*classes[1].split(), "20%"], cap.out
     assert cap.err == (f"cacas {kind} recognize: warning: {given}: unsure: 20% for {classes[1]}. It may be none of "
                        f"the {len(classes)} {what} the model knows\n")
 

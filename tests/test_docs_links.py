@@ -73,3 +73,42 @@ def test_every_screenshot_the_mini_study_takes_is_shown_or_counted_as_not_shown(
     words = ["no", "one", "two", "three", "four", "five", "six", "seven", "eight"]
     said = re.search(r"it also takes (\w+) pictures? not shown here", readme.replace("\n", " "))
     assert said and words.index(said.group(1)) == len(taken - tracked), sorted(taken - tracked)
+
+
+def _page_titles() -> list[str]:
+    """The app's page titles as its navigation names them (app.PAGES, read without importing Streamlit)."""
+    import ast
+
+    tree = ast.parse((PROJECT_ROOT / "app.py").read_text(encoding="utf-8"))
+    pages = next(node.value for node in tree.body if isinstance(node, ast.Assign)
+                 and getattr(node.targets[0], "id", None) == "PAGES")
+    return [row[2] for row in ast.literal_eval(pages)]
+
+
+def test_a_page_is_named_as_the_navigation_names_it():
+    """The README's Performance section spelt the page "Sounds and scenes" (its title) with "&" for "and" in
+    some places and not in others (README audit): no document, page or module spells a page's "and" as "&"."""
+    titles = _page_titles()
+    assert "Sounds and scenes" in titles
+    files = [*DOCUMENTS, PROJECT_ROOT / "app.py", *sorted(PROJECT_ROOT.glob("pages/*.py")),
+             *sorted(PROJECT_ROOT.glob("cacas/**/*.py")), *sorted(PROJECT_ROOT.glob("scripts/*.py")),
+             *sorted(PROJECT_ROOT.glob("tests/**/*.py"))]
+    found = [f"{file.relative_to(PROJECT_ROOT)}: {title.replace(' and ', ' & ')}"
+             for file in files for title in titles if " and " in title
+             if title.replace(" and ", " & ").lower() in file.read_text(encoding="utf-8").lower()]
+    assert found == []
+
+
+def test_the_readme_gives_the_shipped_libraries_and_models_in_decimal_mb():
+    """The README's recognition numbers ("15.8 MB OGG", "0.63 MB" of photos, the models' 2.0 and 11.3 MB) are
+    decimal megabytes (10^6 bytes), as the app's and the CLI's sizes (`cacas sound import`, 'Download
+    everything'); a 1024-based figure would be MiB (cacas.export's limits). Each is the shipped files' size."""
+    readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8")
+    data = PROJECT_ROOT / "study_data"
+
+    def mb(files, digits: int) -> str:
+        return f"{sum(f.stat().st_size for f in files) / 1e6:.{digits}f} MB"
+    assert f"24 per activity, {mb(data.glob('sounds/*/*.ogg'), 1)} OGG" in readme
+    assert f"240 images of\n128 x 128, {mb(data.glob('scenes/*/*.jpg'), 2)})" in readme
+    assert f"| model file | {mb([data / 'models' / 'sound_cnn.pt'], 1)} (+ metadata JSON) |" in readme
+    assert f"({mb([data / 'models' / 'scene_resnet18.pt'], 1)} instead of 45 MB)" in readme

@@ -183,6 +183,19 @@ def test_an_unsure_recognition_never_reads_as_half_or_more():
     assert unsure_words(make_recognition([0.29, 0.71 / 3, 0.71 / 3, 0.71 / 3], list("abcd")), "scene").startswith("29% for a")
 
 
+def test_every_share_of_a_recognition_reads_as_a_whole_percent_by_one_rule():
+    """The Sounds page's top 3 showed "49.96%" (Streamlit's "percent" format) beside "Unsure: 49%", and
+    `cacas sound recognize` "0.500": each share is now a whole percent as Recognition.percent gives the
+    top one (recognition.whole_percent): under half rounded down, else halves up as app_support.percent."""
+    from cacas.recognition import make_recognition, whole_percent
+
+    rec = make_recognition([0.4004, 0.4996, 0.1], ["cry", "cough", "sneeze"])
+    assert rec.top3_percent == [("cough", 49), ("cry", 40), ("sneeze", 10)] and rec.percent == 49
+    sure = make_recognition([0.5004, 0.4996], ["cough", "cry"])
+    assert sure.top3_percent == [("cough", 50), ("cry", 49)] and sure.percent == 50
+    assert [whole_percent(p) for p in (0.0, 0.29, 0.4999, 0.5, 0.725, 0.9996, 1.0)] == [0, 29, 49, 50, 73, 100, 100]
+
+
 def test_a_sound_shorter_than_half_a_second_is_short():
     from cacas.recognition import SHORT_CLIP_SECONDS, make_recognition
 

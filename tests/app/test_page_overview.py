@@ -54,6 +54,34 @@ def test_the_participants_table_shows_every_column_at_1280_px_with_names_whole(a
     assert grid.proto.row_height > 64
 
 
+def test_the_longest_participant_code_is_whole_in_every_table_of_the_overview(app, store):
+    """A code has up to 16 characters (store.validate.CODE_RE). In the data grid's 14-px Source Sans (measured in
+    headless Chromium) the widest, "mmmmmmmmmmmmmmmm", is 185.7 px and "participant_0001" 99.3: a participant
+    column of 85 px (69 px of text, 8 px of padding a side) cut the one at "participant_0" and wrapped the other
+    mid-code over three lines; the recent activity's 110 px cut both. Each table's participant column now has
+    room for the codes it shows, the columns together still fit the page at 1280 px (the next step wraps)."""
+    room = 818  # table_layouts.OVERVIEW_TABLE_ROOM
+    codes = ("mmmmmmmmmmmmmmmm", "participant_0001")
+    for code in codes:
+        store.add_participant(code)
+        store.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+        store.open_day(code)
+        store.record_interaction(code, 1, activity="cough", scene="bedroom", hour=9, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+    at = app()
+    no_exception(at)
+    grid, recent = at.dataframe[0], at.dataframe[-1]
+    assert set(recent.value["participant"]) >= set(codes)
+    shown = list(grid.proto.column_order)
+    widths = {name: config.get("width") for name, config in json.loads(grid.proto.columns).items() if name in shown}
+    assert set(widths) == set(shown) and widths["participant"] >= 186 + 16, widths
+    assert sum(widths.values()) <= room and grid.proto.row_height > 64, widths
+    recent_widths = {name: config.get("width") for name, config in json.loads(recent.proto.columns).items()
+                     if name in recent.value.columns}
+    assert recent_widths["participant"] >= 186 + 16 and recent_widths["when"] >= 125 + 16, recent_widths
+    assert sum(recent_widths.values()) <= 165 + 85 + 640 + 5, recent_widths  # as wide as before
+
+
 def test_participants_are_listed_by_code_whatever_its_letter_case(app, store):
     """Walkthrough: the sidebar offered "R01, p01, r02" (sorted as stored, capitals first); a person reads them
     case-blind, as the Overview's table and the Results page's questionnaire list them too."""

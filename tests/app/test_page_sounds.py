@@ -1,4 +1,5 @@
 import io
+import json
 
 import numpy as np
 import soundfile as sf
@@ -557,36 +558,56 @@ def test_training_is_not_offered_on_a_library_it_would_refuse(app, tmp_path, mon
     assert not [e.value for e in at.warning if e.value.startswith("Cannot train")]
 
 
-def test_every_photo_of_a_room_keeps_each_name_on_one_line_at_1280_px(app):
-    """The ui helpers saw the shipped photos' captions break mid-name at 1280 px ("synthetic_0_000.jp" / "g"):
-    six columns of 118 px for a name 135 px wide. The grid has as many columns as keep the longest name whole
-    (table_layouts.photo_grid_columns): five for the shipped names, fewer for longer ones."""
+def test_every_photo_of_a_room_stands_in_a_row_that_wraps_each_as_wide_as_its_name(app, monkeypatch):
+    """The ui helpers saw the shipped photos' captions break mid-name at 1280 px ("synthetic_0_000.jp" / "g", six
+    columns) and, with five columns fitted to 1280 px, at 1024 ("synthetic_0_00" / "0.jpg"): the page cannot know
+    the window's width. The photos stand in a row that wraps (st.container(horizontal=True)), each as wide as keeps
+    the longest name on one line (table_layouts.photo_width), as many side by side as the window holds (the
+    browser test measures the captions at 1024, 1280 and 1440 px)."""
+    import streamlit as st
+
     from cacas import table_layouts
     from cacas.paths import PROJECT_ROOT
 
+    drawn = []
+    real = st.image
+
+    def image(picture, caption=None, width="content", **kwargs):
+        drawn.append((caption, width))
+        return real(picture, caption=caption, width=width, **kwargs)
+    monkeypatch.setattr(st, "image", image)
     at = open_expander(app(PAGE), "lib-every-photo")
     no_exception(at)
-    grid = [c for c in at.columns if c.children and all(type(k).__name__ == "Image" for k in c.children.values())]
-    assert sum(len(c.children) for c in grid) == min(48, len(list((PROJECT_ROOT / "study_data" / "scenes" /
-                                                                  "bedroom").glob("*.jpg"))))  # every photo
-    assert len(grid) == 5  # six before
-    # "synthetic_0_000.jpg" is 134.6 px wide in the caption's font (Chromium); each column is 144 px
-    assert (table_layouts.PHOTO_GRID_ROOM - table_layouts.PHOTO_GRID_GAP * 4) / 5 >= 135
-    # a study's own photos, named by a phone: fewer columns, each name whole
-    names = ["PXL_20260301_101500123.jpg", "IMG_20260301_101500.jpg"]
-    assert table_layouts.photo_grid_columns(names) == 3
-    assert table_layouts.photo_grid_columns(["a.jpg"]) == 6 and table_layouts.photo_grid_columns(["x" * 200]) == 2
+    grid = next(b for b in _blocks(at.main) if "every-photo-grid" in str(getattr(getattr(b, "proto", None), "id", "")))
+    assert grid.proto.flex_container.wrap and grid.proto.flex_container.direction == 2  # HORIZONTAL
+    names = sorted(p.name for p in (PROJECT_ROOT / "study_data" / "scenes" / "bedroom").glob("*.jpg"))[:48]
+    assert [c for k in grid.children.values() for c in k.captions] == names  # every photo, by name
+    widths = {w for c, w in drawn if c in names}
+    # "synthetic_0_000.jpg" is 117.7 px in the caption's 14-px Source Sans (Chromium), 2 px of padding a side
+    assert widths == {table_layouts.PHOTO_WIDTH} and table_layouts.PHOTO_WIDTH >= 117.7 + 4
+    # a study's own photos, named by a phone (176.0 px): wider photos, each name whole
+    assert table_layouts.photo_width(["PXL_20260301_101500123.jpg", "IMG_20260301_101500.jpg"]) >= 176.0 + 4
+    assert table_layouts.photo_width(["a.jpg"]) == table_layouts.PHOTO_WIDTH
 
 
-def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
-    """The Try tab's result ("### kitchen") kept Streamlit's anchor-link icon beside it, of no use there (the
-    tablet's headings dropped theirs). AppTest cannot upload: the uploader is given a photo, the model a label."""
+def _blocks(node):
+    """``node`` and every block under it (AppTest's element tree)."""
+    yield node
+    for child in (getattr(node, "children", None) or {}).values():
+        yield from _blocks(child)
+
+
+def test_the_top_3_says_shares_as_the_unsure_warning_does(app, monkeypatch):
+    """A photo recognised at 0.4996: the warning said "Unsure: 49%" and the top 3 beside it "49.96%" (Streamlit's
+    "percent" format, two decimals). The top 3 now says whole percents by the warning's rule
+    (Recognition.top3_percent): 49, 40, 10."""
     from types import SimpleNamespace
 
     import streamlit as st
 
-    from cacas import lab
+    from cacas import lab, spaces
     from cacas.paths import PROJECT_ROOT
+    from cacas.recognition import make_recognition
     from pages import ui
 
     photo = sorted((PROJECT_ROOT / "study_data" / "scenes" / "kitchen").glob("*.jpg"))[0]
@@ -598,9 +619,39 @@ def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
         return real(label, *args, **kwargs)
     monkeypatch.setattr(st, "file_uploader", uploader)
     monkeypatch.setattr(ui, "recognizer", lambda kind: SimpleNamespace(metadata={}, model_id="m1"))
-    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: SimpleNamespace(
-        label="kitchen", short=False, unsure=False, seconds=None,
-        top3=[("kitchen", 0.8), ("living room", 0.15), ("others", 0.05)]))
+    shares = [0.4996, 0.4004, 0.1] + [0.0] * (len(spaces.SCENES) - 3)
+    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: make_recognition(shares, spaces.SCENES))
+    at = app(PAGE)
+    no_exception(at)
+    assert any(w.value.startswith(f"Unsure: 49% for {spaces.SCENES[0]}.") for w in at.warning)
+    top3 = next(d for d in at.dataframe if "scene" in d.value.columns)
+    assert list(top3.value["probability"]) == [49, 40, 10]
+    assert json.loads(top3.proto.columns)["probability"]["type_config"]["format"] == "%d%%"
+
+
+def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
+    """The Try tab's result ("### kitchen") kept Streamlit's anchor-link icon beside it, of no use there (the
+    tablet's headings dropped theirs). AppTest cannot upload: the uploader is given a photo, the model a label."""
+    from types import SimpleNamespace
+
+    import streamlit as st
+
+    from cacas import lab
+    from cacas.paths import PROJECT_ROOT
+    from cacas.recognition import make_recognition
+    from pages import ui
+
+    photo = sorted((PROJECT_ROOT / "study_data" / "scenes" / "kitchen").glob("*.jpg"))[0]
+    real = st.file_uploader
+
+    def uploader(label, *args, **kwargs):
+        if kwargs.get("key") == "try-photo":
+            return SimpleNamespace(name=photo.name, getvalue=photo.read_bytes)
+        return real(label, *args, **kwargs)
+    monkeypatch.setattr(st, "file_uploader", uploader)
+    monkeypatch.setattr(ui, "recognizer", lambda kind: SimpleNamespace(metadata={}, model_id="m1"))
+    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: make_recognition(
+        [0.8, 0.15, 0.05], ["kitchen", "living room", "others"]))
     at = app(PAGE)
     no_exception(at)
     headings = [m for m in at.main.markdown if m.value.startswith("#")]

@@ -94,7 +94,7 @@ print(sorted(loaded))
 
 
 def test_the_first_page_starts_the_heavy_imports_in_the_background_once(tmp_path):
-    """The first visit of Adaptation after the server's start took 3.8 s and of Sounds & scenes 6.4 s
+    """The first visit of Adaptation after the server's start took 3.8 s and of Sounds and scenes 6.4 s
     (torch, torchvision; a 24 x 7 study, 5 s after the first page) against 2.2 s and 3.0 s with the
     imports done in the background once the first page is drawn (README, Performance)."""
     import os
@@ -108,7 +108,7 @@ def test_the_first_page_starts_the_heavy_imports_in_the_background_once(tmp_path
                                           # no automatic collection while importing (app._preload: Python 3.11's
                                           # AST race with a page compiled meanwhile), on again afterwards
                                           "[False, False, False] True",
-                                          # the saved models too, once, in that thread (the first Sounds & scenes
+                                          # the saved models too, once, in that thread (the first Sounds and scenes
                                           # page and the tablet's first form loaded them)
                                           "[('scene', 'cacas-preload'), ('sound', 'cacas-preload')]"]
 

@@ -107,3 +107,38 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
                             counter["text"]), counter
     finally:
         context.close()
+
+
+#: the "Every photo of one room" grid: each caption's text, the lines it takes, and its photo's top (a row's)
+PHOTO_GRID_JS = """() => [...document.querySelectorAll("[data-testid='stExpander'] [data-testid='stImage']")].map(i => {
+  const p = i.querySelector("[data-testid='stImageCaption'] p"); const r = document.createRange(); r.selectNodeContents(p);
+  return {text: p.innerText, lines: new Set([...r.getClientRects()].map(b => Math.round(b.top))).size,
+          top: Math.round(i.getBoundingClientRect().top)}; })"""
+
+
+@pytest.mark.parametrize("width", [1024, 1280, 1440])
+def test_every_photo_s_name_is_on_one_line(browser, study_server, width):
+    """The ui helpers saw the photo grid's captions break mid-name at 1024 px ("synthetic_0_00" / "0.jpg"): its
+    columns were fitted to 1280 px (five of 144 px; at 1024 five of 93). The photos now stand in a row that wraps,
+    each as wide as its longest name needs (table_layouts.photo_width): as many side by side as the window
+    holds, five at 1280 px as before, every name on one line."""
+    from test_browser_mini_study import ran, runs
+
+    context = browser.new_context(viewport={"width": width, "height": 900})
+    page = context.new_page()
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/sounds")
+        page.get_by_role("tab", name="Scene library").click()
+        before = runs(page)
+        page.get_by_text("Every photo of one room", exact=True).click()  # drawn while open: a run
+        ran(page, before)
+        page.wait_for_function("() => document.querySelectorAll(`[data-testid='stExpander'] "
+                               "[data-testid='stImageCaption'] p`).length >= 40")
+        photos = page.evaluate(PHOTO_GRID_JS)
+        assert sorted(p["text"] for p in photos) == [f"synthetic_0_{k:03d}.jpg" for k in range(40)]  # the bedroom's
+        assert [p["text"] for p in photos if p["lines"] != 1] == [], width
+        in_first_row = sum(p["top"] == photos[0]["top"] for p in photos)
+        assert in_first_row >= {1024: 3, 1280: 5, 1440: 5}[width], in_first_row
+    finally:
+        context.close()

@@ -1,0 +1,23 @@
+"""cacas.table_layouts' measure of a text (the pages' tables and photo grid are measured by the page tests)."""
+
+import pytest
+
+from cacas import table_layouts
+
+#: widths (px) in Streamlit's 14-px Source Sans, measured in headless Chromium (canvas measureText): participant
+#: codes as the data grid draws them, file names as a photo's caption
+MEASURED = {"mmmmmmmmmmmmmmmm": 185.7, "WWWWWWWWWWWWWWWW": 176.1, "participant_0001": 99.3, "PARTICIPANT-0001": 108.1,
+            "P-2026-HOSP-0001": 109.6, "0000000000000000": 111.3, "P01": 21.8, "synthetic_0_000.jpg": 117.7,
+            "IMG_20260301_101500.jpg": 156.0, "PXL_20260301_101500123.jpg": 176.0, "kitchen photo (2).jpeg": 128.4}
+
+
+@pytest.mark.parametrize("text, px", MEASURED.items())
+def test_a_text_s_width_is_never_less_than_chromium_draws_it_and_not_much_more(text, px):
+    """Never less, so that a column or a photo fitted to it keeps the text on one line; not much more, so that a
+    short code's column takes no room from the others."""
+    assert px <= table_layouts.text_width(text) <= px * 1.1 + 1
+
+
+def test_an_accented_letter_counts_as_its_letter_and_another_character_as_the_widest():
+    assert table_layouts.text_width("é") == table_layouts.text_width("e") == 7.0
+    assert table_layouts.text_width("@") >= 11.86 and table_layouts.text_width("漢") >= 11.86
