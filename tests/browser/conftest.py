@@ -15,15 +15,13 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from headless import CHROMIUM, FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
-CHROMIUM = "/usr/bin/chromium"
 #: where a failed browser test leaves a screenshot of each page it had open (set CACAS_BROWSER_FAILURES to keep them)
 FAILURES = Path(os.environ.get("CACAS_BROWSER_FAILURES") or Path(tempfile.gettempdir()) / "cacas-browser-failures")
 #: the log files of the apps running now (``_run_app``), for a failed test's report
 RUNNING_LOGS: list[Path] = []
-FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", "--no-first-run"]
 
 
 def _free_port() -> int:
@@ -74,50 +72,6 @@ def _run_app(tmp: Path, port: int | None = None, **env):
         proc.kill()
     log.close()
     RUNNING_LOGS.remove(tmp / "streamlit.log")
-
-
-class ScriptRuns:
-    """The script runs of a page's session, counted from the messages its Streamlit server sends over the
-    websocket, as the browser receives them (:func:`watch_runs`): ``started`` (a NewSession message opens
-    each run, a fragment's too), ``finished`` (ScriptFinished), and ``seen``, the runs a test helper has
-    waited for. The page's ``data-test-script-state`` alone missed runs: a run of ~100 ms whose first and
-    last messages the loaded browser handled in one go never turned it "running" (CI: the Results page's
-    upload choice was drawn, and the helper waited 60 s for its run)."""
-
-    def __init__(self):
-        self.started = self.finished = self.seen = 0
-        self.rerun_follows = False  # the last run stopped early for a rerun, whose NewSession is still to come
-
-    def frame(self, payload) -> None:
-        if isinstance(payload, str):
-            return
-        from streamlit.proto.ForwardMsg_pb2 import ForwardMsg
-
-        msg = ForwardMsg.FromString(payload)
-        kind = msg.WhichOneof("type")
-        if kind == "new_session":
-            self.started += 1
-            self.rerun_follows = False
-        elif kind == "script_finished":
-            self.finished += 1
-            self.rerun_follows = msg.script_finished == ForwardMsg.FINISHED_EARLY_FOR_RERUN
-
-    @property
-    def busy(self) -> bool:
-        """A run is going, or one stopped for a rerun that has not begun yet."""
-        return self.finished < self.started or self.rerun_follows
-
-    def __str__(self) -> str:
-        return f"runs started {self.started}, finished {self.finished}, waited for {self.seen}"
-
-
-def watch_runs(page) -> ScriptRuns:
-    """The page's :class:`ScriptRuns`, counting from now on (every websocket the page opens, a
-    reconnection's too); the same one on a second call."""
-    if getattr(page, "_cacas_runs", None) is None:
-        page._cacas_runs = ScriptRuns()
-        page.on("websocket", lambda ws: ws.on("framereceived", page._cacas_runs.frame))
-    return page._cacas_runs
 
 
 class AppURL(str):
@@ -186,7 +140,7 @@ PAGE_STATE = """() => {
 
 def describe_page(page, screenshot: Path, text_chars: int = 3000) -> str:
     """A page as a failed test left it, for the test's report: where it is, what state Streamlit's
-    script and connection are in, its runs (:class:`ScriptRuns`, if counted), the end of its text
+    script and connection are in, its runs (``headless.ScriptRuns``, if counted), the end of its text
     (``text_chars``), and a full-page screenshot saved to ``screenshot``. A page that cannot be read
     says why, in one line."""
     try:

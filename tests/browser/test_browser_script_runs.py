@@ -1,10 +1,10 @@
-"""The browser tests' count of a page's script runs (conftest's ScriptRuns), from the messages Streamlit's
-server sends: a run is begun by its NewSession and over at its ScriptFinished, unless that says a rerun
+"""The browser tests' and the page benchmark's count of a page's script runs (headless.ScriptRuns), from
+the messages Streamlit's server sends: a run is begun by its NewSession and over at its ScriptFinished, unless that says a rerun
 follows; text frames and other messages count nothing."""
 
 from __future__ import annotations
 
-from conftest import ScriptRuns
+from headless import ScriptRuns
 from streamlit.proto.ForwardMsg_pb2 import ForwardMsg
 
 
