@@ -21,10 +21,16 @@ class ScriptRuns:
     each run, a fragment's too), ``finished`` (ScriptFinished), and ``seen``, the runs a test helper has
     waited for. The page's ``data-test-script-state`` alone missed runs: a run of ~100 ms whose first and
     last messages the loaded browser handled in one go never turned it "running" (CI: the Results page's
-    upload choice was drawn, and the helper waited 60 s for its run)."""
+    upload choice was drawn, and the helper waited 60 s for its run).
+
+    A session runs one script at a time, so a NewSession also ends the run before it: a widget's rerun
+    during a run (Streamlit's ``runner.fastReruns``, on by default) replaces the run's runner, and the
+    stopped run sends no ScriptFinished. ``finished`` then stays below ``started``; ``busy`` follows the
+    last of these messages, not the difference."""
 
     def __init__(self):
         self.started = self.finished = self.seen = 0
+        self.running = False  # a NewSession came last: its run is going
         self.rerun_follows = False  # the last run stopped early for a rerun, whose NewSession is still to come
 
     def frame(self, payload) -> None:
@@ -36,15 +42,16 @@ class ScriptRuns:
         kind = msg.WhichOneof("type")
         if kind == "new_session":
             self.started += 1
-            self.rerun_follows = False
+            self.running, self.rerun_follows = True, False
         elif kind == "script_finished":
             self.finished += 1
+            self.running = False
             self.rerun_follows = msg.script_finished == ForwardMsg.FINISHED_EARLY_FOR_RERUN
 
     @property
     def busy(self) -> bool:
         """A run is going, or one stopped for a rerun that has not begun yet."""
-        return self.finished < self.started or self.rerun_follows
+        return self.running or self.rerun_follows
 
     def __str__(self) -> str:
         return f"runs started {self.started}, finished {self.finished}, waited for {self.seen}"
