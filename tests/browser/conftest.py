@@ -3,6 +3,7 @@ headless Chromium with Playwright (design.md: ``playwright install`` cannot down
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import socket
@@ -115,18 +116,53 @@ def browser():
         b.close()
 
 
+#: the environment variable that slows the tests' Chromium N times (Chrome DevTools' CPU throttling), as on a
+#: loaded CI machine: to reproduce a flake that only the CI saw (:func:`open_page`)
+SLOWDOWN = "CACAS_BROWSER_SLOWDOWN"
+
+
+def cpu_slowdown() -> float | None:
+    """How many times :data:`SLOWDOWN` slows Chromium's CPU; None when it is unset or empty. Anything but a
+    number >= 1 is refused by name (pytest.UsageError): Chromium took 0.5, 0 or -1 without a word and ran at
+    full speed, and a word failed every browser test with float()'s message."""
+    value = os.environ.get(SLOWDOWN, "").strip()
+    if not value:
+        return None
+    try:
+        rate = float(value)
+    except ValueError:
+        rate = math.nan
+    if not (math.isfinite(rate) and rate >= 1):
+        raise pytest.UsageError(f"{SLOWDOWN}={value!r} is not a number >= 1: it is how many times the browser tests "
+                                f"slow Chromium's CPU (e.g. 4; 1 does not slow it). Leave it unset for full speed.")
+    return rate
+
+
+def pytest_collection_modifyitems(config, items):
+    """A bad :data:`SLOWDOWN` stops the run before its first test, with one line saying what is valid (only
+    when the browser tests are collected: this conftest is read then)."""
+    cpu_slowdown()
+
+
+def open_page(opener, **options):
+    """``opener.new_page(**options)``: a browser's new page in a context of its own (``options``: the
+    context's, e.g. ``viewport``; the context closes with the page), or a context's new page; its CPU slowed
+    :data:`SLOWDOWN` times when that is set. Every page the browser tests open comes from here
+    (test_browser_slowdown checks), so that the knob slows them all."""
+    page = opener.new_page(**options)
+    rate = cpu_slowdown()
+    if rate is not None:
+        page.context.new_cdp_session(page).send("Emulation.setCPUThrottlingRate", {"rate": rate})
+    return page
+
+
 @pytest.fixture
 def page(browser, tmp_path):
-    """A new page at 1360 x 900 in a context of its own (downloads accepted); with
-    ``CACAS_BROWSER_SLOWDOWN=N`` its CPU is slowed N times (Chrome DevTools' throttling), as on a loaded machine."""
-    context = browser.new_context(viewport={"width": 1360, "height": 900}, accept_downloads=True)
-    pg = context.new_page()
-    if os.environ.get("CACAS_BROWSER_SLOWDOWN"):  # Chromium's CPU slowed N times: a loaded CI machine, to reproduce
-        context.new_cdp_session(pg).send("Emulation.setCPUThrottlingRate",
-                                         {"rate": float(os.environ["CACAS_BROWSER_SLOWDOWN"])})
+    """A new page at 1360 x 900 in a context of its own (downloads accepted; :func:`open_page`)."""
+    pg = open_page(browser, viewport={"width": 1360, "height": 900}, accept_downloads=True)
     pg.set_default_timeout(30_000)
     yield pg
-    context.close()
+    pg.context.close()
 
 
 #: what a failed test's report says of a page: its address, Streamlit's script and connection states, and its text

@@ -16,6 +16,7 @@ import zipfile
 from pathlib import Path
 
 import pytest
+from conftest import open_page
 from headless import IDLE, run_over, wait_until, watch_runs
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
@@ -300,7 +301,7 @@ def test_mini_study(server, page, tmp_path):
     page.set_viewport_size({"width": 1360, "height": 900})
 
     # the researcher's own view of the session, in another tab, follows the tablet without a reload
-    watch = page.context.new_page()
+    watch = open_page(page.context)
     goto(watch, f"{server}/session?participant=P01")
     # waited for, not read at once: a page just opened can be read before its first run has drawn it all
     watch.get_by_text("Day 1 of 7 · 0 of about 15 interactions today").wait_for(timeout=30_000)

@@ -12,7 +12,7 @@ import pytest
 
 from cacas import spaces
 from cacas.store import StudyStore
-from conftest import _run_app
+from conftest import _run_app, open_page
 from test_browser_mini_study import goto
 
 pytestmark = pytest.mark.browser
@@ -58,8 +58,7 @@ def study_server(tmp_path_factory, initial_policy):
 
 @pytest.mark.parametrize("width", [800, 1280])
 def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
-    context = browser.new_context(viewport={"width": width, "height": 900})
-    page = context.new_page()
+    page = open_page(browser, viewport={"width": width, "height": 900})
     page.set_default_timeout(60_000)
     try:
         seen = {}
@@ -80,7 +79,7 @@ def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
         if width == 1280:  # room enough: each page's metrics side by side on one line
             assert all(len({m["top"] for m in ms}) == 1 for ms in seen.values()), seen
     finally:
-        context.close()
+        page.close()
 
 
 #: the Study session's counter: its text and the lines it takes (the distinct tops of its text's boxes)
@@ -94,8 +93,7 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
     """The ui helpers saw the Study session's counter run to two lines at 1280 px (and 1024) when some of the
     day's interactions were not counted: it gave the reasons too ("(no response, nothing needed while the
     robot was quiet, or a request while doing nothing)"), which the day's table now gives."""
-    context = browser.new_context(viewport={"width": width, "height": 900})
-    page = context.new_page()
+    page = open_page(browser, viewport={"width": width, "height": 900})
     page.set_default_timeout(60_000)
     try:
         goto(page, f"{study_server}/session?participant=P03")
@@ -106,4 +104,4 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
         assert re.fullmatch(r"Day 1 of 7 · \d+ of about 15 interactions today; 13 in all with \d+ not counted",
                             counter["text"]), counter
     finally:
-        context.close()
+        page.close()
