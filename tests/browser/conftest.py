@@ -145,10 +145,13 @@ def pytest_collection_modifyitems(config, items):
 
 
 def open_page(opener, **options):
-    """``opener.new_page(**options)``: a browser's new page in a context of its own (``options``: the
-    context's, e.g. ``viewport``; the context closes with the page), or a context's new page; its CPU slowed
-    :data:`SLOWDOWN` times when that is set. Every page the browser tests open comes from here
+    """A new page of ``opener``: a browser's in a new context of its own (made with ``options``, e.g.
+    ``viewport``; close it with ``page.context.close()``; a second page can be opened in it), or a context's;
+    its CPU slowed :data:`SLOWDOWN` times when that is set. Every page the browser tests open comes from here
     (test_browser_slowdown checks), so that the knob slows them all."""
+    if hasattr(opener, "new_context"):  # a browser (Browser.new_page's context would refuse a second page)
+        opener = opener.new_context(**options)
+        options = {}
     page = opener.new_page(**options)
     rate = cpu_slowdown()
     if rate is not None:

@@ -62,6 +62,7 @@ def test_a_page_that_cannot_be_read_is_said_in_one_line(browser, tmp_path):
     said = describe_page(page, tmp_path / "closed.png")
     assert "the page could not be read" in said and "\n" not in said
     assert not (tmp_path / "closed.png").exists()
+    page.context.close()
 
 
 def test_an_apps_log_is_reported_by_its_last_lines(tmp_path):

@@ -48,7 +48,7 @@ def _boxes(browser, figs, width: int, height: int = 450) -> list[dict]:
         page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot .legend').length == {len(figs)}")
         return page.evaluate(BOXES_JS)
     finally:
-        page.close()
+        page.context.close()
 
 
 @pytest.mark.parametrize("ceiling, uneven, width", [(False, False, 560), (True, False, 560), (True, True, 400)])
@@ -113,5 +113,5 @@ def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
         legend = page.evaluate("() => document.querySelector('.legend').getBoundingClientRect().bottom")
         scrolls = page.evaluate("() => document.documentElement.scrollHeight > innerHeight")
     finally:
-        page.close()
+        page.context.close()
     assert legend <= 568 and not scrolls, (legend, scrolls)

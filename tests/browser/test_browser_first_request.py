@@ -20,4 +20,4 @@ def test_first_request_to_a_page_gets_the_app_shell(server, browser):
     assert "ui" not in items and "app" not in items  # not the pages/ folder's files
     expect(page.get_by_role("heading", name="Results").first).to_be_visible(timeout=30_000)
     expect(page.locator("[data-testid='stSidebar']").get_by_text("CACAS Studio").first).to_be_visible(timeout=30_000)
-    page.close()
+    page.context.close()

@@ -79,7 +79,7 @@ def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
         if width == 1280:  # room enough: each page's metrics side by side on one line
             assert all(len({m["top"] for m in ms}) == 1 for ms in seen.values()), seen
     finally:
-        page.close()
+        page.context.close()
 
 
 #: the Study session's counter: its text and the lines it takes (the distinct tops of its text's boxes)
@@ -104,4 +104,4 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
         assert re.fullmatch(r"Day 1 of 7 · \d+ of about 15 interactions today; 13 in all with \d+ not counted",
                             counter["text"]), counter
     finally:
-        page.close()
+        page.context.close()

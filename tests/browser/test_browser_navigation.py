@@ -52,4 +52,4 @@ def test_back_leaves_a_page_in_one_press_and_keeps_the_participant(browser, two_
         page.wait_for_function("t => document.querySelector('h1') && document.querySelector('h1').innerText"
                                ".startsWith(t)", arg=name)
         assert _heading(page).startswith(name) and "participant=P01" in page.url
-    page.close()
+    page.context.close()

@@ -59,7 +59,7 @@ def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initia
         with StudyStore(db, readonly=True) as s:
             rows = s.interactions_frame("P01", method=None)
         assert list(rows["response"]) == ["accept"] and list(rows["index"]) == [1]
-    page.close()
+    page.context.close()
 
 
 def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, browser):
@@ -82,7 +82,7 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
         shows(page, "Preferences of P02")
         with StudyStore(db, readonly=True) as s:
             assert [p.code for p in s.list_participants()] == ["P01", "P02"]
-    page.close()
+    page.context.close()
 
 
 def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant(tmp_path, browser):
@@ -110,5 +110,5 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
         shows(tablet, "Day 1 is finished")
         idle(researcher)
         assert "Select a participant" not in text_of(researcher)
-    researcher.close()
-    tablet.close()
+    researcher.context.close()
+    tablet.context.close()

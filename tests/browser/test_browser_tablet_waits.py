@@ -51,7 +51,7 @@ def test_the_tablet_shows_start_day_2_once_the_day_is_adapted_without_a_reload(b
     expect(page.get_by_role("button", name="Start day 2")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("Day 1 is finished").count() == 0
-    page.close()
+    page.context.close()
 
 
 def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(browser, waiting_server):
@@ -67,4 +67,4 @@ def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(
     expect(page.get_by_text("Day 1 is finished. The robot is learning from it")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("What are you doing?").count() == 0
-    page.close()
+    page.context.close()
