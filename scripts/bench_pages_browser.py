@@ -5,8 +5,9 @@
 
 Starts ``streamlit run app.py`` on DB (e.g. from ``scripts/bench_pages_db.py``), opens "/" once
 (the server's first request), then for each page: opens it in a new browser tab (a new session) at
-?participant=..., timing from the navigation until the script run is over (Streamlit's
-data-test-script-state back to notRunning after a run) and until every Plotly chart is drawn.
+?participant=..., timing from the navigation until the script run is over (counted from the messages
+the server sends over the page's websocket, as the browser tests count them: tests/browser/headless.py;
+then Streamlit's data-test-script-state notRunning) and until every Plotly chart is drawn.
 "cold" is the page's first visit after the server's start (modules imported on first use: torch
 for the Adaptation page, the recognisers for Sounds), "load" the median [min-max] of ``--repeats``
 later visits. Then, on Results, times a change of participant in the sidebar, a change of the
@@ -38,22 +39,14 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this checkout's cacas, not an installed one (--tablet's database)
-CHROMIUM = "/usr/bin/chromium"
-FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", "--no-first-run"]
+# The browser tests' Chromium and their count of a page's script runs (tests/browser/headless.py), imported, not
+# copied: stApp's data-test-script-state missed runs of ~100-200 ms, and the bench then waited 60 s for one that
+# was over. The folder goes on sys.path, as pytest puts it there for the tests (tests/ is no package).
+sys.path.insert(1, str(ROOT / "tests" / "browser"))
+from headless import CHROMIUM, FLAGS, run_over, wait_until, watch_runs  # noqa: E402
+
 PAGES = {"overview": "", "participants": "participants", "session": "session", "adaptation": "adaptation",
          "results": "results", "simulation": "simulation", "sounds": "sounds"}
-COUNTERS = """
-if (window.__runs === undefined) {
-  window.__runs = 0;
-  new MutationObserver(records => records.forEach(r => {
-    if (r.attributeName === 'data-test-script-state' && r.target.getAttribute(r.attributeName) === 'running'
-        && r.oldValue !== 'running') window.__runs += 1;
-  })).observe(document, {subtree: true, attributes: true, attributeOldValue: true,
-                         attributeFilter: ['data-test-script-state']});
-}"""
-IDLE_AFTER = ("n => window.__runs > n && document.querySelector(\"[data-testid='stApp']\")"
-              "?.getAttribute('data-test-script-state') === 'notRunning'")
 CHARTS = ("() => [...document.querySelectorAll(\"[data-testid='stPlotlyChart']\")].every("
           "c => c.querySelector('.main-svg'))")
 
@@ -93,10 +86,10 @@ def visit(browser, url: str) -> tuple[float, float, object]:
     ctx = browser.new_context(viewport={"width": 1360, "height": 900})
     pg = ctx.new_page()
     pg.set_default_timeout(60_000)
-    pg.add_init_script(COUNTERS)
+    watch_runs(pg)
     t = time.perf_counter()
     pg.goto(url)
-    pg.wait_for_function(IDLE_AFTER, arg=0, polling=20)
+    run_over(pg, 0)
     idle = time.perf_counter() - t
     pg.wait_for_function(CHARTS, polling=20)
     return idle, time.perf_counter() - t, pg
@@ -104,10 +97,10 @@ def visit(browser, url: str) -> tuple[float, float, object]:
 
 def rerun_time(pg, action) -> float:
     """Seconds from ``action`` until the run it starts is over (the page then idle)."""
-    before = pg.evaluate("() => window.__runs")
+    before = watch_runs(pg).started
     t = time.perf_counter()
     action()
-    pg.wait_for_function(IDLE_AFTER, arg=before, polling=20)
+    run_over(pg, before)
     pg.wait_for_function(CHARTS, polling=20)
     return time.perf_counter() - t
 
@@ -172,12 +165,13 @@ def bench_tablet(browser, db: str, args) -> None:
                 ctx = browser.new_context(viewport={"width": 1024, "height": 768})
                 pg = ctx.new_page()
                 pg.set_default_timeout(300_000)
+                runs = watch_runs(pg)
                 t = time.perf_counter()
                 pg.goto(f"{base}/?participant={TABLET}&view=tablet")
                 pg.locator("button").filter(has_text=re.compile(r"Do it$")).first.wait_for()
                 form.append(time.perf_counter() - t)
                 first.append(propose(pg, *TABLET_CONTEXTS[0]))
-                pg.wait_for_selector("[data-testid='stApp'][data-test-script-state='notRunning']")
+                wait_until(pg, lambda: not runs.busy, 300_000)
                 pg.locator("button").filter(has_text=re.compile(r"Choose a different activity$")).first.click()
                 pg.locator("button").filter(has_text=re.compile(r"Do it$")).first.wait_for()
                 later.append(propose(pg, *TABLET_CONTEXTS[1]))

@@ -3,6 +3,7 @@ headless Chromium with Playwright (design.md: ``playwright install`` cannot down
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import socket
@@ -15,15 +16,13 @@ from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
+from headless import CHROMIUM, FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
-CHROMIUM = "/usr/bin/chromium"
 #: where a failed browser test leaves a screenshot of each page it had open (set CACAS_BROWSER_FAILURES to keep them)
 FAILURES = Path(os.environ.get("CACAS_BROWSER_FAILURES") or Path(tempfile.gettempdir()) / "cacas-browser-failures")
 #: the log files of the apps running now (``_run_app``), for a failed test's report
 RUNNING_LOGS: list[Path] = []
-FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
-         "--disable-sync", "--no-first-run"]
 
 
 def _free_port() -> int:
@@ -76,50 +75,6 @@ def _run_app(tmp: Path, port: int | None = None, **env):
     RUNNING_LOGS.remove(tmp / "streamlit.log")
 
 
-class ScriptRuns:
-    """The script runs of a page's session, counted from the messages its Streamlit server sends over the
-    websocket, as the browser receives them (:func:`watch_runs`): ``started`` (a NewSession message opens
-    each run, a fragment's too), ``finished`` (ScriptFinished), and ``seen``, the runs a test helper has
-    waited for. The page's ``data-test-script-state`` alone missed runs: a run of ~100 ms whose first and
-    last messages the loaded browser handled in one go never turned it "running" (CI: the Results page's
-    upload choice was drawn, and the helper waited 60 s for its run)."""
-
-    def __init__(self):
-        self.started = self.finished = self.seen = 0
-        self.rerun_follows = False  # the last run stopped early for a rerun, whose NewSession is still to come
-
-    def frame(self, payload) -> None:
-        if isinstance(payload, str):
-            return
-        from streamlit.proto.ForwardMsg_pb2 import ForwardMsg
-
-        msg = ForwardMsg.FromString(payload)
-        kind = msg.WhichOneof("type")
-        if kind == "new_session":
-            self.started += 1
-            self.rerun_follows = False
-        elif kind == "script_finished":
-            self.finished += 1
-            self.rerun_follows = msg.script_finished == ForwardMsg.FINISHED_EARLY_FOR_RERUN
-
-    @property
-    def busy(self) -> bool:
-        """A run is going, or one stopped for a rerun that has not begun yet."""
-        return self.finished < self.started or self.rerun_follows
-
-    def __str__(self) -> str:
-        return f"runs started {self.started}, finished {self.finished}, waited for {self.seen}"
-
-
-def watch_runs(page) -> ScriptRuns:
-    """The page's :class:`ScriptRuns`, counting from now on (every websocket the page opens, a
-    reconnection's too); the same one on a second call."""
-    if getattr(page, "_cacas_runs", None) is None:
-        page._cacas_runs = ScriptRuns()
-        page.on("websocket", lambda ws: ws.on("framereceived", page._cacas_runs.frame))
-    return page._cacas_runs
-
-
 class AppURL(str):
     """The app's base URL, with the path of its study database (``db``) for a test that sets up
     what it needs without depending on an earlier test of its module."""
@@ -161,18 +116,56 @@ def browser():
         b.close()
 
 
+#: the environment variable that slows the tests' Chromium N times (Chrome DevTools' CPU throttling), as on a
+#: loaded CI machine: to reproduce a flake that only the CI saw (:func:`open_page`)
+SLOWDOWN = "CACAS_BROWSER_SLOWDOWN"
+
+
+def cpu_slowdown() -> float | None:
+    """How many times :data:`SLOWDOWN` slows Chromium's CPU; None when it is unset or empty. Anything but a
+    number >= 1 is refused by name (pytest.UsageError): Chromium took 0.5, 0 or -1 without a word and ran at
+    full speed, and a word failed every browser test with float()'s message."""
+    value = os.environ.get(SLOWDOWN, "").strip()
+    if not value:
+        return None
+    try:
+        rate = float(value)
+    except ValueError:
+        rate = math.nan
+    if not (math.isfinite(rate) and rate >= 1):
+        raise pytest.UsageError(f"{SLOWDOWN}={value!r} is not a number >= 1: it is how many times the browser tests "
+                                f"slow Chromium's CPU (e.g. 4; 1 does not slow it). Leave it unset for full speed.")
+    return rate
+
+
+def pytest_collection_modifyitems(config, items):
+    """A bad :data:`SLOWDOWN` stops the run before its first test, with one line saying what is valid (only
+    when the browser tests are collected: this conftest is read then)."""
+    cpu_slowdown()
+
+
+def open_page(opener, **options):
+    """A new page of ``opener``: a browser's in a new context of its own (made with ``options``, e.g.
+    ``viewport``; close it with ``page.context.close()``; a second page can be opened in it), or a context's;
+    its CPU slowed :data:`SLOWDOWN` times when that is set. Every page the browser tests open comes from here
+    (test_browser_slowdown checks), so that the knob slows them all."""
+    if hasattr(opener, "new_context"):  # a browser (Browser.new_page's context would refuse a second page)
+        opener = opener.new_context(**options)
+        options = {}
+    page = opener.new_page(**options)
+    rate = cpu_slowdown()
+    if rate is not None:
+        page.context.new_cdp_session(page).send("Emulation.setCPUThrottlingRate", {"rate": rate})
+    return page
+
+
 @pytest.fixture
 def page(browser, tmp_path):
-    """A new page at 1360 x 900 in a context of its own (downloads accepted); with
-    ``CACAS_BROWSER_SLOWDOWN=N`` its CPU is slowed N times (Chrome DevTools' throttling), as on a loaded machine."""
-    context = browser.new_context(viewport={"width": 1360, "height": 900}, accept_downloads=True)
-    pg = context.new_page()
-    if os.environ.get("CACAS_BROWSER_SLOWDOWN"):  # Chromium's CPU slowed N times: a loaded CI machine, to reproduce
-        context.new_cdp_session(pg).send("Emulation.setCPUThrottlingRate",
-                                         {"rate": float(os.environ["CACAS_BROWSER_SLOWDOWN"])})
+    """A new page at 1360 x 900 in a context of its own (downloads accepted; :func:`open_page`)."""
+    pg = open_page(browser, viewport={"width": 1360, "height": 900}, accept_downloads=True)
     pg.set_default_timeout(30_000)
     yield pg
-    context.close()
+    pg.context.close()
 
 
 #: what a failed test's report says of a page: its address, Streamlit's script and connection states, and its text
@@ -186,7 +179,7 @@ PAGE_STATE = """() => {
 
 def describe_page(page, screenshot: Path, text_chars: int = 3000) -> str:
     """A page as a failed test left it, for the test's report: where it is, what state Streamlit's
-    script and connection are in, its runs (:class:`ScriptRuns`, if counted), the end of its text
+    script and connection are in, its runs (``headless.ScriptRuns``, if counted), the end of its text
     (``text_chars``), and a full-page screenshot saved to ``screenshot``. A page that cannot be read
     says why, in one line."""
     try:

@@ -16,6 +16,7 @@ CONFTEST = Path(__file__).with_name("conftest.py")
 #: a test module that fails on a page showing a Streamlit-like app in the middle of a run
 FAILING = r'''
 import conftest
+import headless
 
 
 def test_fails_on_a_running_page(page, tmp_path):
@@ -23,7 +24,7 @@ def test_fails_on_a_running_page(page, tmp_path):
     log.write_text("Starting up\nError executing deferred callable\n")
     conftest.RUNNING_LOGS.append(log)
     page.set_content("<div data-testid='stApp' data-test-script-state='running'>Waiting for the robot</div>")
-    runs = conftest.watch_runs(page)
+    runs = headless.watch_runs(page)
     runs.started, runs.finished, runs.seen = 3, 2, 2
     assert False, "the test's own message"
 
@@ -34,7 +35,8 @@ def test_passes(page):
 
 
 def test_a_failed_browser_test_reports_its_pages(tmp_path):
-    (tmp_path / "conftest.py").write_text(CONFTEST.read_text())
+    for name in ("conftest.py", "headless.py"):
+        (tmp_path / name).write_text(CONFTEST.with_name(name).read_text())
     (tmp_path / "test_failing.py").write_text(FAILING)
     shots = tmp_path / "shots"
     out = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(tmp_path)],
@@ -53,13 +55,14 @@ def test_a_failed_browser_test_reports_its_pages(tmp_path):
 
 
 def test_a_page_that_cannot_be_read_is_said_in_one_line(browser, tmp_path):
-    from conftest import describe_page
+    from conftest import describe_page, open_page
 
-    page = browser.new_page()
+    page = open_page(browser)
     page.close()
     said = describe_page(page, tmp_path / "closed.png")
     assert "the page could not be read" in said and "\n" not in said
     assert not (tmp_path / "closed.png").exists()
+    page.context.close()
 
 
 def test_an_apps_log_is_reported_by_its_last_lines(tmp_path):

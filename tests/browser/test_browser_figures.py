@@ -11,6 +11,7 @@ import pandas as pd
 import pytest
 
 from cacas import plots
+from conftest import open_page
 
 pytestmark = pytest.mark.browser
 
@@ -40,14 +41,14 @@ def _boxes(browser, figs, width: int, height: int = 450) -> list[dict]:
 
     each = "".join(f'<div style="width:{width}px;display:inline-block;vertical-align:top">'
                    f'{f.to_html(full_html=False, include_plotlyjs=False, default_height=height)}</div>' for f in figs)
-    page = browser.new_page(viewport={"width": len(figs) * width + 20, "height": height + 30})
+    page = open_page(browser, viewport={"width": len(figs) * width + 20, "height": height + 30})
     try:
         page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'>{each}"
                          "</body></html>")
         page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot .legend').length == {len(figs)}")
         return page.evaluate(BOXES_JS)
     finally:
-        page.close()
+        page.context.close()
 
 
 @pytest.mark.parametrize("ceiling, uneven, width", [(False, False, 560), (True, False, 560), (True, True, 400)])
@@ -105,12 +106,12 @@ def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
     files = figure_files({"fig4.html": plots.methods_figure(_daily(False, False))})
     for name, data in files.items():
         (tmp_path / name).write_bytes(data)
-    page = browser.new_page(viewport={"width": 1000, "height": 568})
+    page = open_page(browser, viewport={"width": 1000, "height": 568})
     try:
         page.goto((tmp_path / "fig4.html").as_uri())
         page.wait_for_selector(".js-plotly-plot .legend")
         legend = page.evaluate("() => document.querySelector('.legend').getBoundingClientRect().bottom")
         scrolls = page.evaluate("() => document.documentElement.scrollHeight > innerHeight")
     finally:
-        page.close()
+        page.context.close()
     assert legend <= 568 and not scrolls, (legend, scrolls)

@@ -1,13 +1,14 @@
 """A fresh server whose first request goes straight to a page still runs it through app.py
 (Streamlit's old pages/ mode would run the page alone: no sidebar, no participant)."""
 
+from conftest import open_page
 from playwright.sync_api import expect
 
 WAIT = "[data-testid='stApp'][data-test-script-state='notRunning']"
 
 
 def test_first_request_to_a_page_gets_the_app_shell(server, browser):
-    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page = open_page(browser, viewport={"width": 1280, "height": 900})
     page.goto(f"{server}/results")
     page.wait_for_selector(WAIT, timeout=90_000)
     # waited for, not read at once: a loaded run found the page idle and its heading not drawn yet (is_visible
@@ -19,4 +20,4 @@ def test_first_request_to_a_page_gets_the_app_shell(server, browser):
     assert "ui" not in items and "app" not in items  # not the pages/ folder's files
     expect(page.get_by_role("heading", name="Results").first).to_be_visible(timeout=30_000)
     expect(page.locator("[data-testid='stSidebar']").get_by_text("CACAS Studio").first).to_be_visible(timeout=30_000)
-    page.close()
+    page.context.close()

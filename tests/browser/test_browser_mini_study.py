@@ -12,20 +12,18 @@ import io
 import os
 import re
 import tempfile
-import time
 import zipfile
 from pathlib import Path
 
 import pytest
-from conftest import watch_runs
+from conftest import open_page
+from headless import IDLE, run_over, wait_until, watch_runs
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
 
 SCREENSHOTS = Path(os.environ.get("CACAS_SCREENSHOTS") or Path(tempfile.gettempdir()) / "cacas-screenshots")
 
 pytestmark = pytest.mark.browser
-
-IDLE = "[data-testid='stApp'][data-test-script-state='notRunning']"
 
 
 def idle(page, timeout: int = 60_000, started: bool = False) -> None:
@@ -40,29 +38,15 @@ def idle(page, timeout: int = 60_000, started: bool = False) -> None:
     only its end is waited for."""
     runs = watch_runs(page)
     if not started:
-        _wait(page, lambda: runs.started > runs.seen or runs.busy, 2_000, fail=False)
-    _wait(page, lambda: not runs.busy, timeout)
+        wait_until(page, lambda: runs.started > runs.seen or runs.busy, 2_000, fail=False)
+    wait_until(page, lambda: not runs.busy, timeout)
     page.wait_for_selector(IDLE, timeout=timeout)
     _settle(page)
 
 
-def _wait(page, done, timeout: int, fail: bool = True) -> bool:
-    """Poll ``done()`` every 20 ms for up to ``timeout`` ms (the page's websocket messages are counted
-    meanwhile); False when it never held and not ``fail``, else AssertionError naming the runs."""
-    deadline = time.monotonic() + timeout / 1000
-    while not done():
-        if time.monotonic() > deadline:
-            if fail:
-                raise AssertionError(f"the page's script runs did not end within {timeout / 1000:g} s "
-                                     f"({watch_runs(page)})")
-            return False
-        page.wait_for_timeout(20)
-    return True
-
-
 #: counts the page's connections to the server (data-test-connection-state turns "CONNECTED") as they happen,
 #: from the page's load on: a test can wait for the page to reconnect (installed by ``goto``, for every
-#: document the page loads). Script runs are counted from the websocket (conftest's ``ScriptRuns``).
+#: document the page loads). Script runs are counted from the websocket (``headless.ScriptRuns``).
 COUNTERS = """
 if (window.__cacasConnects === undefined) {
   window.__cacasConnects = 0;
@@ -94,9 +78,7 @@ def runs(page) -> int:
 
 def ran(page, since: int, timeout: int = 60_000) -> None:
     """Wait until a run has started since the page's ``since``-th (``runs``) and the page is idle."""
-    runs = watch_runs(page)
-    _wait(page, lambda: runs.started > since and not runs.busy, timeout)
-    page.wait_for_selector(IDLE, timeout=timeout)
+    run_over(page, since, timeout)
     _settle(page)
 
 
@@ -319,7 +301,7 @@ def test_mini_study(server, page, tmp_path):
     page.set_viewport_size({"width": 1360, "height": 900})
 
     # the researcher's own view of the session, in another tab, follows the tablet without a reload
-    watch = page.context.new_page()
+    watch = open_page(page.context)
     goto(watch, f"{server}/session?participant=P01")
     # waited for, not read at once: a page just opened can be read before its first run has drawn it all
     watch.get_by_text("Day 1 of 7 · 0 of about 15 interactions today").wait_for(timeout=30_000)

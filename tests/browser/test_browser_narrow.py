@@ -12,7 +12,7 @@ import pytest
 
 from cacas import spaces
 from cacas.store import StudyStore
-from conftest import _run_app
+from conftest import _run_app, open_page
 from test_browser_mini_study import goto
 
 pytestmark = pytest.mark.browser
@@ -58,17 +58,19 @@ def study_server(tmp_path_factory, initial_policy):
 
 @pytest.mark.parametrize("width", [800, 1280])
 def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
-    context = browser.new_context(viewport={"width": width, "height": 900})
-    page = context.new_page()
+    page = open_page(browser, viewport={"width": width, "height": 900})
     page.set_default_timeout(60_000)
     try:
         seen = {}
         for path, last in (("", "Mean success rate so far"), ("results", "Participants on day 1"),
                            ("adaptation", "Policy in force")):
             goto(page, f"{study_server}/{path}?participant=P01")
-            # the row drawn to its last metric (on a loaded machine the first alone was read)
+            # the row drawn to its last metric (on a loaded machine the first alone was read), and no element
+            # still a placeholder: with Chromium slowed 4 times, the Overview's first three metrics were grey
+            # skeletons after the run was over, while its last was drawn (CACAS_BROWSER_SLOWDOWN)
             page.wait_for_function(f"() => [...document.querySelectorAll('[data-testid=stMetricLabel]')]"
-                                   f".some(e => e.innerText.includes({last!r}))")
+                                   f".some(e => e.innerText.includes({last!r}))"
+                                   f" && !document.querySelector('[data-testid=stMain] [data-testid=stSkeleton]')")
             page.wait_for_timeout(300)
             metrics = page.evaluate(METRICS_JS)
             assert metrics, path
@@ -80,7 +82,7 @@ def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
         if width == 1280:  # room enough: each page's metrics side by side on one line
             assert all(len({m["top"] for m in ms}) == 1 for ms in seen.values()), seen
     finally:
-        context.close()
+        page.context.close()
 
 
 #: the Study session's counter: its text and the lines it takes (the distinct tops of its text's boxes)
@@ -94,8 +96,7 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
     """The ui helpers saw the Study session's counter run to two lines at 1280 px (and 1024) when some of the
     day's interactions were not counted: it gave the reasons too ("(no response, nothing needed while the
     robot was quiet, or a request while doing nothing)"), which the day's table now gives."""
-    context = browser.new_context(viewport={"width": width, "height": 900})
-    page = context.new_page()
+    page = open_page(browser, viewport={"width": width, "height": 900})
     page.set_default_timeout(60_000)
     try:
         goto(page, f"{study_server}/session?participant=P03")
@@ -106,7 +107,7 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
         assert re.fullmatch(r"Day 1 of 7 · \d+ of about 15 interactions today; 13 in all with \d+ not counted",
                             counter["text"]), counter
     finally:
-        context.close()
+        page.context.close()
 
 
 #: the "Every photo of one room" grid: each caption's text, the lines it takes, and its photo's top (a row's)
@@ -124,8 +125,7 @@ def test_every_photo_s_name_is_on_one_line(browser, study_server, width):
     holds, five at 1280 px as before, every name on one line."""
     from test_browser_mini_study import ran, runs
 
-    context = browser.new_context(viewport={"width": width, "height": 900})
-    page = context.new_page()
+    page = open_page(browser, viewport={"width": width, "height": 900})
     page.set_default_timeout(60_000)
     try:
         goto(page, f"{study_server}/sounds")
@@ -141,4 +141,4 @@ def test_every_photo_s_name_is_on_one_line(browser, study_server, width):
         in_first_row = sum(p["top"] == photos[0]["top"] for p in photos)
         assert in_first_row >= {1024: 3, 1280: 5, 1440: 5}[width], in_first_row
     finally:
-        context.close()
+        page.context.close()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from cacas.store import StudyStore
-from conftest import _run_app
+from conftest import _run_app, open_page
 from test_browser_mini_study import goto, idle
 
 pytestmark = pytest.mark.browser
@@ -35,7 +35,7 @@ def _heading(page) -> str:
 
 
 def test_back_leaves_a_page_in_one_press_and_keeps_the_participant(browser, two_study_server):
-    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page = open_page(browser, viewport={"width": 1280, "height": 900})
     goto(page, f"{two_study_server}/?participant=P01")
     start = page.evaluate("history.length")
     links = page.locator(".st-key-page-links")
@@ -52,4 +52,4 @@ def test_back_leaves_a_page_in_one_press_and_keeps_the_participant(browser, two_
         page.wait_for_function("t => document.querySelector('h1') && document.querySelector('h1').innerText"
                                ".startsWith(t)", arg=name)
         assert _heading(page).startswith(name) and "participant=P01" in page.url
-    page.close()
+    page.context.close()

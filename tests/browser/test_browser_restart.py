@@ -11,7 +11,7 @@ from contextlib import contextmanager
 import pytest
 
 from cacas.store import StudyStore
-from conftest import _free_port, _run_app
+from conftest import _free_port, _run_app, open_page
 from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context, text_of
 from test_browser_tablet_waits import on_day_1
 
@@ -45,7 +45,7 @@ def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initia
         s.add_participant("P01")
         s.save_preferences("P01", [{"activity": ["use stove"], "scene": ["kitchen"], "action": "remind to turn off"}])
         s.open_day("P01")
-    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
     page.set_default_timeout(30_000)
     with app_to_restart(tmp_path, db) as (url, restart):
         goto(page, f"{url}/?participant=P01&view=tablet")
@@ -59,7 +59,7 @@ def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initia
         with StudyStore(db, readonly=True) as s:
             rows = s.interactions_frame("P01", method=None)
         assert list(rows["response"]) == ["accept"] and list(rows["index"]) == [1]
-    page.close()
+    page.context.close()
 
 
 def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, browser):
@@ -68,7 +68,7 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
     db = tmp_path / "study.sqlite"
     with StudyStore(db) as s:
         s.add_participant("P01")
-    page = browser.new_page(viewport={"width": 1360, "height": 900})
+    page = open_page(browser, viewport={"width": 1360, "height": 900})
     page.set_default_timeout(30_000)
     with app_to_restart(tmp_path, db) as (url, restart):
         goto(page, f"{url}/participants")
@@ -82,7 +82,7 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
         shows(page, "Preferences of P02")
         with StudyStore(db, readonly=True) as s:
             assert [p.code for p in s.list_participants()] == ["P01", "P02"]
-    page.close()
+    page.context.close()
 
 
 def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant(tmp_path, browser):
@@ -95,8 +95,8 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
     with StudyStore(db) as s:
         on_day_1(s, "P01", closed=False)
         on_day_1(s, "P02", closed=True)  # its tablet waits for the researcher
-    researcher = browser.new_page(viewport={"width": 1280, "height": 800})
-    tablet = browser.new_page(viewport={"width": 1024, "height": 768})
+    researcher = open_page(browser, viewport={"width": 1280, "height": 800})
+    tablet = open_page(browser, viewport={"width": 1024, "height": 768})
     with app_to_restart(tmp_path, db) as (url, restart):
         goto(researcher, f"{url}/session?participant=P01")
         goto(tablet, f"{url}/?participant=P02&view=tablet")
@@ -110,5 +110,5 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
         shows(tablet, "Day 1 is finished")
         idle(researcher)
         assert "Select a participant" not in text_of(researcher)
-    researcher.close()
-    tablet.close()
+    researcher.context.close()
+    tablet.context.close()

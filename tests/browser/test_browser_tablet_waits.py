@@ -11,7 +11,7 @@ import pytest
 from playwright.sync_api import expect
 
 from cacas.store import StudyStore
-from conftest import _run_app
+from conftest import _run_app, open_page
 from test_browser_mini_study import goto
 
 pytestmark = pytest.mark.browser
@@ -42,7 +42,7 @@ def waiting_server(tmp_path_factory):
 
 def test_the_tablet_shows_start_day_2_once_the_day_is_adapted_without_a_reload(browser, waiting_server):
     db, url = waiting_server
-    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
     goto(page, f"{url}/?participant=P01&view=tablet")
     expect(page.get_by_text("Day 1 is finished. The robot is learning from it")).to_be_visible(timeout=30_000)
     page.evaluate("window.notReloaded = true")
@@ -51,14 +51,14 @@ def test_the_tablet_shows_start_day_2_once_the_day_is_adapted_without_a_reload(b
     expect(page.get_by_role("button", name="Start day 2")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("Day 1 is finished").count() == 0
-    page.close()
+    page.context.close()
 
 
 def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(browser, waiting_server):
     """Walkthrough: a tablet left on the context form kept asking "What are you doing?" after the
     researcher had closed (and adapted) the day on their own screen; what was set there was not used."""
     db, url = waiting_server
-    page = browser.new_page(viewport={"width": 1024, "height": 768})
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
     goto(page, f"{url}/?participant=P02&view=tablet")
     expect(page.get_by_text("What are you doing?")).to_be_visible(timeout=30_000)
     page.evaluate("window.notReloaded = true")
@@ -67,4 +67,4 @@ def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(
     expect(page.get_by_text("Day 1 is finished. The robot is learning from it")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("What are you doing?").count() == 0
-    page.close()
+    page.context.close()
