@@ -363,9 +363,10 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
             marker=ringed(i),
-            customdata=s[["min", "max", "cumulative_feedback"]],
+            # the feedback as the page's metric and the lab's table say it ("19.5 data points"; ":.0f" said 20)
+            customdata=[[lo, hi, data_points(n)] for lo, hi, n in zip(s["min"], s["max"], s["cumulative_feedback"])],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
-                          "%{customdata[2]:.0f} data points)<extra></extra>"))
+                          "%{customdata[2]})<extra></extra>"))
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop"),
@@ -438,9 +439,9 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
             x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
             marker=ringed(i),
-            customdata=d[["min", "max", "participants"]],
+            customdata=[[lo, hi, _participants(n)] for lo, hi, n in zip(d["min"], d["max"], d["participants"])],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
-                          "%{customdata[2]} participants)<extra></extra>"))
+                          "%{customdata[2]})<extra></extra>"))  # "1 participant", not "1 participants"
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict())
     fig.update_layout(title=title_block(title or "Preference prediction by method"), template="plotly_white",

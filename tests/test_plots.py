@@ -194,7 +194,8 @@ def test_fig4_compares_methods_on_the_same_participants():
     assert np.allclose(a.loc["cacas", "mean"], [0.5, 0.6, 0.8])  # day 1 both; days 2-3 P01 alone
     assert list(a.loc["cacas", "participants"]) == [2, 1, 1] and list(a.loc["nn", "participants"]) == [2, 1, 1]
     assert np.allclose(accuracy_table(d).loc["CACAS"], [0.5, 0.6, 0.8])
-    assert [int(n) for n in methods_figure(d).data[0].customdata[:, 2]] == [2, 1, 1]  # in the hover
+    assert [row[2] for row in methods_figure(d).data[0].customdata] == ["2 participants", "1 participant",
+                                                                          "1 participant"]  # in the hover
     # a method scored for nobody on a day asks nothing of that day's participants
     only_cacas = d[~((d["method"] == "nn") & (d["day"] == 3))]
     assert incomplete_comparisons(only_cacas).to_dict("records") == [
@@ -295,6 +296,21 @@ def test_fig3_cumulative_feedback_hover_keeps_the_half():
     assert list(cumulative.customdata) == ["10 data points", "17.5 data points", "30 data points"]
     assert "%{customdata}" in cumulative.hovertemplate
     assert data_points(1.0) == "1 data point" and data_points(104.04) == "104 data points"
+
+
+def test_fig3_by_method_and_fig4_hovers_say_what_the_page_says():
+    """Fig. 3 for every method (--loop each): the hover rounded the mean cumulative feedback to a whole number ("20
+    data points" where the Results page's metric and the Simulation lab's table say 19.5), as Fig. 3's own hover did
+    before; Fig. 4's said "1 participants" for a day of one participant."""
+    d = daily().assign(success_rate=lambda x: x["success_rate"].fillna(0.5))  # both methods in a loop of their own
+    d.loc[(d["day"] == 2) & (d["participant"] == "P01"), "cumulative_feedback"] = 19  # 19.5 on day 2
+    for trace in success_methods_figure(d).data:
+        assert [row[2] for row in trace.customdata] == ["10 data points", "19.5 data points", "30 data points"]
+        assert "%{customdata[2]}" in trace.hovertemplate and ":.0f" not in trace.hovertemplate
+    one = d[~((d["participant"] == "P02") & (d["day"] == 3))]
+    fig4 = methods_figure(one).data[0]
+    assert [row[2] for row in fig4.customdata] == ["2 participants", "2 participants", "1 participant"]
+    assert "%{customdata[2]})" in fig4.hovertemplate
 
 
 def test_a_day_at_100_percent_is_drawn_whole():
