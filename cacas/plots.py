@@ -430,8 +430,32 @@ def accuracy_table(daily: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
+def own_loops(daily: pd.DataFrame) -> bool:
+    """Whether the methods of ``daily`` acted each in a closed loop of its own (``--loop each``): some participant's
+    day has a success rate under two methods or more. In the paper's Fig. 4 protocol (and a human study, even one
+    adapted with several methods) one method acted on each participant's day and every method adapted from its
+    interactions."""
+    rated = daily[daily["success_rate"].notna()]
+    return bool(len(rated)) and bool(rated.groupby(["participant", "day"])["method"].nunique().max() > 1)
+
+
+def methods_subtitle(daily: pd.DataFrame, by_day: pd.DataFrame | None = None) -> str:
+    """Fig. 4's subtitle, as Fig. 3's says whose rate it is: how many participants its means are over and, with
+    two methods or more, what they adapted from. A --loop each run's Fig. 4 was titled as the paper's, whose
+    methods all adapt from the same interactions (walkthrough: an uploaded example_each_daily.csv's Fig. 4 said
+    nothing of its protocol). ``by_day``: :func:`accuracy_by_day` of ``daily``, if made already."""
+    a = accuracy_by_day(daily) if by_day is None else by_day
+    n = int(a["participants"].max()) if len(a) else 0
+    who = f"{n} participant{'s' if n != 1 else ''}"
+    if a["method"].nunique() < 2:
+        return who
+    # short: on one line in the lab's narrowest column (274 px, at 1024; tests/browser/test_browser_figures.py)
+    return who + (", each in its own closed loop" if own_loops(daily) else ", all from the same interactions")
+
+
 def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
-    """Fig. 4: each method's preference accuracy (mean over participants) per day."""
+    """Fig. 4: each method's preference accuracy (mean over participants) per day; the subtitle
+    (:func:`methods_subtitle`) says over how many participants and from which interactions."""
     a = accuracy_by_day(daily)
     fig = go.Figure()
     for i, (method, d) in enumerate(a.groupby("method", sort=False)):
@@ -444,7 +468,9 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
                           "%{customdata[2]})<extra></extra>"))  # "1 participant", not "1 participants"
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict())
-    fig.update_layout(title=title_block(title or "Preference prediction by method"), template="plotly_white",
+    fig.update_layout(title=title_block(title) if title else title_block("Preference prediction by method",
+                                                                           methods_subtitle(daily, a)),
+                      template="plotly_white",
                       legend=dict(orientation="h", **legend_block()), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=BOTTOM),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig

@@ -373,7 +373,7 @@ def test_fig3_and_fig4_titles_sit_at_one_height_side_by_side():
     assert blocks["fig3"][:3] == (80, 1, "top")  # the room Fig. 3's title and subtitle take, and from the top down
     said = {name: (f.layout.title.text, f.layout.title.subtitle.text) for name, f in figs.items()}
     assert said == {"fig3": ("Success rate and cumulative feedback", "CACAS, 2 participants"),
-                    "fig4": ("Preference prediction by method", None),
+                    "fig4": ("Preference prediction by method", "2 participants, each in its own closed loop"),
                     "fig3 each": ("Success rate by method, each in its own closed loop", None),
                     "fig3 titled": ("Success rate", None), "fig4 titled": ("Fig. 4", None)}
 
@@ -398,3 +398,24 @@ def test_the_note_on_fig3s_hollow_points_is_there_while_one_is():
     assert few_interactions_note(d, "cacas").startswith("A hollow point is a day where a participant's success "
                                                         "rate rests on fewer than 5 recorded interactions")
     assert few_interactions_note(d, "nn") == ""  # another method's days
+
+
+def test_fig4_says_over_whom_and_from_which_interactions():
+    """Fig. 4's subtitle, as Fig. 3's says whose rate it is: how many participants, and whether the methods adapted
+    from the same interactions (the paper's Fig. 4, a human study) or each acted in a loop of its own (--loop each,
+    whose Fig. 4 was titled as the paper's)."""
+    from cacas.plots import own_loops
+    first = daily()  # cacas acted, nn adapted from its interactions
+    each = first.assign(success_rate=first["success_rate"].fillna(0.5))
+    # a human study adapted with two methods: one in force on each participant's day
+    human = first.assign(success_rate=np.where((first["participant"] == "P02") == (first["method"] == "nn"),
+                                               0.5, np.nan))
+    assert (own_loops(first), own_loops(each), own_loops(human)) == (False, True, False)
+    said = {name: methods_figure(d).layout.title.subtitle.text
+            for name, d in (("first", first), ("each", each), ("human", human))}
+    assert said == {"first": "2 participants, all from the same interactions",
+                    "each": "2 participants, each in its own closed loop",
+                    "human": "2 participants, all from the same interactions"}
+    alone = first[(first["method"] == "cacas") & (first["participant"] == "P01")]
+    assert methods_figure(alone).layout.title.subtitle.text == "1 participant"  # one method: from what, unsaid
+    assert methods_figure(first, title="Fig. 4").layout.title.subtitle.text is None  # a title of one's own
