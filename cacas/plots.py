@@ -248,12 +248,12 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              showlegend=False), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["min"], mode="lines", line=dict(width=0), fill="tonexty",
                              fillcolor="rgba(47,111,143,0.18)", name="min-max across participants",
-                             hoverinfo="skip"), secondary_y=False)
+                             hoverinfo="skip", legendrank=2), secondary_y=False)
     # each day's mean is over the participants who had that day: the hover says how many (a study in
     # progress has fewer on its later days), and on how many recorded interactions each
     few = s["fewest"] < FEW_INTERACTIONS
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
-                             line=dict(color=colour, width=3), cliponaxis=False,
+                             line=dict(color=colour, width=3), cliponaxis=False, legendrank=1,
                              customdata=[[_participants(n, on), _interactions_each(n, lo, hi)]
                                          for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
                                                                   s["most"])],
@@ -276,14 +276,14 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                                bgcolor="rgba(255,255,255,0.85)", font=dict(size=12, color="#404040"))
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
         # not a bound: where no preference names an action a participant may still accept what the robot offers
-        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME,
+        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME, legendrank=3,
                                  line=dict(color=colour, width=1.5, dash="dash"),
                                  marker=dict(symbol="line-ew-open", size=14, color=colour),  # seen on day 1 alone
                                  hovertemplate="day %{x}: %{y:.0%} of the interactions were where a described "
                                                "preference names an action (elsewhere a participant may still "
                                                "accept)<extra></extra>"), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
-                             mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
+                             mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"), legendrank=4,
                              marker=dict(symbol="square", size=7),
                              customdata=[data_points(x) for x in s["cumulative_feedback"]],
                              hovertemplate="day %{x}: %{customdata}<extra></extra>"), secondary_y=True)
@@ -298,7 +298,10 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.update_layout(title=title_block(title) if title else title_block(
                           "Success rate and cumulative feedback",
                           f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}"),
-                      legend=dict(orientation="h", **legend_block()),
+                      # the success rate first, then its band, the ceiling and the feedback (legendrank): the band's
+                      # fill ("tonexty") made plotly.js list the legend last trace first, the cumulative feedback
+                      # first and the success rate third (walkthrough)
+                      legend=dict(orientation="h", traceorder="normal", **legend_block()),
                       margin=dict(l=60, r=60, t=TITLE_BLOCK, b=BOTTOM), template="plotly_white")
     return fig
 

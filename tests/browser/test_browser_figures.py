@@ -129,6 +129,14 @@ LEGEND_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => 
 })"""
 
 
+def test_fig3s_legend_begins_with_the_success_rate(browser):
+    """Fig. 3's legend, as plotly.js draws it: the min-max band's fill ("tonexty") made it list the traces last
+    first, the cumulative feedback before the success rate, which came third of four (walkthrough)."""
+    fig3, = _boxes(browser, [plots.success_figure(_daily(True, False))], 1000, js=LEGEND_JS)
+    assert fig3["legend"] == ["success rate (mean)", "min-max across participants", plots.CEILING_NAME,
+                              "cumulative feedback (mean)"], fig3
+
+
 @pytest.mark.parametrize("methods", RUNS[1:], ids=len)
 def test_fig4s_subtitle_fits_the_labs_narrowest_column(browser, methods):
     """Fig. 4's subtitle (how many participants, from which interactions: ``plots.methods_subtitle``) on one line
