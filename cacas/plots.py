@@ -360,7 +360,8 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     """Fig. 3 for every method that ran in a closed loop of its own (``--loop each``): each
     method's mean success rate per day, with its min-max across participants in the hover."""
     fig = go.Figure()
-    for i, method in enumerate(closed_loop_methods(daily)):
+    # in the paper's order, as Fig. 4 beside it (daily.csv's, the order chosen, listed NN, ORL, CACAS there)
+    for i, method in enumerate(in_method_order(closed_loop_methods(daily))):
         s = _gaps_for_missing_days(success_by_day(daily, method), daily)
         fig.add_trace(go.Scatter(
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),

@@ -419,3 +419,11 @@ def test_fig4_says_over_whom_and_from_which_interactions():
     alone = first[(first["method"] == "cacas") & (first["participant"] == "P01")]
     assert methods_figure(alone).layout.title.subtitle.text == "1 participant"  # one method: from what, unsaid
     assert methods_figure(first, title="Fig. 4").layout.title.subtitle.text is None  # a title of one's own
+
+
+def test_fig3_by_method_lists_the_methods_in_the_papers_order_as_fig4_does():
+    """A --loop each run of nn, orl, cacas (daily.csv in the order given): Fig. 3 for every method listed NN, ORL,
+    CACAS beside Fig. 4's CACAS, ORL, NN, against the one order of every page and figure (in_method_order)."""
+    d = pd.concat([daily().assign(method=m) for m in ("nn", "orl", "cacas")], ignore_index=True)
+    assert [t.name for t in success_methods_figure(d).data] == ["CACAS", "ORL", "NN"]
+    assert [t.name for t in methods_figure(d).data] == ["CACAS", "ORL", "NN"]
