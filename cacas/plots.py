@@ -248,12 +248,12 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              showlegend=False), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["min"], mode="lines", line=dict(width=0), fill="tonexty",
                              fillcolor="rgba(47,111,143,0.18)", name="min-max across participants",
-                             hoverinfo="skip"), secondary_y=False)
+                             hoverinfo="skip", legendrank=2), secondary_y=False)
     # each day's mean is over the participants who had that day: the hover says how many (a study in
     # progress has fewer on its later days), and on how many recorded interactions each
     few = s["fewest"] < FEW_INTERACTIONS
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
-                             line=dict(color=colour, width=3), cliponaxis=False,
+                             line=dict(color=colour, width=3), cliponaxis=False, legendrank=1,
                              customdata=[[_participants(n, on), _interactions_each(n, lo, hi)]
                                          for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
                                                                   s["most"])],
@@ -276,14 +276,14 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                                bgcolor="rgba(255,255,255,0.85)", font=dict(size=12, color="#404040"))
     if s["ceiling"].notna().any():  # daily.csv's success_ceiling: where staying quiet is what they want
         # not a bound: where no preference names an action a participant may still accept what the robot offers
-        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME,
+        fig.add_trace(go.Scatter(x=s["day"], y=s["ceiling"], mode="lines+markers", name=CEILING_NAME, legendrank=3,
                                  line=dict(color=colour, width=1.5, dash="dash"),
                                  marker=dict(symbol="line-ew-open", size=14, color=colour),  # seen on day 1 alone
                                  hovertemplate="day %{x}: %{y:.0%} of the interactions were where a described "
                                                "preference names an action (elsewhere a participant may still "
                                                "accept)<extra></extra>"), secondary_y=False)
     fig.add_trace(go.Scatter(x=s["day"], y=s["cumulative_feedback"], name="cumulative feedback (mean)",
-                             mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"),
+                             mode="lines+markers", line=dict(color="#8a8a8a", width=2, dash="dot"), legendrank=4,
                              marker=dict(symbol="square", size=7),
                              customdata=[data_points(x) for x in s["cumulative_feedback"]],
                              hovertemplate="day %{x}: %{customdata}<extra></extra>"), secondary_y=True)
@@ -298,7 +298,10 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     fig.update_layout(title=title_block(title) if title else title_block(
                           "Success rate and cumulative feedback",
                           f"{METHOD_LABELS.get(method, method)}, {n} participant{'s' if n != 1 else ''}"),
-                      legend=dict(orientation="h", **legend_block()),
+                      # the success rate first, then its band, the ceiling and the feedback (legendrank): the band's
+                      # fill ("tonexty") made plotly.js list the legend last trace first, the cumulative feedback
+                      # first and the success rate third (walkthrough)
+                      legend=dict(orientation="h", traceorder="normal", **legend_block()),
                       margin=dict(l=60, r=60, t=TITLE_BLOCK, b=BOTTOM), template="plotly_white")
     return fig
 
@@ -357,15 +360,17 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
     """Fig. 3 for every method that ran in a closed loop of its own (``--loop each``): each
     method's mean success rate per day, with its min-max across participants in the hover."""
     fig = go.Figure()
-    for i, method in enumerate(closed_loop_methods(daily)):
+    # in the paper's order, as Fig. 4 beside it (daily.csv's, the order chosen, listed NN, ORL, CACAS there)
+    for i, method in enumerate(in_method_order(closed_loop_methods(daily))):
         s = _gaps_for_missing_days(success_by_day(daily, method), daily)
         fig.add_trace(go.Scatter(
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
             marker=ringed(i),
-            customdata=s[["min", "max", "cumulative_feedback"]],
+            # the feedback as the page's metric and the lab's table say it ("19.5 data points"; ":.0f" said 20)
+            customdata=[[lo, hi, data_points(n)] for lo, hi, n in zip(s["min"], s["max"], s["cumulative_feedback"])],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
-                          "%{customdata[2]:.0f} data points)<extra></extra>"))
+                          "%{customdata[2]})<extra></extra>"))
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, [x for trace in fig.data for x in trace.x])
     fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop"),
@@ -429,8 +434,32 @@ def accuracy_table(daily: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
+def own_loops(daily: pd.DataFrame) -> bool:
+    """Whether the methods of ``daily`` acted each in a closed loop of its own (``--loop each``): some participant's
+    day has a success rate under two methods or more. In the paper's Fig. 4 protocol (and a human study, even one
+    adapted with several methods) one method acted on each participant's day and every method adapted from its
+    interactions."""
+    rated = daily[daily["success_rate"].notna()]
+    return bool(len(rated)) and bool(rated.groupby(["participant", "day"])["method"].nunique().max() > 1)
+
+
+def methods_subtitle(daily: pd.DataFrame, by_day: pd.DataFrame | None = None) -> str:
+    """Fig. 4's subtitle, as Fig. 3's says whose rate it is: how many participants its means are over and, with
+    two methods or more, what they adapted from. A --loop each run's Fig. 4 was titled as the paper's, whose
+    methods all adapt from the same interactions (walkthrough: an uploaded example_each_daily.csv's Fig. 4 said
+    nothing of its protocol). ``by_day``: :func:`accuracy_by_day` of ``daily``, if made already."""
+    a = accuracy_by_day(daily) if by_day is None else by_day
+    n = int(a["participants"].max()) if len(a) else 0
+    who = f"{n} participant{'s' if n != 1 else ''}"
+    if a["method"].nunique() < 2:
+        return who
+    # short: on one line in the lab's narrowest column (274 px, at 1024; tests/browser/test_browser_figures.py)
+    return who + (", each in its own closed loop" if own_loops(daily) else ", all from the same interactions")
+
+
 def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
-    """Fig. 4: each method's preference accuracy (mean over participants) per day."""
+    """Fig. 4: each method's preference accuracy (mean over participants) per day; the subtitle
+    (:func:`methods_subtitle`) says over how many participants and from which interactions."""
     a = accuracy_by_day(daily)
     fig = go.Figure()
     for i, (method, d) in enumerate(a.groupby("method", sort=False)):
@@ -438,12 +467,14 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
             x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
             marker=ringed(i),
-            customdata=d[["min", "max", "participants"]],
+            customdata=[[lo, hi, _participants(n)] for lo, hi, n in zip(d["min"], d["max"], d["participants"])],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
-                          "%{customdata[2]} participants)<extra></extra>"))
+                          "%{customdata[2]})<extra></extra>"))  # "1 participant", not "1 participants"
     fig.update_yaxes(title_text="preference accuracy", range=RATE_RANGE, tickformat=".0%")
     _day_axis(fig, a["day"], a.groupby("day")["participants"].max().to_dict())
-    fig.update_layout(title=title_block(title or "Preference prediction by method"), template="plotly_white",
+    fig.update_layout(title=title_block(title) if title else title_block("Preference prediction by method",
+                                                                           methods_subtitle(daily, a)),
+                      template="plotly_white",
                       legend=dict(orientation="h", **legend_block()), margin=dict(l=60, r=30, t=TITLE_BLOCK, b=BOTTOM),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid
     return fig

@@ -134,7 +134,7 @@ fig3, fig4, quest, data = st.tabs(["Fig. 3 · success rate", "Fig. 4 · methods"
 
 if fig3.open:
     with fig3:
-        method, looped = plots.loop_method(shown), plots.closed_loop_methods(shown)
+        method, looped = plots.loop_method(shown), plots.in_method_order(plots.closed_loop_methods(shown))
         if method is None:
             st.info("No study day with interactions yet. Run a day on the **Study session** page." if source == HUMAN
                     else "No success rate in this daily.csv: no method acted with the participants (its accuracies are "

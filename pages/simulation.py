@@ -182,7 +182,8 @@ if runs:
     c2.plotly_chart(fig4, width="stretch")
     if one is not None and (few := plots.few_interactions_note(daily, one)):  # Fig. 3's hollow points
         c1.caption(few)
-    summary = summary_table(daily)
+    # in the paper's order, as Fig. 4 and the Results page list them (daily.csv's is the order chosen)
+    summary = records.sort_by_method(summary_table(daily), ["method", "day"])
     shares = [c for c in ("success_rate", "success_ceiling", "preference_accuracy") if c in summary.columns]
     # "–" where a method has no success rate (it did not act: the Fig. 4 protocol)
     shown = summary.assign(method=summary["method"].map(lambda m: plots.METHOD_LABELS.get(m, m)),

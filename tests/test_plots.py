@@ -194,7 +194,8 @@ def test_fig4_compares_methods_on_the_same_participants():
     assert np.allclose(a.loc["cacas", "mean"], [0.5, 0.6, 0.8])  # day 1 both; days 2-3 P01 alone
     assert list(a.loc["cacas", "participants"]) == [2, 1, 1] and list(a.loc["nn", "participants"]) == [2, 1, 1]
     assert np.allclose(accuracy_table(d).loc["CACAS"], [0.5, 0.6, 0.8])
-    assert [int(n) for n in methods_figure(d).data[0].customdata[:, 2]] == [2, 1, 1]  # in the hover
+    assert [row[2] for row in methods_figure(d).data[0].customdata] == ["2 participants", "1 participant",
+                                                                          "1 participant"]  # in the hover
     # a method scored for nobody on a day asks nothing of that day's participants
     only_cacas = d[~((d["method"] == "nn") & (d["day"] == 3))]
     assert incomplete_comparisons(only_cacas).to_dict("records") == [
@@ -297,6 +298,21 @@ def test_fig3_cumulative_feedback_hover_keeps_the_half():
     assert data_points(1.0) == "1 data point" and data_points(104.04) == "104 data points"
 
 
+def test_fig3_by_method_and_fig4_hovers_say_what_the_page_says():
+    """Fig. 3 for every method (--loop each): the hover rounded the mean cumulative feedback to a whole number ("20
+    data points" where the Results page's metric and the Simulation lab's table say 19.5), as Fig. 3's own hover did
+    before; Fig. 4's said "1 participants" for a day of one participant."""
+    d = daily().assign(success_rate=lambda x: x["success_rate"].fillna(0.5))  # both methods in a loop of their own
+    d.loc[(d["day"] == 2) & (d["participant"] == "P01"), "cumulative_feedback"] = 19  # 19.5 on day 2
+    for trace in success_methods_figure(d).data:
+        assert [row[2] for row in trace.customdata] == ["10 data points", "19.5 data points", "30 data points"]
+        assert "%{customdata[2]}" in trace.hovertemplate and ":.0f" not in trace.hovertemplate
+    one = d[~((d["participant"] == "P02") & (d["day"] == 3))]
+    fig4 = methods_figure(one).data[0]
+    assert [row[2] for row in fig4.customdata] == ["2 participants", "2 participants", "1 participant"]
+    assert "%{customdata[2]})" in fig4.hovertemplate
+
+
 def test_a_day_at_100_percent_is_drawn_whole():
     """The rate axes leave room above 100 % for a marker (at 1.02 the top of the plot cut it in half):
     the top of the axis is at least a marker's radius (8 px of a 400 px plot) above 100 %."""
@@ -357,7 +373,7 @@ def test_fig3_and_fig4_titles_sit_at_one_height_side_by_side():
     assert blocks["fig3"][:3] == (80, 1, "top")  # the room Fig. 3's title and subtitle take, and from the top down
     said = {name: (f.layout.title.text, f.layout.title.subtitle.text) for name, f in figs.items()}
     assert said == {"fig3": ("Success rate and cumulative feedback", "CACAS, 2 participants"),
-                    "fig4": ("Preference prediction by method", None),
+                    "fig4": ("Preference prediction by method", "2 participants, each in its own closed loop"),
                     "fig3 each": ("Success rate by method, each in its own closed loop", None),
                     "fig3 titled": ("Success rate", None), "fig4 titled": ("Fig. 4", None)}
 
@@ -382,3 +398,32 @@ def test_the_note_on_fig3s_hollow_points_is_there_while_one_is():
     assert few_interactions_note(d, "cacas").startswith("A hollow point is a day where a participant's success "
                                                         "rate rests on fewer than 5 recorded interactions")
     assert few_interactions_note(d, "nn") == ""  # another method's days
+
+
+def test_fig4_says_over_whom_and_from_which_interactions():
+    """Fig. 4's subtitle, as Fig. 3's says whose rate it is: how many participants, and whether the methods adapted
+    from the same interactions (the paper's Fig. 4, a human study) or each acted in a loop of its own (--loop each,
+    whose Fig. 4 was titled as the paper's)."""
+    from cacas.plots import own_loops
+    first = daily()  # cacas acted, nn adapted from its interactions
+    each = first.assign(success_rate=first["success_rate"].fillna(0.5))
+    # a human study adapted with two methods: one in force on each participant's day
+    human = first.assign(success_rate=np.where((first["participant"] == "P02") == (first["method"] == "nn"),
+                                               0.5, np.nan))
+    assert (own_loops(first), own_loops(each), own_loops(human)) == (False, True, False)
+    said = {name: methods_figure(d).layout.title.subtitle.text
+            for name, d in (("first", first), ("each", each), ("human", human))}
+    assert said == {"first": "2 participants, all from the same interactions",
+                    "each": "2 participants, each in its own closed loop",
+                    "human": "2 participants, all from the same interactions"}
+    alone = first[(first["method"] == "cacas") & (first["participant"] == "P01")]
+    assert methods_figure(alone).layout.title.subtitle.text == "1 participant"  # one method: from what, unsaid
+    assert methods_figure(first, title="Fig. 4").layout.title.subtitle.text is None  # a title of one's own
+
+
+def test_fig3_by_method_lists_the_methods_in_the_papers_order_as_fig4_does():
+    """A --loop each run of nn, orl, cacas (daily.csv in the order given): Fig. 3 for every method listed NN, ORL,
+    CACAS beside Fig. 4's CACAS, ORL, NN, against the one order of every page and figure (in_method_order)."""
+    d = pd.concat([daily().assign(method=m) for m in ("nn", "orl", "cacas")], ignore_index=True)
+    assert [t.name for t in success_methods_figure(d).data] == ["CACAS", "ORL", "NN"]
+    assert [t.name for t in methods_figure(d).data] == ["CACAS", "ORL", "NN"]

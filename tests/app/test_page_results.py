@@ -717,3 +717,22 @@ def test_comparing_a_study_with_no_closed_day_says_there_was_nothing_to_compare(
     assert said and "no participant with described preferences has a closed study day yet" in said[0]
     assert not [s.value for s in at.success]  # not a success: nothing was done
     RUNNER.forget(f"compare:{db}:default")
+
+
+def test_a_run_each_in_its_own_loop_offers_its_methods_in_the_papers_order(app, db):
+    """A --loop each run of nn, orl and cacas: Fig. 3's "Method" listed NN, ORL, CACAS (daily.csv's order, the order
+    chosen) under a figure and beside a Fig. 4 that list CACAS, ORL, NN (walkthrough)."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    daily = pd.DataFrame([{"participant": "P01", "method": m, "day": d, "success_rate": 0.5, "preference_accuracy": 0.5,
+                           "cumulative_feedback": 5 * d, "interactions": 5} for m in ("nn", "orl", "cacas")
+                          for d in (1, 2)])
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+                        {"loop": "each"})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert at.selectbox(key="results-fig3-method").options == ["CACAS", "ORL", "NN"]
+    assert at.selectbox(key="results-fig3-method").value == "cacas"

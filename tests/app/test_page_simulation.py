@@ -474,3 +474,23 @@ def test_fig3s_hollow_points_are_said_under_it(app, db):
     no_exception(at)
     assert ("A hollow point is a day where a participant's success rate rests on fewer than 5 recorded "
             "interactions (its label gives the fewest)") in texts(at)
+
+
+def test_a_runs_table_and_figures_list_the_methods_in_the_papers_order(app, db):
+    """A run of nn, orl and cacas, each in its own closed loop (daily.csv in the order chosen): the lab's table and
+    Fig. 3 listed NN, ORL, CACAS beside Fig. 4's CACAS, ORL, NN (walkthrough); every one now in the paper's order."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    daily = pd.DataFrame([{"participant": "P01", "method": m, "day": d, "success_rate": 0.5, "preference_accuracy": 0.5,
+                           "cumulative_feedback": 5 * d, "interactions": 5} for m in ("nn", "orl", "cacas")
+                          for d in (1, 2)])
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+                        {"loop": "each", "methods": ["nn", "orl", "cacas"]})
+    at = app(PAGE)
+    no_exception(at)
+    table = next(d for d in at.dataframe if "success_rate" in d.value.columns).value
+    assert list(dict.fromkeys(table["method"])) == ["CACAS", "ORL", "NN"]
+    specs = [json.loads(c.proto.spec) for c in at.get("plotly_chart")[:2]]
+    assert [[t["name"] for t in spec["data"]] for spec in specs] == [["CACAS", "ORL", "NN"]] * 2

@@ -35,8 +35,8 @@ def _daily(ceiling: bool, uneven: bool, methods=("cacas", "orl", "nn")) -> pd.Da
     return pd.DataFrame(rows)
 
 
-def _boxes(browser, figs, width: int, height: int = 450) -> list[dict]:
-    """BOXES_JS of ``figs`` drawn side by side, each ``width`` px wide and ``height`` px tall."""
+def _boxes(browser, figs, width: int, height: int = 450, js: str = BOXES_JS) -> list:
+    """BOXES_JS (or another ``js``) of ``figs`` drawn side by side, each ``width`` px wide and ``height`` px tall."""
     from plotly.offline import get_plotlyjs
 
     each = "".join(f'<div style="width:{width}px;display:inline-block;vertical-align:top">'
@@ -46,7 +46,7 @@ def _boxes(browser, figs, width: int, height: int = 450) -> list[dict]:
         page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'>{each}"
                          "</body></html>")
         page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot .legend').length == {len(figs)}")
-        return page.evaluate(BOXES_JS)
+        return page.evaluate(js)
     finally:
         page.context.close()
 
@@ -115,3 +115,33 @@ def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
     finally:
         page.context.close()
     assert legend <= 568 and not scrolls, (legend, scrolls)
+
+
+#: per figure: its legend's entries as drawn (left to right, top to bottom), its width, and the right edges of its
+#: title and subtitle
+LEGEND_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => {
+  const at = e => e.getBoundingClientRect();
+  const entries = [...c.querySelectorAll('.legend .traces')].map(e => [at(e).top, at(e).left, e.textContent.trim()]);
+  entries.sort((a, b) => a[0] - b[0] || a[1] - b[1]);
+  const right = sel => { const e = c.querySelector(sel); return e ? Math.round(at(e).right - at(c).left) : null; };
+  return {legend: entries.map(e => e[2]), width: Math.round(at(c).width), title: right('.gtitle'),
+          subtitle: right('.gtitle-subtitle')};
+})"""
+
+
+def test_fig3s_legend_begins_with_the_success_rate(browser):
+    """Fig. 3's legend, as plotly.js draws it: the min-max band's fill ("tonexty") made it list the traces last
+    first, the cumulative feedback before the success rate, which came third of four (walkthrough)."""
+    fig3, = _boxes(browser, [plots.success_figure(_daily(True, False))], 1000, js=LEGEND_JS)
+    assert fig3["legend"] == ["success rate (mean)", "min-max across participants", plots.CEILING_NAME,
+                              "cumulative feedback (mean)"], fig3
+
+
+@pytest.mark.parametrize("methods", RUNS[1:], ids=len)
+def test_fig4s_subtitle_fits_the_labs_narrowest_column(browser, methods):
+    """Fig. 4's subtitle (how many participants, from which interactions: ``plots.methods_subtitle``) on one line
+    inside the figure at the lab's narrowest column (274 px, at 1024), in both loops (the longer words)."""
+    daily = _daily(True, True, methods)
+    for d in (daily, daily.assign(success_rate=0.5)):
+        fig4, = _boxes(browser, [plots.methods_figure(d)], 274, js=LEGEND_JS)
+        assert fig4["subtitle"] is not None and fig4["subtitle"] <= fig4["width"], fig4
