@@ -215,9 +215,12 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         other = recorded_answer(store, code, day, index)
         if other is not None and not is_same_answer(other, proposal, response, user_action):
             said = app_support.interactions_view(pd.DataFrame([other]))["answer"].iloc[0]  # as the day's table says it
-            which = "this proposal" if tablet else f"interaction {index}"  # the tablet's count has no such number
-            s["session-error"] = (f"This answer was not saved: {which} was answered meanwhile on another screen "
-                                  f"({other['activity']}, {said}). Set what you are doing again for the next one.")
+            # the tablet's count has no such number; nor was it "this proposal" that the other screen answered: the
+            # tablet said "this proposal was answered meanwhile ... (watch TV, accepted)" under its own hair-dryer
+            # proposal, which the researcher's view had not taken over (walkthrough)
+            what = (f"another screen recorded an answer first ({other['activity']}, {said})" if tablet else
+                    f"interaction {index} was answered meanwhile on another screen ({other['activity']}, {said})")
+            s["session-error"] = f"This answer was not saved: {what}. Set what you are doing again for the next one."
         return
     except WriteRefused as exc:  # the database's or its disk's doing, not the participant's: plain words on the tablet
         s["session-error"] = NOT_SAVED if tablet else str(exc)
