@@ -97,13 +97,16 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
 
 
 def rolled_back_note(events: pd.DataFrame, participants: pd.DataFrame | None = None,
-                     policies: pd.DataFrame | None = None) -> str:
+                     policies: pd.DataFrame | None = None, interactions: pd.DataFrame | None = None) -> str:
     """For the Results page: what a roll-back on the Adaptation page changes in Fig. 3 and Fig. 4,
     naming the participants who had one ("" if none did). Given ``participants`` and ``policies``
     (participants.csv's ``active_policy``, policies.csv's versions), a roll-back that a later
     version has ended since (a roll-forward, or a day adapted after it: the newest version is in
     force) is said as past: it is about the days that used the version it put in force (the note
-    read as if it still held after a roll-forward)."""
+    read as if it still held after a roll-forward). Given ``interactions`` too (interactions.csv's
+    ``policy_version`` and ``created_at``), a past roll-back is named only where an interaction was
+    recorded under it (:func:`recorded_under_a_roll_back`): one between two days changed no figure
+    (walkthrough: the note named a participant rolled back and forward before their next day)."""
     who = records.by_code(set(events.loc[events["what"] == "set_active_policy", "participant"].dropna()))
     if not who:
         return ""
@@ -114,6 +117,11 @@ def rolled_back_note(events: pd.DataFrame, participants: pd.DataFrame | None = N
             if code in who and code in newest.index and pd.notna(active) and int(active) == int(newest[code]):
                 ended.add(code)
     now, past = [c for c in who if c not in ended], [c for c in who if c in ended]
+    if interactions is not None and policies is not None:
+        used = recorded_under_a_roll_back(interactions, policies)
+        past = [c for c in past if c in used]
+        if not now and not past:
+            return ""
     how = "(a day rolled back in its middle, the version most of its interactions had)"
     scored = ": Fig. 4 scores that version for CACAS, while the baselines keep their runs adapted from days 1..d-1."
     held = f"while a roll-back held ({', '.join(past)}; a later version is in force again), a day used the version " \
@@ -123,6 +131,23 @@ def rolled_back_note(events: pd.DataFrame, participants: pd.DataFrame | None = N
     if not now:
         return f" {held[0].upper()}{held[1:]} {how}{scored}"
     return f" After a roll-back ({', '.join(now)}), a day uses the version put in force instead; {held} {how}{scored}"
+
+
+def recorded_under_a_roll_back(interactions: pd.DataFrame, policies: pd.DataFrame) -> set[str]:
+    """The participants with an interaction recorded under a rolled-back policy: its ``policy_version``
+    (empty: the initial policy) is not the newest version of theirs saved by the interaction's
+    ``created_at`` (policies.csv's). A roll-back put forward again before any interaction leaves none."""
+    if not len(interactions):
+        return set()
+    when = pd.to_datetime(interactions["created_at"], utc=True, format="ISO8601")
+    saved = policies.assign(at=pd.to_datetime(policies["created_at"], utc=True, format="ISO8601"))
+    mine = {code: list(zip(g["at"], g["version"].astype(int))) for code, g in saved.groupby("participant")}
+    under = set()
+    for code, at, version in zip(interactions["participant"], when, interactions["policy_version"]):
+        newest = max((v for t, v in mine.get(code, ()) if t <= at), default=None)
+        if (None if pd.isna(version) else int(version)) != newest:
+            under.add(code)
+    return under
 
 
 def policy_label(in_force: int | None, versions) -> str:

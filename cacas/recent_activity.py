@@ -89,7 +89,12 @@ def _activity_lines(ev: pd.DataFrame) -> list[_Line]:
     open_line: dict[str, _Line] = {}  # of each kind, the line a comparison's next run may join
     added: dict[str, int] = {}  # participant -> position of their addition
     closed: dict[tuple, int] = {}  # (participant, day) -> position of the day's close
+    recorded = {(who, d.get("day"), d.get("method")): i for i, (who, what, d) in enumerate(zip(whos, whats, details))
+                if what == "record_adaptation" and d is not None}  # each adaptation's last run
     for i, (at, who, what) in enumerate(zip(ev["at"], whos, whats)):
+        d = details[i]
+        if what == "adapt_start" and d is not None and recorded.get((who, d.get("day"), d.get("method")), -1) > i:
+            continue  # its adaptation was recorded: its line says it (a start that saved nothing keeps its own)
         words = _event_words(what, details[i])
         key, method = _scoring_run(what, details[i])
         if what == "add_participant":
@@ -174,6 +179,11 @@ def _event_words(what: str, d: dict | None) -> str:
         if d.get("policy_version") is None:  # a Fig. 4 comparison run: scored, no policy saved
             return f"comparison run ({d.get('method')}) on {adapted_from(d.get('day'))}, no policy saved"
         return f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))}: version {d.get('policy_version')}"
+    if what == "adapt_start":
+        return f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))} started"
+    if what == "import_bundle":
+        n, m = d.get("participants"), d.get("interactions")
+        return f"study imported ({n} participant{'' if n == 1 else 's'}, {m} interaction{'' if m == 1 else 's'})"
     if what in ("open_day", "close_day"):
         return f"day {d.get('day')} {'started' if what == 'open_day' else 'closed'}"
     if what == "save_policy":

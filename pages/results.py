@@ -79,8 +79,8 @@ if source == HUMAN:
                f"{int(records.is_recorded(tables['interactions']).sum())} of them recorded (answered, or asked for during an "
                "activity), "
                "which the success rate counts. Day d's success rate uses the policy adapted from "
-               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(tables["events"], tables["participants"],
-                                                                             tables["policies"]))
+               "days 1..d-1 (Section V-B.2)." + app_support.rolled_back_note(
+                   tables["events"], tables["participants"], tables["policies"], tables["interactions"]))
 elif source.startswith("Simulated run: "):
     name = source.removeprefix("Simulated run: ")
     run = ui.load_run(db, name)

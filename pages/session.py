@@ -215,9 +215,12 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         other = recorded_answer(store, code, day, index)
         if other is not None and not is_same_answer(other, proposal, response, user_action):
             said = app_support.interactions_view(pd.DataFrame([other]))["answer"].iloc[0]  # as the day's table says it
-            which = "this proposal" if tablet else f"interaction {index}"  # the tablet's count has no such number
-            s["session-error"] = (f"This answer was not saved: {which} was answered meanwhile on another screen "
-                                  f"({other['activity']}, {said}). Set what you are doing again for the next one.")
+            # the tablet's count has no such number; nor was it "this proposal" that the other screen answered: the
+            # tablet said "this proposal was answered meanwhile ... (watch TV, accepted)" under its own hair-dryer
+            # proposal, which the researcher's view had not taken over (walkthrough)
+            what = (f"another screen recorded an answer first ({other['activity']}, {said})" if tablet else
+                    f"interaction {index} was answered meanwhile on another screen ({other['activity']}, {said})")
+            s["session-error"] = f"This answer was not saved: {what}. Set what you are doing again for the next one."
         return
     except WriteRefused as exc:  # the database's or its disk's doing, not the participant's: plain words on the tablet
         s["session-error"] = NOT_SAVED if tablet else str(exc)
@@ -324,6 +327,30 @@ def _follow_the_day(drawn_day: int) -> None:
         st.rerun()
 
 
+def _say_a_proposal_its_closed_day_left_unanswered(status) -> None:
+    """The address's proposal is of a day closed since it was drawn (the researcher closed the day on their own
+    screen) and nobody answered it: said once (kept until the next day starts), and the proposal leaves the
+    address. The tablet, drawn again by :func:`_follow_the_day`, showed "Start day N" (or the wait for the
+    adaptation) with not a word about the question it had just shown, which nothing saved (walkthrough); an
+    answer tapped on it says so (:func:`_record`). An answered proposal's address (the browser's Back) says
+    nothing here: the page says it was answered already."""
+    token, mark = st.query_params.get("ctx"), st.query_params.get("at")
+    try:
+        day, index = (int(x) for x in str(mark).split("."))
+    except ValueError:
+        return
+    if not token or (status.open and status.day == day) or day > status.day:
+        return
+    if recorded_answer(store, code, day, index) is not None:
+        return
+    _cancel()
+    st.session_state["session-error"] = (
+        f"The robot's last question was not answered before day {day} was closed, so nothing was saved for it."
+        + ("" if status.open or status.finished else " Ask the researcher whether to start the next day.") if tablet else
+        f"Day {day} was closed while interaction {index}'s proposal was on this screen, unanswered: nothing was "
+        "saved for it.")
+
+
 def _run_here() -> None:
     st.session_state["run-here"] = True
 
@@ -356,6 +383,7 @@ def _on_the_tablet(shown: Shown) -> None:
 # --- page -------------------------------------------------------------------------------------------
 
 status = day_status(store, code)
+_say_a_proposal_its_closed_day_left_unanswered(status)
 if not tablet:
     _follow_the_tablet(status, board.shown(db, code), board.pending(db, code))
 # [3, 1] cut "Choose a different activity" at 768 px, and [2, 1] the tablet's larger words ("Hello, P01" is short)

@@ -429,6 +429,51 @@ def test_the_roll_back_note_reads_as_past_once_a_later_version_is_in_force(tmp_p
                           "version it put in force " + how)
 
 
+def test_a_roll_back_no_interaction_was_recorded_under_is_not_named(tmp_path):
+    """Walkthrough (Results): P01's policy was rolled back to the initial one after day 1 and put forward to
+    version 1 again before day 2 started, and every interaction used the policy of its day; Results still said
+    "While a roll-back held (P01; ...), a day used the version it put in force", as if P01's figures had a
+    rolled-back day. Given the interactions, a past roll-back is named only where an interaction was recorded
+    with an older policy than the newest saved by then; one in force now is named as before (the next days use it)."""
+    from cacas.store import StudyStore
+
+    kw = dict(activity="cough", scene="bedroom", hour=8, interval_minutes=5, robot_action="pain check",
+              response="accept")
+    with StudyStore(tmp_path / "s.sqlite") as store:
+        for code in ("P01", "P02"):
+            store.add_participant(code)
+            day = store.open_day(code)
+            store.record_interaction(code, day, **kw)
+            store.close_day(code, day)
+            store.save_policy(code, 1, "cacas", b"policy after day 1")
+            store.set_active_policy(code, None)  # rolled back to the initial policy...
+        store.set_active_policy("P01", 1)  # ... and, for P01, forward again before day 2
+        for code, version in (("P01", 1), ("P02", None)):  # P02's day 2 under the initial policy
+            store.record_interaction(code, store.open_day(code), policy_version=version, **kw)
+        store.set_active_policy("P02", 1)
+
+        def note(interactions=True):
+            tables = (store.participants_frame(), store.policies_frame())
+            return app_support.rolled_back_note(store.events(), *tables,
+                                                store.interactions_frame(extra=True) if interactions else None)
+
+        how = ("(a day rolled back in its middle, the version most of its interactions had): Fig. 4 scores that "
+               "version for CACAS, while the baselines keep their runs adapted from days 1..d-1.")
+        assert note() == (" While a roll-back held (P02; a later version is in force again), a day used the version "
+                          "it put in force " + how)
+        assert note(interactions=False).startswith(" While a roll-back held (P01, P02;")  # without them, as before
+        store.set_active_policy("P02", None)  # in force now: named, though no interaction used it yet
+        store.set_active_policy("P01", None)
+        assert note().startswith(" After a roll-back (P01, P02), a day uses the version put in force instead")
+        store.set_active_policy("P01", 1)
+        store.set_active_policy("P02", 1)
+        store.record_interaction("P02", 2, policy_version=1, **kw)
+        assert note().startswith(" While a roll-back held (P02;")
+        # P01 only ever rolled back between its days: nothing to say about anyone's figures
+        store.remove_participant("P02", confirm="P02")
+        assert note() == ""
+
+
 def test_an_import_of_personas_is_said_group_by_group():
     """It said "Imported 3 participants: P01, P02, P03" of one unchanged and one whose preferences were replaced."""
     from cacas.store import PersonasImport

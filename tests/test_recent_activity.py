@@ -191,3 +191,32 @@ def test_recent_events_with_details_that_are_not_a_json_object():
     assert list(recent_events(store)["what"]) == [
         "day 2 started", "record adaptation (its details are not readable)",
         "close day (its details are not readable)"]
+
+
+def test_an_adaptations_start_and_an_import_are_said_in_words(tmp_path):
+    """Walkthrough (Overview): each day's adaptation took a line "adapt start" (the event's kind, its
+    underscore dropped) beside "adaptation (cacas) from days 1-7: version 7", and an import read
+    "import bundle". An adaptation that was recorded needs no line of its start; one that saved nothing
+    (the app stopped during it, or it still runs) keeps it, in words."""
+    from cacas.export import export_study, import_bundle
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    store.add_participant("P01")
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    day = store.open_day("P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    store.note_adaptation_started("P01", day, "cacas")  # a start that saved nothing: the app stopped
+    store.note_adaptation_started("P01", day, "bandit")  # the researcher adapts again: recorded
+    store.record_adaptation("P01", day, "bandit", {}, 1.0, {}, store.save_policy("P01", day, "bandit", b"policy"))
+    words = list(recent_events(store, limit=20)["what"])
+    assert words[:2] == ["adaptation (bandit) from day 1: version 1", "policy version 1 saved and put in force"]
+    assert "adaptation (cacas) from day 1 started" in words
+    assert not [w for w in words if "bandit" in w and "started" in w]
+    assert all("_" not in w and w != "adapt start" for w in words), words
+    export_study(store, tmp_path / "out")
+    store.close()
+    import_bundle(tmp_path / "out" / "cacas-study.zip", tmp_path / "copy.sqlite")
+    with StudyStore(tmp_path / "copy.sqlite") as copy:
+        assert recent_events(copy, limit=1)["what"].iloc[0] == "study imported (1 participant, 1 interaction)"
