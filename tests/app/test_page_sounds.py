@@ -597,41 +597,9 @@ def _blocks(node):
         yield from _blocks(child)
 
 
-def test_the_top_3_says_shares_as_the_unsure_warning_does(app, monkeypatch):
-    """A photo recognised at 0.4996: the warning said "Unsure: 49%" and the top 3 beside it "49.96%" (Streamlit's
-    "percent" format, two decimals). The top 3 now says whole percents by the warning's rule
-    (Recognition.top3_percent): 49, 40, 10."""
-    from types import SimpleNamespace
-
-    import streamlit as st
-
-    from cacas import lab, spaces
-    from cacas.paths import PROJECT_ROOT
-    from cacas.recognition import make_recognition
-    from pages import ui
-
-    photo = sorted((PROJECT_ROOT / "study_data" / "scenes" / "kitchen").glob("*.jpg"))[0]
-    real = st.file_uploader
-
-    def uploader(label, *args, **kwargs):
-        if kwargs.get("key") == "try-photo":
-            return SimpleNamespace(name=photo.name, getvalue=photo.read_bytes)
-        return real(label, *args, **kwargs)
-    monkeypatch.setattr(st, "file_uploader", uploader)
-    monkeypatch.setattr(ui, "recognizer", lambda kind: SimpleNamespace(metadata={}, model_id="m1"))
-    shares = [0.4996, 0.4004, 0.1] + [0.0] * (len(spaces.SCENES) - 3)
-    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: make_recognition(shares, spaces.SCENES))
-    at = app(PAGE)
-    no_exception(at)
-    assert any(w.value.startswith(f"Unsure: 49% for {spaces.SCENES[0]}.") for w in at.warning)
-    top3 = next(d for d in at.dataframe if "scene" in d.value.columns)
-    assert list(top3.value["probability"]) == [49, 40, 10]
-    assert json.loads(top3.proto.columns)["probability"]["type_config"]["format"] == "%d%%"
-
-
-def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
-    """The Try tab's result ("### kitchen") kept Streamlit's anchor-link icon beside it, of no use there (the
-    tablet's headings dropped theirs). AppTest cannot upload: the uploader is given a photo, the model a label."""
+def _try_a_photo(monkeypatch, shares, labels):
+    """The Try tab given a kitchen photo to recognise (AppTest cannot upload: the uploader is given the photo)
+    and a scene model whose recognition has ``shares`` of ``labels``."""
     from types import SimpleNamespace
 
     import streamlit as st
@@ -650,8 +618,28 @@ def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
         return real(label, *args, **kwargs)
     monkeypatch.setattr(st, "file_uploader", uploader)
     monkeypatch.setattr(ui, "recognizer", lambda kind: SimpleNamespace(metadata={}, model_id="m1"))
-    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: make_recognition(
-        [0.8, 0.15, 0.05], ["kitchen", "living room", "others"]))
+    monkeypatch.setattr(lab, "recognize_scene_bytes", lambda model, name, data: make_recognition(shares, labels))
+
+
+def test_the_top_3_says_shares_as_the_unsure_warning_does(app, monkeypatch):
+    """A photo recognised at 0.4996: the warning said "Unsure: 49%" and the top 3 beside it "49.96%" (Streamlit's
+    "percent" format, two decimals). The top 3 now says whole percents by the warning's rule
+    (Recognition.top3_percent): 49, 40, 10."""
+    from cacas import spaces
+
+    _try_a_photo(monkeypatch, [0.4996, 0.4004, 0.1] + [0.0] * (len(spaces.SCENES) - 3), spaces.SCENES)
+    at = app(PAGE)
+    no_exception(at)
+    assert any(w.value.startswith(f"Unsure: 49% for {spaces.SCENES[0]}.") for w in at.warning)
+    top3 = next(d for d in at.dataframe if "scene" in d.value.columns)
+    assert list(top3.value["probability"]) == [49, 40, 10]
+    assert json.loads(top3.proto.columns)["probability"]["type_config"]["format"] == "%d%%"
+
+
+def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
+    """The Try tab's result ("### kitchen") kept Streamlit's anchor-link icon beside it, of no use there (the
+    tablet's headings dropped theirs)."""
+    _try_a_photo(monkeypatch, [0.8, 0.15, 0.05], ["kitchen", "living room", "others"])
     at = app(PAGE)
     no_exception(at)
     headings = [m for m in at.main.markdown if m.value.startswith("#")]
