@@ -196,6 +196,8 @@ def _event_words(what: str, d: dict | None) -> str:
         return f"preferences saved (version {d.get('version')}, {n} preference{'' if n == 1 else 's'})"
     if what == "record_questionnaire":
         return f"questionnaire: satisfaction {d.get('satisfaction')}"
+    if what == "remove_questionnaire":  # saved by mistake (Results' questionnaire tab)
+        return f"questionnaire answer removed (satisfaction {d.get('satisfaction')}, saved {short_time(d.get('saved_at'))})"
     if what == "remove_participant":  # stored with no participant: the code is in the details
         return f"participant {d.get('code')} removed, with everything recorded about them"
     return {"add_participant": "participant added", "update_participant": "details edited",

@@ -246,6 +246,38 @@ if fig4.open:
             ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}",  # each source's own day and method
                                    file_name=table_file_name("by_preference"))
 
+def _remove_latest_answer(who: str) -> None:
+    """Remove ``who``'s latest questionnaire answer (the store checks the typed code)."""
+    s = st.session_state
+    try:
+        score = ui.store().remove_questionnaire_answer(who, s.get("quest-remove-confirm", ""))
+    except CacasError as exc:
+        s["quest-remove-error"] = str(exc)
+        return
+    s.pop("quest-remove-error", None)
+    s["quest-remove-confirm"] = ""
+    st.toast(f"Removed {who}'s latest answer ({score}).", icon=":material/delete:")
+
+
+def _remove_an_answer(answers: pd.DataFrame) -> None:
+    """An answer saved for the wrong participant, or by mistake: the participant's latest answer (the
+    one the summary counts) is removed once their code is typed; the event log keeps what it was."""
+    with st.expander("Remove an answer saved by mistake"):
+        latest = answers.drop_duplicates("participant", keep="last")
+        said = {r.participant: f"{r.participant}: {r.satisfaction}, saved {app_support.short_time(r.created_at)}"
+                for r in latest.itertuples()}
+        codes = list(said)
+        who = st.selectbox("Latest answer of", codes, format_func=said.get, key="quest-remove-who",
+                           index=codes.index(ui.participant()) if ui.participant() in codes else 0)
+        typed = st.text_input(f"Type {who} to confirm", key="quest-remove-confirm")
+        st.caption("The summary then counts the participant's answer before it, if any. The answer leaves "
+                   "questionnaire.csv; the event log (events.csv) keeps its score and when it was saved.")
+        ui.button(st, "Remove this answer", _remove_latest_answer, args=(who,), icon=":material/delete:",
+                  disabled=typed.strip() != who)
+        if st.session_state.get("quest-remove-error"):
+            st.error(st.session_state["quest-remove-error"], icon=":material/error:")
+
+
 with quest:
     if source != HUMAN:
         st.info(("Simulated participants answer no questionnaire. " if source != UPLOAD else
@@ -302,6 +334,7 @@ with quest:
                          .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
             ui.download_csv(lambda: ui.store().questionnaire_frame(study),  # as at the click
                             table_file_name("questionnaire"), "Download questionnaire.csv", key="dl-questionnaire.csv")
+            _remove_an_answer(answers)
 
 with data:
     st.markdown("Long-format tables, the same columns as `cacas simulate` and `cacas export` write.")

@@ -933,6 +933,36 @@ def test_questionnaire(store):
         store.record_questionnaire("P02", 5)
 
 
+def test_a_questionnaire_answer_saved_by_mistake_is_removed_with_the_code_typed(store):
+    """Walkthrough: an answer saved for the wrong participant (the form starts at the sidebar's) could not be
+    removed, and one for a participant who never answered stayed counted. The participant's latest answer is
+    removed once their code is typed; the event log keeps what was removed; bad input removes nothing."""
+    from cacas.recent_activity import recent_events
+
+    store.add_participant("P02")
+    store.open_day("P01")
+    store.record_questionnaire("P01", 9, "mine")
+    store.record_questionnaire("P01", 3, "saved for P01 by mistake")
+    before = snapshot(store.path)
+    for who, typed, message in (
+            ("P01", "", r"^to remove P01's latest questionnaire answer, type the code P01 to confirm \(typed: nothing\); "
+                        r"nothing was removed$"),
+            ("P01", "P02", r"type the code P01 to confirm \(typed: 'P02'\); nothing was removed$"),
+            ("P02", "P02", r"^participant P02 has no questionnaire answer to remove$"),
+            ("P09", "P09", r"^unknown participant 'P09'")):
+        with pytest.raises(CacasError, match=message):
+            store.remove_questionnaire_answer(who, typed)
+        assert snapshot(store.path) == before
+    assert store.remove_questionnaire_answer("P01", "P01") == 3
+    df = store.questionnaire_frame()
+    assert df["satisfaction"].tolist() == [9] and df["comments"].tolist() == ["mine"]
+    event = store.events(limit=1).iloc[0]
+    assert (event["what"], event["participant"]) == ("remove_questionnaire", "P01")
+    assert json.loads(event["details"])["satisfaction"] == 3
+    assert recent_events(store, limit=1)["what"].iloc[0].startswith("questionnaire answer removed (satisfaction 3, "
+                                                                     "saved ")
+
+
 def test_every_write_appends_an_event(store):
     n = len(store.events())
     store.save_preferences("P01", [COUGH])

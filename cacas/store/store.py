@@ -74,6 +74,30 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
             return cur.lastrowid
         return self._write(fn)
 
+    def remove_questionnaire_answer(self, participant: str, confirm: str) -> int:
+        """Remove the participant's latest questionnaire answer (the one the summary counts), saved
+        for the wrong participant or by mistake: the researcher types the participant's code in
+        ``confirm``, as for a participant's removal; else CacasError saying what to type. A code
+        that is not a participant, or one with no answer, is a CacasError naming it. Nothing is
+        removed in those cases. The event "remove_questionnaire" keeps the removed score and when
+        it was saved. Returns the satisfaction score removed."""
+        code = str(participant).strip()
+        if not isinstance(confirm, str) or confirm.strip() != code:
+            typed = "nothing" if not confirm else repr(confirm)
+            raise CacasError(f"to remove {code}'s latest questionnaire answer, type the code {code} to confirm "
+                             f"(typed: {typed}); nothing was removed")
+
+        def fn(c):
+            pid = self._pid(c, participant)
+            row = c.execute("SELECT id, satisfaction, created_at FROM questionnaires WHERE participant_id = ? "
+                            "ORDER BY id DESC LIMIT 1", (pid,)).fetchone()
+            if row is None:
+                raise CacasError(f"participant {code} has no questionnaire answer to remove")
+            c.execute("DELETE FROM questionnaires WHERE id = ?", (row[0],))
+            self._event(c, "remove_questionnaire", code, satisfaction=row[1], saved_at=row[2], id=row[0])
+            return int(row[1])
+        return self._write(fn)
+
     def questionnaire_frame(self, study: str | None = None) -> pd.DataFrame:
         """questionnaire.csv: participant, day, satisfaction, comments, created_at (every answer).
         ``day`` is the participant's study day when they answered: the latest day opened by then

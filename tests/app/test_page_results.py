@@ -100,6 +100,38 @@ def test_questionnaire_entry_and_summary(app, store):
     assert {m.label: m.value for m in at.metric}["Mean"] == "7.00" and len(store.questionnaire_frame()) == 2
 
 
+def test_an_answer_saved_by_mistake_is_removed_once_the_code_is_typed(app, store):
+    """Walkthrough: an answer saved for the wrong participant (the form starts at the sidebar's participant)
+    could not be removed. The participant's latest answer is, once their code is typed; the summary then counts
+    the answer before it."""
+    _study_with_a_day(store)
+    store.record_questionnaire("P01", 9)
+    store.add_participant("P00")
+    store.open_day("P00")
+    store.record_questionnaire("P00", 8)
+    store.record_questionnaire("P01", 2, "meant for P02")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert at.selectbox(key="quest-remove-who").options == ["P00: 8, saved " + _short(store, 1),
+                                                            "P01: 2, saved " + _short(store, -1)]
+    assert at.selectbox(key="quest-remove-who").value == "P01"  # the sidebar's participant
+    remove = next(b for b in at.button if b.label == "Remove this answer")
+    assert remove.disabled  # nothing typed yet
+    at.text_input(key="quest-remove-confirm").input("P01").run()
+    next(b for b in at.button if b.label == "Remove this answer").click().run()
+    no_exception(at)
+    assert store.questionnaire_frame()["satisfaction"].tolist() == [9, 8]  # P01's 9 and P00's 8
+    assert "Removed P01's latest answer (2)." in [t.value for t in at.toast]
+    assert {m.label: m.value for m in at.metric}["Mean"] == "8.50"
+    assert at.text_input(key="quest-remove-confirm").value == ""  # typed afresh for another removal
+
+
+def _short(store, row: int) -> str:
+    from cacas.app_support import short_time
+
+    return short_time(store.questionnaire_frame()["created_at"].iloc[row])
+
+
 def test_questionnaire_of_a_participant_without_a_day_is_refused(app, store):
     _study_with_a_day(store)
     store.add_participant("P02")
