@@ -264,7 +264,7 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                   secondary_y=False)
     # the few-answers labels as annotations on a white ground: a trace's text lay under the cumulative
     # feedback's line and markers (its axis is drawn above the first), which crossed it out (walkthrough)
-    for day, mean, where, label in zip(s["day"], s["mean"], _label_positions(s["day"], s["mean"]),
+    for day, mean, where, label in zip(s["day"], s["mean"], _label_positions(s["day"], s["mean"], few),
                                        [_few_label(n, lo) if f else "" for n, lo, f in zip(s["participants"],
                                                                                             s["fewest"], few)]):
         if label and pd.notna(mean):
@@ -306,15 +306,44 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     return fig
 
 
-def _label_positions(days, means) -> list[str]:
+def _label_positions(days, means, labelled=None) -> list[str]:
     """Where each point's label goes so that the plot's edges do not cut it (walkthrough: "fewest 2
     interactions" on day 1 lost its first letter, "1 interaction" at 100 % its top): below a point
-    near the top, to the right of the first day and to the left of the last."""
-    days = list(days)
+    near the top, above one near the bottom, to the right of the first day and to the left of the
+    last. Labels of days next to each other (``labelled``: which days have one; all by default)
+    alternate above and below, from the side a day near the top or bottom must take (walkthrough: a
+    pilot's run of 1-interaction days drew "fewest 1 interactionfewest 1 interaction" over each other)."""
+    days, means = list(days), list(means)
+    labelled = [True] * len(days) if labelled is None else list(labelled)
     first, last = (min(days), max(days)) if days else (None, None)
-    return [("bottom" if pd.notna(m) and m >= 0.9 else "top") + " "
-            + ("right" if d == first and d != last else "left" if d == last and d != first else "center")
-            for d, m in zip(days, means)]
+    forced = ["bottom" if pd.notna(m) and m >= 0.9 else "top" if pd.notna(m) and m <= 0.1 else None for m in means]
+    vertical = ["top"] * len(days)
+    order = sorted(range(len(days)), key=lambda i: days[i])
+    runs, run = [], []  # runs of labelled days next to each other
+    for i in order:
+        if labelled[i] and run and days[i] == days[run[-1]] + 1:
+            run.append(i)
+        else:
+            if run:
+                runs.append(run)
+            run = [i] if labelled[i] else []
+    if run:
+        runs.append(run)
+    other = {"top": "bottom", "bottom": "top"}
+    for run in runs:
+        fixed = [k for k, i in enumerate(run) if forced[i]]
+        for k, i in enumerate(run):
+            if forced[i]:
+                vertical[i] = forced[i]
+                continue
+            if not fixed:  # nothing near an edge: above first, then alternating
+                vertical[i] = "top" if k % 2 == 0 else "bottom"
+                continue
+            near = min(fixed, key=lambda f: abs(f - k))
+            side = forced[run[near]]
+            vertical[i] = side if (k - near) % 2 == 0 else other[side]
+    return [v + " " + ("right" if d == first and d != last else "left" if d == last and d != first else "center")
+            for v, d in zip(vertical, days)]
 
 
 def data_points(mean_feedback: float) -> str:

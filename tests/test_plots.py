@@ -332,11 +332,31 @@ def test_fig3_labels_stay_inside_the_plot():
     fig = success_figure(d)
     assert few_labels(fig) == ["fewest 1 interaction"] * 3
     where = [(a.xanchor, a.yanchor, a.yshift) for a in fig.layout.annotations]
-    assert where == [("left", "bottom", 9), ("center", "bottom", 9), ("right", "top", -9)]
+    # below the point at 100 %, and days next to it alternating (walk1: adjacent labels drew over each other)
+    assert where == [("left", "top", -9), ("center", "bottom", 9), ("right", "top", -9)]
     # on a white ground: the cumulative feedback's line, drawn above the first axis, crossed the label out
     assert all(a.bgcolor and a.showarrow is False for a in fig.layout.annotations)
     one_day = success_figure(d[d["day"] == 1])
     assert [(a.xanchor, a.yanchor) for a in one_day.layout.annotations] == [("center", "bottom")]
+
+
+def test_fig3_labels_of_days_next_to_each_other_alternate_above_and_below():
+    """Walkthrough: a pilot's run of 1-interaction days drew "fewest 1 interaction" labels of neighbouring
+    days over each other and over the band. Labels of adjacent days alternate sides, from the side a day near
+    the top (below its point) or the bottom (above it) must take; a day without a label breaks the run."""
+    from cacas.plots import _label_positions
+
+    sides = lambda days, means, labelled=None: [w.split()[0] for w in _label_positions(days, means, labelled)]
+    assert sides([1, 2, 3, 4], [0.5, 0.5, 0.5, 0.5]) == ["top", "bottom", "top", "bottom"]
+    assert sides([1, 2, 3, 4], [0.5, 0.5, 0.95, 0.5]) == ["bottom", "top", "bottom", "top"]  # from day 3's side
+    assert sides([1, 2, 3], [0.0, 0.5, 0.5]) == ["top", "bottom", "top"]  # above a point at 0 %: not on the axis
+    # day 2 has no label: days 1 and 3 are not neighbours, both above
+    assert sides([1, 2, 3], [0.5, 0.5, 0.5], [True, False, True]) == ["top", "top", "top"]
+    d = daily()
+    d["interactions"] = 1
+    d["success_rate"] = 0.5
+    fig = success_figure(d)
+    assert [a.yanchor for a in fig.layout.annotations] == ["bottom", "top", "bottom"]
 
 
 def test_incomplete_comparisons_agrees_with_a_participant_day_at_a_time_count():
