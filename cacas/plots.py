@@ -534,12 +534,12 @@ def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: s
         z=grid.to_numpy(dtype=float), x=[METHOD_LABELS.get(c, c) if column == "method" else c for c in columns],
         y=order, zmin=0, zmax=1, colorscale=[[0, "#f4f1ea"], [0.5, "#9cc3d5"], [1, "#2f6f8f"]],
         texttemplate="%{z:.0%}", hovertext=hover, hovertemplate="%{hovertext}<extra></extra>",
-        colorbar=dict(title="accuracy", tickformat=".0%"), xgap=2, ygap=2))
+        colorbar=dict(title=dict(text="accuracy", side="right"), tickformat=".0%"), xgap=2, ygap=2))
     fig.update_yaxes(autorange="reversed", title_text=None, automargin=True)
     fig.update_xaxes(title_text=x_title, type="category", side="top", automargin=True)
     # the title pushes the margin above the column labels (yref "container"): on a narrow page Plotly
     # tilts the labels, which grew into the title (walkthrough, Results at 800 px)
-    fig.update_layout(title=dict(text=title, automargin=True, yref="container"), template="plotly_white",
+    fig.update_layout(title=dict(text=title, automargin=True, yref="container", pad=dict(t=12)), template="plotly_white",
                       height=max(320, 140 + 26 * len(order)), margin=dict(l=20, r=20, t=100, b=20))
     return fig
 

@@ -35,8 +35,9 @@ def _daily(ceiling: bool, uneven: bool, methods=("cacas", "orl", "nn")) -> pd.Da
     return pd.DataFrame(rows)
 
 
-def _boxes(browser, figs, width: int, height: int = 450, js: str = BOXES_JS) -> list:
-    """BOXES_JS (or another ``js``) of ``figs`` drawn side by side, each ``width`` px wide and ``height`` px tall."""
+def _boxes(browser, figs, width: int, height: int = 450, js: str = BOXES_JS, ready: str = ".legend") -> list:
+    """BOXES_JS (or another ``js``) of ``figs`` drawn side by side, each ``width`` px wide and ``height`` px tall,
+    once each has drawn its ``ready`` element (its legend)."""
     from plotly.offline import get_plotlyjs
 
     each = "".join(f'<div style="width:{width}px;display:inline-block;vertical-align:top">'
@@ -45,7 +46,7 @@ def _boxes(browser, figs, width: int, height: int = 450, js: str = BOXES_JS) -> 
     try:
         page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'>{each}"
                          "</body></html>")
-        page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot .legend').length == {len(figs)}")
+        page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot {ready}').length == {len(figs)}")
         return page.evaluate(js)
     finally:
         page.context.close()
@@ -145,3 +146,24 @@ def test_fig4s_subtitle_fits_the_labs_narrowest_column(browser, methods):
     for d in (daily, daily.assign(success_rate=0.5)):
         fig4, = _boxes(browser, [plots.methods_figure(d)], 274, js=LEGEND_JS)
         assert fig4["subtitle"] is not None and fig4["subtitle"] <= fig4["width"], fig4
+
+
+#: the heatmap's colorbar: its title's box and its tick labels' boxes
+COLORBAR_JS = """() => { const c = document.querySelector('.js-plotly-plot .colorbar');
+  const box = e => { const b = e.getBoundingClientRect(); return [b.left, b.top, b.right, b.bottom]; };
+  return {title: box(c.querySelector('.cbtitle')), ticks: [...c.querySelectorAll('.cbaxis text')].map(box)}; }"""
+
+
+@pytest.mark.parametrize("width", [800, 1280])
+def test_the_preference_heatmaps_colorbar_title_touches_no_tick_label(browser, width):
+    """walk2's walkthrough: the heatmap's colorbar title "accuracy", above the bar, touched its "100%" label (the
+    top label is centred on the bar's end); it stands at the bar's side."""
+    rows = pd.DataFrame([{"participant": "P01", "method": m, "day": 3, "preference": k, "label": f"{act} -> x",
+                          "activity": act, "action": "x", "states": 10, "correct": c, "accuracy": c / 10}
+                         for m in ("cacas", "orl", "nn") for k, (act, c) in enumerate((("cough", 10), ("sneeze", 5)))])
+    bar = _boxes(browser, [plots.preference_methods_figure(rows)], width, js=COLORBAR_JS, ready=".colorbar")
+    title = bar["title"]
+    assert len(bar["ticks"]) >= 3
+    overlapping = [t for t in bar["ticks"]
+                   if t[0] < title[2] and title[0] < t[2] and t[1] < title[3] and title[1] < t[3]]
+    assert overlapping == [], (title, bar["ticks"])
