@@ -136,7 +136,7 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
         except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
             raise CacasError(f"{name}: not a readable CSV file ({str(exc).splitlines()[0] if str(exc) else exc})")
         kind = next((k for k, cols in UPLOADABLE_TABLES.items() if set(cols) <= set(df.columns)), None)
-        if kind is None and set(SUMMARY_COLUMNS) <= set(df.columns) and "participant" not in df.columns:
+        if kind is None and _summary_columns(df.columns):
             kind = "summary"
         if kind is None:
             raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv"
@@ -194,15 +194,18 @@ def _check_summary(daily: pd.DataFrame, summary: pd.DataFrame, daily_name: str, 
                                  "upload the tables of one run")
 
 
+def _summary_columns(columns) -> bool:
+    """Whether ``columns`` are the lab's summary.csv's: :data:`SUMMARY_COLUMNS` and no participant column."""
+    return set(SUMMARY_COLUMNS) <= set(columns) and "participant" not in set(columns)
+
+
 def _is_summary(data: bytes) -> bool:
-    """Whether a CSV's header is the lab's summary.csv's (:data:`SUMMARY_COLUMNS`, no participant column):
-    it is not in the run's folder, so no checksums file lists it; it is checked against daily.csv instead
-    (:func:`_check_summary`)."""
+    """Whether a CSV's header is the lab's summary.csv's (:func:`_summary_columns`): it is not in the run's
+    folder, so no checksums file lists it; it is checked against daily.csv instead (:func:`_check_summary`)."""
     try:
-        columns = set(records.read_csv(io.BytesIO(data), nrows=0).columns)
+        return _summary_columns(records.read_csv(io.BytesIO(data), nrows=0).columns)
     except (ValueError, pd.errors.ParserError, UnicodeDecodeError):
         return False
-    return set(SUMMARY_COLUMNS) <= columns and "participant" not in columns
 
 
 def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_files) -> list[tuple[str, bytes]]:
