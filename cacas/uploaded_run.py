@@ -410,17 +410,23 @@ def upload_caption(kinds: Sequence[str], checksums: str | None, zips: Sequence[s
     """What the Results page says of uploaded tables (their kinds, as :func:`load_uploaded_tables`
     returns them; read from the ``zips`` named, if any) and of the checksums file uploaded with them (its
     name; None if none was): what was checked, and, without a checksums file, a note that the files'
-    bytes were not (None with one)."""
+    bytes were not (None with one). A summary.csv (the lab's) is said apart: no checksums file lists it,
+    and it is checked to be daily.csv's means (walkthrough: beside a run's zip it was said to be from the
+    zip and to match its sha256)."""
     from cacas.store.files import CHECKSUMS
 
+    summary = "summary" in kinds  # the lab's summary.csv: in no run folder, so in no checksums file
+    kinds = [k for k in kinds if k != "summary"]
     names = ", ".join(f"{k}.csv" for k in kinds)
     uploaded = f"Uploaded from {', '.join(zips)}" if zips else "Uploaded"
     together = " checked against each other (participants, methods, days and what they count)" \
         if len(kinds) > 1 else ""
+    means = (f" The summary.csv uploaded with {'them' if len(kinds) > 1 else 'it'} is checked to be daily.csv's "
+             "means per method and day.") if summary else ""
     if checksums:
         return f"{uploaded}: {names}, each matching its sha256 in {checksums}" + (f", and{together}" if together else "") \
-            + ".", None
-    return (f"{uploaded}: {names}" + (f",{together}" if together else "") + ".",
+            + "." + means, None
+    return (f"{uploaded}: {names}" + (f",{together}" if together else "") + "." + means,
             f"Checksums not checked: no {CHECKSUMS} was uploaded with {'them' if len(kinds) > 1 else 'it'}. Add the "
             "one beside the tables (cacas export and cacas simulate --out write it) to check that each file is whole "
             "and of that folder's run.")

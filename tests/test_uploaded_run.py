@@ -206,6 +206,15 @@ def test_the_page_says_whether_the_checksums_were_checked():
     assert uploaded_run.upload_caption(["daily", "interactions"], "checksums.sha256", ["cacas-run-x.zip"])[0] == (
         "Uploaded from cacas-run-x.zip: daily.csv, interactions.csv, each matching its sha256 in checksums.sha256, "
         "and checked against each other (participants, methods, days and what they count).")
+    # the lab's summary.csv beside a run's zip: neither in the zip nor in its checksums (it read as both)
+    assert uploaded_run.upload_caption(["daily", "interactions", "summary"], "checksums.sha256",
+                                       ["cacas-run-x.zip"])[0] == (
+        "Uploaded from cacas-run-x.zip: daily.csv, interactions.csv, each matching its sha256 in checksums.sha256, "
+        "and checked against each other (participants, methods, days and what they count). The summary.csv "
+        "uploaded with them is checked to be daily.csv's means per method and day.")
+    assert uploaded_run.upload_caption(["daily", "summary"], None)[0] == (
+        "Uploaded: daily.csv. The summary.csv uploaded with it is checked to be daily.csv's means per method and "
+        "day.")
     assert uploaded_run.upload_caption(["daily", "by_preference"], "checksums.sha256") == (
         "Uploaded: daily.csv, by_preference.csv, each matching its sha256 in checksums.sha256, and checked against "
         "each other (participants, methods, days and what they count).", None)
