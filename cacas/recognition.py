@@ -69,6 +69,13 @@ def whole_percent(share: float) -> int:
     return math.floor(share) if share < 100 * UNSURE_BELOW else math.floor(share + 0.5)
 
 
+def share_words(share: float) -> str:
+    """A class's share as the top 3 says it: :func:`whole_percent` with "%", but "<1%" for a share above
+    0 that rounds to 0 ("clear throat 0%" read as never, for a share of 0.3 %)."""
+    whole = whole_percent(share)
+    return "<1%" if whole == 0 and share > 0 else f"{whole}%"
+
+
 #: What a recogniser's classes are called, by kind ("sound", "scene").
 CLASS_WORDS = {"sound": "sound activities", "scene": "home scenes"}
 
@@ -113,6 +120,12 @@ class Recognition:
         """:attr:`top3` with each share as a whole percentage (:func:`whole_percent`), as the Sounds page's
         top 3, the researcher's view and ``cacas sound/scene recognize`` say them: the first is :attr:`percent`."""
         return [(label, whole_percent(p)) for label, p in self.top3]
+
+    @property
+    def top3_words(self) -> list[tuple[str, str]]:
+        """:attr:`top3` with each share in words (:func:`share_words`: "49%", "<1%"), as the Sounds page's top 3,
+        the researcher's "Also possible" and ``cacas sound/scene recognize`` say them."""
+        return [(label, share_words(p)) for label, p in self.top3]
 
     @property
     def unsure(self) -> bool:

@@ -573,7 +573,7 @@ else:
                                                  if heard.label == context.activity else
                                                  "The robot is not sure it heard that right."))
             if not tablet:  # the participant sees plain labels; the researcher the numbers
-                st.caption("Also possible: " + ", ".join(f"{a} {p}%" for a, p in heard.top3_percent[1:]) +
+                st.caption("Also possible: " + ", ".join(f"{a} {share}" for a, share in heard.top3_words[1:]) +
                            f" · confidence {heard.percent}%")
         else:
             st.markdown(f"##### The robot heard: {context.activity}", anchors=False)

@@ -50,10 +50,12 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
     if r.unsure:
         st.warning(f"Unsure: {unsure_words(r, kind)}.",
                    icon=":material/help:")
-    # whole percents, as the warning above says its share ("percent" gave "49.96%" beside "Unsure: 49%")
-    st.dataframe(pd.DataFrame(r.top3_percent, columns=["activity" if kind == "sound" else "scene", "probability"]),
-                 hide_index=True, column_config={"probability": st.column_config.ProgressColumn(
-                     min_value=0, max_value=100, format="%d%%")})
+    # whole percents, as the warning above says its share ("percent" gave "49.96%" beside "Unsure: 49%"), and "<1%"
+    # for a share that rounds to 0 (a progress column's number format said "0%"); the bar beside it, unlabelled
+    top3 = pd.DataFrame(r.top3_words, columns=["activity" if kind == "sound" else "scene", "probability"])
+    top3["bar"] = [100 * p for _, p in r.top3]
+    st.dataframe(top3, hide_index=True, column_config={"bar": st.column_config.ProgressColumn(
+        " ", min_value=0, max_value=100, format=" ", width="small")})
 
 
 #: What each library's pages say and use: the Table I names, the page's words, the file types.

@@ -27,6 +27,16 @@ def test_sound_recognize_shipped_clip(capsys):
     assert len(out) == 4 and all(len(line.split()) >= 2 for line in out[1:])
 
 
+def test_recognize_prints_a_share_under_one_percent_as_under_one_percent(capsys):
+    """`cacas sound/scene recognize`'s top 3 printed a share of 0.3 % as "  0%"; it prints "<1%" as the app does."""
+    from cacas.cli.sound import print_recognition
+    from cacas.recognition import make_recognition
+
+    print_recognition("clip.wav", make_recognition([0.6, 0.397, 0.003], ["cough", "cry", "clear throat"]), "sound")
+    assert capsys.readouterr().out.splitlines() == [
+        "clip.wav: cough", f"  {'cough':24s}  60%", f"  {'cry':24s}  39%", f"  {'clear throat':24s}  <1%"]
+
+
 def _bad_sound_files(tmp_path):
     empty = tmp_path / "empty.wav"
     empty.write_bytes(b"")

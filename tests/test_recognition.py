@@ -196,6 +196,17 @@ def test_every_share_of_a_recognition_reads_as_a_whole_percent_by_one_rule():
     assert [whole_percent(p) for p in (0.0, 0.29, 0.4999, 0.5, 0.725, 0.9996, 1.0)] == [0, 29, 49, 50, 73, 100, 100]
 
 
+def test_a_share_under_one_percent_reads_under_one_percent_not_zero():
+    """A top 3's third share of 0.3 % read "clear throat 0%" (as if never); it reads "<1%". A share of exactly 0
+    still reads "0%", and every other share as whole_percent says it."""
+    from cacas.recognition import make_recognition, share_words
+
+    assert [share_words(p) for p in (0.0, 0.001, 0.0099, 0.01, 0.4999, 0.725)] == [
+        "0%", "<1%", "<1%", "1%", "49%", "73%"]
+    rec = make_recognition([0.6, 0.397, 0.003], ["cough", "cry", "clear throat"])
+    assert rec.top3_words == [("cough", "60%"), ("cry", "39%"), ("clear throat", "<1%")]
+
+
 def test_a_sound_shorter_than_half_a_second_is_short():
     from cacas.recognition import SHORT_CLIP_SECONDS, make_recognition
 

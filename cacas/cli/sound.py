@@ -41,8 +41,8 @@ def print_recognition(path, rec, kind: str) -> None:
     from cacas.recognition import short_clip_warning, unsure_words
 
     print(f"{path}: {rec.label}")
-    for label, p in rec.top3_percent:  # whole percents, as the app and the warning below say them
-        print(f"  {label:24s} {p:3d}%")
+    for label, share in rec.top3_words:  # whole percents ("<1%" under 1), as the app and the warning below say them
+        print(f"  {label:24s} {share:>4s}")
     if rec.short:
         print(f"cacas {kind} recognize: warning: {path}: {short_clip_warning(rec.seconds)}", file=sys.stderr)
     if rec.unsure:

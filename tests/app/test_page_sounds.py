@@ -2,6 +2,7 @@ import io
 import json
 
 import numpy as np
+import pytest
 import soundfile as sf
 
 from apphelpers import no_exception, open_expander, texts
@@ -624,16 +625,19 @@ def _try_a_photo(monkeypatch, shares, labels):
 def test_the_top_3_says_shares_as_the_unsure_warning_does(app, monkeypatch):
     """A photo recognised at 0.4996: the warning said "Unsure: 49%" and the top 3 beside it "49.96%" (Streamlit's
     "percent" format, two decimals). The top 3 now says whole percents by the warning's rule
-    (Recognition.top3_percent): 49, 40, 10."""
+    (Recognition.top3_words): 49, 40; a share of 0.4 % "<1%" (a progress column's "%d%%" said "0%"), each beside
+    an unlabelled bar of its exact share."""
     from cacas import spaces
 
-    _try_a_photo(monkeypatch, [0.4996, 0.4004, 0.1] + [0.0] * (len(spaces.SCENES) - 3), spaces.SCENES)
+    _try_a_photo(monkeypatch, [0.4996, 0.4964, 0.004] + [0.0] * (len(spaces.SCENES) - 3), spaces.SCENES)
     at = app(PAGE)
     no_exception(at)
     assert any(w.value.startswith(f"Unsure: 49% for {spaces.SCENES[0]}.") for w in at.warning)
     top3 = next(d for d in at.dataframe if "scene" in d.value.columns)
-    assert list(top3.value["probability"]) == [49, 40, 10]
-    assert json.loads(top3.proto.columns)["probability"]["type_config"]["format"] == "%d%%"
+    assert list(top3.value["probability"]) == ["49%", "49%", "<1%"]
+    assert list(top3.value["bar"]) == pytest.approx([49.96, 49.64, 0.4])
+    bar = json.loads(top3.proto.columns)["bar"]
+    assert bar["type_config"]["format"] == " " and bar["label"] == " "
 
 
 def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
