@@ -116,12 +116,6 @@ class Recognition:
         return whole_percent(self.confidence)
 
     @property
-    def top3_percent(self) -> list[tuple[str, int]]:
-        """:attr:`top3` with each share as a whole percentage (:func:`whole_percent`), as the Sounds page's
-        top 3, the researcher's view and ``cacas sound/scene recognize`` say them: the first is :attr:`percent`."""
-        return [(label, whole_percent(p)) for label, p in self.top3]
-
-    @property
     def top3_words(self) -> list[tuple[str, str]]:
         """:attr:`top3` with each share in words (:func:`share_words`: "49%", "<1%"), as the Sounds page's top 3,
         the researcher's "Also possible" and ``cacas sound/scene recognize`` say them."""

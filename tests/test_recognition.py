@@ -190,9 +190,9 @@ def test_every_share_of_a_recognition_reads_as_a_whole_percent_by_one_rule():
     from cacas.recognition import make_recognition, whole_percent
 
     rec = make_recognition([0.4004, 0.4996, 0.1], ["cry", "cough", "sneeze"])
-    assert rec.top3_percent == [("cough", 49), ("cry", 40), ("sneeze", 10)] and rec.percent == 49
+    assert rec.top3_words == [("cough", "49%"), ("cry", "40%"), ("sneeze", "10%")] and rec.percent == 49
     sure = make_recognition([0.5004, 0.4996], ["cough", "cry"])
-    assert sure.top3_percent == [("cough", 50), ("cry", 49)] and sure.percent == 50
+    assert sure.top3_words == [("cough", "50%"), ("cry", "49%")] and sure.percent == 50
     assert [whole_percent(p) for p in (0.0, 0.29, 0.4999, 0.5, 0.725, 0.9996, 1.0)] == [0, 29, 49, 50, 73, 100, 100]
 
 
