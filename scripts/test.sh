@@ -10,4 +10,5 @@ if [ ! -x /usr/bin/chromium ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
 fi
 python3 -m pip install -q -e ".[dev]"
-python3 -m pytest -q "$@"
+# the slowest tests listed at the end: the suite is kept well under 15 minutes on CI
+python3 -m pytest -q --durations=15 "$@"
