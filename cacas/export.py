@@ -33,6 +33,7 @@ import io
 import json
 import os
 import re
+import sqlite3
 import zipfile
 import zlib
 from dataclasses import dataclass
@@ -45,7 +46,7 @@ from cacas.errors import CacasError, did_you_mean
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
-from cacas.store.db import WriteRefused
+from cacas.store.db import WriteRefused, refused
 from cacas.store.restore import RESTORE_COLUMNS, Restored, check_columns, restore
 from cacas.study_day import STUDY_DAYS
 
@@ -663,11 +664,13 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             _check_case_twins(store, tables, bundle, db_path)
             try:
                 restored = restore(store, tables, policies)
+                store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
             except WriteRefused as exc:  # not the bundle's fault (it was named as if it were)
                 raise CacasError(f"{db_path}: {exc}") from None
+            except sqlite3.OperationalError as exc:  # a read, or the fold of the log into the file, the disk refused
+                raise CacasError(f"{db_path}: {refused(exc)}") from None
             except CacasError as exc:
                 raise CacasError(f"{bundle}: {exc}") from None
-            store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
         finally:
             store.close()
         if policies:

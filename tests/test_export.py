@@ -499,6 +499,50 @@ def test_a_full_disk_during_an_import_names_the_new_database_not_the_bundle(bund
     assert not target.parent.exists()
 
 
+class _RefusingConnection:
+    """A store's connection whose ``PRAGMA journal_mode = DELETE`` (the import's last step, which folds the
+    write-ahead log into the new database's file and needs room for it) fails as on a full disk."""
+
+    def __init__(self, real):
+        self._real = real
+
+    def execute(self, sql, *args):
+        if "journal_mode = DELETE" in sql:
+            raise sqlite3.OperationalError("database or disk is full")
+        return self._real.execute(sql, *args)
+
+    def __getattr__(self, name):
+        return getattr(self._real, name)
+
+
+@pytest.mark.parametrize("where", ["a read", "folding the log in"])
+def test_a_full_disk_outside_a_write_during_an_import_names_the_new_database(bundle, tmp_path, monkeypatch, where):
+    """Walkthrough (a 2 MB tmpfs filled up, then `cacas import` into it): with 200 kB free the import
+    failed while it switched the new database out of WAL mode ("database or disk is full"), with 100 kB
+    in a read of the new database ("disk I/O error"); both were SQLite's bare errors, which the CLI
+    said as "the study database cannot be read (...); restore it from a backup or an export", naming
+    no file, as if a study were damaged. They are the new database's disk's doing, said as a write
+    it refused is; nothing is left behind."""
+    real_restore = export.restore
+    if where == "a read":
+        def studies(self):
+            raise sqlite3.OperationalError("disk I/O error")
+        monkeypatch.setattr(StudyStore, "studies", studies)
+        said = "disk I/O error"
+    else:
+        def restore(store, tables, policies):
+            restored = real_restore(store, tables, policies)
+            store._conn = _RefusingConnection(store._conn)
+            return restored
+        monkeypatch.setattr(export, "restore", restore)
+        said = "database or disk is full"
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{target}: the study database cannot be written ({said}); "
+                                                          "nothing was saved")):
+        export.import_bundle(bundle, target)
+    assert not target.parent.exists()
+
+
 def test_an_import_makes_the_new_databases_name_durable_before_it_returns(bundle, tmp_path, monkeypatch):
     """Safety audit: the import linked the new database into place and said "imported" without
     syncing its folder: a power cut then could lose the name (and the study with it, once the
