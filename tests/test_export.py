@@ -764,6 +764,39 @@ def test_times_an_import_took_unchecked_are_restored_as_they_were_with_notes(sto
                                                                                   "2026-11-21 18:00"]
 
 
+@pytest.mark.parametrize("keep", [0.5, 0.99])
+def test_a_bundle_cut_short_is_said_so_not_called_another_file(bundle, tmp_path, keep):
+    """Walkthrough: a cacas-study.zip cut short (a download or a copy that did not finish) was refused
+    as "is not a study bundle (BadZipFile: File is not a zip file)", which sent the researcher to look
+    for another file. It begins as a zip and lacks the zip's end: said so, with what to do."""
+    data = bundle.read_bytes()
+    cut = tmp_path / "cut.zip"
+    cut.write_bytes(data[: int(len(data) * keep)])
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"^" + re.escape(
+            f"{cut}: is cut short: it begins as a zip, but the zip's end (the list of its files) is missing, as when "
+            "a download or a copy did not finish; valid: the whole cacas-study.zip as cacas export wrote it (export "
+            "again, or use another copy); nothing was imported") + "$"):
+        export.import_bundle(cut, target)
+    assert not target.parent.exists()
+
+
+@pytest.mark.parametrize("content, said", [(b"", "is empty"), (b"\xff\xfe\x00 not text", "is not text (UTF-8)")])
+def test_a_table_of_the_bundle_that_cannot_be_read_is_named(bundle, tmp_path, content, said):
+    """Walkthrough: a bundle whose interactions.csv was emptied, or replaced by bytes that are not text,
+    was refused as "is not a study bundle (EmptyDataError: No columns to parse from file)" or "(UnicodeDecodeError:
+    ...)", naming no file of the bundle. The table is named, as a damaged one is."""
+    bad = tmp_path / "bad.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for name in zin.namelist():
+            zout.writestr(name, content if name == "interactions.csv" else zin.read(name))
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{bad}: interactions.csv in the bundle {said}") + r".*; "
+                                         r"valid: a CSV table as cacas export wrote it \(export again, or use another "
+                                         r"copy\); nothing was imported$"):
+        export.import_bundle(bad, tmp_path / "new.sqlite")
+    assert not (tmp_path / "new.sqlite").exists()
+
+
 def test_not_a_bundle(tmp_path):
     junk = tmp_path / "junk.zip"
     junk.write_text("not a zip")
