@@ -115,14 +115,26 @@ class Proposal:
 def policy_in_force(store, participant: str, initial_loader: Callable | None = None):
     """(policy, version) in force for the participant: the store's active version, or the
     initial policy (CACAA step 1, version None) before the first adaptation."""
-    from cacas.policy import policy_from_bytes
-
     active = store.active_policy(participant)
     if active is None:
         if initial_loader is None:
             from cacas.adaptation import load_initial_policy as initial_loader
         return initial_loader(), None
-    return policy_from_bytes(store.load_policy(participant, version=active.version)), active.version
+    return saved_policy(store, participant, active.version), active.version
+
+
+def saved_policy(store, participant: str, version: int):
+    """A saved policy version, checked against its sha256 (:meth:`StudyStore.load_policy`); a file
+    that is not a policy (its sha256 matching, as a crafted bundle's can) is a CacasError naming the
+    file, the version and the participant (it said "not a CACAS policy file" alone)."""
+    from cacas.policy import policy_from_bytes
+
+    data = store.load_policy(participant, version=version)
+    try:
+        return policy_from_bytes(data)
+    except CacasError as exc:
+        path = next((p.path for p in store.policy_versions(participant) if p.version == version), None)
+        raise CacasError(f"{path}: policy version {version} of participant {participant} is {exc}") from None
 
 
 def initial_policy_ready() -> bool:

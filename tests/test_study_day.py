@@ -543,6 +543,23 @@ def test_a_damaged_policy_in_force_stops_the_adaptation_before_it_changes_anythi
     assert adapt_day(path, "P01", 2, method="nn").policy_version == 2
 
 
+def test_a_saved_policy_that_is_not_a_policy_names_its_file(store):
+    """Walkthrough: a bundle whose policy file was replaced, with policies.csv's sha256 and size made to
+    match, imports; the tablet then said "The robot's policy cannot be loaded (not a CACAS policy file
+    (UnpicklingError))", naming no file or version. The file, version and participant are named."""
+    from cacas.study_day import policy_in_force
+
+    day = start_day(store, "P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    store.save_policy("P01", day, "cacas", b"not a torch file")
+    path = store.active_policy("P01").path
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{path}: policy version 1 of participant P01 is not a "
+                                                          "CACAS policy file (UnpicklingError)") + "$"):
+        policy_in_force(store, "P01")
+
+
 def test_a_policy_adapted_after_the_last_day_is_the_final_one_not_one_for_day_8():
     """Walkthrough: after day 7 the Adaptation page said "policy version 7 is in force from day 8"; the
     study has 7 days."""
