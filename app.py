@@ -226,6 +226,8 @@ def main() -> None:
     try:
         store = ui.store()
     except CacasError as exc:
+        # navigation, hidden and not run: without it Streamlit listed the pages/ folder's files ("ui" among them)
+        st.navigation(_navigation(), position="hidden")
         st.error(f"The study database cannot be opened: {exc}")
         st.stop()
     # the tablets' board begins with the server's first page, whichever it is: begun with the first Study session

@@ -33,6 +33,7 @@ import io
 import json
 import os
 import re
+import sqlite3
 import zipfile
 import zlib
 from dataclasses import dataclass
@@ -45,7 +46,7 @@ from cacas.errors import CacasError, did_you_mean
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
-from cacas.store.db import WriteRefused
+from cacas.store.db import WriteRefused, refused
 from cacas.store.restore import RESTORE_COLUMNS, Restored, check_columns, restore
 from cacas.study_day import STUDY_DAYS
 
@@ -514,6 +515,35 @@ def read_member(path: Path, zf: zipfile.ZipFile, name: str, valid: str | None = 
                          f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)")) from None
 
 
+#: How a zip file begins: the header of its first member. A file that begins so but that zipfile
+#: cannot open lacks the zip's end, the list of its files (:func:`unreadable_zip`).
+_ZIP_START = b"PK\x03\x04"
+
+
+def unreadable_zip(name, head: bytes, exc: Exception, valid: str) -> CacasError:
+    """The message for a file zipfile cannot open (``exc``), given its first bytes ``head``: one that
+    begins as a zip was cut short (a download or a copy that did not finish; it was called "not a zip
+    file", which sends one to look for another file); any other is not a zip. Then ``valid``."""
+    if head.startswith(_ZIP_START):
+        return CacasError(f"{name}: is cut short: it begins as a zip, but the zip's end (the list of its files) is "
+                          f"missing, as when a download or a copy did not finish; {valid}")
+    return CacasError(f"{name}: not a readable zip file ({exc}); {valid}")
+
+
+def _read_table(path: Path, zf: zipfile.ZipFile, member: str) -> pd.DataFrame:
+    """A bundle's CSV table (every cell as text), or a CacasError naming the bundle and the member
+    when it cannot be read as one (empty, not text, not CSV)."""
+    data = read_member(path, zf, member)
+    try:
+        return pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False).map(records.unescape_formula)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
+        said = ("is empty" if not data.strip() else "is not text (UTF-8)" if isinstance(exc, UnicodeDecodeError)
+                else "is not a CSV table")
+        raise CacasError(f"{path}: {member} in the bundle {said} ({exc.__class__.__name__}: {exc}); valid: a CSV "
+                         "table as cacas export wrote it (export again, or use another copy); nothing was "
+                         "imported") from None
+
+
 def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
     """The tables (every cell as text, "" for empty) and policy files of a bundle zip, after its
     ``manifest.json`` (if it has one: older bundles do not) is checked: a bundle of a newer format
@@ -527,29 +557,34 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     if not path.is_file():
         raise CacasError(f"{path}: no such bundle (expected the {BUNDLE_NAME} written by cacas export)")
     try:
-        with zipfile.ZipFile(path) as zf:
-            names = set(zf.namelist())
-            # every member read below, sized before any is read (others are never read)
-            check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
-                               or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
-                               or (i.filename.startswith("policies/") and not i.filename.endswith("/"))])
-            if MANIFEST_NAME in names:  # none in bundles written before it: version 1
-                _check_manifest(path, read_member(path, zf, MANIFEST_NAME))
-            tables = {}
-            for name in RESTORE_COLUMNS:
-                if f"{name}.csv" not in names:
-                    raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
-                tables[name] = pd.read_csv(io.BytesIO(read_member(path, zf, f"{name}.csv")), dtype=str,
-                                           keep_default_na=False).map(records.unescape_formula)
-            policies = {}
-            for name in sorted(names):
-                if name.startswith("policies/") and not name.endswith("/"):
-                    rel = name[len("policies/"):]
-                    if not _POLICY_PATH.match(rel):
-                        raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
-                    policies[rel] = read_member(path, zf, name)
-    except (zipfile.BadZipFile, pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
+        zf = zipfile.ZipFile(path)
+    except zipfile.BadZipFile as exc:
+        with open(path, "rb") as fh:
+            head = fh.read(len(_ZIP_START))
+        if not head.startswith(_ZIP_START):
+            raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
+        raise unreadable_zip(path, head, exc, f"valid: the whole {BUNDLE_NAME} as cacas export wrote it (export "
+                             "again, or use another copy); nothing was imported") from None
+    with zf:
+        names = set(zf.namelist())
+        # every member read below, sized before any is read (others are never read)
+        check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
+                           or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
+                           or (i.filename.startswith("policies/") and not i.filename.endswith("/"))])
+        if MANIFEST_NAME in names:  # none in bundles written before it: version 1
+            _check_manifest(path, read_member(path, zf, MANIFEST_NAME))
+        tables = {}
+        for name in RESTORE_COLUMNS:
+            if f"{name}.csv" not in names:
+                raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
+            tables[name] = _read_table(path, zf, f"{name}.csv")
+        policies = {}
+        for name in sorted(names):
+            if name.startswith("policies/") and not name.endswith("/"):
+                rel = name[len("policies/"):]
+                if not _POLICY_PATH.match(rel):
+                    raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
+                policies[rel] = read_member(path, zf, name)
     try:
         check_columns(tables)
     except CacasError as exc:
@@ -663,11 +698,13 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
             _check_case_twins(store, tables, bundle, db_path)
             try:
                 restored = restore(store, tables, policies)
+                store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
             except WriteRefused as exc:  # not the bundle's fault (it was named as if it were)
                 raise CacasError(f"{db_path}: {exc}") from None
+            except sqlite3.OperationalError as exc:  # a read, or the fold of the log into the file, the disk refused
+                raise CacasError(f"{db_path}: {refused(exc)}") from None
             except CacasError as exc:
                 raise CacasError(f"{bundle}: {exc}") from None
-            store._conn.execute("PRAGMA journal_mode = DELETE")  # everything into the main file
         finally:
             store.close()
         if policies:

@@ -115,14 +115,26 @@ class Proposal:
 def policy_in_force(store, participant: str, initial_loader: Callable | None = None):
     """(policy, version) in force for the participant: the store's active version, or the
     initial policy (CACAA step 1, version None) before the first adaptation."""
-    from cacas.policy import policy_from_bytes
-
     active = store.active_policy(participant)
     if active is None:
         if initial_loader is None:
             from cacas.adaptation import load_initial_policy as initial_loader
         return initial_loader(), None
-    return policy_from_bytes(store.load_policy(participant, version=active.version)), active.version
+    return saved_policy(store, participant, active.version), active.version
+
+
+def saved_policy(store, participant: str, version: int):
+    """A saved policy version, checked against its sha256 (:meth:`StudyStore.load_policy`); a file
+    that is not a policy (its sha256 matching, as a crafted bundle's can) is a CacasError naming the
+    file, the version and the participant (it said "not a CACAS policy file" alone)."""
+    from cacas.policy import policy_from_bytes
+
+    data = store.load_policy(participant, version=version)
+    try:
+        return policy_from_bytes(data)
+    except CacasError as exc:
+        path = next((p.path for p in store.policy_versions(participant) if p.version == version), None)
+        raise CacasError(f"{path}: policy version {version} of participant {participant} is {exc}") from None
 
 
 def initial_policy_ready() -> bool:
@@ -404,12 +416,19 @@ def adapt_day(db_path: str | Path, participant: str, day: int, method: str = "ca
             raise AlreadyAdapted(f"day {day} of participant {participant} is adapted already (from another tab?)")
         if not len(store.interactions_frame(participant, method=None, day=day)):
             raise CacasError(f"day {day} of participant {participant} has no interactions; nothing to adapt from")
+        try:  # read before anything is written: a policy file changed or damaged leaves the day as it was
+            before, before_version = policy_in_force(store, participant)
+        except CacasError as exc:
+            if store.active_policy(participant) is None:  # the initial policy's own message says what to do
+                raise
+            raise CacasError(f"{exc}; day {day} is adapted from the policy in force: put another version in force "
+                             "(Adaptation page, Policy versions), or put the file back from a backup, then adapt again; "
+                             "nothing was changed") from None
         say(0.0, f"closing day {day}" if days[day].is_open else f"day {day} is closed")
         store.note_adaptation_started(participant, day, method)
         store.close_day(participant, day)
         data = store.interactions_frame(participant, method=None)  # read once the day is closed: all of it
         data = data[data["day"] <= day]
-        before, before_version = policy_in_force(store, participant)
         recorded = int(records.is_recorded(data).sum())
         say(0.02, f"adapting with {method} from {recorded} recorded interaction{'' if recorded == 1 else 's'} of "
                   f"{'day 1' if day == 1 else f'days 1-{day}'}"

@@ -84,7 +84,7 @@ def unpacked_uploads(files: Sequence[tuple[str, bytes]]) -> list[tuple[str, byte
     import zlib
     from pathlib import PurePosixPath
 
-    from cacas.export import check_sizes, read_member
+    from cacas.export import check_sizes, read_member, unreadable_zip
 
     valid = ("valid: the zip of a run (the Simulation lab's 'Download the whole run') or of a study (cacas export, "
              "'Download everything')")
@@ -108,7 +108,7 @@ def unpacked_uploads(files: Sequence[tuple[str, bytes]]) -> list[tuple[str, byte
                 out.extend((PurePosixPath(i.filename).name, read_member(name, zf, i.filename, valid, what="zip"))
                            for i in chosen)
         except (zipfile.BadZipFile, zlib.error, EOFError, NotImplementedError) as exc:
-            raise CacasError(f"{name}: not a readable zip file ({exc}); {valid}") from None
+            raise unreadable_zip(name, data[:4], exc, valid) from None
     return out
 
 

@@ -9,9 +9,8 @@ from cacas import app_support, table_layouts
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
-from cacas.policy import policy_from_bytes
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, in_force_words,
-                             unfinished_adaptation)
+                             saved_policy, unfinished_adaptation)
 from pages import ui
 
 ui.require_app()
@@ -31,7 +30,7 @@ st.caption("After each study day the robot's policy is adapted from all of the p
 def _load(db_path: str, who: str, version: int, sha256: str):
     """A saved policy version (checked against its sha256 by the store); the sha256 is part of the key:
     a code given to a new participant after a removal starts again at version 1."""
-    return policy_from_bytes(ui.store().load_policy(who, version=version))
+    return saved_policy(ui.store(), who, version)
 
 
 @st.cache_resource(show_spinner=False)

@@ -499,6 +499,50 @@ def test_a_full_disk_during_an_import_names_the_new_database_not_the_bundle(bund
     assert not target.parent.exists()
 
 
+class _RefusingConnection:
+    """A store's connection whose ``PRAGMA journal_mode = DELETE`` (the import's last step, which folds the
+    write-ahead log into the new database's file and needs room for it) fails as on a full disk."""
+
+    def __init__(self, real):
+        self._real = real
+
+    def execute(self, sql, *args):
+        if "journal_mode = DELETE" in sql:
+            raise sqlite3.OperationalError("database or disk is full")
+        return self._real.execute(sql, *args)
+
+    def __getattr__(self, name):
+        return getattr(self._real, name)
+
+
+@pytest.mark.parametrize("where", ["a read", "folding the log in"])
+def test_a_full_disk_outside_a_write_during_an_import_names_the_new_database(bundle, tmp_path, monkeypatch, where):
+    """Walkthrough (a 2 MB tmpfs filled up, then `cacas import` into it): with 200 kB free the import
+    failed while it switched the new database out of WAL mode ("database or disk is full"), with 100 kB
+    in a read of the new database ("disk I/O error"); both were SQLite's bare errors, which the CLI
+    said as "the study database cannot be read (...); restore it from a backup or an export", naming
+    no file, as if a study were damaged. They are the new database's disk's doing, said as a write
+    it refused is; nothing is left behind."""
+    real_restore = export.restore
+    if where == "a read":
+        def studies(self):
+            raise sqlite3.OperationalError("disk I/O error")
+        monkeypatch.setattr(StudyStore, "studies", studies)
+        said = "disk I/O error"
+    else:
+        def restore(store, tables, policies):
+            restored = real_restore(store, tables, policies)
+            store._conn = _RefusingConnection(store._conn)
+            return restored
+        monkeypatch.setattr(export, "restore", restore)
+        said = "database or disk is full"
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{target}: the study database cannot be written ({said}); "
+                                                          "nothing was saved")):
+        export.import_bundle(bundle, target)
+    assert not target.parent.exists()
+
+
 def test_an_import_makes_the_new_databases_name_durable_before_it_returns(bundle, tmp_path, monkeypatch):
     """Safety audit: the import linked the new database into place and said "imported" without
     syncing its folder: a power cut then could lose the name (and the study with it, once the
@@ -718,6 +762,39 @@ def test_times_an_import_took_unchecked_are_restored_as_they_were_with_notes(sto
     with StudyStore(target) as moved:
         assert moved.days_frame()[["opened_at", "closed_at"]].iloc[0].tolist() == ["2026-11-21T11:00:00+01:00",
                                                                                   "2026-11-21 18:00"]
+
+
+@pytest.mark.parametrize("keep", [0.5, 0.99])
+def test_a_bundle_cut_short_is_said_so_not_called_another_file(bundle, tmp_path, keep):
+    """Walkthrough: a cacas-study.zip cut short (a download or a copy that did not finish) was refused
+    as "is not a study bundle (BadZipFile: File is not a zip file)", which sent the researcher to look
+    for another file. It begins as a zip and lacks the zip's end: said so, with what to do."""
+    data = bundle.read_bytes()
+    cut = tmp_path / "cut.zip"
+    cut.write_bytes(data[: int(len(data) * keep)])
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError, match=r"^" + re.escape(
+            f"{cut}: is cut short: it begins as a zip, but the zip's end (the list of its files) is missing, as when "
+            "a download or a copy did not finish; valid: the whole cacas-study.zip as cacas export wrote it (export "
+            "again, or use another copy); nothing was imported") + "$"):
+        export.import_bundle(cut, target)
+    assert not target.parent.exists()
+
+
+@pytest.mark.parametrize("content, said", [(b"", "is empty"), (b"\xff\xfe\x00 not text", "is not text (UTF-8)")])
+def test_a_table_of_the_bundle_that_cannot_be_read_is_named(bundle, tmp_path, content, said):
+    """Walkthrough: a bundle whose interactions.csv was emptied, or replaced by bytes that are not text,
+    was refused as "is not a study bundle (EmptyDataError: No columns to parse from file)" or "(UnicodeDecodeError:
+    ...)", naming no file of the bundle. The table is named, as a damaged one is."""
+    bad = tmp_path / "bad.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(bad, "w") as zout:
+        for name in zin.namelist():
+            zout.writestr(name, content if name == "interactions.csv" else zin.read(name))
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{bad}: interactions.csv in the bundle {said}") + r".*; "
+                                         r"valid: a CSV table as cacas export wrote it \(export again, or use another "
+                                         r"copy\); nothing was imported$"):
+        export.import_bundle(bad, tmp_path / "new.sqlite")
+    assert not (tmp_path / "new.sqlite").exists()
 
 
 def test_not_a_bundle(tmp_path):

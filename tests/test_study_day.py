@@ -1,5 +1,6 @@
-import json
 import dataclasses
+import json
+import re
 from pathlib import Path
 
 import numpy as np
@@ -510,6 +511,53 @@ def test_an_adaptation_the_app_was_stopped_during_is_known_afterwards(tmp_path, 
     adapt_day(path, "P01", 1, method="nn")
     with StudyStore(path) as s:
         assert unfinished_adaptation(s, "P01", 1) is None
+
+
+def test_a_damaged_policy_in_force_stops_the_adaptation_before_it_changes_anything(tmp_path, monkeypatch, policy):
+    """Walkthrough (a policy file changed on disk): 'Close day 2 and adapt' closed day 2, logged an
+    adaptation begun, then failed with the file's sha256 mismatch alone, so the page said the app was
+    probably stopped during it and to adapt again, which failed the same way. The policy in force is
+    read before anything is written: the day stays open and the message says what to do."""
+    import cacas.adaptation
+    from cacas.study_day import adapt_day
+
+    monkeypatch.setattr(cacas.adaptation, "load_initial_policy", lambda *a, **k: policy)
+    path = tmp_path / "s.sqlite"
+    _day_one_with_a_request(path)
+    adapt_day(path, "P01", 1, method="nn")
+    with StudyStore(path) as s:
+        start_day(s, "P01")
+        s.record_interaction("P01", 2, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+        damaged = s.active_policy("P01").path
+        damaged.write_bytes(damaged.read_bytes()[:-10] + b"0123456789")
+        events = len(s.events("P01"))
+    with pytest.raises(CacasError, match=r"^" + re.escape(
+            f"{damaged}: policy version 1 of participant P01 does not match its recorded sha256 (the file was changed "
+            "or damaged); day 2 is adapted from the policy in force: put another version in force (Adaptation page, "
+            "Policy versions), or put the file back from a backup, then adapt again; nothing was changed") + "$"):
+        adapt_day(path, "P01", 2, method="nn")
+    with StudyStore(path) as s:
+        assert day_status(s, "P01").open and len(s.events("P01")) == events
+        s.set_active_policy("P01", None)  # the initial policy in force: the day is adapted from it
+    assert adapt_day(path, "P01", 2, method="nn").policy_version == 2
+
+
+def test_a_saved_policy_that_is_not_a_policy_names_its_file(store):
+    """Walkthrough: a bundle whose policy file was replaced, with policies.csv's sha256 and size made to
+    match, imports; the tablet then said "The robot's policy cannot be loaded (not a CACAS policy file
+    (UnpicklingError))", naming no file or version. The file, version and participant are named."""
+    from cacas.study_day import policy_in_force
+
+    day = start_day(store, "P01")
+    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                             robot_action="pain check", response="accept")
+    store.close_day("P01", day)
+    store.save_policy("P01", day, "cacas", b"not a torch file")
+    path = store.active_policy("P01").path
+    with pytest.raises(CacasError, match=r"^" + re.escape(f"{path}: policy version 1 of participant P01 is not a "
+                                                          "CACAS policy file (UnpicklingError)") + "$"):
+        policy_in_force(store, "P01")
 
 
 def test_a_policy_adapted_after_the_last_day_is_the_final_one_not_one_for_day_8():

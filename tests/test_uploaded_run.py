@@ -277,6 +277,16 @@ def test_a_zip_that_is_not_of_one_run_or_study_is_refused_by_name(data, message)
         uploaded_run.unpacked_uploads([("run.zip", data)])
 
 
+def test_a_runs_zip_cut_short_is_said_so():
+    """Walkthrough: a zip cut short (a download that did not finish) was "not a readable zip file (File is
+    not a zip file)"; it begins as a zip and lacks its end: said so."""
+    data = _zip({"r/daily.csv": b"participant,method\n" * 50, "r/settings.json": b"{}"})
+    with pytest.raises(CacasError, match=r"^run\.zip: is cut short: it begins as a zip, but the zip's end \(the list "
+                                         r"of its files\) is missing, as when a download or a copy did not finish; "
+                                         r"valid: the zip of a run"):
+        uploaded_run.unpacked_uploads([("run.zip", data[: len(data) // 2])])
+
+
 def test_a_zip_member_too_large_is_refused_before_it_is_read(monkeypatch):
     from cacas import export
 

@@ -215,7 +215,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
             if is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
-            raise _refused(exc) from None
+            raise refused(exc) from None
         try:
             result = fn(conn)
             conn.execute("COMMIT")
@@ -225,7 +225,7 @@ def transact(conn: sqlite3.Connection, fn: Callable[[sqlite3.Connection], T],
             if is_busy(exc) and attempt < WRITE_RETRIES:
                 time.sleep(random.uniform(0.005, 0.05) * (attempt + 1))
                 continue
-            raise _refused(exc) from None
+            raise refused(exc) from None
         except BaseException:
             if conn.in_transaction:
                 conn.execute("ROLLBACK")
@@ -241,9 +241,9 @@ class WriteRefused(CacasError):
     busy = False
 
 
-def _refused(exc: sqlite3.Error) -> CacasError:
+def refused(exc: sqlite3.Error) -> CacasError:
     """A write the database refused: still busy after the retries, or a read-only file or
-    folder, a full disk, a damaged file."""
+    folder, a full disk, a damaged file (a :class:`WriteRefused`)."""
     if is_busy(exc):
         refused = WriteRefused(f"the study database is busy ({exc}); try again")
         refused.busy = True

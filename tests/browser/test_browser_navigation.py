@@ -53,3 +53,21 @@ def test_back_leaves_a_page_in_one_press_and_keeps_the_participant(browser, two_
                                ".startsWith(t)", arg=name)
         assert _heading(page).startswith(name) and "participant=P01" in page.url
     page.context.close()
+
+
+def test_a_study_database_that_cannot_be_opened_lists_no_page_files(browser, tmp_path):
+    """Walkthrough (the study data folder on read-only media): the app said "The study database cannot be
+    opened" and stopped before its navigation, so Streamlit listed the pages/ folder's files in the sidebar,
+    "app", "adaptation", ..., "ui" (a helper module, not a page). The message stands alone."""
+    (tmp_path / "a-file").write_text("not a folder")
+    for url in _run_app(tmp_path, CACAS_DB=str(tmp_path / "a-file" / "study.sqlite")):
+        page = open_page(browser, viewport={"width": 1280, "height": 800})
+        try:
+            goto(page, url)
+            page.get_by_text("The study database cannot be opened").wait_for()
+            idle(page)
+            page.screenshot(path=str(tmp_path / "cannot-be-opened.png"))
+            assert page.locator("[data-testid='stSidebarNav']").count() == 0
+            assert page.get_by_role("link", name="ui", exact=True).count() == 0
+        finally:
+            page.context.close()
