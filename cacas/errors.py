@@ -56,6 +56,10 @@ def nearest(value: object, known) -> str:
     canon = lambda text: " ".join(str(text).casefold().split())  # noqa: E731
     names = {canon(k): str(k) for k in known}
     close = difflib.get_close_matches(canon(value), list(names), n=1, cutoff=0.8)
+    if not close:  # a plural for a singular name: 'activities' for the field 'activity' (walkthrough)
+        word = canon(value)
+        singular = word[:-3] + "y" if word.endswith("ies") else word[:-1] if word.endswith("s") else None
+        close = [singular] if singular in names else []
     return f"did you mean {names[close[0]]!r}? " if close else ""
 
 

@@ -284,8 +284,8 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     all or nothing. Refused, with nothing copied: a missing folder, a file beside the name
     folders, a folder that is not a name, a file of another type or one ``kind.check`` refuses,
     and a folder with no file at all, and a file already in the library (the same bytes, under any
-    name) or given twice; the files ``kind.check`` refuses are all said at once, one a line ("- <file>:
-    ..."). A name already in the library gets an ``imported_<k>_`` prefix.
+    name) or given twice; the folders not named as a name, the files of another type and those
+    ``kind.check`` refuses are all said at once, one a line ("- <file>: ..."), in the folder's order. A name already in the library gets an ``imported_<k>_`` prefix.
     A refusal that nothing was copied says "nothing was <done>", and a copy to leave out, to do it
     "<again>" (the app's page adds files with a button of its own), and calls a file ``item``
     (default ``kind.item``: the app's page says "photos" where the scene library says "images").
@@ -298,22 +298,39 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     stray = [p for p in _visible(source) if p.is_file()]
     if stray:
         raise CacasError(f"{stray[0]}: not in {_a(kind.label)} folder; expected {kind.layout}")
-    plan = _entries(source, kind)
-    if not plan:
+    # every folder name, file type and file checked before anything is copied, every bad one said: one at a
+    # time took a try for each (walkthrough: three bad clips, three presses; then a folder named 'coughing',
+    # a notes.txt and an .mp3 beside a short clip, four tries)
+    plan, bad, files_in = [], [], 0  # bad: (path, message, how many of the files it makes unusable)
+    for sub in (p for p in _visible(source) if p.is_dir()):
+        inside = [f for f in _visible(sub) if f.is_file()]
+        files_in += len(inside)
+        try:
+            name = kind.folder_name(sub)
+        except CacasError as exc:
+            bad.append((sub, str(exc), len(inside)))
+            continue
+        for f in inside:
+            try:
+                plan.append((kind.supported(f), name))
+            except CacasError as exc:
+                bad.append((f, str(exc), 1))
+    if not files_in and not bad:
         raise CacasError(f"{source}: no {kind.item}s found; expected {kind.layout}")
-    bad = []
-    for i, (f, _) in enumerate(plan):  # every file checked before anything is copied, every bad one said
+    for i, (f, _) in enumerate(plan):
         try:
             kind.check(f)
         except CacasError as exc:
-            bad.append(str(exc))
+            bad.append((f, str(exc), 1))
         if progress:
             progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
+    bad.sort(key=lambda b: b[0])  # in the folder's order
     if len(bad) == 1:
-        raise CacasError(bad[0])
-    if bad:  # one at a time took a try for each (walkthrough: three bad clips, three presses)
-        raise CacasError(f"{len(bad)} of the {len(plan)} {kind.item}s cannot be used; nothing was {done}:"
-                         + "".join(f"\n- {b}" for b in bad))
+        raise CacasError(bad[0][1])
+    if bad:
+        unusable = sum(n for _, _, n in bad)
+        raise CacasError(f"{unusable} of the {files_in} {kind.item}s cannot be used; nothing was {done}:"
+                         + "".join(f"\n- {b}" for _, b, _ in bad))
     try:
         with adding(root):  # two adds at once take turns: the copy check sees what the other placed
             _refuse_copies(plan, root, kind, done, again)

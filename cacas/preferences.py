@@ -198,8 +198,19 @@ def _hours(value: Any, where: str) -> tuple[tuple[int, int], ...] | None:
             extra = ""
             if ok and pair[0] >= pair[1]:
                 extra = " (a range over midnight is two ranges, e.g. [[22, 24], [0, 2]])"
+            elif ok and 0 <= pair[0] < pair[1] <= 24:  # odd: the slots are 2 hours from midnight (Table I)
+                cover = [pair[0] - pair[0] % 2, pair[1] + pair[1] % 2]
+                extra = (f" (the day is in 2-hour slots from midnight, so a range starts and ends at an even hour: "
+                         f"{json.dumps(cover)}, {cover[0]:02d}:00-{cover[1]:02d}:00, holds {pair[0]:02d}:00-{pair[1]:02d}:00)")
             elif isinstance(pair, list) and any(isinstance(h, float) for h in pair):
                 extra = " (hours are whole numbers, written without a decimal point: 6, not 6.0)"
+            elif isinstance(pair, list) and any(isinstance(h, str) for h in pair):  # "7am", "06:00" (walkthrough)
+                extra = " (hours are numbers of the 24-hour clock, not text: 6 for 06:00, 18 for 6 pm)"
+            elif not isinstance(pair, list) and len(value) == 2 and all(
+                    isinstance(h, (int, float)) and not isinstance(h, bool) for h in value):
+                # [6, 10] for [[6, 10]]: "6 is invalid" named a number the researcher never meant as a range
+                pair = value
+                extra = f" (one range is a list of one pair: [{json.dumps(value)}], not {json.dumps(value)})"
             raise CacasError(f"{where}: {json.dumps(pair)} is invalid{extra}; valid: {hint}")
         out.append((pair[0], pair[1]))
     return tuple(out)

@@ -52,9 +52,16 @@ def evaluated_on(metrics: "Metrics", what: str) -> str:
     """What an evaluation's accuracy is on, for ``cacas sound/scene eval`` and the app's "Evaluate
     the saved ... model" alike: "on 10 held-out clips (56 of the model's 66 held-out ones are
     not in the library)", or "on all 33 clips (training ones included)" when the model's
-    held-out ones were not found (``metrics.extra["set"]``). The page said "held-out" of both."""
+    held-out ones were not found (``metrics.extra["set"]``), or "on all 33 clips of another library: the model
+    was trained on /lab/sounds, where its 2 held-out clips are"
+    (:func:`cacas.recognition_training.evaluation_set`). The page said "held-out" of both."""
     if metrics.extra.get("set", "held-out") != "held-out":
-        return f"on all {metrics.n} {what} (training ones included)"
+        trained, absent = metrics.extra.get("trained_on"), metrics.extra.get("held_out_absent")
+        if trained:  # another library than the model's: its clips may be none of the training ones
+            held = f", where its {absent} held-out {what} are" if absent else ""
+            return f"on all {metrics.n} {what} of another library: the model was trained on {trained}{held}"
+        return f"on all {metrics.n} {what} (training ones included" + (
+            f"; none of the model's {absent} held-out ones is in the library)" if absent else ")")
     missing = int(metrics.extra.get("held_out_missing") or 0)
     return f"on {metrics.n} held-out {what}" + (
         f" ({missing} of the model's {metrics.n + missing} held-out ones are not in the library)" if missing else "")

@@ -29,11 +29,40 @@ def tell(progress: Progress, fraction: float, message: str) -> None:
 
 
 def relative_path(path: Path, root: Path) -> str:
-    """``path`` relative to ``root`` where it lies below it, else as given."""
+    """``path`` relative to ``root`` where it lies below it, else whole (resolved: a model's training
+    folder given as ``--data ../lab/sounds`` was recorded so, which named nothing from another folder)."""
     try:
         return str(Path(path).resolve().relative_to(Path(root).resolve()))
     except ValueError:
-        return str(path)
+        return str(Path(path).resolve())
+
+
+def evaluation_set(metadata: dict, root: Path, found: int, held_out: bool) -> dict:
+    """What an evaluation of a model (its ``metadata``) on the library at ``root`` was on, for
+    ``Metrics.extra`` and :func:`cacas.recognition.evaluated_on`: ``set`` ("held-out" when ``found``
+    of the model's held-out items are under ``root``, else "all"), ``held_out_missing``, and for an
+    evaluation on every item, the folder the model was trained on when it is not ``root``
+    (``trained_on``) and, when held-out items were asked for, how many the model has
+    (``held_out_absent``): walkthrough, `cacas sound eval --model` of a model trained on the lab's
+    own folder evaluated the shipped library and said "training ones included" of clips it never
+    saw."""
+    wanted = len(metadata.get("test_recordings") or ())
+    if held_out and found:
+        return {"set": "held-out", "held_out_missing": wanted - found}
+    out: dict = {"set": "all"}
+    recorded = (metadata.get("training_data") or {}).get("root")
+    if recorded:
+        from cacas.paths import study_data_dir
+
+        # below the study data folder: relative to it; else absolute (a model saved before that: as given,
+        # relative to the folder it was trained from, which is only known to be another)
+        trained = Path(recorded) if Path(recorded).is_absolute() or Path(recorded).parts[:1] == ("..",) \
+            else study_data_dir() / recorded
+        if trained.resolve() != Path(root).resolve():
+            out["trained_on"] = str(trained) if trained.parts[:1] == ("..",) else str(trained.resolve())
+    if held_out and wanted:
+        out["held_out_absent"] = wanted
+    return out
 
 
 def check_splittable(labels: np.ndarray, classes: Sequence[str], root: Path, what: str, item: str) -> None:

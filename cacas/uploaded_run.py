@@ -226,8 +226,11 @@ def _checked_against_checksums(uploaded: Sequence[tuple[str, bytes]], store_file
     for name, data in rest:
         digest = store_files.sha256(data)
         if listed.get(name, digest) != digest:
-            raise CacasError(f"{name}: does not match its sha256 in {what}: {STOPPED_PART_WAY}; write the tables "
-                             "again (cacas export, or cacas simulate --out) and upload them")
+            # most often a table picked from another run's folder (walk3: the message spoke of killed runs only)
+            raise CacasError(f"{name}: does not match its sha256 in {what}, so it is not the {name} written with it: "
+                             f"one from another folder (upload the tables of one folder with that folder's {what}), "
+                             f"or {STOPPED_PART_WAY}; then write the tables again (cacas export, or cacas simulate "
+                             "--out) and upload them")
         if name not in listed and digest not in listed.values() and not _is_summary(data):
             raise CacasError(f"{name}: is not one of the files {what} lists ({', '.join(sorted(listed))}); upload the "
                              "tables and the checksums file of one folder")

@@ -279,3 +279,25 @@ def test_clip_seconds_reads_each_file_version_once_and_a_replaced_clip_afresh(tm
     assert library.clip_seconds(path) == 0.0 and library.clip_windows(path) == 0
     (tmp_path / "bad.wav").write_bytes(b"not a wav")
     assert library.clip_seconds(tmp_path / "bad.wav") == 0.0
+
+
+def test_import_says_every_bad_folder_file_type_and_clip_at_once(tmp_path):
+    """A newcomer's folder (walkthrough): a folder named 'coughing', notes and an .mp3 beside the clips, a
+    0.3-s clip. The folder name and each file type stopped the import one at a time (four tries); now one
+    refusal lists them all, and nothing is copied."""
+    src = _researcher_folder(tmp_path)
+    (src / "cough").rename(src / "coughing")
+    (src / "Watch TV" / "notes.txt").write_text("recorded on Tuesday")
+    (src / "Watch TV" / "tv2.mp3").write_bytes(b"ID3")
+    sf.write(src / "Watch TV" / "short.wav", np.full(int(0.3 * 16000), 0.2, np.float32), 16000)
+    lib = tmp_path / "lib"
+    with pytest.raises(CacasError) as err:
+        library.import_folder(src, root=lib)
+    lines = str(err.value).splitlines()
+    assert lines[0] == "4 of the 5 clips cannot be used; nothing was imported:"
+    assert [line.split(": ")[0] for line in lines[1:]] == [
+        f"- {src / 'Watch TV' / 'notes.txt'}", f"- {src / 'Watch TV' / 'short.wav'}",
+        f"- {src / 'Watch TV' / 'tv2.mp3'}", f"- {src / 'coughing'}"]
+    assert lines[3].endswith("unsupported file type '.mp3'; valid: .wav, .flac, .ogg")
+    assert "folder name 'coughing' is not an activity; valid: cough, " in lines[4]
+    assert not lib.exists()

@@ -1,6 +1,7 @@
 """The sound CNN (Section IV-A): shape, grouped 9:1 split, training metrics, save/load, recognition."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -216,3 +217,28 @@ def test_training_restores_the_callers_thread_count(tmp_path):
     before = torch.get_num_threads()
     train_sound_model(tmp_path, epochs=1, threads=2 if before != 2 else 1)
     assert torch.get_num_threads() == before
+
+
+def test_an_evaluation_on_another_library_names_the_one_the_model_was_trained_on(tiny, tmp_path, monkeypatch):
+    """walk3: `cacas sound eval --model lab.pt` (no --data) of a model trained on the lab's own folder
+    tested the shipped library and said "on all 792 clips (training ones included)": none of them was a
+    training clip, and its held-out clips were elsewhere. The model's folder is recorded whole (it was as
+    given, "../lab/sounds", which names nothing from another folder), and the evaluation says it."""
+    from cacas.recognition import evaluated_on
+
+    root, result, _ = tiny
+    monkeypatch.chdir(root.parent)
+    again = train_sound_model(Path(root.name), epochs=1, patience=1, seed=0, augment_copies=1)  # --data sounds0
+    assert again.recognizer.metadata["training_data"]["root"] == str(root.resolve())
+    other = tmp_path / "other"
+    library.generate_library(1, seconds=1.0, root=other, activities=TINY, seed=5)
+    held = len(result.recognizer.metadata["test_recordings"])
+    m = evaluate_sound_model(result.recognizer, other)
+    assert m.n == len(TINY) and m.extra["set"] == "all"
+    assert evaluated_on(m, "clips") == (f"on all {len(TINY)} clips of another library: the model was trained on "
+                                        f"{root.resolve()}, where its {held} held-out clips are")
+    m = evaluate_sound_model(result.recognizer, other, held_out=False)  # --all
+    assert evaluated_on(m, "clips") == f"on all {len(TINY)} clips of another library: the model was trained on " \
+                                       f"{root.resolve()}"
+    m = evaluate_sound_model(result.recognizer, root, held_out=False)  # --all on its own library
+    assert evaluated_on(m, "clips") == f"on all {m.n} clips (training ones included)"

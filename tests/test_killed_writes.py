@@ -120,8 +120,8 @@ def test_an_export_killed_at_each_rename_is_found_by_import_upload_and_the_next_
     shown = ["daily.csv", "interactions.csv", "by_preference.csv"]
     uploaded = [(name, (out / name).read_bytes()) for name in [*shown, files.CHECKSUMS]]
     if not one_run([*shown, files.CHECKSUMS]):
-        with pytest.raises(CacasError, match=r"does not match its sha256 in checksums\.sha256: the run that wrote "
-                                             r"that folder was stopped part-way"):
+        with pytest.raises(CacasError, match=r"does not match its sha256 in checksums\.sha256, so it is not the .*"
+                                             r"or the run that wrote that folder was stopped part-way"):
             uploaded_run.load_uploaded_tables(uploaded)
     else:
         assert "daily" in uploaded_run.load_uploaded_tables(uploaded)
@@ -183,9 +183,11 @@ def test_a_simulation_killed_between_its_renames_is_found_by_the_upload_and_the_
     with pytest.raises(CacasError) as err:
         uploaded_run.load_uploaded_tables(uploaded)
     assert str(err.value) == (
-        "interactions.csv: does not match its sha256 in checksums.sha256: the run that wrote that folder was stopped "
-        "part-way (killed, or a power cut) and left files of two runs side by side, or the file was changed since; "
-        "write the tables again (cacas export, or cacas simulate --out) and upload them")
+        "interactions.csv: does not match its sha256 in checksums.sha256, so it is not the interactions.csv written "
+        "with it: one from another folder (upload the tables of one folder with that folder's checksums.sha256), or "
+        "the run that wrote that folder was stopped part-way (killed, or a power cut) and left files of two runs side "
+        "by side, or the file was changed since; then write the tables again (cacas export, or cacas simulate --out) "
+        "and upload them")
     capsys.readouterr()
     assert main([str(a) for a in args + ["--seed", "2"]]) == 0
     assert capsys.readouterr().err == (

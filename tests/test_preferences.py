@@ -61,6 +61,13 @@ def test_preferred_action_table():
     ({"action": "remind to turn of"}, "action", "; did you mean 'remind to turn off'? valid: do nothing"),
     ({"secne": ["kitchen"]}, "secne", "unknown field; did you mean 'scene'? valid fields: description"),
     ({"hours": [[6.0, 10]]}, "hours", "hours are whole numbers, written without a decimal point: 6, not 6.0"),
+    # a newcomer's persona file (walkthrough): a plural field, one range written bare, odd hours, "7am"
+    ({"activities": ["cough"]}, "activities", "unknown field; did you mean 'activity'? valid fields: description"),
+    ({"hours": [6, 10]}, "hours", "[6, 10] is invalid (one range is a list of one pair: [[6, 10]], not [6, 10])"),
+    ({"hours": [[7, 9]]}, "hours", "[7, 9] is invalid (the day is in 2-hour slots from midnight, so a range "
+                                   "starts and ends at an even hour: [6, 10], 06:00-10:00, holds 07:00-09:00)"),
+    ({"hours": [["7am", "9am"]]}, "hours", "(hours are numbers of the 24-hour clock, not text: 6 for 06:00, "
+                                           "18 for 6 pm); valid: a list of [start, end) pairs"),
     ({"hours": []}, "hours", "must be a list of [start, end) pairs in whole even hours 0-24 with start < end"),
     ({"description": 7}, "description", "must be text (the participant's own words)"),
     ({"action": ["remind to turn off"]}, "action", "must be one action name; valid: do nothing, "),

@@ -237,6 +237,13 @@ def test_what_an_evaluation_is_on_is_said_as_it_was_made():
                                              "in the library)")
     m.extra = {"set": "all"}
     assert evaluated_on(m, "images") == "on all 2 images (training ones included)"
+    # the model's library, its held-out ones gone; another library (walk3)
+    m.extra = {"set": "all", "held_out_absent": 4}
+    assert evaluated_on(m, "images") == ("on all 2 images (training ones included; none of the model's 4 held-out "
+                                         "ones is in the library)")
+    m.extra = {"set": "all", "held_out_absent": 4, "trained_on": "/lab/scenes"}
+    assert evaluated_on(m, "images") == ("on all 2 images of another library: the model was trained on /lab/scenes, "
+                                         "where its 4 held-out images are")
 
 
 def test_a_save_writes_nothing_before_it_holds_the_model_s_lock(sound_file, monkeypatch):

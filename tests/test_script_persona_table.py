@@ -30,3 +30,14 @@ def test_a_bad_persona_file_is_one_line_and_exit_2(script, tmp_path, capsys):
     assert script.main([str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("persona_table: ") and "p.json" in err[0] and "P01" in err[0]
+
+
+def test_the_means_have_two_decimals_at_most(script, tmp_path, capsys):
+    """walk3: three participants with 3, 2 and 2 preferences read '| mean | 2.33333 | ...'."""
+    cough = {"activity": ["cough"], "action": "pain check"}
+    people = [{"id": f"A0{i}", "preferences": [cough, {"activity": ["snore"], "action": "do nothing"}]
+               + ([{"activity": ["use stove"], "action": "remind to turn off"}] if i == 1 else [])} for i in (1, 2, 3)]
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"participants": people}))
+    assert script.main([str(path)]) == 0
+    assert capsys.readouterr().out.splitlines()[-1].startswith("| mean | 2.33 | ")

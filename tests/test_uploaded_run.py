@@ -249,7 +249,7 @@ def test_the_zip_of_a_simulated_run_uploads_checked_by_its_checksums(tmp_path):
         ("daily.csv", b"x")
     changed = _zip({"run1/daily.csv": records.csv_bytes(_run(methods=("cacas", "orl"))["daily.csv"]),
                     "run1/checksums.sha256": (folder / "checksums.sha256").read_bytes()})
-    with pytest.raises(CacasError, match=r"^daily\.csv: does not match its sha256 in checksums\.sha256: the run"):
+    with pytest.raises(CacasError, match=r"^daily\.csv: does not match its sha256 in checksums\.sha256, so it is not"):
         uploaded_run.load_uploaded_tables(uploaded_run.unpacked_uploads([("run1.zip", changed)]))
 
 
@@ -436,3 +436,20 @@ def test_bad_uploads_name_the_file(files, message):
     files = [(name, made[data] if isinstance(data, str) else data) for name, data in files]
     with pytest.raises(CacasError, match=message):
         uploaded_run.load_uploaded_tables(files)
+
+
+def test_a_table_from_another_runs_folder_is_said_to_be_one():
+    """walk3: a daily.csv and checksums.sha256 of one run uploaded with another run's interactions.csv were
+    refused as if a run had been killed ('the run that wrote that folder was stopped part-way ...; write the
+    tables again'): picking a file from the wrong folder, the likelier cause, went unsaid."""
+    from cacas.store import files
+
+    one, other = _run(), _run(loop="each")  # another run: every method acted
+    sums = "".join(f"{files.sha256(records.csv_bytes(df))}  {name}\n" for name, df in one.items())
+    with pytest.raises(CacasError) as err:
+        uploaded_run.load_uploaded_tables([("daily.csv", records.csv_bytes(one["daily.csv"])),
+                                           ("interactions.csv", records.csv_bytes(other["interactions.csv"])),
+                                           ("checksums.sha256", sums.encode())])
+    assert str(err.value).startswith(
+        "interactions.csv: does not match its sha256 in checksums.sha256, so it is not the interactions.csv written "
+        "with it: one from another folder (upload the tables of one folder with that folder's checksums.sha256), or ")

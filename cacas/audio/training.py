@@ -37,8 +37,8 @@ from cacas.audio.model import SoundCNN, SoundRecognizer
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, trains_alone
-from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, relative_path, split_table, \
-    tell, training_split
+from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, evaluation_set, relative_path, \
+    split_table, tell, training_split
 
 @dataclass
 class TrainingResult:
@@ -254,19 +254,17 @@ def evaluate_sound_model(recognizer: SoundRecognizer, root: Path | str | None = 
     """
     root = Path(root) if root is not None else sounds_dir()
     clips = scan(root)
-    which = "all"
+    chosen = []
     if held_out and recognizer.metadata.get("test_recordings"):
         wanted = set(recognizer.metadata["test_recordings"])
         chosen = [c for c in clips if relative_path(c.path, root) in wanted]
-        if chosen:
-            clips, which = chosen, "held-out"
-            missing = len(wanted) - len(chosen)  # said beside the accuracy: it is on the ones found only
+    which = evaluation_set(recognizer.metadata, root, len(chosen), held_out)  # said beside the accuracy
+    if chosen:
+        clips = chosen
     if not clips:
         raise CacasError(f"{root}: no clips to evaluate")
     signals = load_recordings(clips, progress, (0.0, 0.9))
     metrics = evaluate_signals(recognizer, signals, [c.activity for c in clips])
-    metrics.extra["set"] = which
-    if which == "held-out":
-        metrics.extra["held_out_missing"] = missing
+    metrics.extra.update(which)
     tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(clips)} clips")
     return metrics

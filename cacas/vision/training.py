@@ -24,8 +24,8 @@ from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, trains_alone
-from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, relative_path, split_table, \
-    tell, training_split
+from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, evaluation_set, relative_path, \
+    split_table, tell, training_split
 from cacas.vision.library import load_image, scan, scenes_dir
 from cacas.vision.model import IMAGE_SIZE, SceneRecognizer, build_resnet18, preprocess
 
@@ -160,13 +160,13 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
     """Test on images under ``root``: the model's held-out test images when ``held_out`` and listed."""
     root = Path(root) if root is not None else scenes_dir()
     photos = scan(root)
-    which = "all"
+    chosen = []
     if held_out and recognizer.metadata.get("test_recordings"):
         wanted = set(recognizer.metadata["test_recordings"])
         chosen = [p for p in photos if str(p.path.resolve().relative_to(root.resolve())) in wanted]
-        if chosen:
-            photos, which = chosen, "held-out"
-            missing = len(wanted) - len(chosen)  # said beside the accuracy: it is on the ones found only
+    which = evaluation_set(recognizer.metadata, root, len(chosen), held_out)  # said beside the accuracy
+    if chosen:
+        photos = chosen
     if not photos:
         raise CacasError(f"{root}: no images to evaluate")
     images = []
@@ -174,8 +174,6 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
         images.append(load_image(p.path))
         tell(progress, 0.9 * (i + 1) / len(photos), f"loading {p.path.name}")
     metrics = evaluate_images(recognizer, images, [p.scene for p in photos])
-    metrics.extra["set"] = which
-    if which == "held-out":
-        metrics.extra["held_out_missing"] = missing
+    metrics.extra.update(which)
     tell(progress, 1.0, f"accuracy {metrics.accuracy:.3f} on {len(photos)} images")
     return metrics
