@@ -45,14 +45,12 @@ def did_you_mean(value: object, known) -> str:
     return f"did you mean {twin!r}? " if twin is not None else ""
 
 
-def nearest(value: object, known) -> str:
-    """``"did you mean 'use scissor'? "`` when one name of ``known`` is close to ``value`` (letter
-    case and repeated blanks ignored; difflib's ratio of at least 0.8: a letter added, dropped or
-    changed, a missing space), else ``""``: the hint of an unknown-name message, before its list of
-    valid names (walkthrough: "unknown activity 'use scissors'" was followed by 33 names to search
-    for the one meant). Only a hint: the name is still refused, never replaced."""
+def closest_name(value: object, known) -> str | None:
+    """The one name of ``known`` close to ``value`` (letter case and repeated blanks ignored; difflib's ratio of
+    at least 0.8: a letter added, dropped or changed, a missing space; else a plural for a singular name, or what
+    someone is doing for the name of it, 'coughing' for 'cough'), or None: the hint of :func:`nearest`."""
     if not isinstance(value, str):
-        return ""
+        return None
     canon = lambda text: " ".join(str(text).casefold().split())  # noqa: E731
     names = {canon(k): str(k) for k in known}
     close = difflib.get_close_matches(canon(value), list(names), n=1, cutoff=0.8)
@@ -60,7 +58,29 @@ def nearest(value: object, known) -> str:
         word = canon(value)
         singular = word[:-3] + "y" if word.endswith("ies") else word[:-1] if word.endswith("s") else None
         close = [singular] if singular in names else []
-    return f"did you mean {names[close[0]]!r}? " if close else ""
+    if not close:  # what someone is doing for the name of it: 'coughing', 'snoring', 'cutting food' (walkthrough)
+        close = [name for name in _verb_forms(canon(value)) if name in names][:1]
+    return names[close[0]] if close else None
+
+
+def nearest(value: object, known) -> str:
+    """``"did you mean 'use scissor'? "`` when one name of ``known`` is close to ``value``
+    (:func:`closest_name`), else ``""``: the hint of an unknown-name message, before its list of
+    valid names (walkthrough: "unknown activity 'use scissors'" was followed by 33 names to search
+    for the one meant). Only a hint: the name is still refused, never replaced."""
+    close = closest_name(value, known)
+    return f"did you mean {close!r}? " if close is not None else ""
+
+
+def _verb_forms(text: str) -> list[str]:
+    """``text`` with its first word's "-ing" taken off in each way English spells it: 'coughing' -> 'cough',
+    'snoring' -> 'snore', 'cutting food' -> 'cut food' (and forms no name has, which find nothing)."""
+    first, _, rest = text.partition(" ")
+    if not first.endswith("ing") or len(first) < 5:
+        return []
+    stem = first[:-3]
+    stems = [stem, stem + "e"] + ([stem[:-1]] if len(stem) > 2 and stem[-1] == stem[-2] else [])
+    return [" ".join(filter(None, (s, rest))) for s in stems]
 
 
 def shortened(text: str, limit: int) -> str:

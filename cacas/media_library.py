@@ -24,7 +24,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
-from cacas.errors import CacasError
+from cacas.errors import CacasError, closest_name
 
 Progress = Callable[[float, str], None] | None
 
@@ -104,7 +104,10 @@ class MediaKind:
             return self.name_of_folder(sub.name)
         except CacasError:
             valid = ", ".join(slug(n) for n in self.names)
-            raise CacasError(f"{sub}: folder name {sub.name!r} is not {_a(self.label)}; valid: {valid}") from None
+            # the hint as a folder is named ('coughing' -> 'cough', 'cutting_food' -> 'cut_food'; walkthrough)
+            close = closest_name(sub.name.replace("_", " "), [slug(n).replace("_", " ") for n in self.names])
+            near = "" if close is None else f"did you mean {close.replace(' ', '_')!r}? "
+            raise CacasError(f"{sub}: folder name {sub.name!r} is not {_a(self.label)}; {near}valid: {valid}") from None
 
     def supported(self, path: Path) -> Path:
         """``path`` if its type is one the kind reads; else CacasError naming it and what is valid."""

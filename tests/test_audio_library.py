@@ -229,6 +229,10 @@ def test_scan_refuses_what_it_cannot_read_and_leaves_notes_beside_the_folders(tm
     (tmp_path / "make_coffee").mkdir()
     with pytest.raises(CacasError, match=r"folder name 'make_coffee' is not an activity; valid: .*watch_tv"):
         library.scan(tmp_path)
+    (tmp_path / "make_coffee").rmdir()
+    (tmp_path / "cutting_food").mkdir()  # what someone is doing, for a two-word activity: named as a folder is
+    with pytest.raises(CacasError, match=r"folder name 'cutting_food' is not an activity; did you mean 'cut_food'\? "):
+        library.scan(tmp_path)
     with pytest.raises(CacasError, match=r"absent: no such sound folder; expected <folder>/<activity>/<clip>"):
         library.scan(tmp_path / "absent")
 
@@ -299,5 +303,6 @@ def test_import_says_every_bad_folder_file_type_and_clip_at_once(tmp_path):
         f"- {src / 'Watch TV' / 'notes.txt'}", f"- {src / 'Watch TV' / 'short.wav'}",
         f"- {src / 'Watch TV' / 'tv2.mp3'}", f"- {src / 'coughing'}"]
     assert lines[3].endswith("unsupported file type '.mp3'; valid: .wav, .flac, .ogg")
-    assert "folder name 'coughing' is not an activity; valid: cough, " in lines[4]
+    # the activity meant, as its folder is named (walkthrough: no hint, difflib's ratio 0.77)
+    assert "folder name 'coughing' is not an activity; did you mean 'cough'? valid: cough, " in lines[4]
     assert not lib.exists()
