@@ -476,6 +476,24 @@ def test_fig3s_hollow_points_are_said_under_it(app, db):
             "interactions (its label gives the fewest)") in texts(at)
 
 
+def test_fig3_by_methods_hollow_points_are_said_under_it(app, db):
+    """walk2: Fig. 3 by method (--loop each) now marks a day resting on few answers hollow, as Fig. 3 does;
+    the caption under it says what a hollow point is (its hover gives the fewest)."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    daily = pd.DataFrame([{"participant": "P01", "method": m, "day": d, "success_rate": 0.5, "preference_accuracy": 0.5,
+                           "cumulative_feedback": 5 * d, "interactions": 2 if (m, d) == ("nn", 2) else 15}
+                          for m in ("cacas", "nn") for d in (1, 2)])
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+                        {"loop": "each", "methods": ["cacas", "nn"]})
+    at = app(PAGE)
+    no_exception(at)
+    assert ("A hollow point is a day where a participant's success rate rests on fewer than 5 recorded "
+            "interactions (its hover gives the fewest)") in texts(at)
+
+
 def test_a_runs_table_and_figures_list_the_methods_in_the_papers_order(app, db):
     """A run of nn, orl and cacas, each in its own closed loop (daily.csv in the order chosen): the lab's table and
     Fig. 3 listed NN, ORL, CACAS beside Fig. 4's CACAS, ORL, NN (walkthrough); every one now in the paper's order."""

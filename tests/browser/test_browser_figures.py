@@ -167,3 +167,21 @@ def test_the_preference_heatmaps_colorbar_title_touches_no_tick_label(browser, w
     overlapping = [t for t in bar["ticks"]
                    if t[0] < title[2] and title[0] < t[2] and t[1] < title[3] and title[1] < t[3]]
     assert overlapping == [], (title, bar["ticks"])
+
+
+#: per figure: each legend entry's text and its marker's fill as drawn ("none": hollow)
+SWATCH_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => Object.fromEntries(
+  [...c.querySelectorAll('.legend .traces')].map(e => { const p = e.querySelector('.legendpoints path');
+    return [e.textContent.trim(), p ? getComputedStyle(p).fill : null]; })))"""
+
+
+def test_a_legends_marker_is_filled_when_day_1_rests_on_few_answers(browser):
+    """walk2: plotly.js draws a legend entry's marker as the trace's first point: day 1 resting on few answers
+    (a hollow point) made Fig. 3's "success rate (mean)" swatch hollow. Fig. 3, and Fig. 3 by method (whose
+    points are hollow on such days too), show the filled marker."""
+    daily = _daily(False, False, ("cacas", "nn")).assign(
+        interactions=lambda d: d["day"].map({1: 2, 2: 15, 3: 15}), success_rate=0.5)
+    fig3, by_method = _boxes(browser, [plots.success_figure(daily), plots.success_methods_figure(daily)], 800,
+                             js=SWATCH_JS)
+    assert fig3["success rate (mean)"].startswith("rgb"), fig3  # before: "none"
+    assert all(fill.startswith("rgb") for fill in by_method.values()) and set(by_method) == {"CACAS", "NN"}, by_method
