@@ -106,6 +106,53 @@ def few_interactions_note(daily: pd.DataFrame, method: str | None = None) -> str
             f"recorded interactions ({where}): one answer more or less moves it a lot.")
 
 
+#: What Fig. 3's success rate counts, as the captions under it say (Results, ``cacas simulate --plot``'s pages).
+SUCCESS_WORDS = ("A success is a robot-initiated action the participant accepted, of the recorded interactions "
+                 "(proposals answered, and requests, which are not successes); as in the paper, a proposal left "
+                 "unanswered, the robot quiet with nothing asked, or a request while doing nothing (no sound "
+                 "activity), is not recorded.")
+
+#: What Fig. 3's dashed line is (daily.csv's success_ceiling), for its caption.
+CEILING_WORDS = ("The dashed line (daily.csv's success_ceiling) is the share of the interactions where a described "
+                 "preference names an action: the success rate proposing the described preferences reaches there. "
+                 "It is not a bound: where no preference names an action (or the participant wants the robot to do "
+                 "nothing) a participant may still accept what the robot offers.")
+
+
+def success_caption(daily: pd.DataFrame, method: str = "cacas") -> str:
+    """The caption under Fig. 3 (:func:`success_figure`), one text for the Results page and ``cacas simulate
+    --plot``'s page: the band, what a success is, the dashed line where the figure has one, and the hollow
+    points where it has some (:func:`few_interactions_note`)."""
+    ceiling = success_by_day(daily, method)["ceiling"].notna().any()
+    return " ".join(filter(None, [
+        "Mean over participants; the band spans the minimum and maximum participant (Fig. 3).", SUCCESS_WORDS,
+        CEILING_WORDS if ceiling else "", few_interactions_note(daily, method)]))
+
+
+def success_methods_caption(daily: pd.DataFrame) -> str:
+    """The caption under Fig. 3 by method (:func:`success_methods_figure`): over whom, what the hover gives, what a
+    success is, and the hollow points where it has some."""
+    return " ".join(filter(None, [
+        "Mean success rate over participants, per method and day (Fig. 3 for each method); the hover gives how many "
+        "participants and recorded interactions a day's mean rests on, and its minimum and maximum participant.",
+        SUCCESS_WORDS, few_interactions_note(daily)]))
+
+
+#: The caption under Fig. 4 (:func:`methods_figure`); the Results page adds who is left out, and what is not
+#: compared yet.
+METHODS_CAPTION = ("Mean preference accuracy over participants, per method and day (Fig. 4): each day's policies, "
+                   "those in force that day.")
+
+def preferences_caption(day: int | None = None) -> str:
+    """The caption of Fig. 4 by described preference: under the app's two views (:func:`preference_methods_figure`
+    on a day chosen, :func:`preference_days_figure`), or, given ``day``, under the methods on that day alone
+    (``cacas simulate --plot``'s page of the last day)."""
+    what = "Fig. 4's accuracy on each described preference's own test states: which preferences each method learnt"
+    if day is None:
+        return what + ", and when. A row that stays pale is a preference the method never learnt."
+    return what + f" by day {day}. A pale cell is a preference the method had not learnt by then."
+
+
 def success_change(daily: pd.DataFrame, method: str, first: int, last: int) -> tuple[float, int]:
     """The mean change in success rate from day ``first`` to day ``last``, paired: over the
     participants who have both days (one who has not reached ``last`` yet does not move it), and
@@ -434,7 +481,7 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
             # hollow: a rate on few answers; opaque and without an outline as before (sizes given day by day
             # make plotly.js draw them as a bubble chart's, at 0.7 opacity with a white outline)
             marker=dict(**few_markers(s["fewest"] < FEW_INTERACTIONS, size, max(size, 9)), opacity=1,
-                        line=dict(width=0)),
+                        line=dict(width=0)), cliponaxis=False,  # a point at 0 % whole, as Fig. 3's (hollow: a ring)
             # the feedback as the page's metric and the lab's table say it ("19.5 data points"; ":.0f" said 20);
             # over whom, on how many answers each, as Fig. 3's hover says it
             customdata=[[lo, hi, data_points(n), ", ".join(filter(None, [_participants(who, on),

@@ -497,3 +497,22 @@ def test_the_legend_shows_a_lines_filled_marker_when_day_1_is_hollow():
         assert shown[0].marker.symbol == "circle" and list(shown[0].y) == [None]
         assert shown[0].legendgroup == line[0].legendgroup == name and shown[0].line.color == line[0].line.color
     assert [t.showlegend for t in success_figure(daily()).data if t.name == "success rate (mean)"] == [None]
+
+
+def test_the_captions_say_the_dashed_line_and_the_hollow_points_where_the_figure_has_them():
+    """One text under Fig. 3 for the Results page and ``cacas simulate --plot``'s page (walk2: the CLI's pages had
+    none): the band and what a success is always; the dashed line with daily.csv's success ceiling; the hollow
+    points where a day rests on few answers."""
+    from cacas.plots import CEILING_WORDS, SUCCESS_WORDS, few_interactions_note, success_caption, success_methods_caption
+
+    d = daily()
+    plain = success_caption(d)
+    assert plain.startswith("Mean over participants; the band spans") and SUCCESS_WORDS in plain
+    assert CEILING_WORDS not in plain and "hollow" not in plain
+    d["success_ceiling"] = 0.8
+    d.loc[d["day"] == 2, "interactions"] = 3
+    said = success_caption(d)
+    assert CEILING_WORDS in said and said.endswith(few_interactions_note(d, "cacas"))
+    each = d.assign(success_rate=0.5)
+    assert success_methods_caption(each).endswith(few_interactions_note(each)) and "its hover gives" in \
+        success_methods_caption(each)
