@@ -21,6 +21,13 @@ METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b"
                   "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
+def method_names(methods) -> str:
+    """``methods`` (their codes, as ``--methods`` takes them) as the figures name them, in the order given:
+    "CACAS, CACAS w/o PR, NN". A run's caption said "methods cacas, cacas-no-pr" beside figures saying
+    "CACAS w/o PR" (walk2); the codes stay where a researcher types them."""
+    return ", ".join(METHOD_LABELS.get(m, m) for m in methods)
+
+
 def in_method_order(methods) -> list[str]:
     """The methods given, each once, in one order on every page and figure: the paper's (CACAS,
     w/o PR, ORL, NN; :data:`cacas.records.METHOD_ORDER`), then ours, then any other as given.

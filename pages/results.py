@@ -87,7 +87,7 @@ elif source.startswith("Simulated run: "):
     tables, daily = run.tables, run.daily
     st.caption(f"Simulated run **{name}** (Simulation lab): "
                f"{app_support.counted(daily['participant'].nunique(), 'simulated participant')}, "
-               f"methods {', '.join(daily['method'].unique())}"
+               f"methods {plots.method_names(plots.in_method_order(daily['method']))}"  # as the figures name them
                + (", each in its own closed loop." if run.settings.get("loop") == "each" else "."))
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "

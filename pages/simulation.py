@@ -144,7 +144,7 @@ if go:
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source, details=choices,
                                   places=[place[c] for c in chosen],
                                   label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
-                                        f"{', '.join(methods)} · seed {int(seed)}")
+                                        f"{plots.method_names(methods)} · seed {int(seed)}")
         if not started:
             st.warning("A simulation is already running.")
         else:  # said once the page is drawn again (a toast before st.rerun is not shown)

@@ -40,7 +40,8 @@ def figure_files(figures: dict, captions: dict | None = None) -> dict[str, bytes
     and the figures then load it; written with these files, it is replaced by this plotly's."""
     from plotly.offline import get_plotlyjs
 
-    return {**{name: _whole_window(fig.to_html(include_plotlyjs="directory"), (captions or {}).get(name)).encode("utf-8")
+    captions = captions or {}
+    return {**{name: _whole_window(fig.to_html(include_plotlyjs="directory"), captions.get(name)).encode("utf-8")
                for name, fig in figures.items()},
             PLOTLY_JS: get_plotlyjs().encode("utf-8")}
 

@@ -248,7 +248,7 @@ def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
     no_exception(at)
     titles = [c.proto.spec for c in at.get("plotly_chart")]
     assert any("Success rate by method, each in its own closed loop" in t for t in titles)
-    assert "methods cacas, nn, each in its own closed loop." in texts(at)
+    assert "methods CACAS, NN, each in its own closed loop." in texts(at)
     assert at.selectbox(key="results-fig3-method").value == "cacas"
     assert at.metric[0].value == "60%"
     at.selectbox(key="results-fig3-method").set_value("nn").run()
