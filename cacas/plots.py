@@ -150,6 +150,7 @@ def success_methods_caption(daily: pd.DataFrame) -> str:
 METHODS_CAPTION = ("Mean preference accuracy over participants, per method and day (Fig. 4): each day's policies, "
                    "those in force that day.")
 
+
 def preferences_caption(day: int | None = None) -> str:
     """The caption of Fig. 4 by described preference: under the app's two views (:func:`preference_methods_figure`
     on a day chosen, :func:`preference_days_figure`), or, given ``day``, under the methods on that day alone
@@ -450,8 +451,8 @@ def few_markers(few, filled: float, hollow: float) -> dict:
 
 def legend_entry(fig: go.Figure, line: go.Scatter, size: float, **where) -> None:
     """``line``'s legend entry with its filled marker (``size`` px), drawn by a trace of its own
-    when some point of ``line`` is hollow: plotly.js draws a legend's marker as the trace's first
-    point, so day 1 resting on few answers made the legend's swatch hollow (walkthrough). The two
+    when some point of ``line`` is hollow: plotly.js draws a legend's marker with the symbol of the
+    trace's first point, so day 1 resting on few answers made the legend's swatch hollow (walk2). The two
     share a legend group (a click on the entry hides both); ``where``: add_trace's
     (``secondary_y``)."""
     if "circle-open" not in (line.marker.symbol or ()):
