@@ -21,6 +21,13 @@ METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b"
                   "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
+def method_names(methods) -> str:
+    """``methods`` (their codes, as ``--methods`` takes them) as the figures name them, in the order given:
+    "CACAS, CACAS w/o PR, NN". A run's caption said "methods cacas, cacas-no-pr" beside figures saying
+    "CACAS w/o PR" (walk2); the codes stay where a researcher types them."""
+    return ", ".join(METHOD_LABELS.get(m, m) for m in methods)
+
+
 def in_method_order(methods) -> list[str]:
     """The methods given, each once, in one order on every page and figure: the paper's (CACAS,
     w/o PR, ORL, NN; :data:`cacas.records.METHOD_ORDER`), then ours, then any other as given.
@@ -84,16 +91,74 @@ def success_by_day(daily: pd.DataFrame, method: str = "cacas") -> pd.DataFrame:
 FEW_INTERACTIONS = 5
 
 
-def few_interactions_note(daily: pd.DataFrame, method: str) -> str:
+def _few(daily: pd.DataFrame, method: str) -> bool:
+    """Whether some day of ``method`` in Fig. 3 rests on fewer than :data:`FEW_INTERACTIONS` recorded
+    interactions for some participant (a hollow point)."""
+    return bool((success_by_day(daily, method)["fewest"] < FEW_INTERACTIONS).any())
+
+
+def few_interactions_note(daily: pd.DataFrame, method: str | None = None) -> str:
     """The sentence that says what Fig. 3's hollow points and their labels are, for the caption under
     the figure ("" when no day of ``method`` has one): a day where some participant's success rate
     rests on fewer than :data:`FEW_INTERACTIONS` recorded interactions, labelled with the fewest
-    (walkthrough: "fewest 2 interactions" beside a hollow point was said nowhere but in its hover)."""
-    s = success_by_day(daily, method)
-    if not (s["fewest"] < FEW_INTERACTIONS).any():
+    (walkthrough: "fewest 2 interactions" beside a hollow point was said nowhere but in its hover).
+    ``method`` None: Fig. 3 by method (:func:`success_methods_figure`), whose hover gives the fewest
+    (several methods' labels on one day would be drawn over each other)."""
+    if method is not None and not _few(daily, method):
         return ""
+    if method is None and not any(_few(daily, m) for m in closed_loop_methods(daily)):
+        return ""
+    where = "its label gives the fewest" if method is not None else "its hover gives the fewest"
     return (f"A hollow point is a day where a participant's success rate rests on fewer than {FEW_INTERACTIONS} "
-            "recorded interactions (its label gives the fewest): one answer more or less moves it a lot.")
+            f"recorded interactions ({where}): one answer more or less moves it a lot.")
+
+
+#: What Fig. 3's success rate counts, as the captions under it say (Results, ``cacas simulate --plot``'s pages).
+SUCCESS_WORDS = ("A success is a robot-initiated action the participant accepted, of the recorded interactions "
+                 "(proposals answered, and requests, which are not successes); as in the paper, a proposal left "
+                 "unanswered, the robot quiet with nothing asked, or a request while doing nothing (no sound "
+                 "activity), is not recorded.")
+
+#: What Fig. 3's dashed line is (daily.csv's success_ceiling), for its caption.
+CEILING_WORDS = ("The dashed line (daily.csv's success_ceiling) is the share of the interactions where a described "
+                 "preference names an action: the success rate proposing the described preferences reaches there. "
+                 "It is not a bound: where no preference names an action (or the participant wants the robot to do "
+                 "nothing) a participant may still accept what the robot offers.")
+
+
+def success_caption(daily: pd.DataFrame, method: str = "cacas") -> str:
+    """The caption under Fig. 3 (:func:`success_figure`), one text for the Results page and ``cacas simulate
+    --plot``'s page: the band, what a success is, the dashed line where the figure has one, and the hollow
+    points where it has some (:func:`few_interactions_note`)."""
+    ceiling = success_by_day(daily, method)["ceiling"].notna().any()
+    return " ".join(filter(None, [
+        "Mean over participants; the band spans the minimum and maximum participant (Fig. 3).", SUCCESS_WORDS,
+        CEILING_WORDS if ceiling else "", few_interactions_note(daily, method)]))
+
+
+def success_methods_caption(daily: pd.DataFrame) -> str:
+    """The caption under Fig. 3 by method (:func:`success_methods_figure`): over whom, what the hover gives, what a
+    success is, and the hollow points where it has some."""
+    return " ".join(filter(None, [
+        "Mean success rate over participants, per method and day (Fig. 3 for each method); the hover gives how many "
+        "participants and recorded interactions a day's mean rests on, and its minimum and maximum participant.",
+        SUCCESS_WORDS, few_interactions_note(daily)]))
+
+
+#: The caption under Fig. 4 (:func:`methods_figure`); the Results page adds who is left out, and what is not
+#: compared yet.
+METHODS_CAPTION = ("Mean preference accuracy over participants, per method and day (Fig. 4): each day's policies, "
+                   "those in force that day.")
+
+
+def preferences_caption(day: int | None = None) -> str:
+    """The caption of Fig. 4 by described preference: under the app's two views (:func:`preference_methods_figure`
+    on a day chosen, :func:`preference_days_figure`), or, given ``day``, under the methods on that day alone
+    (``cacas simulate --plot``'s page of the last day)."""
+    what = "Fig. 4's accuracy on each described preference's own test states: which preferences each method learnt"
+    if day is None:
+        return what + ", and when. A row that stays pale is a preference the method never learnt."
+    return what + f" by day {day}. A pale cell is a preference the method had not learnt by then."
 
 
 def success_change(daily: pd.DataFrame, method: str, first: int, last: int) -> tuple[float, int]:
@@ -257,11 +322,11 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
                              customdata=[[_participants(n, on), _interactions_each(n, lo, hi)]
                                          for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
                                                                   s["most"])],
-                             marker=dict(size=[11 if f else 7 for f in few],  # hollow: a rate on few answers
-                                         symbol=["circle-open" if f else "circle" for f in few]),
+                             marker=few_markers(few, 7, 11),  # hollow: a rate on few answers
                              hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]}, "
                                            "%{customdata[1]})<extra></extra>"),
                   secondary_y=False)
+    legend_entry(fig, fig.data[-1], 7, secondary_y=False)
     # the few-answers labels as annotations on a white ground: a trace's text lay under the cumulative
     # feedback's line and markers (its axis is drawn above the first), which crossed it out (walkthrough)
     for day, mean, where, label in zip(s["day"], s["mean"], _label_positions(s["day"], s["mean"], few),
@@ -378,6 +443,27 @@ def _few_label(participants, fewest) -> str:
     return n if participants == 1 else f"fewest {n}"
 
 
+def few_markers(few, filled: float, hollow: float) -> dict:
+    """Fig. 3's markers of a line (``few``: each day's rate rests on few answers): hollow
+    ("circle-open", ``hollow`` px) on such a day, filled (``filled`` px) on the others."""
+    return dict(size=[hollow if f else filled for f in few], symbol=["circle-open" if f else "circle" for f in few])
+
+
+def legend_entry(fig: go.Figure, line: go.Scatter, size: float, **where) -> None:
+    """``line``'s legend entry with its filled marker (``size`` px), drawn by a trace of its own
+    when some point of ``line`` is hollow: plotly.js draws a legend's marker with the symbol of the
+    trace's first point, so day 1 resting on few answers made the legend's swatch hollow (walk2). The two
+    share a legend group (a click on the entry hides both); ``where``: add_trace's
+    (``secondary_y``)."""
+    if "circle-open" not in (line.marker.symbol or ()):
+        return
+    line.update(showlegend=False, legendgroup=line.name)
+    fig.add_trace(go.Scatter(x=[None], y=[None], mode="lines+markers", name=line.name, legendgroup=line.name,
+                             legendrank=line.legendrank, line=line.line,
+                             marker=dict(size=size, symbol="circle", color=line.line.color), hoverinfo="skip"),
+                  **where)
+
+
 def ringed(i: int) -> dict:
     """The markers of the ``i``-th method drawn: smaller than those drawn before, so that where
     methods score the same (day 1: one initial policy; two closed loops alike) they show as rings
@@ -386,23 +472,43 @@ def ringed(i: int) -> dict:
 
 
 def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
-    """Fig. 3 for every method that ran in a closed loop of its own (``--loop each``): each
-    method's mean success rate per day, with its min-max across participants in the hover."""
+    """Fig. 3 for every method that ran in a closed loop of its own (``--loop each``; a human study
+    adapted with several methods: the method in force): each method's mean success rate per day, with
+    how many participants and recorded interactions it rests on and its min-max across participants in
+    the hover, and as Fig. 3 (:func:`success_figure`) a hollow point where a participant's rate rests on
+    few answers, the participants in the subtitle and, when days average different numbers, under each day."""
     fig = go.Figure()
+    looped = in_method_order(closed_loop_methods(daily))
     # in the paper's order, as Fig. 4 beside it (daily.csv's, the order chosen, listed NN, ORL, CACAS there)
-    for i, method in enumerate(in_method_order(closed_loop_methods(daily))):
+    for i, method in enumerate(looped):
         s = _gaps_for_missing_days(success_by_day(daily, method), daily)
+        size = ringed(i)["size"]
         fig.add_trace(go.Scatter(
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
-            marker=ringed(i),
-            # the feedback as the page's metric and the lab's table say it ("19.5 data points"; ":.0f" said 20)
-            customdata=[[lo, hi, data_points(n)] for lo, hi, n in zip(s["min"], s["max"], s["cumulative_feedback"])],
-            hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
-                          "%{customdata[2]})<extra></extra>"))
+            # hollow: a rate on few answers; opaque and without an outline as before (sizes given day by day
+            # make plotly.js draw them as a bubble chart's, at 0.7 opacity with a white outline)
+            marker=dict(**few_markers(s["fewest"] < FEW_INTERACTIONS, size, max(size, 9)), opacity=1,
+                        line=dict(width=0)), cliponaxis=False,  # a point at 0 % whole, as Fig. 3's (hollow: a ring)
+            # the feedback as the page's metric and the lab's table say it ("19.5 data points"; ":.0f" said 20);
+            # over whom, on how many answers each, as Fig. 3's hover says it
+            customdata=[[lo, hi, data_points(n), ", ".join(filter(None, [_participants(who, on),
+                                                                           _interactions_each(who, fewest, most)]))]
+                        for lo, hi, n, who, on, fewest, most in zip(s["min"], s["max"], s["cumulative_feedback"],
+                                                                    s["participants"], s["on_day"], s["fewest"],
+                                                                    s["most"])],
+            hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[3]}; min %{customdata[0]:.0%}, "
+                          "max %{customdata[1]:.0%}; %{customdata[2]})<extra></extra>"))
+        legend_entry(fig, fig.data[-1], size)
     fig.update_yaxes(title_text="success rate", range=RATE_RANGE, tickformat=".0%")
-    _day_axis(fig, [x for trace in fig.data for x in trace.x])
-    fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop"),
+    # each day's participants, under whichever method (a human study's day counts under the method in force)
+    on = daily[daily["method"].isin(looped) & _on_the_day(daily)]
+    _day_axis(fig, [x for trace in fig.data for x in trace.x],
+              on.assign(day=on["day"].astype(int)).groupby("day")["participant"].nunique().to_dict())
+    n = daily.loc[daily["method"].isin(looped) & daily["success_rate"].notna(), "participant"].nunique()
+    # the participants said with a title of one's own too (Results' human study: the method in force)
+    fig.update_layout(title=title_block(title or "Success rate by method, each in its own closed loop",
+                                        f"{n} participant{'s' if n != 1 else ''}"),
                       template="plotly_white", legend=dict(orientation="h", **legend_block()),
                       margin=dict(l=60, r=30, t=TITLE_BLOCK, b=BOTTOM),
                       showlegend=True)  # Plotly hides a one-trace legend: which method it is, unsaid

@@ -170,8 +170,7 @@ def _settings_words(settings: dict, short: bool) -> list[str]:
              run_days(settings["days"]) if settings.get("days") is not None else "",
              (f"{settings['interactions']} a day" if short else f"{settings['interactions']} interactions a day")
              if settings.get("interactions") is not None else "",
-             (", ".join(plots.METHOD_LABELS.get(m, m) for m in methods) if short else f"methods {', '.join(methods)}")
-             if methods else "",
+             (plots.method_names(methods) if short else f"methods {plots.method_names(methods)}") if methods else "",
              f"seed {settings['seed']}" if settings.get("seed") is not None else "",
              f"asks after {percent(settings['ask_after_reject'])} of rejections"
              if settings.get("ask_after_reject") else "",
@@ -183,8 +182,8 @@ def _settings_words(settings: dict, short: bool) -> list[str]:
 
 def run_caption(settings: dict) -> str:
     """The Simulation lab's line under a run: every setting the run kept, e.g. "8 participants ·
-    7 days · 15 interactions a day · methods cacas, nn · seed 0 · personas: ..."; a setting the
-    run did not keep is left out."""
+    7 days · 15 interactions a day · methods CACAS, NN · seed 0 · personas: ..." (the methods named as the
+    figures name them); a setting the run did not keep is left out."""
     return " · ".join(_settings_words(settings, short=False))
 
 

@@ -87,7 +87,7 @@ elif source.startswith("Simulated run: "):
     tables, daily = run.tables, run.daily
     st.caption(f"Simulated run **{name}** (Simulation lab): "
                f"{app_support.counted(daily['participant'].nunique(), 'simulated participant')}, "
-               f"methods {', '.join(daily['method'].unique())}"
+               f"methods {plots.method_names(plots.in_method_order(daily['method']))}"  # as the figures name them
                + (", each in its own closed loop." if run.settings.get("loop") == "each" else "."))
 else:
     ups = st.file_uploader("A daily.csv from `cacas simulate`, the Simulation lab or an export; add its "
@@ -144,6 +144,8 @@ if fig3.open:
                 human = source == HUMAN
                 st.plotly_chart(plots.success_methods_figure(
                     shown, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
+                if few := plots.few_interactions_note(shown):  # its hollow points (Fig. 3's own caption is below)
+                    st.caption(few)
                 method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method", persist_state="page",
                                       format_func=lambda m: plots.METHOD_LABELS.get(m, m),
                                       help=("Participants' days count under the method whose policy was in force that "
@@ -183,16 +185,7 @@ if fig3.open:
                 st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                            "are so far, and change until the day is closed.")
             st.plotly_chart(plots.success_figure(shown, method=method), width="stretch")
-            st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
-                       "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
-                       "and requests, which are not successes); as in the paper, a proposal left unanswered, the robot "
-                       "quiet with nothing asked, or a request while doing nothing (no sound activity), is not recorded."
-                       + (" The dashed line (daily.csv's success_ceiling) is the share of the interactions where a "
-                          "described preference names an action: the success rate proposing the described preferences "
-                          "reaches there. It is not a bound: where no preference names an action (or the participant "
-                          "wants the robot to do nothing) a participant may still accept what the robot offers."
-                          if per_day["ceiling"].notna().any() else "")
-                       + (" " + few if (few := plots.few_interactions_note(shown, method)) else ""))
+            st.caption(plots.success_caption(shown, method))
 
 if fig4.open:
     with fig4:
@@ -231,8 +224,7 @@ if fig4.open:
                          column_config={"_index": st.column_config.TextColumn("method", width="medium"),
                                         **{day: st.column_config.NumberColumn(format="%.0f%%") for day in summary}})
             left = plots.incomplete_comparisons(accuracy)
-            st.caption("Mean preference accuracy over participants, per method and day (Fig. 4): each day's "
-                       "policies, those in force that day." + app_support.left_out_note(left, again=source == HUMAN)
+            st.caption(plots.METHODS_CAPTION + app_support.left_out_note(left, again=source == HUMAN)
                        + (app_support.uncompared_note(accuracy) if source == HUMAN else ""))
         ahead = next_day_accuracy(tables) if source == HUMAN else []
         if len(ahead):

@@ -144,7 +144,7 @@ if go:
                                   ask_after_reject=float(ask_rate), loop=loop, personas=source, details=choices,
                                   places=[place[c] for c in chosen],
                                   label=f"Simulating {', '.join(chosen)} · {int(days)} days · "
-                                        f"{', '.join(methods)} · seed {int(seed)}")
+                                        f"{plots.method_names(methods)} · seed {int(seed)}")
         if not started:
             st.warning("A simulation is already running.")
         else:  # said once the page is drawn again (a toast before st.rerun is not shown)
@@ -180,7 +180,7 @@ if runs:
     fig3, fig4 = plots.side_by_side(fig3, plots.methods_figure(daily))  # their plot areas at one height
     c1.plotly_chart(fig3, width="stretch")
     c2.plotly_chart(fig4, width="stretch")
-    if one is not None and (few := plots.few_interactions_note(daily, one)):  # Fig. 3's hollow points
+    if few := plots.few_interactions_note(daily, one):  # Fig. 3's hollow points (one None: Fig. 3 by method's)
         c1.caption(few)
     # in the paper's order, as Fig. 4 and the Results page list them (daily.csv's is the order chosen)
     summary = records.sort_by_method(summary_table(daily), ["method", "day"])

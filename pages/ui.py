@@ -376,8 +376,7 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str, file_name: str = 
     """Fig. 4 by described preference (``by_preference.csv``): every method side by side on one
     day, or one method day by day; then the table's download (as ``file_name``). The choices are kept while
     the page's tab that holds them is not drawn (Results runs only its open tab)."""
-    st.caption("Fig. 4's accuracy on each described preference's own test states: which preferences each method "
-               "learnt, and when. A row that stays pale is a preference the method never learnt.")
+    st.caption(plots.preferences_caption())
     whole = by_preference  # the download is the whole table, whoever is shown
     people = records.by_code(by_preference["participant"].astype(str).unique())
     if len(people) > HEATMAP_PARTICIPANTS:  # a row per preference: 24 participants made 120 rows, 3,300 px

@@ -141,6 +141,32 @@ def test_loop_each_gives_every_method_its_success_rate_and_fig3(tmp_path, capsys
     assert not (tmp_path / "p2" / "fig3_methods.html").exists()
 
 
+def test_each_figure_page_has_the_apps_caption_under_its_figure(tmp_path, capsys):
+    """walk2: the app's figures say under them what the band, the dashed line and the hollow points are, and what
+    Fig. 4 and its heatmap show; ``cacas simulate --plot``'s pages said nothing. Each holds its caption now, in the
+    app's words (cacas.plots), under the figure (tests/browser/test_browser_figures.py: in view, not overlapped)."""
+    import html
+
+    import pandas as pd
+
+    from cacas import plots
+
+    personas = write(tmp_path, GOOD)
+    assert main(["simulate", "--personas", str(personas), "--days", "2", "--interactions", "3", "--methods",
+                 "cacas,nn", "--loop", "each", "--quiet", "--out", str(tmp_path / "o"),
+                 "--plot", str(tmp_path / "o")]) == 0
+    daily = pd.read_csv(tmp_path / "o" / "daily.csv")
+    captions = {"fig3_success.html": plots.success_caption(daily, "cacas"),
+                "fig3_methods.html": plots.success_methods_caption(daily),
+                "fig4_methods.html": plots.METHODS_CAPTION, "fig4_by_preference.html": plots.preferences_caption(2)}
+    assert "A hollow point" in captions["fig3_success.html"]  # 3 interactions a day: some day rests on few
+    assert "A hollow point" in captions["fig3_methods.html"] and "by day 2." in captions["fig4_by_preference.html"]
+    for name, caption in captions.items():
+        page = (tmp_path / "o" / name).read_text()
+        assert f'<p class="caption">{html.escape(caption)}</p>' in page, name
+        assert page.index('class="caption"') < page.index("Plotly.newPlot"), name  # laid out when the figure is sized
+
+
 @pytest.mark.parametrize("flag", ["--out", "--plot"])
 def test_an_output_folder_that_cannot_be_written_is_refused_before_the_simulation(tmp_path, capsys, monkeypatch,
                                                                                     flag):

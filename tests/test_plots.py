@@ -394,7 +394,7 @@ def test_fig3_and_fig4_titles_sit_at_one_height_side_by_side():
     said = {name: (f.layout.title.text, f.layout.title.subtitle.text) for name, f in figs.items()}
     assert said == {"fig3": ("Success rate and cumulative feedback", "CACAS, 2 participants"),
                     "fig4": ("Preference prediction by method", "2 participants, each in its own closed loop"),
-                    "fig3 each": ("Success rate by method, each in its own closed loop", None),
+                    "fig3 each": ("Success rate by method, each in its own closed loop", "2 participants"),
                     "fig3 titled": ("Success rate", None), "fig4 titled": ("Fig. 4", None)}
 
 
@@ -447,3 +447,72 @@ def test_fig3_by_method_lists_the_methods_in_the_papers_order_as_fig4_does():
     d = pd.concat([daily().assign(method=m) for m in ("nn", "orl", "cacas")], ignore_index=True)
     assert [t.name for t in success_methods_figure(d).data] == ["CACAS", "ORL", "NN"]
     assert [t.name for t in methods_figure(d).data] == ["CACAS", "ORL", "NN"]
+
+
+def test_fig3_by_method_says_over_whom_and_marks_days_on_few_answers_as_fig3_does():
+    """walk2: Fig. 3 by method (--loop each; a human study's method in force) had no participant count and no
+    hollow points, where Fig. 3 of one method says both: the subtitle and, as Fig. 3's, the hover say over how
+    many participants and on how many recorded interactions each; a day resting on few answers is hollow."""
+    from cacas.plots import few_interactions_note
+
+    d = daily().assign(success_rate=lambda x: x["success_rate"].fillna(0.5))  # both methods in a loop of their own
+    d.loc[(d["day"] == 3) & (d["method"] == "nn"), "interactions"] = [15, 2]
+    d = d[~((d["participant"] == "P02") & (d["day"] == 3) & (d["method"] == "cacas"))]
+    fig = success_methods_figure(d)
+    assert fig.layout.title.subtitle.text == "2 participants"
+    by_name = {t.name: t for t in fig.data if t.showlegend is not False}
+    lines = {t.name: t for t in fig.data if t.x[0] is not None}
+    assert [row[3] for row in lines["CACAS"].customdata] == [
+        "2 participants, 15 recorded interactions each", "2 participants, 15 recorded interactions each",
+        "1 participant, 15 recorded interactions"]
+    assert lines["NN"].customdata[2][3] == "2 participants, 2-15 recorded interactions each"
+    assert "mean of %{customdata[3]}" in lines["NN"].hovertemplate
+    assert list(lines["NN"].marker.symbol) == ["circle", "circle", "circle-open"]
+    assert list(lines["CACAS"].marker.symbol) == ["circle"] * 3 and set(by_name) == {"CACAS", "NN"}
+    assert few_interactions_note(d).startswith("A hollow point is a day where a participant's success rate rests "
+                                               "on fewer than 5 recorded interactions (its hover gives the fewest)")
+    assert few_interactions_note(daily().assign(success_rate=0.5)) == ""
+    # every day has both participants (P02's day 3 under NN alone): no day says its number
+    assert list(fig.layout.xaxis.ticktext or []) == []
+    human = daily().assign(success_rate=np.where((daily()["participant"] == "P02") == (daily()["method"] == "nn"),
+                                                 0.5, np.nan))  # one method in force on each participant's day
+    human = human[~((human["participant"] == "P01") & (human["day"] == 3))]
+    assert list(success_methods_figure(human, title="Mine").layout.xaxis.ticktext) == \
+        ["1<br>n = 2", "2<br>n = 2", "3<br>n = 1"]
+    assert success_methods_figure(human, title="Mine").layout.title.subtitle.text == "2 participants"
+
+
+def test_the_legend_shows_a_lines_filled_marker_when_day_1_is_hollow():
+    """walk2: plotly.js draws a legend entry's marker as its trace's first point, so Fig. 3's legend showed a
+    hollow "success rate (mean)" when day 1 rested on few answers. The entry is a trace of its own, with the filled
+    marker, in the line's legend group; a figure without a hollow point is as it was."""
+    d = daily()
+    d.loc[d["day"] == 1, "interactions"] = 2
+    for fig, name in ((success_figure(d), "success rate (mean)"),
+                      (success_methods_figure(d.assign(success_rate=d["success_rate"].fillna(0.5))), "NN")):
+        shown = [t for t in fig.data if t.name == name and t.showlegend is not False]
+        line = [t for t in fig.data if t.name == name and t.showlegend is False]
+        assert len(shown) == 1 and len(line) == 1, fig.data
+        assert line[0].marker.symbol[0] == "circle-open"
+        assert shown[0].marker.symbol == "circle" and list(shown[0].y) == [None]
+        assert shown[0].legendgroup == line[0].legendgroup == name and shown[0].line.color == line[0].line.color
+    assert [t.showlegend for t in success_figure(daily()).data if t.name == "success rate (mean)"] == [None]
+
+
+def test_the_captions_say_the_dashed_line_and_the_hollow_points_where_the_figure_has_them():
+    """One text under Fig. 3 for the Results page and ``cacas simulate --plot``'s page (walk2: the CLI's pages had
+    none): the band and what a success is always; the dashed line with daily.csv's success ceiling; the hollow
+    points where a day rests on few answers."""
+    from cacas.plots import CEILING_WORDS, SUCCESS_WORDS, few_interactions_note, success_caption, success_methods_caption
+
+    d = daily()
+    plain = success_caption(d)
+    assert plain.startswith("Mean over participants; the band spans") and SUCCESS_WORDS in plain
+    assert CEILING_WORDS not in plain and "hollow" not in plain
+    d["success_ceiling"] = 0.8
+    d.loc[d["day"] == 2, "interactions"] = 3
+    said = success_caption(d)
+    assert CEILING_WORDS in said and said.endswith(few_interactions_note(d, "cacas"))
+    each = d.assign(success_rate=0.5)
+    assert success_methods_caption(each).endswith(few_interactions_note(each)) and "its hover gives" in \
+        success_methods_caption(each)

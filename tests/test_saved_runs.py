@@ -180,10 +180,11 @@ def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
 
 
 def test_a_runs_caption_leaves_out_what_the_run_did_not_keep():
-    full = {"participants": ["P01", "P02"], "days": 7, "interactions": 15, "methods": ["cacas", "nn"], "seed": 0,
-            "ask_after_reject": 0.25, "loop": "each", "personas": "study_data/personas/example.json"}
+    """... and names the methods as the figures do (walk2: "methods cacas, cacas-no-pr" beside "CACAS w/o PR")."""
+    full = {"participants": ["P01", "P02"], "days": 7, "interactions": 15, "methods": ["cacas", "cacas-no-pr", "nn"],
+            "seed": 0, "ask_after_reject": 0.25, "loop": "each", "personas": "study_data/personas/example.json"}
     assert saved_runs.run_caption(full) == (
-        "2 participants · 7 days · 15 interactions a day · methods cacas, nn · seed 0 · asks after 25% of "
+        "2 participants · 7 days · 15 interactions a day · methods CACAS, CACAS w/o PR, NN · seed 0 · asks after 25% of "
         "rejections · each method in its own closed loop · personas: study_data/personas/example.json")
     assert saved_runs.run_caption({"participants": ["P01"], "days": 1, "seed": 3}) == \
         "1 participant · 1 day · seed 3"  # no "None interactions a day"

@@ -32,29 +32,54 @@ from cacas.parallel import GB, WORKER_MEMORY
 PLOTLY_JS = "plotly.min.js"
 
 
-def figure_files(figures: dict) -> dict[str, bytes]:
-    """The files ``figures`` (file name -> Plotly figure) are written as: each as HTML, and the
+def figure_files(figures: dict, captions: dict | None = None) -> dict[str, bytes]:
+    """The files ``figures`` (file name -> Plotly figure) are written as: each as HTML, under it its
+    caption (``captions``: file name -> text, the app's words from :mod:`cacas.plots`), and the
     plotly.js they load (:data:`PLOTLY_JS`), this plotly's. Plotly's own ``write_html`` keeps any
     plotly.min.js already in the folder, whatever it holds (an older plotly's, a truncated copy),
     and the figures then load it; written with these files, it is replaced by this plotly's."""
     from plotly.offline import get_plotlyjs
 
-    return {**{name: _whole_window(fig.to_html(include_plotlyjs="directory")).encode("utf-8")
+    captions = captions or {}
+    return {**{name: _whole_window(fig.to_html(include_plotlyjs="directory"), captions.get(name)).encode("utf-8")
                for name, fig in figures.items()},
             PLOTLY_JS: get_plotlyjs().encode("utf-8")}
 
 
 #: Plotly's page style: the figure fills the window (its height 100 %)
 _PAGE_STYLE = "<style>html, body {height: 100%;}</style>"
+#: Plotly's element around a figure as tall as the window (a figure of a height of its own, the preference
+#: heatmap's, has its height in px)
+_FILLING = '<div style="height:100%; width:100%;">'
+#: A page with a caption: a column, the figure taking the window less the caption's height (at least
+#: :data:`SMALLEST_FIGURE` px: a lower window scrolls), the caption under it in grey, at the plot's left edge
+#: (``plots``' left margin of 60 px), its lines no longer than 60 em (~120 characters) on a wide screen
+SMALLEST_FIGURE = 360
+_CAPTION_STYLE = ("body {display: flex; flex-direction: column;} body > div {flex: none;} "
+                  f"body > div.figure {{flex: 1 1 0; min-height: {SMALLEST_FIGURE}px;}} "
+                  ".caption {flex: none; order: 1; margin: 8px 30px 16px 60px; max-width: 60em; color: #555; "
+                  "font: 14px/1.45 'Open Sans', verdana, arial, sans-serif;}")
 
 
-def _whole_window(page: str) -> str:
+def _whole_window(page: str, caption: str | None = None) -> str:
     """A figure's page (Plotly's ``to_html``) without the browser's 8-px body margin: with it the
     figure, as tall as the window, began 8 px down and its bottom 8 px (Fig. 3's and Fig. 4's legend,
-    :func:`cacas.plots.legend_block`) were below the window."""
-    if _PAGE_STYLE not in page:
+    :func:`cacas.plots.legend_block`) were below the window. With a ``caption``, the figure takes the
+    window less the caption's height, and the caption is under it, in view without scrolling (walk2: the
+    app's figures said what their hollow points, dashed line and band are; these pages did not)."""
+    if _PAGE_STYLE not in page or page.count("<body>") != 1:
         raise AssertionError("plotly's page has changed: see _whole_window")
-    return page.replace(_PAGE_STYLE, "<style>html, body {height: 100%; margin: 0;}</style>", 1)
+    style = "html, body {height: 100%; margin: 0;}"
+    if caption:
+        import html
+
+        style += " " + _CAPTION_STYLE
+        page = page.replace(_FILLING, _FILLING.replace("<div ", '<div class="figure" '), 1)
+        # before the figure in the page, drawn under it (order): in place when plotly.js sizes the figure, which
+        # it does once (and again on a window's resize); a caption after the figure's script came too late, and
+        # the figure, sized to the whole window, ran under it
+        page = page.replace("<body>", f'<body>\n    <p class="caption">{html.escape(caption)}</p>', 1)
+    return page.replace(_PAGE_STYLE, f"<style>{style}</style>", 1)
 
 
 def other_plotly_js(folder, script: bytes) -> bool:
@@ -257,15 +282,21 @@ def run(args) -> int:
               "interactions.csv": records.csv_bytes(result.interactions),
               "by_preference.csv": records.csv_bytes(result.by_preference)}
     figures: dict = {}
+    captions: dict = {}  # under each figure, the app's words
     if plot_dir is not None:
-        from cacas.plots import methods_figure, preference_methods_figure, success_figure, success_methods_figure
+        from cacas import plots
 
-        figures = {"fig3_success.html": success_figure(result.daily, methods[0]),
-                   "fig4_methods.html": methods_figure(result.daily),
-                   "fig4_by_preference.html": preference_methods_figure(result.by_preference)}
+        daily, by_preference = result.daily, result.by_preference
+        figures = {"fig3_success.html": plots.success_figure(daily, methods[0]),
+                   "fig4_methods.html": plots.methods_figure(daily),
+                   "fig4_by_preference.html": plots.preference_methods_figure(by_preference)}  # the last day's
+        captions = {"fig3_success.html": plots.success_caption(daily, methods[0]),
+                    "fig4_methods.html": plots.METHODS_CAPTION,
+                    "fig4_by_preference.html": plots.preferences_caption(int(by_preference["day"].max()))}
         if args.loop == "each" and len(methods) > 1:
-            figures["fig3_methods.html"] = success_methods_figure(result.daily)
-    drawn = figure_files(figures) if figures else {}
+            figures["fig3_methods.html"] = plots.success_methods_figure(daily)
+            captions["fig3_methods.html"] = plots.success_methods_caption(daily)
+    drawn = figure_files(figures, captions) if figures else {}
     replaced = plot_dir is not None and other_plotly_js(plot_dir, drawn[PLOTLY_JS])
     # an earlier run's figures beside these tables would show other results: taken away in the same
     # change as the folder's new files (files.write_all's remove: a kill cannot leave one unlisted

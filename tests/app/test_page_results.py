@@ -248,12 +248,33 @@ def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
     no_exception(at)
     titles = [c.proto.spec for c in at.get("plotly_chart")]
     assert any("Success rate by method, each in its own closed loop" in t for t in titles)
-    assert "methods cacas, nn, each in its own closed loop." in texts(at)
+    assert "methods CACAS, NN, each in its own closed loop." in texts(at)
     assert at.selectbox(key="results-fig3-method").value == "cacas"
     assert at.metric[0].value == "60%"
     at.selectbox(key="results-fig3-method").set_value("nn").run()
     no_exception(at)
     assert at.metric[0].value == "40%" and at.metric[1].value == "14 data points"
+
+
+def test_fig3_by_methods_hollow_points_are_said_under_it(app, db):
+    """walk2: Fig. 3 by method marks a day resting on few answers hollow now, as Fig. 3 does; a caption under it
+    says what a hollow point is (its hover gives the fewest), and Fig. 3's own caption under the method's figure."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    daily = pd.DataFrame({"participant": ["P01"] * 4, "method": ["cacas", "cacas", "nn", "nn"], "day": [1, 2, 1, 2],
+                          "success_rate": [0.3, 0.6, 0.3, 0.4], "preference_accuracy": [0.2, 0.5, 0.2, 0.3],
+                          "cumulative_feedback": [8, 15, 8, 10], "interactions": [15, 15, 15, 2]})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+                        {"loop": "each"})
+    at = app(PAGE)
+    at.button_group[0].set_value("A simulated run").run()
+    no_exception(at)
+    assert HOLLOW.replace("its label", "its hover") in texts(at)
+    assert HOLLOW not in texts(at)  # CACAS, shown below, has none
+    at.selectbox(key="results-fig3-method").set_value("nn").run()
+    assert HOLLOW in texts(at) and "Mean over participants; the band spans" in texts(at)
 
 
 def test_a_human_study_adapted_with_two_methods_shows_each_method_in_force(app, store):

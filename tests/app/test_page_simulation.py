@@ -37,8 +37,8 @@ def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     job = run_small_study(at, db, ["nn"], lambda at: at.number_input[4].set_value(0.5))  # ask after half
     assert (job.result / "daily.csv").exists()
     # the progress bar names the running settings
-    assert job.label == "Simulating P01 · 2 days · nn · seed 0"
-    assert ("1 participant · 2 days · 4 interactions a day · methods nn · seed 0 · asks after 50% of rejections"
+    assert job.label == "Simulating P01 · 2 days · NN · seed 0"
+    assert ("1 participant · 2 days · 4 interactions a day · methods NN · seed 0 · asks after 50% of rejections"
             " · personas: study_data/personas/example.json") in texts(at)
     assert json.loads((job.result / "settings.json").read_text())["personas"] == "study_data/personas/example.json"
     assert len(at.get("plotly_chart")) == 3  # Fig. 3, Fig. 4 and Fig. 4 by described preference
@@ -57,10 +57,10 @@ def test_a_second_run_is_shown_when_it_ends_not_the_one_looked_at_before(app, db
     second = run_small_study(at, db, ["nn"], lambda at: at.number_input[2].set_value(1))  # seed 1
     assert second.result.name != first.result.name
     assert at.selectbox(key="sim-run").value == second.result.name
-    assert "methods nn · seed 1" in texts(at)
+    assert "methods NN · seed 1" in texts(at)
     at.selectbox(key="sim-run").set_value(first.result.name).run()  # going back to the first one stays there
     assert at.selectbox(key="sim-run").value == first.result.name
-    assert "methods nn · seed 0" in texts(at)
+    assert "methods NN · seed 0" in texts(at)
 
 
 def test_a_run_started_says_where_its_progress_is(app, db):
@@ -109,7 +109,7 @@ def test_each_method_in_its_own_closed_loop(app, db):
     loop = next(r for r in at.radio if r.label == "Who acts with the participants")
     assert loop.value == "first"  # the paper's protocol by default
     job = run_small_study(at, db, ["nn", "bandit"], lambda at: loop.set_value("each"))
-    assert "methods nn, bandit · seed 0 · each method in its own closed loop" in texts(at)
+    assert "methods NN, Bandit (TS) · seed 0 · each method in its own closed loop" in texts(at)
     daily = pd.read_csv(job.result / "daily.csv")
     assert daily["success_rate"].notna().all()  # both acted
     titles = [c.proto.spec for c in at.get("plotly_chart")]
@@ -175,7 +175,7 @@ def test_a_run_folder_without_its_interactions_is_named_not_a_crash(app, db):
                                    "seed": 3})
     at = app(PAGE)
     no_exception(at)
-    assert "1 participant · 1 day · 15 interactions a day · methods cacas · seed 3" in texts(at)
+    assert "1 participant · 1 day · 15 interactions a day · methods CACAS · seed 3" in texts(at)
     (folder / "interactions.csv").unlink()
     at.run()
     no_exception(at)
@@ -474,6 +474,24 @@ def test_fig3s_hollow_points_are_said_under_it(app, db):
     no_exception(at)
     assert ("A hollow point is a day where a participant's success rate rests on fewer than 5 recorded "
             "interactions (its label gives the fewest)") in texts(at)
+
+
+def test_fig3_by_methods_hollow_points_are_said_under_it(app, db):
+    """walk2: Fig. 3 by method (--loop each) now marks a day resting on few answers hollow, as Fig. 3 does;
+    the caption under it says what a hollow point is (its hover gives the fewest)."""
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    daily = pd.DataFrame([{"participant": "P01", "method": m, "day": d, "success_rate": 0.5, "preference_accuracy": 0.5,
+                           "cumulative_feedback": 5 * d, "interactions": 2 if (m, d) == ("nn", 2) else 15}
+                          for m in ("cacas", "nn") for d in (1, 2)])
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
+                        {"loop": "each", "methods": ["cacas", "nn"]})
+    at = app(PAGE)
+    no_exception(at)
+    assert ("A hollow point is a day where a participant's success rate rests on fewer than 5 recorded "
+            "interactions (its hover gives the fewest)") in texts(at)
 
 
 def test_a_runs_table_and_figures_list_the_methods_in_the_papers_order(app, db):

@@ -118,6 +118,48 @@ def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
     assert legend <= 568 and not scrolls, (legend, scrolls)
 
 
+#: a figure page's caption and what is drawn above it: the figure's SVG (plotly.js draws it at the size it reads from
+#: the page, which can be taller than its element), its legend, and whether the page scrolls
+CAPTION_JS = """() => { const box = e => e ? e.getBoundingClientRect() : null;
+  const svg = [...document.querySelectorAll('.js-plotly-plot .main-svg')].map(e => box(e).bottom);
+  const c = box(document.querySelector('.caption')), legend = box(document.querySelector('.legend'));
+  return {caption: c && [c.top, c.bottom, c.height], svg: Math.max(...svg), legend: legend && legend.bottom,
+          scrolls: document.documentElement.scrollHeight > innerHeight, inner: innerHeight}; }"""
+
+
+def test_a_figure_pages_caption_is_in_view_under_its_figure(browser, tmp_path):
+    """walk2: ``cacas simulate --plot``'s pages had no caption (the app's figures say what the band, the dashed
+    line and the hollow points are). At 1280 x 800 each page's caption, Fig. 3's of seven lines the longest, is in
+    view without scrolling, under the figure: the figure takes the window less the caption."""
+    from cacas.cli.simulate import figure_files
+
+    daily = _daily(True, True, ("cacas", "nn")).assign(interactions=lambda d: d["day"].map({1: 2, 2: 15, 3: 15}))
+    each = daily.assign(success_rate=0.5)
+    rows = pd.DataFrame([{"participant": "P01", "method": m, "day": 3, "preference": k, "label": f"{act} -> x",
+                          "activity": act, "action": "x", "states": 10, "correct": c, "accuracy": c / 10}
+                         for m in ("cacas", "nn") for k, (act, c) in enumerate((("cough", 10), ("sneeze", 5)))])
+    files = figure_files({"fig3.html": plots.success_figure(daily), "fig3_methods.html": plots.success_methods_figure(each),
+                          "fig4.html": plots.methods_figure(daily), "heatmap.html": plots.preference_methods_figure(rows)},
+                         {"fig3.html": plots.success_caption(daily), "fig3_methods.html": plots.success_methods_caption(each),
+                          "fig4.html": plots.METHODS_CAPTION, "heatmap.html": plots.preferences_caption(3)})
+    for name, data in files.items():
+        (tmp_path / name).write_bytes(data)
+    page = open_page(browser, viewport={"width": 1280, "height": 800})
+    try:
+        seen = {}
+        for name in ("fig3.html", "fig3_methods.html", "fig4.html", "heatmap.html"):
+            page.goto((tmp_path / name).as_uri())
+            page.wait_for_selector(".js-plotly-plot .main-svg")
+            seen[name] = page.evaluate(CAPTION_JS)
+    finally:
+        page.context.close()
+    assert seen["fig3.html"]["caption"][2] > 100, seen  # the dashed line's and the hollow points' words too
+    for name, s in seen.items():
+        top, bottom, _ = s["caption"]
+        assert bottom <= s["inner"] and not s["scrolls"], (name, s)
+        assert s["svg"] <= top and (s["legend"] is None or s["legend"] <= top), (name, s)
+
+
 #: per figure: its legend's entries as drawn (left to right, top to bottom), its width, and the right edges of its
 #: title and subtitle
 LEGEND_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => {
@@ -167,3 +209,21 @@ def test_the_preference_heatmaps_colorbar_title_touches_no_tick_label(browser, w
     overlapping = [t for t in bar["ticks"]
                    if t[0] < title[2] and title[0] < t[2] and t[1] < title[3] and title[1] < t[3]]
     assert overlapping == [], (title, bar["ticks"])
+
+
+#: per figure: each legend entry's text and its marker's fill as drawn ("none": hollow)
+SWATCH_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => Object.fromEntries(
+  [...c.querySelectorAll('.legend .traces')].map(e => { const p = e.querySelector('.legendpoints path');
+    return [e.textContent.trim(), p ? getComputedStyle(p).fill : null]; })))"""
+
+
+def test_a_legends_marker_is_filled_when_day_1_rests_on_few_answers(browser):
+    """walk2: plotly.js draws a legend entry's marker as the trace's first point: day 1 resting on few answers
+    (a hollow point) made Fig. 3's "success rate (mean)" swatch hollow. Fig. 3, and Fig. 3 by method (whose
+    points are hollow on such days too), show the filled marker."""
+    daily = _daily(False, False, ("cacas", "nn")).assign(
+        interactions=lambda d: d["day"].map({1: 2, 2: 15, 3: 15}), success_rate=0.5)
+    fig3, by_method = _boxes(browser, [plots.success_figure(daily), plots.success_methods_figure(daily)], 800,
+                             js=SWATCH_JS)
+    assert fig3["success rate (mean)"].startswith("rgb"), fig3  # before: "none"
+    assert all(fill.startswith("rgb") for fill in by_method.values()) and set(by_method) == {"CACAS", "NN"}, by_method
