@@ -319,12 +319,14 @@ def success_figure(daily: pd.DataFrame, method: str = "cacas", title: str | None
     few = s["fewest"] < FEW_INTERACTIONS
     fig.add_trace(go.Scatter(x=s["day"], y=s["mean"], mode="lines+markers", name="success rate (mean)",
                              line=dict(color=colour, width=3), cliponaxis=False, legendrank=1,
-                             customdata=[[_participants(n, on), _interactions_each(n, lo, hi)]
-                                         for n, on, lo, hi in zip(s["participants"], s["on_day"], s["fewest"],
-                                                                  s["most"])],
+                             # the two joined here: a daily.csv without interactions has no count, and the
+                             # hover read "(mean of 2 participants, )" (as Fig. 3 by method joins them)
+                             customdata=[[who, each, ", ".join(filter(None, [who, each]))]
+                                         for who, each in ((_participants(n, on), _interactions_each(n, lo, hi))
+                                                           for n, on, lo, hi in zip(s["participants"], s["on_day"],
+                                                                                    s["fewest"], s["most"]))],
                              marker=few_markers(few, 7, 11),  # hollow: a rate on few answers
-                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[0]}, "
-                                           "%{customdata[1]})<extra></extra>"),
+                             hovertemplate="day %{x}: %{y:.0%} (mean of %{customdata[2]})<extra></extra>"),
                   secondary_y=False)
     legend_entry(fig, fig.data[-1], 7, secondary_y=False)
     # the few-answers labels as annotations on a white ground: a trace's text lay under the cumulative
@@ -601,7 +603,7 @@ def methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.Figure:
         fig.add_trace(go.Scatter(
             x=d["day"], y=d["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
-            marker=ringed(i),
+            marker=ringed(i), cliponaxis=False,  # a point at 0 % whole, as Fig. 3's (the axis cut it in half)
             customdata=[[lo, hi, _participants(n)] for lo, hi, n in zip(d["min"], d["max"], d["participants"])],
             hovertemplate="day %{x}: %{y:.0%} (min %{customdata[0]:.0%}, max %{customdata[1]:.0%}; "
                           "%{customdata[2]})<extra></extra>"))  # "1 participant", not "1 participants"

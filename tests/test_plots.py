@@ -219,7 +219,20 @@ def test_fig3_hover_says_how_many_participants_each_days_mean_has():
     d = d[~((d["participant"] == d["participant"].iloc[0]) & (d["day"] == 3))]  # one has not reached day 3
     mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
     assert [str(n) for n in [row[0] for row in mean.customdata]] == ["2 participants", "2 participants", "1 participant"]
-    assert "mean of %{customdata[0]}" in mean.hovertemplate
+    assert "mean of %{customdata[2]})" in mean.hovertemplate
+    assert mean.customdata[2][2].startswith("1 participant, ")  # with the interactions it rests on
+
+
+def test_fig3_hover_without_interaction_counts_says_only_over_whom():
+    """A daily.csv without the interactions column (an uploaded one may lack it) read "(mean of 2 participants, )"
+    in Fig. 3's hover: the participants alone."""
+    mean = next(t for t in success_figure(daily().drop(columns="interactions")).data if t.name == "success rate (mean)")
+    assert [row[2] for row in mean.customdata] == ["2 participants"] * 3
+
+
+def test_fig4_points_at_0_percent_are_drawn_whole():
+    """Fig. 4's points at 0 % were cut in half by the axis (Fig. 3's were drawn whole)."""
+    assert all(t.cliponaxis is False for t in methods_figure(daily()).data)
 
 
 def test_day_labels_say_how_many_participants_a_day_averages_when_they_differ():
