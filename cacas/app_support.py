@@ -249,7 +249,7 @@ def _scored_on(metrics: str | None) -> str:
 
 
 def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
-    """The Adaptation page's policy versions: version, adapted from, method, saved, in force,
+    """The Adaptation page's policy versions: version, adapted from, method (as the figures name it), saved, in force,
     preference accuracy (percent, from the run that saved it; NaN if none), scored on (the described
     preferences' version it was scored against), sha256 (12 digits). ``versions``: the store's policy
     versions; ``runs``: its adaptations_frame."""
@@ -257,7 +257,8 @@ def versions_table(versions, runs: pd.DataFrame) -> pd.DataFrame:
             "sha256"]
     saved = runs.dropna(subset=["policy_version"]).set_index("policy_version")
     return pd.DataFrame([{
-        "version": v.version, "adapted from": adapted_from(v.day) if v.day else "-", "method": v.method,
+        "version": v.version, "adapted from": adapted_from(v.day) if v.day else "-",
+        "method": plots.method_names([v.method]),
         "saved": short_time(v.created_at), "in force": "yes" if v.active else "",
         "preference accuracy": 100 * float(saved["preference_accuracy"].get(v.version, float("nan"))),
         "scored on": _scored_on(saved["metrics"].get(v.version)), "sha256": v.sha256[:12],
@@ -273,8 +274,9 @@ def runs_table(runs: pd.DataFrame) -> pd.DataFrame:
     saved; it read "None"), saved (short time)."""
     initial = [json.loads(p or "{}").get("initial", False) for p in runs["parameters"]]
     what = [(f"initial policy, scored for Fig. 4 ({m})" if first else
-             f"{m} (comparison)" if pd.isna(v) else m)
-            for m, v, first in zip(runs["method"], runs["policy_version"], initial)]
+             f"{m} (comparison)" if pd.isna(v) else m)  # the method as the figures name it (the CSV keeps its code)
+            for m, v, first in zip(map(plots.method_names, ([m] for m in runs["method"])), runs["policy_version"],
+                                   initial)]
     return pd.DataFrame({"day": runs["day"], "what": what, "duration (s)": runs["duration_s"],
                          "preference accuracy": 100 * runs["preference_accuracy"].astype(float),
                          "scored on": [_scored_on(m) for m in runs["metrics"]],

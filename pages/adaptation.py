@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import streamlit as st
 
-from cacas import app_support, table_layouts
+from cacas import app_support, plots, table_layouts
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
@@ -98,7 +98,7 @@ else:
     row.metric("Policy in force", in_force, delta=None if newest is None else f"rolled back; newest: version {newest}",
               delta_color="off", delta_arrow="off")
     with st.expander("Options"):
-        st.selectbox("Method", METHODS, key="adapt-method",
+        st.selectbox("Method", METHODS, key="adapt-method", format_func=plots.METHOD_LABELS.get,
                      help="CACAS for the study; the others are the paper's baselines (Fig. 4), a bandit and SAC "
                           "on the user data alone.")
         st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
@@ -125,7 +125,7 @@ else:
     elif status.waiting_for_adaptation:
         unfinished = None if RUNNER.get(_job_key(code, day)) else unfinished_adaptation(store, code, day)
         if unfinished:  # this server knows no such run: it was stopped during it (or another server runs it)
-            st.warning(f"An adaptation of day {day} with {unfinished['method']}, begun "
+            st.warning(f"An adaptation of day {day} with {plots.method_names([unfinished['method']])}, begun "
                        f"{app_support.short_time(unfinished['at'])}, saved nothing: the app was probably stopped "
                        "during it, or it failed. The day's data are all kept; adapt again (unless another server "
                        "is adapting it now).", icon=":material/restart_alt:")
@@ -149,9 +149,10 @@ else:
     elif job is not None and job.status == DONE:
         res = job.result
         now = "initial" if status.policy_version is None else f"version {status.policy_version}"
-        msg = (f"Adapted with {res.method} in {res.duration_s:.1f} s; policy version {res.policy_version} is "
+        method = plots.method_names([res.method])  # as the figures and the Method box name it
+        msg = (f"Adapted with {method} in {res.duration_s:.1f} s; policy version {res.policy_version} is "
                f"{in_force_words(res.day)}." if status.policy_version == res.policy_version else
-               f"Adapted with {res.method} in {res.duration_s:.1f} s into policy version {res.policy_version}; "
+               f"Adapted with {method} in {res.duration_s:.1f} s into policy version {res.policy_version}; "
                f"since then the {now} policy was put in force (Roll back, below).")
         if res.preference_accuracy is not None:  # the run's, named as version N's once another is in force
             msg += (f" Preference accuracy (Fig. 4): {ui.percent(res.preference_accuracy)}."
@@ -167,7 +168,8 @@ st.subheader("What changed")
 if not versions:
     st.caption("No adapted policy yet: the initial policy (trained against the generic user simulator) is in force.")
 else:
-    labels = {0: "initial policy"} | {v.version: f"version {v.version} (after day {v.day}, {v.method})" for v in versions}
+    labels = {0: "initial policy"} | {v.version: f"version {v.version} (after day {v.day}, {plots.method_names([v.method])})"
+                                   for v in versions}
     active = next((v.version for v in versions if v.active), 0)
     # the widgets start afresh when a version is added or put in force, at the policy in force
     stamp = f"{code}-{versions[-1].version}-{active}"

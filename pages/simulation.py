@@ -116,9 +116,11 @@ with st.form("simulation", border=True, enter_to_submit=False):  # a run starts 
                                help="Share of wrong proposals the simulated participant answers by asking for what "
                                     "they want instead, as the tablet allows. 0: they ask only when the robot does "
                                     "nothing (design.md).")
-    methods = st.multiselect("Methods", METHODS, key="sim-methods",
+    # named as the figures and the run's caption name them ('cacas-no-pr' beside 'CACAS w/o PR': figs)
+    methods = st.multiselect("Methods", METHODS, key="sim-methods", format_func=plots.METHOD_LABELS.get,
                              help="By default the first method runs in closed loop (its success rate is Fig. 3) "
-                                  "and all of them adapt from the same interactions (Fig. 4); see 'Who acts'.")
+                                  "and all of them adapt from the same interactions (Fig. 4); see 'Who acts'. "
+                                  "`cacas simulate --methods` takes them as " + ", ".join(METHODS) + ".")
     loop = st.radio("Who acts with the participants", LOOPS, horizontal=True, format_func=LOOP_LABELS.get,
                     key="sim-loop",
                     help="The paper adapted its baselines from the day-by-day interactions with CACAS (Fig. 4). "

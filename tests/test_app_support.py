@@ -376,7 +376,9 @@ def test_versions_table_gives_each_version_its_run_accuracy(tmp_path):
     assert list(runs.columns) == ["day", "what", "duration (s)", "preference accuracy", "scored on",
                                   "policy version", "saved"]
     assert list(runs["scored on"]) == ["version 1", "version 2", "", ""]  # older runs name none
-    assert list(runs["what"]) == ["cacas", "cacas", "nn (comparison)", "initial policy, scored for Fig. 4 (cacas)"]
+    # the methods as the figures name them (the codes read 'cacas', 'nn')
+    assert list(runs["what"]) == ["CACAS", "CACAS", "NN (comparison)", "initial policy, scored for Fig. 4 (CACAS)"]
+    assert list(table["method"]) == ["CACAS", "CACAS"]
     assert list(runs["preference accuracy"]) == [75.0, 100.0, 10.0, 25.0]
     assert list(runs["policy version"]) == ["1", "2", "", ""]  # a comparison run saves no policy (read "None")
     assert all(c.endswith(" UTC") and len(c) == 20 for c in runs["saved"])  # "YYYY-MM-DD HH:MM UTC"
@@ -498,7 +500,8 @@ def test_the_initial_policys_fig4_scores_name_their_method(tmp_path):
     for method in methods:
         store.record_adaptation("P01", 0, method, {"initial": True}, 0.0, {"preference_accuracy": 0.25})
     runs = app_support.runs_table(store.adaptations_frame("P01"))
-    assert list(runs["what"]) == [f"initial policy, scored for Fig. 4 ({m})" for m in methods]
+    assert list(runs["what"]) == [f"initial policy, scored for Fig. 4 ({m})" for m in ("CACAS", "CACAS w/o PR", "ORL",
+                                                                                        "NN")]
     assert runs["what"].is_unique
     store.close()
 

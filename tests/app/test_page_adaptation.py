@@ -39,6 +39,16 @@ def test_page_before_any_day(app, store, quick_policy):
     assert "has not started day 1" in texts(at)
 
 
+def test_the_method_is_chosen_by_the_name_the_figures_give_it(app, store, quick_policy):
+    """The Options' Method listed codes ('cacas-no-pr'), where Results' figures say 'CACAS w/o PR'."""
+    _day_with_interactions(store)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    method = at.selectbox(key="adapt-method")
+    assert method.options == ["CACAS", "CACAS w/o PR", "ORL", "NN", "Bandit (TS)", "SAC on user data"]
+    assert method.value == "cacas"
+
+
 def test_close_day_and_adapt(app, store, quick_policy):
     day = _day_with_interactions(store)
     at = app(PAGE, participant="P01")
@@ -187,7 +197,7 @@ def test_a_stale_tabs_click_keeps_the_adaptation_this_server_finished(app, store
     assert RUNNER.get(f"adapt:{store.path}:P01:{day}") is job  # not replaced
     assert f"Day {day} was adapted already, in another tab: this click did nothing." in [w.value for w in second.warning]
     first.run()
-    assert any(m.value.startswith("Adapted with nn in ") for m in first.success)
+    assert any(m.value.startswith("Adapted with NN in ") for m in first.success)
     assert len(store.policy_versions("P01")) == 1
 
 
@@ -219,7 +229,7 @@ def test_a_double_click_on_close_and_adapt_adapts_once_and_says_nothing_more(app
     at.run()
     no_exception(at)
     assert [w.value for w in at.warning] == []
-    assert any(m.value.startswith("Adapted with cacas in ") for m in at.success)
+    assert any(m.value.startswith("Adapted with CACAS in ") for m in at.success)
     assert len(store.policy_versions("P01")) == 1
 
 
@@ -233,7 +243,7 @@ def test_an_adaptation_the_app_was_stopped_during_is_said_so(app, store, quick_p
     no_exception(at)
     started = store.events("P01", what="adapt_start")["at"].iloc[-1]
     assert [w.value for w in at.warning] == [
-        f"An adaptation of day {day} with cacas, begun {started[:10]} {started[11:16]} UTC, saved nothing: the app "
+        f"An adaptation of day {day} with CACAS, begun {started[:10]} {started[11:16]} UTC, saved nothing: the app "
         "was probably stopped during it, or it failed. The day's data are all kept; adapt again (unless another "
         "server is adapting it now)."]
     at.session_state["adapt-method"] = "nn"
@@ -358,7 +368,7 @@ def test_the_adaptation_after_the_last_day_says_the_final_policy_not_day_8(app, 
     assert job.wait(10) and job.status == "done"
     at = app(PAGE, participant="P01")
     no_exception(at)
-    assert (f"Adapted with cacas in 1.5 s; policy version {STUDY_DAYS} is the study's final policy (day {STUDY_DAYS} "
+    assert (f"Adapted with CACAS in 1.5 s; policy version {STUDY_DAYS} is the study's final policy (day {STUDY_DAYS} "
             "was its last day).") in [m.value for m in at.success]
     assert f"day {STUDY_DAYS + 1}" not in texts(at)
 

@@ -32,6 +32,17 @@ def run_small_study(at, db, methods, choose=lambda at: None):
     return job
 
 
+def test_the_methods_are_listed_by_the_names_the_figures_give_them(app):
+    """The Methods picker listed the codes --methods takes ('cacas-no-pr') beside figures and captions saying
+    'CACAS w/o PR' (figs); its help names the codes for the command line. The value stays the code."""
+    at = app(PAGE)
+    no_exception(at)
+    methods = next(m for m in at.multiselect if m.label == "Methods")
+    assert methods.options == ["CACAS", "CACAS w/o PR", "ORL", "NN", "Bandit (TS)", "SAC on user data"]
+    assert methods.value == ["cacas", "cacas-no-pr", "orl", "nn"]
+    assert "`cacas simulate --methods` takes them as cacas, cacas-no-pr, orl, nn, bandit, sac-user-data." in methods.help
+
+
 def test_simulation_runs_in_the_background_and_shows_the_run(app, db):
     at = app(PAGE)
     job = run_small_study(at, db, ["nn"], lambda at: at.number_input[4].set_value(0.5))  # ask after half

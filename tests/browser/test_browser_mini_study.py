@@ -425,8 +425,8 @@ def test_mini_study(server, page, tmp_path):
         _widget(page, "stMultiSelect", label).get_by_role("button", name="Clear all").click()
         page.wait_for_timeout(200)
     choose(page, "Simulated participants", "P01", "stMultiSelect")
-    choose(page, "Methods", "cacas", "stMultiSelect")
-    choose(page, "Methods", "nn", "stMultiSelect")
+    choose(page, "Methods", "CACAS", "stMultiSelect")  # named as the figures name them
+    choose(page, "Methods", "NN", "stMultiSelect")
     for label, value in (("Days", "2"), ("Interactions a day", "6")):
         box = page.get_by_role("spinbutton", name=label, exact=True)
         box.fill(value)
