@@ -10,6 +10,7 @@ import pandas as pd
 
 from cacas import records
 from cacas.app_support import adapted_from, short_time
+from cacas.plots import method_names  # the methods named as the figures name them ('CACAS w/o PR')
 
 
 #: A method comparison records its runs seconds apart (one adaptation each, the participants side by
@@ -71,7 +72,7 @@ class _Line:
         if len(self.runs) < 2:
             return self.own_words
         rank = {m: i for i, m in enumerate(records.METHOD_ORDER)}
-        methods = ", ".join(sorted(self.methods, key=lambda m: rank.get(m, len(rank))))
+        methods = method_names(sorted(self.methods, key=lambda m: rank.get(m, len(rank))))
         codes = records.by_code(self.codes)
         whom = "" if len(codes) == 1 else \
             " for " + ", ".join(codes[:8]) + (f" and {len(codes) - 8} more" if len(codes) > 8 else "")
@@ -173,14 +174,15 @@ def _event_words(what: str, d: dict | None) -> str:
         answer = records.RESPONSE_WORDS.get(d.get("response"), "")
         return (f"day {d.get('day')}, interaction {d.get('index')}: robot proposed '{d.get('robot_action')}', "
                 f"{answer}")
-    if what == "record_adaptation":
+    if what in ("record_adaptation", "adapt_start"):
+        method, days = method_names([d.get("method")]), adapted_from(d.get("day"))
+        if what == "adapt_start":
+            return f"adaptation ({method}) from {days} started"
         if not d.get("day"):
-            return f"initial policy scored ({d.get('method')})"
+            return f"initial policy scored ({method})"
         if d.get("policy_version") is None:  # a Fig. 4 comparison run: scored, no policy saved
-            return f"comparison run ({d.get('method')}) on {adapted_from(d.get('day'))}, no policy saved"
-        return f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))}: version {d.get('policy_version')}"
-    if what == "adapt_start":
-        return f"adaptation ({d.get('method')}) from {adapted_from(d.get('day'))} started"
+            return f"comparison run ({method}) on {days}, no policy saved"
+        return f"adaptation ({method}) from {days}: version {d.get('policy_version')}"
     if what == "import_bundle":
         n, m = d.get("participants"), d.get("interactions")
         return f"study imported ({n} participant{'' if n == 1 else 's'}, {m} interaction{'' if m == 1 else 's'})"

@@ -18,13 +18,13 @@ def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
     store.record_adaptation("P01", 2, "orl", {"comparison": True}, 1.0, {})  # a Fig. 4 comparison run
     words = [w for w in recent_events(store, limit=20)["what"]
              if w.startswith(("adaptation", "comparison"))]
-    assert words == ["comparison run (orl) on days 1-2, no policy saved",
-                     "adaptation (nn) from days 1-3: version 2", "adaptation (nn) from day 1: version 1"]
+    assert words == ["comparison run (ORL) on days 1-2, no policy saved",
+                     "adaptation (NN) from days 1-3: version 2", "adaptation (NN) from day 1: version 1"]
     store.close()
 
 
 def test_a_method_comparisons_runs_are_one_line_of_recent_activity(tmp_path):
-    """Walkthrough: one participant-day's comparison gave 8 lines ("comparison run (nn) on day 1, no
+    """Walkthrough: one participant-day's comparison gave 8 lines ("comparison run (NN) on day 1, no
     policy saved", ...), and they pushed everything else out of the Overview's recent activity."""
     store = StudyStore(tmp_path / "s.sqlite")
     store.add_participant("P01")
@@ -36,9 +36,9 @@ def test_a_method_comparisons_runs_are_one_line_of_recent_activity(tmp_path):
     store.add_participant("P02")
     store.record_adaptation("P02", 0, "nn", {}, 1.0, {})  # another participant's: a line of its own
     words = list(recent_events(store, limit=4)["what"])
-    assert words == ["initial policy scored (nn)", "participant added",
-                     "comparison runs (cacas-no-pr, orl, nn) on day 1, no policy saved",
-                     "initial policy scored (cacas-no-pr, orl, nn)"]
+    assert words == ["initial policy scored (NN)", "participant added",
+                     "comparison runs (CACAS w/o PR, ORL, NN) on day 1, no policy saved",
+                     "initial policy scored (CACAS w/o PR, ORL, NN)"]
     store.close()
 
 
@@ -65,7 +65,7 @@ def _two_participants_two_days(tmp_path):
 
 def test_an_interleaved_comparison_is_one_line_and_leaves_the_other_events_in_the_list(tmp_path):
     """Walkthrough: after "Compare methods" for 2 participants x 2 days all 10 rows of the Overview's
-    recent activity read "comparison run (nn) on days 1-2, no policy saved" (the participants run
+    recent activity read "comparison run (NN) on days 1-2, no policy saved" (the participants run
     side by side and each method day by day, so no two runs in a row were of one participant-day);
     a day closed and a questionnaire answered meanwhile were pushed out."""
     store = _two_participants_two_days(tmp_path)
@@ -79,15 +79,15 @@ def test_an_interleaved_comparison_is_one_line_and_leaves_the_other_events_in_th
             store.record_questionnaire("P02", 8)
     events = recent_events(store, limit=10)
     assert list(events["what"])[:4] == [
-        "comparison runs (cacas-no-pr, orl, nn) for P01, P02 on days 1-2, no policy saved",
-        "initial policy scored (cacas-no-pr, orl, nn) for P01, P02",
+        "comparison runs (CACAS w/o PR, ORL, NN) for P01, P02 on days 1-2, no policy saved",
+        "initial policy scored (CACAS w/o PR, ORL, NN) for P01, P02",
         "questionnaire: satisfaction 8", "day 3 closed"]
     assert list(events["participant"])[:4] == ["2 participants", "2 participants", "P02", "P01"]
     assert "day 2 closed" in list(events["what"])  # the days before the comparison too
     # one participant's comparison alone: each method's days one after another, still one line
     assert list(recent_events(store, participant="P02", limit=3)["what"]) == [
-        "comparison runs (cacas-no-pr, orl, nn) on days 1-2, no policy saved",
-        "initial policy scored (cacas-no-pr, orl, nn)", "questionnaire: satisfaction 8"]
+        "comparison runs (CACAS w/o PR, ORL, NN) on days 1-2, no policy saved",
+        "initial policy scored (CACAS w/o PR, ORL, NN)", "questionnaire: satisfaction 8"]
     store.close()
 
 
@@ -117,11 +117,11 @@ def test_a_comparison_never_swallows_a_real_adaptation_made_meanwhile(tmp_path):
     events = recent_events(store, limit=10)
     rows = list(zip(events["participant"], events["what"]))
     assert rows[:6] == [
-        ("2 participants", "comparison runs (cacas-no-pr, orl, nn) for P01, P02 on days 1-2, no policy saved"),
-        ("2 participants", "initial policy scored (cacas-no-pr, orl, nn) for P01, P02"),
-        ("P03", "adaptation (cacas) from day 1: version 1"),
+        ("2 participants", "comparison runs (CACAS w/o PR, ORL, NN) for P01, P02 on days 1-2, no policy saved"),
+        ("2 participants", "initial policy scored (CACAS w/o PR, ORL, NN) for P01, P02"),
+        ("P03", "adaptation (CACAS) from day 1: version 1"),
         ("P03", "policy version 1 saved and put in force"),
-        ("P03", "initial policy scored (cacas)"),
+        ("P03", "initial policy scored (CACAS)"),
         ("P03", "day 1 closed")]
     # a second comparison later (days closed since) is a line of its own, not merged into the first
     for code in ("P01", "P02"):
@@ -130,9 +130,9 @@ def test_a_comparison_never_swallows_a_real_adaptation_made_meanwhile(tmp_path):
         if run[1]:
             _record_run(store, *run)
     words = list(recent_events(store, limit=10)["what"])
-    assert words[:4] == ["comparison runs (cacas-no-pr, orl, nn) for P01, P02 on days 1-3, no policy saved",
+    assert words[:4] == ["comparison runs (CACAS w/o PR, ORL, NN) for P01, P02 on days 1-3, no policy saved",
                          "day 3 closed", "day 3 started", "day 3 closed"]
-    assert words.count("comparison runs (cacas-no-pr, orl, nn) for P01, P02 on days 1-2, no policy saved") == 1
+    assert words.count("comparison runs (CACAS w/o PR, ORL, NN) for P01, P02 on days 1-2, no policy saved") == 1
     store.close()
 
 
@@ -149,10 +149,10 @@ def test_a_comparison_an_hour_after_another_is_a_line_of_its_own(tmp_path):
         for run in _comparison_runs(("P01", "P02"), (1, 2), methods=("nn",)):
             _record_run(store, *run)
     assert list(recent_events(store, limit=4)["what"]) == [
-        "comparison runs (nn) for P01, P02 on days 1-2, no policy saved",
-        "initial policy scored (nn) for P01, P02",
-        "comparison runs (orl) for P01, P02 on days 1-2, no policy saved",
-        "initial policy scored (orl) for P01, P02"]
+        "comparison runs (NN) for P01, P02 on days 1-2, no policy saved",
+        "initial policy scored (NN) for P01, P02",
+        "comparison runs (ORL) for P01, P02 on days 1-2, no policy saved",
+        "initial policy scored (ORL) for P01, P02"]
     store.close()
 
 
@@ -166,8 +166,8 @@ def test_a_comparison_longer_than_the_events_read_at_first_is_said_whole(tmp_pat
 
     store = _comparison_with_p03_meanwhile(tmp_path, tablet_p03)
     assert list(recent_events(store, limit=3)["what"]) == [
-        "comparison runs (cacas-no-pr, orl, nn) for P01, P02 on days 1-2, no policy saved",
-        "initial policy scored (cacas-no-pr, orl, nn) for P01, P02",
+        "comparison runs (CACAS w/o PR, ORL, NN) for P01, P02 on days 1-2, no policy saved",
+        "initial policy scored (CACAS w/o PR, ORL, NN) for P01, P02",
         "day 1, interaction 12: robot proposed 'pain check', accepted"]
     store.close()
 
@@ -195,7 +195,7 @@ def test_recent_events_with_details_that_are_not_a_json_object():
 
 def test_an_adaptations_start_and_an_import_are_said_in_words(tmp_path):
     """Walkthrough (Overview): each day's adaptation took a line "adapt start" (the event's kind, its
-    underscore dropped) beside "adaptation (cacas) from days 1-7: version 7", and an import read
+    underscore dropped) beside "adaptation (CACAS) from days 1-7: version 7", and an import read
     "import bundle". An adaptation that was recorded needs no line of its start; one that saved nothing
     (the app stopped during it, or it still runs) keeps it, in words."""
     from cacas.export import export_study, import_bundle
@@ -211,8 +211,8 @@ def test_an_adaptations_start_and_an_import_are_said_in_words(tmp_path):
     store.note_adaptation_started("P01", day, "bandit")  # the researcher adapts again: recorded
     store.record_adaptation("P01", day, "bandit", {}, 1.0, {}, store.save_policy("P01", day, "bandit", b"policy"))
     words = list(recent_events(store, limit=20)["what"])
-    assert words[:2] == ["adaptation (bandit) from day 1: version 1", "policy version 1 saved and put in force"]
-    assert "adaptation (cacas) from day 1 started" in words
+    assert words[:2] == ["adaptation (Bandit (TS)) from day 1: version 1", "policy version 1 saved and put in force"]
+    assert "adaptation (CACAS) from day 1 started" in words
     assert not [w for w in words if "bandit" in w and "started" in w]
     assert all("_" not in w and w != "adapt start" for w in words), words
     export_study(store, tmp_path / "out")
