@@ -124,7 +124,7 @@ FORMS_PAGE = "pages/participants.py"
 def _sidebar(store, page) -> dict[str, str | None]:
     """Draw the sidebar; returns the address (:func:`_address`) for the participant it settled on."""
     with st.sidebar:
-        st.markdown("### :material/smart_toy: CACAS Studio")
+        st.markdown(f"### {ui.icon('smart_toy')} CACAS Studio", unsafe_allow_html=True)  # read "CACAS Studio"
         links = st.container(key="page-links")  # filled last, with the participant chosen below
         st.divider()
         studies = [s.name for s in store.studies()]

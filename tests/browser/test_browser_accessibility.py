@@ -1,0 +1,61 @@
+"""The app as a screen reader and a keyboard meet it (accessibility walkthrough, headless Chromium): what the
+accessibility tree names, and what the keyboard's focus shows. Participants are older adults on the tablet view."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from playwright.sync_api import expect
+
+from cacas.store import StudyStore
+from cacas.study_day import Context
+from conftest import _run_app, open_page
+from test_browser_mini_study import goto
+
+pytestmark = pytest.mark.browser
+
+#: how Streamlit names a ``:material/...`` icon written in text: its ligature ("check icon")
+ICON_NAME = re.compile(r"^[a-z_]+ icon$")
+
+
+@pytest.fixture(scope="module")
+def day_1(tmp_path_factory, initial_policy):
+    """The app over P01, with a described preference, on an open day 1."""
+    tmp = tmp_path_factory.mktemp("accessibility")
+    db = tmp / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        s.open_day("P01")
+    for url in _run_app(tmp, CACAS_DB=str(db)):
+        yield url
+
+
+def icon_names(page) -> list[str]:
+    """The names of the images in the page's main area that a screen reader reads as an icon's ligature."""
+    return [n for n in page.locator("[data-testid='stMain'] [role='img']").evaluate_all(
+        "els => els.filter(e => !e.closest('[aria-hidden=true]')).map(e => e.getAttribute('aria-label') || '')")
+        if ICON_NAME.match(n)]
+
+
+def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
+    """The tablet's heading was read "smart_toy icon Hello, P01", and the robot's recognition "The robot heard: cough
+    check icon" ("help icon" where it heard something else than was chosen); the researcher's sidebar title
+    "smart_toy icon CACAS Studio"."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    goto(page, f"{day_1}/?participant=P01&view=tablet")
+    expect(page.get_by_role("heading", name="Hello, P01", exact=True)).to_be_visible()
+    assert icon_names(page) == []
+    # a proposal, opened at its address (a reload's way back to it): cough in the bedroom, 08:00-10:00, 20-30 min
+    token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
+    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.1")
+    heard = page.get_by_role("heading", name=re.compile(r"^The robot heard: "))
+    expect(heard).to_be_visible(timeout=120_000)
+    # what the check (or question) mark says: that the robot heard (and saw) what was chosen, or not
+    expect(heard).to_have_accessible_name(re.compile(r"^The robot heard: [a-zA-Z ]+ (as chosen|not as chosen)$"))
+    expect(page.get_by_text(re.compile(r"^and sees the "))).to_be_visible()
+    assert icon_names(page) == []
+    goto(page, f"{day_1}/adaptation?participant=P01")
+    expect(page.get_by_role("heading", name="CACAS Studio", exact=True)).to_be_visible()
+    page.context.close()
