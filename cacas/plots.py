@@ -6,6 +6,9 @@ The same builders serve human studies (the study database's daily table) and sim
 
 from __future__ import annotations
 
+import html
+import re
+
 import pandas as pd
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
@@ -562,3 +565,33 @@ def preference_methods_figure(by_preference: pd.DataFrame, day: int | None = Non
     methods = in_method_order(rows["method"])
     return _preference_heatmap(rows, "method", methods, f"Accuracy by described preference and method, day {day}",
                                "method")
+
+
+def _plain(text) -> str:
+    """A Plotly text as words: its HTML tags (``<br>``, ``<sup>``) gone, entities read, spaces single."""
+    words = re.sub(r"<br\s*/?>", " ", str(text or ""), flags=re.I)
+    return " ".join(html.unescape(re.sub(r"<[^>]+>", "", words)).split())
+
+
+#: a heatmap's columns named in its description up to this many (a confusion matrix has one per class: 33)
+DESCRIBED_COLUMNS = 8
+
+
+def describe(fig: go.Figure) -> str:
+    """A short description of ``fig`` for a screen reader (``st.plotly_chart``'s ``alt``): its title and subtitle,
+    then what it draws: the legend's entries, or a heatmap's rows and columns. Without it a chart was read as its
+    tick labels run together ("1 0% 20% 40% ...") followed by a row of unnamed images (accessibility walkthrough)."""
+    title = fig.layout.title
+    said = [t for t in (_plain(title.text), _plain(title.subtitle.text) if title.subtitle else "") if t]
+    shown = [_plain(t.name) for t in fig.data if t.name and t.showlegend is not False]
+    if shown:
+        said.append("Drawn: " + "; ".join(dict.fromkeys(shown)))
+    for t in fig.data:
+        if t.type == "heatmap" and t.x is not None and t.y is not None:
+            columns = [_plain(x) for x in t.x]
+            axis = _plain(fig.layout.xaxis.title.text)
+            said.append(f"A grid of {len(t.y)} rows by {len(columns)} columns"
+                        + (f" ({axis + ': ' if axis else ''}{', '.join(columns)})" if len(columns) <= DESCRIBED_COLUMNS
+                           else ""))
+    return ". ".join(x.rstrip(".") for x in said) + "."
+

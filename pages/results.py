@@ -142,7 +142,7 @@ if fig3.open:
         else:
             if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
                 human = source == HUMAN
-                st.plotly_chart(plots.success_methods_figure(
+                ui.chart(plots.success_methods_figure(
                     shown, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
                 method = st.selectbox("Method", looped, index=looped.index(method), key="results-fig3-method", persist_state="page",
                                       format_func=lambda m: plots.METHOD_LABELS.get(m, m),
@@ -182,7 +182,7 @@ if fig3.open:
             if in_progress:
                 st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                            "are so far, and change until the day is closed.")
-            st.plotly_chart(plots.success_figure(shown, method=method), width="stretch")
+            ui.chart(plots.success_figure(shown, method=method), width="stretch")
             st.caption("Mean over participants; the band spans the minimum and maximum participant (Fig. 3). A success "
                        "is a robot-initiated action the participant accepted, of the recorded interactions (proposals answered, "
                        "and requests, which are not successes); as in the paper, a proposal left unanswered, the robot "
@@ -226,7 +226,7 @@ if fig4.open:
             st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
                     "described preferences.")
         else:
-            st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
+            ui.chart(plots.methods_figure(accuracy), width="stretch")
             st.dataframe(100 * summary, width="stretch", placeholder="–",  # "–": a method without a score that day
                          column_config={"_index": st.column_config.TextColumn("method", width="medium"),
                                         **{day: st.column_config.NumberColumn(format="%.0f%%") for day in summary}})

@@ -235,7 +235,7 @@ def _metrics_view(metrics, kind: str) -> None:
     st.metric(f"{kind} {'test ' if held_out else ''}accuracy", f"{100 * metrics.accuracy:.1f}%", help=on)
     if not held_out or metrics.extra.get("held_out_missing"):  # not the figure the model was saved with: said
         st.caption(f":material/info: Accuracy {on}.")
-    st.plotly_chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
+    ui.chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
     per = metrics.per_class.rename(columns={"label": "class"})
     per = per.assign(accuracy=100 * per["accuracy"])  # whole percentages, as the rest of the page (it showed 66.67%)
     st.dataframe(per, hide_index=True, width="stretch", placeholder="–",  # a class with no item: "–", not "None"

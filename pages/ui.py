@@ -378,6 +378,12 @@ def _job_fragment(key: str, stoppable: bool = False, when_stopped: str = NOTHING
         st.rerun(scope="app")
 
 
+def chart(fig, where=None, **options) -> None:
+    """``st.plotly_chart`` (in ``where``, default the page) with a description a screen reader reads
+    (:func:`cacas.plots.describe`): without one a chart was read as its tick labels run together."""
+    (where or st).plotly_chart(fig, alt=plots.describe(fig), **options)
+
+
 #: Participants whose preferences the heatmap shows at first (more are chosen in a list).
 HEATMAP_PARTICIPANTS = 8
 
@@ -411,5 +417,5 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str, file_name: str = 
         method = st.selectbox("Method", methods, key=f"{key}-method", persist_state="page",
                               format_func=lambda m: plots.METHOD_LABELS.get(m, m))
         fig = plots.preference_days_figure(by_preference, method)
-    st.plotly_chart(fig, width="stretch", key=f"{key}-chart")
+    chart(fig, width="stretch", key=f"{key}-chart")
     download_csv(whole, file_name, "Download by_preference.csv", key=f"{key}-dl")

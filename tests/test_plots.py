@@ -447,3 +447,20 @@ def test_fig3_by_method_lists_the_methods_in_the_papers_order_as_fig4_does():
     d = pd.concat([daily().assign(method=m) for m in ("nn", "orl", "cacas")], ignore_index=True)
     assert [t.name for t in success_methods_figure(d).data] == ["CACAS", "ORL", "NN"]
     assert [t.name for t in methods_figure(d).data] == ["CACAS", "ORL", "NN"]
+
+
+
+def test_a_figure_is_described_in_words_for_a_screen_reader():
+    """st.plotly_chart's alt: a chart was read as its tick labels run together, then unnamed images."""
+    from cacas.plots import describe
+
+    assert describe(success_figure(daily())) == (
+        "Success rate and cumulative feedback. CACAS, 2 participants. Drawn: min-max across participants; "
+        "success rate (mean); cumulative feedback (mean).")
+    assert describe(methods_figure(daily())).startswith("Preference prediction by method. 2 participants")
+    heat = describe(preference_methods_figure(by_preference(), 2))
+    assert heat == "Accuracy by described preference and method, day 2. A grid of 3 rows by 2 columns (method: CACAS, NN)."
+    assert describe(preference_days_figure(by_preference(), "nn")).endswith("A grid of 3 rows by 2 columns (day: 1, 2).")
+    every = [success_figure(daily()), methods_figure(daily()), success_methods_figure(daily()),
+             preference_days_figure(by_preference()), preference_methods_figure(by_preference())]
+    assert all("<" not in describe(f) and describe(f).endswith(".") for f in every)

@@ -21,13 +21,15 @@ ICON_NAME = re.compile(r"^[a-z_]+ icon$")
 
 @pytest.fixture(scope="module")
 def day_1(tmp_path_factory, initial_policy):
-    """The app over P01, with a described preference, on an open day 1."""
+    """The app over P01, with a described preference, on an open day 1 with one interaction."""
     tmp = tmp_path_factory.mktemp("accessibility")
     db = tmp / "study.sqlite"
     with StudyStore(db) as s:
         s.add_participant("P01")
         s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-        s.open_day("P01")
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=25,
+                             robot_action="pain check", response="accept")
     for url in _run_app(tmp, CACAS_DB=str(db)):
         yield url
 
@@ -49,7 +51,7 @@ def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
     assert icon_names(page) == []
     # a proposal, opened at its address (a reload's way back to it): cough in the bedroom, 08:00-10:00, 20-30 min
     token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
-    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.1")
+    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.2")
     heard = page.get_by_role("heading", name=re.compile(r"^The robot heard: "))
     expect(heard).to_be_visible(timeout=120_000)
     # what the check (or question) mark says: that the robot heard (and saw) what was chosen, or not
@@ -58,4 +60,13 @@ def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
     assert icon_names(page) == []
     goto(page, f"{day_1}/adaptation?participant=P01")
     expect(page.get_by_role("heading", name="CACAS Studio", exact=True)).to_be_visible()
+    page.context.close()
+
+
+def test_a_chart_is_named_for_a_screen_reader(browser, day_1):
+    """Fig. 3 was read as its tick labels run together ("1 0% 20% 40% ..."), then a row of unnamed images."""
+    page = open_page(browser, viewport={"width": 1280, "height": 900})
+    goto(page, f"{day_1}/results?participant=P01")
+    expect(page.get_by_role("figure", name=re.compile(r"^Success rate and cumulative feedback\. CACAS, 1 participant\. "
+                                                       r"Drawn: .*success rate \(mean\)"))).to_be_visible()
     page.context.close()
