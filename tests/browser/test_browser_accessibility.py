@@ -8,6 +8,7 @@ import re
 import pytest
 from playwright.sync_api import expect
 
+from cacas.plots import contrast_ratio
 from cacas.store import StudyStore
 from cacas.study_day import Context
 from conftest import _run_app, open_page
@@ -69,4 +70,32 @@ def test_a_chart_is_named_for_a_screen_reader(browser, day_1):
     goto(page, f"{day_1}/results?participant=P01")
     expect(page.get_by_role("figure", name=re.compile(r"^Success rate and cumulative feedback\. CACAS, 1 participant\. "
                                                        r"Drawn: .*success rate \(mean\)"))).to_be_visible()
+    page.context.close()
+
+
+#: the focused element's ring as drawn: its outline, and Streamlit's own box-shadow ring
+RING = """() => { const s = getComputedStyle(document.activeElement);
+  return {name: document.activeElement.innerText, style: s.outlineStyle, width: parseFloat(s.outlineWidth),
+          colour: s.outlineColor, shadow: s.boxShadow}; }"""
+
+
+def _hex(rgb: str) -> str:
+    r, g, b = (int(float(x)) for x in re.findall(r"[\d.]+", rgb)[:3])
+    return f"#{r:02x}{g:02x}{b:02x}"
+
+
+def test_the_tablets_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
+    """Streamlit's focus ring is the primary colour at half strength (rgba(47, 111, 143, 0.5): #97b7c7 on white,
+    2.1:1), under WCAG 1.4.11's 3:1 for what shows a state: faint beside a chip's own grey border."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    goto(page, f"{day_1}/?participant=P01&view=tablet")
+    first = page.get_by_role("radio", name="00:00-02:00")
+    expect(first).to_be_visible()
+    for _ in range(10):  # the keyboard's way in: the skip link, the main area, then the first chip
+        page.keyboard.press("Tab")
+        if first.evaluate("e => e === document.activeElement"):
+            break
+    ring = page.evaluate(RING)
+    assert ring["name"] == "00:00-02:00" and ring["style"] == "solid" and ring["width"] >= 2, ring
+    assert contrast_ratio(_hex(ring["colour"])) >= 3, ring
     page.context.close()
