@@ -99,3 +99,20 @@ def test_the_tablets_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
     assert ring["name"] == "00:00-02:00" and ring["style"] == "solid" and ring["width"] >= 2, ring
     assert contrast_ratio(_hex(ring["colour"])) >= 3, ring
     page.context.close()
+
+
+def test_the_tablets_captions_are_dark_enough_to_read(browser, day_1):
+    """A caption (the proposal's "in the bedroom · 08:00-10:00 · 20-30 min since your last activity") was Streamlit's
+    text colour faded to 0.6 on white: #828180, 3.89:1, under WCAG 1.4.3's 4.5:1 for text of its 15 px."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
+    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.2")
+    caption = page.locator("[data-testid='stCaptionContainer']").filter(has_text="since your last activity")
+    expect(caption).to_be_visible(timeout=120_000)
+    drawn = caption.evaluate("""e => { let opacity = 1, n = e;
+        for (; n; n = n.parentElement) opacity *= parseFloat(getComputedStyle(n).opacity);
+        return {colour: getComputedStyle(e.querySelector('p')).color, opacity}; }""")
+    ink = [int(float(x)) for x in re.findall(r"[\d.]+", drawn["colour"])[:3]]
+    seen = "#" + "".join(f"{round(drawn['opacity'] * c + (1 - drawn['opacity']) * 255):02x}" for c in ink)  # on white
+    assert contrast_ratio(seen) >= 4.5, (seen, drawn)
+    page.context.close()
