@@ -22,7 +22,7 @@ ICON_NAME = re.compile(r"^[a-z_]+ icon$")
 
 @pytest.fixture(scope="module")
 def day_1(tmp_path_factory, initial_policy):
-    """The app over P01, with a described preference, on an open day 1 with one interaction."""
+    """The app over P01, with a described preference, on an open day 1 with one interaction; P02 on an open day 1."""
     tmp = tmp_path_factory.mktemp("accessibility")
     db = tmp / "study.sqlite"
     with StudyStore(db) as s:
@@ -31,6 +31,9 @@ def day_1(tmp_path_factory, initial_policy):
         day = s.open_day("P01")
         s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=25,
                              robot_action="pain check", response="accept")
+        s.add_participant("P02")  # on the form (P01's tablet is left on a proposal, to which its address returns)
+        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+        s.open_day("P02")
     for url in _run_app(tmp, CACAS_DB=str(db)):
         yield url
 
@@ -47,8 +50,9 @@ def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
     check icon" ("help icon" where it heard something else than was chosen); the researcher's sidebar title
     "smart_toy icon CACAS Studio"."""
     page = open_page(browser, viewport={"width": 1024, "height": 768})
-    goto(page, f"{day_1}/?participant=P01&view=tablet")
-    expect(page.get_by_role("heading", name="Hello, P01", exact=True)).to_be_visible()
+    goto(page, f"{day_1}/?participant=P02&view=tablet")  # its form
+    expect(page.get_by_role("heading", name="Hello, P02", exact=True)).to_be_visible()
+    expect(page.get_by_role("button", name="Do it")).to_be_visible()
     assert icon_names(page) == []
     # a proposal, opened at its address (a reload's way back to it): cough in the bedroom, 08:00-10:00, 20-30 min
     token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
@@ -88,7 +92,7 @@ def test_the_tablets_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
     """Streamlit's focus ring is the primary colour at half strength (rgba(47, 111, 143, 0.5): #97b7c7 on white,
     2.1:1), under WCAG 1.4.11's 3:1 for what shows a state: faint beside a chip's own grey border."""
     page = open_page(browser, viewport={"width": 1024, "height": 768})
-    goto(page, f"{day_1}/?participant=P01&view=tablet")
+    goto(page, f"{day_1}/?participant=P02&view=tablet")
     first = page.get_by_role("radio", name="00:00-02:00")
     expect(first).to_be_visible()
     for _ in range(10):  # the keyboard's way in: the skip link, the main area, then the first chip
