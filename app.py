@@ -124,7 +124,7 @@ FORMS_PAGE = "pages/participants.py"
 def _sidebar(store, page) -> dict[str, str | None]:
     """Draw the sidebar; returns the address (:func:`_address`) for the participant it settled on."""
     with st.sidebar:
-        st.markdown("### :material/smart_toy: CACAS Studio")
+        st.markdown(f"### {ui.icon('smart_toy')} CACAS Studio", unsafe_allow_html=True)  # read "CACAS Studio"
         links = st.container(key="page-links")  # filled last, with the participant chosen below
         st.divider()
         studies = [s.name for s in store.studies()]
@@ -288,8 +288,16 @@ TABLET_STYLE = """
 [data-testid='stMain'] [data-testid='stMarkdownContainer'] p { font-size: 1.05rem; }
 [data-testid='stMain'] [data-testid='stCaptionContainer'], [data-testid='stMain'] [data-testid='stCaptionContainer'] p,
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
+/* Streamlit fades a caption to 0.6: #828180 on white, 3.89:1, under WCAG 1.4.3's 4.5:1 for text of this size (the
+   proposal's "in the bedroom · 08:00-10:00 · ..."); at 0.75, #636260, 6.1:1, still lighter than the text around it */
+[data-testid='stMain'] [data-testid='stCaptionContainer'] { opacity: 0.75; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
 [data-testid='stToastContainer'] { top: auto; bottom: 1rem; }
+/* the keyboard's focus in a solid ring of the primary colour, 5.5:1 on white: Streamlit's is that colour at half
+   strength (#97b7c7 on white, 2.1:1, under WCAG 1.4.11's 3:1), faint beside a chip's own border (accessibility
+   walkthrough) */
+[data-testid='stMain'] :is(button, [role='radio'], audio, a):focus-visible { outline: 3px solid #2f6f8f;
+                                                                              outline-offset: 2px; }
 [data-testid='stMain'] audio { width: 100%; height: 3.25rem; }
 @media (max-width: 640px) {
   [data-testid='stMainBlockContainer'] { padding-top: 1rem; }

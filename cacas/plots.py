@@ -6,6 +6,9 @@ The same builders serve human studies (the study database's daily table) and sim
 
 from __future__ import annotations
 
+import html
+import re
+
 import pandas as pd
 import plotly.graph_objects as go
 from plotly.subplots import make_subplots
@@ -17,7 +20,9 @@ from cacas import records
 CEILING_NAME = "where a described preference names an action (mean)"
 METHOD_LABELS = {"cacas": "CACAS", "cacas-no-pr": "CACAS w/o PR", "orl": "ORL", "nn": "NN",
                  "bandit": "Bandit (TS)", "sac-user-data": "SAC on user data"}
-METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#e08a2c", "orl": "#5a9e4b", "nn": "#c0504d",
+#: each method's line; every one at least 3:1 against the figures' white (WCAG 2.1 1.4.11, graphics: CACAS w/o PR's
+#: orange #e08a2c was 2.68:1, a pale line beside the others; :func:`contrast_ratio`)
+METHOD_COLOURS = {"cacas": "#2f6f8f", "cacas-no-pr": "#cc7a1f", "orl": "#5a9e4b", "nn": "#c0504d",
                   "bandit": "#8064a2", "sac-user-data": "#7f7f7f"}
 
 
@@ -26,6 +31,20 @@ def method_names(methods) -> str:
     "CACAS, CACAS w/o PR, NN". A run's caption said "methods cacas, cacas-no-pr" beside figures saying
     "CACAS w/o PR" (walk2); the codes stay where a researcher types them."""
     return ", ".join(METHOD_LABELS.get(m, m) for m in methods)
+
+
+def _luminance(colour: str) -> float:
+    """A "#rrggbb" colour's relative luminance (WCAG 2.1's definition)."""
+    rgb = [int(colour.lstrip("#")[i:i + 2], 16) / 255 for i in (0, 2, 4)]
+    r, g, b = (c / 12.92 if c <= 0.03928 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb)
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b
+
+
+def contrast_ratio(colour: str, background: str = "#ffffff") -> float:
+    """WCAG 2.1's contrast ratio of two "#rrggbb" colours, 1 to 21: text needs 4.5 (3 when large), lines and
+    other graphics 3."""
+    lighter, darker = sorted((_luminance(colour), _luminance(background)), reverse=True)
+    return (lighter + 0.05) / (darker + 0.05)
 
 
 def in_method_order(methods) -> list[str]:
@@ -670,3 +689,33 @@ def preference_methods_figure(by_preference: pd.DataFrame, day: int | None = Non
     methods = in_method_order(rows["method"])
     return _preference_heatmap(rows, "method", methods, f"Accuracy by described preference and method, day {day}",
                                "method")
+
+
+def _plain(text) -> str:
+    """A Plotly text as words: its HTML tags (``<br>``, ``<sup>``) gone, entities read, spaces single."""
+    words = re.sub(r"<br\s*/?>", " ", str(text or ""), flags=re.I)
+    return " ".join(html.unescape(re.sub(r"<[^>]+>", "", words)).split())
+
+
+#: a heatmap's columns named in its description up to this many (a confusion matrix has one per class: 33)
+DESCRIBED_COLUMNS = 8
+
+
+def describe(fig: go.Figure) -> str:
+    """A short description of ``fig`` for a screen reader (``st.plotly_chart``'s ``alt``): its title and subtitle,
+    then what it draws: the legend's entries, or a heatmap's rows and columns. Without it a chart was read as its
+    tick labels run together ("1 0% 20% 40% ...") followed by a row of unnamed images (accessibility walkthrough)."""
+    title = fig.layout.title
+    said = [t for t in (_plain(title.text), _plain(title.subtitle.text) if title.subtitle else "") if t]
+    shown = [_plain(t.name) for t in fig.data if t.name and t.showlegend is not False]
+    if shown:
+        said.append("Drawn: " + "; ".join(dict.fromkeys(shown)))
+    for t in fig.data:
+        if t.type == "heatmap" and t.x is not None and t.y is not None:
+            columns = [_plain(x) for x in t.x]
+            axis = _plain(fig.layout.xaxis.title.text)
+            said.append(f"A grid of {len(t.y)} rows by {len(columns)} columns"
+                        + (f" ({axis + ': ' if axis else ''}{', '.join(columns)})" if len(columns) <= DESCRIBED_COLUMNS
+                           else ""))
+    return ". ".join(x.rstrip(".") for x in said) + "."
+

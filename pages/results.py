@@ -142,7 +142,7 @@ if fig3.open:
         else:
             if len(looped) > 1:  # a simulated run with --loop each, or a human study adapted with several methods
                 human = source == HUMAN
-                st.plotly_chart(plots.success_methods_figure(
+                ui.chart(plots.success_methods_figure(
                     shown, title="Success rate by the method whose policy was in force" if human else None), width="stretch")
                 if few := plots.few_interactions_note(shown):  # its hollow points (Fig. 3's own caption is below)
                     st.caption(few)
@@ -184,7 +184,7 @@ if fig3.open:
             if in_progress:
                 st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
                            "are so far, and change until the day is closed.")
-            st.plotly_chart(plots.success_figure(shown, method=method), width="stretch")
+            ui.chart(plots.success_figure(shown, method=method), width="stretch")
             st.caption(plots.success_caption(shown, method))
 
 if fig4.open:
@@ -219,7 +219,7 @@ if fig4.open:
             st.info("No preference accuracy yet: it is computed after an adaptation, for participants who "
                     "described preferences.")
         else:
-            st.plotly_chart(plots.methods_figure(accuracy), width="stretch")
+            ui.chart(plots.methods_figure(accuracy), width="stretch")
             st.dataframe(100 * summary, width="stretch", placeholder="–",  # "–": a method without a score that day
                          column_config={"_index": st.column_config.TextColumn("method", width="medium"),
                                         **{day: st.column_config.NumberColumn(format="%.0f%%") for day in summary}})

@@ -351,6 +351,12 @@ def _say_a_proposal_its_closed_day_left_unanswered(status) -> None:
         "saved for it.")
 
 
+def _mark(as_chosen: bool) -> str:
+    """The mark beside what the robot recognised: a check where it is what was chosen, a question mark where
+    not; a screen reader reads it in words (it read "check icon" and "help icon": ui.icon)."""
+    return ui.icon("check", "as chosen") if as_chosen else ui.icon("help", "not as chosen")
+
+
 def _run_here() -> None:
     st.session_state["run-here"] = True
 
@@ -391,7 +397,8 @@ head, back = st.columns([1, 1] if tablet else [2, 1], vertical_alignment="center
 if tablet:
     # no anchor-link icons beside the headings (a heading's link, shown when hovered or tapped near it, is of no
     # use on a tablet: walkthrough)
-    head.markdown(f"## :material/smart_toy: Hello, {code}", anchors=False)
+    # the robot is a decoration: a screen reader reads the heading "Hello, P01" (ui.icon)
+    head.markdown(f"## {ui.icon('smart_toy')} Hello, {code}", anchors=False, unsafe_allow_html=True)
 else:
     head.title(f"Study session · {code}")
 back = back.empty()  # "Choose a different activity" while a proposal is shown: in view, not below the request form
@@ -566,12 +573,12 @@ else:
             st.caption("No sound clip for this activity in the library.")
     with right.container(border=True):
         if heard:
-            mark = ":material/check:" if heard.label == context.activity else ":material/help:"
-            st.markdown(f"##### The robot heard: {heard.label} {mark}", anchors=False)
+            st.markdown(f"##### The robot heard: {heard.label} {_mark(heard.label == context.activity)}", anchors=False,
+                        unsafe_allow_html=True)
             if heard.unsure:  # under a check mark, "not sure it heard that right" read as a contradiction
-                st.caption(":material/help: " + ("The robot was not sure, but it heard that right."
+                st.caption(ui.icon("help") + " " + ("The robot was not sure, but it heard that right."
                                                  if heard.label == context.activity else
-                                                 "The robot is not sure it heard that right."))
+                                                 "The robot is not sure it heard that right."), unsafe_allow_html=True)
             if not tablet:  # the participant sees plain labels; the researcher the numbers
                 st.caption("Also possible: " + ", ".join(f"{a} {share}" for a, share in heard.top3_words[1:]) +
                            f" · confidence {heard.percent}%")
@@ -579,10 +586,9 @@ else:
             st.markdown(f"##### The robot heard: {context.activity}", anchors=False)
             st.caption("No sound model: the robot uses the activity as chosen.")
         if seen:
-            mark = ":material/check:" if seen.label == context.scene else ":material/help:"
             unsure = " (not sure)" if seen.unsure else ""
-            st.markdown(f"and sees the **{seen.label}** {mark}{unsure}" +
-                        ("" if tablet else f" ({seen.percent}%)"))
+            st.markdown(f"and sees the **{seen.label}** {_mark(seen.label == context.scene)}{unsure}" +
+                        ("" if tablet else f" ({seen.percent}%)"), unsafe_allow_html=True)
 
     with st.chat_message("assistant", avatar=":material/smart_toy:"):
         st.markdown(f"**{proposal.line}**")

@@ -180,8 +180,8 @@ if runs:
     one = None if len(plots.closed_loop_methods(daily)) > 1 else plots.loop_method(daily) or daily["method"].iloc[0]
     fig3 = plots.success_methods_figure(daily) if one is None else plots.success_figure(daily, method=one)
     fig3, fig4 = plots.side_by_side(fig3, plots.methods_figure(daily))  # their plot areas at one height
-    c1.plotly_chart(fig3, width="stretch")
-    c2.plotly_chart(fig4, width="stretch")
+    ui.chart(fig3, c1, width="stretch")
+    ui.chart(fig4, c2, width="stretch")
     if few := plots.few_interactions_note(daily, one):  # Fig. 3's hollow points (one None: Fig. 3 by method's)
         c1.caption(few)
     # in the paper's order, as Fig. 4 and the Results page list them (daily.csv's is the order chosen)

@@ -4,6 +4,8 @@ sound CNN and the scene ResNet-18, and trying a clip or a photo (Sections IV-A a
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 import streamlit as st
 
@@ -41,7 +43,8 @@ def _recognise(kind: str, name: str, data: bytes) -> None:
         st.error(str(exc), icon=":material/error:")
         return
     if kind == "scene":
-        st.image(lab.photo_to_show(name, data), width=280)  # as the model sees it (a 16-bit PNG could not be drawn)
+        # as the model sees it (a 16-bit PNG could not be drawn); named for a screen reader (it had no alt text)
+        st.image(lab.photo_to_show(name, data), width=280, alt=f"The photo {name}, as the model sees it")
     else:  # hear what the model heard
         st.audio(data, format=lab.audio_mime(name))
     st.markdown(f"### {r.label}", anchors=False)  # no anchor-link icon beside it, as on the tablet's headings
@@ -164,6 +167,12 @@ def _add_tab(kind: str, intro: str) -> None:
             st.warning(note, icon=":material/timer:")
 
 
+def _photo_alt(path) -> str:
+    """A library photo's text for a screen reader: its room (its folder, "dining_room") and file name (it had none)."""
+    room = Path(path).parent.name.replace("_", " ")
+    return f"A photo {spaces.in_scene(room) if room in spaces.SCENES else 'of ' + room}: {Path(path).name}"
+
+
 def _library_grid(kind: str, names: str, show, note: str = "") -> None:
     """How many files the library holds, then a card per activity or room with its count and its
     first file (``show(path)`` plays or shows it)."""
@@ -207,7 +216,7 @@ with add_clip:
                       "mixed to mono). Every file is checked before anything is added.")
 
 with scene_library:
-    _library_grid("scene", "rooms", lambda path: st.image(str(path), width=160),
+    _library_grid("scene", "rooms", lambda path: st.image(str(path), width=160, alt=_photo_alt(path)),
                   " In a study, the robot's camera \"sees\" one of the room's photos (the same one for the same "
                   "interaction): photos of the participant's own rooms make it real.")
     with st.expander("Every photo of one room", key="lib-every-photo", on_change="rerun") as every_photo:
@@ -219,7 +228,7 @@ with scene_library:
             width = table_layouts.photo_width(p.name for p in photos)
             with st.container(horizontal=True, gap="small", key="every-photo-grid"):
                 for p in photos:
-                    st.image(str(p), caption=p.name, width=width)
+                    st.image(str(p), caption=p.name, width=width, alt=_photo_alt(p))
             if len(image_paths(room)) > len(photos):
                 st.caption(f"The first {len(photos)} of {len(image_paths(room))} photos, by file name.")
 
@@ -235,7 +244,7 @@ def _metrics_view(metrics, kind: str) -> None:
     st.metric(f"{kind} {'test ' if held_out else ''}accuracy", f"{100 * metrics.accuracy:.1f}%", help=on)
     if not held_out or metrics.extra.get("held_out_missing"):  # not the figure the model was saved with: said
         st.caption(f":material/info: Accuracy {on}.")
-    st.plotly_chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
+    ui.chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
     per = metrics.per_class.rename(columns={"label": "class"})
     per = per.assign(accuracy=100 * per["accuracy"])  # whole percentages, as the rest of the page (it showed 66.67%)
     st.dataframe(per, hide_index=True, width="stretch", placeholder="–",  # a class with no item: "–", not "None"

@@ -529,3 +529,34 @@ def test_the_captions_say_the_dashed_line_and_the_hollow_points_where_the_figure
     each = d.assign(success_rate=0.5)
     assert success_methods_caption(each).endswith(few_interactions_note(each)) and "its hover gives" in \
         success_methods_caption(each)
+
+def test_a_figure_is_described_in_words_for_a_screen_reader():
+    """st.plotly_chart's alt: a chart was read as its tick labels run together, then unnamed images."""
+    from cacas.plots import describe
+
+    assert describe(success_figure(daily())) == (
+        "Success rate and cumulative feedback. CACAS, 2 participants. Drawn: min-max across participants; "
+        "success rate (mean); cumulative feedback (mean).")
+    assert describe(methods_figure(daily())).startswith("Preference prediction by method. 2 participants")
+    heat = describe(preference_methods_figure(by_preference(), 2))
+    assert heat == "Accuracy by described preference and method, day 2. A grid of 3 rows by 2 columns (method: CACAS, NN)."
+    assert describe(preference_days_figure(by_preference(), "nn")).endswith("A grid of 3 rows by 2 columns (day: 1, 2).")
+    every = [success_figure(daily()), methods_figure(daily()), success_methods_figure(daily()),
+             preference_days_figure(by_preference()), preference_methods_figure(by_preference())]
+    assert all("<" not in describe(f) and describe(f).endswith(".") for f in every)
+
+
+def test_contrast_ratio_is_wcags():
+    from cacas.plots import contrast_ratio
+
+    assert contrast_ratio("#000000") == pytest.approx(21) and contrast_ratio("#ffffff") == pytest.approx(1)
+    assert contrast_ratio("#777777") == pytest.approx(4.48, abs=0.01)  # the usual example just under 4.5
+    assert contrast_ratio("#ffffff", "#2f6f8f") == contrast_ratio("#2f6f8f", "#ffffff")
+
+
+def test_every_methods_line_stands_out_3_to_1_against_the_white_figure():
+    """WCAG 1.4.11 (graphics): CACAS w/o PR's orange was 2.68:1 on plotly_white's background."""
+    from cacas.plots import METHOD_COLOURS, contrast_ratio
+
+    pale = {m: round(contrast_ratio(c), 2) for m, c in METHOD_COLOURS.items() if contrast_ratio(c) < 3}
+    assert pale == {}

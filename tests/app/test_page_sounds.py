@@ -275,6 +275,11 @@ def test_every_clip_and_every_photo_are_drawn_only_once_opened(app, tmp_path, mo
     no_exception(at)
     grid = lambda: (len(at.get("audio")), len(at.get("image")))  # noqa: E731
     assert grid() == (2, 6)  # the libraries' cards: a clip of each of 2 activities, a photo of each of 6 rooms
+    # each photo named for a screen reader, by its room and file (they had no alt text: accessibility walkthrough)
+    alts = [i.alt for e in at.get("image") for i in e.proto.imgs]
+    assert len(alts) == 6 and all(a.startswith("A photo in ") for a in alts)
+    assert any(a.startswith("A photo in the dining room: ") for a in alts)
+    assert any(a.startswith("A photo in another room: ") for a in alts)
     assert not [s for s in at.selectbox if s.key in ("lib-activity", "lib-room")]
     at = open_expander(at, "lib-every-clip")
     no_exception(at)

@@ -1,0 +1,122 @@
+"""The app as a screen reader and a keyboard meet it (accessibility walkthrough, headless Chromium): what the
+accessibility tree names, and what the keyboard's focus shows. Participants are older adults on the tablet view."""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+from playwright.sync_api import expect
+
+from cacas.plots import contrast_ratio
+from cacas.store import StudyStore
+from cacas.study_day import Context
+from conftest import _run_app, open_page
+from test_browser_mini_study import goto
+
+pytestmark = pytest.mark.browser
+
+#: how Streamlit names a ``:material/...`` icon written in text: its ligature ("check icon")
+ICON_NAME = re.compile(r"^[a-z_]+ icon$")
+
+
+@pytest.fixture(scope="module")
+def day_1(tmp_path_factory, initial_policy):
+    """The app over P01, with a described preference, on an open day 1 with one interaction; P02 on an open day 1."""
+    tmp = tmp_path_factory.mktemp("accessibility")
+    db = tmp / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        day = s.open_day("P01")
+        s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=25,
+                             robot_action="pain check", response="accept")
+        s.add_participant("P02")  # on the form (P01's tablet is left on a proposal, to which its address returns)
+        s.save_preferences("P02", [{"activity": ["cough"], "action": "pain check"}])
+        s.open_day("P02")
+    for url in _run_app(tmp, CACAS_DB=str(db)):
+        yield url
+
+
+def icon_names(page) -> list[str]:
+    """The names of the images in the page's main area that a screen reader reads as an icon's ligature."""
+    return [n for n in page.locator("[data-testid='stMain'] [role='img']").evaluate_all(
+        "els => els.filter(e => !e.closest('[aria-hidden=true]')).map(e => e.getAttribute('aria-label') || '')")
+        if ICON_NAME.match(n)]
+
+
+def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
+    """The tablet's heading was read "smart_toy icon Hello, P01", and the robot's recognition "The robot heard: cough
+    check icon" ("help icon" where it heard something else than was chosen); the researcher's sidebar title
+    "smart_toy icon CACAS Studio"."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    goto(page, f"{day_1}/?participant=P02&view=tablet")  # its form
+    expect(page.get_by_role("heading", name="Hello, P02", exact=True)).to_be_visible()
+    expect(page.get_by_role("button", name="Do it")).to_be_visible()
+    assert icon_names(page) == []
+    # a proposal, opened at its address (a reload's way back to it): cough in the bedroom, 08:00-10:00, 20-30 min
+    token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
+    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.2")
+    heard = page.get_by_role("heading", name=re.compile(r"^The robot heard: "))
+    expect(heard).to_be_visible(timeout=120_000)
+    # what the check (or question) mark says: that the robot heard (and saw) what was chosen, or not
+    expect(heard).to_have_accessible_name(re.compile(r"^The robot heard: [a-zA-Z ]+ (as chosen|not as chosen)$"))
+    expect(page.get_by_text(re.compile(r"^and sees the "))).to_be_visible()
+    assert icon_names(page) == []
+    goto(page, f"{day_1}/adaptation?participant=P01")
+    expect(page.get_by_role("heading", name="CACAS Studio", exact=True)).to_be_visible()
+    page.context.close()
+
+
+def test_a_chart_is_named_for_a_screen_reader(browser, day_1):
+    """Fig. 3 was read as its tick labels run together ("1 0% 20% 40% ..."), then a row of unnamed images."""
+    page = open_page(browser, viewport={"width": 1280, "height": 900})
+    goto(page, f"{day_1}/results?participant=P01")
+    expect(page.get_by_role("figure", name=re.compile(r"^Success rate and cumulative feedback\. CACAS, 1 participant\. "
+                                                       r"Drawn: .*success rate \(mean\)"))).to_be_visible()
+    page.context.close()
+
+
+#: the focused element's ring as drawn: its outline, and Streamlit's own box-shadow ring
+RING = """() => { const s = getComputedStyle(document.activeElement);
+  return {name: document.activeElement.innerText, style: s.outlineStyle, width: parseFloat(s.outlineWidth),
+          colour: s.outlineColor, shadow: s.boxShadow}; }"""
+
+
+def _hex(rgb: str) -> str:
+    r, g, b = (int(float(x)) for x in re.findall(r"[\d.]+", rgb)[:3])
+    return f"#{r:02x}{g:02x}{b:02x}"
+
+
+def test_the_tablets_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
+    """Streamlit's focus ring is the primary colour at half strength (rgba(47, 111, 143, 0.5): #97b7c7 on white,
+    2.1:1), under WCAG 1.4.11's 3:1 for what shows a state: faint beside a chip's own grey border."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    goto(page, f"{day_1}/?participant=P02&view=tablet")
+    first = page.get_by_role("radio", name="00:00-02:00")
+    expect(first).to_be_visible()
+    for _ in range(10):  # the keyboard's way in: the skip link, the main area, then the first chip
+        page.keyboard.press("Tab")
+        if first.evaluate("e => e === document.activeElement"):
+            break
+    ring = page.evaluate(RING)
+    assert ring["name"] == "00:00-02:00" and ring["style"] == "solid" and ring["width"] >= 2, ring
+    assert contrast_ratio(_hex(ring["colour"])) >= 3, ring
+    page.context.close()
+
+
+def test_the_tablets_captions_are_dark_enough_to_read(browser, day_1):
+    """A caption (the proposal's "in the bedroom · 08:00-10:00 · 20-30 min since your last activity") was Streamlit's
+    text colour faded to 0.6 on white: #828180, 3.89:1, under WCAG 1.4.3's 4.5:1 for text of its 15 px."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
+    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.2")
+    caption = page.locator("[data-testid='stCaptionContainer']").filter(has_text="since your last activity")
+    expect(caption).to_be_visible(timeout=120_000)
+    drawn = caption.evaluate("""e => { let opacity = 1, n = e;
+        for (; n; n = n.parentElement) opacity *= parseFloat(getComputedStyle(n).opacity);
+        return {colour: getComputedStyle(e.querySelector('p')).color, opacity}; }""")
+    ink = [int(float(x)) for x in re.findall(r"[\d.]+", drawn["colour"])[:3]]
+    seen = "#" + "".join(f"{round(drawn['opacity'] * c + (1 - drawn['opacity']) * 255):02x}" for c in ink)  # on white
+    assert contrast_ratio(seen) >= 4.5, (seen, drawn)
+    page.context.close()
