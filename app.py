@@ -263,6 +263,15 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
     return any(words in said for words in ("malformed", "not a database", "database corrupt"))
 
 
+#: Every page's look (the tablet's and the researcher's): Streamlit fades a caption to 0.6, #828180 on white, 3.89:1,
+#: under WCAG 1.4.3's 4.5:1 for text of its 14-15 px (the tablet's "in the bedroom · 08:00-10:00 · ...", the
+#: researcher's explanations under every figure and table; accessibility walkthrough); at 0.75, #636260, 6.1:1,
+#: still lighter than the text around it. The sidebar's captions too (on its grey, 5.6:1).
+APP_STYLE = """
+[data-testid='stCaptionContainer'] { opacity: 0.75; }
+"""
+
+
 #: The tablet's look. A tablet at 1024 x 768 shows the proposal, its answers and the request form without
 #: scrolling: Streamlit's 6rem above the page was room they needed (a style only: it takes no room itself).
 #: A form's "Press Enter to submit form" is a developer's words: Enter says the typed request. Buttons and
@@ -288,9 +297,6 @@ TABLET_STYLE = """
 [data-testid='stMain'] [data-testid='stMarkdownContainer'] p { font-size: 1.05rem; }
 [data-testid='stMain'] [data-testid='stCaptionContainer'], [data-testid='stMain'] [data-testid='stCaptionContainer'] p,
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
-/* Streamlit fades a caption to 0.6: #828180 on white, 3.89:1, under WCAG 1.4.3's 4.5:1 for text of this size (the
-   proposal's "in the bedroom · 08:00-10:00 · ..."); at 0.75, #636260, 6.1:1, still lighter than the text around it */
-[data-testid='stMain'] [data-testid='stCaptionContainer'] { opacity: 0.75; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
 [data-testid='stToastContainer'] { top: auto; bottom: 1rem; }
 /* the keyboard's focus in a solid ring of the primary colour, 5.5:1 on white: Streamlit's is that colour at half
@@ -321,7 +327,7 @@ def _route(store) -> None:
     _sync_participant(store)
     ui.keep_preference_forms()
     if ui.tablet_mode():
-        st.html(f"<style>{TABLET_STYLE}</style>")
+        st.html(f"<style>{APP_STYLE}{TABLET_STYLE}</style>")
         if not st.session_state.get(ui.PARTICIPANT_KEY):
             st.error("This tablet address names no known participant. Ask the researcher for your link.")
             st.stop()
@@ -329,6 +335,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
+        st.html(f"<style>{APP_STYLE}</style>")
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()
