@@ -253,7 +253,7 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     torch.save(tensors, buffer)
     weights = buffer.getvalue()
     metadata = {**metadata, "model_id": model_id(weights)}
-    meta_bytes = (json.dumps(metadata, indent=1, default=_json_default) + "\n").encode()
+    meta_bytes = metadata_bytes(metadata)
     with previous_model.writing(path):  # a put-back or another save meanwhile waits
         if keep_previous:
             previous_model.keep(path)
@@ -263,13 +263,30 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     return path
 
 
+def metadata_bytes(metadata: dict) -> bytes:
+    """A model's metadata as strict JSON (UTF-8, indented, a newline at the end): a number that is
+    not one (NaN, e.g. ``per_class_accuracy`` of a class with no test items, or an infinity) is
+    written ``null``. Python's json wrote NaN, which jq and a browser's JSON.parse refuse (walk3);
+    metadata saved so still loads (:func:`load_model_file` reads NaN and null alike)."""
+    return (json.dumps(_finite(metadata), indent=1, allow_nan=False, default=_json_default) + "\n").encode()
+
+
+def _finite(obj):
+    """``obj`` with every float that is NaN or infinite (numpy's too) replaced by None."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _finite(obj.tolist())
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
+
+
 def _json_default(obj):
     if isinstance(obj, (np.integer,)):
         return int(obj)
-    if isinstance(obj, (np.floating,)):
-        return None if np.isnan(obj) else float(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
     if isinstance(obj, Path):
         return str(obj)
     raise TypeError(f"not JSON serialisable: {type(obj)}")
