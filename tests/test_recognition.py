@@ -275,6 +275,10 @@ def test_what_an_evaluation_is_on_is_said_as_it_was_made():
     m.extra = {"set": "all", "held_out_absent": 4, "trained_on": "/lab/scenes"}
     assert evaluated_on(m, "images") == ("on all 2 images of another library: the model was trained on /lab/scenes, "
                                          "where its 4 held-out images are")
+    # files of held-out names with other bytes (walk3: another library's cough/rec5.wav was taken for the model's)
+    m.extra = {"set": "all", "held_out_absent": 4, "held_out_other_bytes": 1}
+    assert evaluated_on(m, "images") == ("on all 2 images (training ones included; none of the model's 4 held-out "
+                                         "ones is in the library; 1 image of their names holds other contents)")
 
 
 def test_a_save_writes_nothing_before_it_holds_the_model_s_lock(sound_file, monkeypatch):
