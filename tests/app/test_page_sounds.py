@@ -534,7 +534,7 @@ def test_the_library_tabs_say_what_training_would_refuse(app, tmp_path, monkeypa
     said = [w.value for w in at.warning if "would refuse" in w.value]
     assert len(said) == 2, said
     assert said[0].startswith("Training the sound model would refuse this library: ")
-    assert "folder name 'coughing' is not an activity; valid: cough, cry" in said[0]
+    assert "folder name 'coughing' is not an activity; did you mean 'cough'? valid: cough, cry" in said[0]
     assert said[1].startswith("Training the scene model would refuse this library: ")
     assert "notes.txt: unsupported file type '.txt'; valid: " in said[1]
 
