@@ -194,9 +194,10 @@ def parse_d4a(text: str, source: str = "D4A file") -> D4A:
         seen[act] = line
         for col, (action, cell) in enumerate(zip(columns, row[1:]), start=2):
             value = " ".join(cell.strip().lower().split())
-            if value not in spaces.RESPONSES:
+            if value not in spaces.RESPONSES:  # an empty cell said so (walk3: "'' is not a response")
+                what = "the cell is empty" if not value else f"{cell.strip()!r} is not a response"
                 raise CacasError(f"{source}, line {line}, column {col} ({name} / {spaces.ACTIONS[action]}): "
-                                 f"{cell.strip()!r} is not a response; valid: {valid_cells}")
+                                 f"{what}; valid: {valid_cells}")
             if action == spaces.DO_NOTHING_ACTION and value != spaces.RESPONSES[spaces.OTHERS]:
                 raise CacasError(f"{source}, line {line}, column {col} ({name} / do nothing): {cell.strip()!r}; "
                                  f"valid: {DO_NOTHING_RULE}")

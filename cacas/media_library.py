@@ -304,36 +304,37 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     # every folder name, file type and file checked before anything is copied, every bad one said: one at a
     # time took a try for each (walkthrough: three bad clips, three presses; then a folder named 'coughing',
     # a notes.txt and an .mp3 beside a short clip, four tries)
-    plan, bad, files_in = [], [], 0  # bad: (path, message, how many of the files it makes unusable)
+    # bad: (path, message, how many items (files of the kind's types) and other files it makes unusable)
+    plan, bad, items_in, others_in = [], [], 0, 0
     for sub in (p for p in _visible(source) if p.is_dir()):
         inside = [f for f in _visible(sub) if f.is_file()]
-        files_in += len(inside)
+        items = sum(f.suffix.lower() in kind.extensions for f in inside)
+        items_in, others_in = items_in + items, others_in + len(inside) - items
         try:
             name = kind.folder_name(sub)
         except CacasError as exc:
-            bad.append((sub, str(exc), len(inside)))
+            bad.append((sub, str(exc), items, len(inside) - items))
             continue
         for f in inside:
             try:
                 plan.append((kind.supported(f), name))
             except CacasError as exc:
-                bad.append((f, str(exc), 1))
-    if not files_in and not bad:
+                bad.append((f, str(exc), 0, 1))
+    if not items_in + others_in and not bad:
         raise CacasError(f"{source}: no {kind.item}s found; expected {kind.layout}")
     for i, (f, _) in enumerate(plan):
         try:
             kind.check(f)
         except CacasError as exc:
-            bad.append((f, str(exc), 1))
+            bad.append((f, str(exc), 1, 0))
         if progress:
             progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
     bad.sort(key=lambda b: b[0])  # in the folder's order
     if len(bad) == 1:
         raise CacasError(bad[0][1])
     if bad:
-        unusable = sum(n for _, _, n in bad)
-        raise CacasError(f"{unusable} of the {files_in} {kind.item}s cannot be used; nothing was {done}:"
-                         + "".join(f"\n- {b}" for _, b, _ in bad))
+        raise CacasError(f"{_unusable(bad, items_in, kind.item)} cannot be used; nothing was {done}:"
+                         + "".join(f"\n- {b[1]}" for b in bad))
     try:
         with adding(root):  # two adds at once take turns: the copy check sees what the other placed
             _refuse_copies(plan, root, kind, done, again)
@@ -356,6 +357,16 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
         raise CacasError(f"{root}: cannot copy into the {kind.what} library ({exc.strerror or exc}); "
                          f"nothing was {done}") from None
     return targets
+
+
+def _unusable(bad: list[tuple], items_in: int, item: str) -> str:
+    """What a refused import could not use, items and other files apart: "2 of the 3 clips and 2 files
+    that are not clips" (walk3: notes.txt and an .mp3 were counted as clips, "4 of the 5 clips")."""
+    items, others = sum(b[2] for b in bad), sum(b[3] for b in bad)
+    words = [f"{items} of the {items_in} {item}s"] if items else []
+    if others:
+        words.append(f"1 file that is not {_a(item)}" if others == 1 else f"{others} files that are not {item}s")
+    return " and ".join(words)
 
 
 def adding_lock(root: Path) -> Path:

@@ -119,10 +119,10 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
     for i in range(len(parsed)):
         for j in range(i + 1, len(parsed)):
             try:
-                prefs.check_conflicts([parsed[i], parsed[j]], None, code, fields=FORM_FIELDS)
+                prefs.check_conflicts([parsed[i], parsed[j]], None, code, fields=FORM_FIELDS,
+                                      numbers=[parsed_numbers[i], parsed_numbers[j]])
             except CacasError as exc:
-                overall = _strip_where(str(exc)).replace(
-                    "preferences 1 and 2", f"preferences {parsed_numbers[i]} and {parsed_numbers[j]}", 1)
+                overall = _strip_where(str(exc))
                 break
         if overall:
             break

@@ -15,7 +15,7 @@ import json
 import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 
@@ -158,14 +158,16 @@ def _where(source: str | None, pid: str | None = None, pref: int | None = None,
     if pid is not None:
         parts.append(f"participant {pid}")
     if pref is not None:
-        desc = ""
-        if isinstance(pref_obj, dict) and isinstance(pref_obj.get("description"), str) and pref_obj["description"]:
-            d = pref_obj["description"]
-            desc = f' ("{shortened(d, 43)}")'
-        parts.append(f"preference {pref + 1}{desc}")
+        parts.append(f"preference {pref + 1}{_quoted(pref_obj.get('description') if isinstance(pref_obj, dict) else None)}")
     if fld is not None:
         parts.append(f"field '{fld}'")
     return ": ".join([", ".join(parts)]) if parts else ""
+
+
+def _quoted(description: Any) -> str:
+    """A preference's own words after its number in a message, their start: ' ("remind me to drink...")';
+    nothing when it has none."""
+    return f' ("{shortened(description, 43)}")' if isinstance(description, str) and description.strip() else ""
 
 
 def _names_list(value: Any, kind: str, where: str, required: bool) -> tuple[str, ...] | None:
@@ -271,10 +273,12 @@ FILE_FIELDS = "activity, scene, hours, interval or task"
 
 
 def check_conflicts(preferences: Iterable[Preference], source: str | None = None,
-                    pid: str | None = None, fields: str = FILE_FIELDS) -> None:
-    """Two preferences covering the same state with different actions: an error naming both,
-    advising to narrow ``fields`` (default the persona file's; a form names its own)."""
+                    pid: str | None = None, fields: str = FILE_FIELDS, numbers: Sequence[int] | None = None) -> None:
+    """Two preferences covering the same state with different actions: an error naming both, by their
+    ``numbers`` (default 1, 2, ...: a form gives its own) and the start of their words, advising to narrow
+    ``fields`` (default the persona file's; a form names its own)."""
     prefs = list(preferences)
+    numbers = list(numbers) if numbers is not None else list(range(1, len(prefs) + 1))
     for i in range(len(prefs)):
         for j in range(i + 1, len(prefs)):
             a, b = prefs[i], prefs[j]
@@ -292,7 +296,9 @@ def check_conflicts(preferences: Iterable[Preference], source: str | None = None
                     example += f", while the robot's task is {spaces.ACTIONS[tasks[0]]!r}"
                 where = _where(source, pid)
                 raise CacasError(
-                    f"{where}: preferences {i + 1} and {j + 1} both cover {int(overlap.sum())} states "
+                    # each named by the start of its words too, as the file's other refusals (walk3: by number only)
+                    f"{where}: preferences {numbers[i]}{_quoted(a.description)} and {numbers[j]}{_quoted(b.description)} "
+                    f"both cover {int(overlap.sum())} states "
                     f"(e.g. {example}) with different actions ({a.action!r} vs {b.action!r}); "
                     f"narrow their {fields} so they do not overlap")
 

@@ -62,13 +62,13 @@ def _stamped(meta_bytes: bytes, weights: bytes) -> bytes:
     none (a model saved before ids were recorded, as the shipped ones). Metadata that names other
     weights keeps its id, and metadata that is not a JSON object is kept as it is: loading either
     says what is wrong, rather than the copy passing for a whole model."""
-    from cacas.recognition import model_id
+    from cacas.recognition import metadata_bytes, model_id
 
     meta = _recorded(meta_bytes)
     if meta is None or meta.get("model_id") is not None:
         return meta_bytes
     meta["model_id"] = model_id(weights)
-    return (json.dumps(meta, indent=1) + "\n").encode()
+    return metadata_bytes(meta)  # strict JSON: an old file's NaN written null
 
 
 def _write_pairs(*pairs: tuple[Path, bytes, bytes]) -> None:

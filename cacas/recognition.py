@@ -54,17 +54,28 @@ def evaluated_on(metrics: "Metrics", what: str) -> str:
     not in the library)", or "on all 33 clips (training ones included)" when the model's
     held-out ones were not found (``metrics.extra["set"]``), or "on all 33 clips of another library: the model
     was trained on /lab/sounds, where its 2 held-out clips are"
-    (:func:`cacas.recognition_training.evaluation_set`). The page said "held-out" of both."""
+    (:func:`cacas.recognition_training.evaluation_set`). The page said "held-out" of both. Files bearing
+    held-out names but other contents (another library's ``cough/rec5.wav``, walk3) are said, and held-out
+    ones found in another library by a model that records no sha256 of them are said to be taken by name."""
+    other = int(metrics.extra.get("held_out_other_bytes") or 0)
+    others = [f"{other} {what if other != 1 else what[:-1]} of their names {'hold' if other != 1 else 'holds'} "
+              "other contents"] if other else []
     if metrics.extra.get("set", "held-out") != "held-out":
         trained, absent = metrics.extra.get("trained_on"), metrics.extra.get("held_out_absent")
         if trained:  # another library than the model's: its clips may be none of the training ones
             held = f", where its {absent} held-out {what} are" if absent else ""
-            return f"on all {metrics.n} {what} of another library: the model was trained on {trained}{held}"
-        return f"on all {metrics.n} {what} (training ones included" + (
-            f"; none of the model's {absent} held-out ones is in the library)" if absent else ")")
+            return (f"on all {metrics.n} {what} of another library: the model was trained on {trained}{held}"
+                    + "".join(f" ({o} here)" for o in others))
+        return f"on all {metrics.n} {what} (training ones included" + "".join(
+            f"; {s}" for s in ([f"none of the model's {absent} held-out ones is in the library"] if absent else [])
+            + others) + ")"
     missing = int(metrics.extra.get("held_out_missing") or 0)
-    return f"on {metrics.n} held-out {what}" + (
-        f" ({missing} of the model's {metrics.n + missing} held-out ones are not in the library)" if missing else "")
+    notes = ([f"{missing} of the model's {metrics.n + missing} held-out ones are not in the library"] if missing
+             else []) + others
+    if metrics.extra.get("matched_by_name"):
+        notes.append(f"taken by their names only: the model records no sha256 of its held-out {what} and was "
+                     f"trained on {metrics.extra['matched_by_name']}")
+    return f"on {metrics.n} held-out {what}" + (f" ({'; '.join(notes)})" if notes else "")
 
 
 def whole_percent(share: float) -> int:
@@ -253,7 +264,7 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     torch.save(tensors, buffer)
     weights = buffer.getvalue()
     metadata = {**metadata, "model_id": model_id(weights)}
-    meta_bytes = (json.dumps(metadata, indent=1, default=_json_default) + "\n").encode()
+    meta_bytes = metadata_bytes(metadata)
     with previous_model.writing(path):  # a put-back or another save meanwhile waits
         if keep_previous:
             previous_model.keep(path)
@@ -263,13 +274,30 @@ def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: b
     return path
 
 
+def metadata_bytes(metadata: dict) -> bytes:
+    """A model's metadata as strict JSON (UTF-8, indented, a newline at the end): a number that is
+    not one (NaN, e.g. ``per_class_accuracy`` of a class with no test items, or an infinity) is
+    written ``null``. Python's json wrote NaN, which jq and a browser's JSON.parse refuse (walk3);
+    metadata saved so still loads (:func:`load_model_file` reads NaN and null alike)."""
+    return (json.dumps(_finite(metadata), indent=1, allow_nan=False, default=_json_default) + "\n").encode()
+
+
+def _finite(obj):
+    """``obj`` with every float that is NaN or infinite (numpy's too) replaced by None."""
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _finite(obj.tolist())
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    return obj
+
+
 def _json_default(obj):
     if isinstance(obj, (np.integer,)):
         return int(obj)
-    if isinstance(obj, (np.floating,)):
-        return None if np.isnan(obj) else float(obj)
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
     if isinstance(obj, Path):
         return str(obj)
     raise TypeError(f"not JSON serialisable: {type(obj)}")

@@ -37,7 +37,56 @@ def relative_path(path: Path, root: Path) -> str:
         return str(Path(path).resolve())
 
 
-def evaluation_set(metadata: dict, root: Path, found: int, held_out: bool) -> dict:
+def file_sha256(path: Path | str) -> str:
+    """The sha256 of a file's bytes (hex)."""
+    import hashlib
+
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def held_out_sha256(paths: Sequence[Path], root: Path) -> dict[str, str]:
+    """The model's held-out items (files at ``paths`` below ``root``) by :func:`relative_path`, each
+    with its sha256: the metadata's ``test_sha256``, so that an evaluation takes a file for a held-out
+    one only when it holds the same bytes (:func:`held_out_in`)."""
+    return {relative_path(p, root): file_sha256(p) for p in paths}
+
+
+def held_out_in(metadata: dict, paths: Sequence[Path], root: Path) -> tuple[list[int], int]:
+    """(indices of ``paths`` that are the model's held-out items, how many more bear a held-out
+    item's name but hold other bytes). A file is one when its path relative to ``root`` is one of
+    the metadata's ``test_recordings`` and, where the model records them (``test_sha256``), its
+    sha256 is the one recorded: another library's ``cough/rec5.wav`` is not the model's (walk3; a
+    model saved before sha256s were recorded matches by name alone, as it did)."""
+    wanted = set(metadata.get("test_recordings") or ())
+    if not wanted:
+        return [], 0
+    hashes = metadata.get("test_sha256")
+    chosen, other = [], 0
+    for i, p in enumerate(paths):
+        rel = relative_path(p, root)
+        if rel not in wanted:
+            continue
+        if not isinstance(hashes, dict) or file_sha256(p) == hashes.get(rel):
+            chosen.append(i)
+        else:
+            other += 1
+    return chosen, other
+
+
+def _trained_root(metadata: dict) -> Path | None:
+    """The folder the model was trained on, as its metadata records it (None: not recorded)."""
+    recorded = (metadata.get("training_data") or {}).get("root")
+    if not recorded:
+        return None
+    from cacas.paths import study_data_dir
+
+    # below the study data folder: relative to it; else absolute (a model saved before that: as given,
+    # relative to the folder it was trained from, which is only known to be another)
+    return Path(recorded) if Path(recorded).is_absolute() or Path(recorded).parts[:1] == ("..",) \
+        else study_data_dir() / recorded
+
+
+def evaluation_set(metadata: dict, root: Path, found: int, held_out: bool, other_bytes: int = 0) -> dict:
     """What an evaluation of a model (its ``metadata``) on the library at ``root`` was on, for
     ``Metrics.extra`` and :func:`cacas.recognition.evaluated_on`: ``set`` ("held-out" when ``found``
     of the model's held-out items are under ``root``, else "all"), ``held_out_missing``, and for an
@@ -45,24 +94,29 @@ def evaluation_set(metadata: dict, root: Path, found: int, held_out: bool) -> di
     (``trained_on``) and, when held-out items were asked for, how many the model has
     (``held_out_absent``): walkthrough, `cacas sound eval --model` of a model trained on the lab's
     own folder evaluated the shipped library and said "training ones included" of clips it never
-    saw."""
+    saw. ``other_bytes`` files bore held-out names with other bytes (:func:`held_out_in`):
+    ``held_out_other_bytes``. Held-out items of a model that records no sha256s, found in another
+    folder than its own, were matched by name alone: ``matched_by_name`` (the folder it was trained on)."""
     wanted = len(metadata.get("test_recordings") or ())
+    trained = _trained_root(metadata)
+    elsewhere = trained is not None and trained.resolve() != Path(root).resolve()
+    out: dict = {"held_out_other_bytes": other_bytes} if held_out and other_bytes else {}
     if held_out and found:
-        return {"set": "held-out", "held_out_missing": wanted - found}
-    out: dict = {"set": "all"}
-    recorded = (metadata.get("training_data") or {}).get("root")
-    if recorded:
-        from cacas.paths import study_data_dir
-
-        # below the study data folder: relative to it; else absolute (a model saved before that: as given,
-        # relative to the folder it was trained from, which is only known to be another)
-        trained = Path(recorded) if Path(recorded).is_absolute() or Path(recorded).parts[:1] == ("..",) \
-            else study_data_dir() / recorded
-        if trained.resolve() != Path(root).resolve():
-            out["trained_on"] = str(trained) if trained.parts[:1] == ("..",) else str(trained.resolve())
+        out.update({"set": "held-out", "held_out_missing": wanted - found})
+        if elsewhere and not isinstance(metadata.get("test_sha256"), dict):
+            out["matched_by_name"] = _said(trained)
+        return out
+    out["set"] = "all"
+    if elsewhere:
+        out["trained_on"] = _said(trained)
     if held_out and wanted:
         out["held_out_absent"] = wanted
     return out
+
+
+def _said(trained: Path) -> str:
+    """A model's training folder as an evaluation names it: whole, or as recorded when relative to an unknown one."""
+    return str(trained) if trained.parts[:1] == ("..",) else str(trained.resolve())
 
 
 def check_splittable(labels: np.ndarray, classes: Sequence[str], root: Path, what: str, item: str) -> None:

@@ -242,7 +242,8 @@ def _metrics_view(metrics, kind: str) -> None:
     on = evaluated_on(metrics, "clips" if kind == "Sound" else "images")
     held_out = metrics.extra.get("set", "held-out") == "held-out"
     st.metric(f"{kind} {'test ' if held_out else ''}accuracy", f"{100 * metrics.accuracy:.1f}%", help=on)
-    if not held_out or metrics.extra.get("held_out_missing"):  # not the figure the model was saved with: said
+    # not the figure the model was saved with, or held-out items taken by name only (walk3): said
+    if not held_out or metrics.extra.get("held_out_missing") or metrics.extra.get("matched_by_name"):
         st.caption(f":material/info: Accuracy {on}.")
     ui.chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
     per = metrics.per_class.rename(columns={"label": "class"})

@@ -255,7 +255,9 @@ def main() -> None:
                   f"| {fmt(times[1::2])} (back) / {fmt(times[0::2])} (away) |", flush=True)
             pg.context.close()
             _, _, pg = visit(browser, f"{base}/adaptation{q}")
-            opts = ["version 3 (after day 3, CACAS)", "version 5 (after day 5, CACAS)"]
+            from cacas.plots import method_names  # the page's words for the method (099d9c4: 'CACAS', not the code)
+
+            opts = [f"version {v} (after day {v}, {method_names(['cacas'])})" for v in (3, 5)]
             times = [rerun_time(pg, lambda: choose(pg, "Before", opts[i % 2])) for i in range(args.repeats)]
             print(f"| Adaptation: another 'Before' policy | {fmt(times)} |", flush=True)
             pg.context.close()

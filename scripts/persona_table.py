@@ -1,6 +1,9 @@
 """Print the README's table of the shipped example personas (covered states, twists vs D4A).
 
-    python3 scripts/persona_table.py [PERSONA_FILE]
+    python3 scripts/persona_table.py [PERSONA_FILE] [--d4a FILE]
+
+``--d4a``: the differing preferences counted against a D4A table of your own, as ``cacas simulate
+--d4a`` trains on it (default: the shipped study_data/d4a.csv).
 """
 
 import argparse
@@ -9,14 +12,17 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # this checkout's cacas, not an installed one
 
-from cacas.d4a import persona_summary  # noqa: E402
+from cacas.cli import types  # noqa: E402
+from cacas.d4a import load_d4a, persona_summary  # noqa: E402
 from cacas.errors import CacasError  # noqa: E402
 from cacas.paths import study_data_dir  # noqa: E402
 from cacas.preferences import load_personas  # noqa: E402
 
 
-def markdown(path) -> str:
-    frame = persona_summary(load_personas(path))
+def markdown(path, d4a_path=None) -> str:
+    """The table of the persona file at ``path``, its differing preferences counted against the D4A
+    table at ``d4a_path`` (None: the shipped one)."""
+    frame = persona_summary(load_personas(path), load_d4a(d4a_path))
     lines = ["| participant | preferences | covered S1-S4 states | differing from D4A |", "|---|---|---|---|"]
     for row in frame.itertuples(index=False):
         lines.append(f"| {row.participant} | {row.preferences} | {row.covered_states} | {row.differing_from_d4a} |")
@@ -32,8 +38,12 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description="Print a persona file's table: covered states, twists vs D4A.")
     parser.add_argument("persona_file", nargs="?", default=str(study_data_dir() / "personas" / "example.json"),
                         help="a persona file (default: the shipped example personas)")
+    # walk3: always against the shipped D4A, so a lab with its own table read the wrong count
+    parser.add_argument("--d4a", type=types.path, metavar="FILE",
+                        help="a D4A pairs CSV of your own, as cacas simulate --d4a (default: study_data/d4a.csv)")
+    args = parser.parse_args(argv)
     try:
-        table = markdown(parser.parse_args(argv).persona_file)
+        table = markdown(args.persona_file, args.d4a)
     except CacasError as exc:
         print(f"persona_table: {exc}", file=sys.stderr)
         return 2

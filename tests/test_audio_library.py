@@ -298,11 +298,22 @@ def test_import_says_every_bad_folder_file_type_and_clip_at_once(tmp_path):
     with pytest.raises(CacasError) as err:
         library.import_folder(src, root=lib)
     lines = str(err.value).splitlines()
-    assert lines[0] == "4 of the 5 clips cannot be used; nothing was imported:"
+    # notes.txt and tv2.mp3 are not clips (walk3: "4 of the 5 clips")
+    assert lines[0] == "2 of the 3 clips and 2 files that are not clips cannot be used; nothing was imported:"
     assert [line.split(": ")[0] for line in lines[1:]] == [
         f"- {src / 'Watch TV' / 'notes.txt'}", f"- {src / 'Watch TV' / 'short.wav'}",
         f"- {src / 'Watch TV' / 'tv2.mp3'}", f"- {src / 'coughing'}"]
     assert lines[3].endswith("unsupported file type '.mp3'; valid: .wav, .flac, .ogg")
     # the activity meant, as its folder is named (walkthrough: no hint, difflib's ratio 0.77)
     assert "folder name 'coughing' is not an activity; did you mean 'cough'? valid: cough, " in lines[4]
+    assert not lib.exists()
+    (src / "coughing").rename(src / "cough")
+    (src / "Watch TV" / "tv2.mp3").unlink()
+    with pytest.raises(CacasError, match=r"^1 of the 3 clips and 1 file that is not a clip cannot be used; "
+                                         r"nothing was imported:\n"):
+        library.import_folder(src, root=lib)
+    (src / "Watch TV" / "short.wav").unlink()
+    (src / "Watch TV" / "tv2.mp3").write_bytes(b"ID3")
+    with pytest.raises(CacasError, match=r"^2 files that are not clips cannot be used; nothing was imported:\n"):
+        library.import_folder(src, root=lib)
     assert not lib.exists()

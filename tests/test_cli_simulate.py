@@ -95,6 +95,42 @@ def test_a_d4a_file_answering_do_nothing_exits_2_naming_the_cell(tmp_path, capsy
     assert not (tmp_path / "out").exists()
 
 
+def test_without_a_terminal_the_training_of_a_new_d4a_s_initial_policy_is_said(tmp_path, capsys, monkeypatch):
+    """walk3: `cacas simulate --d4a FILE` with stderr not a terminal (a log, a pipe) printed nothing during the
+    30-45 s of training the new table's initial policy: the progress bar is drawn only on a terminal. One line
+    says it, before the training; none once the policy is kept, and none with --quiet."""
+    import cacas.adaptation
+    import cacas.experiment
+    from cacas.d4a import default_d4a_path
+    from cacas.errors import CacasError
+
+    lines = default_d4a_path().read_text().splitlines()
+    cells = lines[1].split(",")
+    assert cells[0] == "cough" and "reject" in cells
+    cells[cells.index("reject")] = "accept"
+    lines[1] = ",".join(cells)
+    (tmp_path / "ours.csv").write_text("\n".join(lines) + "\n")
+    kept = tmp_path / "models" / "initial_policy-d4a-ours.pt"  # not trained yet
+    monkeypatch.setattr(cacas.adaptation, "initial_policy_path", lambda d4a=None, config=None: kept)
+    said = []
+
+    def started(*args, **kwargs):  # what was said before the simulation (and its training) started
+        said.append(capsys.readouterr().err)
+        raise CacasError("stopped here")
+    monkeypatch.setattr(cacas.experiment, "simulate_study", started)
+    argv = ["simulate", "--personas", str(write(tmp_path, GOOD)), "--d4a", str(tmp_path / "ours.csv"),
+            "--out", str(tmp_path / "out")]
+    assert not sys.stderr.isatty() and main(argv) == 2
+    assert said[0] == (f"cacas simulate: training the initial policy for {tmp_path / 'ours.csv'} first (CACAA step 1, "
+                       f"about half a minute; once: it is kept as {kept})\n")
+    assert capsys.readouterr().err == "cacas: error: stopped here\n"
+    assert main(argv + ["--quiet"]) == 2 and said[1] == ""
+    capsys.readouterr()
+    kept.parent.mkdir()
+    kept.write_bytes(b"trained before")
+    assert main(argv) == 2 and said[2] == ""
+
+
 def test_no_traceback_from_the_installed_command(tmp_path):
     bad = write(tmp_path, bad_pref(scene=["garage"]))
     proc = subprocess.run([sys.executable, "-m", "cacas", "simulate", "--personas", str(bad), "--out",

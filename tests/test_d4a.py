@@ -216,9 +216,14 @@ def test_bad_cell(tmp_path):
 
 def test_empty_cell(tmp_path):
     lines = shipped_lines()
+    """An empty cell is said to be empty, not "'' is not a response" (walk3), with its activity and action."""
+    lines = shipped_lines()
     lines[2] = lines[2][: lines[2].rindex(",") + 1]  # cry: last cell empty
     msg = error_of(write(tmp_path, lines))
-    assert "line 3, column 15 (cry / remind to unplug)" in msg and "'' is not a response" in msg
+    assert msg.endswith(", line 3, column 15 (cry / remind to unplug): the cell is empty; valid: accept, reject, others")
+    lines[2] = lines[2] + "  "  # blanks only: empty too
+    assert error_of(write(tmp_path, lines)).endswith("(cry / remind to unplug): the cell is empty; valid: accept, "
+                                                     "reject, others")
 
 
 def test_do_nothing_cell_other_than_others_is_refused(tmp_path):

@@ -26,14 +26,14 @@ def test_preference_form_and_checks():
         "activity": ["cough"], "task": ["chitchat"], "action": "pain check"}
     chat = preference_form.preference_from_form("", ["use stove"], [], [], (0, 200), "chitchat")
     person, errors, overall = preference_form.check_preferences("P01", [stove, chat], numbers=[1, 4])
-    assert person is None and not errors and overall.startswith("preferences 1 and 4 both cover")
+    assert person is None and not errors and overall.startswith('preferences 1 ("Turn it off") and 4 both cover')
     bad = preference_form.preference_from_form("", ["use stove"], [], [], (0, 200), None)
     person, errors, overall = preference_form.check_preferences("P01", [stove, bad], numbers=[1, 2])
     assert person is None and list(errors) == [2] and errors[2].startswith("choose an action: ") and overall is None
     # an overlap among the valid ones is said in the same check as another preference's error, named
     # by their numbers on the form (walkthrough: it was said only on the save after the error was mended)
     person, errors, overall = preference_form.check_preferences("P01", [stove, bad, chat], numbers=[1, 2, 3])
-    assert person is None and list(errors) == [2] and overall.startswith("preferences 1 and 3 both cover")
+    assert person is None and list(errors) == [2] and overall.startswith('preferences 1 ("Turn it off") and 3 both cover')
     person, errors, overall = preference_form.check_preferences("P01", [stove])
     # 1 activity (use stove) x 1 room (kitchen) x 1 time slot (06:00-08:00) x 8 interval bins in
     # 0-30 min (0, 1, 2, 5, 10, 15, 20, 30) = 8 S1-S4 states

@@ -109,6 +109,23 @@ def test_overlap_with_different_actions_names_both():
     assert "preferences 1 and 2" in msg and "pain check" in msg and "show compassion" in msg
 
 
+def test_overlap_names_both_preferences_by_the_start_of_their_words():
+    """walk3: the overlap refusal named the two preferences by number only, where the file's other
+    refusals quote the start of a preference's words (errors.shortened); one without words: its number."""
+    a = {"activity": ["cough"], "action": "pain check",
+         "description": "When I cough in the evening, ask whether something hurts"}
+    b = {"activity": ["cough", "sneeze"], "scene": ["bedroom"], "action": "show compassion",
+         "description": "Be kind when I am ill"}
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(doc(a, b), "f.json")
+    assert str(err.value).startswith('f.json, participant P01: preferences 1 ("When I cough in the evening, ask '
+                                     'whether...") and 2 ("Be kind when I am ill") both cover ')
+    del b["description"]
+    with pytest.raises(CacasError, match=r'preferences 1 \("When I cough in the evening, ask whether\.\.\."\) and 2 '
+                                         r'both cover'):
+        prefs.parse_personas(doc(a, b), "f.json")
+
+
 def test_overlap_with_disjoint_tasks_is_fine():
     a = {"activity": ["cough"], "task": ["do nothing"], "action": "pain check"}
     b = {"activity": ["cough"], "task": ["chitchat"], "action": "show compassion"}

@@ -43,6 +43,37 @@ def test_loading_a_model_hashes_its_file_once(sound_file, monkeypatch):
     assert load_model_file(sound_file, "sound")[2] == real(data).hexdigest()[:12]
     assert len(hashed) == 1
 
+def test_metadata_is_strict_json_and_metadata_holding_nan_still_loads(tmp_path):
+    """walk3: per_class_accuracy held NaN for a class with no test items (and Python's json writes it),
+    which is not JSON to jq or a browser's JSON.parse. It is written null; a model saved before, its
+    metadata holding NaN, loads and is kept (its copy stamped with its id) as before, the copy strict."""
+    import numpy as np
+
+    from cacas import previous_model
+
+    def strict(text):
+        return json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in the metadata"))
+
+    per_class = {"cough": np.float64(0.5), "cry": np.float64("nan"), "sneeze": np.float32("inf")}
+    path = save_model(tmp_path / "m.pt", {"w": torch.arange(3.0)},
+                      {"kind": "sound", "classes": list(per_class), "per_class_accuracy": per_class,
+                       "window_accuracy": float("nan"), "curve": np.array([0.25, np.nan])})
+    meta = strict(path.with_suffix(".json").read_text())
+    assert meta["per_class_accuracy"] == {"cough": 0.5, "cry": None, "sneeze": None}
+    assert meta["window_accuracy"] is None and meta["curve"] == [0.25, None]
+    assert load_model_file(path, "sound")[1] == meta
+    old = path.with_suffix(".json").read_text().replace("null", "NaN")  # as saved before
+    old = json.loads(old)
+    del old["model_id"]  # and before ids were recorded (the shipped models'): a keep rewrites it
+    path.with_suffix(".json").write_text(json.dumps(old))
+    assert "NaN" in path.with_suffix(".json").read_text()
+    loaded = load_model_file(path, "sound")[1]
+    assert loaded["per_class_accuracy"]["cough"] == 0.5 and loaded["per_class_accuracy"]["cry"] != \
+        loaded["per_class_accuracy"]["cry"]  # NaN, read as before
+    kept = previous_model.keep(path)
+    assert strict(kept.with_suffix(".json").read_text())["per_class_accuracy"]["cry"] is None
+
+
 def test_metadata_that_names_other_weights_is_refused(sound_file, tmp_path):
     """Weights replaced without their metadata (an interrupted save, one file copied over): the
     pair is refused, naming both ids, not loaded with another model's classes and accuracy."""
@@ -244,6 +275,10 @@ def test_what_an_evaluation_is_on_is_said_as_it_was_made():
     m.extra = {"set": "all", "held_out_absent": 4, "trained_on": "/lab/scenes"}
     assert evaluated_on(m, "images") == ("on all 2 images of another library: the model was trained on /lab/scenes, "
                                          "where its 4 held-out images are")
+    # files of held-out names with other bytes (walk3: another library's cough/rec5.wav was taken for the model's)
+    m.extra = {"set": "all", "held_out_absent": 4, "held_out_other_bytes": 1}
+    assert evaluated_on(m, "images") == ("on all 2 images (training ones included; none of the model's 4 held-out "
+                                         "ones is in the library; 1 image of their names holds other contents)")
 
 
 def test_a_save_writes_nothing_before_it_holds_the_model_s_lock(sound_file, monkeypatch):

@@ -41,3 +41,27 @@ def test_the_means_have_two_decimals_at_most(script, tmp_path, capsys):
     path.write_text(json.dumps({"participants": people}))
     assert script.main([str(path)]) == 0
     assert capsys.readouterr().out.splitlines()[-1].startswith("| mean | 2.33 | ")
+
+
+def test_the_differing_preferences_are_counted_against_the_d4a_given(script, tmp_path, capsys):
+    """walk3: 'differing from D4A' was always against the shipped D4A; --d4a FILE (as cacas simulate's)
+    counts against a lab's own table, and a bad one is one line, exit 2."""
+    from cacas import spaces
+    from cacas.d4a import D4A, load_d4a, save_d4a
+
+    path = tmp_path / "p.json"
+    path.write_text(json.dumps({"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check"}]}]}))
+    shipped = load_d4a()
+    cough, pain = spaces.ACTIVITIES.index("cough"), spaces.ACTIONS.index("pain check")
+    table = shipped.table.copy()
+    assert shipped.response(cough, pain) == spaces.ACCEPT
+    table[cough, pain] = spaces.REJECT  # a lab whose generic user declines a pain check after a cough
+    save_d4a(D4A(table), tmp_path / "ours.csv")
+    assert script.main([str(path)]) == 0
+    row = capsys.readouterr().out.splitlines()[2]
+    assert script.main([str(path), "--d4a", str(tmp_path / "ours.csv")]) == 0
+    ours = capsys.readouterr().out.splitlines()[2]
+    assert (row, ours) == ("| P01 | 1 | 864 | 0 |", "| P01 | 1 | 864 | 1 |")
+    assert script.main([str(path), "--d4a", str(tmp_path / "none.csv")]) == 2
+    assert capsys.readouterr().err.strip() == f"persona_table: {tmp_path / 'none.csv'}: no such D4A file"

@@ -1,6 +1,7 @@
 """Scene recognition (Section IV-A): ResNet-18, weights handling, storage, training and recognition."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -256,3 +257,23 @@ def test_a_stop_asked_for_during_an_epoch_ends_the_training_within_a_batch(tmp_p
     with pytest.raises(Stopped):
         train_scene_model(root, epochs=3, patience=3, weights="none", progress=progress)
     assert not any(m.startswith("epoch 1/3: loss") for m in messages)  # epoch 1 never finished
+
+
+def test_another_library_s_images_of_the_held_out_names_are_not_taken_for_them(tiny, tmp_path):
+    """walk3: held-out images were matched by their path alone; the model records each one's sha256 (as
+    the sound model's held-out clips: test_audio_model), and an image of that name with other bytes is not one."""
+    import shutil
+
+    from cacas.recognition_training import file_sha256
+
+    root, result, _ = tiny
+    held = result.recognizer.metadata["test_recordings"]
+    assert result.recognizer.metadata["test_sha256"] == {rel: file_sha256(root / rel) for rel in held}
+    other = tmp_path / "other"
+    shutil.copytree(root, other)
+    for rel in held[1:]:  # the same names, another image of the same scene in each but the first
+        same_scene = sorted(p for p in (other / rel).parent.iterdir() if p.name != Path(rel).name)
+        shutil.copy(same_scene[0], other / rel)
+    m = evaluate_scene_model(result.recognizer, other)
+    assert (m.n, m.extra["set"], m.extra["held_out_missing"]) == (1, "held-out", len(held) - 1)
+    assert m.extra["held_out_other_bytes"] == len(held) - 1

@@ -37,8 +37,8 @@ from cacas.audio.model import SoundCNN, SoundRecognizer
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, trains_alone
-from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, evaluation_set, relative_path, \
-    split_table, tell, training_split
+from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, evaluation_set, held_out_in, \
+    held_out_sha256, relative_path, split_table, tell, training_split
 
 @dataclass
 class TrainingResult:
@@ -239,6 +239,7 @@ def train_sound_model(root: Path | str | None = None, *, epochs: int = 8, patien
             "synthetic_items": sum(c.path.name.startswith("synthetic_") for c in clips),
         },
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
+        "test_sha256": held_out_sha256([clips[i].path for i in test], root),  # taken for them only with these bytes
     }
     tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")
     return TrainingResult(recognizer, metrics, pd.DataFrame(history), split, seconds)
@@ -254,11 +255,9 @@ def evaluate_sound_model(recognizer: SoundRecognizer, root: Path | str | None = 
     """
     root = Path(root) if root is not None else sounds_dir()
     clips = scan(root)
-    chosen = []
-    if held_out and recognizer.metadata.get("test_recordings"):
-        wanted = set(recognizer.metadata["test_recordings"])
-        chosen = [c for c in clips if relative_path(c.path, root) in wanted]
-    which = evaluation_set(recognizer.metadata, root, len(chosen), held_out)  # said beside the accuracy
+    chosen, other_bytes = held_out_in(recognizer.metadata, [c.path for c in clips], root) if held_out else ([], 0)
+    chosen = [clips[i] for i in chosen]
+    which = evaluation_set(recognizer.metadata, root, len(chosen), held_out, other_bytes)  # said beside the accuracy
     if chosen:
         clips = chosen
     if not clips:

@@ -216,6 +216,17 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def say_initial_policy_training(d4a) -> None:
+    """One line on stderr when the initial policy of ``d4a`` (CACAA step 1) is to be trained first: without a
+    terminal the progress bar draws nothing, and a new D4A table's ~30-45 s of training went unsaid (walk3)."""
+    from cacas.adaptation import initial_policy_path
+
+    path = initial_policy_path(d4a)
+    if not path.exists():
+        print(f"cacas simulate: training the initial policy for {d4a.source or 'the D4A table'} first (CACAA step 1, "
+              f"about half a minute; once: it is kept as {path})", file=sys.stderr, flush=True)
+
+
 def run(args) -> int:
     from cacas.experiment import check_loop, check_methods, check_study_arguments
 
@@ -265,6 +276,8 @@ def run(args) -> int:
         plot_dir = args.plot if together or not args.plot else \
             files.writable_folder(args.plot, f"--plot {args.plot}", create=False)
         progress = None if args.quiet else ProgressBar("simulate")
+        if progress is not None and progress.quiet:  # no terminal: the bar draws nothing (logs, pipes)
+            say_initial_policy_training(d4a)
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
                                 jobs=jobs, ask_after_reject=args.ask_after_reject,

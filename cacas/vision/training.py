@@ -24,8 +24,8 @@ from cacas import spaces
 from cacas.errors import CacasError
 from cacas.paths import study_data_dir
 from cacas.recognition import Metrics, compute_metrics, restores_torch_threads, trains_alone
-from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, evaluation_set, relative_path, \
-    split_table, tell, training_split
+from cacas.recognition_training import TEST_FRACTION, EarlyStopping, Progress, evaluation_set, held_out_in, \
+    held_out_sha256, relative_path, split_table, tell, training_split
 from cacas.vision.library import load_image, scan, scenes_dir
 from cacas.vision.model import IMAGE_SIZE, SceneRecognizer, build_resnet18, preprocess
 
@@ -150,6 +150,7 @@ def train_scene_model(root: Path | str | None = None, *, epochs: int = 12, patie
                           "synthetic": all(p.path.name.startswith("synthetic_") for p in photos),
                           "synthetic_items": sum(p.path.name.startswith("synthetic_") for p in photos)},
         "test_recordings": split.loc[split["side"] == "test", "path"].tolist(),
+        "test_sha256": held_out_sha256([photos[i].path for i in test], root),  # taken for them only with these bytes
     }
     tell(progress, 1.0, f"done: test accuracy {metrics.accuracy:.3f} in {seconds:.0f} s")
     return SceneTrainingResult(recognizer, metrics, pd.DataFrame(history), split, seconds)
@@ -160,11 +161,9 @@ def evaluate_scene_model(recognizer: SceneRecognizer, root: Path | str | None = 
     """Test on images under ``root``: the model's held-out test images when ``held_out`` and listed."""
     root = Path(root) if root is not None else scenes_dir()
     photos = scan(root)
-    chosen = []
-    if held_out and recognizer.metadata.get("test_recordings"):
-        wanted = set(recognizer.metadata["test_recordings"])
-        chosen = [p for p in photos if str(p.path.resolve().relative_to(root.resolve())) in wanted]
-    which = evaluation_set(recognizer.metadata, root, len(chosen), held_out)  # said beside the accuracy
+    chosen, other_bytes = held_out_in(recognizer.metadata, [p.path for p in photos], root) if held_out else ([], 0)
+    chosen = [photos[i] for i in chosen]
+    which = evaluation_set(recognizer.metadata, root, len(chosen), held_out, other_bytes)  # said beside the accuracy
     if chosen:
         photos = chosen
     if not photos:
