@@ -321,14 +321,39 @@ def _is_text(column: pd.Series) -> bool:
     return column.dtype == object or pd.api.types.is_string_dtype(column.dtype)
 
 
+#: Columns holding a code or a person's words, where "NA", "None", "null" or "n/a" is what was typed (a
+#: participant coded NA, a preference described as "None"): CACAS writes a missing value as an empty cell,
+#: and pandas' default NA strings made such a cell missing (:func:`read_csv`).
+WORD_COLUMNS = ("participant", "study", "label", "comments", "notes", "description", "name")
+#: pandas.read_csv's default NA strings (its documentation's list), kept for every other column: a number
+#: column of a table written by another tool (R's write.csv writes NA) still reads as numbers.
+PANDAS_NA_STRINGS = ("", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN",
+                     "<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null")
+
+
+def _missing_strings(source, options: dict) -> dict:
+    """``na_values`` for :func:`read_csv`: only the empty cell in :data:`WORD_COLUMNS`, pandas' defaults
+    elsewhere, by the header of ``source`` (a path or a file object, left where it was)."""
+    peek = {k: options[k] for k in ("sep", "delimiter", "encoding", "header", "skiprows") if k in options}
+    start = source.tell() if hasattr(source, "read") else None
+    columns = pd.read_csv(source, nrows=0, **peek).columns
+    if start is not None:
+        source.seek(start)
+    return {col: [""] if col in WORD_COLUMNS else list(PANDAS_NA_STRINGS) for col in columns}
+
+
 def read_csv(source, **options) -> pd.DataFrame:
     """A CSV this module wrote (or one like it), its text cells as they were before
     :func:`escape_formula`: ``pandas.read_csv`` with ``options``, then :func:`unescape_formula` on
     every text column. A ``participant`` column is read as text: codes such as "007" kept their
-    digits only (7) when pandas took them for numbers."""
+    digits only (7) when pandas took them for numbers. In :data:`WORD_COLUMNS` only an empty cell is
+    missing (pandas read participant "NA", a valid code, as missing), unless ``options`` say which
+    strings are (``na_values``, ``keep_default_na``)."""
     dtype = options.pop("dtype", None)
     if dtype is None or isinstance(dtype, dict):  # a caller's own column types keep the participant's as text
         dtype = {"participant": str, **(dtype or {})}
+    if "na_values" not in options and "keep_default_na" not in options:
+        options.update(keep_default_na=False, na_values=_missing_strings(source, options))
     df = pd.read_csv(source, dtype=dtype, **options)
     text = {col: df[col].map(unescape_formula) for col in df.columns if _is_text(df[col])}
     return df.assign(**text) if text else df

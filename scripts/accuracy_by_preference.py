@@ -21,7 +21,9 @@ COLUMNS = ("participant", "method", "day", "action", "states", "correct")
 
 def load(path: str) -> pd.DataFrame:
     """A by_preference.csv, checked for the columns this script needs."""
-    rows = pd.read_csv(path)
+    # a missing value is an empty cell in what CACAS writes: pandas' default NA strings made participant "NA"
+    # (a valid code) missing, and the means over participants left them out
+    rows = pd.read_csv(path, dtype={"participant": str}, keep_default_na=False, na_values=[""])
     missing = [c for c in COLUMNS if c not in rows.columns]
     if missing:
         raise ValueError(f"{path}: not a by_preference.csv; missing columns: {', '.join(missing)}")

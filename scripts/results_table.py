@@ -27,7 +27,9 @@ def _fail(message: str) -> None:
 def read_daily(path: str) -> pd.DataFrame:
     """daily.csv, or exit code 2 with one line naming the file and what is wrong."""
     try:
-        daily = pd.read_csv(path)
+        # a missing value is an empty cell in what CACAS writes: pandas' default NA strings made participant
+        # "NA" (a valid code) missing
+        daily = pd.read_csv(path, dtype={"participant": str}, keep_default_na=False, na_values=[""])
     except (OSError, ValueError, pd.errors.ParserError) as exc:
         _fail(f"{path}: cannot be read as a daily.csv ({exc.__class__.__name__}: "
                  f"{getattr(exc, 'strerror', None) or exc})")

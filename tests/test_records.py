@@ -3,6 +3,7 @@
 
 import numpy as np
 import pandas as pd
+import pytest
 
 from cacas.preferences import parse_participant
 import io
@@ -238,3 +239,20 @@ def test_codes_are_listed_as_a_researcher_reads_them():
     assert by_code(["S2a", "S2", "S10", "S2_b"]) == ["S2", "S2_b", "S2a", "S10"]
     codes = ["P10", "p2", "P_1", "PA", "pa", "P-3", "P01", "p01", "1", "x"]
     assert by_code(codes) == by_code(reversed(codes)) == by_code(sorted(codes))  # total: the same whatever came in
+
+
+@pytest.mark.parametrize("word", ["NA", "None", "NULL", "null", "nan", "NaN", "N/A", "n/a"])
+def test_a_code_or_words_that_pandas_takes_for_missing_are_read_as_written(word):
+    """A participant coded NA (a valid code: letters) or a preference's words "None" were read as missing by
+    pandas' default NA strings, so a run's or an export's daily.csv read back (Results, the Simulation lab)
+    dropped that participant from every mean. CACAS writes a missing value as an empty cell; a number column
+    keeps pandas' NA strings (R's write.csv writes NA there)."""
+    from cacas.records import read_csv
+
+    data = (f"participant,method,day,label,success_rate\n{word},cacas,1,{word},NA\nP02,cacas,1,,0.5\n,cacas,1,x,\n"
+            .encode())
+    df = read_csv(io.BytesIO(data))
+    assert df["participant"].tolist()[:2] == [word, "P02"] and pd.isna(df["participant"].iloc[2])
+    assert df["label"].iloc[0] == word and pd.isna(df["label"].iloc[1])  # an empty cell is missing, as written
+    assert pd.api.types.is_float_dtype(df["success_rate"]) and df["success_rate"].isna().tolist() == [True, False, True]
+    assert read_csv(io.StringIO(data.decode()))["participant"].iloc[0] == word  # a text stream too

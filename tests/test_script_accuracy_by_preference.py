@@ -57,3 +57,11 @@ def test_bad_file_and_day(script, tmp_path, capsys):
     assert script.main([str(good), "--day", "7"]) == 2
     err = capsys.readouterr().err
     assert "--day 7 is not in" in err and err.strip().endswith("valid: 1")
+
+
+def test_a_participant_coded_na_counts_in_the_mean(script, tmp_path):
+    """pandas read participant "NA" (a valid code) as missing, and the mean over participants left them out."""
+    path = tmp_path / "by_preference.csv"
+    pd.DataFrame([{"participant": who, "method": "cacas", "day": 1, "action": "chitchat", "states": 10,
+                   "correct": correct} for who, correct in (("NA", 0), ("P02", 10))]).to_csv(path, index=False)
+    assert script.summary(script.load(str(path)))["all"].to_dict() == {"cacas": 0.5}

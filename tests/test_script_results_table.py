@@ -74,3 +74,11 @@ def test_a_file_that_is_not_a_daily_csv_is_one_line_exit_2(script, tmp_path, cap
         script.main(str(path))
     err = capsys.readouterr().err
     assert exc.value.code == 2 and needle in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_participant_coded_na_is_counted(script, tmp_path, capsys):
+    """pandas read participant "NA" (a valid code) as missing: 'participants: 1' for two."""
+    path = tmp_path / "daily.csv"
+    daily(float("nan")).replace({"participant": {"P01": "NA"}}).to_csv(path, index=False)
+    script.main(str(path))
+    assert "participants: 2, days: 2" in capsys.readouterr().out

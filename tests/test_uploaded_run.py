@@ -453,3 +453,12 @@ def test_a_table_from_another_runs_folder_is_said_to_be_one():
     assert str(err.value).startswith(
         "interactions.csv: does not match its sha256 in checksums.sha256, so it is not the interactions.csv written "
         "with it: one from another folder (upload the tables of one folder with that folder's checksums.sha256), or ")
+
+
+def test_a_participant_coded_na_is_uploaded_as_a_participant_not_as_missing():
+    """pandas' default NA strings made participant "NA" (a valid code) missing: the upload took it, and
+    every figure dropped the participant from its means."""
+    tables = _run()
+    renamed = {name: df.replace({"participant": {"P01": "NA"}}) for name, df in tables.items()}
+    daily = upload(renamed)["daily"]
+    assert records.by_code(set(daily["participant"])) == ["NA", "P02"]
