@@ -233,19 +233,26 @@ def test_each_run_opens_its_heatmap_on_its_own_last_day(app, db):
     assert at.select_slider(key=slider.format("run-a")).value == 2  # run-a's last day, not run-c's pick
 
 
-def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
+def _each_loop_run(app, db, nn_feedback: int, nn_day_2: int):
+    """Results opened on a saved run of P01 over 2 days, CACAS and NN each in its own closed loop (NN's day 2:
+    ``nn_feedback`` data points after ``nn_day_2`` recorded interactions)."""
     import pandas as pd
 
     from cacas import saved_runs
 
     daily = pd.DataFrame({"participant": ["P01"] * 4, "method": ["cacas", "cacas", "nn", "nn"], "day": [1, 2, 1, 2],
                           "success_rate": [0.3, 0.6, 0.3, 0.4], "preference_accuracy": [0.2, 0.5, 0.2, 0.3],
-                          "cumulative_feedback": [8, 15, 8, 14], "interactions": [15, 15, 15, 14]})
+                          "cumulative_feedback": [8, 15, 8, nn_feedback], "interactions": [15, 15, 15, nn_day_2]})
     saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
-                         {"loop": "each"})
+                        {"loop": "each"})
     at = app(PAGE)
     at.button_group[0].set_value("A simulated run").run()
     no_exception(at)
+    return at
+
+
+def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
+    at = _each_loop_run(app, db, nn_feedback=14, nn_day_2=14)
     titles = [c.proto.spec for c in at.get("plotly_chart")]
     assert any("Success rate by method, each in its own closed loop" in t for t in titles)
     assert "methods CACAS, NN, each in its own closed loop." in texts(at)
@@ -259,18 +266,7 @@ def test_results_of_a_run_with_every_method_in_its_own_closed_loop(app, db):
 def test_fig3_by_methods_hollow_points_are_said_under_it(app, db):
     """walk2: Fig. 3 by method marks a day resting on few answers hollow now, as Fig. 3 does; a caption under it
     says what a hollow point is (its hover gives the fewest), and Fig. 3's own caption under the method's figure."""
-    import pandas as pd
-
-    from cacas import saved_runs
-
-    daily = pd.DataFrame({"participant": ["P01"] * 4, "method": ["cacas", "cacas", "nn", "nn"], "day": [1, 2, 1, 2],
-                          "success_rate": [0.3, 0.6, 0.3, 0.4], "preference_accuracy": [0.2, 0.5, 0.2, 0.3],
-                          "cumulative_feedback": [8, 15, 8, 10], "interactions": [15, 15, 15, 2]})
-    saved_runs.save_run(saved_runs.runs_dir(db), "run-each", daily, pd.DataFrame({"participant": ["P01"]}),
-                        {"loop": "each"})
-    at = app(PAGE)
-    at.button_group[0].set_value("A simulated run").run()
-    no_exception(at)
+    at = _each_loop_run(app, db, nn_feedback=10, nn_day_2=2)
     assert HOLLOW.replace("its label", "its hover") in texts(at)
     assert HOLLOW not in texts(at)  # CACAS, shown below, has none
     at.selectbox(key="results-fig3-method").set_value("nn").run()
