@@ -317,10 +317,12 @@ with quest:
                         if len(earlier):  # each save adds a row; the summary counts the latest
                             note += (f"{' ' if note else ''}It replaces {who}'s earlier answer ({earlier.iloc[-1]}) "
                                      "in the summary; questionnaire.csv keeps both.")
-                        st.toast(f"Saved {who}'s answer ({score}).{' ' + note if note else ''}",
-                                 icon=":material/check_circle:")
+                        # on the page until the next run: a toast of ~25 words left in ~4 s (accessibility walkthrough)
+                        st.session_state["quest-saved"] = f"Saved {who}'s answer ({score}).{' ' + note if note else ''}"
                         st.session_state["quest-entry"] = entry + 1
                         st.rerun()
+            if saved := st.session_state.pop("quest-saved", None):
+                st.success(saved, icon=":material/check_circle:")
         if len(answers):
             st.dataframe(answers.assign(created_at=[app_support.short_time(t) for t in answers["created_at"]])
                          .rename(columns={"created_at": "saved"}), hide_index=True, width="stretch")
