@@ -218,8 +218,10 @@ def simulate_study(participants: Sequence[Participant], days: int = 7, interacti
     d4a = d4a or load_d4a()
     # CACAA step 1 is trained against the D4A pairs: a table of the researcher's own, or a config
     # that trains step 1 otherwise, gets its own initial policy (trained once, kept beside the shipped one)
+    # "initial policy for mine.csv: round 3/30 ...": the training's own "initial policy: " said once (walk3b)
     initial = initial_policy or load_initial_policy(
-        d4a=d4a, config=config, progress=(lambda f, m: progress(0.0, f"initial policy for {d4a.source or 'this D4A table'}: {m}"))
+        d4a=d4a, config=config, progress=(lambda f, m: progress(
+            0.0, f"initial policy for {d4a.source or 'this D4A table'}: {m.removeprefix('initial policy: ')}"))
         if progress else None)
     jobs = max(1, min(jobs or 1, len(participants)))
     args = [(person, p_i, days, interactions, methods, seed, no_response_rate, config, d4a, eval_states,

@@ -379,6 +379,26 @@ def test_a_study_with_its_own_d4a_table_or_config_starts_from_an_initial_policy_
     assert seen == [own]
 
 
+def test_the_progress_of_training_an_initial_policy_says_initial_policy_once(monkeypatch):
+    """The bar read "initial policy for mine.csv: initial policy: round 1/30 ..." (walk3b): once is enough."""
+    import cacas.experiment
+    from cacas.d4a import D4A, load_d4a
+
+    class Stop(Exception):
+        pass
+
+    def loader(progress=None, **kwargs):
+        progress(1 / 30, "initial policy: round 1/30 of 4 simulated days side by side")
+        raise Stop
+
+    said = []
+    monkeypatch.setattr(cacas.experiment, "load_initial_policy", loader)
+    with pytest.raises(Stop):
+        cacas.experiment.simulate_study(PEOPLE[:1], days=1, d4a=D4A(load_d4a().table, source="mine.csv"),
+                                        progress=lambda f, m: said.append(m))
+    assert said == ["initial policy for mine.csv: round 1/30 of 4 simulated days side by side"]
+
+
 def test_interactions_are_numbered_from_1_in_their_day_as_in_a_human_study(small_config, small_initial):
     """interactions.csv's index counts as the tablet and `cacas export` do (walkthrough: 0-based here,
     1-based in the export)."""
