@@ -101,13 +101,13 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
                 words = prefs.Preference(activity=(), action="", description=str(item.get("description") or ""))
                 prefs.check_private_words(prefs.Participant(code, (words,)), None, [n])
             except CacasError as exc:
-                errors[n] += f"; and {_strip_where(str(exc))}"
+                errors[n] += f"; and {_strip_where(str(exc), code, item, n)}"
             continue
         try:
             one = prefs.parse_preference(item, None, code, n - 1)
             prefs.check_private_words(prefs.Participant(code, (one,)), None, [n])
         except CacasError as exc:
-            errors[n] = _strip_where(str(exc))
+            errors[n] = _strip_where(str(exc), code, item, n)
             continue
         parsed.append(one)
         parsed_numbers.append(n)
@@ -122,7 +122,7 @@ def check_preferences(code: str, items: Sequence[dict], numbers: Sequence[int] |
                 prefs.check_conflicts([parsed[i], parsed[j]], None, code, fields=FORM_FIELDS,
                                       numbers=[parsed_numbers[i], parsed_numbers[j]])
             except CacasError as exc:
-                overall = _strip_where(str(exc))
+                overall = _strip_where(str(exc), code)
                 break
         if overall:
             break
@@ -141,12 +141,20 @@ def redundancy_notes(participant: prefs.Participant) -> list[str]:
             "these states under both." for i, j in prefs.redundant_preferences(ps)]
 
 
-def _strip_where(message: str) -> str:
-    """'participant P01, preference 2 ("..."), field 'hours': ...' -> "field 'hours': ..."."""
+def _strip_where(message: str, code: str, item: dict | None = None, number: int | None = None) -> str:
+    """'participant P01, preference 2 ("..."), field 'hours': ...' -> "field 'hours': ..."; 'participant P01:
+    preferences 1 ("...") and 2 ...' -> "preferences 1 ...". The place is cut as the library writes it for
+    ``code``'s preference ``number`` (``item``, its words quoted): a preference's own words holding "field '"
+    cut the message inside them (walk3b)."""
+    if number is not None:
+        where = prefs._where(None, code, number - 1, None, item)
+        if message.startswith(where + ", field '"):
+            return message[len(where) + 2:]
+    overlap = f"participant {code}: preferences "
+    if message.startswith(overlap):
+        return message[len(overlap) - len("preferences "):]
     if "field '" in message:
         return message[message.index("field '"):]
-    if ": preferences " in message:
-        return message[message.index("preferences "):]
     return message
 
 

@@ -86,3 +86,14 @@ def test_a_preferences_interval_reads_as_the_minutes_its_bins_cover():
         Preference(activity=("cough",), action="pain check", interval=(5, 30)),
         Preference(activity=("use stove",), action="remind to turn off"))))
     assert list(table["since last activity"]) == ["5-60 min", "any"]
+
+
+def test_a_preferences_own_words_holding_field_do_not_cut_its_message():
+    """The form's message starts at the field, or at "preferences 1 ... and 2": words of the participant's own that
+    held "field '" cut it inside them ('field 'hours' please"), field 'hours': ...'; walk3b)."""
+    bad = {"activity": ["cough"], "action": "pain check", "hours": [[7, 9]], "description": "my field 'hours' please"}
+    assert preference_form.check_preferences("P01", [bad])[1][1].startswith("field 'hours': [7, 9] is invalid")
+    a = {"activity": ["cough"], "action": "pain check", "description": "field 'a' one"}
+    b = {"activity": ["cough"], "action": "chitchat", "description": "field 'b' two"}
+    assert preference_form.check_preferences("P01", [a, b])[2].startswith(
+        "preferences 1 (\"field 'a' one\") and 2 (\"field 'b' two\") both cover ")
