@@ -253,7 +253,7 @@ if versions:
                      format="%.0f%%", help="Fig. 4's accuracy, computed when the version was adapted, on the "
                                            "described preferences saved at that time")})
     if not active:
-        st.caption(":material/info: The initial policy is in force (no version above).")
+        ui.noted("info", "The initial policy is in force (no version above).")
     with st.form("rollback", border=True):
         st.markdown("**Roll back (or forward)**: put an earlier policy in force for the next interactions.")
         options = [0] + [v.version for v in versions]

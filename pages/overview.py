@@ -82,7 +82,7 @@ if code:
     if len(row):
         st.subheader(f"Next for {code}")
         step = row["next step"].iloc[0]
-        st.markdown(f":material/arrow_forward: **{step}**")
+        ui.noted("arrow_forward", f"**{step}**", caption=False)
         links = ui.metric_row()  # a link that does not fit goes on to the next line whole ("Open the study se")
         ui.link("pages/session.py", "Open the study session", ":material/tablet:", links)
         ui.link("pages/adaptation.py", "Adaptation", ":material/model_training:", links)

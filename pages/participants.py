@@ -453,11 +453,13 @@ if code:
         st.session_state.setdefault(ui.UNSAVED_FORMS_KEY, {})[code] = unsaved
         # one caption whatever the state: an element appearing above the form would shift the widgets
         # below it while the researcher clicks them (and Streamlit would redraw them, closing an open list)
-        st.caption(f":material/edit_note: **Unsaved changes to {code}'s preferences**: they are kept while you "
-                   "open other pages or participants in this browser tab, until you save or discard them below; "
-                   "a reload loses them." if unsaved else
-                   ":material/info: Changes on this form are kept while you open other pages or participants in "
-                   "this browser tab, until you save or discard them; a reload loses them.")
+        if unsaved:
+            ui.noted("edit_note", f"**Unsaved changes to {code}'s preferences**: they are kept while you open other "
+                                  "pages or participants in this browser tab, until you save or discard them below; "
+                                  "a reload loses them.")
+        else:
+            ui.noted("info", "Changes on this form are kept while you open other pages or participants in this "
+                             "browser tab, until you save or discard them; a reload loses them.")
         for n in range(1, count + 1):
             k = lambda f: _form_key(code, version, n, f)  # noqa: E731
             old = existing[n - 1] if n <= len(existing) else None
@@ -508,9 +510,9 @@ if code:
                       key=f"discard-{code}")
             started = day_status(store, code).day
             if started and existing:  # mid-study: Fig. 4's scores change version from here on
-                st.caption(f":material/warning: {code} is on day {started} of the study. Saved, these preferences "
-                           f"score the policies adapted from now on (Fig. 4, the Adaptation page); the days before "
-                           f"keep their scores against version {version}.")
+                ui.noted("warning", f"{code} is on day {started} of the study. Saved, these preferences score the "
+                                    "policies adapted from now on (Fig. 4, the Adaptation page); the days before keep "
+                                    f"their scores against version {version}.")
 
     with tabs[f"Details of {code}"]:
         info = store.get_participant(code)

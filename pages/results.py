@@ -108,7 +108,7 @@ else:
                                                   [up.name for up in ups if up.name.lower().endswith(".zip")])
     st.caption(said)
     if unchecked:
-        st.caption(f":material/info: {unchecked}")
+        ui.noted("info", f"{unchecked}")
 
 # a study in progress: participants on different days make each day's mean one of different people
 shown, reached = daily, plots.participants_reached(daily) if len(daily) else pd.Series(dtype=int)
@@ -182,8 +182,8 @@ if fig3.open:
                       help=None if on_day == n_all else f"{n_all} participants have a day in the figure; "
                       f"{on_day} {'has' if on_day == 1 else 'have'} reached day {last}.")
             if in_progress:
-                st.caption(f":material/pending: Day {last} is still open for {', '.join(in_progress)}: its figures "
-                           "are so far, and change until the day is closed.")
+                ui.noted("pending", f"Day {last} is still open for {', '.join(in_progress)}: its figures "
+                                    "are so far, and change until the day is closed.")
             ui.chart(plots.success_figure(shown, method=method), width="stretch")
             st.caption(plots.success_caption(shown, method))
 

@@ -376,9 +376,9 @@ def _on_the_tablet(shown: Shown) -> None:
             with st.chat_message("user", avatar=":material/person:"):
                 st.markdown(f"“{asked.said}”")
             words = dialogue.request_words(asked.action)
-            st.caption(f":material/hourglass_empty: The robot understood: {words}"
-                       + (f" ({asked.action})" if words != asked.action else "")  # the action's name, if other
-                       + f"; it waits for {code}'s yes on the tablet.")
+            other = f" ({asked.action})" if words != asked.action else ""  # the action's name, if other
+            ui.noted("hourglass_empty", f"The robot understood: {words}{other}; it waits for {code}'s yes on the "
+                                        "tablet.")
         st.caption("The participant answers on the tablet; this page follows it. 'Run it from here instead' opens "
                    "this page's own context form: you set the context and the robot proposes again (the tablet's "
                    "proposal is not taken over). Whichever answer is saved first, here or on the tablet, is kept; "
@@ -502,9 +502,9 @@ elif context is None:
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     if not tablet and not board.heard(db, code):
         # after a restart a tablet left open shows its proposal without being drawn: this page cannot know
-        st.caption(f":material/info: This page has not heard from {code}'s tablet since the app started "
-                   f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a proposal, let "
-                   f"{code} answer it there: this page follows it from the tablet's next tap.")
+        ui.noted("info", f"This page has not heard from {code}'s tablet since the app started "
+                         f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a "
+                         f"proposal, let {code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
         st.markdown("#### What are you doing?" if tablet else f"#### What is {code} doing?",  # the researcher sets it
                     anchors=False)

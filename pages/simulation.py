@@ -69,8 +69,8 @@ try:
             kept.pop("sim-upload", None)
         s["sim-upload-held"] = up is not None
         if up is None and kept.get("sim-upload"):
-            st.caption(f":material/attach_file: {kept['sim-upload'][0]}, uploaded before in this browser tab. "
-                       "Upload another file to replace it.")
+            ui.noted("attach_file", f"{kept['sim-upload'][0]}, uploaded before in this browser tab. "
+                                    "Upload another file to replace it.")
         if kept.get("sim-upload"):
             name, data = kept["sim-upload"]
             people = saved_runs.uploaded_personas(name, data)

@@ -244,7 +244,7 @@ def _metrics_view(metrics, kind: str) -> None:
     st.metric(f"{kind} {'test ' if held_out else ''}accuracy", f"{100 * metrics.accuracy:.1f}%", help=on)
     # not the figure the model was saved with, or held-out items taken by name only (walk3): said
     if not held_out or metrics.extra.get("held_out_missing") or metrics.extra.get("matched_by_name"):
-        st.caption(f":material/info: Accuracy {on}.")
+        ui.noted("info", f"Accuracy {on}.")
     ui.chart(confusion_figure(metrics), width="content", key=f"cm-{kind}")
     per = metrics.per_class.rename(columns={"label": "class"})
     per = per.assign(accuracy=100 * per["accuracy"])  # whole percentages, as the rest of the page (it showed 66.67%)
@@ -263,7 +263,7 @@ def _previous_model_view(kind: str, busy: bool) -> None:
     kept = lab.kept_model(kind)
     if kept is None:
         return
-    st.caption(f":material/history: Kept beside it, to put back: {model_words(kept)}.")
+    ui.noted("history", f"Kept beside it, to put back: {model_words(kept)}.")
     if st.button(f"Put back the previous {kind} model", key=f"btn-put-back-{kind}", disabled=busy,
                  icon=":material/undo:", help="It serves the tablets from their next interaction; the model "
                                               "saved now is kept in its place, so pressing again returns to it."):
@@ -311,8 +311,8 @@ with train:
             now = int(_library_counts(kind.lower())[k["items"]].sum())
             then = data.get("recordings" if kind == "Sound" else "images")
             if then is not None and then != now:
-                st.caption(f":material/update: The {kind.lower()} library holds {now} {k['items']} now ({then} "
-                           "when this model was trained): train it again to use them.")
+                ui.noted("update", f"The {kind.lower()} library holds {now} {k['items']} now ({then} "
+                                   "when this model was trained): train it again to use them.")
         key_train, key_eval = f"train-{kind.lower()}", f"eval-{kind.lower()}"
         busy = any(RUNNER.get(k) is not None and RUNNER.get(k).running for k in (key_train, key_eval))
         refused = _library_problem(kind.lower(), lab.library_stamp(kind.lower()))  # said before, not after a start

@@ -56,6 +56,16 @@ def icon(name: str, says: str | None = None) -> str:
     return hidden if says is None else f'<span role="img" aria-label="{html.escape(says)}">{hidden}</span>'
 
 
+def noted(icon_name: str, text: str, where=None, caption: bool = True) -> None:
+    """``text`` (markdown) as a caption (or, ``caption=False``, markdown) after a decorative Material icon that a
+    screen reader skips (:func:`icon`): ":material/info: ..." in text was read "info icon ...", before every such
+    note (accessibility walkthrough). The HTML this needs is allowed for the icon only: ``text``'s "&", "<" and ">"
+    are escaped, so a file name or a participant's words in it stay words."""
+    safe = text.replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    draw = (where or st).caption if caption else (where or st).markdown
+    draw(f"{icon(icon_name)} {safe}", unsafe_allow_html=True)
+
+
 PARTICIPANT_KEY = "participant"
 STUDY_KEY = "study"
 #: participant code -> whether their preference form (Participants page) holds unsaved changes
@@ -88,8 +98,8 @@ def tablet_address_note(code: str) -> None:
                    "personal. For the participant's tablet, start it with `streamlit run app.py --server.address "
                    "<this computer's address on the lab network>` and put that address in place of "
                    f"`{address.split('://')[1].split('/')[0]}`.")
-    st.caption(":material/lock_open: The tablet view hides the researcher's pages; it does not lock them: anyone "
-               "who can reach the app on the network can open every page. Use it on a network you trust.")
+    noted("lock_open", "The tablet view hides the researcher's pages; it does not lock them: anyone "
+                       "who can reach the app on the network can open every page. Use it on a network you trust.")
 
 
 def keep_preference_forms() -> None:

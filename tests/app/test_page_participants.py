@@ -1,6 +1,7 @@
 import json
 
 from apphelpers import no_exception, texts
+from pages import ui
 
 from cacas.spaces import ACTIONS, ACTIVITIES
 
@@ -423,7 +424,7 @@ def test_fewer_slots_than_saved_preferences_says_saving_removes_them(app, store)
 
 
 def _unsaved(at) -> bool:
-    return any(c.value.startswith(":material/edit_note: **Unsaved changes to ") for c in at.caption)
+    return any(c.value.startswith(f"{ui.icon('edit_note')} **Unsaved changes to ") for c in at.caption)
 
 
 def test_unsaved_changes_survive_other_pages_until_saved_or_discarded(app, store):
@@ -580,7 +581,7 @@ def test_changing_preferences_mid_study_says_which_days_keep_their_scores(app, s
     at.run()
     no_exception(at)
     assert [c.value for c in at.caption if "of the study" in c.value] == [
-        ":material/warning: P01 is on day 1 of the study. Saved, these preferences score the policies adapted "
+        f"{ui.icon('warning')} P01 is on day 1 of the study. Saved, these preferences score the policies adapted "
         "from now on (Fig. 4, the Adaptation page); the days before keep their scores against version 1."]
 
 

@@ -6,6 +6,7 @@ import pytest
 import soundfile as sf
 
 from apphelpers import no_exception, open_expander, texts
+from pages import ui
 
 PAGE = "pages/sounds.py"
 
@@ -172,7 +173,7 @@ def test_a_model_trained_on_another_library_says_so(app, monkeypatch):
         no_exception(at)
         stale = [c.value for c in at.caption if "train it again" in c.value]
         assert stale == ([] if when == "now" else [
-            f":material/update: The sound library holds {clips} clips now ({clips - 2} when this model was "
+            f"{ui.icon('update')} The sound library holds {clips} clips now ({clips - 2} when this model was "
             "trained): train it again to use them."])
 
 
@@ -195,7 +196,7 @@ def test_the_scene_library_counts_each_room_and_a_stale_scene_model_says_so(app,
     for i, scene in enumerate(SCENES, 1):
         assert f"**{i}. {scene}** · {photos[scene]} photo{'s' if photos[scene] != 1 else ''}" in [m.value for m in at.markdown]
     assert [c.value for c in at.caption if "train it again" in c.value] == [
-        f":material/update: The scene library holds {sum(photos.values())} photos now ({sum(photos.values()) - 5} "
+        f"{ui.icon('update')} The scene library holds {sum(photos.values())} photos now ({sum(photos.values()) - 5} "
         "when this model was trained): train it again to use them."]
     # the id the study's interactions record for this model (interactions.csv's scene_model)
     assert [c.value.split(" · ")[-1] for c in at.caption if c.value.startswith("Trained ")] == ["model id 0123456789ab"]
@@ -444,8 +445,8 @@ def test_the_model_a_training_replaced_is_shown_and_put_back(app, tmp_path, monk
         path, keep_previous=True)
     poor = cacas.lab.load_recognizer("sound").model_id
     at.run()
-    kept = [c.value for c in at.caption if c.value.startswith(":material/history: Kept")]
-    assert kept == [f":material/history: Kept beside it, to put back: model id {good}, trained "
+    kept = [c.value for c in at.caption if c.value.startswith(f"{ui.icon('history')} Kept")]
+    assert kept == [f"{ui.icon('history')} Kept beside it, to put back: model id {good}, trained "
                     "2026-11-20 09:00 UTC, test accuracy 98.5%."]
     assert f"test accuracy 18.0% · ? items · ? s · model id {poor}" in texts(at)  # the saved one, as before
     assert at.button(key="btn-put-back-sound").label == "Put back the previous sound model"
