@@ -6,6 +6,7 @@ import pytest
 from cacas import app_support, records
 from cacas.recent_activity import recent_events
 from cacas.store import StudyStore
+from studies import cough_day
 from cacas.study_day import STUDY_DAYS
 
 
@@ -56,13 +57,7 @@ def test_overview_says_who_still_owes_the_questionnaire(tmp_path):
 
 def test_overview_and_events(tmp_path):
     store = StudyStore(tmp_path / "s.sqlite")
-    store.add_participant("P01")
-    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-    day = store.open_day("P01")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="pain check", response="accept")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="chitchat", response="reject")
+    day = cough_day(store, answers=[("pain check", "accept"), ("chitchat", "reject")])
     table = app_support.overview_frame(store)
     row = table.iloc[0]
     assert row["day"] == "1 of 7 (open)" and row["interactions today"] == 2

@@ -5,6 +5,7 @@ import pytest
 
 from cacas.recent_activity import recent_events
 from cacas.store import StudyStore
+from studies import cough_day
 
 
 def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
@@ -201,11 +202,7 @@ def test_an_adaptations_start_and_an_import_are_said_in_words(tmp_path):
     from cacas.export import export_study, import_bundle
 
     store = StudyStore(tmp_path / "s.sqlite")
-    store.add_participant("P01")
-    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-    day = store.open_day("P01")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                             robot_action="pain check", response="accept")
+    day = cough_day(store)
     store.close_day("P01", day)
     store.note_adaptation_started("P01", day, "cacas")  # a start that saved nothing: the app stopped
     store.note_adaptation_started("P01", day, "bandit")  # the researcher adapts again: recorded

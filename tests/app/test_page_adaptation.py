@@ -8,6 +8,7 @@ from cacas.jobs import RUNNER
 from cacas.policy import policy_from_bytes
 
 from apphelpers import no_exception, texts
+from studies import cough_day
 
 PAGE = "pages/adaptation.py"
 
@@ -375,11 +376,7 @@ def test_the_adaptation_after_the_last_day_says_the_final_policy_not_day_8(app, 
 
 def test_what_changed_over_one_context_says_it_in_the_singular(app, store, quick_policy):
     """Walkthrough: "The robot's action in each of A02's 1 contexts"."""
-    store.add_participant("P01")
-    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
-    day = store.open_day("P01")
-    store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=7.5, interval_minutes=12,
-                             robot_action="pain check", response="accept")
+    day = cough_day(store, hour=7.5, interval_minutes=12)
     store.close_day("P01", day)
     store.save_policy("P01", day, "cacas", quick_policy.to_bytes())
     at = app(PAGE, participant="P01")
