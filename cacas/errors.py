@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import re
 from typing import Any, Callable, Mapping
 
 import numpy as np
@@ -15,6 +16,46 @@ class CacasError(ValueError):
     The message is one line meant for a person: it names the file / participant / preference /
     field at fault and what would be valid. The command line prints it and exits with code 2.
     """
+
+
+class Problems(CacasError):
+    """Several problems of one input found in one reading (a persona file's: walk3 mended three
+    mistakes in three runs). ``str()`` is the one line a command prints: ``head``, their count, and
+    each numbered, the first ``shown`` written out; :meth:`listed` is the same as a numbered
+    Markdown list, one a line, for a page. A problem whose valid names repeat an earlier one's
+    refers to it instead ("valid: as in problem 1"): the 33 activities once."""
+
+    def __init__(self, head: str, lines: list[str], shown: int = 8):
+        self.head, self.lines, self.shown = head, _said_once(lines), shown
+        written = " ".join(f"[{n}] {line}" for n, line in enumerate(self.lines[:shown], 1))
+        more = len(self.lines) - shown
+        super().__init__(f"{head}{len(self.lines)} problems, each to mend: {written}"
+                         + (f" [and {more} more]" if more > 0 else ""))
+
+    def listed(self) -> str:
+        """The problems as a numbered Markdown list under ``head`` (every one)."""
+        return (f"{self.head}{len(self.lines)} problems, each to mend:\n\n"
+                + "\n".join(f"{n}. {line}" for n, line in enumerate(self.lines, 1)))
+
+
+def _said_once(lines: list[str]) -> list[str]:
+    """``lines`` with a "; valid: ..." (or "? valid: ...") tail that an earlier line wrote already replaced by a reference to it."""
+    first: dict[str, int] = {}
+    out = []
+    for n, line in enumerate(lines, 1):
+        found = list(re.finditer(r"[;?] valid: ", line))
+        valid = line[found[-1].end():] if found else None
+        if valid in first:
+            line = f"{line[:found[-1].end()]}as in problem {first[valid]}"
+        elif valid is not None:
+            first[valid] = n
+        out.append(line)
+    return out
+
+
+def one_a_line(exc: Exception) -> str:
+    """What a page shows for ``exc``: a :class:`Problems`' numbered list, else its one line."""
+    return exc.listed() if isinstance(exc, Problems) else str(exc)
 
 
 class AlreadyRecorded(CacasError):

@@ -20,7 +20,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from cacas import spaces
-from cacas.errors import CacasError, nearest, shortened
+from cacas.errors import CacasError, Problems, nearest, shortened
 from cacas.privacy import contact_details
 
 FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
@@ -326,32 +326,64 @@ def redundant_preferences(preferences: Iterable[Preference]) -> list[tuple[int, 
 
 
 def parse_participant(obj: Any, source: str | None = None, index: int = 0) -> Participant:
+    """Validate one participant of a persona document; the first problem is a CacasError naming the
+    source, participant, preference and field (:func:`participant_problems` lists them all)."""
+    person, problems = participant_problems(obj, source, index)
+    if problems:
+        raise CacasError(problems[0])
+    return person
+
+
+def participant_problems(obj: Any, source: str | None = None,
+                         index: int = 0) -> tuple[Participant | None, list[str]]:
+    """The participant of a persona document and ``[]``, or None and every problem found, one line
+    each: the participant's own (its object, code, fields), else each invalid preference's first
+    (its fields are read in the file's order), else the first overlap of two valid ones."""
     if not isinstance(obj, dict):
-        raise CacasError(f"{_where(source)}: participant {index + 1} must be an object with 'id' and 'preferences'")
+        return None, [f"{_where(source)}: participant {index + 1} must be an object with 'id' and 'preferences'"]
     pid = obj.get("id")
     if not isinstance(pid, str) or not pid.strip():
-        raise CacasError(f"{_where(source)}: participant {index + 1}, field 'id': must be a non-empty "
-                         f"pseudonymous code such as \"P01\"")
+        return None, [f"{_where(source)}: participant {index + 1}, field 'id': must be a non-empty "
+                      f"pseudonymous code such as \"P01\""]
     pid = pid.strip()
     if "," in pid:  # "Smith, Anna": `cacas simulate --participants` could not name it (comma-separated codes)
         from cacas.store.validate import CODE_HINT
 
-        raise CacasError(f"{_where(source)}: participant {index + 1}, field 'id': {pid!r} holds a comma, which "
-                         f"separates the codes of `cacas simulate --participants`; valid: {CODE_HINT}")
+        return None, [f"{_where(source)}: participant {index + 1}, field 'id': {pid!r} holds a comma, which "
+                      f"separates the codes of `cacas simulate --participants`; valid: {CODE_HINT}"]
     unknown = sorted(set(obj) - {"id", "preferences"})
     if unknown:
-        raise CacasError(f"{_where(source, pid, fld=unknown[0])}: unknown field; "
-                         f"{nearest(unknown[0], ('id', 'preferences'))}valid fields: id, preferences")
+        return None, [f"{_where(source, pid, fld=unknown[0])}: unknown field; "
+                      f"{nearest(unknown[0], ('id', 'preferences'))}valid fields: id, preferences"]
     raw = obj.get("preferences")
     if not isinstance(raw, list) or not raw:
-        raise CacasError(f"{_where(source, pid, fld='preferences')}: must be a non-empty list of preferences")
-    prefs = tuple(parse_preference(p, source, pid, i) for i, p in enumerate(raw))
-    check_conflicts(prefs, source, pid)
-    return Participant(pid, prefs)
+        return None, [f"{_where(source, pid, fld='preferences')}: must be a non-empty list of preferences"]
+    prefs, problems = [], []
+    for i, p in enumerate(raw):
+        try:
+            prefs.append(parse_preference(p, source, pid, i))
+        except CacasError as exc:
+            problems.append(str(exc))
+    if problems:  # overlaps are judged once every preference reads
+        return None, problems
+    try:
+        check_conflicts(prefs, source, pid)
+    except CacasError as exc:
+        return None, [str(exc)]
+    return Participant(pid, tuple(prefs)), []
+
+
+#: At most this many problems of a persona file are written out in its one line; the rest are counted.
+PROBLEMS_SHOWN = 8
 
 
 def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
-    """Validate a persona document (already parsed JSON) into participants."""
+    """Validate a persona document (already parsed JSON) into participants.
+
+    Every problem is found in one reading (walk3: a file with three mistakes took three runs to
+    mend): one is its own line, as before; several are one CacasError whose one line (design.md's
+    contract) numbers them, each naming its participant, preference and field, the first
+    :data:`PROBLEMS_SHOWN` written out (:class:`cacas.errors.Problems`)."""
     if not isinstance(data, dict) or not isinstance(data.get("participants"), list):
         raise CacasError(f"{_where(source)}: must be a JSON object with a list 'participants'")
     unknown = sorted(set(data) - {"participants"})
@@ -360,17 +392,44 @@ def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
                          "valid fields: participants")
     if not data["participants"]:
         raise CacasError(f"{_where(source)}: 'participants' is empty; add at least one participant")
-    people = [parse_participant(p, source, i) for i, p in enumerate(data["participants"])]
+    people, problems = [], []
+    for i, obj in enumerate(data["participants"]):
+        person, found = participant_problems(obj, source, i)
+        problems += found
+        if person is not None:
+            people.append(person)
     seen: dict[str, str] = {}  # by letter-case-folded code: P01 and p01 are two participants a reader takes for one
-    for p in people:
-        other = seen.get(p.id.casefold())
-        if other == p.id:
-            raise CacasError(f"{_where(source, p.id, fld='id')}: appears twice; codes must be unique")
-        if other is not None:
-            raise CacasError(f"{_where(source, p.id, fld='id')}: differs from participant {other} only in letter "
-                             "case; codes must be unique")
-        seen[p.id.casefold()] = p.id
+    for code in map(_code, data["participants"]):
+        if code is None:
+            continue
+        other = seen.get(code.casefold())
+        if other == code:
+            problems.append(f"{_where(source, code, fld='id')}: appears twice; codes must be unique")
+        elif other is not None:
+            problems.append(f"{_where(source, code, fld='id')}: differs from participant {other} only in letter "
+                            "case; codes must be unique")
+        seen[code.casefold()] = code
+    _raise_problems(problems, source)
     return people
+
+
+def _code(obj: Any) -> str | None:
+    """A participant object's code as :func:`participant_problems` reads it, or None."""
+    pid = obj.get("id") if isinstance(obj, dict) else None
+    return pid.strip() if isinstance(pid, str) and pid.strip() else None
+
+
+def _raise_problems(problems: list[str], source: str | None) -> None:
+    """Nothing for none; the one problem's own message; or :class:`cacas.errors.Problems`, the place's
+    ``source`` written once at its start."""
+    if not problems:
+        return
+    if len(problems) == 1:
+        raise CacasError(problems[0])
+    head = f"{source}: " if source else ""
+    lines = [p[len(head):] if head and p.startswith(head) else
+             p[len(source) + 2:] if source and p.startswith(f"{source}, ") else p for p in problems]
+    raise Problems(head, lines, PROBLEMS_SHOWN)
 
 
 def load_personas(path: str | Path) -> list[Participant]:

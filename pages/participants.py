@@ -4,7 +4,7 @@ import streamlit as st
 
 from cacas import app_support, preference_form, spaces, table_layouts
 from cacas.preferences import persona_json
-from cacas.errors import CacasError
+from cacas.errors import CacasError, one_a_line
 from cacas.jobs import RUNNER
 from cacas.store.people import DetailsChanged, PreferencesChanged
 from cacas.study_day import day_status
@@ -225,7 +225,7 @@ def _import_personas() -> None:
         done = store.import_personas(upload.getvalue(), study=study, source=upload.name,
                                      replace=bool(s.get("persona-replace")))
     except CacasError as exc:
-        s["import-error"] = str(exc)
+        s["import-error"] = one_a_line(exc)  # a persona file's problems one a line
         return
     # the page opens the first participant's preferences: the toast says it there, and the Import tab
     # keeps its message for when the researcher comes back to it (until the next import or file)

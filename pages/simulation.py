@@ -6,7 +6,7 @@ from __future__ import annotations
 import streamlit as st
 
 from cacas import app_support, plots, records, saved_runs
-from cacas.errors import CacasError
+from cacas.errors import CacasError, one_a_line
 from cacas.experiment import LOOPS, METHODS, PAPER_METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.paths import study_data_dir
@@ -85,7 +85,7 @@ try:
         if not people:
             problem = "No participant of this study has described preferences yet."
 except CacasError as exc:
-    problem = str(exc)
+    problem = one_a_line(exc)  # an uploaded persona file's problems one a line
 if problem:
     st.error(problem, icon=":material/error:")
 

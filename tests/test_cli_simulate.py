@@ -30,6 +30,13 @@ def bad_pref(**change):
         {"activity": ["cough"], "action": "pain check"},
         {"activity": ["cough"], "scene": ["bedroom"], "action": "show compassion"}]}]}, [],
      ["personas.json", "participant P01", "preferences 1 and 2", "different actions"]),
+    # every problem of the file in its one line (walk3: three mistakes, three runs)
+    ({"participants": [{"id": "P01", "preferences": [dict(GOOD["participants"][0]["preferences"][0], action="dance"),
+                                                     {"activity": ["coughing"], "action": "pain check"}]},
+                       {"id": "P02", "preferences": [{"activity": ["cough"], "action": "pain check", "hours": [[7, 9]]}]}]},
+     [], ["personas.json: 3 problems, each to mend: [1] participant P01, preference 1 (\"Stove: set a timer\"), "
+          "field 'action': unknown action 'dance'", "[2] participant P01, preference 2, field 'activity'",
+          "did you mean 'cough'?", "[3] participant P02, preference 1, field 'hours': [7, 9] is invalid"]),
     (dict(GOOD, studdy="typo"), [], ["personas.json", "field 'studdy': unknown field; valid fields: participants"]),
     ('{"participants": [{"id": "P01", "id": "P02", "preferences": []}]}', [],
      ["personas.json", "field 'id' appears twice in one object"]),

@@ -2,6 +2,7 @@ import json
 
 import pytest
 
+from cacas import errors, spaces
 from cacas import preferences as prefs
 from cacas.errors import CacasError
 
@@ -310,3 +311,66 @@ def test_the_persona_format_page_shows_a_valid_file_and_every_field():
     assert prefs.parse_personas(prefs.persona_json(example, "docs/personas.md"))[0].covered_count() > 0
     table = set(re.findall(r"^\| `(\w+)` \|", page, re.M))
     assert table == set(prefs.FIELDS) | {"participants", "id", "preferences"}
+
+
+def test_a_persona_file_says_every_problem_in_one_line():
+    """walk3: a file with three mistakes took three runs, one refusal each. Every participant's
+    problems and each invalid preference's first are said at once, numbered, in one line (the CLI's
+    contract); a page lists them one a line. The valid names of a second unknown activity refer to
+    the first's list instead of writing 33 names again."""
+    data = {"participants": [
+        {"id": "P01", "preferences": [{"activity": ["coughing"], "action": "pain check"},
+                                      COUGH,
+                                      {"activity": ["snorring"], "action": "dance"}]},
+        {"id": "P02", "preferences": [dict(COUGH, hours=[6, 10])]},
+        {"id": "P03", "preferences": [COUGH]},
+        {"id": "P01", "preferences": [dict(COUGH, activity=["cutting food"])]},
+    ]}
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas(data, "people.json")
+    said = str(err.value)
+    assert "\n" not in said
+    assert said.startswith("people.json: 5 problems, each to mend: [1] participant P01, preference 1, field "
+                           "'activity': unknown activity 'coughing'; did you mean 'cough'? valid: cough, cry, ")
+    assert ("[2] participant P01, preference 3, field 'action': unknown action 'dance'; valid: do nothing, " in said)
+    assert ("[3] participant P02, preference 1, field 'hours': [6, 10] is invalid (one range is a list of one "
+            "pair: [[6, 10]], not [6, 10]); valid: " in said)
+    assert ("[4] participant P01, preference 1, field 'activity': unknown activity 'cutting food'; did you mean "
+            "'cut food'? valid: as in problem 1 [5] participant P01, field 'id': appears twice; codes must be "
+            "unique") in said
+    assert said.count("flush toilet") == 1 and "P03" not in said and "people.json" not in said[5:]
+    assert errors.one_a_line(err.value).splitlines()[:4] == [
+        "people.json: 5 problems, each to mend:", "",
+        "1. participant P01, preference 1, field 'activity': unknown activity 'coughing'; did you mean 'cough'? "
+        "valid: cough, cry, clear throat, sneeze, sniff, fall down, burp, yawn, snore, drink water, drink milk, "
+        "drink soup, eat apple, eat noodle, eat chips, wash hands, wash clothes, wash dishes, use scissor, use "
+        "blender, use stove, use hair dryer, use microwave, use fan, watch TV, type keyboard, cut food, fry food, "
+        "pour water into glass, shave, brush teeth, flush toilet, do nothing",
+        "2. participant P01, preference 3, field 'action': unknown action 'dance'; valid: do nothing, show "
+        "compassion, chitchat, remind to take medicine, ask to offer help, call someone for help, set a timer, "
+        "pain check, confirm sound, record sound, remind to turn off, remind to be careful, remind to put back, "
+        "remind to unplug"]
+
+
+def test_one_problem_is_said_as_before_and_overlaps_wait_for_valid_preferences():
+    """One problem keeps its own message (no count, no number); two preferences that overlap with
+    different actions are judged only when every preference of the participant reads."""
+    overlap = [COUGH, dict(COUGH, action="show compassion")]
+    with pytest.raises(CacasError) as err:
+        prefs.parse_personas({"participants": [{"id": "P01", "preferences": [*overlap, {"activity": ["x"]}]}]}, "a.json")
+    assert str(err.value) == ("a.json, participant P01, preference 3, field 'action': is missing; valid: one of "
+                              + ", ".join(spaces.ACTIONS))
+    assert errors.one_a_line(err.value) == str(err.value)
+    with pytest.raises(CacasError, match=r"^a\.json, participant P01: preferences 1 and 2 both cover"):
+        prefs.parse_personas({"participants": [{"id": "P01", "preferences": overlap}]}, "a.json")
+
+
+def test_a_file_of_many_problems_writes_the_first_eight_and_counts_the_rest():
+    data = {"participants": [{"id": f"P{i:02d}", "preferences": [dict(COUGH, action="dance")]} for i in range(1, 12)]}
+    with pytest.raises(errors.Problems) as err:
+        prefs.parse_personas(data, "many.json")
+    said = str(err.value)
+    assert said.startswith("many.json: 11 problems, each to mend: [1] participant P01, preference 1, field 'action'")
+    assert "[8] participant P08" in said and "P09" not in said and said.endswith("; valid: as in problem 1 [and 3 more]")
+    listed = errors.one_a_line(err.value).splitlines()
+    assert len(listed) == 2 + 11 and listed[-1].startswith("11. participant P11, preference 1, field 'action'")

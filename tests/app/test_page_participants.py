@@ -885,3 +885,20 @@ def test_the_preferences_table_shows_every_column_at_1280_px(app, store):
         # on one line: "remind to take medicine" wraps, but "06:00-10:00" (about 80 px), "0-60 min" and a heading do not
         assert widths["hours"] >= 90 and widths["in their words"] >= 140, widths
     assert grid.value["in their words"].iloc[0] == "stove"
+
+
+def test_an_imported_persona_file_lists_every_problem_and_imports_nothing(app, store):
+    data = json.dumps({"participants": [
+        {"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check", "hours": [6, 10]}]},
+        {"id": "P02", "preferences": [{"activity": ["cough"], "action": "pain check"}]},
+        {"id": "P03", "preferences": [{"activity": ["snoring"], "action": "chitchat"}]}]})
+    at = app(PAGE)
+    at.file_uploader(key="persona-upload").upload("mine.json", data.encode(), "application/json")
+    next(b for b in at.button if b.label == "Import").click().run()
+    no_exception(at)
+    [error] = [e.value for e in at.error]
+    assert error.splitlines()[0] == "mine.json: 2 problems, each to mend:"
+    assert error.splitlines()[2].startswith("1. participant P01, preference 1, field 'hours': [6, 10] is invalid")
+    assert error.splitlines()[3].startswith("2. participant P03, preference 1, field 'activity': unknown activity "
+                                            "'snoring'; did you mean 'snore'?")
+    assert store.list_participants() == []  # all or nothing

@@ -523,3 +523,19 @@ def test_a_runs_table_and_figures_list_the_methods_in_the_papers_order(app, db):
     assert list(dict.fromkeys(table["method"])) == ["CACAS", "ORL", "NN"]
     specs = [json.loads(c.proto.spec) for c in at.get("plotly_chart")[:2]]
     assert [[t["name"] for t in spec["data"]] for spec in specs] == [["CACAS", "ORL", "NN"]] * 2
+
+
+def test_an_uploaded_persona_file_lists_every_problem_one_a_line(app):
+    """The file's problems all at once (walk3: three mistakes, three tries), one a line under the uploader."""
+    data = json.dumps({"participants": [
+        {"id": "P01", "preferences": [{"activity": ["coughing"], "action": "pain check"}]},
+        {"id": "P02", "preferences": [{"activity": ["cough"], "action": "dance"}]}]}).encode()
+    at = app(PAGE)
+    at.radio(key="sim-source").set_value("Upload a persona file").run()
+    at.file_uploader(key="sim-upload").upload("mine.json", data, "application/json").run()
+    no_exception(at)
+    [error] = [e.value for e in at.error]
+    assert error.splitlines()[0] == "mine.json: 2 problems, each to mend:"
+    assert error.splitlines()[2].startswith("1. participant P01, preference 1, field 'activity': unknown activity "
+                                            "'coughing'; did you mean 'cough'?")
+    assert error.splitlines()[3].startswith("2. participant P02, preference 1, field 'action': unknown action 'dance'")
