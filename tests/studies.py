@@ -1,4 +1,8 @@
-"""A small study day for tests: :func:`cough_day`. Import it into a test module: ``from studies import cough_day``."""
+"""A small study day for tests (:func:`cough_day`) and small policy files (:func:`policy_bytes`). Import them into
+a test module: ``from studies import cough_day, policy_bytes``."""
+
+import zlib
+from functools import lru_cache
 
 
 def cough_day(store, code: str = "P01", answers=(("pain check", "accept"),), hour: float = 8,
@@ -12,3 +16,17 @@ def cough_day(store, code: str = "P01", answers=(("pain check", "accept"),), hou
         store.record_interaction(code, day, activity="cough", scene="bedroom", hour=hour,
                                  interval_minutes=interval_minutes, robot_action=robot_action, response=response)
     return day
+
+
+@lru_cache(maxsize=None)
+def policy_bytes(label: str = "a policy") -> bytes:
+    """A real policy file, small and quick to write (a contextual bandit's, ~0.2 ms), whose bytes differ with
+    ``label``: where a test needs a saved policy but never its decisions. An import loads each policy file it
+    brings (made-up bytes are refused), as the tablet will."""
+    import numpy as np
+
+    from cacas.policy import BanditPolicy
+
+    policy = BanditPolicy(np.zeros((33, 14), np.int64))
+    policy.wins = policy.wins + zlib.crc32(label.encode()) % 997  # a count of its own: bytes of their own
+    return policy.to_bytes()

@@ -9,6 +9,7 @@ import cacas.cli as cli
 from cacas import export
 from cacas.store import StudyStore
 from unwritable import unwritable_folder  # noqa: F401
+from studies import policy_bytes
 
 
 @pytest.fixture
@@ -33,7 +34,7 @@ def study(tmp_path):
         day = s.open_day("P01")
         s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
                              robot_action="pain check", response="accept")
-        s.save_policy("P01", day, "cacas", b"policy bytes")
+        s.save_policy("P01", day, "cacas", policy_bytes("policy bytes"))
         s.record_questionnaire("P01", 8)
     return path
 
@@ -50,7 +51,7 @@ def test_export_and_import(run, study, tmp_path, capsys):
     assert "imported 1 participant and 1 interaction into" in capsys.readouterr().out
     with StudyStore(new) as s:
         assert s.resume("P01").total_interactions == 1
-        assert s.load_policy("P01") == b"policy bytes"
+        assert s.load_policy("P01") == policy_bytes("policy bytes")
 
 
 def _refused(run, capsys, tmp_path, db):

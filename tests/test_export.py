@@ -18,6 +18,7 @@ from cacas.errors import CacasError
 from cacas.records import BY_PREFERENCE_COLUMNS, DAILY_COLUMNS, INTERACTION_COLUMNS, USER_INITIATED
 from cacas.store import StudyStore
 from cacas.store.restore import restore
+from studies import policy_bytes
 
 COUGH = {"activity": ["cough"], "action": "pain check"}
 ROUND_TRIP = ("interactions", "daily", "by_preference", "participants", "questionnaire", "adaptations", "preferences", "days",
@@ -46,7 +47,7 @@ def fill(store: StudyStore) -> None:
                                      robot_action="do nothing", response="accept", type=USER_INITIATED,
                                      user_action="remind to turn off")
             store.close_day(who, day)
-            v = store.save_policy(who, day, "cacas", f"{who} policy after day {day}".encode())
+            v = store.save_policy(who, day, "cacas", policy_bytes(f"{who} policy after day {day}"))
             store.record_adaptation(who, day, "cacas", {"epochs": 3}, 1.5 * day,
                                     {"preference_accuracy": 0.5 + day / 10, "by_preference": [
                                         {"preference": 1, "label": "cough -> pain check", "activity": "cough",
@@ -136,7 +137,7 @@ def test_daily_table_metrics(store):
 def test_cumulative_feedback_is_one_stream_when_the_method_in_force_changes(store):
     """A researcher puts a baseline's policy in force for day 3: day 3's interactions carry its
     method, and the participant's cumulative feedback goes on from day 2's."""
-    version = store.save_policy("P01", 2, "nn", b"an nn policy after day 2")
+    version = store.save_policy("P01", 2, "nn", policy_bytes("an nn policy after day 2"))
     store.set_active_policy("P01", version)
     day = store.open_day("P01")
     store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
@@ -228,7 +229,7 @@ def test_daily_accuracy_follows_the_policy_in_force_after_rollback(tmp_path):
         for d in (1, 2):
             s.open_day("P01")
             s.close_day("P01", d)
-            v = s.save_policy("P01", d, "cacas", f"policy {d}".encode())
+            v = s.save_policy("P01", d, "cacas", policy_bytes(f"policy {d}"))
             s.record_adaptation("P01", d, "cacas", {}, 1.0, {"preference_accuracy": d / 10}, policy_version=v)
         s.set_active_policy("P01", 1)  # day 2's policy was bad: back to the one after day 1
         day = s.open_day("P01")
@@ -245,7 +246,7 @@ def test_a_day_rolled_back_in_its_middle_is_scored_by_the_version_most_of_it_had
         s.add_participant("P01")
         s.close_day("P01", s.open_day("P01"))
         s.record_adaptation("P01", 0, "cacas", {}, 1.0, {"preference_accuracy": 0.2})  # the initial policy
-        v = s.save_policy("P01", 1, "cacas", b"policy 1")
+        v = s.save_policy("P01", 1, "cacas", policy_bytes("policy 1"))
         s.record_adaptation("P01", 1, "cacas", {}, 1.0, {"preference_accuracy": 0.7}, policy_version=v)
         day = s.open_day("P01")
 
@@ -270,7 +271,7 @@ def test_export_import_export_gives_the_same_tables(store, tmp_path):
     assert not [p for p in target.parent.iterdir() if p.name.startswith(".")]  # no temporary left
     with StudyStore(target) as moved:
         second = export.export_study(moved, tmp_path / "second")
-        assert moved.load_policy("P02") == b"P02 policy after day 2"
+        assert moved.load_policy("P02") == policy_bytes("P02 policy after day 2")
         assert moved.resume("P01") == store.resume("P01")
         assert moved.get_preferences("P01") == store.get_preferences("P01")
         assert moved.events()["what"].iloc[-1] == "import_bundle"
@@ -923,6 +924,51 @@ def _with_entries(bundle, out, add=(), policies_csv=None):
     return out
 
 
+class _RunsACommand:
+    """Pickles to a call of os.system, as a crafted file would."""
+
+    def __init__(self, marker):
+        self.marker = marker
+
+    def __reduce__(self):
+        return (os.system, (f"touch {self.marker}",))
+
+
+@pytest.mark.parametrize("forged", ["text", "zip cut short", "pickle"])
+def test_a_policy_file_that_is_not_a_policy_is_refused_even_with_its_sha256_and_size_edited(bundle, tmp_path, forged):
+    """Safety: other bytes in a policy file's place, with policies.csv's sha256 and size edited to match,
+    were imported (they failed only when the tablet loaded them). The import loads every policy file it brings
+    as the tablet will (weights only: nothing in them runs), and refuses the bundle naming the file."""
+    import pickle
+
+    from cacas.store import files
+
+    marker = tmp_path / "ran"
+    forged = {"text": b"not a policy", "zip cut short": policy_bytes("a policy")[:5000],
+              "pickle": pickle.dumps(_RunsACommand(marker), protocol=2)}[forged]
+    with zipfile.ZipFile(bundle) as zf:
+        first = pd.read_csv(io.BytesIO(zf.read("policies.csv")), dtype=str, keep_default_na=False)["path"][0]
+    edit = {"sha256": files.sha256(forged), "size": str(len(forged))}
+    out = tmp_path / "forged.zip"
+    with zipfile.ZipFile(bundle) as zin, zipfile.ZipFile(out, "w") as zout:
+        for name in zin.namelist():
+            data = zin.read(name)
+            if name == f"policies/{first}":
+                data = forged
+            elif name == "policies.csv":
+                df = pd.read_csv(io.BytesIO(data), dtype=str, keep_default_na=False)
+                for column, value in edit.items():
+                    df.loc[df["path"] == first, column] = value
+                data = df.to_csv(index=False).encode()
+            zout.writestr(name, data)
+    target = tmp_path / "new" / "study.sqlite"
+    with pytest.raises(CacasError) as err:
+        export.import_bundle(out, target)
+    assert re.search(rf"forged\.zip: policies\.csv, row 2: policy file '{re.escape(first)}' is not a CACAS policy file "
+                     r"\(\w+\); valid: a policy file as `cacas export` wrote it$", str(err.value)), str(err.value)
+    assert not target.exists() and not target.parent.exists() and not marker.exists()
+
+
 @pytest.mark.parametrize("entry", ["policies/../../escaped.pt", "policies//etc/cron.d/x.pt",
                                    "policies/P01/notes.txt", "policies/P01/sub/day1-cacas-0123abcd.pt"])
 def test_bundle_with_an_unexpected_policy_file_is_refused(bundle, tmp_path, entry):
@@ -1152,7 +1198,7 @@ def test_daily_says_which_preferences_each_days_accuracy_was_scored_on(tmp_path)
             s.close_day("P01", d)
             if version == 2:  # the participant described their preferences again after day 2
                 s.save_preferences("P01", [dict(COUGH, action="show compassion")])
-            v = s.save_policy("P01", d, "cacas", f"after day {d}".encode())
+            v = s.save_policy("P01", d, "cacas", policy_bytes(f"after day {d}"))
             s.record_adaptation("P01", d, "cacas", {}, 1.0, {"preference_accuracy": 0.5 + d / 10,
                                                                "preferences_version": version}, policy_version=v)
         s.record_adaptation("P01", 2, "nn", {}, 1.0, {"preference_accuracy": 0.2})  # recorded before runs named it
@@ -1388,7 +1434,7 @@ def _case_twins(path):
                             "((SELECT id FROM studies WHERE name = 'default'), 'p01', '2026-01-05T10:00:00.000Z', "
                             "'2026-01-05T10:00:00.000Z')")
         for who in ("P01", "p01"):
-            s.save_policy(who, 0, "cacas", f"{who}'s initial policy".encode())
+            s.save_policy(who, 0, "cacas", policy_bytes(f"{who}'s initial policy"))
     return path
 
 

@@ -16,6 +16,7 @@ import pytest
 from cacas import export, uploaded_run
 from cacas.errors import CacasError
 from cacas.store import StudyStore, files
+from studies import policy_bytes
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Runs ``cacas ARGS...`` and kills itself (SIGKILL) before, or after, its N-th os.replace.
@@ -69,13 +70,13 @@ def runs(tmp_path_factory):
         day = s.open_day("P01")
         s.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=0,
                              robot_action="pain check", response="accept")
-        s.save_policy("P01", day, "cacas", b"policy bytes")
+        s.save_policy("P01", day, "cacas", policy_bytes("policy bytes"))
         first = export.export_contents(s)
         s.add_participant("P02")
         day = s.open_day("P02")
         s.record_interaction("P02", day, activity="cough", scene="bedroom", hour=9, interval_minutes=0,
                              robot_action="pain check", response="reject")
-        s.save_policy("P02", day, "cacas", b"P02's policy")
+        s.save_policy("P02", day, "cacas", policy_bytes("P02's policy"))
         s.record_questionnaire("P01", 8)
         second = export.export_contents(s)
     return db, first, second

@@ -5,7 +5,7 @@ import pytest
 
 from cacas.recent_activity import recent_events
 from cacas.store import StudyStore
-from studies import cough_day
+from studies import cough_day, policy_bytes
 
 
 def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
@@ -14,7 +14,7 @@ def test_recent_events_name_the_days_an_adaptation_used(tmp_path):
     for day in (1, 2, 3):
         store.close_day("P01", store.open_day("P01"))
         if day != 2:
-            version = store.save_policy("P01", day, "nn", b"policy bytes")
+            version = store.save_policy("P01", day, "nn", policy_bytes("policy bytes"))
             store.record_adaptation("P01", day, "nn", {}, 1.0, {}, version)
     store.record_adaptation("P01", 2, "orl", {"comparison": True}, 1.0, {})  # a Fig. 4 comparison run
     words = [w for w in recent_events(store, limit=20)["what"]
@@ -111,7 +111,7 @@ def test_a_comparison_never_swallows_a_real_adaptation_made_meanwhile(tmp_path):
     def adapt_p03(store, day):  # as study_day.adapt_day does it
         store.note_adaptation_started("P03", day, "cacas")
         store.close_day("P03", day)
-        store.save_adapted_policy("P03", day, "cacas", b"policy bytes", {}, 1.0, {"preference_accuracy": 0.5},
+        store.save_adapted_policy("P03", day, "cacas", policy_bytes("policy bytes"), {}, 1.0, {"preference_accuracy": 0.5},
                                   initial_metrics={"preference_accuracy": 0.25})
 
     store = _comparison_with_p03_meanwhile(tmp_path, adapt_p03)
@@ -206,7 +206,7 @@ def test_an_adaptations_start_and_an_import_are_said_in_words(tmp_path):
     store.close_day("P01", day)
     store.note_adaptation_started("P01", day, "cacas")  # a start that saved nothing: the app stopped
     store.note_adaptation_started("P01", day, "bandit")  # the researcher adapts again: recorded
-    store.record_adaptation("P01", day, "bandit", {}, 1.0, {}, store.save_policy("P01", day, "bandit", b"policy"))
+    store.record_adaptation("P01", day, "bandit", {}, 1.0, {}, store.save_policy("P01", day, "bandit", policy_bytes("policy")))
     words = list(recent_events(store, limit=20)["what"])
     assert words[:2] == ["adaptation (Bandit (TS)) from day 1: version 1", "policy version 1 saved and put in force"]
     assert "adaptation (CACAS) from day 1 started" in words

@@ -8,6 +8,7 @@ import textwrap
 
 from cacas import export
 from cacas.store import StudyStore, recovery
+from studies import policy_bytes
 
 
 def _participant_with_a_policy(path, code="P03") -> str:
@@ -15,7 +16,7 @@ def _participant_with_a_policy(path, code="P03") -> str:
         s.add_participant(code)
         s.open_day(code)
         s.close_day(code, 1)
-        s.save_policy(code, 1, "cacas", f"{code}'s policy".encode())
+        s.save_policy(code, 1, "cacas", policy_bytes(f"{code}'s policy"))
         return s.active_policy(code).path.relative_to(s.policy_dir).as_posix()
 
 
@@ -58,7 +59,7 @@ def test_a_removal_killed_before_its_commit_gets_its_files_back(tmp_path):
     finally:
         remover.kill()
     with StudyStore(path) as s:  # the next opening puts the file back: the removal never committed
-        assert s.load_policy("P03") == b"P03's policy"
+        assert s.load_policy("P03") == policy_bytes("P03's policy")
     assert not list((tmp_path / "policies").glob(".removed-*"))
 
 
@@ -84,9 +85,9 @@ def test_a_file_another_database_beside_names_goes_back(tmp_path):
     assert _participant_with_a_policy(pilot) == rel  # the same code, the same bytes: the same file name
     home, trash = _left_aside(tmp_path, rel)
     StudyStore(path).close()
-    assert home.read_bytes() == b"P03's policy" and not trash.exists()
+    assert home.read_bytes() == policy_bytes("P03's policy") and not trash.exists()
     with StudyStore(pilot, readonly=True) as s:
-        assert s.load_policy("P03") == b"P03's policy"
+        assert s.load_policy("P03") == policy_bytes("P03's policy")
 
 
 def test_a_removal_running_now_or_unknown_is_left_alone(tmp_path):
@@ -135,7 +136,7 @@ def test_policies_kept_beside_a_link_move_beside_the_file(tmp_path):
     (link.parent / "policies" / rel).parent.mkdir(parents=True)
     (tmp_path / "real" / "policies" / rel).rename(link.parent / "policies" / rel)  # where the old code wrote it
     with StudyStore(link) as s:
-        assert s.load_policy("P03") == b"P03's policy"
+        assert s.load_policy("P03") == policy_bytes("P03's policy")
     assert not (link.parent / "policies" / rel).exists()
 
 
@@ -169,7 +170,7 @@ def test_a_tidy_that_fails_does_not_stop_the_database_opening(tmp_path, monkeypa
         raise PermissionError(13, "Permission denied")
     monkeypatch.setattr(recovery, "finish_interrupted_removals", unreadable)
     with StudyStore(path) as s:
-        assert s.load_policy("P03") == b"P03's policy"
+        assert s.load_policy("P03") == policy_bytes("P03's policy")
 
 
 def _hang_after_writing(call: str, path) -> subprocess.Popen:
@@ -207,7 +208,7 @@ def test_a_policy_file_whose_save_was_killed_before_its_row_is_deleted_at_the_ne
         saver.kill()
     with StudyStore(path) as s:
         assert not written.exists() and [v.path.name for v in s.policy_versions("P03")] == [kept.split("/")[1]]
-        assert s.load_policy("P03") == b"P03's policy"
+        assert s.load_policy("P03") == policy_bytes("P03's policy")
         s.save_policy("P03", 1, "nn", b"cut short")  # the same save, run again, is whole
         assert s.load_policy("P03", version=2) == b"cut short"
     assert sorted(f.name for f in (tmp_path / "policies" / "P03").iterdir()) == sorted(
@@ -221,7 +222,7 @@ def test_the_policy_files_of_an_import_killed_before_its_database_was_linked_are
     source = tmp_path / "a" / "study.sqlite"
     _participant_with_a_policy(source)
     with StudyStore(source) as s:
-        s.save_policy("P03", 1, "nn", b"a second one")
+        s.save_policy("P03", 1, "nn", policy_bytes("a second one"))
     bundle = export.export_study(source, tmp_path / "out").bundle
     target = tmp_path / "b" / "study.sqlite"
     importer = _hang_after_writing(f"export.import_bundle({str(bundle)!r}, {str(target)!r})", target)
@@ -238,7 +239,7 @@ def test_the_policy_files_of_an_import_killed_before_its_database_was_linked_are
     assert not [f for f in (tmp_path / "b").iterdir() if ".importing-" in f.name]
     export.import_bundle(bundle, target)  # imported again, whole
     with StudyStore(target) as s:
-        assert s.load_policy("P03", version=1) == b"P03's policy"
+        assert s.load_policy("P03", version=1) == policy_bytes("P03's policy")
 
 
 def test_a_file_no_row_names_is_deleted_only_after_a_write_that_was_cut_short(tmp_path):
@@ -263,7 +264,7 @@ def test_a_file_no_row_names_is_deleted_only_after_a_write_that_was_cut_short(tm
     assert all(f.exists() for f in (stray, cut, tmp, *markers))
     damaged.unlink()
     with StudyStore(path) as s:
-        assert s.load_policy("P03") == b"P03's policy"  # marked, but named
+        assert s.load_policy("P03") == policy_bytes("P03's policy")  # marked, but named
     assert sorted(f.name for f in folder.iterdir()) == sorted([rel.split("/")[1], stray.name])
 
 
@@ -302,16 +303,16 @@ def test_a_cut_short_save_keeps_a_file_a_case_twin_names_where_letter_case_is_no
     path = tmp_path / "study.sqlite"
     with StudyStore(path) as s:
         s.add_participant("P01")
-        s.save_policy("P01", 0, "cacas", b"P01's policy")
+        s.save_policy("P01", 0, "cacas", policy_bytes("P01's policy"))
         case_twin(s)
-        s.save_policy("p01", 0, "cacas", b"p01's policy")
+        s.save_policy("p01", 0, "cacas", policy_bytes("p01's policy"))
         (rel,) = s.policies_frame().query("participant == 'p01'")["path"]
     assert rel.startswith("p01/")
     name = rel.split("/")[1]
     (tmp_path / "policies" / "P01" / f".{name}.4242.saving").touch()  # in the folder as the disk names it
     (tmp_path / "policies" / "P01" / f".{name}.4242.tmp").write_bytes(b"p01's pol")
     with StudyStore(path) as s:
-        assert s.load_policy("p01") == b"p01's policy"
-        assert s.load_policy("P01") == b"P01's policy"
+        assert s.load_policy("p01") == policy_bytes("p01's policy")
+        assert s.load_policy("P01") == policy_bytes("P01's policy")
     left = sorted(f.name for f in (tmp_path / "policies" / "P01").iterdir())
     assert len(left) == 2 and name in left and not [n for n in left if n.startswith(".")]  # the marker, its tmp: gone

@@ -12,6 +12,7 @@ from cacas.errors import CacasError
 from cacas.store import StudyStore
 from cacas.store.people import PARTICIPANT_TABLES
 from cacas.store.schema import TABLES
+from studies import policy_bytes
 
 GOOD = dict(activity="cough", scene="bedroom", hour=7.5, interval_minutes=12, robot_action="pain check",
             response="accept")
@@ -44,14 +45,14 @@ def fill(store, code, days=2, notes=""):
     store.add_participant(code, "25-34", notes)
     store.save_preferences(code, [{"activity": ["cough"], "action": "pain check", "description": notes}])
     store.save_preferences(code, [{"activity": ["cough", "sneeze"], "action": "pain check"}])
-    store.save_policy(code, 0, "cacas", f"initial {code}".encode())
+    store.save_policy(code, 0, "cacas", policy_bytes(f"initial {code}"))
     for _ in range(days):
         d = store.open_day(code)
         store.record_interaction(code, d, **GOOD)
         store.record_interaction(code, d, **{**GOOD, "response": "reject"})
         if d < days:
             store.close_day(code, d)
-            v = store.save_policy(code, d, "cacas", f"{code} day {d}".encode())
+            v = store.save_policy(code, d, "cacas", policy_bytes(f"{code} day {d}"))
             store.record_adaptation(code, d, "cacas", {"beta": 0.5}, 1.0, {"preference_accuracy": 0.5},
                                     policy_version=v)
     store.record_questionnaire(code, 8, "fine")
@@ -105,7 +106,7 @@ def test_remove_deletes_every_row_of_that_participant_and_nothing_of_another(sto
     assert rows(store.path, "P02") == other
     assert [p.code for p in store.list_participants()] == ["P02"]
     assert not folder.exists() and not list(store.policy_dir.glob(".removed-*"))
-    assert (store.policy_dir / "P02").is_dir() and store.load_policy("P02") == b"P02 day 2"
+    assert (store.policy_dir / "P02").is_dir() and store.load_policy("P02") == policy_bytes("P02 day 2")
     p02 = store.policies_frame()
     assert p02["participant"].unique().tolist() == ["P02"]
     p02_now = (store.interactions_frame("P02", method=None, extra=True), store.policies_frame(),
@@ -180,7 +181,7 @@ def test_a_failure_part_way_removes_nothing_and_keeps_the_policy_files(store, mo
     monkeypatch.undo()
     assert rows(store.path) == before
     assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == files
-    assert store.load_policy("P01") == b"P01 day 1"
+    assert store.load_policy("P01") == policy_bytes("P01 day 1")
 
 
 def test_a_policy_saved_after_the_removal_leaves_no_file(store, monkeypatch):
@@ -197,7 +198,7 @@ def test_a_policy_saved_after_the_removal_leaves_no_file(store, monkeypatch):
         return out
     monkeypatch.setattr(StudyStore, "_read", remove_after_check)
     with pytest.raises(CacasError, match="unknown participant"):
-        store.save_policy("P01", 0, "cacas", b"late policy")
+        store.save_policy("P01", 0, "cacas", policy_bytes("late policy"))
     monkeypatch.undo()
     assert not (store.policy_dir / "P01").exists()
 
@@ -217,7 +218,7 @@ def _beside(store, name, code="P01"):
     policy of its own (a pilot database beside the main one)."""
     other = StudyStore(store.path.parent / name)
     other.add_participant(code)
-    other.save_policy(code, 0, "cacas", f"{name}'s own {code}".encode())
+    other.save_policy(code, 0, "cacas", policy_bytes(f"{name}'s own {code}"))
     return other
 
 
@@ -231,7 +232,7 @@ def test_another_database_in_the_folder_keeps_its_policy_files(store):
         1, "the study database pilot.sqlite beside this one names these files and holds a participant P01 of its "
            "own: if that is the same person (a copy imported there), remove them there too")
     store.remove_participant("P01", "P01")
-    assert pilot.load_policy("P01") == b"pilot.sqlite's own P01"
+    assert pilot.load_policy("P01") == policy_bytes("pilot.sqlite's own P01")
     assert [p.name for p in (store.policy_dir / "P01").iterdir()] == [pilot.active_policy("P01").path.name]
     pilot.remove_participant("P01", "P01")  # the last one takes the folder with it
     assert not (store.policy_dir / "P01").exists()
@@ -251,7 +252,7 @@ def test_a_bundle_imported_twice_into_one_folder_keeps_the_other_copy_working(st
         assert b.participant_footprint("P01").policy_files == 0  # every file is a.sqlite's too
         b.remove_participant("P01", "P01")
     with StudyStore(first) as a:
-        assert a.load_policy("P01") == b"P01 day 1"
+        assert a.load_policy("P01") == policy_bytes("P01 day 1")
         export.export_study(a, tmp_path / "again")  # every policy file is there
 
 
@@ -435,10 +436,10 @@ def test_removing_one_of_two_case_twins_keeps_the_others_files_where_they_share_
     whoever names them, and says why."""
     s = StudyStore(tmp_path / "study.sqlite")
     s.add_participant("P01")
-    s.save_policy("P01", 0, "cacas", b"P01's initial policy")
-    s.save_policy("P01", 0, "nn", b"P01's other policy")
+    s.save_policy("P01", 0, "cacas", policy_bytes("P01's initial policy"))
+    s.save_policy("P01", 0, "nn", policy_bytes("P01's other policy"))
     case_twin(s)
-    s.save_policy("p01", 0, "cacas", b"p01's initial policy")
+    s.save_policy("p01", 0, "cacas", policy_bytes("p01's initial policy"))
     pilot = _beside(s, "pilot.sqlite")  # names a P01 file of its own in the folder
     pilot.close()
     footprint = s.participant_footprint("p01")
@@ -447,8 +448,8 @@ def test_removing_one_of_two_case_twins_keeps_the_others_files_where_they_share_
                                       "codes differ only in letter case, which this disk does not tell apart): their "
                                       "files are kept")
     s.remove_participant("p01", "p01")
-    assert [s.load_policy("P01", version=v) for v in (1, 2)] == [b"P01's initial policy", b"P01's other policy"]
+    assert [s.load_policy("P01", version=v) for v in (1, 2)] == [policy_bytes("P01's initial policy"), policy_bytes("P01's other policy")]
     with StudyStore(tmp_path / "pilot.sqlite") as p:
-        assert p.load_policy("P01") == b"pilot.sqlite's own P01"
+        assert p.load_policy("P01") == policy_bytes("pilot.sqlite's own P01")
     assert len(list((s.policy_dir / "P01").iterdir())) == 3
     s.close()

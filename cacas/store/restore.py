@@ -404,6 +404,13 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
             raise CacasError(f"policy file {r['path']!r} is missing from the bundle")
         if files.sha256(data) != r["sha256"]:
             raise CacasError(f"policy file {r['path']!r} does not match its sha256")
+        from cacas.policy import policy_from_bytes
+
+        try:  # the bytes are loaded as the tablet will (weights only: nothing in them runs)
+            policy_from_bytes(data)
+        except CacasError as exc:  # sha256 and size edited to match other bytes (safety)
+            raise CacasError(f"policy file {r['path']!r} is {exc}; valid: a policy file as `cacas export` "
+                             "wrote it") from None
         return (r["participant"], _int(r, "version", 1), _int(r, "day"), v.method(r["method"]), r["path"],
                 r["sha256"], len(data), noted.time(r["created_at"], "created_at"))
 
