@@ -124,7 +124,7 @@ FORMS_PAGE = "pages/participants.py"
 def _sidebar(store, page) -> dict[str, str | None]:
     """Draw the sidebar; returns the address (:func:`_address`) for the participant it settled on."""
     with st.sidebar:
-        st.markdown(f"### {ui.icon('smart_toy')} CACAS Studio", unsafe_allow_html=True)  # read "CACAS Studio"
+        st.markdown(f"## {ui.icon('smart_toy')} CACAS Studio", unsafe_allow_html=True)  # read "CACAS Studio"
         links = st.container(key="page-links")  # filled last, with the participant chosen below
         st.divider()
         studies = [s.name for s in store.studies()]
@@ -267,8 +267,15 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: under WCAG 1.4.3's 4.5:1 for text of its 14-15 px (the tablet's "in the bedroom · 08:00-10:00 · ...", the
 #: researcher's explanations under every figure and table; accessibility walkthrough); at 0.75, #636260, 6.1:1,
 #: still lighter than the text around it. The sidebar's captions too (on its grey, 5.6:1).
+#: Headings go down one level at a time, as a screen reader lists them (accessibility walkthrough: h1 -> h3 on the
+#: researcher's pages, h2 -> h4 -> h5 on the tablet): a page's sections are h2 (st.header), the sidebar's title and
+#: the study session's form and cards too, drawn at the sizes they had as h3, h4 and h5.
 APP_STYLE = """
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
+[data-testid='stMain'] h2 { font-size: 1.75rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
+[data-testid='stSidebar'] h2 { font-size: 1.125rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
+[data-testid='stMain'] [data-testid='stForm'] h2 { font-size: 1.5rem; letter-spacing: normal; padding: 0.5rem 0 1rem; }
+[class*='st-key-card-'] h2 { font-size: 1.25rem; letter-spacing: normal; padding: 0.375rem 0 1rem; }
 """
 
 
@@ -282,7 +289,10 @@ APP_STYLE = """
 #: (390 x 844: Streamlit stacks columns under 640 px) the three answers stay side by side, in view under the
 #: proposal (stacked, "No response" was below the screen's edge), each icon above its words, as do "Yes, please"
 #: and "No" (keys ``tablet-row-*``), and a chip's padding is smaller, three times of day to a row (two: six rows to scroll past).
+#: "Hello, P01" is the page's h1, drawn at the size it had as h2.
 TABLET_STYLE = """
+[data-testid='stMain'] h1 { font-size: 2.25rem; font-weight: 600; line-height: 1.2; letter-spacing: -0.005em;
+                             padding: 1rem 0; }
 [data-testid='stMainBlockContainer'] { padding-top: 1.5rem; }
 [data-testid='InputInstructions'] { display: none; }
 [data-testid='stMain'] button[data-testid^='stBaseButton'] { min-height: 3.25rem; }

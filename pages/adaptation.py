@@ -19,7 +19,7 @@ store = ui.store()
 code = ui.need_participant()
 db = ui.db_path()
 
-st.title(f"Adaptation · {code}")
+st.title(f"Adaptation · {code}", anchor=False)
 st.caption("After each study day the robot's policy is adapted from all of the participant's interactions so "
            "far: the user model (UMA, Table II), the MLP policy and SAC against the decision model, combined "
            "by policy reshaping (Eq. 5). The participant's described preferences are never used for this; "
@@ -79,7 +79,7 @@ versions = store.policy_versions(code)
 runs = store.adaptations_frame(code)
 
 # --- 1. the day and the adaptation --------------------------------------------------------------
-st.subheader("Close the day and adapt")
+st.header("Close the day and adapt", anchor=False)
 day = status.day
 running = next((j for j in RUNNER.running() if j.key.startswith(f"adapt:{db}:{code}:")), None)
 if day == 0:
@@ -164,7 +164,7 @@ else:
             st.code("\n".join(res.log) or "(no log)", language=None)
 
 # --- 2. what changed -------------------------------------------------------------------------------
-st.subheader("What changed")
+st.header("What changed", anchor=False)
 if not versions:
     st.caption("No adapted policy yet: the initial policy (trained against the generic user simulator) is in force.")
 else:
@@ -245,7 +245,7 @@ def _named(table):
 
 
 # --- 3. versions and roll back ----------------------------------------------------------------------
-st.subheader("Policy versions")
+st.header("Policy versions", anchor=False)
 if versions:
     table = app_support.versions_table(versions, runs)
     st.dataframe(table, hide_index=True, width="stretch", column_order=_named(table),

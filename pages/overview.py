@@ -12,7 +12,7 @@ ui.require_app()
 
 def recent_activity(events) -> None:
     """The study's latest events in words (``cacas.recent_activity.recent_events``)."""
-    st.subheader("Recent activity")
+    st.header("Recent activity", anchor=False)
     if events.empty:
         st.caption("Nothing recorded yet.")
         return
@@ -25,7 +25,7 @@ def recent_activity(events) -> None:
 store = ui.store()
 study = ui.study()
 
-st.title("Study overview")
+st.title("Study overview", anchor=False)
 st.caption(f"Study **{study}** · each participant runs {STUDY_DAYS} days of about {TARGET_INTERACTIONS} "
            "interactions with the robot; the robot is adapted after each day (Su & Sheng, Section V-B).")
 
@@ -50,7 +50,7 @@ row.metric("Interactions on open days", int(table["interactions today"].sum()),
 rates = table["success rate so far"].dropna()
 row.metric("Mean success rate so far", ui.percent(rates.mean()) if len(rates) else "–")
 
-st.subheader("Participants")
+st.header("Participants", anchor=False)
 small = st.column_config.TextColumn
 # "next step" comes second, so that a narrower window (800 px beside the sidebar) scrolls the other columns, not
 # what to do next (walkthrough: "Start day 2 on the tablet (Study sessi"); the age range is on Participants,
@@ -80,7 +80,7 @@ code = ui.participant()
 if code:
     row = table[table["participant"] == code]
     if len(row):
-        st.subheader(f"Next for {code}")
+        st.header(f"Next for {code}", anchor=False)
         step = row["next step"].iloc[0]
         ui.noted("arrow_forward", f"**{step}**", caption=False)
         links = ui.metric_row()  # a link that does not fit goes on to the next line whole ("Open the study se")

@@ -43,7 +43,7 @@ db = ui.db_path()
 HUMAN = "Human study (this database)"
 TAB = "results-tab"  #: the open tab's key
 
-st.title("Results")
+st.title("Results", anchor=False)
 
 # --- which data ------------------------------------------------------------------------------------
 runs_root = saved_runs.runs_dir(db)
@@ -234,7 +234,7 @@ if fig4.open:
                        "force\" marks the policy the robot will use (after a roll-back, an earlier one). Fig. 4 and "
                        "daily.csv take these in once the day has begun.")
         if not summary.empty and by_pref is not None and len(by_pref):
-            st.subheader("Which preferences each method learnt")
+            st.header("Which preferences each method learnt", anchor=False)
             ui.preference_heatmaps(by_pref, key=f"results-prefs:{source}",  # each source's own day and method
                                    file_name=table_file_name("by_preference"))
 

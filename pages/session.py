@@ -398,9 +398,9 @@ if tablet:
     # no anchor-link icons beside the headings (a heading's link, shown when hovered or tapped near it, is of no
     # use on a tablet: walkthrough)
     # the robot is a decoration: a screen reader reads the heading "Hello, P01" (ui.icon)
-    head.markdown(f"## {ui.icon('smart_toy')} Hello, {code}", anchors=False, unsafe_allow_html=True)
+    head.markdown(f"# {ui.icon('smart_toy')} Hello, {code}", anchors=False, unsafe_allow_html=True)  # the page's h1
 else:
-    head.title(f"Study session · {code}")
+    head.title(f"Study session · {code}", anchor=False)
 back = back.empty()  # "Choose a different activity" while a proposal is shown: in view, not below the request form
 if not tablet:
     with st.expander(f"{code}'s own tablet view (no researcher pages): its address"):
@@ -506,7 +506,7 @@ elif context is None:
                          f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a "
                          f"proposal, let {code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
-        st.markdown("#### What are you doing?" if tablet else f"#### What is {code} doing?",  # the researcher sets it
+        st.markdown("## What are you doing?" if tablet else f"## What is {code} doing?",  # the researcher sets it
                     anchors=False)
         # all four chosen every time (Section VI-B: the participant sets S3, S4 and S1): a preset value
         # (the time since the last activity at 20 min; the time of day at the previous interaction's) was kept
@@ -563,17 +563,17 @@ else:
     left, right = st.columns([1, 1])
     # each card says what it is about and its name on one line: the name under a heading of its own took the
     # room the tablet's larger buttons need at 1024 x 768 (walkthrough)
-    with left.container(border=True):
-        st.markdown(f"##### {'Your' if tablet else _whose()} activity: {context.activity}", anchors=False)
+    with left.container(border=True, key="card-activity"):
+        st.markdown(f"## {'Your' if tablet else _whose()} activity: {context.activity}", anchors=False)
         st.caption(f"{spaces.in_scene(context.scene)} · {spaces.time_slot_label(context.time_slot)} · "
                    f"{spaces.interval_label(context.interval_bin)} since {_whose()} last activity")
         if clip:
             st.audio(str(clip), format=audio_mime(clip), autoplay=True)
         else:
             st.caption("No sound clip for this activity in the library.")
-    with right.container(border=True):
+    with right.container(border=True, key="card-heard"):
         if heard:
-            st.markdown(f"##### The robot heard: {heard.label} {_mark(heard.label == context.activity)}", anchors=False,
+            st.markdown(f"## The robot heard: {heard.label} {_mark(heard.label == context.activity)}", anchors=False,
                         unsafe_allow_html=True)
             if heard.unsure:  # under a check mark, "not sure it heard that right" read as a contradiction
                 st.caption(ui.icon("help") + " " + ("The robot was not sure, but it heard that right."
@@ -583,7 +583,7 @@ else:
                 st.caption("Also possible: " + ", ".join(f"{a} {share}" for a, share in heard.top3_words[1:]) +
                            f" · confidence {heard.percent}%")
         else:
-            st.markdown(f"##### The robot heard: {context.activity}", anchors=False)
+            st.markdown(f"## The robot heard: {context.activity}", anchors=False)
             st.caption("No sound model: the robot uses the activity as chosen.")
         if seen:
             unsure = " (not sure)" if seen.unsure else ""

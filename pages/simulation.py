@@ -20,7 +20,7 @@ study = ui.study()
 db = ui.db_path()
 JOB = f"simulate:{db}"
 
-st.title("Simulation lab")
+st.title("Simulation lab", anchor=False)
 st.caption("Simulated participants act in the contexts their preferences cover, accept the preferred action, "
            "reject others, sometimes do not respond, and ask for the preferred action when the robot does "
            "nothing. Day 1 uses the initial policy; after each day every method adapts from the same "
@@ -165,7 +165,7 @@ if job is not None and job.status == FAILED:
 runs_root = saved_runs.runs_dir(db)
 runs = saved_runs.list_runs(runs_root)
 if runs:
-    st.subheader("Runs")
+    st.header("Runs", anchor=False)
     finished = job.result.name if job is not None and job.status == DONE and job.result.name in runs else None
     if finished and st.session_state.get("sim-shown") != finished:  # a run that just ended is shown once
         st.session_state["sim-run"] = st.session_state["sim-shown"] = finished
@@ -215,7 +215,7 @@ if runs:
     # the whole folder, with its settings and checksums.sha256 (the Results upload checks the tables by it)
     ui.run_zip_button(db, name, key="sim-dl-zip")
     if run.by_preference is not None:
-        st.subheader("Which preferences each method learnt")
+        st.header("Which preferences each method learnt", anchor=False)
         # keyed by run: one key for every run kept the day picked (or last shown) for the run before, so a 7-day
         # run that ended after a 2-day one opened on day 2 (walkthrough); the Results page keys it by run too
         ui.preference_heatmaps(run.by_preference, key=f"sim-prefs:{name}",

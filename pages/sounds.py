@@ -21,7 +21,7 @@ from pages import ui
 
 ui.require_app()
 
-st.title("Sounds and scenes")
+st.title("Sounds and scenes", anchor=False)
 st.caption("The robot knows the context from what it hears (33 sound activities; MFCC 64 x 32 and a 3-layer CNN) "
            "and what it sees (6 home scenes; ResNet-18). The shipped library is synthetic (generated "
            "procedurally; no real household recordings can be downloaded here): add your own clips and "
@@ -290,7 +290,7 @@ with train:
                    icon=":material/warning:")
     for kind, trainer, evaluator in (("Sound", lab.train_sound, lab.evaluate_sound),
                                      ("Scene", lab.train_scene, lab.evaluate_scene)):
-        st.subheader(f"{kind} model")
+        st.header(f"{kind} model", anchor=False)
         model = ui.recognizer(kind.lower())
         if model is None and ui.model_stamp(kind.lower()) is not None:  # saved, but cannot serve: say why
             try:

@@ -246,11 +246,11 @@ def test_the_robot_says_what_it_heard(app, store, p01, quick_policy, monkeypatch
     at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1")  # cough in the bedroom
     no_exception(at)
     heard = recognizer.recognize(clip).label
-    assert f"##### The robot heard: {heard}" in texts(at)
+    assert f"## The robot heard: {heard}" in texts(at)
     assert "confidence" in texts(at)  # the researcher's view shows the numbers
     tablet = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", view="tablet")  # the participant's: plain labels
     no_exception(tablet)
-    assert f"##### The robot heard: {heard}" in texts(tablet)
+    assert f"## The robot heard: {heard}" in texts(tablet)
     assert "confidence" not in texts(tablet) and "Also possible" not in texts(tablet)
     assert len(at.get("audio")) == 1
     label = "Accept" if any(b.label == "Accept" for b in at.button) else "Nothing needed"
@@ -302,14 +302,14 @@ def test_the_robot_says_when_it_is_not_sure_what_it_heard(app, store, p01, quick
         at = app(PAGE, participant="P01", ctx="4.6.0.0", at="1.1", **view)  # a cough chosen, and heard
         no_exception(at)
         # the mark read in words by a screen reader (ui.icon): "check icon" said nothing
-        assert f"##### The robot heard: cough {ui.icon('check', 'as chosen')}" in texts(at)
+        assert f"## The robot heard: cough {ui.icon('check', 'as chosen')}" in texts(at)
         assert ("The robot was not sure, but it heard that right." in texts(at)) == unsure
         assert "The robot is not sure it heard that right." not in texts(at)  # not under a check mark
         assert (f"· confidence {shown}" in texts(at)) == (not view)  # the numbers on the researcher's view only
         if also and not view:
             assert also in texts(at)
         at = app(PAGE, participant="P01", ctx="4.6.1.0", at="1.1", **view)  # crying chosen, a cough heard
-        assert f"##### The robot heard: cough {ui.icon('help', 'not as chosen')}" in texts(at)
+        assert f"## The robot heard: cough {ui.icon('help', 'not as chosen')}" in texts(at)
         assert ("The robot is not sure it heard that right." in texts(at)) == unsure
 
 
@@ -407,7 +407,7 @@ def test_the_researchers_view_names_the_participant_where_the_tablet_says_you(ap
         "Choose the time of day, the time since P01's last activity, an activity and a room first."]
     _choose(researcher, slot=3, interval=6, activity="use stove", scene="kitchen")
     said = texts(researcher)
-    assert "##### P01's activity: use stove" in said
+    assert "## P01's activity: use stove" in said
     assert "in the kitchen · 06:00-08:00 · 20-30 min since P01's last activity" in said
     assert "Your activity" not in said and "your last activity" not in said
     tablet = app(participant="P01", view="tablet")
@@ -416,7 +416,7 @@ def test_the_researchers_view_names_the_participant_where_the_tablet_says_you(ap
         "Choose the time of day, the time since your last activity, an activity and a room first."]
     _choose(tablet, slot=3, interval=6, activity="use stove", scene="kitchen")
     said = texts(tablet)
-    assert "##### Your activity: use stove" in said
+    assert "## Your activity: use stove" in said
     assert "in the kitchen · 06:00-08:00 · 20-30 min since your last activity" in said
 
 
@@ -646,8 +646,8 @@ def test_the_tablets_headings_have_no_anchor_link_icons(app, store, p01, quick_p
         form = [m for m in at.main.markdown if m.value.startswith("#")]
         _choose(at)
         headings = form + [m for m in at.main.markdown if m.value.startswith("#")]
-        assert {"#### What are you doing?", "#### What is P01 doing?"} & {m.value for m in form}, view
-        assert any(m.value.startswith("##### The robot heard") for m in headings), view
+        assert {"## What are you doing?", "## What is P01 doing?"} & {m.value for m in form}, view
+        assert any(m.value.startswith("## The robot heard") for m in headings), view
         assert [m.value for m in headings if not m.proto.hide_anchors] == [], view
 
 

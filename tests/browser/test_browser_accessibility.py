@@ -68,6 +68,39 @@ def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
     page.context.close()
 
 
+def headings(page) -> list[tuple[int, str, int]]:
+    """The page's headings as a screen reader lists them: (level, text without hidden icons, links inside it), the
+    sidebar's first."""
+    return [tuple(h) for h in page.locator("h1, h2, h3, h4, h5, h6").evaluate_all(
+        "els => els.map(h => { const c = h.cloneNode(true); c.querySelectorAll('[aria-hidden=true]').forEach(e => "
+        "e.remove()); return [Number(h.tagName[1]), c.textContent.trim(), h.querySelectorAll('a').length] })")]
+
+
+def test_headings_go_down_one_level_at_a_time_without_link_tab_stops(browser, day_1):
+    """Accessibility walkthrough: the researcher's pages went h1 -> h3 (st.subheader), the tablet h2 -> h4 -> h5,
+    and every researcher heading had a 'Link to heading' anchor, a Tab stop of no use. Each page has one h1, its
+    sections h2; the sidebar's title is an h2 as well."""
+    page = open_page(browser, viewport={"width": 1280, "height": 900})
+    seen = {}
+    for name, url, wait in (("overview", "/?participant=P01", "Recent activity"),
+                            ("adaptation", "/adaptation?participant=P01", "Policy versions"),
+                            ("tablet form", "/?participant=P02&view=tablet", "What are you doing?"),
+                            ("proposal", f"/?participant=P01&view=tablet&ctx="
+                                         f"{Context.from_choices(4, 6, 'cough', 'bedroom').to_token()}&at=1.2",
+                             "Your activity: cough")):
+        goto(page, day_1 + url)
+        expect(page.get_by_role("heading", name=wait)).to_be_visible(timeout=120_000)
+        seen[name] = found = headings(page)
+        main = [level for level, text, _ in found if text != "CACAS Studio"]
+        assert main[0] == 1 and main.count(1) == 1, (name, found)
+        assert all(b <= a + 1 for a, b in zip(main, main[1:])), (name, found)
+        assert all(links == 0 for _, _, links in found), (name, found)
+    assert seen["adaptation"][:3] == [(2, "CACAS Studio", 0), (1, "Adaptation · P01", 0), (2, "Close the day and adapt", 0)]
+    assert [h[:2] for h in seen["proposal"]] == [(1, "Hello, P01"), (2, "Your activity: cough"),
+                                                 (2, "The robot heard: cough")]
+    page.context.close()
+
+
 def test_a_chart_is_named_for_a_screen_reader(browser, day_1):
     """Fig. 3 was read as its tick labels run together ("1 0% 20% 40% ..."), then a row of unnamed images."""
     page = open_page(browser, viewport={"width": 1280, "height": 900})
