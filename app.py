@@ -276,6 +276,12 @@ APP_STYLE = """
 [data-testid='stSidebar'] h2 { font-size: 1.125rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stMain'] [data-testid='stForm'] h2 { font-size: 1.5rem; letter-spacing: normal; padding: 0.5rem 0 1rem; }
 [class*='st-key-card-'] h2 { font-size: 1.25rem; letter-spacing: normal; padding: 0.375rem 0 1rem; }
+/* the keyboard's focus in a solid ring of the primary colour, 5.5:1 on white: Streamlit's is that colour at half
+   strength (#97b7c7 on white, 2.1:1, under WCAG 1.4.11's 3:1), faint beside a chip's own border; a checkbox and
+   the sidebar's page links showed none (accessibility walkthrough) */
+:is([data-testid='stMain'], [data-testid='stSidebar']) :is(button, [role='radio'], [role='tab'], audio, a,
+    summary):focus-visible, label:has(input[type='checkbox']:focus-visible) { outline: 3px solid #2f6f8f;
+                                                                                 outline-offset: 2px; }
 """
 
 
@@ -309,11 +315,6 @@ TABLET_STYLE = """
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
 [data-testid='stToastContainer'] { top: auto; bottom: 1rem; }
-/* the keyboard's focus in a solid ring of the primary colour, 5.5:1 on white: Streamlit's is that colour at half
-   strength (#97b7c7 on white, 2.1:1, under WCAG 1.4.11's 3:1), faint beside a chip's own border (accessibility
-   walkthrough) */
-[data-testid='stMain'] :is(button, [role='radio'], audio, a):focus-visible { outline: 3px solid #2f6f8f;
-                                                                              outline-offset: 2px; }
 [data-testid='stMain'] audio { width: 100%; height: 3.25rem; }
 @media (max-width: 640px) {
   [data-testid='stMainBlockContainer'] { padding-top: 1rem; }

@@ -138,6 +138,32 @@ def test_the_tablets_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
     page.context.close()
 
 
+#: the focused element's ring, or its label's (a checkbox's input is drawn by its label)
+LABEL_RING = """() => { const e = document.activeElement, l = e.closest('label') || e, s = getComputedStyle(l);
+  return {name: (l.innerText || '').trim(), tag: e.tagName, style: s.outlineStyle, width: parseFloat(s.outlineWidth),
+          colour: s.outlineColor}; }"""
+
+
+def test_the_researchers_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
+    """The tablet's ring came to the researcher's pages: there the sidebar's page links showed Streamlit's faint
+    2.1:1 ring and the 'Close day 1 ...' checkbox none at all (accessibility walkthrough)."""
+    page = open_page(browser, viewport={"width": 1280, "height": 900})
+    goto(page, f"{day_1}/adaptation?participant=P01")
+    expect(page.get_by_text(re.compile(r"^Close day 1 with "))).to_be_visible(timeout=120_000)
+    rings = {}
+    for _ in range(40):
+        page.keyboard.press("Tab")
+        ring = page.evaluate(LABEL_RING)
+        if ring["name"].endswith("Overview") or ring["name"].startswith("Close day 1 with"):
+            rings[ring["name"].split()[-1] if ring["name"].endswith("Overview") else "checkbox"] = ring
+        if len(rings) == 2:
+            break
+    assert set(rings) == {"Overview", "checkbox"}, rings
+    for ring in rings.values():
+        assert ring["style"] == "solid" and ring["width"] >= 2 and contrast_ratio(_hex(ring["colour"])) >= 3, ring
+    page.context.close()
+
+
 #: A caption's text colour as drawn (its colour blended by the opacity of it and its parents) and the background under
 #: it (the first ancestor's that is not transparent)
 _DRAWN = """e => { let opacity = 1, n = e, ground = null;
