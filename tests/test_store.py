@@ -1311,3 +1311,17 @@ def test_the_data_stamp_changes_with_every_write_of_any_connection_and_not_with_
         other.add_participant("P02")
         assert app.data_stamp() not in (start, own, theirs)
         assert app.data_stamp() == app.data_stamp()
+
+
+def test_a_removed_questionnaire_answers_words_are_not_left_in_the_database_file(store):
+    """The comments are the participant's own words: a removed answer's were left in the file's free pages (and
+    its write-ahead log) until SQLite happened to reuse them; a participant's removal overwrote them already."""
+    words = "I told the robot about my neighbour Ms Quarrington-Feltham"
+    store.open_day("P01")
+    store.record_questionnaire("P01", 4, words)
+    store.remove_questionnaire_answer("P01", "P01")
+    raw = store.path.read_bytes()
+    wal = store.path.with_name(store.path.name + "-wal")
+    raw += wal.read_bytes() if wal.exists() else b""
+    assert words.encode() not in raw and b"Quarrington" not in raw
+    assert store.questionnaire_frame().empty

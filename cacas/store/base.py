@@ -155,6 +155,27 @@ class StoreBase:
                 raise RuntimeError("StudyStore.snapshot() is for reads; write outside the with-block")
             return db.transact(self._conn, fn, self._queue)
 
+    @staticmethod
+    @contextlib.contextmanager
+    def _overwriting(c: sqlite3.Connection):
+        """Rows deleted inside the block have their bytes overwritten in the file (SQLite's
+        ``secure_delete``), not left in free pages: a participant's withdrawal, a questionnaire answer
+        removed (its comments are the participant's words)."""
+        c.execute("PRAGMA secure_delete = ON")
+        try:
+            yield c
+        finally:
+            c.execute("PRAGMA secure_delete = OFF")
+
+    def _empty_log(self) -> None:
+        """After :meth:`_overwriting`'s deletes commit: the write-ahead log's copies of the old pages are
+        folded in and the log emptied, when no reader holds it (best effort: the next checkpoint does it)."""
+        try:
+            with self._lock:
+                self._conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")
+        except Exception:  # noqa: BLE001
+            pass
+
     @contextlib.contextmanager
     def snapshot(self):
         """``with store.snapshot(): ...``: every read inside sees the database as it was when the

@@ -335,14 +335,11 @@ class PeopleMixin:
             to_remove = self._files_to_remove(c, code)  # read the neighbouring databases once
             doomed = to_remove[0]
             removed = self._footprint(c, pid, code, to_remove)
-            c.execute("PRAGMA secure_delete = ON")  # the deleted rows' bytes are overwritten in the file
-            try:
+            with self._overwriting(c):  # the deleted rows' bytes are overwritten in the file
                 for table in PARTICIPANT_TABLES:
                     c.execute(f"DELETE FROM {table} WHERE participant_id = ?", (pid,))
                 c.execute("DELETE FROM events WHERE participant = ?", (code,))
                 c.execute("DELETE FROM participants WHERE id = ?", (pid,))
-            finally:
-                c.execute("PRAGMA secure_delete = OFF")
             self._event(c, "remove_participant", None, code=code, study=study)
             for f in doomed:  # last: a failure before it leaves the files in place
                 target = trash / f.relative_to(folder)
@@ -375,11 +372,7 @@ class PeopleMixin:
                     os.replace(target, f)
             shutil.rmtree(trash, ignore_errors=True)
             raise
-        try:
-            with self._lock:
-                self._conn.execute("PRAGMA wal_checkpoint(TRUNCATE)")  # old pages leave the log (if no reader)
-        except Exception:  # noqa: BLE001 - best effort: the next checkpoint does it
-            pass
+        self._empty_log()  # old pages leave the log (if no reader)
         # the folder goes with the last file; another database's files keep it
         files.remove_empty([*(d for d in folder.rglob("*") if d.is_dir()), folder] if folder.is_dir() else [])
         if trash.exists():

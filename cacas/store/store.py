@@ -80,7 +80,8 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
         ``confirm``, as for a participant's removal; else CacasError saying what to type. A code
         that is not a participant, or one with no answer, is a CacasError naming it. Nothing is
         removed in those cases. The event "remove_questionnaire" keeps the removed score and when
-        it was saved. Returns the satisfaction score removed."""
+        it was saved. Its row's bytes, comments included, are overwritten in the file and its write-ahead
+        log (as a participant's removal's). Returns the satisfaction score removed."""
         code = str(participant).strip()
         if not isinstance(confirm, str) or confirm.strip() != code:
             typed = "nothing" if not confirm else repr(confirm)
@@ -93,10 +94,13 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
                             "ORDER BY id DESC LIMIT 1", (pid,)).fetchone()
             if row is None:
                 raise CacasError(f"participant {code} has no questionnaire answer to remove")
-            c.execute("DELETE FROM questionnaires WHERE id = ?", (row[0],))
+            with self._overwriting(c):  # the comments, the participant's words, are not left in the file
+                c.execute("DELETE FROM questionnaires WHERE id = ?", (row[0],))
             self._event(c, "remove_questionnaire", code, satisfaction=row[1], saved_at=row[2], id=row[0])
             return int(row[1])
-        return self._write(fn)
+        removed = self._write(fn)
+        self._empty_log()
+        return removed
 
     def questionnaire_frame(self, study: str | None = None) -> pd.DataFrame:
         """questionnaire.csv: participant, day, satisfaction, comments, created_at (every answer).
