@@ -48,20 +48,23 @@ def code_column(codes, least: int) -> int:
 #: The widths (px) of the Overview's recent activity (:func:`cacas.recent_activity.recent_events`): a time ("2026-11-27 10:55 UTC", 125 px
 #: in the data grid's 14-px Source Sans, measured in Chromium) and "999 participants" (94 px; a method comparison's
 #: line) each whole, with the grid's 8 px of padding a side: "participant" had 85 px and showed "2 participants"
-#: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest, as before.
-RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110, "what": 640}
+#: cut at its "s" (the ui helper), "when" 165 with 30 to spare. "what" takes the rest of the page's width.
+RECENT_ACTIVITY_WIDTHS = {"when": 145, "participant": 110}
 
 
-def recent_activity_widths(participants) -> dict[str, int]:
-    """The widths (px) of the Overview's recent activity whose participant column holds ``participants`` (codes,
-    or "2 participants" for a line of several): :data:`RECENT_ACTIVITY_WIDTHS`, the participant column widened to
-    keep a longer code whole (:func:`code_column`; 16 characters: up to 204 px) and "what" narrowed as much, so the
-    table is as wide as before."""
+def recent_activity_layout(participants, what=()) -> tuple[dict[str, int], int | None]:
+    """How the Overview draws its recent activity, whose participant column holds ``participants`` (codes, or
+    "2 participants" for a line of several) and whose "what" holds ``what``: each column's width (px) and the row
+    height (px; None: one line). :data:`RECENT_ACTIVITY_WIDTHS`, the participant column widened to keep a longer
+    code whole (:func:`code_column`; 16 characters: up to 204 px), and "what" the rest of
+    :data:`OVERVIEW_TABLE_ROOM`: it had 640 px, so the table (895 px) scrolled sideways at 1280 px, "what" cut at the
+    page's edge. A line longer than its column wraps (rows of :data:`WRAPPING_ROW`, only then)."""
     widths = dict(RECENT_ACTIVITY_WIDTHS)
-    wider = code_column([p for p in participants if CODE_RE.fullmatch(str(p))], widths["participant"])
-    widths["what"] -= wider - widths["participant"]
-    widths["participant"] = wider
-    return widths
+    widths["participant"] = code_column([p for p in participants if CODE_RE.fullmatch(str(p))], widths["participant"])
+    widths["what"] = OVERVIEW_TABLE_ROOM - widths["when"] - widths["participant"]
+    longest = max((text_width(w) for w in what), default=0)
+    return widths, (WRAPPING_ROW if longest + CELL_PADDING > widths["what"] else None)
+
 
 #: The width (px) of the Overview page's table of participants at 1280 x 800, beside the sidebar (measured in
 #: headless Chromium: 820 px, its 1-px borders included).

@@ -16,10 +16,10 @@ def recent_activity(events) -> None:
     if events.empty:
         st.caption("Nothing recorded yet.")
         return
-    # each time, "2 participants" and a code whole (table_layouts.recent_activity_widths)
-    st.dataframe(events, hide_index=True, width="stretch",
-                 column_config={c: st.column_config.TextColumn(c, width=w)
-                                for c, w in table_layouts.recent_activity_widths(events["participant"]).items()})
+    # each time, "2 participants" and a code whole, "what" in the page's width (table_layouts.recent_activity_layout)
+    widths, row_height = table_layouts.recent_activity_layout(events["participant"], events["what"])
+    st.dataframe(events, hide_index=True, width="stretch", row_height=row_height,
+                 column_config={c: st.column_config.TextColumn(c, width=w) for c, w in widths.items()})
 
 
 store = ui.store()

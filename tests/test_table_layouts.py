@@ -21,3 +21,15 @@ def test_a_text_s_width_is_never_less_than_chromium_draws_it_and_not_much_more(t
 def test_an_accented_letter_counts_as_its_letter_and_another_character_as_the_widest():
     assert table_layouts.text_width("é") == table_layouts.text_width("e") == 7.0
     assert table_layouts.text_width("@") >= 11.86 and table_layouts.text_width("漢") >= 11.86
+
+
+def test_recent_activity_fits_the_page_and_wraps_only_a_line_too_long():
+    """It was 895 px wide in 818 (a sideways scroll at 1280 px, a comparison's long line cut at the page's edge)."""
+    short = ["day 1 closed", "questionnaire: satisfaction 8"]
+    widths, row = table_layouts.recent_activity_layout(["P01", "2 participants"], short)
+    assert widths == {"when": 145, "participant": 110, "what": 818 - 145 - 110} and row is None
+    long = short + ["comparison runs (CACAS w/o PR, ORL, NN, Bandit (TS)) for P01, P02, participant_0003 on day 1, "
+                    "no policy saved"]
+    widths, row = table_layouts.recent_activity_layout(["P01", "participant_0003"], long)
+    assert sum(widths.values()) == table_layouts.OVERVIEW_TABLE_ROOM and row == table_layouts.WRAPPING_ROW
+    assert widths["participant"] > 110  # the code whole, "what" narrower by as much
