@@ -404,10 +404,10 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
             raise CacasError(f"policy file {r['path']!r} is missing from the bundle")
         if files.sha256(data) != r["sha256"]:
             raise CacasError(f"policy file {r['path']!r} does not match its sha256")
-        from cacas.policy import policy_from_bytes
+        from cacas.policy import policy_checkpoint
 
-        try:  # the bytes are loaded as the tablet will (weights only: nothing in them runs)
-            policy_from_bytes(data)
+        try:  # the bytes are read as the tablet will read them (weights only: nothing in them runs)
+            policy_checkpoint(data)
         except CacasError as exc:  # sha256 and size edited to match other bytes (safety)
             raise CacasError(f"policy file {r['path']!r} is {exc}; valid: a policy file as `cacas export` "
                              "wrote it") from None
