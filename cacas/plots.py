@@ -466,8 +466,11 @@ def _few_label(participants, fewest) -> str:
 
 def few_markers(few, filled: float, hollow: float) -> dict:
     """Fig. 3's markers of a line (``few``: each day's rate rests on few answers): hollow
-    ("circle-open", ``hollow`` px) on such a day, filled (``filled`` px) on the others."""
-    return dict(size=[hollow if f else filled for f in few], symbol=["circle-open" if f else "circle" for f in few])
+    ("circle-open", ``hollow`` px) on such a day, filled (``filled`` px) on the others; opaque and without an
+    outline, as the line's other markers (sizes given day by day make plotly.js draw them as a bubble chart's, at
+    0.7 opacity with a white outline: Fig. 3's dots were paler than its line)."""
+    return dict(size=[hollow if f else filled for f in few], symbol=["circle-open" if f else "circle" for f in few],
+                opacity=1, line=dict(width=0))
 
 
 def legend_entry(fig: go.Figure, line: go.Scatter, size: float, **where) -> None:
@@ -507,10 +510,9 @@ def success_methods_figure(daily: pd.DataFrame, title: str | None = None) -> go.
         fig.add_trace(go.Scatter(
             x=s["day"], y=s["mean"], mode="lines+markers", name=METHOD_LABELS.get(method, method),
             line=dict(color=METHOD_COLOURS.get(method), width=3 if method == "cacas" else 2),
-            # hollow: a rate on few answers; opaque and without an outline as before (sizes given day by day
-            # make plotly.js draw them as a bubble chart's, at 0.7 opacity with a white outline)
-            marker=dict(**few_markers(s["fewest"] < FEW_INTERACTIONS, size, max(size, 9)), opacity=1,
-                        line=dict(width=0)), cliponaxis=False,  # a point at 0 % whole, as Fig. 3's (hollow: a ring)
+            # hollow: a rate on few answers (few_markers: opaque, without an outline)
+            marker=few_markers(s["fewest"] < FEW_INTERACTIONS, size, max(size, 9)),
+            cliponaxis=False,  # a point at 0 % whole, as Fig. 3's (hollow: a ring)
             # the feedback as the page's metric and the lab's table say it ("19.5 data points"; ":.0f" said 20);
             # over whom, on how many answers each, as Fig. 3's hover says it
             customdata=[[lo, hi, data_points(n), ", ".join(filter(None, [_participants(who, on),

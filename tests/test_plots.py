@@ -495,6 +495,17 @@ def test_fig3_by_method_says_over_whom_and_marks_days_on_few_answers_as_fig3_doe
     assert success_methods_figure(human, title="Mine").layout.title.subtitle.text == "2 participants"
 
 
+def test_fig3s_points_are_opaque_as_its_line():
+    """Fig. 3's success-rate dots were drawn paler than their line: sizes given day by day make plotly.js draw a
+    bubble chart's markers, at 0.7 opacity with a white outline (figs' left-alone item; Fig. 3 by method was set
+    opaque already). Both figures' markers are opaque, without an outline."""
+    d = daily()
+    mean = next(t for t in success_figure(d).data if t.name == "success rate (mean)")
+    by_method = [t for t in success_methods_figure(d).data if t.x is not None and t.x[0] is not None]
+    for trace in [mean, *by_method]:
+        assert trace.marker.opacity == 1 and trace.marker.line.width == 0, trace.name
+
+
 def test_the_legend_shows_a_lines_filled_marker_when_day_1_is_hollow():
     """walk2: plotly.js draws a legend entry's marker as its trace's first point, so Fig. 3's legend showed a
     hollow "success rate (mean)" when day 1 rested on few answers. The entry is a trace of its own, with the filled
