@@ -1325,3 +1325,14 @@ def test_a_removed_questionnaire_answers_words_are_not_left_in_the_database_file
     raw += wal.read_bytes() if wal.exists() else b""
     assert words.encode() not in raw and b"Quarrington" not in raw
     assert store.questionnaire_frame().empty
+
+
+def test_notes_edited_to_take_words_out_leave_none_of_them_in_the_file(store):
+    """A researcher who takes a participant's identifying words out of the notes expects them gone: the old
+    notes stayed in the write-ahead log's copy of the page until a checkpoint."""
+    store.update_participant("P01", notes="Lives with daughter Quarrington in Hove")
+    store.update_participant("P01", notes="uses a walking frame")
+    raw = store.path.read_bytes()
+    wal = store.path.with_name(store.path.name + "-wal")
+    raw += wal.read_bytes() if wal.exists() else b""
+    assert b"Quarrington" not in raw and store.get_participant("P01").notes == "uses a walking frame"

@@ -125,7 +125,8 @@ class PeopleMixin:
         whether or not they were changed (the Participants page). A field the form left as drawn
         keeps what is stored now (another tab may have saved it since); a field changed here that
         another tab changed too since is refused with :class:`DetailsChanged`, nothing written (two
-        researchers on one participant: the later save undid the earlier one's notes without a word)."""
+        researchers on one participant: the later save undid the earlier one's notes without a word).
+        Notes replaced do not stay in the database file or its write-ahead log (as a removal's rows)."""
         age, notes = v.each(lambda: None if age_range is None else v.age_range(age_range, bounded=False),
                             lambda: None if notes is None else v.text(notes, "notes"))
         who = str(code).strip()
@@ -147,11 +148,13 @@ class PeopleMixin:
             if new_age is not None and new_age != row[0]:
                 v.age_range(age_range)
             new = (row[0] if new_age is None else new_age, row[1] if new_notes is None else new_notes)
-            c.execute("UPDATE participants SET age_range = ?, notes = ?, updated_at = ? WHERE id = ?",
-                      (*new, v.now(), pid))
+            with self._overwriting(c):  # notes edited to take something out: the old words do not stay in the file
+                c.execute("UPDATE participants SET age_range = ?, notes = ?, updated_at = ? WHERE id = ?",
+                          (*new, v.now(), pid))
             self._event(c, "update_participant", str(code).strip(), age_range=new[0],
                         notes_changed=new_notes is not None)
         self._write(fn)
+        self._empty_log()  # nor in the write-ahead log's copy of the page
         return self.get_participant(code)
 
     # --- withdrawal: removing a participant and everything recorded about them ----------------
