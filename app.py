@@ -267,8 +267,12 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: under WCAG 1.4.3's 4.5:1 for text of its 14-15 px (the tablet's "in the bedroom · 08:00-10:00 · ...", the
 #: researcher's explanations under every figure and table; accessibility walkthrough); at 0.75, #636260, 6.1:1,
 #: still lighter than the text around it. The sidebar's captions too (on its grey, 5.6:1).
+#: A text field takes the direction of what is typed in it (Unicode's rule, its first letter's): Streamlit's are
+#: left to right, so Arabic or Hebrew typed there (a participant's request on the tablet, a preference's words, notes,
+#: comments) stood at the left edge, a closing "!" or emoji at its right, the start of an Arabic sentence.
 APP_STYLE = """
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
+[data-testid='stTextInput'] input, [data-testid='stTextArea'] textarea { unicode-bidi: plaintext; text-align: start; }
 """
 
 
