@@ -37,7 +37,10 @@ def _safe_name(name: str, fallback: str) -> str:
     given = Path(unicodedata.normalize("NFC", str(name or "")).replace("\\", "/")).name
     found = _FILE_TYPE.search(given)
     stem, suffix = (given[:found.start()], found.group()) if found else (given, "")
-    kept = "".join(c if c.isalnum() or c in "._-" or unicodedata.category(c).startswith("M") else " " for c in stem)
+    kept = ""
+    for c in stem:  # a mark after a letter it belongs to (Hindi's vowel signs), not an emoji's (☀️'s U+FE0F)
+        word = c.isalnum() or c in "._-" or (unicodedata.category(c).startswith("M") and kept[-1:].strip() != "")
+        kept += c if word else " "
     stem = "_".join(kept.split()).strip("._")[:STEM_CHARS]
     while len(stem.encode("utf-8")) > STEM_BYTES:
         stem = stem[:-1]

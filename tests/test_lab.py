@@ -253,8 +253,10 @@ def test_a_name_in_another_script_is_kept_with_its_file_type(tmp_path):
 
     root = tmp_path / "scenes"
     added = lab.add_photos("kitchen", [("台所の写真.png", _png((5, 50, 5))), ("Küche Foto.png", _png((50, 5, 50))),
-                                       ("مطبخ.png", _png((9, 90, 9))), ("🍳.png", _png((70, 7, 7)))], root)
-    assert [p.name for p in added] == ["台所の写真.png", "Küche_Foto.png", "مطبخ.png", "photo_4.png"]
+                                       ("مطبخ.png", _png((9, 90, 9))), ("🍳.png", _png((70, 7, 7))),
+                                       ("Küche ☀️ hell.png", _png((7, 70, 7))), ("रसोई घर.png", _png((7, 7, 70)))], root)
+    assert [p.name for p in added] == ["台所の写真.png", "Küche_Foto.png", "مطبخ.png", "photo_4.png", "Küche_hell.png",
+                                       "रसोई_घर.png"]
     assert image_paths("kitchen", root) == sorted(added)
     with pytest.raises(CacasError, match=r"^台所\.gif: a \.gif file is not taken; valid: \.jpg"):
         lab.add_photos("kitchen", [("台所.gif", _png((1, 1, 90)))], root)
