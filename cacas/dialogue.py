@@ -278,6 +278,17 @@ _CLAUSE_END = re.compile(r"[.,;:!?]")
 _TOKEN = re.compile(rf"({_WORD.pattern})|{_CLAUSE_END.pattern}")
 
 
+def _quoted(text: str) -> str:
+    """``text`` quoted in an English sentence (as repr quotes it); text of a right-to-left script (Arabic, Hebrew) is
+    isolated in it (Unicode's first-strong isolate, U+2068 ... U+2069), so that it reads from the right within the
+    quotes: its closing "!" or emoji stood at its right, where an Arabic sentence starts, and a line break split the
+    quotes from it (the tablet in Chromium)."""
+    if not any(unicodedata.bidirectional(c) in ("R", "AL") for c in text):
+        return repr(text)
+    mark = '"' if "'" in text else "'"
+    return f"{mark}\u2068{text}\u2069{mark}"
+
+
 def _folded(text: str) -> str:
     """``text`` lower case, as the keywords are written: full-width letters as theirs ("ＴＩＭＥＲ", a Japanese
     keyboard's), accents off ("café"), and Turkish capital "İ" as "i" (a Turkish keyboard's capital i: "TİMER" was
@@ -422,7 +433,7 @@ def match_request(text: str) -> RequestMatch:
         examples = " or ".join(f"'{request_words(a)}'" for a in ("pain check", "set a timer"))
         said = text.strip()
         said = shortened(said, 60)  # a long text is not echoed whole
-        raise CacasError(f"Sorry, the robot did not understand {said!r}. Try other words, for example "
+        raise CacasError(f"Sorry, the robot did not understand {_quoted(said)}. Try other words, for example "
                          f"{examples}, or pick what you would like from the list above.")
     best, score, hits = ranked[0]
     if _negated(said, best):  # "please don't call anyone" asks for the opposite of "call someone for help"

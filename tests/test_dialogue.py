@@ -213,3 +213,13 @@ def test_a_request_typed_on_another_keyboard_is_matched_as_its_letters_read(text
 
 def test_the_thing_a_full_width_request_names_is_confirmed():
     assert dialogue.typed_object("ＴＵＲＮ ＯＦＦ ＴＨＥ ＴＶ", "remind to turn off") == "the TV"
+
+
+def test_a_request_in_a_right_to_left_script_is_quoted_apart_from_the_sentence():
+    """An Arabic request the robot did not understand was quoted as repr quotes it, inside an English sentence: drawn,
+    its closing "!" stood at its right, where the Arabic starts. It is isolated (U+2068 ... U+2069); others as before."""
+    with pytest.raises(CacasError) as said:
+        dialogue.match_request("من فضلك ساعدني!")
+    assert "did not understand '\u2068من فضلك ساعدني!\u2069'. Try other words" in str(said.value)
+    with pytest.raises(CacasError, match=r"did not understand 'sing me a song'\. Try"):
+        dialogue.match_request("sing me a song")
