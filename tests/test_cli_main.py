@@ -202,3 +202,17 @@ def test_output_that_cannot_hold_a_character_escapes_it_instead_of_failing(tmp_p
                           encoding="ascii", env=env)
     assert proc.returncode == 0 and proc.stderr == ""
     assert "Studie Gr\\xf6\\xdfe \\u7d50\\u679c" in proc.stdout.replace("\n", " ")
+
+
+def test_a_file_name_s_undecodable_bytes_are_written_back_as_they_were(tmp_path):
+    """In UTF-8 mode (LANG=C, C.UTF-8) stdout writes a file name's bytes that are not UTF-8 (a zip made on Windows:
+    "K\\xfcche.png") back as they were, so that the printed name finds the file again; escaping what the output
+    cannot hold must leave that be."""
+    import os
+
+    name = os.fsdecode(b"K\xfcche")
+    env = {**os.environ, "LC_ALL": "C.UTF-8", "PYTHONUTF8": "1"}
+    env.pop("PYTHONIOENCODING", None)
+    child = f"import sys; sys.argv = ['cacas']; import cacas.cli as c; c._escape_what_the_output_cannot_hold(); print({name!r})"
+    proc = subprocess.run([sys.executable, "-c", child], capture_output=True, env=env)
+    assert proc.returncode == 0 and proc.stdout == b"K\xfcche\n", proc

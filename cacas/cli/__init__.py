@@ -116,10 +116,12 @@ def _escape_what_the_output_cannot_hold() -> None:
     PYTHONIOENCODING=ascii, a folder named in Japanese or a description with an emoji in what a
     command prints ended it with a traceback and exit code 1 after its files were written
     (``wrote 結果/daily.csv``), and ``cacas --help`` under a study data folder with an umlaut
-    printed nothing. A UTF-8 terminal is unchanged. (stderr escapes so already.)"""
+    printed nothing. A UTF-8 terminal is unchanged, and so is a stream that already deals with such characters
+    otherwise (stderr escapes them; in UTF-8 mode stdout writes a file name's undecodable bytes back as they were)."""
     for stream in (sys.stdout, sys.stderr):
         try:
-            stream.reconfigure(errors="backslashreplace")
+            if stream.errors == "strict":
+                stream.reconfigure(errors="backslashreplace")
         except (AttributeError, ValueError):  # replaced by a stream without it (a test's StringIO), or closed
             pass
 
