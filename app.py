@@ -270,8 +270,12 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: Headings go down one level at a time, as a screen reader lists them (accessibility walkthrough: h1 -> h3 on the
 #: researcher's pages, h2 -> h4 -> h5 on the tablet): a page's sections are h2 (st.header), the sidebar's title and
 #: the study session's form and cards too, drawn at the sizes they had as h3, h4 and h5.
+#: A text field takes the direction of what is typed in it (Unicode's rule, its first letter's): Streamlit's are
+#: left to right, so Arabic or Hebrew typed there (a participant's request on the tablet, a preference's words, notes,
+#: comments) stood at the left edge, a closing "!" or emoji at its right, the start of an Arabic sentence.
 APP_STYLE = """
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
+[data-testid='stTextInput'] input, [data-testid='stTextArea'] textarea { unicode-bidi: plaintext; text-align: start; }
 [data-testid='stMain'] h2 { font-size: 1.75rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stSidebar'] h2 { font-size: 1.125rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stMain'] [data-testid='stForm'] h2 { font-size: 1.5rem; letter-spacing: normal; padding: 0.5rem 0 1rem; }

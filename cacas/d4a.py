@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 
 from cacas import spaces
-from cacas.errors import CacasError
+from cacas.errors import CacasError, not_utf8
 from cacas.paths import study_data_dir
 
 #: Why the "do nothing" column is ``others`` everywhere (Section IV-B: the robot doing nothing
@@ -222,5 +222,6 @@ def load_d4a(path: str | Path | None = None) -> D4A:
     try:
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
-        raise CacasError(f"{path}: is not a CSV text file (not UTF-8 text)") from None
+        raise CacasError(f"{path}: is not a CSV text file (not UTF-8 text: {not_utf8(raw)}); valid: a D4A CSV file "
+                         "saved as UTF-8") from None
     return parse_d4a(text, str(path))

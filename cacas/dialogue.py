@@ -18,6 +18,7 @@ No model and no network: a keyword table, so that the behaviour is predictable i
 from __future__ import annotations
 
 import re
+import unicodedata
 from dataclasses import dataclass
 
 from cacas import spaces
@@ -196,7 +197,7 @@ def typed_object(text: str, action: str) -> str | None:
     """The object of :data:`OBJECTS` for ``action`` that a typed request names ("the TV" in
     "please turn off the tv"), the longest one if several; None if it names none."""
     act = spaces.canonical("action", action)
-    low = str(text).lower()
+    low = _folded(str(text))
     for obj in sorted(dict.fromkeys(OBJECTS.get(act, {}).values()), key=len, reverse=True):
         noun = re.sub(r"^(the|your) ", "", obj).lower()
         if re.search(rf"\b{re.escape(noun)}\b", low):
@@ -277,13 +278,32 @@ _CLAUSE_END = re.compile(r"[.,;:!?]")
 _TOKEN = re.compile(rf"({_WORD.pattern})|{_CLAUSE_END.pattern}")
 
 
+def _quoted(text: str) -> str:
+    """``text`` quoted in an English sentence (as repr quotes it); text of a right-to-left script (Arabic, Hebrew) is
+    isolated in it (Unicode's first-strong isolate, U+2068 ... U+2069), so that it reads from the right within the
+    quotes: its closing "!" or emoji stood at its right, where an Arabic sentence starts, and a line break split the
+    quotes from it (the tablet in Chromium)."""
+    if not any(unicodedata.bidirectional(c) in ("R", "AL") for c in text):
+        return repr(text)
+    mark = '"' if "'" in text else "'"
+    return f"{mark}\u2068{text}\u2069{mark}"
+
+
+def _folded(text: str) -> str:
+    """``text`` lower case, as the keywords are written: full-width letters as theirs ("ＴＩＭＥＲ", a Japanese
+    keyboard's), accents off ("café"), and Turkish capital "İ" as "i" (a Turkish keyboard's capital i: "TİMER" was
+    "ti̇mer", no keyword), "’" as "'". Only for matching: the request is shown as typed."""
+    decomposed = unicodedata.normalize("NFKD", text.lower().replace("’", "'"))
+    return "".join(c for c in decomposed if not unicodedata.combining(c))
+
+
 def _tokens(text: str) -> tuple[list[str], list[int]]:
-    """The words of ``text`` (lower case, "’" as "'") and the clause (0, 1, ...) of each, clauses
+    """The words of ``text`` (:func:`_folded`) and the clause (0, 1, ...) of each, clauses
     ending at :data:`_CLAUSE_END`: one tokeniser for both (they were two, and had to agree)."""
     words: list[str] = []
     clauses: list[int] = []
     clause = 0
-    for token in _TOKEN.finditer(text.lower().replace("’", "'")):
+    for token in _TOKEN.finditer(_folded(text)):
         if token.group(1) is None:
             clause += 1
         else:
@@ -413,7 +433,7 @@ def match_request(text: str) -> RequestMatch:
         examples = " or ".join(f"'{request_words(a)}'" for a in ("pain check", "set a timer"))
         said = text.strip()
         said = shortened(said, 60)  # a long text is not echoed whole
-        raise CacasError(f"Sorry, the robot did not understand {said!r}. Try other words, for example "
+        raise CacasError(f"Sorry, the robot did not understand {_quoted(said)}. Try other words, for example "
                          f"{examples}, or pick what you would like from the list above.")
     best, score, hits = ranked[0]
     if _negated(said, best):  # "please don't call anyone" asks for the opposite of "call someone for help"

@@ -124,6 +124,25 @@ def _verb_forms(text: str) -> list[str]:
     return [" ".join(filter(None, (s, rest))) for s in stems]
 
 
+def not_utf8(data: bytes) -> str:
+    """Why ``data``, which does not decode as UTF-8, is not UTF-8 text, in a researcher's words, for a message
+    "<file>: cannot be read as UTF-8 text (<this>); valid: ...": saved as UTF-16 (its byte order mark: a
+    spreadsheet's "Unicode text", older Notepad's "Unicode"), or not text at all (a NUL byte near its start: a
+    picture, a zip), or in another encoding, naming the first byte that is not UTF-8 and its line (a file saved
+    as Windows-1252 in a lab in Germany: "byte 0xf6 on line 5"; it only said "cannot be read as UTF-8 text")."""
+    if data[:2] in (b"\xff\xfe", b"\xfe\xff"):
+        return "it is UTF-16 text, as a spreadsheet saves 'Unicode text' and older Notepad 'Unicode'"
+    if b"\x00" in data[:1024]:
+        return "it is not text"
+    try:
+        data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        return (f"byte 0x{data[exc.start]:02x} on line {line} is not UTF-8: it was saved in another encoding, such as "
+                "Windows-1252")
+    return "it is UTF-8 text"  # not called for such data
+
+
 def shortened(text: str, limit: int) -> str:
     """``text`` whole when it has at most ``limit`` characters, else its start cut at the last
     blank that keeps it and "..." within ``limit`` (a hard cut when one word is longer): a

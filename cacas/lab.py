@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import re
 import tempfile
+import unicodedata
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -18,12 +19,33 @@ from cacas import spaces
 from cacas.errors import CacasError
 
 Progress = Callable[[float, str], None] | None
-_SAFE = re.compile(r"[^A-Za-z0-9._-]+")
+#: A file type at the end of an upload's name (".jpg", ".flac"), kept as given.
+_FILE_TYPE = re.compile(r"\.[A-Za-z0-9]{1,8}$")
+#: An upload's stem is cut to this many characters, and to this many bytes in UTF-8 (a file name may hold 255
+#: bytes, and the library may put "imported_<k>_" before it; a character of Japanese is 3 bytes).
+STEM_CHARS, STEM_BYTES = 80, 160
 
 
 def _safe_name(name: str, fallback: str) -> str:
-    stem = _SAFE.sub("_", Path(str(name or "")).name).strip("._") or fallback
-    return stem[:80]
+    """The name an upload is stored under: its letters, digits and their marks, in any script, kept
+    ("Küche Foto.png" -> "Küche_Foto.png", "台所の写真.png" as given), each run of anything else (spaces,
+    emoji, punctuation) one "_", the stem cut to :data:`STEM_CHARS` / :data:`STEM_BYTES`, and its file type
+    kept as given; ``fallback``'s stem where nothing of the name's is left ("🍳.png" -> "photo_1.png"). Only
+    A-Z letters were kept: "台所の写真.png" came out "png", taken for a name without a type, and was stored as
+    "png.jpg" (a PNG named JPEG, not the researcher's name), "録音.flac" as "flac.wav", and "台所.gif" was added
+    as "gif.jpg" where "kitchen.gif" is refused; a name over 80 characters lost its type the same way."""
+    given = Path(unicodedata.normalize("NFC", str(name or "")).replace("\\", "/")).name
+    found = _FILE_TYPE.search(given)
+    stem, suffix = (given[:found.start()], found.group()) if found else (given, "")
+    kept = ""
+    for c in stem:  # a mark after a letter it belongs to (Hindi's vowel signs), not an emoji's (☀️'s U+FE0F)
+        word = c.isalnum() or c in "._-" or (unicodedata.category(c).startswith("M") and kept[-1:].strip() != "")
+        kept += c if word else " "
+    stem = "_".join(kept.split()).strip("._")[:STEM_CHARS]
+    while len(stem.encode("utf-8")) > STEM_BYTES:
+        stem = stem[:-1]
+    stem = stem.strip("._")
+    return fallback if not stem and not suffix else (stem or Path(fallback).stem) + suffix
 
 
 #: The Sounds and scenes page's button that adds files to a library: its refusals name it.

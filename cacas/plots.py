@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import html
 import re
+import unicodedata
 
 import pandas as pd
 import plotly.graph_objects as go
@@ -647,6 +648,40 @@ def preference_rows(by_preference: pd.DataFrame) -> pd.Series:
             + act + " → " + by_preference["action"].astype(str))
 
 
+#: A participant's words in a heatmap's hover, wrapped at this many columns (a CJK character takes two): on one line,
+#: a description of 140 characters ran past both edges of the Results page's heatmap at 1280 px
+#: ("ens im Schlafzimmer: ... Grö"; English ones of 130 characters as well).
+HOVER_COLUMNS = 60
+
+
+def _columns(text: str) -> int:
+    """How many columns ``text`` takes: a wide or full-width character (Japanese, Chinese, Korean) two, another one."""
+    return sum(2 if unicodedata.east_asian_width(c) in "WF" else 1 for c in text)
+
+
+def hover_words(text, columns: int = HOVER_COLUMNS) -> str:
+    """``text`` (a participant's words) for a Plotly hover: lines of at most ``columns`` columns (:func:`_columns`)
+    joined by ``<br>``, broken at spaces, and a word longer than a line (a German compound, a sentence of Japanese,
+    which has no spaces) where the line is full; ``&``, ``<`` and ``>`` escaped (Plotly reads tags and entities in
+    a hover: "weniger als <5 min" lost its words)."""
+    lines: list[str] = []
+    line = ""
+    for word in str(text).split():
+        if line and _columns(line) + 1 + _columns(word) <= columns:
+            line += " " + word
+            continue
+        if line:
+            lines.append(line)
+        while _columns(word) > columns:
+            cut = next(i for i in range(len(word), 0, -1) if _columns(word[:i]) <= columns)
+            lines.append(word[:cut])
+            word = word[cut:]
+        line = word
+    if line:
+        lines.append(line)
+    return "<br>".join(html.escape(x, quote=False) for x in lines)
+
+
 def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str) -> go.Figure:
     rows = rows.assign(_row=preference_rows(rows))
     # participants as a person reads them (records.code_order: "p01, R01, r02", "P2, P10"), each one's
@@ -656,7 +691,7 @@ def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: s
     grid = rows.pivot_table(index="_row", columns=column, values="accuracy", aggfunc="first").reindex(
         index=order, columns=columns)
     info = rows.drop_duplicates("_row").set_index("_row").reindex(order)
-    hover = [[f"{info.loc[r, 'label']}<br>{x_title} {c}: " + (
+    hover = [[f"{hover_words(info.loc[r, 'label'])}<br>{x_title} {c}: " + (
         "no test state" if pd.isna(grid.loc[r, c]) else f"{grid.loc[r, c]:.0%} of {int(info.loc[r, 'states'])} test states")
         for c in columns] for r in order]
     fig = go.Figure(go.Heatmap(

@@ -20,7 +20,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from cacas import spaces
-from cacas.errors import CacasError, Problems, nearest, shortened
+from cacas.errors import CacasError, Problems, nearest, not_utf8, shortened
 from cacas.privacy import contact_details
 
 FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
@@ -466,7 +466,8 @@ def persona_json(data: str | bytes, source: str) -> Any:
     try:
         text = data.decode("utf-8-sig") if isinstance(data, bytes) else data
     except UnicodeDecodeError:
-        raise CacasError(f"{source}: cannot be read as UTF-8 text; valid: a JSON persona file") from None
+        raise CacasError(f"{source}: cannot be read as UTF-8 text ({not_utf8(data)}); valid: a JSON persona "
+                         "file saved as UTF-8") from None
     text = text.removeprefix("\ufeff")  # text decoded by the caller as plain utf-8
     try:
         return json.loads(text, object_pairs_hook=_once_each)

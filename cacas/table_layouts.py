@@ -28,6 +28,19 @@ _CHARACTERS = ((3.7, "Iijl.,;' !"), (4.9, "frt-()[]{}"), (7.0, "0123456789_FJLYc
                (8.0, "ACEPRSTVXZabdghnopqu`"), (9.3, "BDGHKNOQU&"), (11.1, "MWw"), (11.7, "m%"))
 _CHARACTER_WIDTH = {c: w for w, chars in _CHARACTERS for c in chars}
 _WIDEST_CHARACTER = 12.0
+#: A wide or full-width character (Japanese, Chinese, Korean: east_asian_width W or F) is one em, 14 px, in every font
+#: that has it (their glyphs are drawn on the em square; this machine's Chromium has no such font to measure), and
+#: an emoji or other symbol up to 1.25 em (Noto Color Emoji's advance), 18 px: a photo named "台所の写真.jpg" (kept
+#: so since its letters are) was counted 12 px a character, and its caption broke under a photo fitted to it.
+_EM, _SYMBOL = 14.0, 18.0
+
+
+def _character_width(c: str) -> float:
+    if unicodedata.category(c) == "So":
+        return _SYMBOL
+    if unicodedata.east_asian_width(c) in "WF":
+        return _EM
+    return _CHARACTER_WIDTH.get(c) or _CHARACTER_WIDTH.get(unicodedata.normalize("NFKD", c)[:1], _WIDEST_CHARACTER)
 
 
 def text_width(text: str) -> float:
@@ -35,8 +48,7 @@ def text_width(text: str) -> float:
     under it), never less than Chromium draws it, each character rounded up within its group: the widest
     16-character code, "mmmmmmmmmmmmmmmm", 185.7 px measured, 187.2 estimated; "participant_0001" 99.3, 104.1;
     "P01" 21.8, 22.0; "synthetic_0_000.jpg" 117.7, 122.9; "IMG_20260301_101500.jpg" 156.0, 159.5."""
-    return sum(_CHARACTER_WIDTH.get(c) or _CHARACTER_WIDTH.get(unicodedata.normalize("NFKD", c)[:1], _WIDEST_CHARACTER)
-               for c in str(text))
+    return sum(_character_width(c) for c in str(text))
 
 
 def code_column(codes, least: int) -> int:

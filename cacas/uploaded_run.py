@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from cacas import records
-from cacas.errors import CacasError
+from cacas.errors import CacasError, not_utf8
 from cacas.store.files import CHECKSUMS
 
 #: Why a table does not match the checksums.sha256 written with it (an upload's, a run folder's).
@@ -133,11 +133,16 @@ def load_uploaded_tables(files: Sequence[tuple[str, bytes]]) -> dict[str, pd.Dat
     for place, (name, data) in enumerate(files, 1):
         try:
             df = records.read_csv(io.BytesIO(data))
-        except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        except UnicodeDecodeError:
+            raise CacasError(f"{name}: cannot be read as UTF-8 text ({not_utf8(data)}); valid: {AS_WRITTEN}") from None
+        except (ValueError, pd.errors.ParserError) as exc:
             raise CacasError(f"{name}: not a readable CSV file ({str(exc).splitlines()[0] if str(exc) else exc})")
         kind = next((k for k, cols in UPLOADABLE_TABLES.items() if set(cols) <= set(df.columns)), None)
         if kind is None and _summary_columns(df.columns):
             kind = "summary"
+        if kind is None and _semicolons(data):
+            raise CacasError(f"{name}: its columns are separated by ';', not ',', as a spreadsheet saves a CSV where "
+                             f"the decimal mark is a comma (German, French, Turkish, ...); valid: {AS_WRITTEN}")
         if kind is None:
             raise CacasError(f"{name}: not a daily.csv, by_preference.csv or interactions.csv"
                              f"{_missing_columns(df.columns)}; a daily.csv needs the columns "
@@ -192,6 +197,19 @@ def _check_summary(daily: pd.DataFrame, summary: pd.DataFrame, daily_name: str, 
                 shown = (lambda x: "empty" if np.isnan(x) else f"{x:.6g}")
                 raise CacasError(f"{where}: {col} {shown(told)}, the mean of {daily_name}'s rows is {shown(have)}; "
                                  "upload the tables of one run")
+
+
+#: What an upload that a spreadsheet saved again should be instead (its separator, encoding, codes and times changed).
+AS_WRITTEN = ("the file as cacas wrote it (comma-separated UTF-8; docs/tables.md): upload it from the export or the "
+              "run's folder, not a copy a spreadsheet saved")
+
+
+def _semicolons(data: bytes) -> bool:
+    """Whether a CSV's header is one of the tables' separated by ";" (a spreadsheet in a language whose decimal mark
+    is a comma saves CSV so, "0,5" in its cells): it was said to be none of the tables, naming columns it has."""
+    header = data.decode("utf-8", errors="replace").removeprefix("\ufeff").partition("\n")[0].strip()
+    names = {n.strip().strip('"') for n in header.split(";")}
+    return "," not in header and any(set(cols) <= names for cols in (*UPLOADABLE_TABLES.values(), SUMMARY_COLUMNS))
 
 
 def _summary_columns(columns) -> bool:

@@ -187,3 +187,32 @@ def test_every_option_the_docs_give_is_one_the_command_has():
             assert option in options, (doc, command, option, sorted(options))
             checked += 1
     assert checked > 30
+
+
+def test_output_that_cannot_hold_a_character_escapes_it_instead_of_failing(tmp_path):
+    """Output redirected on Windows is in the code page (cp1252, cp932), and PYTHONIOENCODING may name
+    ASCII: `cacas --help` under a study data folder named in German and Japanese printed a traceback
+    (exit 1), as `cacas simulate --out 結果` did after writing its files. Now the folder is escaped."""
+    import os
+
+    folder = tmp_path / "Studie Größe 結果"
+    folder.mkdir()
+    env = {**os.environ, "CACAS_STUDY_DATA": str(folder), "PYTHONIOENCODING": "ascii"}
+    proc = subprocess.run([sys.executable, "-m", "cacas", "--help"], capture_output=True, text=True,
+                          encoding="ascii", env=env)
+    assert proc.returncode == 0 and proc.stderr == ""
+    assert "Studie Gr\\xf6\\xdfe \\u7d50\\u679c" in proc.stdout.replace("\n", " ")
+
+
+def test_a_file_name_s_undecodable_bytes_are_written_back_as_they_were(tmp_path):
+    """In UTF-8 mode (LANG=C, C.UTF-8) stdout writes a file name's bytes that are not UTF-8 (a zip made on Windows:
+    "K\\xfcche.png") back as they were, so that the printed name finds the file again; escaping what the output
+    cannot hold must leave that be."""
+    import os
+
+    name = os.fsdecode(b"K\xfcche")
+    env = {**os.environ, "LC_ALL": "C.UTF-8", "PYTHONUTF8": "1"}
+    env.pop("PYTHONIOENCODING", None)
+    child = f"import sys; sys.argv = ['cacas']; import cacas.cli as c; c._escape_what_the_output_cannot_hold(); print({name!r})"
+    proc = subprocess.run([sys.executable, "-c", child], capture_output=True, env=env)
+    assert proc.returncode == 0 and proc.stdout == b"K\xfcche\n", proc

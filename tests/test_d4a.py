@@ -126,6 +126,14 @@ def test_binary_file_is_not_csv(tmp_path):
     assert "not a CSV text file" in error_of(path)
 
 
+def test_a_file_saved_as_utf16_says_so(tmp_path):
+    """A spreadsheet's "Unicode text" is UTF-16: it said only "not UTF-8 text"."""
+    path = tmp_path / "d4a.csv"
+    path.write_bytes("\n".join(shipped_lines()).encode("utf-16"))
+    assert error_of(path) == (f"{path}: is not a CSV text file (not UTF-8 text: it is UTF-16 text, as a spreadsheet saves "
+                              "'Unicode text' and older Notepad 'Unicode'); valid: a D4A CSV file saved as UTF-8")
+
+
 def test_text_with_nul_bytes_is_not_csv(tmp_path):
     path = tmp_path / "x.csv"
     path.write_bytes("\n".join(shipped_lines()).replace("accept", "acc\x00ept", 1).encode())

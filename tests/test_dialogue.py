@@ -197,3 +197,29 @@ def test_one_tokeniser_gives_the_words_and_the_clause_of_each(text, words, claus
     """_words and the clause of each word came from two tokenisers that had to agree; one gives both now."""
     assert dialogue._tokens(text) == (words, clauses)
     assert dialogue._words(text) == words
+
+
+@pytest.mark.parametrize("text, action", [
+    ("SET A TİMER", "set a timer"),  # a Turkish keyboard's capital i: "TİMER".lower() is "ti̇mer"
+    ("ＴＵＲＮ ＯＦＦ the stove", "remind to turn off"),  # a Japanese keyboard's full-width letters
+    ("Café? No. Call my DAUGHTER", "call someone for help"),  # matched before too, and still
+])
+def test_a_request_typed_on_another_keyboard_is_matched_as_its_letters_read(text, action):
+    """A lab outside the English-speaking world: an English request typed with Turkish capitals or full-width letters
+    matched nothing ("Sorry, the robot did not understand 'SET A TİMER'"). The request is shown as typed."""
+    found = dialogue.match_request(text)
+    assert found.action == action and found.text == text
+
+
+def test_the_thing_a_full_width_request_names_is_confirmed():
+    assert dialogue.typed_object("ＴＵＲＮ ＯＦＦ ＴＨＥ ＴＶ", "remind to turn off") == "the TV"
+
+
+def test_a_request_in_a_right_to_left_script_is_quoted_apart_from_the_sentence():
+    """An Arabic request the robot did not understand was quoted as repr quotes it, inside an English sentence: drawn,
+    its closing "!" stood at its right, where the Arabic starts. It is isolated (U+2068 ... U+2069); others as before."""
+    with pytest.raises(CacasError) as said:
+        dialogue.match_request("من فضلك ساعدني!")
+    assert "did not understand '\u2068من فضلك ساعدني!\u2069'. Try other words" in str(said.value)
+    with pytest.raises(CacasError, match=r"did not understand 'sing me a song'\. Try"):
+        dialogue.match_request("sing me a song")

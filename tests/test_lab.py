@@ -224,7 +224,7 @@ def test_add_photos_adds_checked_photos_all_or_nothing(tmp_path):
 
 
 def test_files_of_the_same_name_are_all_added_and_a_type_not_taken_is_refused(tmp_path):
-    """Walkthrough: two photos called image.jpg (or Küche.jpg and Kuche.jpg, the same file name once
+    """Walkthrough: two photos called image.jpg (or "Küche Foto.jpg" and "Küche_Foto.jpg", the same file name once
     made safe) gave "Added 1": one overwrote the other; an MP3 among recordings was left out and the
     others added as if it had not been given."""
     from cacas.audio.library import clip_paths
@@ -232,13 +232,42 @@ def test_files_of_the_same_name_are_all_added_and_a_type_not_taken_is_refused(tm
 
     root = tmp_path / "scenes"
     added = lab.add_photos("kitchen", [("image.png", _png((1, 2, 3))), ("image.png", _png((90, 80, 70))),
-                                       ("Küche.png", _png((5, 50, 5))), ("K_che.png", _png((50, 5, 50)))], root)
-    assert [p.name for p in added] == ["image.png", "image-2.png", "K_che.png", "K_che-2.png"]  # in the order given
+                                       ("Küche Foto.png", _png((5, 50, 5))), ("Küche_Foto.png", _png((50, 5, 50)))],
+                           root)
+    assert [p.name for p in added] == ["image.png", "image-2.png", "Küche_Foto.png", "Küche_Foto-2.png"]  # as given
     assert len(image_paths("kitchen", root)) == 4
     sounds = tmp_path / "sounds"
     with pytest.raises(CacasError, match=r"^clip\.mp3: a \.mp3 file is not taken; valid: \.wav, \.flac, \.ogg "
                                          r"\(upload a WAV, FLAC or OGG file or record one\); nothing was added$"):
         lab.add_clips("cough", [("take.wav", b"RIFF...."), ("clip.mp3", b"ID3....")], sounds)
+    assert clip_paths("cough", sounds) == []
+
+
+def test_a_name_in_another_script_is_kept_with_its_file_type(tmp_path):
+    """A lab outside the English-speaking world: only A-Z letters of an upload's name were kept, so "台所の写真.png"
+    was stored as "png.jpg" (a PNG named JPEG, nothing of the name the researcher gave), "咳の録音.wav" as
+    "wav.wav", "台所.gif" was added as "gif.jpg" where "kitchen.gif" is refused, and a name of more than 80
+    characters lost its file type the same way. The letters of any script are kept, and the type as given."""
+    from cacas.audio.library import clip_paths
+    from cacas.vision.library import image_paths
+
+    root = tmp_path / "scenes"
+    added = lab.add_photos("kitchen", [("台所の写真.png", _png((5, 50, 5))), ("Küche Foto.png", _png((50, 5, 50))),
+                                       ("مطبخ.png", _png((9, 90, 9))), ("🍳.png", _png((70, 7, 7))),
+                                       ("Küche ☀️ hell.png", _png((7, 70, 7))), ("रसोई घर.png", _png((7, 7, 70)))], root)
+    assert [p.name for p in added] == ["台所の写真.png", "Küche_Foto.png", "مطبخ.png", "photo_4.png", "Küche_hell.png",
+                                       "रसोई_घर.png"]
+    assert image_paths("kitchen", root) == sorted(added)
+    with pytest.raises(CacasError, match=r"^台所\.gif: a \.gif file is not taken; valid: \.jpg"):
+        lab.add_photos("kitchen", [("台所.gif", _png((1, 1, 90)))], root)
+    long = "Aufnahme meiner Großmutter beim Husten in der Küche am Nachmittag, zweiter Versuch.png"
+    (kept,) = lab.add_photos("kitchen", [(long, _png((30, 60, 90)))], root)
+    assert kept.suffix == ".png" and kept.name.startswith("Aufnahme_meiner_Großmutter") and len(kept.stem) == 80
+    (very,) = lab.add_photos("kitchen", [("写" * 100 + ".png", _png((90, 60, 30)))], root)
+    assert very.name == "写" * 53 + ".png"  # 160 bytes of UTF-8: room for the library's "imported_<k>_"
+    sounds = tmp_path / "sounds"
+    with pytest.raises(CacasError, match=r"^咳\.mp3: a \.mp3 file is not taken; valid: \.wav, \.flac, \.ogg"):
+        lab.add_clips("cough", [("咳.mp3", b"ID3....")], sounds)
     assert clip_paths("cough", sounds) == []
 
 

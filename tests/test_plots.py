@@ -97,6 +97,34 @@ def test_accuracy_by_preference_heatmaps():
         assert fig.layout.title.automargin and fig.layout.title.yref == "container" and fig.layout.xaxis.automargin
 
 
+def test_a_long_description_in_a_heatmap_hover_is_wrapped_and_its_words_kept():
+    """A participant's words in the by-preference heatmap's hover were one line: at 1280 px the Results page cut a
+    German description of 140 characters at both edges ("ens im Schlafzimmer: ... Grö"). Lines of at most 60
+    columns (a Japanese character takes two), a compound longer than a line broken, and "<" or "&" kept as words."""
+    import html
+
+    from cacas.plots import HOVER_COLUMNS, _columns
+
+    words = {1: "Morgens im Schlafzimmer: Erinnere mich an die Allergietablette. "
+                "Donaudampfschifffahrtsgesellschaftskapitänsmützenaufbewahrungsschrank, Größe ÄÖÜ",
+             2: "夜に咳をしたら咳止めシロップを思い出させてください。ベッドの横にあります",
+             3: "weniger als <5 min & <b>nie</b> laut"}
+    rows = by_preference()
+    rows["label"] = rows["preference"].map(words).where(rows["participant"] == "P01", rows["label"])
+    rows.loc[rows["participant"] == "P01", "preference"] = rows["label"].map({v: k for k, v in words.items()})
+    extra = rows[rows["preference"] == 1].assign(preference=3, label=words[3])
+    heat = preference_methods_figure(pd.concat([rows, extra[extra["participant"] == "P01"]])).data[0]
+    for row, said in zip(heat.y, heat.hovertext):
+        if not row.startswith("P01"):
+            continue
+        lines = said[0].split("<br>")[:-1]  # the last line: the method's accuracy
+        assert all(_columns(line) <= HOVER_COLUMNS for line in lines), lines
+        number = int(row.split(" · ")[1].split(".")[0])
+        assert html.unescape("".join(lines)).replace(" ", "") == words[number].replace(" ", "")
+        assert "<b>" not in said[0]
+    assert len([1 for row in heat.y if row.startswith("P01")]) == 3
+
+
 def test_loop_method_is_the_one_with_a_success_rate():
     from cacas.plots import loop_method
 

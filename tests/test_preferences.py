@@ -226,7 +226,15 @@ def test_a_save_on_a_full_disk_says_so_and_keeps_the_file(tmp_path, monkeypatch,
 
 
 @pytest.mark.parametrize("data, message", [
-    (b"\x89PNG\r\n\x1a\n\x00\x00", r"upload.json: cannot be read as UTF-8 text; valid: a JSON persona file"),
+    (b"\x89PNG\r\n\x1a\n\x00\x00", r"upload.json: cannot be read as UTF-8 text \(it is not text\); valid: a JSON persona "
+                                 r"file saved as UTF-8"),
+    # a lab in Germany: Windows-1252 (it said only "cannot be read as UTF-8 text; valid: a JSON persona file", which
+    # it was), and older Notepad's "Unicode", UTF-16
+    ('{"participants": [\n{"id": "DE01", "preferences": [{"description": "Küche"}]}]}'.encode("cp1252"),
+     r"^upload.json: cannot be read as UTF-8 text \(byte 0xfc on line 2 is not UTF-8: it was saved in another "
+     r"encoding, such as Windows-1252\); valid: a JSON persona file saved as UTF-8$"),
+    ('{"participants": []}'.encode("utf-16"), r"^upload.json: cannot be read as UTF-8 text \(it is UTF-16 text, as a "
+                                              r"spreadsheet saves 'Unicode text' and older Notepad 'Unicode'\)"),
     ("[" * 100_000 + "]" * 100_000, r"upload.json: nested too deeply to be a persona file"),
     ("{", r"upload.json: not valid JSON \(line 1, column 2"),
     # json kept the last of two without a word: this preference ran as chitchat

@@ -478,6 +478,18 @@ def test_a_case_twin_of_a_participant_in_a_database_beside_is_refused_where_lett
     assert pilot.add_participant("p01").code == "p01"
     pilot.close()
 
+def test_an_age_range_typed_with_other_digits_is_saved_with_0_to_9(store):
+    """A Japanese keyboard types full-width digits, an Arabic one Arabic-Indic digits: "２５-３４" and "٢٥-٣٤" were
+    taken and kept as typed, so participants.csv held three spellings of one range (a group-by counts three)."""
+    for typed, saved in (("２５-３４", "25-34"), ("٢٥-٣٤", "25-34"), ("６５＋", "65+"), ("٣٠", "30"), ("३०", "30")):
+        store.add_participant("P07", age_range=typed)
+        assert store.get_participant("P07").age_range == saved, typed
+        assert store.update_participant("P07", age_range=typed).age_range == saved, typed
+        store.remove_participant("P07", confirm="P07")
+    with pytest.raises(CacasError, match=r"^age range '２５０' is invalid; valid: .*ages up to 120$"):
+        store.add_participant("P07", age_range="２５０")
+
+
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\); codes must be "

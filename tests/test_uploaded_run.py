@@ -419,7 +419,9 @@ def test_an_upload_near_a_table_names_the_columns_it_lacks():
     ([("b.csv", "by_preference")], r"b.csv: upload a daily.csv as well"),
     ([], r"nothing uploaded: upload a daily.csv as well"),
     ([("d.csv", "daily"), ("b.csv", "stranger")], r"b.csv: participant\(s\) Q09 are not in d.csv"),
-    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: not a readable CSV file"),
+    ([("bin.csv", b"\xff\xfe\x00\x01\x02")], r"bin.csv: cannot be read as UTF-8 text \(it is UTF-16 text"),
+    ([("photo.csv", b"\x89PNG\r\n\x1a\n\x00\x00")], r"^photo.csv: cannot be read as UTF-8 text \(it is not text\); valid: "
+                                                     r"the file as cacas wrote it"),
     ([("d.csv", "daily_day_two")], r"d.csv, row 2: day 'two' is invalid; valid: a whole number >= 1"),
     ([("d.csv", "daily_rate_percent")], r"d.csv, row 2: success_rate 85.0 is invalid; valid: a share from 0 to 1"),
     ([("d.csv", "daily_ceiling_percent")], r"d.csv, row 2: success_ceiling 90.0 is invalid; valid: a share from 0 "),
@@ -462,3 +464,28 @@ def test_a_participant_coded_na_is_uploaded_as_a_participant_not_as_missing():
     renamed = {name: df.replace({"participant": {"P01": "NA"}}) for name, df in tables.items()}
     daily = upload(renamed)["daily"]
     assert records.by_code(set(daily["participant"])) == ["NA", "P02"]
+
+
+def test_a_table_a_spreadsheet_saved_again_in_another_language_says_so():
+    """A lab in Germany opened daily.csv in a spreadsheet and saved it: ';' between the columns and '0,5' in the
+    cells (Excel where the decimal mark is a comma), Windows-1252 or UTF-16 ('Unicode text'). The Results page said
+    'not a daily.csv ...; a daily.csv needs the columns participant, method, day, ...', the very columns it has,
+    or quoted Python's codec ("'utf-8' codec can't decode byte 0xff in position 0")."""
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_CONTRACT_COLUMNS}).assign(participant="DE01", success_rate=0.5)
+    semicolons = daily.to_csv(sep=";", decimal=",", index=False)
+    valid = r"; valid: the file as cacas wrote it \(comma-separated UTF-8; docs/tables.md\): upload it from the export"
+    for data in (("\ufeff" + semicolons).encode("utf-8"), semicolons.encode("cp1252")):
+        with pytest.raises(CacasError, match=r"^daily.csv: its columns are separated by ';', not ',', as a spreadsheet "
+                                             r"saves a CSV where the decimal mark is a comma \(German, French, Turkish, "
+                                             rf"...\){valid}"):
+            uploaded_run.load_uploaded_tables([("daily.csv", data)])
+    with pytest.raises(CacasError, match=r"^daily.csv: cannot be read as UTF-8 text \(it is UTF-16 text, as a "
+                                         rf"spreadsheet saves 'Unicode text' and older Notepad 'Unicode'\){valid}"):
+        uploaded_run.load_uploaded_tables([("daily.csv", daily.to_csv(sep="\t", index=False).encode("utf-16"))])
+    words = daily.assign(participant="DE01", label="Küche").to_csv(index=False).encode("cp1252")
+    with pytest.raises(CacasError, match=r"^daily.csv: cannot be read as UTF-8 text \(byte 0xfc on line 2 is not "
+                                         rf"UTF-8: it was saved in another encoding, such as Windows-1252\){valid}"):
+        uploaded_run.load_uploaded_tables([("daily.csv", words)])
+    # a table with a ';' in a header's words is not taken for one (only a header of ';'-separated columns is)
+    with pytest.raises(CacasError, match=r"^notes.csv: not a daily.csv"):
+        uploaded_run.load_uploaded_tables([("notes.csv", b"a;b,c\n1,2\n")])

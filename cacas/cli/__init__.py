@@ -110,10 +110,27 @@ def _terminate(signum, frame):
     raise Terminated()
 
 
+def _escape_what_the_output_cannot_hold() -> None:
+    """stdout and stderr write a character their encoding lacks as an escape (``Gr\\xf6\\xdfe``)
+    instead of failing: with output redirected on Windows (the code page, e.g. cp1252) or
+    PYTHONIOENCODING=ascii, a folder named in Japanese or a description with an emoji in what a
+    command prints ended it with a traceback and exit code 1 after its files were written
+    (``wrote 結果/daily.csv``), and ``cacas --help`` under a study data folder with an umlaut
+    printed nothing. A UTF-8 terminal is unchanged, and so is a stream that already deals with such characters
+    otherwise (stderr escapes them; in UTF-8 mode stdout writes a file name's undecodable bytes back as they were)."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            if stream.errors == "strict":
+                stream.reconfigure(errors="backslashreplace")
+        except (AttributeError, ValueError):  # replaced by a stream without it (a test's StringIO), or closed
+            pass
+
+
 def main(argv: list[str] | None = None) -> int:
     import signal
     import threading
 
+    _escape_what_the_output_cannot_hold()
     parser = build_parser()
     args = parser.parse_args(argv)
     on_main_thread = threading.current_thread() is threading.main_thread()

@@ -10,6 +10,7 @@ import json
 import math
 import re
 import threading
+import unicodedata
 from datetime import datetime, timedelta, timezone
 from typing import Any, Mapping
 
@@ -112,7 +113,8 @@ def age_range(value: Any, bounded: bool = True) -> str:
     (a study may hold such a range: its restore and its participant's details keep it)."""
     if value is None:
         return ""
-    text = str(value).strip().replace(" ", "")
+    # full-width ("２５-３４", a Japanese keyboard's) as their ASCII; other digits (Arabic-Indic "٣٠") match \d
+    text = unicodedata.normalize("NFKC", str(value)).strip().replace(" ", "")
     if not text:
         return ""
     m = AGE_RE.fullmatch(text)
@@ -120,7 +122,8 @@ def age_range(value: Any, bounded: bool = True) -> str:
     if not m or ages != sorted(ages) or (bounded and max(ages) > AGE_MAX):
         raise CacasError(f"age range {value!r} is invalid; valid: e.g. \"25-34\", \"65+\" or empty, ages up to "
                          f"{AGE_MAX}")
-    return text
+    # written with the digits 0-9: "２５-３４" and "٢٥-٣٤" were kept as typed, beside "25-34" in participants.csv
+    return "".join(str(unicodedata.decimal(c)) if c.isdecimal() else c for c in text)
 
 
 def text(value: Any, field: str, limit: int = NOTES_MAX, check_contacts: bool = True) -> str:

@@ -209,3 +209,37 @@ def test_the_researchers_captions_are_dark_enough_to_read(browser, day_1):
         ratio, drawn = caption_contrast(caption)
         assert ratio >= 4.5, (ratio, drawn)
     page.context.close()
+
+
+def _ink(box) -> tuple[float, float]:
+    """Where the text typed in a text field is drawn across it: the first and last column of dark pixels inside its
+    border, as shares of its width (0 its left edge, 1 its right)."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    pixels = np.asarray(Image.open(io.BytesIO(box.screenshot())).convert("L"))[6:-6, 6:-6]
+    columns = np.flatnonzero((pixels < 110).any(axis=0))
+    assert columns.size, "no text drawn in the field"
+    return columns[0] / pixels.shape[1], columns[-1] / pixels.shape[1]
+
+
+def test_a_request_typed_in_arabic_reads_from_the_right(browser, day_1):
+    """A lab outside the English-speaking world: Streamlit's text fields are left to right, so a participant's request
+    typed in Arabic stood at the field's left edge, and its closing "!" at its right, where an Arabic sentence
+    starts. A field takes the direction of what is typed (app.APP_STYLE); English stays at the left."""
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    token = Context.from_choices(4, 6, "cough", "bedroom").to_token()
+    goto(page, f"{day_1}/?participant=P01&view=tablet&ctx={token}&at=1.2")
+    field = page.get_by_role("textbox", name="Or type your request", exact=True)
+    expect(field).to_be_visible(timeout=120_000)
+    field.fill("من فضلك اضبط مؤقتا!")
+    page.wait_for_timeout(300)
+    left, right = _ink(field)
+    assert left > 0.5 and right > 0.9, (left, right)
+    field.fill("please set a timer!")
+    page.wait_for_timeout(300)
+    left, right = _ink(field)
+    assert left < 0.05 and right < 0.5, (left, right)
+    page.context.close()
