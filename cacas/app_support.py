@@ -82,7 +82,11 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
         status = day_status(store, p.code)
         mine = inter[inter["participant"] == p.code]
         success = records.success_rate(mine)
-        last = mine["time"].dropna().sort_values()  # the interaction's own time, not a questionnaire's
+        # the interaction's own time, not a questionnaire's; by the moment, not the text (a time an older version
+        # stored with an offset, kept by an import, sorted among the app's UTC times by its local date)
+        last = mine["time"].dropna()
+        last = last.loc[pd.to_datetime(last, utc=True, format="ISO8601", errors="coerce")
+                        .sort_values(kind="stable", na_position="first").index]
         has_prefs = store.get_preferences(p.code) is not None
         rows.append({
             "participant": p.code, "age range": p.age_range,
@@ -232,13 +236,26 @@ def synthetic_words(training_data: dict) -> str:
 
 
 def short_time(stamp) -> str:
-    """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'."""
-    if isinstance(stamp, (int, float)):
-        from datetime import datetime, timezone
+    """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'. A time
+    with another offset is said in UTC ('2026-10-26T01:30:00+02:00' -> '2026-10-25 23:30 UTC'); one
+    without a zone, as a study imported from an older version may hold (``restore``'s notes), says
+    so ('2026-03-29 00:59 (no time zone)'); a date alone, or what is no time, is given as it is."""
+    from datetime import datetime, timezone
 
-        stamp = datetime.fromtimestamp(stamp, timezone.utc).isoformat()
+    from cacas.store.validate import iso_time
+
+    if isinstance(stamp, (int, float)):
+        return datetime.fromtimestamp(stamp, timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     s = str(stamp)
-    return f"{s[:10]} {s[11:16]} UTC" if len(s) >= 16 else s
+    if len(s) < 16:
+        return s
+    try:
+        t = iso_time(s)
+    except ValueError:
+        return s
+    if t.utcoffset() is None:
+        return f"{t:%Y-%m-%d %H:%M} (no time zone)"
+    return f"{t.astimezone(timezone.utc):%Y-%m-%d %H:%M} UTC"
 
 
 def _scored_on(metrics: str | None) -> str:

@@ -48,8 +48,13 @@ class Job:
     result: Any = None
     error: str | None = None
     exception: BaseException | None = field(default=None, repr=False)  # what ``error`` says, for its type
-    started: float = field(default_factory=time.time)
+    #: when it started and ended, by the wall clock (seconds since the epoch: what a page says, "ended 22:06 UTC")
+    started: float = field(default_factory=lambda: time.time())
     finished: float | None = None
+    #: the monotonic clock at its start, and its duration once ended: :attr:`elapsed`, which the wall clock (set
+    #: back an hour, a laptop's clock synchronised) made -3595 s, and the time left with it
+    _since: float = field(default_factory=lambda: time.monotonic(), repr=False)
+    _took: float | None = field(default=None, repr=False)
     #: (elapsed s, fraction) at the first report of some work done: what came before it (starting
     #: worker processes, a first optimizer) is no measure of the pace (:func:`cacas.app_support.time_left`)
     first_step: tuple[float, float] | None = None
@@ -85,7 +90,8 @@ class Job:
 
     @property
     def elapsed(self) -> float:
-        return (self.finished or time.time()) - self.started
+        """Seconds since it started, or that it took once ended (the monotonic clock's)."""
+        return self._took if self._took is not None else time.monotonic() - self._since
 
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the work ends (tests and command-line use); True if it has ended."""
@@ -142,6 +148,7 @@ class JobRunner:
                     job.fraction = 1.0
                     job.status = DONE
             finally:
+                job._took = time.monotonic() - job._since
                 job.finished = time.time()
                 job._done.set()
 

@@ -45,8 +45,12 @@ class Shown:
 
     @property
     def shown_at(self) -> str:
-        """When it was first shown, as the server's clock reads it (HH:MM)."""
-        return time.strftime("%H:%M", time.localtime(self.since))
+        """When it was first shown, in UTC as the app says every time ("2026-11-27 22:00 UTC",
+        :func:`cacas.app_support.short_time`): the server's local clock, its zone unsaid, read
+        "23:00" in Berlin beside the Overview's "22:00 UTC" for the same moment."""
+        from cacas.app_support import short_time
+
+        return short_time(self.since)
 
 
 @dataclass(frozen=True)

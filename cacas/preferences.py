@@ -198,8 +198,8 @@ def _hours(value: Any, where: str) -> tuple[tuple[int, int], ...] | None:
               and all(isinstance(h, int) and not isinstance(h, bool) for h in pair))
         if not ok or not (0 <= pair[0] < pair[1] <= 24) or pair[0] % 2 or pair[1] % 2:
             extra = ""
-            if ok and pair[0] >= pair[1]:
-                extra = " (a range over midnight is two ranges, e.g. [[22, 24], [0, 2]])"
+            if ok and 0 <= pair[0] <= 24 and 0 <= pair[1] <= 24 and pair[0] >= pair[1]:
+                extra = _past_midnight(*pair)
             elif ok and 0 <= pair[0] < pair[1] <= 24:  # odd: the slots are 2 hours from midnight (Table I)
                 cover = [pair[0] - pair[0] % 2, pair[1] + pair[1] % 2]
                 extra = (f" (the day is in 2-hour slots from midnight, so a range starts and ends at an even hour: "
@@ -216,6 +216,27 @@ def _hours(value: Any, where: str) -> tuple[tuple[int, int], ...] | None:
             raise CacasError(f"{where}: {json.dumps(pair)} is invalid{extra}; valid: {hint}")
         out.append((pair[0], pair[1]))
     return tuple(out)
+
+
+def _past_midnight(start: int, end: int) -> str:
+    """What a range of whole hours 0-24 whose ``start`` is not before its ``end`` is meant to be, for
+    :func:`_hours`' message: the ranges of even hours (S3's 2-hour slots, Table I) that hold it. It said
+    "e.g. [[22, 24], [0, 2]]" for each: [22, 0], 22:00 "until midnight", was then written 22:00-02:00."""
+    def clock(a: int, b: int) -> str:
+        return f"{a:02d}:00-{b:02d}:00"
+
+    if start % 24 == end % 24:  # [6, 6]; [24, 0], midnight to midnight
+        return (" (its start and end are the same hour, so it holds no time; the whole day is [[0, 24]], or leave "
+                "'hours' out)")
+    low, high = start - start % 2, end + end % 2  # the even hours around it
+    held = "" if (low, high) == (start, end) else f", holds {clock(start, end)}"
+    if end == 0:
+        return f" (midnight as a range's end is 24: [{low}, 24], {clock(low, 24)}{held.replace('00:00', '24:00')})"
+    if start == 24:
+        return f" (midnight as a range's start is 0: [0, {high}], {clock(0, high)}{held.replace('24:00', '00:00')})"
+    even = "" if not held else ", in even hours as the day is in 2-hour slots from midnight"
+    return (f" (a range over midnight is two ranges{even}: {json.dumps([[low, 24], [0, high]])}, "
+            f"{clock(low, 24)} and {clock(0, high)}{held})")
 
 
 def _interval(value: Any, where: str) -> tuple[int, int] | None:

@@ -189,7 +189,8 @@ def run_caption(settings: dict) -> str:
 
 def run_label(root, name: str) -> str:
     """How the run pickers name a run: when it ran and what it compared, from its settings (two
-    runs of one day differ in more than their time stamp), e.g. "26 Nov 2026 08:15:02 · 8
+    runs of one day differ in more than their time stamp; the folder's time is UTC, :func:`_stamp`, and
+    said so: a lab in Berlin read its run of 09:15 as "08:15:02"), e.g. "26 Nov 2026 08:15:02 UTC · 8
     participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0". A run without readable
     settings (one copied in from ``cacas simulate --out``) is its folder name."""
     from datetime import datetime
@@ -201,7 +202,7 @@ def run_label(root, name: str) -> str:
     if not settings:
         return name
     try:
-        when = datetime.strptime(name[:15], "%Y%m%d-%H%M%S").strftime("%d %b %Y %H:%M:%S")
+        when = datetime.strptime(name[:15], "%Y%m%d-%H%M%S").strftime("%d %b %Y %H:%M:%S UTC")  # as the app's times
     except ValueError:
         when = name
     return " · ".join([when, *_settings_words(settings, short=True)])

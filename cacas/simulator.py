@@ -22,6 +22,7 @@ states.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,8 +120,10 @@ class ContextSource:
 
 
 def steps_per_day(k_minutes: float) -> int:
-    """generate_state steps of one simulated day, 00:00 to 23:59 every K minutes."""
-    return int(24 * 60 // k_minutes)
+    """generate_state steps of one simulated day, 00:00 to 23:59 every K minutes: the whole steps of
+    24 x 60 / K (Section IV-B.3). 1440 // 7.2 is 199.0 in floating point (7.2 is stored a little above
+    7.2): a K that divides the day gives its 1440 / K steps (200), the last one no longer left out."""
+    return int(math.floor(round(24 * 60 / k_minutes, 9)))
 
 
 class StateGenerator:
@@ -177,7 +180,9 @@ class StateGenerator:
         # previous activity was only a few minutes ago (short repeat intervals, S4 < 5 min).
         follow = rng.random(E) < self.follow_up_rate
         self.last_activity_time = np.where(follow, now - rng.uniform(0, 5, E), self.last_activity_time)
-        slot = (now // 120).astype(int)  # S3 from each day's clock (a step may cross a slot's end)
+        # S3 from each day's clock (a step may cross a slot's end); the last step's time may round up to 24:00
+        # (720 + the largest float below 720 is 1440.0), which is the last slot's end, not a slot of its own
+        slot = np.minimum(now // 120, spaces.N_SLOTS - 1).astype(int)
         activity = self._draw_activities(slot)
         scene_cdf = np.cumsum(self.source.scene_table[activity], axis=1)
         scene = np.minimum((scene_cdf < rng.random((E, 1))).sum(1), spaces.N_SCENES - 1)

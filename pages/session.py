@@ -503,7 +503,7 @@ elif context is None:
     if not tablet and not board.heard(db, code):
         # after a restart a tablet left open shows its proposal without being drawn: this page cannot know
         ui.noted("info", f"This page has not heard from {code}'s tablet since the app started "
-                         f"({time.strftime('%H:%M', time.localtime(board.started))}). If the tablet shows a "
+                         f"({app_support.short_time(board.started)}). If the tablet shows a "
                          f"proposal, let {code} answer it there: this page follows it from the tablet's next tap.")
     with st.form("context", border=True):
         st.markdown("## What are you doing?" if tablet else f"## What is {code} doing?",  # the researcher sets it

@@ -130,6 +130,35 @@ def test_short_time_of_a_stamp_or_epoch_seconds():
     assert app_support.short_time(1_795_000_000) == "2026-11-18 11:06 UTC"
 
 
+def test_short_time_of_a_stamp_with_an_offset_or_without_a_zone():
+    """A study imported with times as an older version stored them (kept as they were, with a note: an offset, or no
+    zone) had its text cut and called UTC: "2026-10-26T01:30:00+02:00" read "2026-10-26 01:30 UTC" on the Overview, for
+    2026-10-25 23:30 UTC; a time without a zone was called UTC too. A model's "trained" time has an offset of +00:00."""
+    assert app_support.short_time("2026-10-26T01:30:00+02:00") == "2026-10-25 23:30 UTC"
+    assert app_support.short_time("2026-03-29T03:00:00.5+02:00") == "2026-03-29 01:00 UTC"  # Berlin's DST day
+    assert app_support.short_time("2026-11-21T18:40:00+00:00") == "2026-11-21 18:40 UTC"
+    assert app_support.short_time("2026-03-29T00:59:59") == "2026-03-29 00:59 (no time zone)"
+    assert app_support.short_time("2026-03-29") == "2026-03-29"  # a date alone, and what is no time, as it is
+    assert app_support.short_time("not a time, but long") == "not a time, but long"
+
+
+def test_last_recorded_is_the_latest_moment_whatever_the_times_offset(tmp_path):
+    """A study imported from an older version keeps an interaction time with an offset as it was (with a note):
+    "2026-10-26T00:30:00+02:00" (2026-10-25 22:30 UTC, Berlin's night the clocks go back) sorted as text after
+    "2026-10-25T23:00:01.000Z", and the Overview's "last recorded" named the earlier interaction, with its date."""
+    import sqlite3
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    day = cough_day(store, answers=[("pain check", "accept")] * 2)
+    store.close()
+    with sqlite3.connect(tmp_path / "s.sqlite") as db:  # as an import of an older version's bundle leaves them
+        db.execute("UPDATE interactions SET time = '2026-10-26T00:30:00+02:00' WHERE idx = 1")
+        db.execute("UPDATE interactions SET time = '2026-10-25T23:00:01.000Z' WHERE idx = 2")
+    store = StudyStore(tmp_path / "s.sqlite")
+    assert day == 1 and app_support.overview_frame(store).iloc[0]["last recorded"] == "2026-10-25 23:00 UTC"
+    store.close()
+
+
 def test_participants_are_said_by_code_whatever_its_letter_case():
     """Notes and tables name participants as a person reads the codes ("p01, R01, r02"; sorted as stored,
     capitals first: "R01, p01, r02")."""

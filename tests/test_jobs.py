@@ -150,3 +150,32 @@ def test_work_ending_with_a_base_exception_fails_and_its_key_can_start_again():
     assert runner.running() == []
     again, started = runner.start("k", lambda progress: 42)
     assert started and again is not job and again.wait(10) and again.result == 42
+
+
+def test_a_jobs_elapsed_time_is_not_moved_by_the_wall_clock(monkeypatch):
+    """The clock set back an hour during a job (a laptop's clock synchronised, a virtual machine resumed) made its
+    elapsed time -3595 s: the time left and "took ..." came from it. Elapsed time is the monotonic clock's; the wall
+    clock says only when the job ended (short_time)."""
+    from types import SimpleNamespace
+
+    from cacas import jobs
+
+    clock = {"wall": 1_800_000_000.0, "steady": 100.0}
+    monkeypatch.setattr(jobs, "time", SimpleNamespace(time=lambda: clock["wall"], monotonic=lambda: clock["steady"]))
+    go, seen = threading.Event(), {}
+
+    def work(progress):
+        go.wait(10)
+        progress(0.5, "half way")
+        seen["elapsed"] = job.elapsed
+
+    job, _ = JobRunner().start("k", work)
+    clock["wall"] -= 3600 - 5  # five seconds later, by a clock set back an hour
+    clock["steady"] += 5
+    go.set()
+    assert job.wait(10)
+    assert seen["elapsed"] == 5 and job.first_step == (5, 0.5)
+    clock["wall"] += 60  # once ended, its elapsed time stays
+    clock["steady"] += 60
+    assert job.elapsed == 5 and job.snapshot()["elapsed"] == 5
+    assert job.finished == 1_800_000_000.0 - 3595  # when it ended, by the wall clock

@@ -69,3 +69,21 @@ def test_a_request_awaiting_confirmation_is_read_back_for_its_proposal_only():
     assert board.pending("a.sqlite", "P01") == asked and board.pending("a.sqlite", "P02") is None  # any proposal's
     board.clear("a.sqlite", "P01")  # the tablet shows its form
     assert board.asked("a.sqlite", "P01", 1, 2, "3.6.20.2") is None and board.pending("a.sqlite", "P01") is None
+
+
+def test_when_a_proposal_was_shown_is_said_in_utc_as_the_apps_other_times(monkeypatch):
+    """On a server in Berlin, the researcher's view said "shown at 23:00" beside the Overview's "2026-11-27 22:00
+    UTC" for the same moment (the server's local clock, its zone unsaid): every time the app shows is UTC and says so
+    (app_support.short_time). Here the moment is 00:30 UTC on the day Berlin's clocks go forward (02:30 there)."""
+    import calendar
+    import time
+
+    monkeypatch.setenv("TZ", "Europe/Berlin")
+    time.tzset()
+    try:
+        since = calendar.timegm((2026, 3, 29, 0, 30, 0))
+        assert Shown(1, 1, "cough", "bedroom", "00:00-02:00", "pain check", "line", since=since).shown_at == \
+            "2026-03-29 00:30 UTC"
+    finally:
+        monkeypatch.undo()
+        time.tzset()

@@ -62,6 +62,18 @@ def test_preferred_action_table():
     ({"action": "remind to turn of"}, "action", "; did you mean 'remind to turn off'? valid: do nothing"),
     ({"secne": ["kitchen"]}, "secne", "unknown field; did you mean 'scene'? valid fields: description"),
     ({"hours": [[6.0, 10]]}, "hours", "hours are whole numbers, written without a decimal point: 6, not 6.0"),
+    # a range over or up to midnight is said as the ranges that hold it (it said "e.g. [[22, 24], [0, 2]]" for each:
+    # [22, 0], "until midnight", then read as 22:00-02:00; [6, 6] was "over midnight")
+    ({"hours": [[20, 4]]}, "hours", "[20, 4] is invalid (a range over midnight is two ranges: [[20, 24], [0, 4]], "
+                                    "20:00-24:00 and 00:00-04:00)"),
+    ({"hours": [[21, 3]]}, "hours", "[21, 3] is invalid (a range over midnight is two ranges, in even hours as the day "
+                                    "is in 2-hour slots from midnight: [[20, 24], [0, 4]], 20:00-24:00 and 00:00-04:00, "
+                                    "holds 21:00-03:00)"),
+    ({"hours": [[22, 0]]}, "hours", "[22, 0] is invalid (midnight as a range's end is 24: [22, 24], 22:00-24:00)"),
+    ({"hours": [[24, 2]]}, "hours", "[24, 2] is invalid (midnight as a range's start is 0: [0, 2], 00:00-02:00)"),
+    ({"hours": [[6, 6]]}, "hours", "[6, 6] is invalid (its start and end are the same hour, so it holds no time; "
+                                   "the whole day is [[0, 24]], or leave 'hours' out)"),
+    ({"hours": [[24, 0]]}, "hours", "[24, 0] is invalid (its start and end are the same hour"),
     # a newcomer's persona file (walkthrough): a plural field, one range written bare, odd hours, "7am"
     ({"activities": ["cough"]}, "activities", "unknown field; did you mean 'activity'? valid fields: description"),
     ({"hours": [6, 10]}, "hours", "[6, 10] is invalid (one range is a list of one pair: [[6, 10]], not [6, 10])"),

@@ -166,12 +166,12 @@ def test_a_run_is_named_by_what_it_compared_not_only_its_time(tmp_path):
     (tmp_path / "broken" / files.CHECKSUMS).unlink()
     (tmp_path / "broken" / "settings.json").write_text("{not json")
     assert saved_runs.run_label(tmp_path, "20261126-081502-seed0-8p-7d") == \
-        "26 Nov 2026 08:15:02 · 8 participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0"
+        "26 Nov 2026 08:15:02 UTC · 8 participants (example.json) · 7 days · 15 a day · CACAS, NN · seed 0"
     assert saved_runs.run_label(tmp_path, "20261126-081733-seed3-1p-1d") == (
-        "26 Nov 2026 08:17:33 · 1 participant (mine.json) · 1 day · Bandit (TS) · seed 3 · asks after 50% of "
+        "26 Nov 2026 08:17:33 UTC · 1 participant (mine.json) · 1 day · Bandit (TS) · seed 3 · asks after 50% of "
         "rejections · each in its own loop")
     assert saved_runs.run_label(tmp_path, "20261126-081734-seed3-1p-1d") == \
-        "26 Nov 2026 08:17:34 · 1 participant (study pilot) · 1 day · Bandit (TS) · seed 3"
+        "26 Nov 2026 08:17:34 UTC · 1 participant (study pilot) · 1 day · Bandit (TS) · seed 3"
     assert saved_runs.run_label(tmp_path, "from-the-command-line") == "from-the-command-line"
     assert saved_runs.run_label(tmp_path, "broken") == "broken"  # the picker still lists it; opening it names the file
     with pytest.raises(CacasError, match="settings.json: not readable JSON"):
@@ -305,4 +305,4 @@ def test_two_runs_finished_in_the_same_second_keep_both(tmp_path, monkeypatch):
     assert (one.name, two.name) == ("20261127-080000-seed0-1p-7d", "20261127-080000-seed0-1p-7d-2")
     assert saved_runs.load_run(one).daily["method"].tolist() == ["first"]
     assert saved_runs.load_run(two).daily["method"].tolist() == ["second"]
-    assert saved_runs.run_label(tmp_path, two.name).startswith("27 Nov 2026 08:00:00 · 1 participant")
+    assert saved_runs.run_label(tmp_path, two.name).startswith("27 Nov 2026 08:00:00 UTC · 1 participant")

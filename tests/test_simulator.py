@@ -45,6 +45,37 @@ def test_generate_state_steps_a_day_every_k_minutes():
         gen.generate_state()
 
 
+@pytest.mark.parametrize("k", [7.2, 14.4, 28.8, 57.6, 6.4, 0.2])
+def test_a_simulated_day_has_24_x_60_over_k_steps_where_k_divides_the_day(k):
+    """Section IV-B.3: "there will be 24 x 60 / K epochs in one day". 1440 // 7.2 is 199.0 in floating point (7.2 is
+    a little above 7.2), so a day of K = 7.2 had 199 steps and ended at 23:45-23:52, its last step left out."""
+    from cacas.simulator import steps_per_day
+
+    assert steps_per_day(k) == round(24 * 60 / k)
+    assert [steps_per_day(x) for x in (10, 30, 7, 720, 1000)] == [144, 48, 205, 2, 1]  # 7: 205 whole steps, 1435 min
+
+
+def test_the_last_step_of_a_day_stays_in_the_last_slot():
+    """A step's time is jittered within it (t*K + U(0, K)): with K = 720, 720 + the largest float below 720 rounds to
+    1440.0, the 24:00 that has no slot (slot 12 of 12: an IndexError deep in the draw)."""
+    k = 720.0
+
+    class LastMoment:  # each step at the very end of its K minutes
+        def __init__(self, rng):
+            self.rng = rng
+
+        def __getattr__(self, name):
+            return getattr(self.rng, name)
+
+        def uniform(self, low, high, size=None):
+            return np.full(size, np.nextafter(high, 0)) if high == k else self.rng.uniform(low, high, size)
+
+    gen = StateGenerator(ContextSource.generic(), 2, k, LastMoment(np.random.default_rng(0)))
+    gen.generate_state()
+    gen.observe(np.zeros(2, int), np.full(2, spaces.OTHERS))
+    assert list(gen.generate_state()[:, 2]) == [11, 11]
+
+
 def test_generate_state_history_feeds_s6_s7_and_is_seeded():
     def run(seed):
         gen = StateGenerator(ContextSource.generic(), 2, 10, np.random.default_rng(seed))

@@ -862,23 +862,31 @@ def test_not_heard_from_the_tablet_since_the_app_started_gives_the_apps_start(ap
                                                                              monkeypatch):
     """Walkthrough: the app's first page was drawn at 02:16, the Study session page first opened at 02:21, and
     the researcher's view said "has not heard from P01's tablet since the app started (02:21)": the tablets'
-    board began with the first Study session page. It begins with the server's first page."""
+    board began with the first Study session page. It begins with the server's first page, said in UTC with its
+    date as the app's other times (on a server in Berlin it said the server's local "03:16", its zone unsaid, beside
+    the Overview's "02:16 UTC"; and a server started days before read as if started that day)."""
+    import calendar
     import time as real_time
     from types import SimpleNamespace
 
     from cacas import on_tablet
 
     store.open_day("P01")
-    now = {"t": real_time.mktime((2026, 11, 27, 2, 16, 0, 0, 0, -1))}
+    now = {"t": calendar.timegm((2026, 11, 27, 2, 16, 0))}
     # the board's clock only (not the process's: Streamlit's own timing stays real)
-    monkeypatch.setattr(on_tablet, "time", SimpleNamespace(time=lambda: now["t"], strftime=real_time.strftime,
-                                                           localtime=real_time.localtime))
-    at = app(participant="P01")  # the Overview, first
-    no_exception(at)
-    now["t"] += 5 * 60
-    at.switch_page(PAGE).run()
-    no_exception(at)
-    assert "This page has not heard from P01's tablet since the app started (02:16)." in texts(at)
+    monkeypatch.setattr(on_tablet, "time", SimpleNamespace(time=lambda: now["t"]))
+    monkeypatch.setenv("TZ", "Europe/Berlin")
+    real_time.tzset()
+    try:
+        at = app(participant="P01")  # the Overview, first
+        no_exception(at)
+        now["t"] += 5 * 60
+        at.switch_page(PAGE).run()
+        no_exception(at)
+        assert "This page has not heard from P01's tablet since the app started (2026-11-27 02:16 UTC)." in texts(at)
+    finally:
+        monkeypatch.undo()
+        real_time.tzset()
 
 
 def test_the_tablet_says_an_answered_proposal_without_a_number_of_its_own(app, store, p01, quick_policy):

@@ -77,7 +77,7 @@ def test_evaluate_a_model_in_the_background_shows_accuracy_and_confusion(app, mo
     from cacas.jobs import RUNNER
     from cacas.recognition import compute_metrics
 
-    recognizer = SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.5, "trained": "2026-11-21T10:00:00"})
+    recognizer = SoundRecognizer(SoundCNN(), metadata={"accuracy": 0.5, "trained": "2026-11-21T10:00:00+00:00"})
     metrics = compute_metrics([0, 1, 2, 2], [0, 1, 2, 1], ["cough", "cry", "sneeze"])
 
     def evaluate(progress=None):
