@@ -117,6 +117,8 @@ def age_range(value: Any, bounded: bool = True) -> str:
     text = unicodedata.normalize("NFKC", str(value)).strip().replace(" ", "")
     if not text:
         return ""
+    # a dash as word processors and macOS write one between two numbers ("25–34": an en dash, i18n) is the hyphen
+    text = re.sub(r"(?<=\d)[\u2010-\u2015\u2212](?=\d)", "-", text)
     m = AGE_RE.fullmatch(text)
     ages = [int(a) for a in m.groups() if a is not None] if m else []
     if not m or ages != sorted(ages) or (bounded and max(ages) > AGE_MAX):
