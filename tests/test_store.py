@@ -493,6 +493,18 @@ def test_an_age_range_typed_with_other_digits_is_saved_with_0_to_9(store):
         store.add_participant("P07", age_range="２５０")
 
 
+def test_a_code_typed_in_full_width_says_how_to_type_it(store):
+    """'ｐ０１' from a Japanese or Chinese keyboard was refused with the generic message, the researcher left to
+    see why it is not p01 (i18n's left-alone item). It is still refused (a code is an identity across files,
+    never changed without a word), naming the half-width code; other codes get the message as before."""
+    with pytest.raises(CacasError, match=r"^participant code 'ｐ０１' is invalid; it is written in full-width letters "
+                                         r"or digits: type it as 'p01' \(half-width\); valid: a pseudonymous code"):
+        store.add_participant("ｐ０１")
+    with pytest.raises(CacasError, match=r"^participant code 'Ü01' is invalid; valid: a pseudonymous code"):
+        store.add_participant("Ü01")
+    assert [p.code for p in store.list_participants()] == ["P01"]
+
+
 def test_duplicate_code_and_bad_age_range_and_unknown_study(store):
     before = snapshot(store.path)
     with pytest.raises(CacasError, match=r"^participant P01 already exists \(in study 'default'\); codes must be "

@@ -63,7 +63,12 @@ def code(value: Any) -> str:
     if isinstance(value, str) and not value.strip():  # "participant code '' is invalid" read oddly (walkthrough)
         raise CacasError(f"the participant code is empty; valid: {CODE_HINT}")
     if not isinstance(value, str) or not CODE_RE.fullmatch(value.strip()):
-        raise CacasError(f"participant code {value!r} is invalid; valid: {CODE_HINT}")
+        # "ｐ０１" from a Japanese or Chinese keyboard reads as p01, but a code is an identity across files: said,
+        # never changed (i18n's left-alone item)
+        narrow = unicodedata.normalize("NFKC", value).strip() if isinstance(value, str) else ""
+        hint = (f"it is written in full-width letters or digits: type it as {narrow!r} (half-width); "
+                if any("\uff01" <= c <= "\uff5e" for c in str(value)) and CODE_RE.fullmatch(narrow) else "")
+        raise CacasError(f"participant code {value!r} is invalid; {hint}valid: {CODE_HINT}")
     return value.strip()
 
 
