@@ -86,6 +86,18 @@ def bundle(tmp_path_factory, filled):
         return export.export_study(s, folder / "out").bundle
 
 
+def test_the_bundle_stores_policy_files_as_they_are_and_deflates_the_tables(bundle, tmp_path):
+    """Scale walk (60 participants x 21 days, 1,260 policy files of 640 KB): deflating the policy files (torch's
+    zips of weights) took 21 of the zip's 36 s for a tenth of its size; they are stored as they are now, the
+    tables still deflated, and the zip imports as before."""
+    with zipfile.ZipFile(bundle) as zf:
+        how = {i.filename: i.compress_type for i in zf.infolist()}
+    policies = [n for n in how if n.startswith("policies/")]
+    assert policies and {how[n] for n in policies} == {zipfile.ZIP_STORED}
+    assert {how[n] for n in how if n not in policies} == {zipfile.ZIP_DEFLATED}
+    assert export.import_bundle(bundle, tmp_path / "b" / "study.sqlite").interactions > 0
+
+
 def test_export_writes_every_table_and_one_zip(store, tmp_path):
     result = export.export_study(store, tmp_path / "out")
     assert set(result.tables) == set(export.TABLES)
