@@ -102,6 +102,21 @@ def test_replay_memory_round_trip_is_compact_and_kept_only_when_asked(tmp_path):
     assert torch.equal(loaded.buffer.r[:50], agent.buffer.r[:50])
 
 
+def test_an_agent_loaded_to_decide_makes_no_replay_buffer(tmp_path):
+    """Scale walk: a policy loaded to decide (the tablet's, the Adaptation page's two, each of an import's 1,260)
+    zeroed a 38-MB replay buffer it never fills, half of the load's time; the buffer's tensors are made at their
+    first use now, as they were: empty, and holding what is added."""
+    agent = DiscreteSAC(seed=0)
+    agent.save(tmp_path / "sac.pt")
+    loaded = DiscreteSAC.load(tmp_path / "sac.pt")
+    assert not {"s", "s2", "a", "r"} & set(vars(loaded.buffer))
+    assert loaded.replay_memory()["a"].shape == (0,)  # read before anything is added: empty
+    assert loaded.buffer.s.shape == (loaded.config.buffer_capacity, loaded.config.state_dim)
+    assert loaded.buffer.a.dtype == torch.long and not loaded.buffer.r.any()
+    with pytest.raises(AttributeError):
+        loaded.buffer.other
+
+
 def test_initial_weights_come_from_the_seed_alone_and_leave_the_global_stream_alone():
     import torch
 
