@@ -67,8 +67,14 @@ TABLES = ("interactions", "daily", "by_preference", "participants", "questionnai
 #: The most a bundle's member may hold uncompressed (its ZipInfo.file_size), checked before it is
 #: read: a study's largest table is a few MB, and a policy file smaller still.
 MAX_MEMBER_BYTES = 256 * 2**20
-#: The most all the members an import reads may hold together, uncompressed.
+#: The most all the members an import reads may hold together, uncompressed, unless they come to at most
+#: :data:`BUNDLE_EXPANSION` times the zip's own size (:func:`check_sizes`).
 MAX_BUNDLE_BYTES = 1024 * 2**20
+#: How many times its own size a zip's members may hold together, uncompressed, past :data:`MAX_BUNDLE_BYTES`:
+#: a large study's zip is mostly policy files stored as they are (1.0; its tables deflate ~13 to 1, and an older
+#: bundle's deflated policy files ~1.1), a zip bomb's hundreds of times. Without it the import refused the zip
+#: cacas export wrote of a study of more than ~1,700 policy versions (82 participants x 21 days: 1,052 MiB).
+BUNDLE_EXPANSION = 2
 #: The most a member of more than :data:`RATIO_FROM_BYTES` may be compressed (uncompressed size /
 #: compressed size): a study's tables come to 5-30, a policy file to about 1; a zip bomb to ~1000.
 MAX_COMPRESSION_RATIO = 200
@@ -487,14 +493,17 @@ def _size(n: int) -> str:
     return f"{n} bytes ({n / 2**20:.1f} MiB)" if n >= 2**20 else f"{n} bytes"
 
 
-def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = None, what: str = "bundle") -> None:
+def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = None, what: str = "bundle",
+                zip_size: int = 0) -> None:
     """Refuse (CacasError naming the bundle, the member and the limit, then ``valid``) before anything
     is read: a member larger than :data:`MAX_MEMBER_BYTES` uncompressed, or compressed more than
     :data:`MAX_COMPRESSION_RATIO` to 1 (a zip bomb), or members larger together than
-    :data:`MAX_BUNDLE_BYTES`. The sizes are the zip's own word; zipfile never reads more than the
+    :data:`MAX_BUNDLE_BYTES` and than :data:`BUNDLE_EXPANSION` times ``zip_size``, the zip's own size
+    in bytes (0: not known). The sizes are the zip's own word; zipfile never reads more than the
     size a member's header gives (it stops there, and a CRC that does not match is a damage).
     ``what`` names the zip in the messages: "bundle" (cacas import's), "zip" (a run's, uploaded)."""
     valid = valid or f"valid: the {BUNDLE_NAME} cacas export wrote; nothing was imported"
+    limit = max(MAX_BUNDLE_BYTES, BUNDLE_EXPANSION * zip_size)
     total = 0
     for info in members:
         if info.file_size > MAX_MEMBER_BYTES:
@@ -506,10 +515,11 @@ def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = 
                              f"({_size(info.file_size)} from {_size(info.compress_size)}), over the limit of "
                              f"{MAX_COMPRESSION_RATIO} to 1 (a study's tables come to about 30 at most); {valid}")
         total += info.file_size
-        if total > MAX_BUNDLE_BYTES:
+        if total > limit:
             contents = "the bundle's tables and policy files" if what == "bundle" else f"the {what}'s files"
+            times = f" ({BUNDLE_EXPANSION} times the {what}'s own size)" if limit > MAX_BUNDLE_BYTES else ""
             raise CacasError(f"{path}: {contents} are {_size(total)} uncompressed "
-                             f"by {info.filename}, over the limit of {_size(MAX_BUNDLE_BYTES)} for a whole {what}; "
+                             f"by {info.filename}, over the limit of {_size(limit)}{times} for a whole {what}; "
                              f"{valid}")
 
 
@@ -579,7 +589,8 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
         # every member read below, sized before any is read (others are never read)
         check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
                            or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
-                           or (i.filename.startswith("policies/") and not i.filename.endswith("/"))])
+                           or (i.filename.startswith("policies/") and not i.filename.endswith("/"))],
+                    zip_size=path.stat().st_size)
         if MANIFEST_NAME in names:  # none in bundles written before it: version 1
             _check_manifest(path, read_member(path, zf, MANIFEST_NAME))
         tables = {}
