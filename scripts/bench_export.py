@@ -31,6 +31,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # this checkout's cacas, not an installed one
 STEPS = ("tables", "csvs", "bundle", "export", "import")
 
 
@@ -47,7 +48,6 @@ def du(path: Path) -> int:
 
 def step(name: str, db: str, study: str | None, work: Path) -> dict:
     """Run one step here (a child process); what it made, in words."""
-    sys.path.insert(0, str(ROOT))  # this checkout's cacas, not an installed one
     from cacas import export
     from cacas.store import StudyStore
 
