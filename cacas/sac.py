@@ -123,23 +123,30 @@ def actor_network(state_dim: int, n_actions: int, hidden: int, generator: torch.
 
 
 class ReplayBuffer:
-    """Transitions (s, a, r, s') in preallocated tensors; uniform sampling. The tensors (~38 MB for 50,000
-    transitions of the 94-D state) are allocated at the first :meth:`add_batch`: an agent loaded to act (the
-    tablet's policy, a method comparison's scoring) never fills its buffer, and zeroing them took ~100 ms of a
-    CACAS policy's ~150-ms load."""
+    """Transitions (s, a, r, s') in preallocated tensors; uniform sampling.
+
+    The tensors (38 MB for 50,000 transitions of 94 features) are made at their first use, not with
+    the buffer: an agent loaded to decide (the tablet's policy, the Adaptation page's two versions,
+    an import's check of every policy file) never fills one; making them was half of a policy file's
+    load (scale walk: an import of 60 participants x 21 days' 1,260 files spent ~40 s on it)."""
+
+    _TENSORS = ("s", "s2", "a", "r")
 
     def __init__(self, capacity: int, state_dim: int):
         self.capacity, self.state_dim = capacity, state_dim
-        self.s = self.s2 = self.a = self.r = None  # allocated at the first add_batch
         self.size = 0
         self.pos = 0
 
+    def __getattr__(self, name: str):  # called only for what is not set yet: the tensors, at their first use
+        if name not in ReplayBuffer._TENSORS:
+            raise AttributeError(name)
+        self.s = torch.zeros(self.capacity, self.state_dim)
+        self.s2 = torch.zeros(self.capacity, self.state_dim)
+        self.a = torch.zeros(self.capacity, dtype=torch.long)
+        self.r = torch.zeros(self.capacity)
+        return getattr(self, name)
+
     def add_batch(self, s: np.ndarray, a: np.ndarray, r: np.ndarray, s2: np.ndarray) -> None:
-        if self.s is None:
-            self.s = torch.zeros(self.capacity, self.state_dim)
-            self.s2 = torch.zeros(self.capacity, self.state_dim)
-            self.a = torch.zeros(self.capacity, dtype=torch.long)
-            self.r = torch.zeros(self.capacity)
         n = len(a)
         idx = (self.pos + np.arange(n)) % self.capacity
         t = torch.from_numpy
@@ -386,9 +393,6 @@ class DiscreteSAC:
         """The replay buffer's transitions in compact form: s and s' as Table I index rows (int8),
         the action (int8) and the reward (float32); about 16 bytes a transition."""
         b, n = self.buffer, self.buffer.size
-        if n == 0:  # never filled: nothing allocated either
-            b.add_batch(np.zeros((0, b.state_dim), np.float32), np.zeros(0, np.int64), np.zeros(0, np.float32),
-                        np.zeros((0, b.state_dim), np.float32))
         return {"s": spaces.indices_from_onehot(b.s[:n].numpy()).astype(np.int8),
                 "a": b.a[:n].numpy().astype(np.int8), "r": b.r[:n].numpy().astype(np.float32),
                 "s2": spaces.indices_from_onehot(b.s2[:n].numpy()).astype(np.int8)}

@@ -29,7 +29,7 @@ import hashlib
 import json
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable
+from typing import Callable, Mapping
 
 import numpy as np
 import pandas as pd
@@ -189,12 +189,17 @@ class DayStatus:
         return self.day + 1
 
 
-def day_status(store, participant: str) -> DayStatus:
+def day_status(store, participant: str, recorded_by_day: Mapping[int, int] | None = None) -> DayStatus:
+    """Where ``participant``'s study stands (:class:`DayStatus`). ``recorded_by_day``: their
+    recorded interactions (:func:`cacas.records.is_recorded`) per day, when the caller has read
+    them already (the Overview reads a study's interactions once, not once more per participant:
+    a third of its run for 60 participants); else the latest day's are read here."""
     r = store.resume(participant)
     waiting = bool(r.day and not r.day_open and r.day not in adapted_days(store, participant))
     recorded = 0
     if r.interactions_today:
-        recorded = int(records.is_recorded(store.interactions_frame(participant, method=None, day=r.day)).sum())
+        recorded = int(recorded_by_day.get(r.day, 0)) if recorded_by_day is not None else \
+            int(records.is_recorded(store.interactions_frame(participant, method=None, day=r.day)).sum())
     return DayStatus(r.day, r.day_open, r.interactions_today, r.total_interactions, r.policy_version,
                      waiting, bool(r.day >= STUDY_DAYS and not r.day_open), recorded)
 

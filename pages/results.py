@@ -348,7 +348,9 @@ with data:
                             table_file_name(name), f"Download {name}.csv", key=f"dl-table-{name}")
     if source.startswith("Simulated run: "):  # as the Simulation lab offers it
         ui.run_zip_button(db, source.removeprefix("Simulated run: "), key="results-dl-run-zip")
-    if source == HUMAN:
+    # the zip only while the tab is open: whether it can be made reads every policy file once a server's life (its
+    # sha256; 790 MB and 2.5 s of the page's first run for 60 participants x 21 days, wherever the page opened)
+    if source == HUMAN and data.open:
         def _bundle() -> bytes:  # made in memory: no copy of the study left on disk by a server killed meanwhile
             return bundle_bytes(ui.store(), study)
 

@@ -55,6 +55,34 @@ def test_overview_says_who_still_owes_the_questionnaire(tmp_path):
     store.close()
 
 
+def test_overview_reads_the_studys_interactions_once(tmp_path, monkeypatch):
+    """Scale walk (60 participants x 21 days): the Overview filtered the study's interactions once per
+    participant and read each one's latest day again (day_status), a third of its run; now one read, with
+    each row as day_status alone says it: an open day's recorded interactions (not the unanswered one), a
+    closed day's 0, someone with none."""
+    from cacas.study_day import day_status
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    cough_day(store, "P01", answers=[("pain check", "accept"), ("chitchat", "reject"), ("pain check", "others")])
+    cough_day(store, "P02", answers=[("chitchat", "accept")])
+    store.close_day("P02", 1)
+    store.add_participant("P03")
+    reads = []
+    real = store.interactions_frame
+    monkeypatch.setattr(store, "interactions_frame", lambda *a, **k: reads.append((a, k)) or real(*a, **k))
+    table = app_support.overview_frame(store).set_index("participant")
+    assert len(reads) == 1
+    assert table["interactions today"].to_dict() == {"P01": 2, "P02": 0, "P03": 0}
+    assert day_status(store, "P01").recorded_today == 2
+    assert table.loc["P01", "success rate so far"] == pytest.approx(0.5)
+    assert table.loc["P02", "success rate so far"] == pytest.approx(1.0)
+    assert math.isnan(table.loc["P03", "success rate so far"]) and table.loc["P03", "last recorded"] == ""
+    assert table["next step"].to_dict() == {"P01": "Day 1: 13 more interactions on the tablet",
+                                            "P02": "Adapt after day 1 (Adaptation)",
+                                            "P03": "Describe 5 preferences (Participants)"}
+    store.close()
+
+
 def test_overview_and_events(tmp_path):
     store = StudyStore(tmp_path / "s.sqlite")
     day = cough_day(store, answers=[("pain check", "accept"), ("chitchat", "reject")])

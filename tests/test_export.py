@@ -86,6 +86,18 @@ def bundle(tmp_path_factory, filled):
         return export.export_study(s, folder / "out").bundle
 
 
+def test_the_bundle_stores_policy_files_as_they_are_and_deflates_the_tables(bundle, tmp_path):
+    """Scale walk (60 participants x 21 days, 1,260 policy files of 640 KB): deflating the policy files (torch's
+    zips of weights) took 21 of the zip's 36 s for a tenth of its size; they are stored as they are now, the
+    tables still deflated, and the zip imports as before."""
+    with zipfile.ZipFile(bundle) as zf:
+        how = {i.filename: i.compress_type for i in zf.infolist()}
+    policies = [n for n in how if n.startswith("policies/")]
+    assert policies and {how[n] for n in policies} == {zipfile.ZIP_STORED}
+    assert {how[n] for n in how if n not in policies} == {zipfile.ZIP_DEFLATED}
+    assert export.import_bundle(bundle, tmp_path / "b" / "study.sqlite").interactions > 0
+
+
 def test_export_writes_every_table_and_one_zip(store, tmp_path):
     result = export.export_study(store, tmp_path / "out")
     assert set(result.tables) == set(export.TABLES)
@@ -1404,6 +1416,7 @@ def test_a_member_compressed_like_a_zip_bomb_is_refused_before_it_is_read(bundle
 
 def test_members_larger_together_than_the_limit_are_refused(bundle, tmp_path, monkeypatch, opened):
     monkeypatch.setattr(export, "MAX_BUNDLE_BYTES", 10_000)  # the bundle's members read come to ~20 kB
+    monkeypatch.setattr(export, "BUNDLE_EXPANSION", 0)  # the limit alone, whatever the zip's own size
     opened.clear()
     target = tmp_path / "new" / "study.sqlite"
     with pytest.raises(CacasError, match=r": the bundle's tables and policy files are \d+ bytes uncompressed by "
@@ -1412,6 +1425,30 @@ def test_members_larger_together_than_the_limit_are_refused(bundle, tmp_path, mo
         export.import_bundle(bundle, target)
     assert opened == []
     assert not target.exists()
+
+
+def test_a_large_study_whose_zip_is_mostly_policy_files_imports_past_the_limit(bundle, tmp_path, monkeypatch, opened):
+    """Scale walk: cacas export wrote the zip of 82 participants x 21 days (1,052 MiB, 1,722 policy files of 640 KB
+    stored as they are) and cacas import refused it, "over the limit of 1024.0 MiB for a whole bundle; valid: the
+    cacas-study.zip cacas export wrote". Members that come to at most BUNDLE_EXPANSION times the zip's own size
+    pass the total limit (a zip bomb's come to hundreds of times); more than that is refused, said so."""
+    from cacas.store.restore import RESTORE_COLUMNS
+
+    with zipfile.ZipFile(bundle) as zf:  # the members an import reads, as check_sizes counts them
+        read = sum(i.file_size for i in zf.infolist() if i.filename == export.MANIFEST_NAME or i.filename.startswith(
+            "policies/") or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS})
+    assert bundle.stat().st_size < read <= 2 * bundle.stat().st_size  # the tables deflated: more than the zip
+    monkeypatch.setattr(export, "MAX_BUNDLE_BYTES", read - 1)  # as the scale walk's: over the limit by its policies
+    assert export.import_bundle(bundle, tmp_path / "new" / "study.sqlite").interactions == 20
+    monkeypatch.setattr(export, "MAX_BUNDLE_BYTES", 1000)
+    monkeypatch.setattr(export, "BUNDLE_EXPANSION", 1)  # now the members hold more than the zip's size allows
+    opened.clear()
+    with pytest.raises(CacasError, match=rf": the bundle's tables and policy files are \d+ bytes uncompressed by "
+                                         rf"\S+, over the limit of {bundle.stat().st_size} bytes \(1 times the "
+                                         r"bundle's own size\) for a whole bundle; valid: the cacas-study.zip cacas "
+                                         r"export wrote; nothing was imported$"):
+        export.import_bundle(bundle, tmp_path / "other" / "study.sqlite")
+    assert opened == []
 
 
 def test_the_size_limits_leave_a_real_bundle_and_other_files_alone(bundle, tmp_path):
