@@ -92,6 +92,19 @@ EARLIER_PREFERENCES_ROOM = 784
 WRAPPING_ROW = 66
 
 
+#: The data grid's height (px) above and around its rows: the header row (35 px) and its borders.
+GRID_FRAME = 38
+
+
+def table_height(rows: int, row_height: int | None, most: int = 10) -> int | str:
+    """The height (px) of a data grid that shows up to ``most`` of its ``rows`` whole, rows of ``row_height`` px
+    (None: Streamlit's 35, and its own height, "auto": it shows 10 of them). Wrapping rows of :data:`WRAPPING_ROW`
+    left Streamlit's height showing 5 (scale walk: 5 of 60 participants on the Overview)."""
+    if row_height is None:
+        return "auto"
+    return GRID_FRAME + row_height * max(1, min(rows, most))
+
+
 def fitted_layout(widths: dict[str, int], columns, room: int) -> tuple[dict[str, int], int]:
     """A data grid's layout in which every column is in view: the pixel widths of the ``columns``
     shown (``widths``: each column's, chosen so that a name stays whole on one line), which together

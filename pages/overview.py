@@ -61,7 +61,7 @@ shown = ["participant", "next step"] + [c for c in table.columns
 widths, row_height = table_layouts.overview_table_layout(shown, table["participant"])
 st.dataframe(
     table.assign(**{"success rate so far": 100 * table["success rate so far"]}), hide_index=True, width="stretch",
-    column_order=shown, row_height=row_height,
+    column_order=shown, row_height=row_height, height=table_layouts.table_height(len(table), row_height),
     column_config={
         "participant": small("participant", width=widths["participant"]), "day": small("day", width=widths["day"]),
         "policy": small("policy", width=widths["policy"]),

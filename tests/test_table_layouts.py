@@ -42,3 +42,13 @@ def test_recent_activity_fits_the_page_and_wraps_only_a_line_too_long():
     widths, row = table_layouts.recent_activity_layout(["P01", "participant_0003"], long)
     assert sum(widths.values()) == table_layouts.OVERVIEW_TABLE_ROOM and row == table_layouts.WRAPPING_ROW
     assert widths["participant"] > 110  # the code whole, "what" narrower by as much
+
+
+def test_a_table_of_wrapping_rows_is_as_tall_as_ten_of_them():
+    """Scale walk: the Overview's 60 participants showed 5 at a time (rows of two lines in Streamlit's height for
+    ten of one line). Ten wrapping rows whole, a shorter table no taller than its rows, one-line rows as before."""
+    rows = table_layouts.WRAPPING_ROW
+    assert table_layouts.table_height(60, rows) == table_layouts.GRID_FRAME + 10 * rows
+    assert table_layouts.table_height(2, rows) == table_layouts.GRID_FRAME + 2 * rows
+    assert table_layouts.table_height(0, rows) == table_layouts.GRID_FRAME + rows  # "no participants" has its row
+    assert table_layouts.table_height(60, None) == "auto"
