@@ -356,6 +356,9 @@ def _route(store) -> None:
         problem = study_data_problem()
         if problem:  # said on every researcher page, before a participant meets it on the tablet
             (st.error if study_data_blocked() else st.warning)(f"Set-up: {problem}.", icon=":material/folder_off:")
+        behind = app_support.clock_behind(store)
+        if behind:
+            st.warning(f"Clock: {behind}.", icon=":material/schedule:")
     ui.set_address(**address)
     ui.click_not_done()  # a click whose callback met a busy or unreadable database, said above the page
     ui.routed()

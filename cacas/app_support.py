@@ -244,6 +244,38 @@ def synthetic_words(training_data: dict) -> str:
     return f" ({some} synthetic)" if isinstance(some, int) and some > 0 else ""
 
 
+#: How far (s) the study's newest record may be ahead of the clock before the researcher's pages say so: a record
+#: written a moment ago by another machine whose clock runs a little ahead is not a clock set back.
+CLOCK_SLACK_S = 120
+
+
+def clock_behind(store, now=None) -> str | None:
+    """One line for the researcher's pages when this computer's clock is behind the study's newest record by more
+    than :data:`CLOCK_SLACK_S` (clock walk: a server restarted with its clock set back, a Raspberry Pi without a
+    real-time clock before it synchronises, records what follows as earlier than what came before: the Overview's
+    "last recorded", which preferences an interaction is scored against, the export's order of times); else None.
+    ``now``: an aware datetime (default: the clock's)."""
+    from datetime import datetime, timezone
+
+    from cacas.store.validate import iso_time
+
+    newest = store.newest_time()
+    if not newest:
+        return None
+    try:
+        then = iso_time(newest)
+    except ValueError:
+        return None
+    if then.utcoffset() is None:  # a time without a zone (an old import's): not comparable
+        return None
+    now = now or datetime.now(timezone.utc)
+    if (then - now).total_seconds() <= CLOCK_SLACK_S:
+        return None
+    return (f"this computer's clock says {short_time(now.timestamp())}, before the study's latest record "
+            f"({short_time(newest)}): set the clock right before recording more, or what is recorded now will be "
+            "dated before what was recorded then")
+
+
 def short_time(stamp) -> str:
     """'2026-11-21T09:47:34.123Z' (or seconds since the epoch) -> '2026-11-21 09:47 UTC'. A time
     with another offset is said in UTC ('2026-10-26T01:30:00+02:00' -> '2026-10-25 23:30 UTC'); one

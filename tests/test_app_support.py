@@ -564,3 +564,23 @@ def test_counted_agrees_in_number():
         "0 participants", "1 participant", "2 participants", "1,500 participants"]
     assert app_support.counted(1, "photo", "photos") == "1 photo"
     assert app_support.counted(3, "policy file") == "3 policy files"
+
+
+def test_a_clock_behind_the_studys_latest_record_is_said(tmp_path):
+    """Clock walk: a server restarted with its clock set back records what follows as earlier than what came
+    before; nothing said so. Ahead by more than CLOCK_SLACK_S: one line with both times; otherwise nothing."""
+    from datetime import timedelta
+
+    from cacas.store import StudyStore
+    from cacas.store.validate import iso_time
+
+    with StudyStore(tmp_path / "study.sqlite") as store:
+        store.add_participant("P01")
+        newest = iso_time(store.newest_time())
+        assert app_support.clock_behind(store, newest + timedelta(seconds=5)) is None
+        assert app_support.clock_behind(store, newest - timedelta(seconds=app_support.CLOCK_SLACK_S - 1)) is None
+        said = app_support.clock_behind(store, newest - timedelta(hours=26))
+        assert said == (f"this computer's clock says {app_support.short_time((newest - timedelta(hours=26)).timestamp())}"
+                        f", before the study's latest record ({app_support.short_time(store.newest_time())}): set the "
+                        "clock right before recording more, or what is recorded now will be dated before what was "
+                        "recorded then")

@@ -128,6 +128,13 @@ class StudyStore(PeopleMixin, SessionsMixin, PoliciesMixin, StoreBase):
         row = self._read(lambda c: c.execute(sql, (study,) if study is not None else ()).fetchone())
         return None if row is None else row[0]
 
+    def newest_time(self, recent: int = 1000) -> str | None:
+        """The latest time of the ``recent`` last events written (every write logs one), as stored; None for an
+        empty log. Ahead of the clock: the computer's clock was set back since (:func:`cacas.app_support.
+        clock_behind`)."""
+        return self._read(lambda c: c.execute("SELECT MAX(at) FROM (SELECT at FROM events ORDER BY id DESC LIMIT ?)",
+                                              (int(recent),)).fetchone()[0])
+
     def events(self, participant: str | None = None, what: str | None = None,
                limit: int | None = None, study: str | None = None) -> pd.DataFrame:
         """The event log (newest last): id, at, what, participant, details (JSON); optionally of

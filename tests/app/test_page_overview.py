@@ -418,3 +418,24 @@ def test_recent_activity_shows_a_comparisons_participants_whole(app, store):
     # in the page's width: 895 px scrolled sideways at 1280 px, a long line cut at the page's edge
     assert sum(widths.values()) == table_layouts.OVERVIEW_TABLE_ROOM, widths
     assert recent.proto.row_height in (0, None)  # these lines are short: one line each
+
+
+
+def test_a_clock_set_back_is_said_on_every_researcher_page(app, store):
+    """Clock walk: nothing said that the server's clock was behind the study's records (a restart with the clock
+    set back); the tablet's participant is not told (the researcher sets the clock)."""
+    from datetime import datetime, timedelta, timezone
+
+    store.add_participant("P01")
+    ahead = (datetime.now(timezone.utc) + timedelta(days=1)).strftime("%Y-%m-%dT%H:%M:%S.000Z")
+    with store._lock:
+        store._conn.execute("INSERT INTO events (at, what, participant, details) VALUES (?, 'note', NULL, '{}')",
+                            (ahead,))
+        store._conn.commit()
+    for page in ("pages/overview.py", "pages/adaptation.py"):
+        at = app(page, participant="P01")
+        no_exception(at)
+        assert any(w.value.startswith("Clock: this computer's clock says ") and "before the study's latest record"
+                   in w.value for w in at.warning), page
+    assert not [w for w in app("pages/session.py", participant="P01", view="tablet").warning
+                if w.value.startswith("Clock:")]
