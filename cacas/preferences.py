@@ -394,17 +394,13 @@ def participant_problems(obj: Any, source: str | None = None,
     return Participant(pid, tuple(prefs)), []
 
 
-#: At most this many problems of a persona file are written out in its one line; the rest are counted.
-PROBLEMS_SHOWN = 8
-
-
 def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
     """Validate a persona document (already parsed JSON) into participants.
 
     Every problem is found in one reading (walk3: a file with three mistakes took three runs to
     mend): one is its own line, as before; several are one CacasError whose one line (design.md's
     contract) numbers them, each naming its participant, preference and field, the first
-    :data:`PROBLEMS_SHOWN` written out (:class:`cacas.errors.Problems`)."""
+    eight written out (:class:`cacas.errors.Problems`)."""
     if not isinstance(data, dict) or not isinstance(data.get("participants"), list):
         raise CacasError(f"{_where(source)}: must be a JSON object with a list 'participants'")
     unknown = sorted(set(data) - {"participants"})
@@ -450,7 +446,7 @@ def _raise_problems(problems: list[str], source: str | None) -> None:
     head = f"{source}: " if source else ""
     lines = [p[len(head):] if head and p.startswith(head) else
              p[len(source) + 2:] if source and p.startswith(f"{source}, ") else p for p in problems]
-    raise Problems(head, lines, PROBLEMS_SHOWN)
+    raise Problems(head, lines)
 
 
 def load_personas(path: str | Path) -> list[Participant]:

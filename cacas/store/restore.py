@@ -350,6 +350,8 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
     number of interactions restored and the notes on what was kept as it was. ``policy_files``
     maps each policies.csv path to its bytes. A column it does not know is refused before any row
     is read (:func:`check_columns`)."""
+    from cacas.policy import policy_checkpoint  # torch: only when an import runs
+
     check_columns(tables)
     # codes and free text as the study held them: what looks like contact details is noted, not refused
     noted = _Notes()
@@ -404,8 +406,6 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, byte
             raise CacasError(f"policy file {r['path']!r} is missing from the bundle")
         if files.sha256(data) != r["sha256"]:
             raise CacasError(f"policy file {r['path']!r} does not match its sha256")
-        from cacas.policy import policy_checkpoint
-
         try:  # the bytes are read as the tablet will read them (weights only: nothing in them runs)
             policy_checkpoint(data)
         except CacasError as exc:  # sha256 and size edited to match other bytes (safety)
