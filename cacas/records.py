@@ -159,14 +159,23 @@ def is_success(interactions: pd.DataFrame) -> pd.Series:
             & (interactions["response"] == "accept"))
 
 
+def _moments(times: pd.Series) -> np.ndarray:
+    """ISO times as UTC nanoseconds, to compare moments rather than text (a time an older version
+    stored with an offset, kept by an import, is not placed by its local date); a missing or
+    unreadable time is the earliest."""
+    moment = pd.to_datetime(pd.Series(times, dtype=object).astype(str), utc=True, format="ISO8601", errors="coerce")
+    return moment.to_numpy(dtype="datetime64[ns]").view("int64")
+
+
 def preferred_action_contexts(interactions: pd.DataFrame, preferred: Mapping[str, Any]) -> np.ndarray:
     """Per interaction row: 1.0 where the participant's described preferences name an action
     other than "do nothing" for its context (S1-S5), 0.0 where they name "do nothing" or cover
     nothing, NaN for a participant without described preferences. ``preferred`` maps a
     participant code to its preferred-action table (``Participant.preferred_action_table``), or to
     the versions of it over time, ``[(saved_at, table), ...]`` oldest first: each row is then scored
-    against the version saved last at or before its ``time`` (a row before the first version, against
-    the first), so a version saved mid-study leaves the days before it as they were.
+    against the version saved last at or before its ``time``, compared as moments (a row before the
+    first version, against the first), so a version saved mid-study leaves the days before it as
+    they were.
     Evaluation only: the adaptation never sees it."""
     from cacas import spaces
 
@@ -175,14 +184,14 @@ def preferred_action_contexts(interactions: pd.DataFrame, preferred: Mapping[str
         return out
     states = policy_states(interactions)
     who = interactions["participant"].astype(str).to_numpy()
-    when = interactions["time"].astype(str).to_numpy() if "time" in interactions else None
+    when = _moments(interactions["time"]) if "time" in interactions else None
     for code, tables in preferred.items():
         rows = np.flatnonzero(who == code)
         if not len(rows):
             continue
         if isinstance(tables, np.ndarray):
             tables = [("", tables)]
-        saved = [t for t, _ in tables]
+        saved = _moments(pd.Series([t for t, _ in tables]))
         version = (np.zeros(len(rows), dtype=int) if when is None else
                    np.maximum(np.searchsorted(saved, when[rows], side="right") - 1, 0))
         for v, (_, table) in enumerate(tables):

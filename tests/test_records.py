@@ -256,3 +256,18 @@ def test_a_code_or_words_that_pandas_takes_for_missing_are_read_as_written(word)
     assert df["label"].iloc[0] == word and pd.isna(df["label"].iloc[1])  # an empty cell is missing, as written
     assert pd.api.types.is_float_dtype(df["success_rate"]) and df["success_rate"].isna().tolist() == [True, False, True]
     assert read_csv(io.StringIO(data.decode()))["participant"].iloc[0] == word  # a text stream too
+
+
+def test_each_interaction_is_scored_on_the_preferences_of_its_moment_not_of_its_text():
+    """A time an older version stored with an offset (kept by an import) is placed by its moment:
+    12:30+02:00 is 10:30 UTC, before the version saved at 12:00 UTC, though its text sorts after."""
+    helped = parse_participant({"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check"}]})
+    alone = parse_participant({"id": "P01", "preferences": [{"activity": ["cough"], "action": "do nothing"}]})
+    versions = {"P01": [("2026-11-27T10:00:00.000Z", helped.preferred_action_table()),
+                        ("2026-11-27T12:00:00.000Z", alone.preferred_action_table())]}
+    rows = contexts([("P01", 1, "cough", "bedroom", 3, "pain check", "accept")] * 4)
+    rows["time"] = ["2026-11-27T12:30:00+02:00",   # 10:30 UTC: the first version's
+                    "2026-11-27T11:59:59.999Z",    # the first version's
+                    "2026-11-27T12:00:00.000Z",    # saved at that moment: the second's
+                    "2026-11-27T09:00:00-05:00"]   # 14:00 UTC: the second's, though its text sorts first
+    assert preferred_action_contexts(rows, versions).tolist() == [1.0, 1.0, 0.0, 0.0]
