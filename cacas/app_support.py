@@ -15,7 +15,7 @@ import pandas as pd
 
 from cacas import plots, records, spaces
 from cacas.errors import CacasError
-from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_status, scored_version
+from cacas.study_day import STUDY_DAYS, TARGET_INTERACTIONS, day_of, day_status, scored_version
 
 
 def adapted_from(day: int) -> str:
@@ -99,7 +99,7 @@ def overview_frame(store, study: str | None = None) -> pd.DataFrame:
         has_prefs = p.code in described
         rows.append({
             "participant": p.code, "age range": p.age_range,
-            "day": f"{status.day} of {STUDY_DAYS}" + (" (open)" if status.open else "") if status.day else "not started",
+            "day": day_of(status.day) + (" (open)" if status.open else "") if status.day else "not started",
             "interactions today": status.recorded_today if status.open else 0,
             "success rate so far": success,
             "policy": policy_label(status.policy_version, store.policy_versions(p.code)),

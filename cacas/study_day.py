@@ -204,13 +204,19 @@ def day_status(store, participant: str, recorded_by_day: Mapping[int, int] | Non
                      waiting, bool(r.day >= STUDY_DAYS and not r.day_open), recorded)
 
 
+def day_of(day: int) -> str:
+    """A study day beside the study's length (Section V-B.1: 7 days): "3 of 7"; a day past it (an
+    imported study, or one the library ran longer) says so rather than "21 of 7"."""
+    return f"{day} of {STUDY_DAYS}" if day <= STUDY_DAYS else f"{day}, past the study's {STUDY_DAYS}"
+
+
 def questionnaire_timing(status: DayStatus) -> str:
     """A note for a questionnaire answer given before the study's end (Section V-B.1 asks it
     after the 7 days), naming the day as it stands: during an open day, or after a closed one."""
     if status.finished or status.day == 0:
         return ""
     when = "during" if status.open else "after"
-    return f"It was given {when} day {status.day} of {STUDY_DAYS}."
+    return f"It was given {when} day {day_of(status.day)}."
 
 
 def waiting_for_preferences(store, participant: str, status: DayStatus) -> bool:

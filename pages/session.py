@@ -21,7 +21,7 @@ from cacas.lab import audio_mime
 from cacas.on_tablet import Asked, Shown
 from cacas.recognition import Recognition
 from cacas.store.db import WriteRefused
-from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_status,
+from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_of, day_status,
                              initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
                              previous_interaction, propose, proposal_draws, recorded_answer,
                              request_accepts_proposal, start_day, waiting_for_preferences)
@@ -464,7 +464,7 @@ unanswered = status.unanswered_today
 # One line at 1024-1440 px: which interactions are not counted is said in "Today's interactions", which lists them
 # (the reasons in the counter took it to two lines at 1280 px: the ui helper)
 st.progress(min(status.recorded_today / TARGET_INTERACTIONS, 1.0),
-            text=f"Day {day} of {STUDY_DAYS} · {app_support.day_count(status.recorded_today)}"
+            text=f"Day {day_of(day)} · {app_support.day_count(status.recorded_today)}"
                  + (f"; {done} in all with {unanswered} not counted" if unanswered and not tablet else ""))
 
 token_ctx = st.query_params.get("ctx")

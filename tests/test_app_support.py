@@ -584,3 +584,15 @@ def test_a_clock_behind_the_studys_latest_record_is_said(tmp_path):
                         f", before the study's latest record ({app_support.short_time(store.newest_time())}): set the "
                         "clock right before recording more, or what is recorded now will be dated before what was "
                         "recorded then")
+
+
+def test_the_overview_names_a_day_past_the_studys_seven(tmp_path):
+    from cacas.study_day import STUDY_DAYS
+
+    store = StudyStore(tmp_path / "s.sqlite")
+    cough_day(store, "P01")
+    for day in range(1, STUDY_DAYS + 1):
+        store.close_day("P01", day)
+        store.open_day("P01")
+    table = app_support.overview_frame(store).set_index("participant")
+    assert table.loc["P01", "day"] == f"{STUDY_DAYS + 1}, past the study's {STUDY_DAYS} (open)"

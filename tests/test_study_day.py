@@ -12,8 +12,8 @@ from cacas.errors import AlreadyAdapted, CacasError
 from cacas.policy import ReshapedPolicy
 from cacas.sac import DiscreteSAC, SACConfig
 from cacas.store import StudyStore
-from cacas.study_day import (STUDY_DAYS, Context, answer, clip_for, day_status, propose, proposal_draws,
-                             questionnaire_timing, start_day)
+from cacas.study_day import (STUDY_DAYS, Context, DayStatus, answer, clip_for, day_of, day_status, propose,
+                             proposal_draws, questionnaire_timing, start_day)
 
 
 @pytest.fixture
@@ -286,6 +286,14 @@ def test_questionnaire_timing_names_the_day_as_it_stands(store):
     assert questionnaire_timing(day_status(store, "P01")) == f"It was given after day 1 of {STUDY_DAYS}."
     finished = dataclasses.replace(day_status(store, "P01"), day=STUDY_DAYS, finished=True)
     assert questionnaire_timing(finished) == ""  # asked after the study, as the paper does
+
+
+def test_a_day_past_the_studys_seven_says_so():
+    """An imported study (or one the library ran longer) can have day 21: not "21 of 7"."""
+    assert day_of(3) == f"3 of {STUDY_DAYS}" and day_of(STUDY_DAYS) == f"{STUDY_DAYS} of {STUDY_DAYS}"
+    assert day_of(21) == f"21, past the study's {STUDY_DAYS}"
+    status = DayStatus(21, True, 2, 300, 20, False, False, 2)
+    assert questionnaire_timing(status) == f"It was given during day 21, past the study's {STUDY_DAYS}."
 
 
 def test_every_version_is_scored_on_the_same_test_states_whatever_the_adaptation_seed(tmp_path, monkeypatch, policy):
