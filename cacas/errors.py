@@ -18,6 +18,12 @@ class CacasError(ValueError):
     """
 
 
+class DamagedFile(CacasError):
+    """A file's bytes are damaged; the message names the file (and the member of a zip) already, so
+    it is passed on as it is, not put under the row or the file that asked for the bytes (an
+    import reads a bundle's policy files as it restores the rows naming them)."""
+
+
 class Problems(CacasError):
     """Several problems of one input found in one reading (a persona file's: walk3 mended three
     mistakes in three runs). ``str()`` is the one line a command prints: ``head``, their count, and

@@ -36,13 +36,14 @@ import re
 import sqlite3
 import zipfile
 import zlib
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from cacas.errors import CacasError, did_you_mean
+from cacas.errors import CacasError, DamagedFile, did_you_mean
 from cacas import records
 from cacas.records import BY_PREFERENCE_COLUMNS, INTERACTION_COLUMNS, csv_bytes, daily_table
 from cacas.store import StudyStore, files, recovery
@@ -526,11 +527,12 @@ def check_sizes(path: Path, members: list[zipfile.ZipInfo], valid: str | None = 
 def read_member(path: Path, zf: zipfile.ZipFile, name: str, valid: str | None = None, what: str = "bundle") -> bytes:
     """The bytes of the bundle's member ``name`` (its size checked by :func:`check_sizes` first); a
     damaged one (bytes changed in its compressed data: zlib.error; a bad CRC; cut short: EOFError)
-    is a CacasError naming the bundle (``what``: "bundle", or "zip" for a run's) and it, then ``valid``."""
+    is a :class:`~cacas.errors.DamagedFile` naming the bundle (``what``: "bundle", or "zip" for a run's) and
+    it, then ``valid``."""
     try:
         return zf.read(name)
     except (zipfile.BadZipFile, zlib.error, EOFError) as exc:
-        raise CacasError(f"{path}: {name} in the {what} is damaged ({exc}); " + (valid or f"valid: "
+        raise DamagedFile(f"{path}: {name} in the {what} is damaged ({exc}); " + (valid or f"valid: "
                          f"the {BUNDLE_NAME} as cacas export wrote it (export again, or use another copy)")) from None
 
 
@@ -563,8 +565,37 @@ def _read_table(path: Path, zf: zipfile.ZipFile, member: str) -> pd.DataFrame:
                          "imported") from None
 
 
-def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, bytes]]:
-    """The tables (every cell as text, "" for empty) and policy files of a bundle zip, after its
+class BundlePolicies(Mapping):
+    """The policy files of a bundle zip, policies.csv's path -> bytes, each read from the open zip
+    when asked for (and its CRC checked then): an import checks and writes one at a time rather than
+    holding all of them (60 participants x 21 days: 1,260 files, 0.8 GB). Close it (or use it in a
+    ``with``) when done; its members were sized before any was read (:func:`check_sizes`)."""
+
+    def __init__(self, path: Path, zf: zipfile.ZipFile, members: dict[str, str]):
+        self._path, self._zf, self._members = path, zf, members
+
+    def __getitem__(self, rel: str) -> bytes:
+        return read_member(self._path, self._zf, self._members[rel])
+
+    def __iter__(self):
+        return iter(self._members)
+
+    def __len__(self) -> int:
+        return len(self._members)
+
+    def close(self) -> None:
+        self._zf.close()
+
+    def __enter__(self) -> BundlePolicies:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], BundlePolicies]:
+    """The tables (every cell as text, "" for empty) and policy files (a :class:`BundlePolicies`,
+    read when asked for from the zip kept open: close it) of a bundle zip, after its
     ``manifest.json`` (if it has one: older bundles do not) is checked: a bundle of a newer format
     version than :data:`BUNDLE_VERSION` is refused, as is a table with a column this CACAS Studio
     does not know (:func:`cacas.store.restore.check_columns`)."""
@@ -584,27 +615,36 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
             raise CacasError(f"{path}: is not a study bundle ({exc.__class__.__name__}: {exc})") from None
         raise unreadable_zip(path, head, exc, f"valid: the whole {BUNDLE_NAME} as cacas export wrote it (export "
                              "again, or use another copy); nothing was imported") from None
-    with zf:
-        names = set(zf.namelist())
-        # every member read below, sized before any is read (others are never read)
-        check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
-                           or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
-                           or (i.filename.startswith("policies/") and not i.filename.endswith("/"))],
-                    zip_size=path.stat().st_size)
-        if MANIFEST_NAME in names:  # none in bundles written before it: version 1
-            _check_manifest(path, read_member(path, zf, MANIFEST_NAME))
-        tables = {}
-        for name in RESTORE_COLUMNS:
-            if f"{name}.csv" not in names:
-                raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
-            tables[name] = _read_table(path, zf, f"{name}.csv")
-        policies = {}
-        for name in sorted(names):
-            if name.startswith("policies/") and not name.endswith("/"):
-                rel = name[len("policies/"):]
-                if not _POLICY_PATH.match(rel):
-                    raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
-                policies[rel] = read_member(path, zf, name)
+    try:
+        tables, policies = _read_bundle(path, zf)
+    except BaseException:
+        zf.close()
+        raise
+    return tables, policies
+
+
+def _read_bundle(path: Path, zf: zipfile.ZipFile) -> tuple[dict[str, pd.DataFrame], BundlePolicies]:
+    """:func:`read_bundle`'s reading of the open zip ``zf``: its tables read, its policy files listed."""
+    names = set(zf.namelist())
+    # every member read below, sized before any is read (others are never read)
+    check_sizes(path, [i for i in zf.infolist() if i.filename == MANIFEST_NAME
+                       or i.filename in {f"{t}.csv" for t in RESTORE_COLUMNS}
+                       or (i.filename.startswith("policies/") and not i.filename.endswith("/"))],
+                zip_size=path.stat().st_size)
+    if MANIFEST_NAME in names:  # none in bundles written before it: version 1
+        _check_manifest(path, read_member(path, zf, MANIFEST_NAME))
+    tables = {}
+    for name in RESTORE_COLUMNS:
+        if f"{name}.csv" not in names:
+            raise CacasError(f"{path}: {name}.csv is missing; expected a bundle written by cacas export")
+        tables[name] = _read_table(path, zf, f"{name}.csv")
+    members = {}
+    for name in sorted(names):
+        if name.startswith("policies/") and not name.endswith("/"):
+            rel = name[len("policies/"):]
+            if not _POLICY_PATH.match(rel):
+                raise CacasError(f"{path}: unexpected file {name!r} in the bundle")
+            members[rel] = name
     try:
         check_columns(tables)
     except CacasError as exc:
@@ -613,11 +653,11 @@ def read_bundle(path: str | Path) -> tuple[dict[str, pd.DataFrame], dict[str, by
     for rel in listed:
         if not _POLICY_PATH.match(rel):
             raise CacasError(f"{path}: policies.csv names an unexpected policy path {rel!r}")
-    unlisted = sorted(set(policies) - set(listed))
+    unlisted = sorted(set(members) - set(listed))
     if unlisted:
         raise CacasError(f"{path}: policies/{unlisted[0]} is in the bundle but not in policies.csv; "
                          "valid: only the checkpoints policies.csv lists")
-    return tables, policies
+    return tables, BundlePolicies(path, zf, members)
 
 
 #: How on from a zip an export stopped part-way left (:func:`_check_whole_export`).
@@ -662,16 +702,17 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
     if db_path.exists() or Path(f"{db_path}-wal").exists():
         raise CacasError(f"{db_path}: already exists; import only into a new database file")
     tables, policies = read_bundle(bundle)
-    _check_whole_export(Path(bundle))
-    made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
-    db_path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
-    try:
-        with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at the next opening
-            return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
-    except BaseException:
-        files.remove_empty(made)
-        raise
+    with policies:
+        _check_whole_export(Path(bundle))
+        made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
+        db_path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
+        try:
+            with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at next opening
+                return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
+        except BaseException:
+            files.remove_empty(made)
+            raise
 
 
 def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Path) -> None:
@@ -723,6 +764,8 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                 raise CacasError(f"{db_path}: {exc}") from None
             except sqlite3.OperationalError as exc:  # a read, or the fold of the log into the file, the disk refused
                 raise CacasError(f"{db_path}: {refused(exc)}") from None
+            except DamagedFile:  # a policy file of the bundle, read as its row was restored: named already
+                raise
             except CacasError as exc:
                 raise CacasError(f"{bundle}: {exc}") from None
         finally:
@@ -732,7 +775,11 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
         # killed before the link, the files no database names are deleted at the next opening (markers)
         with recovery.saving(policy_dir) if policies else contextlib.nullcontext(lambda path: None) as mark:
             try:
-                for rel, data in sorted(policies.items()):
+                listed = dict(zip(tables["policies"]["path"], tables["policies"]["sha256"])) if policies else {}
+                for rel in sorted(policies):
+                    data = policies[rel]  # one at a time from the zip, checked by restore when it was read before
+                    if files.sha256(data) != listed.get(rel):  # the zip changed on disk since (read again here)
+                        raise CacasError(f"{bundle}: policy file {rel!r} changed while it was imported; import again")
                     target = policy_dir / rel
                     if target.exists():
                         if files.sha256(target.read_bytes()) != files.sha256(data):

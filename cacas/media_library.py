@@ -16,7 +16,6 @@ types and checker), and the same two functions serve both libraries:
 
 from __future__ import annotations
 
-import hashlib
 import os
 import re
 import shutil
@@ -135,24 +134,22 @@ def _entries(folder: Path, kind: MediaKind) -> list[tuple[Path, str]]:
     return out
 
 
-def _digest(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
-
-
 def _refuse_copies(plan: list[tuple[Path, str]], root: Path, kind: MediaKind, done: str = "imported",
                    again: str = "import again") -> None:
     """A file whose bytes are already in the library (under any name), or twice in ``plan``, is
     refused: a copy could fall into both the training and the test split of a model and flatter
     its accuracy (or, under another name, teach it two answers for one clip). The message says
     "nothing was <done> (leave the copy out and <again>)"."""
+    from cacas.store.files import file_sha256
+
     seen: dict[str, Path] = {}
     if root.is_dir():
         for sub in (p for p in _visible(root) if p.is_dir()):
             for f in _visible(sub):
                 if f.is_file() and f.suffix.lower() in kind.extensions:
-                    seen.setdefault(_digest(f), f)
+                    seen.setdefault(file_sha256(f), f)
     for f, _ in plan:
-        digest = _digest(f)
+        digest = file_sha256(f)
         if digest in seen:
             where = seen[digest]
             place = (f"already in the library as {where.relative_to(root)}" if where.is_relative_to(root)

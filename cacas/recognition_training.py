@@ -17,6 +17,7 @@ import pandas as pd
 
 from cacas.errors import CacasError
 from cacas.recognition import stratified_group_split
+from cacas.store.files import file_sha256
 
 Progress = Callable[[float, str], None] | None
 TEST_FRACTION = 0.1  #: V-A: "divided into a training set and a testing set with a ratio of 9:1"
@@ -35,13 +36,6 @@ def relative_path(path: Path, root: Path) -> str:
         return str(Path(path).resolve().relative_to(Path(root).resolve()))
     except ValueError:
         return str(Path(path).resolve())
-
-
-def file_sha256(path: Path | str) -> str:
-    """The sha256 of a file's bytes (hex)."""
-    import hashlib
-
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
 
 
 def held_out_sha256(paths: Sequence[Path], root: Path) -> dict[str, str]:

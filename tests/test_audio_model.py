@@ -253,7 +253,7 @@ def test_another_library_s_files_of_the_held_out_names_are_not_taken_for_them(ti
     import shutil
 
     from cacas.recognition import evaluated_on
-    from cacas.recognition_training import file_sha256
+    from cacas.store.files import file_sha256
 
     root, result, _ = tiny
     meta = result.recognizer.metadata

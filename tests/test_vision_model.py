@@ -264,7 +264,7 @@ def test_another_library_s_images_of_the_held_out_names_are_not_taken_for_them(t
     the sound model's held-out clips: test_audio_model), and an image of that name with other bytes is not one."""
     import shutil
 
-    from cacas.recognition_training import file_sha256
+    from cacas.store.files import file_sha256
 
     root, result, _ = tiny
     held = result.recognizer.metadata["test_recordings"]

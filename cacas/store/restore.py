@@ -18,13 +18,14 @@ from __future__ import annotations
 import json
 import sqlite3
 from dataclasses import dataclass
+from collections.abc import Mapping
 from typing import Any, Callable
 
 import pandas as pd
 
 from cacas import preferences as prefs
 from cacas import spaces
-from cacas.errors import CacasError
+from cacas.errors import CacasError, DamagedFile
 from cacas.privacy import contact_details
 from cacas.store import files, schema
 from cacas.store import validate as v
@@ -236,6 +237,8 @@ def _rows(tables: dict[str, pd.DataFrame], name: str, convert: Callable[[dict], 
             out.append(convert(row))
         except _CellError as exc:
             raise CacasError(f"{name}.csv, row {i + 2}, column {exc.column}: {exc}") from None
+        except DamagedFile:  # a policy file's bytes, named as they are
+            raise
         except CacasError as exc:
             raise CacasError(f"{name}.csv, row {i + 2}: {exc}") from None
     return out
@@ -345,7 +348,7 @@ def _check_foreign_keys(c: sqlite3.Connection, before: dict[str, int]) -> None:
                      f"{parent_name} lists{' for them' if code else ''}")
 
 
-def restore(store, tables: dict[str, pd.DataFrame], policy_files: dict[str, bytes]) -> Restored:
+def restore(store, tables: dict[str, pd.DataFrame], policy_files: Mapping[str, bytes]) -> Restored:
     """Insert the bundle's tables into ``store`` (which must hold no participant yet); return the
     number of interactions restored and the notes on what was kept as it was. ``policy_files``
     maps each policies.csv path to its bytes. A column it does not know is refused before any row
