@@ -60,3 +60,14 @@ def test_the_simulations_columns_are_the_documented_ones_it_writes():
     text = DOC.read_text(encoding="utf-8")
     assert f"writes the columns\nup to `{records.DAILY_COLUMNS[-1]}`" in text
     assert f"writes the columns up to\n`{records.INTERACTION_COLUMNS[-1]}`" in text
+
+
+def test_every_event_the_store_writes_is_named_in_events_csv():
+    """events.csv's `what` lists the writes the log holds: each name the store passes to its `_event` (an event
+    added without the docs would leave an analyst to guess it; a docs walkthrough checked them by hand)."""
+    written = set()
+    for source in (PROJECT_ROOT / "cacas").rglob("*.py"):
+        written |= set(re.findall(r'_event\(\w+, "(\w+)"', source.read_text(encoding="utf-8")))
+    row = next(row for row in documented()["events.csv"] if row[0] == "what")
+    named = re.findall(r"\b[a-z]+(?:_[a-z]+)+\b", row[2].split(":", 1)[1])
+    assert len(written) >= 15 and sorted(named) == sorted(written)
