@@ -166,3 +166,24 @@ def test_every_script_and_test_file_the_docs_name_exists():
              for m in re.finditer(r"\b(?:scripts|tests)/[\w/]+\.(?:py|sh|json)\b", document.read_text(encoding="utf-8"))}
     assert len(named) >= 20
     assert sorted(n for n in named if not (PROJECT_ROOT / n).is_file()) == []
+
+
+def test_the_readmes_hyper_parameters_are_the_configs_defaults():
+    """The README lists CACAAConfig's defaults (Table III; beta 0.7 as the paper sets it): a lab reads them there
+    rather than in the code, so each `name=value` the list gives is the dataclass's default, and every field but
+    the SAC sizes fixed by Table I (state_dim, n_actions) and `updates_per_step` and
+    `user_data_updates_per_transition` (1 each) is listed."""
+    import ast
+    import dataclasses
+
+    from cacas.adaptation import CACAAConfig
+
+    readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8").replace("\n", " ")
+    listed = re.search(r"The defaults: (.*?`)\.", readme).group(1)
+    given = {name: ast.literal_eval(value) for name, value in re.findall(r"`(\w+)=([^`]+)`", listed)}
+    config = CACAAConfig()
+    defaults = {f.name: getattr(config, f.name) for f in dataclasses.fields(config) if f.name != "sac"}
+    defaults.update({f.name: getattr(config.sac, f.name) for f in dataclasses.fields(config.sac)})
+    assert {name: defaults.get(name, "not a field") for name in given} == given
+    assert set(defaults) - set(given) == {"state_dim", "n_actions", "updates_per_step",
+                                          "user_data_updates_per_transition"}
