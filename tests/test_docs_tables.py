@@ -45,7 +45,7 @@ def test_every_column_of_every_exported_table_is_documented_in_order(tmp_path):
         s.record_questionnaire("P01", 8, "fine")
         written = export.export_study(s, tmp_path / "out", bundle=False).tables
     docs = documented()
-    assert set(docs) == {f"{t}.csv" for t in export.TABLES}
+    assert set(docs) == {f"{t}.csv" for t in export.TABLES} | {"summary.csv"}
     for table, path in written.items():
         columns = list(pd.read_csv(path, nrows=0).columns)
         assert [row[0] for row in docs[f"{table}.csv"]] == columns, table
@@ -71,3 +71,13 @@ def test_every_event_the_store_writes_is_named_in_events_csv():
     row = next(row for row in documented()["events.csv"] if row[0] == "what")
     named = re.findall(r"\b[a-z]+(?:_[a-z]+)+\b", row[2].split(":", 1)[1])
     assert len(written) >= 15 and sorted(named) == sorted(written)
+
+
+def test_the_labs_summary_columns_are_the_documented_ones():
+    """The Simulation lab's summary.csv (a walkthrough found it downloadable and named nowhere in tables.md): its
+    columns are summary_table's of a daily.csv, in order."""
+    from cacas.experiment import summary_table
+
+    daily = pd.DataFrame({c: [1] for c in records.DAILY_COLUMNS}).assign(participant="P01", method="cacas")
+    assert [row[0] for row in documented()["summary.csv"]] == list(summary_table(daily).columns)
+    assert all(len(row) == 4 and all(row) for row in documented()["summary.csv"])
