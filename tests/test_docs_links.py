@@ -158,7 +158,7 @@ def test_every_dotted_name_the_docs_give_exists():
     assert missing == []
 
 
-def test_every_script_and_test_file_the_docs_name_exists():
+def test_every_script_test_file_and_test_the_docs_name_exists():
     """The docs tell a lab to run `python3 scripts/results_table.py ...`, `bash scripts/test.sh`, to read
     `tests/data/holdout_personas.json`: each scripts/... and tests/... file they name is there (a docs walkthrough
     checked them by hand; a renamed script would leave a command that fails)."""
@@ -166,6 +166,12 @@ def test_every_script_and_test_file_the_docs_name_exists():
              for m in re.finditer(r"\b(?:scripts|tests)/[\w/]+\.(?:py|sh|json)\b", document.read_text(encoding="utf-8"))}
     assert len(named) >= 20
     assert sorted(n for n in named if not (PROJECT_ROOT / n).is_file()) == []
+    # and each test the docs name by its function (`test_the_workers_start_with_...`) is one
+    tests = {m.group(1) for document in DOCUMENTS
+             for m in re.finditer(r"`(test_\w+)`", document.read_text(encoding="utf-8"))}
+    defined = {m.group(1) for source in (PROJECT_ROOT / "tests").rglob("test_*.py")
+               for m in re.finditer(r"^\s*def (test_\w+)", source.read_text(encoding="utf-8"), re.M)}
+    assert tests and sorted(tests - defined) == []
 
 
 def test_the_readmes_hyper_parameters_are_the_configs_defaults():
