@@ -497,7 +497,13 @@ elif context is None:
         board.clear(db, code)
     if status.recorded_today >= TARGET_INTERACTIONS:  # on the form only: over a proposal it pushed the request
         # form below the fold at 1024 x 768 (walkthrough)
-        st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
+        if tablet:
+            st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
+        else:  # the researcher's next step, which the tablet's thanks did not say (docs walkthrough)
+            st.info(f"That is about enough for {code} today: they may carry on, or stop here. Once they stop, close "
+                    f"the day on Adaptation (\"Close day {day} and adapt\").",
+                    icon=":material/thumb_up:")
+            ui.link("pages/adaptation.py", f"Close day {day} on Adaptation", ":material/model_training:")
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     if not tablet and not board.heard(db, code):

@@ -1052,6 +1052,23 @@ def test_that_is_about_enough_is_said_on_the_form_not_over_a_proposal(app, store
     assert any(c.value.startswith("in another room · ") for c in at.caption)  # it said "in the others"
 
 
+def test_the_researchers_view_says_what_comes_after_about_enough(app, store, p01, quick_policy):
+    """Docs walkthrough: at 15 interactions the researcher's view thanked the researcher as the tablet thanks the
+    participant ("thank you! You may carry on, or stop here") and did not say the next step, which the README's
+    step 3 gives: close the day on Adaptation. It says so, with a link; the tablet's words are unchanged."""
+    day = store.open_day("P01")
+    for _ in range(15):
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    said = [m.value for m in at.info]
+    assert "That's about enough for today, thank you! You may carry on, or stop here." not in said
+    assert ("That is about enough for P01 today: they may carry on, or stop here. Once they stop, close the day on "
+            "Adaptation (\"Close day 1 and adapt\").") in said
+    assert "Close day 1 on Adaptation" in [link.label for link in at.get("page_link")]
+
+
 def test_a_full_disk_tells_the_participant_plainly_that_their_answer_was_not_saved(app, store, p01, quick_policy,
                                                                                    monkeypatch):
     """Safety audit L9: the tablet showed the participant the database's own message ("the study

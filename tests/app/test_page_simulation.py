@@ -539,3 +539,19 @@ def test_an_uploaded_persona_file_lists_every_problem_one_a_line(app):
     assert error.splitlines()[2].startswith("1. participant P01, preference 1, field 'activity': unknown activity "
                                             "'coughing'; did you mean 'cough'?")
     assert error.splitlines()[3].startswith("2. participant P02, preference 1, field 'action': unknown action 'dance'")
+
+
+def test_the_form_opens_with_the_commands_defaults(app):
+    """The README: the Simulation lab runs the same study as `cacas simulate`. Its form's days, interactions a day,
+    seed, no-response rate, ask-after-reject rate and methods are the command's defaults (twins kept apart: the page's
+    literals beside the parser's; a docs walkthrough compared them by hand)."""
+    from cacas.cli import build_parser
+
+    simulate = build_parser().parse_args(["simulate", "--personas", "p.json", "--out", "o"])
+    at = app(PAGE)
+    no_exception(at)
+    shown = {n.label: n.value for n in at.number_input}
+    assert shown == {"Days": simulate.days, "Interactions a day": simulate.interactions, "Seed": simulate.seed,
+                     "No-response rate": simulate.no_response_rate, "Ask after a rejection": simulate.ask_after_reject}
+    methods = next(m for m in at.multiselect if m.label == "Methods")
+    assert ",".join(methods.value) == simulate.methods

@@ -1,8 +1,11 @@
 """A fresh server whose first request goes straight to a page still runs it through app.py
 (Streamlit's old pages/ mode would run the page alone: no sidebar, no participant)."""
 
+import pytest
 from conftest import open_page
 from playwright.sync_api import expect
+
+pytestmark = pytest.mark.browser
 
 WAIT = "[data-testid='stApp'][data-test-script-state='notRunning']"
 
