@@ -286,6 +286,16 @@ APP_STYLE = """
 :is([data-testid='stMain'], [data-testid='stSidebar']) :is(button, [role='radio'], [role='tab'], audio, a,
     summary):focus-visible, label:has(input[type='checkbox']:focus-visible) { outline: 3px solid #2f6f8f;
                                                                                  outline-offset: 2px; }
+/* a touch screen (a phone or tablet between rooms) has no hover: Streamlit shows a table's toolbar and Plotly its
+   modebar always, not only under the mouse. The table's toolbar stood 44 px above the table, over the last line of
+   what came before (Adaptation: "before and after are shares of ..."); the modebar over a chart's title at a phone's
+   width ("Success rate and cumulative feedback"). Each now has a row of its own above its table or chart. */
+@media (hover: none) {
+  .stElementContainer:has([data-testid='stDataFrame']) { padding-top: 1.75rem; }
+  .stElementContainer:has([data-testid='stPlotlyChart']) { margin-top: 1.75rem; overflow: visible; }
+  [data-testid='stPlotlyChart'] .js-plotly-plot { overflow: visible !important; }
+  [data-testid='stPlotlyChart'] .modebar-container { top: -1.75rem !important; }
+}
 """
 
 

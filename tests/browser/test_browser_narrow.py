@@ -142,3 +142,52 @@ def test_every_photo_s_name_is_on_one_line(browser, study_server, width):
         assert in_first_row >= {1024: 3, 1280: 5, 1440: 5}[width], in_first_row
     finally:
         page.context.close()
+
+
+#: a phone held upright by a researcher between rooms: touch, no hover (Streamlit and Plotly show their toolbars always)
+PHONE = dict(viewport={"width": 390, "height": 844}, is_mobile=True, has_touch=True)
+
+#: what stands over something else on a touch screen: each table's toolbar over the element before the table, each
+#: chart's modebar over the chart's title (boxes as [left, top, right, bottom])
+TOOLBARS_JS = """() => {
+  const box = e => { const r = e.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; };
+  const meet = (a, b) => a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+  const shown = e => e.getBoundingClientRect().height > 0;
+  const over = [];
+  for (const t of document.querySelectorAll('[data-testid=stMain] [data-testid=stDataFrame] [data-testid=stElementToolbar]')) {
+    const container = t.closest('.stElementContainer'); const before = container.previousElementSibling;
+    if (shown(t) && before && shown(before) && meet(box(t), box(before)))
+      over.push('a table toolbar over: ' + before.innerText.slice(0, 60));
+  }
+  let charts = 0;
+  for (const c of document.querySelectorAll('[data-testid=stMain] .js-plotly-plot')) {
+    const bar = c.querySelector('.modebar'); const title = c.querySelector('.gtitle');
+    if (!shown(c) || !bar || !title) continue;
+    charts += 1;
+    if (meet(box(bar), box(title))) over.push('a modebar over the title ' + title.textContent);
+  }
+  return {over, tables: document.querySelectorAll('[data-testid=stMain] [data-testid=stDataFrame]').length, charts};
+}"""
+
+#: the pages where a table or a chart follows words, and what to wait for on each
+WITH_TOOLBARS = (("", "[data-testid=stDataFrame]"), ("participants", "[data-testid=stDataFrame]"),
+                 ("results", ".js-plotly-plot .gtitle"))
+
+
+@pytest.mark.parametrize("path, wait", WITH_TOOLBARS, ids=["overview", "participants", "results"])
+def test_on_a_phone_no_toolbar_covers_words_or_a_chart_s_title(browser, study_server, path, wait):
+    """A touch screen has no hover: Streamlit shows a table's toolbar (44 px above the table) and Plotly a chart's
+    modebar always. On a phone the toolbar covered the last line of the words before a table (Adaptation's "before
+    and after are shares of ...", the Overview's "Recent activity") and the modebar the chart's title (Fig. 3's
+    "Success rate and cumulative feedback"); each now stands in a row of its own (app.APP_STYLE)."""
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/{path}?participant=P01")
+        page.wait_for_selector(f"[data-testid=stMain] {wait}")
+        page.wait_for_timeout(300)
+        found = page.evaluate(TOOLBARS_JS)
+        assert found["tables"] or found["charts"], found
+        assert found["over"] == [], found
+    finally:
+        page.context.close()
