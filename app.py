@@ -299,6 +299,49 @@ APP_STYLE = """
 """
 
 
+#: The researcher's pages on a touch screen (a phone or a tablet carried between rooms during a study day; the
+#: participant's tablet page has its own, larger, :data:`TABLET_STYLE`): what is tapped is at least 44 px each way
+#: (WCAG 2.5.5; walkthrough at 390 x 844 and 768 x 1024, touch): the sidebar's open and close buttons were 28 x 28,
+#: the page links 28 px high (the Overview's "Open the study session" too), a chosen option's "x" in a multi-choice
+#: field 15 x 7 (now its chip's height, 28, and 34 wide: an unseen box around it, inside the chip), buttons and tabs
+#: 40 px high (Results' "Tables" tab 38 wide), an expander's heading 38, a choice of buttons (Results' data, Fig. 4's
+#: "Methods on one day") 32.
+TOUCH_STYLE = """
+@media (pointer: coarse) {
+  [data-testid='stExpandSidebarButton'], [data-testid='stSidebarCollapseButton'] button {
+    min-width: 2.75rem; min-height: 2.75rem; }
+  [data-testid='stPageLink-NavLink'] { min-height: 2.75rem; }
+  :is([data-testid='stMain'], [data-testid='stSidebar']) :is(button[data-testid^='stBaseButton'],
+    [data-testid='stButtonGroup'] button) { min-height: 2.75rem; }
+  [data-testid='stMain'] [data-testid='stTab'] { min-height: 2.75rem; min-width: 2.75rem; }
+  [data-testid='stMain'] [data-testid='stExpander'] summary { min-height: 2.75rem; }
+  [data-testid='stMultiSelect'] button[aria-label^='Remove'] { position: relative; }
+  [data-testid='stMultiSelect'] button[aria-label^='Remove']::after {
+    content: ''; position: absolute; inset: -1.1rem -0.6rem; }
+}
+"""
+
+#: A page link tapped in the sidebar where the sidebar lies over the page (a phone, a tablet upright: Streamlit draws
+#: it over the page below 768 px) closes the sidebar, as Streamlit's own navigation does there: the links are ours
+#: (``_page_links``, to carry the address), and Streamlit's page link leaves the sidebar open, so the page opened
+#: stood behind it until the researcher closed it (walkthrough at 390 x 844). Beside the page (a laptop) it stays.
+CLOSE_SIDEBAR_SCRIPT = """
+<script>
+if (!window.cacasClosesSidebar) {
+  window.cacasClosesSidebar = true;
+  document.addEventListener('click', event => {
+    const link = event.target.closest && event.target.closest("[data-testid='stSidebar'] [data-testid='stPageLink-NavLink']");
+    const sidebar = document.querySelector("[data-testid='stSidebar']");
+    const main = document.querySelector("[data-testid='stMain']");
+    if (!link || !sidebar || !main) return;
+    if (main.getBoundingClientRect().left < sidebar.getBoundingClientRect().right - 1) {  // over the page
+      const close = document.querySelector("[data-testid='stSidebarCollapseButton'] button");
+      if (close) close.click();
+    }
+  }, true);
+}
+</script>"""
+
 #: The tablet's look. A tablet at 1024 x 768 shows the proposal, its answers and the request form without
 #: scrolling: Streamlit's 6rem above the page was room they needed (a style only: it takes no room itself).
 #: A form's "Press Enter to submit form" is a developer's words: Enter says the typed request. Buttons and
@@ -360,7 +403,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
-        st.html(f"<style>{APP_STYLE}</style>")
+        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}</style>{CLOSE_SIDEBAR_SCRIPT}", unsafe_allow_javascript=True)
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()

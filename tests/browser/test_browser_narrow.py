@@ -191,3 +191,80 @@ def test_on_a_phone_no_toolbar_covers_words_or_a_chart_s_title(browser, study_se
         assert found["over"] == [], found
     finally:
         page.context.close()
+
+
+#: the least height and width (px) of what is tapped, per kind, among those in view (the sidebar's only while it is open)
+TARGETS_JS = """() => {
+  const kinds = {open: "[data-testid=stExpandSidebarButton]", close: "[data-testid=stSidebarCollapseButton] button",
+                 link: "[data-testid=stPageLink-NavLink]", tab: "[data-testid=stMain] [data-testid=stTab]",
+                 choice: "[data-testid=stMain] [data-testid=stButtonGroup] button",
+                 button: "[data-testid=stMain] button[data-testid^=stBaseButton]"};
+  // Streamlit's table toolbar (its icons 24 px wide, in a row 44 high on a touch screen) is not counted
+  const least = {};
+  for (const [kind, selector] of Object.entries(kinds)) {
+    const boxes = [...document.querySelectorAll(selector)].filter(e => !e.closest('[data-testid=stElementToolbar]'))
+      .map(e => e.getBoundingClientRect())
+      .filter(r => r.width > 0 && r.height > 0 && r.right > 0);
+    if (boxes.length) least[kind] = [Math.min(...boxes.map(r => Math.round(r.height))),
+                                     Math.min(...boxes.map(r => Math.round(r.width)))];
+  }
+  return least;
+}"""
+SIDEBAR_OPEN_JS = "() => document.querySelector('[data-testid=stSidebar]').getBoundingClientRect().right > 0"
+
+
+def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(browser, study_server):
+    """At 390 x 844 with touch the sidebar's open and close buttons were 28 x 28, its page links 28 px high, buttons
+    and tabs 40, Results' choice of data 32 (app.TOUCH_STYLE: 44 at least, WCAG 2.5.5); and a page link tapped in the
+    sidebar, which lies over the page there, left it open over the page it opened (app.CLOSE_SIDEBAR_SCRIPT)."""
+    from test_browser_mini_study import ran, runs
+
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/?participant=P01")
+        # the header's buttons take their size in a transition (200 ms; later on a loaded machine): given 5 s
+        grown = "() => document.querySelector('[data-testid=stExpandSidebarButton]').getBoundingClientRect().height >= 44"
+        page.wait_for_function(grown, timeout=5_000)
+        sizes = page.evaluate(TARGETS_JS)  # the sidebar closed: its open button
+        page.locator("[data-testid=stExpandSidebarButton]").tap()
+        page.wait_for_function(SIDEBAR_OPEN_JS)
+        page.wait_for_timeout(400)  # its slide
+        sizes.update(page.evaluate(TARGETS_JS))
+        before = runs(page)
+        page.locator("[data-testid=stSidebar] [data-testid=stPageLink-NavLink]", has_text="Results").tap()
+        ran(page, before)
+        page.wait_for_selector("[data-testid=stMain] [data-testid=stTab]")
+        assert "/results" in page.url
+        page.wait_for_timeout(400)
+        assert not page.evaluate(SIDEBAR_OPEN_JS), "the sidebar stayed over the page"
+        sizes.update({k: v for k, v in page.evaluate(TARGETS_JS).items() if k in ("tab", "choice")})
+        goto(page, f"{study_server}/participants?participant=P01")  # "Save preferences", "Add a participant"
+        page.wait_for_selector("[data-testid=stMain] button[data-testid=stBaseButton-primary]")
+        sizes["button"] = page.evaluate(TARGETS_JS)["button"]
+        assert set(sizes) >= {"open", "close", "link", "tab", "choice", "button"}, sizes
+        assert {k: v for k, v in sizes.items() if min(v) < 44} == {}, sizes
+    finally:
+        page.context.close()
+
+
+def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, study_server):
+    """Beside the page (1280 px, a mouse) a page link leaves the sidebar open, and the buttons keep Streamlit's
+    40 px (the touch style is for a coarse pointer only)."""
+    from test_browser_mini_study import ran, runs
+
+    page = open_page(browser, viewport={"width": 1280, "height": 800})
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/?participant=P01")
+        assert page.evaluate(SIDEBAR_OPEN_JS)
+        before = runs(page)
+        page.locator("[data-testid=stSidebar] [data-testid=stPageLink-NavLink]", has_text="Results").click()
+        ran(page, before)
+        page.wait_for_selector("[data-testid=stMain] [data-testid=stTab]")
+        page.wait_for_timeout(400)
+        assert page.evaluate(SIDEBAR_OPEN_JS)
+        sizes = page.evaluate(TARGETS_JS)
+        assert sizes["tab"][0] == 40 and sizes["choice"][0] == 32, sizes
+    finally:
+        page.context.close()
