@@ -313,7 +313,7 @@ TOUCH_STYLE = """
   [data-testid='stPageLink-NavLink'] { min-height: 2.75rem; }
   :is([data-testid='stMain'], [data-testid='stSidebar']) :is(button[data-testid^='stBaseButton'],
     [data-testid='stButtonGroup'] button) { min-height: 2.75rem; }
-  [data-testid='stMain'] [data-testid='stTab'] { min-height: 2.75rem; min-width: 2.75rem; }
+  [data-testid='stMain'] [data-testid='stTab'] { min-height: 2.75rem; min-width: 2.75rem; flex-shrink: 0; }
   [data-testid='stMain'] [data-testid='stExpander'] summary { min-height: 2.75rem; }
   [data-testid='stMultiSelect'] button[aria-label^='Remove'] { position: relative; }
   [data-testid='stMultiSelect'] button[aria-label^='Remove']::after {

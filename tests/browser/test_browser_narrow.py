@@ -210,6 +210,11 @@ TARGETS_JS = """() => {
   }
   return least;
 }"""
+#: the main area's tabs: each one's edges and whether its label is whole (no wider than the tab)
+TABS_JS = """() => [...document.querySelectorAll('[data-testid=stMain] [data-testid=stTab]')].map(t => {
+  const r = t.getBoundingClientRect();
+  return {text: t.innerText, left: Math.round(r.left), right: Math.round(r.right), whole: t.scrollWidth <= t.clientWidth};
+})"""
 SIDEBAR_OPEN_JS = "() => document.querySelector('[data-testid=stSidebar]').getBoundingClientRect().right > 0"
 
 
@@ -242,6 +247,11 @@ def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(b
         goto(page, f"{study_server}/participants?participant=P01")  # "Save preferences", "Add a participant"
         page.wait_for_selector("[data-testid=stMain] button[data-testid=stBaseButton-primary]")
         sizes["button"] = page.evaluate(TARGETS_JS)["button"]
+        # four tabs, wider together than the phone: each whole, beside the next (a least width alone let them shrink
+        # into one another, "Preferences of P01Details of P01"), the rest a swipe away as before
+        tabs = page.evaluate(TABS_JS)
+        assert len(tabs) == 4 and all(t["whole"] for t in tabs), tabs
+        assert all(a["right"] <= b["left"] for a, b in zip(tabs, tabs[1:])), tabs
         assert set(sizes) >= {"open", "close", "link", "tab", "choice", "button"}, sizes
         assert {k: v for k, v in sizes.items() if min(v) < 44} == {}, sizes
     finally:
@@ -268,3 +278,4 @@ def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, s
         assert sizes["tab"][0] == 40 and sizes["choice"][0] == 32, sizes
     finally:
         page.context.close()
+
