@@ -270,12 +270,19 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: Headings go down one level at a time, as a screen reader lists them (accessibility walkthrough: h1 -> h3 on the
 #: researcher's pages, h2 -> h4 -> h5 on the tablet): a page's sections are h2 (st.header), the sidebar's title and
 #: the study session's form and cards too, drawn at the sizes they had as h3, h4 and h5.
+#: A multi-choice field shows every option chosen, its chips wrapping onto more lines (Participants' preference form).
 #: A text field takes the direction of what is typed in it (Unicode's rule, its first letter's): Streamlit's are
 #: left to right, so Arabic or Hebrew typed there (a participant's request on the tablet, a preference's words, notes,
 #: comments) stood at the left edge, a closing "!" or emoji at its right, the start of an Arabic sentence.
 APP_STYLE = """
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
 [data-testid='stTextInput'] input, [data-testid='stTextArea'] textarea { unicode-bidi: plaintext; text-align: start; }
+/* every option chosen in a multi-choice field in view, on as many lines as they need (as in a form): outside a form
+   Streamlit keeps them on one line that scrolls sideways, and a preference's third time of day was cut and faded at
+   the field's edge ("16:00-18" on a phone; at 1280 px from the fifth), the rest out of sight */
+[data-testid='stMain'] [data-testid='stMultiSelect'] div:has(> [data-testid='stMultiSelectTagsContainer']) {
+  height: auto; max-height: none; }
+[data-testid='stMain'] [data-testid='stMultiSelectTagsContainer'] { flex-wrap: wrap; height: auto; }
 [data-testid='stMain'] h2 { font-size: 1.75rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stSidebar'] h2 { font-size: 1.125rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stMain'] [data-testid='stForm'] h2 { font-size: 1.5rem; letter-spacing: normal; padding: 0.5rem 0 1rem; }

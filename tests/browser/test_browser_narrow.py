@@ -39,7 +39,9 @@ def study_server(tmp_path_factory, initial_policy):
     with StudyStore(db) as s:
         for i, code in enumerate(("P01", "P02", "P03", "P04")):
             s.add_participant(code)
-            s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+            # P01's at five times of day (the Participants page's field of them, on a phone)
+            s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}
+                                      | ({"hours": [[8, 18]]} if code == "P01" else {})])
             day = start_day(s, code)
             policy, version = policy_in_force(s, code)
             for k in range(12):
@@ -279,3 +281,31 @@ def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, s
     finally:
         page.context.close()
 
+
+#: each multi-choice field of the page: its label, and the chosen options (chips) not wholly inside it
+CHIPS_JS = """() => [...document.querySelectorAll('[data-testid=stMain] [data-testid=stMultiSelect]')].map(m => {
+  const field = m.querySelector('[data-testid=stMultiSelectTagsContainer]').getBoundingClientRect();
+  const chips = [...m.querySelectorAll('[aria-label^=Remove]')].map(x => x.parentElement);
+  return {label: m.querySelector('label').innerText, chips: chips.map(c => c.innerText.trim()),
+          out: chips.filter(c => { const r = c.getBoundingClientRect();
+                                   return r.left < field.left || r.right > field.right + 0.5 || r.bottom > field.bottom + 0.5; })
+                    .map(c => c.innerText.trim())};
+})"""
+
+
+def test_on_a_phone_every_chosen_time_of_day_is_in_view(browser, study_server):
+    """Outside a form Streamlit keeps a multi-choice field's chips on one line that scrolls sideways: on a phone the
+    preference form's "Time of day (S3)" showed two and a half of P01's five times, the third cut and faded at the
+    field's edge ("16:00-18"), the rest out of sight. They now wrap (app.APP_STYLE), as in a form."""
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/participants?participant=P01")
+        page.wait_for_selector("[data-testid=stMain] [data-testid=stMultiSelect] [aria-label^=Remove]")
+        page.wait_for_timeout(300)
+        fields = page.evaluate(CHIPS_JS)  # Preference 1's fields first (P01's saved one), then the four empty ones
+        assert fields[2]["label"] == "Time of day (S3)" and fields[2]["chips"] == ["08:00-10:00", "10:00-12:00", "12:00-14:00", "14:00-16:00",
+                                                      "16:00-18:00"], fields
+        assert [(f["label"], f["out"]) for f in fields if f["out"]] == [], fields
+    finally:
+        page.context.close()
