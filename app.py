@@ -332,7 +332,10 @@ TOUCH_STYLE = """
 #: it over the page below 768 px) closes the sidebar, as Streamlit's own navigation does there: the links are ours
 #: (``_page_links``, to carry the address), and Streamlit's page link leaves the sidebar open, so the page opened
 #: stood behind it until the researcher closed it (walkthrough at 390 x 844). Beside the page (a laptop) it stays.
+#: Its element takes no room: Streamlit hides an st.html of styles alone, and with a script the page's title stood
+#: 16 px lower (one gap of the page's column).
 CLOSE_SIDEBAR_SCRIPT = """
+<style>.stElementContainer:has(> [data-testid='stHtml'] script) { display: none; }</style>
 <script>
 if (!window.cacasClosesSidebar) {
   window.cacasClosesSidebar = true;

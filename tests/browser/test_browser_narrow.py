@@ -217,6 +217,10 @@ TABS_JS = """() => [...document.querySelectorAll('[data-testid=stMain] [data-tes
   const r = t.getBoundingClientRect();
   return {text: t.innerText, left: Math.round(r.left), right: Math.round(r.right), whole: t.scrollWidth <= t.clientWidth};
 })"""
+#: how far (px) the page's title stands below the top of the page's column: nothing comes before it
+TITLE_OFFSET_JS = """() => { const column = document.querySelector('[data-testid=stMainBlockContainer]');
+  return Math.round(document.querySelector('[data-testid=stMain] h1').getBoundingClientRect().top
+                    - column.getBoundingClientRect().top - parseFloat(getComputedStyle(column).paddingTop)); }"""
 SIDEBAR_OPEN_JS = "() => document.querySelector('[data-testid=stSidebar]').getBoundingClientRect().right > 0"
 
 
@@ -261,8 +265,8 @@ def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(b
 
 
 def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, study_server):
-    """Beside the page (1280 px, a mouse) a page link leaves the sidebar open, and the buttons keep Streamlit's
-    40 px (the touch style is for a coarse pointer only)."""
+    """Beside the page (1280 px, a mouse) a page link leaves the sidebar open, the buttons keep Streamlit's 40 px
+    (the touch style is for a coarse pointer only), and the page's title stands where it stood."""
     from test_browser_mini_study import ran, runs
 
     page = open_page(browser, viewport={"width": 1280, "height": 800})
@@ -270,6 +274,8 @@ def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, s
     try:
         goto(page, f"{study_server}/?participant=P01")
         assert page.evaluate(SIDEBAR_OPEN_JS)
+        # the script's element takes no room: with it shown, the title stood 16 px lower (a gap of the page's column)
+        assert page.evaluate(TITLE_OFFSET_JS) == 0
         before = runs(page)
         page.locator("[data-testid=stSidebar] [data-testid=stPageLink-NavLink]", has_text="Results").click()
         ran(page, before)
