@@ -270,12 +270,19 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: Headings go down one level at a time, as a screen reader lists them (accessibility walkthrough: h1 -> h3 on the
 #: researcher's pages, h2 -> h4 -> h5 on the tablet): a page's sections are h2 (st.header), the sidebar's title and
 #: the study session's form and cards too, drawn at the sizes they had as h3, h4 and h5.
+#: A multi-choice field shows every option chosen, its chips wrapping onto more lines (Participants' preference form).
 #: A text field takes the direction of what is typed in it (Unicode's rule, its first letter's): Streamlit's are
 #: left to right, so Arabic or Hebrew typed there (a participant's request on the tablet, a preference's words, notes,
 #: comments) stood at the left edge, a closing "!" or emoji at its right, the start of an Arabic sentence.
 APP_STYLE = """
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
 [data-testid='stTextInput'] input, [data-testid='stTextArea'] textarea { unicode-bidi: plaintext; text-align: start; }
+/* every option chosen in a multi-choice field in view, on as many lines as they need (as in a form): outside a form
+   Streamlit keeps them on one line that scrolls sideways, and a preference's third time of day was cut and faded at
+   the field's edge ("16:00-18" on a phone; at 1280 px from the fifth), the rest out of sight */
+[data-testid='stMain'] [data-testid='stMultiSelect'] div:has(> [data-testid='stMultiSelectTagsContainer']) {
+  height: auto; max-height: none; }
+[data-testid='stMain'] [data-testid='stMultiSelectTagsContainer'] { flex-wrap: wrap; height: auto; }
 [data-testid='stMain'] h2 { font-size: 1.75rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stSidebar'] h2 { font-size: 1.125rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stMain'] [data-testid='stForm'] h2 { font-size: 1.5rem; letter-spacing: normal; padding: 0.5rem 0 1rem; }
@@ -286,8 +293,64 @@ APP_STYLE = """
 :is([data-testid='stMain'], [data-testid='stSidebar']) :is(button, [role='radio'], [role='tab'], audio, a,
     summary):focus-visible, label:has(input[type='checkbox']:focus-visible) { outline: 3px solid #2f6f8f;
                                                                                  outline-offset: 2px; }
+/* a touch screen (a phone or tablet between rooms) has no hover: Streamlit shows a table's toolbar and Plotly its
+   modebar always, not only under the mouse. The table's toolbar stood 44 px above the table, over the last line of
+   what came before (Adaptation: "before and after are shares of ..."); the modebar over a chart's title at a phone's
+   width ("Success rate and cumulative feedback"). Each now has a row of its own above its table or chart. */
+@media (hover: none) {
+  .stElementContainer:has([data-testid='stDataFrame']) { padding-top: 1.75rem; }
+  .stElementContainer:has([data-testid='stPlotlyChart']) { margin-top: 1.75rem; overflow: visible; }
+  [data-testid='stPlotlyChart'] .js-plotly-plot { overflow: visible !important; }
+  [data-testid='stPlotlyChart'] .modebar-container { top: -1.75rem !important; }
+}
 """
 
+
+#: The researcher's pages on a touch screen (a phone or a tablet carried between rooms during a study day; the
+#: participant's tablet page has its own, larger, :data:`TABLET_STYLE`): what is tapped is at least 44 px each way
+#: (WCAG 2.5.5; walkthrough at 390 x 844 and 768 x 1024, touch): the sidebar's open and close buttons were 28 x 28,
+#: the page links 28 px high (the Overview's "Open the study session" too), a chosen option's "x" in a multi-choice
+#: field 15 x 7 (now its chip's height, 28, and 34 wide: an unseen box around it, inside the chip), buttons and tabs
+#: 40 px high (Results' "Tables" tab 38 wide), an expander's heading 38, a choice of buttons (Results' data, Fig. 4's
+#: "Methods on one day") 32.
+TOUCH_STYLE = """
+@media (pointer: coarse) {
+  [data-testid='stExpandSidebarButton'], [data-testid='stSidebarCollapseButton'] button {
+    min-width: 2.75rem; min-height: 2.75rem; }
+  [data-testid='stPageLink-NavLink'] { min-height: 2.75rem; }
+  :is([data-testid='stMain'], [data-testid='stSidebar']) :is(button[data-testid^='stBaseButton'],
+    [data-testid='stButtonGroup'] button) { min-height: 2.75rem; }
+  [data-testid='stMain'] [data-testid='stTab'] { min-height: 2.75rem; min-width: 2.75rem; flex-shrink: 0; }
+  [data-testid='stMain'] [data-testid='stExpander'] summary { min-height: 2.75rem; }
+  [data-testid='stMultiSelect'] button[aria-label^='Remove'] { position: relative; }
+  [data-testid='stMultiSelect'] button[aria-label^='Remove']::after {
+    content: ''; position: absolute; inset: -1.1rem -0.6rem; }
+}
+"""
+
+#: A page link tapped in the sidebar where the sidebar lies over the page (a phone, a tablet upright: Streamlit draws
+#: it over the page below 768 px) closes the sidebar, as Streamlit's own navigation does there: the links are ours
+#: (``_page_links``, to carry the address), and Streamlit's page link leaves the sidebar open, so the page opened
+#: stood behind it until the researcher closed it (walkthrough at 390 x 844). Beside the page (a laptop) it stays.
+#: Its element takes no room: Streamlit hides an st.html of styles alone, and with a script the page's title stood
+#: 16 px lower (one gap of the page's column).
+CLOSE_SIDEBAR_SCRIPT = """
+<style>.stElementContainer:has(> [data-testid='stHtml'] script) { display: none; }</style>
+<script>
+if (!window.cacasClosesSidebar) {
+  window.cacasClosesSidebar = true;
+  document.addEventListener('click', event => {
+    const link = event.target.closest && event.target.closest("[data-testid='stSidebar'] [data-testid='stPageLink-NavLink']");
+    const sidebar = document.querySelector("[data-testid='stSidebar']");
+    const main = document.querySelector("[data-testid='stMain']");
+    if (!link || !sidebar || !main) return;
+    if (main.getBoundingClientRect().left < sidebar.getBoundingClientRect().right - 1) {  // over the page
+      const close = document.querySelector("[data-testid='stSidebarCollapseButton'] button");
+      if (close) close.click();
+    }
+  }, true);
+}
+</script>"""
 
 #: The tablet's look. A tablet at 1024 x 768 shows the proposal, its answers and the request form without
 #: scrolling: Streamlit's 6rem above the page was room they needed (a style only: it takes no room itself).
@@ -350,7 +413,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
-        st.html(f"<style>{APP_STYLE}</style>")
+        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}</style>{CLOSE_SIDEBAR_SCRIPT}", unsafe_allow_javascript=True)
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()

@@ -39,7 +39,9 @@ def study_server(tmp_path_factory, initial_policy):
     with StudyStore(db) as s:
         for i, code in enumerate(("P01", "P02", "P03", "P04")):
             s.add_participant(code)
-            s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}])
+            # P01's at five times of day (the Participants page's field of them, on a phone)
+            s.save_preferences(code, [{"activity": ["cough"], "action": "pain check"}
+                                      | ({"hours": [[8, 18]]} if code == "P01" else {})])
             day = start_day(s, code)
             policy, version = policy_in_force(s, code)
             for k in range(12):
@@ -140,5 +142,176 @@ def test_every_photo_s_name_is_on_one_line(browser, study_server, width):
         assert [p["text"] for p in photos if p["lines"] != 1] == [], width
         in_first_row = sum(p["top"] == photos[0]["top"] for p in photos)
         assert in_first_row >= {1024: 3, 1280: 5, 1440: 5}[width], in_first_row
+    finally:
+        page.context.close()
+
+
+#: a phone held upright by a researcher between rooms: touch, no hover (Streamlit and Plotly show their toolbars always)
+PHONE = dict(viewport={"width": 390, "height": 844}, is_mobile=True, has_touch=True)
+
+#: what stands over something else on a touch screen: each table's toolbar over the element before the table, each
+#: chart's modebar over the chart's title (boxes as [left, top, right, bottom])
+TOOLBARS_JS = """() => {
+  const box = e => { const r = e.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; };
+  const meet = (a, b) => a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
+  const shown = e => e.getBoundingClientRect().height > 0;
+  const over = [];
+  for (const t of document.querySelectorAll('[data-testid=stMain] [data-testid=stDataFrame] [data-testid=stElementToolbar]')) {
+    const container = t.closest('.stElementContainer'); const before = container.previousElementSibling;
+    if (shown(t) && before && shown(before) && meet(box(t), box(before)))
+      over.push('a table toolbar over: ' + before.innerText.slice(0, 60));
+  }
+  let charts = 0;
+  for (const c of document.querySelectorAll('[data-testid=stMain] .js-plotly-plot')) {
+    const bar = c.querySelector('.modebar'); const title = c.querySelector('.gtitle');
+    if (!shown(c) || !bar || !title) continue;
+    charts += 1;
+    if (meet(box(bar), box(title))) over.push('a modebar over the title ' + title.textContent);
+  }
+  return {over, tables: document.querySelectorAll('[data-testid=stMain] [data-testid=stDataFrame]').length, charts};
+}"""
+
+#: the pages where a table or a chart follows words, and what to wait for on each
+WITH_TOOLBARS = (("", "[data-testid=stDataFrame]"), ("participants", "[data-testid=stDataFrame]"),
+                 ("results", ".js-plotly-plot .gtitle"))
+
+
+@pytest.mark.parametrize("path, wait", WITH_TOOLBARS, ids=["overview", "participants", "results"])
+def test_on_a_phone_no_toolbar_covers_words_or_a_chart_s_title(browser, study_server, path, wait):
+    """A touch screen has no hover: Streamlit shows a table's toolbar (44 px above the table) and Plotly a chart's
+    modebar always. On a phone the toolbar covered the last line of the words before a table (Adaptation's "before
+    and after are shares of ...", the Overview's "Recent activity") and the modebar the chart's title (Fig. 3's
+    "Success rate and cumulative feedback"); each now stands in a row of its own (app.APP_STYLE)."""
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/{path}?participant=P01")
+        page.wait_for_selector(f"[data-testid=stMain] {wait}")
+        page.wait_for_timeout(300)
+        found = page.evaluate(TOOLBARS_JS)
+        assert found["tables"] or found["charts"], found
+        assert found["over"] == [], found
+    finally:
+        page.context.close()
+
+
+#: the least height and width (px) of what is tapped, per kind, among those in view (the sidebar's only while it is open)
+TARGETS_JS = """() => {
+  const kinds = {open: "[data-testid=stExpandSidebarButton]", close: "[data-testid=stSidebarCollapseButton] button",
+                 link: "[data-testid=stPageLink-NavLink]", tab: "[data-testid=stMain] [data-testid=stTab]",
+                 choice: "[data-testid=stMain] [data-testid=stButtonGroup] button",
+                 button: "[data-testid=stMain] button[data-testid^=stBaseButton]"};
+  // Streamlit's table toolbar (its icons 24 px wide, in a row 44 high on a touch screen) is not counted
+  const least = {};
+  for (const [kind, selector] of Object.entries(kinds)) {
+    const boxes = [...document.querySelectorAll(selector)].filter(e => !e.closest('[data-testid=stElementToolbar]'))
+      .map(e => e.getBoundingClientRect())
+      .filter(r => r.width > 0 && r.height > 0 && r.right > 0);
+    if (boxes.length) least[kind] = [Math.min(...boxes.map(r => Math.round(r.height))),
+                                     Math.min(...boxes.map(r => Math.round(r.width)))];
+  }
+  return least;
+}"""
+#: the main area's tabs: each one's edges and whether its label is whole (no wider than the tab)
+TABS_JS = """() => [...document.querySelectorAll('[data-testid=stMain] [data-testid=stTab]')].map(t => {
+  const r = t.getBoundingClientRect();
+  return {text: t.innerText, left: Math.round(r.left), right: Math.round(r.right), whole: t.scrollWidth <= t.clientWidth};
+})"""
+#: how far (px) the page's title stands below the top of the page's column: nothing comes before it
+TITLE_OFFSET_JS = """() => { const column = document.querySelector('[data-testid=stMainBlockContainer]');
+  return Math.round(document.querySelector('[data-testid=stMain] h1').getBoundingClientRect().top
+                    - column.getBoundingClientRect().top - parseFloat(getComputedStyle(column).paddingTop)); }"""
+SIDEBAR_OPEN_JS = "() => document.querySelector('[data-testid=stSidebar]').getBoundingClientRect().right > 0"
+
+
+def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(browser, study_server):
+    """At 390 x 844 with touch the sidebar's open and close buttons were 28 x 28, its page links 28 px high, buttons
+    and tabs 40, Results' choice of data 32 (app.TOUCH_STYLE: 44 at least, WCAG 2.5.5); and a page link tapped in the
+    sidebar, which lies over the page there, left it open over the page it opened (app.CLOSE_SIDEBAR_SCRIPT)."""
+    from test_browser_mini_study import ran, runs
+
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/?participant=P01")
+        # the header's buttons take their size in a transition (200 ms; later on a loaded machine): given 5 s
+        grown = "() => document.querySelector('[data-testid=stExpandSidebarButton]').getBoundingClientRect().height >= 44"
+        page.wait_for_function(grown, timeout=5_000)
+        sizes = page.evaluate(TARGETS_JS)  # the sidebar closed: its open button
+        page.locator("[data-testid=stExpandSidebarButton]").tap()
+        page.wait_for_function(SIDEBAR_OPEN_JS)
+        page.wait_for_timeout(400)  # its slide
+        sizes.update(page.evaluate(TARGETS_JS))
+        before = runs(page)
+        page.locator("[data-testid=stSidebar] [data-testid=stPageLink-NavLink]", has_text="Results").tap()
+        ran(page, before)
+        page.wait_for_selector("[data-testid=stMain] [data-testid=stTab]")
+        assert "/results" in page.url
+        page.wait_for_timeout(400)
+        assert not page.evaluate(SIDEBAR_OPEN_JS), "the sidebar stayed over the page"
+        sizes.update({k: v for k, v in page.evaluate(TARGETS_JS).items() if k in ("tab", "choice")})
+        goto(page, f"{study_server}/participants?participant=P01")  # "Save preferences", "Add a participant"
+        page.wait_for_selector("[data-testid=stMain] button[data-testid=stBaseButton-primary]")
+        sizes["button"] = page.evaluate(TARGETS_JS)["button"]
+        # four tabs, wider together than the phone: each whole, beside the next (a least width alone let them shrink
+        # into one another, "Preferences of P01Details of P01"), the rest a swipe away as before
+        tabs = page.evaluate(TABS_JS)
+        assert len(tabs) == 4 and all(t["whole"] for t in tabs), tabs
+        assert all(a["right"] <= b["left"] for a, b in zip(tabs, tabs[1:])), tabs
+        assert set(sizes) >= {"open", "close", "link", "tab", "choice", "button"}, sizes
+        assert {k: v for k, v in sizes.items() if min(v) < 44} == {}, sizes
+    finally:
+        page.context.close()
+
+
+def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, study_server):
+    """Beside the page (1280 px, a mouse) a page link leaves the sidebar open, the buttons keep Streamlit's 40 px
+    (the touch style is for a coarse pointer only), and the page's title stands where it stood."""
+    from test_browser_mini_study import ran, runs
+
+    page = open_page(browser, viewport={"width": 1280, "height": 800})
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/?participant=P01")
+        assert page.evaluate(SIDEBAR_OPEN_JS)
+        # the script's element takes no room: with it shown, the title stood 16 px lower (a gap of the page's column)
+        assert page.evaluate(TITLE_OFFSET_JS) == 0
+        before = runs(page)
+        page.locator("[data-testid=stSidebar] [data-testid=stPageLink-NavLink]", has_text="Results").click()
+        ran(page, before)
+        page.wait_for_selector("[data-testid=stMain] [data-testid=stTab]")
+        page.wait_for_timeout(400)
+        assert page.evaluate(SIDEBAR_OPEN_JS)
+        sizes = page.evaluate(TARGETS_JS)
+        assert sizes["tab"][0] == 40 and sizes["choice"][0] == 32, sizes
+    finally:
+        page.context.close()
+
+
+#: each multi-choice field of the page: its label, and the chosen options (chips) not wholly inside it
+CHIPS_JS = """() => [...document.querySelectorAll('[data-testid=stMain] [data-testid=stMultiSelect]')].map(m => {
+  const field = m.querySelector('[data-testid=stMultiSelectTagsContainer]').getBoundingClientRect();
+  const chips = [...m.querySelectorAll('[aria-label^=Remove]')].map(x => x.parentElement);
+  return {label: m.querySelector('label').innerText, chips: chips.map(c => c.innerText.trim()),
+          out: chips.filter(c => { const r = c.getBoundingClientRect();
+                                   return r.left < field.left || r.right > field.right + 0.5 || r.bottom > field.bottom + 0.5; })
+                    .map(c => c.innerText.trim())};
+})"""
+
+
+def test_on_a_phone_every_chosen_time_of_day_is_in_view(browser, study_server):
+    """Outside a form Streamlit keeps a multi-choice field's chips on one line that scrolls sideways: on a phone the
+    preference form's "Time of day (S3)" showed two and a half of P01's five times, the third cut and faded at the
+    field's edge ("16:00-18"), the rest out of sight. They now wrap (app.APP_STYLE), as in a form."""
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/participants?participant=P01")
+        page.wait_for_selector("[data-testid=stMain] [data-testid=stMultiSelect] [aria-label^=Remove]")
+        page.wait_for_timeout(300)
+        fields = page.evaluate(CHIPS_JS)  # Preference 1's fields first (P01's saved one), then the four empty ones
+        assert fields[2]["label"] == "Time of day (S3)" and fields[2]["chips"] == ["08:00-10:00", "10:00-12:00", "12:00-14:00", "14:00-16:00",
+                                                      "16:00-18:00"], fields
+        assert [(f["label"], f["out"]) for f in fields if f["out"]] == [], fields
     finally:
         page.context.close()
