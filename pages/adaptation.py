@@ -9,6 +9,7 @@ from cacas import app_support, plots, table_layouts
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
+from cacas.on_tablet import board_name
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, in_force_words,
                              saved_policy, unfinished_adaptation)
 from pages import ui
@@ -103,7 +104,7 @@ else:
                           "on the user data alone.")
         st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
     if status.open:
-        shown = ui.tablet_board().shown(db, code, day=day, index=status.interactions_today + 1)
+        shown = ui.tablet_board().shown(db, board_name(store, code), day=day, index=status.interactions_today + 1)
         if shown is not None:  # the participant is about to answer: an answer after closing is not saved
             # no interaction number: the tablet counts recorded interactions ("7 of about 15"), this index counts
             # every moment of the day, unanswered ones too ("interaction 16" beside "7 of about 15": walkthrough)

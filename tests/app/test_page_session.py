@@ -1174,3 +1174,30 @@ def test_a_proposal_whose_day_was_closed_and_the_next_started_is_not_said_answer
     assert [e.value for e in at.error] == [
         "The robot's last question was not answered before day 1 was closed, so nothing was saved for it."]
     assert not at.info and "What are you doing?" in texts(at)
+
+
+def test_a_code_given_again_after_a_removal_does_not_open_on_the_removed_participants_proposal(app, store, p01,
+                                                                                             quick_policy):
+    """A study day with several tablets (lan): P04 was removed while their tablet showed a proposal, and a new
+    participant given the code P04 opened their tablet on it, the removed participant's context and the robot's
+    line for it, ready to be answered as theirs; the researcher's view said "On P04's tablet now" of it, and the
+    Adaptation page warned of it. The tablet board names a participant by code and when they were added."""
+    store.open_day("P01")
+    old = app(PAGE, participant="P01", view="tablet")
+    _choose(old)
+    assert old.chat_message  # the removed participant's proposal, unanswered
+    store.remove_participant("P01", confirm="P01")
+    store.add_participant("P01")  # someone else, under the same code
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    store.open_day("P01")
+
+    tablet = app(PAGE, participant="P01", view="tablet")
+    no_exception(tablet)
+    assert not tablet.chat_message and [b for b in tablet.button if b.label == "Do it"]
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert "On P01's tablet now" not in texts(desk)
+    adaptation = app("pages/adaptation.py", participant="P01")
+    no_exception(adaptation)
+    assert "tablet shows a proposal" not in texts(adaptation)
+    assert store.interactions_frame("P01", method=None).empty
