@@ -212,10 +212,15 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         return
     try:
         answer(store, code, day, proposal, response=response, user_action=user_action, index=index)
-    except AlreadyRecorded:  # already saved: a second click (silent), or another screen answered first
+    except AlreadyRecorded:  # already saved: a second click, the same tap on another tablet, or another answer
         _cancel()
         other = recorded_answer(store, code, day, index)
-        if other is not None and not is_same_answer(other, proposal, response, user_action):
+        if other is not None and is_same_answer(other, proposal, response, user_action):
+            # this very answer, saved by a second click or by the same tap on another tablet at this address: it
+            # said nothing there, and its proposal went without a word (lan: two tablets, "Accept" on both)
+            s["session-error"] = None
+            _say_saved(index, proposal, response, user_action)
+        elif other is not None:
             said = app_support.interactions_view(pd.DataFrame([other]))["answer"].iloc[0]  # as the day's table says it
             # the tablet's count has no such number; nor was it "this proposal" that the other screen answered: the
             # tablet said "this proposal was answered meanwhile ... (watch TV, accepted)" under its own hair-dryer
@@ -233,6 +238,12 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         return
     s["session-error"] = None
     _cancel()
+    _say_saved(index, proposal, response, user_action)
+
+
+def _say_saved(index: int, proposal, response: str | None, user_action: str | None) -> None:
+    """Say that the answer to interaction ``index`` was saved, in the words of what was saved."""
+    s = st.session_state
     if user_action and request_accepts_proposal(proposal, user_action):
         what = "accepted: that is what the robot offered"
     else:

@@ -1201,3 +1201,22 @@ def test_a_code_given_again_after_a_removal_does_not_open_on_the_removed_partici
     no_exception(adaptation)
     assert "tablet shows a proposal" not in texts(adaptation)
     assert store.interactions_frame("P01", method=None).empty
+
+
+def test_the_same_answer_tapped_on_a_second_tablet_says_saved(app, store, p01, quick_policy):
+    """A study day with several tablets (lan): the participant's address open on two tablets, both showing the
+    proposal, "Accept" tapped on both at once. It was recorded once, and the tablet whose tap came second said
+    nothing at all: its proposal went, no "Saved", no message. The answer saved is the one it gave: it says so."""
+    store.open_day("P01")
+    first = app(PAGE, participant="P01", view="tablet")
+    _choose(first)
+    second = app(PAGE, participant="P01", view="tablet")  # the same address on another tablet: the same proposal
+    assert [m.children[0].value for m in second.chat_message] == [m.children[0].value for m in first.chat_message]
+    label = next(b.label for b in first.button if b.label in ("Accept", "Nothing needed"))
+    _button(first, label).click().run()
+    _button(second, label).click().run()
+    no_exception(second)
+    said = "Saved (accepted)." if label == "Accept" else "Saved (nothing needed)."
+    assert [m.value for m in first.success] == [said] and [m.value for m in second.success] == [said]
+    assert not second.error
+    assert len(store.interactions_frame("P01", method=None)) == 1
