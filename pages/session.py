@@ -510,7 +510,11 @@ elif context is None:
         board.clear(db, who)
     if status.recorded_today >= TARGET_INTERACTIONS:  # on the form only: over a proposal it pushed the request
         # form below the fold at 1024 x 768 (walkthrough)
-        st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
+        # the tablet thanks the participant; the researcher's view says the researcher's next step (lan: it thanked
+        # the researcher in the participant's words)
+        st.info("That's about enough for today, thank you! You may carry on, or stop here." if tablet else
+                f"{code} has had the day's about {TARGET_INTERACTIONS} interactions (Section V-B): {code} may carry on, "
+                "or stop here and you close the day on the Adaptation page.", icon=":material/thumb_up:")
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     if not tablet and not board.heard(db, who):

@@ -1220,3 +1220,20 @@ def test_the_same_answer_tapped_on_a_second_tablet_says_saved(app, store, p01, q
     assert [m.value for m in first.success] == [said] and [m.value for m in second.success] == [said]
     assert not second.error
     assert len(store.interactions_frame("P01", method=None)) == 1
+
+
+def test_the_researchers_view_says_the_days_plan_is_met_in_the_researchers_words(app, store, p01, quick_policy):
+    """A study day with several tablets (lan): with 15 interactions recorded the researcher's view said the
+    tablet's words to the researcher, "That's about enough for today, thank you! You may carry on, or stop
+    here." It says where the day stands and the researcher's next step; the tablet keeps its thanks."""
+    day = store.open_day("P01")
+    for _ in range(15):
+        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
+                                 robot_action="pain check", response="accept")
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert "thank you" not in texts(desk)
+    assert ("P01 has had the day's about 15 interactions (Section V-B): P01 may carry on, or stop here and you "
+            "close the day on the Adaptation page.") in [m.value for m in desk.info]
+    tablet = app(PAGE, participant="P01", view="tablet")
+    assert "That's about enough for today, thank you! You may carry on, or stop here." in [m.value for m in tablet.info]
