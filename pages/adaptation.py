@@ -9,7 +9,7 @@ from cacas import app_support, plots, table_layouts
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
-from cacas.on_tablet import board_name
+from cacas.on_tablet import Shown, board_name
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, in_force_words,
                              saved_policy, unfinished_adaptation)
 from pages import ui
@@ -75,6 +75,31 @@ def _rollback(who: str, key: str) -> None:
                  "interaction.", icon=":material/history:")
 
 
+#: How often the page looks at the participant's tablet while their day is open (as the Study session's view does).
+FOLLOW_EVERY_SECONDS = 3
+
+
+def _on_the_tablet(now) -> Shown | None:
+    """The proposal the participant's tablet shows for the open day's next interaction, or None."""
+    if not now.open:
+        return None
+    return ui.tablet_board().shown(db, board_name(store, code), day=now.day, index=now.interactions_today + 1)
+
+
+@st.fragment(run_every=FOLLOW_EVERY_SECONDS)
+def _follow_the_tablet(drawn, drawn_shown) -> None:
+    """While the day is open the page is drawn again once the tablet shows another proposal or saves an
+    answer (or the day is closed elsewhere). A study day with several tablets (lan): the page was opened, then
+    the participant set a context; its warning that the tablet shows a proposal is drawn with the page only, so
+    it never came, and "Close day N and adapt" lost the answer the participant was about to give."""
+    try:
+        now = day_status(store, code)
+        if now != drawn or _on_the_tablet(now) != drawn_shown:
+            st.rerun()
+    except CacasError:  # the participant was removed meanwhile: the whole page says so
+        st.rerun()
+
+
 status = day_status(store, code)
 versions = store.policy_versions(code)
 runs = store.adaptations_frame(code)
@@ -104,7 +129,8 @@ else:
                           "on the user data alone.")
         st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
     if status.open:
-        shown = ui.tablet_board().shown(db, board_name(store, code), day=day, index=status.interactions_today + 1)
+        shown = _on_the_tablet(status)
+        _follow_the_tablet(status, shown)
         if shown is not None:  # the participant is about to answer: an answer after closing is not saved
             # no interaction number: the tablet counts recorded interactions ("7 of about 15"), this index counts
             # every moment of the day, unanswered ones too ("interaction 16" beside "7 of about 15": walkthrough)
