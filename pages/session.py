@@ -513,8 +513,8 @@ elif context is None:
         # the tablet thanks the participant; the researcher's view says the researcher's next step (lan: it thanked
         # the researcher in the participant's words)
         st.info("That's about enough for today, thank you! You may carry on, or stop here." if tablet else
-                f"{code} has had the day's about {TARGET_INTERACTIONS} interactions (Section V-B): {code} may carry on, "
-                "or stop here and you close the day on the Adaptation page.", icon=":material/thumb_up:")
+                f"{code} has had about {TARGET_INTERACTIONS} interactions today, the day's plan (Section V-B): {code} may "
+                "carry on, or stop here, and you close the day on the Adaptation page.", icon=":material/thumb_up:")
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
     if not tablet and not board.heard(db, who):

@@ -1233,7 +1233,7 @@ def test_the_researchers_view_says_the_days_plan_is_met_in_the_researchers_words
     desk = app(PAGE, participant="P01")
     no_exception(desk)
     assert "thank you" not in texts(desk)
-    assert ("P01 has had the day's about 15 interactions (Section V-B): P01 may carry on, or stop here and you "
-            "close the day on the Adaptation page.") in [m.value for m in desk.info]
+    assert ("P01 has had about 15 interactions today, the day's plan (Section V-B): P01 may carry on, or stop "
+            "here, and you close the day on the Adaptation page.") in [m.value for m in desk.info]
     tablet = app(PAGE, participant="P01", view="tablet")
     assert "That's about enough for today, thank you! You may carry on, or stop here." in [m.value for m in tablet.info]
