@@ -13,6 +13,10 @@ like me to ... Is that right?"): a tablet's session lives in the browser's page,
 a new session and the request was gone, with the proposal's buttons back in its place. Held here
 (in the server's memory only, until it is answered, withdrawn, or another proposal is shown), the
 reloaded tablet asks it again.
+
+The board names a participant by code and by when they were added (:func:`board_name`): a
+participant removed while their tablet showed a proposal left it here, and a new participant given
+the same code opened their tablet on it.
 """
 
 from __future__ import annotations
@@ -20,6 +24,16 @@ from __future__ import annotations
 import threading
 import time
 from dataclasses import dataclass, field, replace
+
+
+def board_name(store, code: str) -> str:
+    """The participant ``code`` as the board names them: their code and when they were added
+    (``created_at``, strictly increasing). A study day with several tablets (lan): P04 was removed
+    while their tablet showed a proposal, and the next participant given the code P04 opened their
+    tablet on it, the removed participant's context and the robot's line, to be answered as theirs
+    (and the researcher's view and the Adaptation page spoke of it). A participant that is gone
+    raises CacasError (:meth:`StudyStore.get_participant`)."""
+    return f"{code} (added {store.get_participant(code).created_at})"
 
 
 @dataclass(frozen=True)
@@ -67,7 +81,8 @@ class Asked:
 
 
 class TabletBoard:
-    """Per (study database, participant): the proposal their tablet shows, or nothing."""
+    """Per (study database, participant): the proposal their tablet shows, or nothing. The pages
+    name the participant by :func:`board_name`, not by code alone."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()

@@ -376,8 +376,12 @@ def recorded_answer(store, participant: str, day: int, index: int) -> dict | Non
 def is_same_answer(row: dict, proposal: Proposal, response: str | None = None,
                    user_action: str | None = None) -> bool:
     """``row`` (:func:`recorded_answer`) is this answer to this proposal, as :func:`answer` writes
-    it: a second click on the same screen, not another screen's answer to another proposal."""
-    if row["activity"] != proposal.context.activity or row["robot_action"] != proposal.action:
+    it: a second click on the same screen, not another screen's answer to another proposal. The
+    context is compared whole (S1-S4): two tablets at one participant's address (lan) may propose
+    the same action for the same activity in another room or at another time."""
+    ctx = proposal.context
+    if (row["activity"], row["scene"], row["time_slot"], row["interval"], row["robot_action"]) != (
+            ctx.activity, ctx.scene, ctx.time_slot, ctx.interval_minutes, proposal.action):
         return False
     if user_action is not None and not request_accepts_proposal(proposal, user_action):
         wanted = spaces.canonical("action", user_action)

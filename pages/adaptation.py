@@ -9,6 +9,7 @@ from cacas import app_support, plots, table_layouts
 from cacas.adaptation import METHODS, policy_changes, preferences_learnt
 from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
+from cacas.on_tablet import Shown, board_name
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, in_force_words,
                              saved_policy, unfinished_adaptation)
 from pages import ui
@@ -44,9 +45,21 @@ def _job_key(who: str, day: int) -> str:
     return f"adapt:{db}:{who}:{day}"
 
 
-def _start(who: str, day: int) -> None:
+def _start(who: str, day: int, drawn_shown: Shown | None = None) -> None:
+    """Close (if open) and adapt ``who``'s ``day``. ``drawn_shown``: the tablet's proposal as the page drew it,
+    for "Close day N and adapt": a proposal the tablet showed since (between two looks of
+    :func:`_follow_the_tablet`) stops this click, said so; the next click closes the day anyway."""
     s = st.session_state
     key = _job_key(who, day)
+    try:
+        now = day_status(store, who)
+        shown = _on_the_tablet(who, now) if now.open and now.day == day else None
+    except CacasError:  # removed meanwhile: the adaptation says so, as before
+        shown = None
+    s["adapt-held"] = None
+    if shown is not None and shown != drawn_shown:
+        s["adapt-held"] = (who, day)  # said under the button while the proposal is on the tablet
+        return
     mine = s.get("adapt-started") == key  # this tab started it: this click is its own second one (a double click)
     done = RUNNER.get(key)
     if done is not None and done.status == DONE:  # adapted in this server: a stale tab's click keeps its result
@@ -72,6 +85,32 @@ def _rollback(who: str, key: str) -> None:
         st.session_state["rollback-error"] = None
         st.toast(f"{'The initial policy' if choice == 0 else f'Version {choice}'} is in force from {who}'s next "
                  "interaction.", icon=":material/history:")
+
+
+#: How often the page looks at the participant's tablet while their day is open (as the Study session's view does).
+FOLLOW_EVERY_SECONDS = 3
+
+
+def _on_the_tablet(who: str, now) -> Shown | None:
+    """The proposal ``who``'s tablet shows for their open day's next interaction (``now``: their day status),
+    or None."""
+    if not now.open:
+        return None
+    return ui.tablet_board().shown(db, board_name(store, who), day=now.day, index=now.interactions_today + 1)
+
+
+@st.fragment(run_every=FOLLOW_EVERY_SECONDS)
+def _follow_the_tablet(drawn, drawn_shown) -> None:
+    """While the day is open the page is drawn again once the tablet shows another proposal or saves an
+    answer (or the day is closed elsewhere). A study day with several tablets (lan): the page was opened, then
+    the participant set a context; its warning that the tablet shows a proposal is drawn with the page only, so
+    it never came, and "Close day N and adapt" lost the answer the participant was about to give."""
+    try:
+        now = day_status(store, code)
+        if now != drawn or _on_the_tablet(code, now) != drawn_shown:
+            st.rerun()
+    except CacasError:  # the participant was removed meanwhile: the whole page says so
+        st.rerun()
 
 
 status = day_status(store, code)
@@ -103,7 +142,8 @@ else:
                           "on the user data alone.")
         st.number_input("Seed", min_value=0, value=0, step=1, key="adapt-seed")
     if status.open:
-        shown = ui.tablet_board().shown(db, code, day=day, index=status.interactions_today + 1)
+        shown = _on_the_tablet(code, status)
+        _follow_the_tablet(status, shown)
         if shown is not None:  # the participant is about to answer: an answer after closing is not saved
             # no interaction number: the tablet counts recorded interactions ("7 of about 15"), this index counts
             # every moment of the day, unanswered ones too ("interaction 16" beside "7 of about 15": walkthrough)
@@ -117,11 +157,14 @@ else:
             key=f"close-short-{code}-{day}",
             help="A closed day takes no more interactions and cannot be reopened. If the tablet shows a proposal, "
                  "let the participant answer it first: an answer given after closing is not saved.")
-        ui.button(st, f"Close day {day} and adapt", _start, args=(code, day), type="primary",
+        ui.button(st, f"Close day {day} and adapt", _start, args=(code, day, shown), type="primary",
                   icon=":material/model_training:", disabled=status.interactions_today == 0 or not sure,
                   help="Closes the day (no more interactions on it) and adapts the policy.")
         if status.interactions_today == 0:
             st.caption("No interactions on this day yet.")
+        if shown is not None and st.session_state.get("adapt-held") == (code, day):
+            st.warning(f"Day {day} was not closed: {code}'s tablet showed a proposal after this page was drawn "
+                       "(above). Click again to close the day anyway.", icon=":material/tablet:")
     elif status.waiting_for_adaptation:
         unfinished = None if RUNNER.get(_job_key(code, day)) else unfinished_adaptation(store, code, day)
         if unfinished:  # this server knows no such run: it was stopped during it (or another server runs it)

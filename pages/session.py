@@ -18,7 +18,7 @@ from cacas.records import RESPONSE_WORDS
 from cacas.errors import AlreadyRecorded, CacasError
 from cacas.jobs import FAILED, RUNNER
 from cacas.lab import audio_mime
-from cacas.on_tablet import Asked, Shown
+from cacas.on_tablet import Asked, Shown, board_name
 from cacas.recognition import Recognition
 from cacas.store.db import WriteRefused
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_of, day_status,
@@ -44,6 +44,8 @@ def _policy(db: str, who: str, version: int | None, sha256: str | None):
 
 
 board, db = ui.tablet_board(), ui.db_path()
+#: the participant as the board names them: a new participant given a removed one's code is someone else
+who = board_name(store, code)
 
 
 def _library(kind: str, name: str) -> list[str]:
@@ -185,14 +187,14 @@ def _clear_request() -> None:
         s.pop(key, None)
     s["request-text"], s["request-pick"] = "", None
     if tablet:
-        board.withdraw(db, code)
+        board.withdraw(db, who)
 
 
 def _cancel() -> None:
     ui.set_address(ctx=None, at=None)
     _clear_request()
     if tablet:  # the participant left the proposal: a reopened tablet must not return to it
-        board.clear(db, code)
+        board.clear(db, who)
     st.session_state.pop("run-here", None)  # the researcher's view follows the tablet again
 
 
@@ -210,10 +212,15 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         return
     try:
         answer(store, code, day, proposal, response=response, user_action=user_action, index=index)
-    except AlreadyRecorded:  # already saved: a second click (silent), or another screen answered first
+    except AlreadyRecorded:  # already saved: a second click, the same tap on another tablet, or another answer
         _cancel()
         other = recorded_answer(store, code, day, index)
-        if other is not None and not is_same_answer(other, proposal, response, user_action):
+        if other is not None and is_same_answer(other, proposal, response, user_action):
+            # this very answer, saved by a second click or by the same tap on another tablet at this address: it
+            # said nothing there, and its proposal went without a word (lan: two tablets, "Accept" on both)
+            s["session-error"] = None
+            _say_saved(index, proposal, response, user_action)
+        elif other is not None:
             said = app_support.interactions_view(pd.DataFrame([other]))["answer"].iloc[0]  # as the day's table says it
             # the tablet's count has no such number; nor was it "this proposal" that the other screen answered: the
             # tablet said "this proposal was answered meanwhile ... (watch TV, accepted)" under its own hair-dryer
@@ -231,6 +238,12 @@ def _record(day: int, index: int, proposal, response: str | None = None, user_ac
         return
     s["session-error"] = None
     _cancel()
+    _say_saved(index, proposal, response, user_action)
+
+
+def _say_saved(index: int, proposal, response: str | None, user_action: str | None) -> None:
+    """Say that the answer to interaction ``index`` was saved, in the words of what was saved."""
+    s = st.session_state
     if user_action and request_accepts_proposal(proposal, user_action):
         what = "accepted: that is what the robot offered"
     else:
@@ -260,14 +273,14 @@ def _match_request(day: int, index: int, context: str) -> None:
     # kept apart from the text field's own state, which Streamlit drops while the field is not shown
     s["request-said"] = s.get("request-text", "")
     if tablet:  # and on the board, where a reload of the tablet finds it (the session is new then)
-        board.ask(db, code, Asked(day, index, context, m.action, s["request-said"]))
+        board.ask(db, who, Asked(day, index, context, m.action, s["request-said"]))
 
 
 def _reject_match() -> None:
     s = st.session_state
     s.pop("request-match", None)
     if tablet:
-        board.withdraw(db, code)
+        board.withdraw(db, who)
     s["request-text"] = s.pop("request-said", "")  # back in the field, to be said differently
     s["request-error"] = "Sorry. Pick what you would like from the list, or say it differently."
     if tablet:  # said under the request form, below the fold at 1024 x 768 (walkthrough): a toast is seen at once
@@ -286,7 +299,7 @@ def _follow_the_tablet(drawn, drawn_shown, drawn_pending) -> None:
         now = day_status(store, code)
     except CacasError:  # the participant was removed meanwhile: the whole page says so
         st.rerun()
-    if now != drawn or board.shown(db, code) != drawn_shown or board.pending(db, code) != drawn_pending:
+    if now != drawn or board.shown(db, who) != drawn_shown or board.pending(db, who) != drawn_pending:
         st.rerun()
 
 
@@ -371,7 +384,7 @@ def _on_the_tablet(shown: Shown) -> None:
                    + (f" · {shown.interval} since {code}'s last activity" if shown.interval else ""))
         with st.chat_message("assistant", avatar=":material/smart_toy:"):
             st.markdown(shown.line)
-        asked = board.pending(db, code)
+        asked = board.pending(db, who)
         if asked is not None and (asked.day, asked.index) == (shown.day, shown.index):  # typed, awaiting their yes
             with st.chat_message("user", avatar=":material/person:"):
                 st.markdown(f"“{asked.said}”")
@@ -391,7 +404,7 @@ def _on_the_tablet(shown: Shown) -> None:
 status = day_status(store, code)
 _say_a_proposal_its_closed_day_left_unanswered(status)
 if not tablet:
-    _follow_the_tablet(status, board.shown(db, code), board.pending(db, code))
+    _follow_the_tablet(status, board.shown(db, who), board.pending(db, who))
 # [3, 1] cut "Choose a different activity" at 768 px, and [2, 1] the tablet's larger words ("Hello, P01" is short)
 head, back = st.columns([1, 1] if tablet else [2, 1], vertical_alignment="center")
 if tablet:
@@ -417,7 +430,7 @@ if saved:
 
 if not status.open:
     if tablet:
-        board.clear(db, code)
+        board.clear(db, who)
         if not status.finished:  # nothing there for the participant to do until the researcher has
             _wait_for_the_researcher(_waiting_for(status))  # as drawn below, not read again
     # the tablet thanks and reassures the participant; the researcher's view says the researcher's next step
@@ -482,31 +495,32 @@ if token_ctx:
             st.info("That proposal was answered already. Set what you are doing now"
                     + ("." if tablet else f" for interaction {done + 1}."), icon=":material/info:")
 
-reopened = board.shown(db, code, day, done + 1) if tablet and not token_ctx else None
+reopened = board.shown(db, who, day, done + 1) if tablet and not token_ctx else None
 if reopened is not None and reopened.context:
     # the tablet opened again at its plain address (closed and reopened, the address typed again) while its
     # proposal for this interaction awaits an answer: it returns to it (it showed the empty form, and the
     # researcher's view lost the proposal the participant had not answered yet)
     context = Context.from_token(reopened.context)
     ui.set_address(ctx=reopened.context, at=_interaction_mark(day, done + 1))
-on_tablet = None if tablet else board.shown(db, code, day, done + 1)
+on_tablet = None if tablet else board.shown(db, who, day, done + 1)
 if context is None and on_tablet is not None and not st.session_state.get("run-here"):
     _on_the_tablet(on_tablet)
 elif context is None:
     if tablet:
-        board.clear(db, code)
+        board.clear(db, who)
     if status.recorded_today >= TARGET_INTERACTIONS:  # on the form only: over a proposal it pushed the request
         # form below the fold at 1024 x 768 (walkthrough)
         if tablet:
             st.info("That's about enough for today, thank you! You may carry on, or stop here.", icon=":material/thumb_up:")
-        else:  # the researcher's next step, which the tablet's thanks did not say (docs walkthrough)
-            st.info(f"That is about enough for {code} today: they may carry on, or stop here. Once they stop, close "
-                    f"the day on Adaptation (\"Close day {day} and adapt\").",
-                    icon=":material/thumb_up:")
+        else:  # the researcher's next step, in the researcher's words (docs and lan walkthroughs: it said the tablet's
+            # thanks to the researcher, and no next step)
+            st.info(f"{code} has had about {TARGET_INTERACTIONS} interactions today, the day's plan (Section V-B): they "
+                    f"may carry on, or stop here. Once they stop, close the day on Adaptation (\"Close day {day} and "
+                    "adapt\").", icon=":material/thumb_up:")
             ui.link("pages/adaptation.py", f"Close day {day} on Adaptation", ":material/model_training:")
     # the paper's sub-state names (S1-S4) help the researcher; the participant's tablet goes without
     part = (lambda name: "") if tablet else (lambda name: f" ({name})")
-    if not tablet and not board.heard(db, code):
+    if not tablet and not board.heard(db, who):
         # after a restart a tablet left open shows its proposal without being drawn: this page cannot know
         ui.noted("info", f"This page has not heard from {code}'s tablet since the app started "
                          f"({app_support.short_time(board.started)}). If the tablet shows a "
@@ -562,7 +576,7 @@ else:
                        sound_model=heard.model if heard else None, scene_model=seen.model if seen else None,
                        draws=proposal_draws(code, day, index, in_force.sha256 if in_force else None))
     if tablet:  # the researcher's view shows it, and offers no second form for this interaction
-        board.show(db, code, Shown(day, index, context.activity, context.scene,
+        board.show(db, who, Shown(day, index, context.activity, context.scene,
                                    spaces.time_slot_label(context.time_slot), proposal.action, proposal.line,
                                    spaces.interval_label(context.interval_bin), context.to_token()))
 
@@ -600,7 +614,7 @@ else:
         st.markdown(f"**{proposal.line}**")
 
     if tablet and not st.session_state.get("request-match"):
-        kept = board.asked(db, code, day, index, context.to_token())
+        kept = board.asked(db, who, day, index, context.to_token())
         if kept is not None:  # the tablet was reloaded while its request awaited the participant's "Yes"
             st.session_state["request-match"], st.session_state["request-said"] = kept.action, kept.said
     matched = st.session_state.get("request-match")

@@ -475,6 +475,10 @@ def test_an_answer_is_told_from_another_screens_answer(store, policy):
     assert not is_same_answer(first, proposal, response="reject")
     assert not is_same_answer(first, proposal, user_action="chitchat")
     assert not is_same_answer({**first, "activity": "cough"}, proposal, response=response)
+    # two tablets at one participant's address (lan): the same activity, action and answer in another room, at
+    # another time of day or another time since the last activity is another screen's answer, not this one
+    for other in ({"scene": "bathroom"}, {"time_slot": first["time_slot"] + 1}, {"interval": 200}):
+        assert not is_same_answer({**first, **other}, proposal, response=response), other
 
 
 def test_the_days_count_is_of_recorded_interactions(store):

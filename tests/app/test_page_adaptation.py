@@ -401,3 +401,33 @@ def test_the_adaptation_runs_download_is_named_after_the_study_and_the_participa
     table = pd.read_csv(io.BytesIO(downloads["adaptations-default-P01.csv"]))
     assert list(table["day"]) == [day] and list(table["method"]) == ["nn"]
     assert "Download adaptations-P01.csv" in [b.label for b in at.get("download_button")]
+
+
+def test_a_proposal_the_tablet_showed_after_the_page_was_drawn_stops_the_first_click_on_close(app, store,
+                                                                                            quick_policy):
+    """A study day with several tablets (lan): the page follows the tablet every few seconds, but a proposal shown
+    just before "Close day N and adapt" was not on the page yet, and closing lost the answer the participant was
+    about to give. The click closes nothing then and says why; a second click closes the day anyway."""
+    from test_page_session import _choose
+
+    day = _day_with_interactions(store)
+    at = app(PAGE, participant="P01")
+    at.checkbox(key=f"close-short-P01-{day}").check().run()
+    assert not [w for w in at.warning if "tablet shows a proposal" in w.value]
+    tab = app("pages/session.py", participant="P01", view="tablet")
+    _choose(tab)  # interaction 5 on the tablet, after the page was drawn
+    _button(at, f"Close day {day} and adapt").click().run()
+    no_exception(at)
+    assert RUNNER.get(f"adapt:{store.path}:P01:{day}") is None and store.days("P01")[0].is_open
+    assert ("Day 1 was not closed: P01's tablet showed a proposal after this page was drawn (above). Click "
+            "again to close the day anyway.") in [w.value for w in at.warning]
+    answer = next(b for b in tab.button if b.label in ("Accept", "Nothing needed"))
+    answer.click().run()  # answered meanwhile: the note goes with the proposal
+    assert not [w for w in at.run().warning if "was not closed" in w.value]
+    _choose(tab, activity="cough", scene="bedroom")  # the next proposal, after the page was drawn again
+    _button(at, f"Close day {day} and adapt").click().run()
+    assert [w.value for w in at.warning if "was not closed" in w.value]
+    _button(at, f"Close day {day} and adapt").click().run()  # seen, and closed anyway
+    job = RUNNER.get(f"adapt:{store.path}:P01:{day}")
+    assert job is not None and job.wait(600) and job.status == "done", job and job.error
+    assert not store.days("P01")[0].is_open

@@ -1055,18 +1055,20 @@ def test_that_is_about_enough_is_said_on_the_form_not_over_a_proposal(app, store
 def test_the_researchers_view_says_what_comes_after_about_enough(app, store, p01, quick_policy):
     """Docs walkthrough: at 15 interactions the researcher's view thanked the researcher as the tablet thanks the
     participant ("thank you! You may carry on, or stop here") and did not say the next step, which the README's
-    step 3 gives: close the day on Adaptation. It says so, with a link; the tablet's words are unchanged."""
+    step 3 gives: close the day on Adaptation (lan, with several tablets: the tablet's words to the researcher). It
+    says where the day stands and the next step, with a link; the tablet keeps its thanks."""
     day = store.open_day("P01")
     for _ in range(15):
         store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
                                  robot_action="pain check", response="accept")
     at = app(PAGE, participant="P01")
     no_exception(at)
-    said = [m.value for m in at.info]
-    assert "That's about enough for today, thank you! You may carry on, or stop here." not in said
-    assert ("That is about enough for P01 today: they may carry on, or stop here. Once they stop, close the day on "
-            "Adaptation (\"Close day 1 and adapt\").") in said
+    assert "thank you" not in texts(at)
+    assert ("P01 has had about 15 interactions today, the day's plan (Section V-B): they may carry on, or stop here. "
+            "Once they stop, close the day on Adaptation (\"Close day 1 and adapt\").") in [m.value for m in at.info]
     assert "Close day 1 on Adaptation" in [link.label for link in at.get("page_link")]
+    tablet = app(PAGE, participant="P01", view="tablet")
+    assert "That's about enough for today, thank you! You may carry on, or stop here." in [m.value for m in tablet.info]
 
 
 def test_a_full_disk_tells_the_participant_plainly_that_their_answer_was_not_saved(app, store, p01, quick_policy,
@@ -1191,3 +1193,49 @@ def test_a_proposal_whose_day_was_closed_and_the_next_started_is_not_said_answer
     assert [e.value for e in at.error] == [
         "The robot's last question was not answered before day 1 was closed, so nothing was saved for it."]
     assert not at.info and "What are you doing?" in texts(at)
+
+
+def test_a_code_given_again_after_a_removal_does_not_open_on_the_removed_participants_proposal(app, store, p01,
+                                                                                             quick_policy):
+    """A study day with several tablets (lan): P04 was removed while their tablet showed a proposal, and a new
+    participant given the code P04 opened their tablet on it, the removed participant's context and the robot's
+    line for it, ready to be answered as theirs; the researcher's view said "On P04's tablet now" of it, and the
+    Adaptation page warned of it. The tablet board names a participant by code and when they were added."""
+    store.open_day("P01")
+    old = app(PAGE, participant="P01", view="tablet")
+    _choose(old)
+    assert old.chat_message  # the removed participant's proposal, unanswered
+    store.remove_participant("P01", confirm="P01")
+    store.add_participant("P01")  # someone else, under the same code
+    store.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+    store.open_day("P01")
+
+    tablet = app(PAGE, participant="P01", view="tablet")
+    no_exception(tablet)
+    assert not tablet.chat_message and [b for b in tablet.button if b.label == "Do it"]
+    desk = app(PAGE, participant="P01")
+    no_exception(desk)
+    assert "On P01's tablet now" not in texts(desk)
+    adaptation = app("pages/adaptation.py", participant="P01")
+    no_exception(adaptation)
+    assert "tablet shows a proposal" not in texts(adaptation)
+    assert store.interactions_frame("P01", method=None).empty
+
+
+def test_the_same_answer_tapped_on_a_second_tablet_says_saved(app, store, p01, quick_policy):
+    """A study day with several tablets (lan): the participant's address open on two tablets, both showing the
+    proposal, "Accept" tapped on both at once. It was recorded once, and the tablet whose tap came second said
+    nothing at all: its proposal went, no "Saved", no message. The answer saved is the one it gave: it says so."""
+    store.open_day("P01")
+    first = app(PAGE, participant="P01", view="tablet")
+    _choose(first)
+    second = app(PAGE, participant="P01", view="tablet")  # the same address on another tablet: the same proposal
+    assert [m.children[0].value for m in second.chat_message] == [m.children[0].value for m in first.chat_message]
+    label = next(b.label for b in first.button if b.label in ("Accept", "Nothing needed"))
+    _button(first, label).click().run()
+    _button(second, label).click().run()
+    no_exception(second)
+    said = "Saved (accepted)." if label == "Accept" else "Saved (nothing needed)."
+    assert [m.value for m in first.success] == [said] and [m.value for m in second.success] == [said]
+    assert not second.error
+    assert len(store.interactions_frame("P01", method=None)) == 1

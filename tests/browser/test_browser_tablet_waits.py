@@ -68,3 +68,26 @@ def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("What are you doing?").count() == 0
     page.context.close()
+
+
+def test_the_adaptation_page_follows_a_proposal_the_tablet_shows_after_it_was_drawn(browser, waiting_server):
+    """A study day with several tablets (lan): the researcher opened the Adaptation page, then the participant set
+    a context on the tablet. The page's warning that the tablet shows a proposal (an answer after closing is not
+    saved) is drawn only with the page: it never came, and "Close day 1 and adapt" lost the answer the
+    participant was about to give. The page follows the tablet while the day is open, as the Study session's
+    researcher view does."""
+    db, url = waiting_server
+    with StudyStore(db) as s:
+        on_day_1(s, "P03", closed=False)
+    desk = open_page(browser, viewport={"width": 1360, "height": 900})
+    goto(desk, f"{url}/adaptation?participant=P03")
+    expect(desk.get_by_role("button", name="Close day 1 and adapt")).to_be_visible(timeout=30_000)
+    desk.evaluate("window.notReloaded = true")
+    assert desk.get_by_text("tablet shows a proposal").count() == 0
+    tablet = open_page(browser, viewport={"width": 1024, "height": 768})  # a proposal on the tablet, after the page
+    goto(tablet, f"{url}/?participant=P03&view=tablet&ctx=3.6.20.2&at=1.1")
+    expect(tablet.locator("[data-testid='stChatMessage']").first).to_be_visible(timeout=60_000)
+    expect(desk.get_by_text("P03's tablet shows a proposal (use stove")).to_be_visible(timeout=30_000)
+    assert desk.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
+    tablet.context.close()
+    desk.context.close()
