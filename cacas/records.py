@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import itertools
 import re
+from types import MappingProxyType
 from typing import Any, Mapping
 
 import numpy as np
@@ -27,6 +28,12 @@ METHOD_ORDER = PAPER_METHODS + ("bandit", "sac-user-data")
 #: so that the command line's --help says them without importing the learning code): a year of
 #: days; at most one interaction a minute (a day has 1440); seeds as numpy takes them.
 MAX_DAYS, MAX_INTERACTIONS, MAX_SEED = 365, 1440, 2**32 - 1
+
+#: A simulated study's design unless told otherwise (Section V-B: 7 days of about 15 interactions; the paper's four
+#: methods, the first in closed loop as in Fig. 4): ``cacas simulate``'s options and the Simulation lab's form start
+#: from them, and ``cacas.experiment.simulate_study``'s keywords default to them (a test binds the three).
+SIMULATION_DEFAULTS = MappingProxyType({"days": 7, "interactions": 15, "methods": PAPER_METHODS, "seed": 0,
+                                        "no_response_rate": 0.1, "ask_after_reject": 0.0, "loop": "first"})
 
 
 def _code_piece(c: str) -> int:

@@ -7,7 +7,7 @@ import streamlit as st
 
 from cacas import app_support, plots, records, saved_runs
 from cacas.errors import CacasError, one_a_line
-from cacas.experiment import LOOPS, METHODS, PAPER_METHODS, summary_table
+from cacas.experiment import LOOPS, METHODS, summary_table
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.paths import study_data_dir
 from cacas.preferences import load_personas
@@ -39,8 +39,10 @@ EXAMPLES = {"Example personas (P01-P08)": "example.json",
 SOURCES = [*EXAMPLES, "Upload a persona file", "This study's participants"]
 LOOP_LABELS = {"first": "the first method; all adapt from its interactions (Fig. 4)",
                "each": "each method, in a study of its own"}
-DEFAULTS = {"sim-source": SOURCES[0], "sim-days": 7, "sim-per-day": 15, "sim-seed": 0, "sim-silent": 0.1,
-            "sim-ask": 0.0, "sim-methods": list(PAPER_METHODS), "sim-loop": LOOPS[0]}
+# the form starts from `cacas simulate`'s defaults (records.SIMULATION_DEFAULTS)
+DEFAULTS = {"sim-source": SOURCES[0], **{key: records.SIMULATION_DEFAULTS[name] for key, name in (
+    ("sim-days", "days"), ("sim-per-day", "interactions"), ("sim-seed", "seed"), ("sim-silent", "no_response_rate"),
+    ("sim-ask", "ask_after_reject"), ("sim-loop", "loop"))}, "sim-methods": list(records.SIMULATION_DEFAULTS["methods"])}
 
 job = RUNNER.get(JOB)
 running = job is not None and job.running

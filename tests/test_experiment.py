@@ -452,3 +452,19 @@ def test_a_simulated_study_adapts_from_the_interactions_alone(small_config, smal
             assert np.array_equal(in_force[m].action_probabilities(states), alone.action_probabilities(states)), m
             checked.append(m)
     assert checked == list(METHODS)
+
+
+def test_simulate_study_the_command_and_the_lab_start_from_one_set_of_defaults():
+    """Docs walkthrough: the Simulation lab's form and `cacas simulate` kept their defaults in two literal copies
+    (and simulate_study a third); the command and the form read records.SIMULATION_DEFAULTS, and the function's
+    keywords default to the same (the form against the command: tests/app/test_page_simulation.py)."""
+    import inspect
+
+    from cacas.cli import build_parser
+
+    keywords = inspect.signature(simulate_study).parameters
+    assert {name: keywords[name].default for name in records.SIMULATION_DEFAULTS} == dict(records.SIMULATION_DEFAULTS)
+    command = vars(build_parser().parse_args(["simulate", "--personas", "p.json", "--out", "o"]))
+    assert {name: command[name] for name in records.SIMULATION_DEFAULTS if name != "methods"} == {
+        name: value for name, value in records.SIMULATION_DEFAULTS.items() if name != "methods"}
+    assert command["methods"] == ",".join(records.SIMULATION_DEFAULTS["methods"])

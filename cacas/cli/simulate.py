@@ -178,26 +178,27 @@ def register(sub) -> None:
                    help="comma-separated participant codes of the persona file to simulate (default: all); "
                         "each gets the rows the whole file's run gives them")
     # the ranges the command checks (cacas.experiment.study_argument_problems), said in the help
-    p.add_argument("--days", type=types.integer, default=7,
-                   help=f"study days; valid: a whole number from 1 to {records.MAX_DAYS} (default 7)")
-    p.add_argument("--interactions", type=types.integer, default=15,
+    default = records.SIMULATION_DEFAULTS
+    p.add_argument("--days", type=types.integer, default=default["days"],
+                   help=f"study days; valid: a whole number from 1 to {records.MAX_DAYS} (default {default['days']})")
+    p.add_argument("--interactions", type=types.integer, default=default["interactions"],
                    help=f"interactions a day, about; valid: a whole number from 1 to {records.MAX_INTERACTIONS} "
-                        "(default 15)")
-    p.add_argument("--methods", default=",".join(records.PAPER_METHODS),
+                        f"(default {default['interactions']})")
+    p.add_argument("--methods", default=",".join(default["methods"]),
                    help="comma-separated methods; the first runs in closed loop, or every one with --loop each; "
                         f"valid: {', '.join(records.METHOD_ORDER)}, each at most once (default "
-                        f"{','.join(records.PAPER_METHODS)}, the paper's four)")
-    p.add_argument("--seed", type=types.integer, default=0,
+                        f"{','.join(default['methods'])}, the paper's four)")
+    p.add_argument("--seed", type=types.integer, default=default["seed"],
                    help=f"random seed (same seed, same daily.csv); valid: a whole number from 0 to "
-                        f"{records.MAX_SEED} (default 0)")
-    p.add_argument("--no-response-rate", type=types.share, default=0.1, metavar="RATE",
+                        f"{records.MAX_SEED} (default {default['seed']})")
+    p.add_argument("--no-response-rate", type=types.share, default=default["no_response_rate"], metavar="RATE",
                    help="share of robot actions the simulated participant does not answer; valid: 0 <= rate < 1 "
-                        "(default 0.1)")
-    p.add_argument("--ask-after-reject", type=types.share, default=0.0, metavar="RATE",
+                        f"(default {default['no_response_rate']:g})")
+    p.add_argument("--ask-after-reject", type=types.share, default=default["ask_after_reject"], metavar="RATE",
                    help="share of wrong robot actions the simulated participant answers by asking for the "
-                        "preferred action instead (as the tablet allows); valid: 0 <= rate <= 1 (default 0: "
-                        "only when the robot does nothing)")
-    p.add_argument("--loop", default="first", metavar="{first,each}",
+                        "preferred action instead (as the tablet allows); valid: 0 <= rate <= 1 (default "
+                        f"{default['ask_after_reject']:g}: only when the robot does nothing)")
+    p.add_argument("--loop", default=default["loop"], metavar="{first,each}",
                    help="first: the first method acts, every method adapts from its interactions (the paper's "
                         "Fig. 4; default); each: every method acts and adapts in a closed loop of its own")
     p.add_argument("--d4a", type=types.path, metavar="FILE", help="a D4A pairs CSV of your own (default: study_data/d4a.csv)")
