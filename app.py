@@ -363,6 +363,11 @@ if (!window.cacasClosesSidebar) {
 #: proposal (stacked, "No response" was below the screen's edge), each icon above its words, as do "Yes, please"
 #: and "No" (keys ``tablet-row-*``), and a chip's padding is smaller, three times of day to a row (two: six rows to scroll past).
 #: "Hello, P01" is the page's h1, drawn at the size it had as h2.
+#: While the tablet's connection to the server is down (the lab's Wi-Fi, a server restarting), Streamlit's dialog
+#: said "Connection error: Streamlit server is not responding. Are you connected to the internet?" to the
+#: participant (lan): the tablet says in its own words that it comes back by itself (after a second: a blink
+#: of the network says nothing), over the page, whose answers Streamlit disables meanwhile; the tablet has no
+#: dialog of its own, and Streamlit closes its connection dialog when it reconnects.
 TABLET_STYLE = """
 [data-testid='stMain'] h1 { font-size: 2.25rem; font-weight: 600; line-height: 1.2; letter-spacing: -0.005em;
                              padding: 1rem 0; }
@@ -378,6 +383,15 @@ TABLET_STYLE = """
 [data-testid='stMain'] [data-testid='stTextInput'] input { font-size: 1.05rem; }
 [data-testid='stMain'] [data-testid='stWidgetLabel'] p { font-size: 1.05rem; }
 [data-testid='stMain'] [data-testid='stMarkdownContainer'] p { font-size: 1.05rem; }
+[data-testid='stDialog'] { display: none !important; }
+[data-testid='stApp'][data-test-connection-state='PINGING_SERVER']::after,
+[data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
+  content: "The tablet has lost its connection to the robot for a moment.\A "
+           "Please wait: it comes back by itself. If this stays, please tell the researcher.";
+  white-space: pre-line; position: fixed; inset: 0; z-index: 1000100; display: flex; align-items: center;
+  justify-content: center; padding: 2rem; text-align: center; font-size: 1.4rem; line-height: 1.6; color: #262730;
+  background: rgba(250, 250, 250, 0.96); animation: cacas-appear 0.3s ease-in 1s both; }
+@keyframes cacas-appear { from { opacity: 0; } to { opacity: 1; } }
 [data-testid='stMain'] [data-testid='stCaptionContainer'], [data-testid='stMain'] [data-testid='stCaptionContainer'] p,
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }

@@ -112,3 +112,38 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
         assert "Select a participant" not in text_of(researcher)
     researcher.context.close()
     tablet.context.close()
+
+
+STATE = "() => document.querySelector(\"[data-testid='stApp']\").getAttribute('data-test-connection-state')"
+SAID = "() => getComputedStyle(document.querySelector(\"[data-testid='stApp']\"), '::after').content"
+DIALOGS = "() => [...document.querySelectorAll(\"[data-testid='stDialog']\")].filter(d => d.offsetParent !== null).length"
+
+
+def test_the_tablet_says_in_its_own_words_that_its_connection_comes_back(tmp_path, browser):
+    """A study day with several tablets (lan): when the lab's network dropped, or the server restarted, the
+    participant read Streamlit's dialog "Connection error: Streamlit server is not responding. Are you connected to
+    the internet?". The tablet says in its own words that it comes back by itself, and nothing once it has."""
+    db = tmp_path / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+        s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
+        s.open_day("P01")
+    page = open_page(browser, viewport={"width": 1024, "height": 768})
+    port = _free_port()
+    server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    url = next(server)
+    try:
+        goto(page, f"{url}/?participant=P01&view=tablet")
+        assert page.evaluate(SAID) == "none"
+        next(server, None)  # the server stops: the page pings it, and Streamlit opens its dialog
+        page.wait_for_function(f"() => ({STATE})() === 'PINGING_SERVER'", timeout=30_000)
+        page.wait_for_selector("[data-testid='stDialog']", state="attached", timeout=30_000)
+        assert "lost its connection to the robot" in page.evaluate(SAID)
+        assert "comes back by itself" in page.evaluate(SAID)
+        assert page.evaluate(DIALOGS) == 0  # Streamlit's, with its words, is not shown
+        server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+        next(server)
+        page.wait_for_function(f"() => ({STATE})() === 'CONNECTED'", timeout=60_000)
+        assert page.evaluate(SAID) == "none"
+    finally:
+        next(server, None)
