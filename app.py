@@ -283,6 +283,9 @@ APP_STYLE = """
 [data-testid='stMain'] [data-testid='stMultiSelect'] div:has(> [data-testid='stMultiSelectTagsContainer']) {
   height: auto; max-height: none; }
 [data-testid='stMain'] [data-testid='stMultiSelectTagsContainer'] { flex-wrap: wrap; height: auto; }
+/* on a phone the title starts under the header's sidebar button, not 6rem down (Streamlit's room above every page:
+   the title stood at 120 px of 844, phone walkthrough); the tablet's page sets its own */
+@media (max-width: 640px) { [data-testid='stMainBlockContainer'] { padding-top: 4rem; } }
 [data-testid='stMain'] h2 { font-size: 1.75rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stSidebar'] h2 { font-size: 1.125rem; line-height: 1.2; padding: 0.75rem 0 1rem; }
 [data-testid='stMain'] [data-testid='stForm'] h2 { font-size: 1.5rem; letter-spacing: normal; padding: 0.5rem 0 1rem; }
@@ -386,7 +389,7 @@ TABLET_STYLE = """
 [data-testid='stDialog'] { display: none !important; }
 [data-testid='stApp'][data-test-connection-state='PINGING_SERVER']::after,
 [data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
-  content: "The tablet has lost its connection to the robot for a moment.\A "
+  content: "The tablet has lost its connection to the robot for a moment.\\A "
            "Please wait: it comes back by itself. If this stays, please tell the researcher.";
   white-space: pre-line; position: fixed; inset: 0; z-index: 1000100; display: flex; align-items: center;
   justify-content: center; padding: 2rem; text-align: center; font-size: 1.4rem; line-height: 1.6; color: #262730;

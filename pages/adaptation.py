@@ -20,7 +20,7 @@ store = ui.store()
 code = ui.need_participant()
 db = ui.db_path()
 
-st.title(f"Adaptation · {code}", anchor=False)
+st.title(f"Adaptation\u00a0· {code}", anchor=False)  # "·" not first on a line (a phone)
 st.caption("After each study day the robot's policy is adapted from all of the participant's interactions so "
            "far: the user model (UMA, Table II), the MLP policy and SAC against the decision model, combined "
            "by policy reshaping (Eq. 5). The participant's described preferences are never used for this; "

@@ -413,7 +413,7 @@ if tablet:
     # the robot is a decoration: a screen reader reads the heading "Hello, P01" (ui.icon)
     head.markdown(f"# {ui.icon('smart_toy')} Hello, {code}", anchors=False, unsafe_allow_html=True)  # the page's h1
 else:
-    head.title(f"Study session · {code}", anchor=False)
+    head.title(f"Study session\u00a0· {code}", anchor=False)  # "·" not first on a line (a phone)
 back = back.empty()  # "Choose a different activity" while a proposal is shown: in view, not below the request form
 if not tablet:
     with st.expander(f"{code}'s own tablet view (no researcher pages): its address"):

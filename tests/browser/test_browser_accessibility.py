@@ -95,7 +95,7 @@ def test_headings_go_down_one_level_at_a_time_without_link_tab_stops(browser, da
         assert main[0] == 1 and main.count(1) == 1, (name, found)
         assert all(b <= a + 1 for a, b in zip(main, main[1:])), (name, found)
         assert all(links == 0 for _, _, links in found), (name, found)
-    assert seen["adaptation"][:3] == [(2, "CACAS Studio", 0), (1, "Adaptation · P01", 0), (2, "Close the day and adapt", 0)]
+    assert seen["adaptation"][:3] == [(2, "CACAS Studio", 0), (1, "Adaptation\u00a0· P01", 0), (2, "Close the day and adapt", 0)]
     assert [h[:2] for h in seen["proposal"]] == [(1, "Hello, P01"), (2, "Your activity: cough"),
                                                  (2, "The robot heard: cough")]
     page.context.close()

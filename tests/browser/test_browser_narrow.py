@@ -315,3 +315,34 @@ def test_on_a_phone_every_chosen_time_of_day_is_in_view(browser, study_server):
         assert [(f["label"], f["out"]) for f in fields if f["out"]] == [], fields
     finally:
         page.context.close()
+
+
+#: the page's title, its code written as ``code`` (a longer one than the study's): its top, the header's sidebar
+#: button's bottom, and whether a "·" in it begins a line (the character before it is on a line above)
+TITLE_JS = """code => { const h1 = document.querySelector('[data-testid=stMain] h1');
+  const button = document.querySelector('[data-testid=stExpandSidebarButton]').getBoundingClientRect();
+  const walker = document.createTreeWalker(h1, NodeFilter.SHOW_TEXT); let dot_first = null, node;
+  while ((node = walker.nextNode())) { const at = node.data.indexOf('·'); if (at < 1) continue;
+    node.data = node.data.replace('P01', code);
+    const rect = (i) => { const r = document.createRange(); r.setStart(node, i); r.setEnd(node, i + 1);
+                          return r.getBoundingClientRect(); };
+    dot_first = rect(at).top > rect(at - 1).top + 1; }
+  return {top: Math.round(h1.getBoundingClientRect().top), button: Math.round(button.bottom), dot_first}; }"""
+
+
+@pytest.mark.parametrize("path", ["session", "adaptation"])
+def test_on_a_phone_the_title_starts_under_the_header_and_its_dot_never_begins_a_line(browser, study_server, path):
+    """Phone walkthrough: Streamlit's 6rem above every page put the title at 120 px of 844 (4rem at most 640 px wide,
+    below the header's sidebar button), and "Study session · P002" broke before its "·", which began the second
+    line (a no-break space before it)."""
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    try:
+        goto(page, f"{study_server}/{path}?participant=P01")
+        page.wait_for_selector("[data-testid=stMain] h1")
+        page.wait_for_timeout(300)  # the header's buttons take their size in a transition
+        title = page.evaluate(TITLE_JS, "P002")  # the walkthrough's "Study session · P002"
+        assert title["button"] < title["top"] <= 90, title
+        assert title["dot_first"] is False, title
+    finally:
+        page.context.close()

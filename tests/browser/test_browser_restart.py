@@ -100,13 +100,13 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
     with app_to_restart(tmp_path, db) as (url, restart):
         goto(researcher, f"{url}/session?participant=P01")
         goto(tablet, f"{url}/?participant=P02&view=tablet")
-        shows(researcher, "Study session · P01")
+        shows(researcher, "Study session\u00a0· P01")
         shows(tablet, "Day 1 is finished")
         connects = researcher.evaluate(CONNECTS), tablet.evaluate(CONNECTS)
         restart()
         for page, n in zip((researcher, tablet), connects):
             page.wait_for_function(RECONNECTED, arg=n, timeout=60_000)
-        shows(researcher, "Study session · P01", "Day 1 of 7")
+        shows(researcher, "Study session\u00a0· P01", "Day 1 of 7")
         shows(tablet, "Day 1 is finished")
         idle(researcher)
         assert "Select a participant" not in text_of(researcher)
