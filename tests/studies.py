@@ -18,6 +18,16 @@ def cough_day(store, code: str = "P01", answers=(("pain check", "accept"),), hou
     return day
 
 
+def answered_day(store, code: str = "P01", interactions: int = 15, interval_minutes: float = 5) -> int:
+    """A day of ``code`` (added already) opened, with ``interactions`` coughs in the bedroom answered "accept" to a
+    pain check (the day's plan met at 15); the day."""
+    day = store.open_day(code)
+    for _ in range(interactions):
+        store.record_interaction(code, day, activity="cough", scene="bedroom", hour=8,
+                                 interval_minutes=interval_minutes, robot_action="pain check", response="accept")
+    return day
+
+
 @lru_cache(maxsize=None)
 def policy_bytes(label: str = "a policy") -> bytes:
     """A real policy file, small and quick to write (a contextual bandit's, ~0.2 ms), whose bytes differ with

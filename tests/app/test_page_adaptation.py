@@ -8,7 +8,7 @@ from cacas.jobs import RUNNER
 from cacas.policy import policy_from_bytes
 
 from apphelpers import no_exception, texts
-from studies import cough_day
+from studies import answered_day, cough_day
 
 PAGE = "pages/adaptation.py"
 
@@ -284,10 +284,7 @@ def test_a_percentage_in_text_is_rounded_as_the_tables_round_it():
 
 def test_a_day_of_about_15_interactions_closes_without_asking(app, store, quick_policy):
     store.add_participant("P01")
-    day = store.open_day("P01")
-    for _ in range(15):
-        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=30,
-                                 robot_action="pain check", response="accept")
+    day = answered_day(store, interval_minutes=30)
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert not _button(at, f"Close day {day} and adapt").disabled and not at.checkbox

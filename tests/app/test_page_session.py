@@ -4,6 +4,7 @@ import pytest
 
 from apphelpers import no_exception, texts
 from pages import ui
+from studies import answered_day
 
 PAGE = "pages/session.py"
 
@@ -1040,10 +1041,7 @@ def test_a_double_tap_on_an_answer_says_saved_not_choose_the_time_first(app, sto
 
 def test_that_is_about_enough_is_said_on_the_form_not_over_a_proposal(app, store, p01, quick_policy):
     """Walkthrough at 1024 x 768: from the 16th interaction the note pushed the request form below the fold."""
-    day = store.open_day("P01")
-    for _ in range(15):
-        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                                 robot_action="pain check", response="accept")
+    day = answered_day(store)
     at = app(PAGE, participant="P01", view="tablet")
     enough = "That's about enough for today, thank you! You may carry on, or stop here."
     assert enough in [m.value for m in at.info]
@@ -1057,10 +1055,7 @@ def test_the_researchers_view_says_what_comes_after_about_enough(app, store, p01
     participant ("thank you! You may carry on, or stop here") and did not say the next step, which the README's
     step 3 gives: close the day on Adaptation (lan, with several tablets: the tablet's words to the researcher). It
     says where the day stands and the next step, with a link; the tablet keeps its thanks."""
-    day = store.open_day("P01")
-    for _ in range(15):
-        store.record_interaction("P01", day, activity="cough", scene="bedroom", hour=8, interval_minutes=5,
-                                 robot_action="pain check", response="accept")
+    day = answered_day(store)
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert "thank you" not in texts(at)
