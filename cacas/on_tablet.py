@@ -14,6 +14,11 @@ a new session and the request was gone, with the proposal's buttons back in its 
 (in the server's memory only, until it is answered, withdrawn, or another proposal is shown), the
 reloaded tablet asks it again.
 
+The board also holds which policy version each participant's interaction at hand is proposed
+with (:meth:`TabletBoard.policy_for`): a policy put in force on the Adaptation page while a proposal
+awaits its answer is "in force from the next interaction", so the page drawn again (a request typed,
+a reload) keeps the robot's line the participant is answering.
+
 The board names a participant by code and by when they were added (:func:`board_name`): a
 participant removed while their tablet showed a proposal left it here, and a new participant given
 the same code opened their tablet on it.
@@ -89,6 +94,8 @@ class TabletBoard:
         self._shown: dict[tuple[str, str], Shown] = {}
         self._heard: set[tuple[str, str]] = set()  # tablets drawn (a proposal or a form) since this board began
         self._asked: dict[tuple[str, str], Asked] = {}
+        # (day, index, context token) of the interaction at hand -> the policy (version, sha256) it is proposed with
+        self._policies: dict[tuple[str, str], tuple[tuple[int, int, str], tuple]] = {}
         self.started = time.time()  # when this board (this server process) began
 
     def heard(self, db: str, participant: str) -> bool:
@@ -150,3 +157,17 @@ class TabletBoard:
         if held is None or (day is not None and held.day != day) or (index is not None and held.index != index):
             return None
         return held
+
+    def policy_for(self, db: str, participant: str, day: int, index: int, context: str, in_force: tuple) -> tuple:
+        """The policy (version, sha256) that proposes for interaction ``index`` of ``day`` in the
+        context token ``context``: the one in force when it was first drawn (``in_force`` now, held
+        until another interaction or context is drawn), so that a policy put in force meanwhile
+        ("Put in force" on the Adaptation page: "in force from the next interaction") does not change
+        the robot's line under the participant's eyes. One interaction is held per participant."""
+        key, at = (str(db), participant), (day, index, context)
+        with self._lock:
+            held = self._policies.get(key)
+            if held is not None and held[0] == at:
+                return held[1]
+            self._policies[key] = (at, tuple(in_force))
+            return tuple(in_force)

@@ -116,11 +116,18 @@ def policy_in_force(store, participant: str, initial_loader: Callable | None = N
     """(policy, version) in force for the participant: the store's active version, or the
     initial policy (CACAA step 1, version None) before the first adaptation."""
     active = store.active_policy(participant)
-    if active is None:
+    return policy_of_version(store, participant, None if active is None else active.version, initial_loader)
+
+
+def policy_of_version(store, participant: str, version: int | None, initial_loader: Callable | None = None):
+    """(policy, version): the participant's saved policy ``version`` (:func:`saved_policy`), or the
+    initial policy (CACAA step 1) for None, whichever is in force now: the interaction at hand keeps
+    the policy it was first proposed with (:meth:`cacas.on_tablet.TabletBoard.policy_for`)."""
+    if version is None:
         if initial_loader is None:
             from cacas.adaptation import load_initial_policy as initial_loader
         return initial_loader(), None
-    return saved_policy(store, participant, active.version), active.version
+    return saved_policy(store, participant, version), version
 
 
 def saved_policy(store, participant: str, version: int):

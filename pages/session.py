@@ -22,7 +22,7 @@ from cacas.on_tablet import Asked, Shown, board_name
 from cacas.recognition import Recognition
 from cacas.store.db import WriteRefused
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_of, day_status,
-                             initial_policy_ready, is_same_answer, policy_in_force, prepare_initial_policy,
+                             initial_policy_ready, is_same_answer, policy_of_version, prepare_initial_policy,
                              previous_interaction, propose, proposal_draws, recorded_answer,
                              request_accepts_proposal, start_day, waiting_for_preferences)
 from pages import ui
@@ -38,9 +38,9 @@ tablet = ui.tablet_mode()
 
 @st.cache_resource(show_spinner=False)
 def _policy(db: str, who: str, version: int | None, sha256: str | None):
-    """The policy in force for (participant, version); the checkpoint's sha256 is part of the key too (a
-    code given to a new participant after a removal starts again at version 1)."""
-    return policy_in_force(ui.store(), who)
+    """The participant's policy ``version`` (None: the initial policy); the checkpoint's sha256 is part of the
+    key too (a code given to a new participant after a removal starts again at version 1)."""
+    return policy_of_version(ui.store(), who, version)
 
 
 board, db = ui.tablet_board(), ui.db_path()
@@ -564,8 +564,11 @@ else:
     try:
         with st.spinner("The robot is getting ready..."):
             in_force = store.active_policy(code)
-            policy, version = _policy(ui.db_path(), code, *((in_force.version, in_force.sha256) if in_force
-                                                             else (None, None)))
+            # the policy this interaction was first proposed with: one put in force meanwhile (Adaptation page) is
+            # "in force from the next interaction", and the robot's line stays the one the participant is answering
+            held_version, held_sha256 = board.policy_for(db, who, day, index, context.to_token(),
+                                                         (in_force.version, in_force.sha256) if in_force else (None, None))
+            policy, version = _policy(ui.db_path(), code, held_version, held_sha256)
     except CacasError as exc:
         st.error(f"The robot's policy cannot be loaded ({exc}). The researcher can put another version in force "
                  "on the Adaptation page.", icon=":material/error:")
@@ -574,7 +577,7 @@ else:
                        heard=heard.label if heard else None, heard_confidence=heard.confidence if heard else None,
                        policy_version=version, seen=seen.label if seen else None,
                        sound_model=heard.model if heard else None, scene_model=seen.model if seen else None,
-                       draws=proposal_draws(code, day, index, in_force.sha256 if in_force else None))
+                       draws=proposal_draws(code, day, index, held_sha256))
     if tablet:  # the researcher's view shows it, and offers no second form for this interaction
         board.show(db, who, Shown(day, index, context.activity, context.scene,
                                    spaces.time_slot_label(context.time_slot), proposal.action, proposal.line,

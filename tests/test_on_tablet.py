@@ -87,3 +87,19 @@ def test_when_a_proposal_was_shown_is_said_in_utc_as_the_apps_other_times(monkey
     finally:
         monkeypatch.undo()
         time.tzset()
+
+
+def test_the_interaction_at_hand_keeps_the_policy_it_was_first_proposed_with():
+    """lan's left-alone item: a policy put in force on the Adaptation page while a proposal awaited its
+    answer ("in force from the next interaction") proposed again at the page's next draw, and the robot's
+    line could change under the participant's eyes. The board holds the first (version, sha256) drawn
+    for the interaction and its context until another is drawn; per participant and database."""
+    board = TabletBoard()
+    assert board.policy_for("a.sqlite", "P01", 1, 3, "ctx-a", (2, "sha-2")) == (2, "sha-2")
+    assert board.policy_for("a.sqlite", "P01", 1, 3, "ctx-a", (1, "sha-1")) == (2, "sha-2")  # rolled back meanwhile
+    assert board.policy_for("a.sqlite", "P02", 1, 3, "ctx-a", (1, "sha-1")) == (1, "sha-1")  # another participant
+    assert board.policy_for("b.sqlite", "P01", 1, 3, "ctx-a", (1, "sha-1")) == (1, "sha-1")  # another database
+    assert board.policy_for("a.sqlite", "P01", 1, 3, "ctx-b", (1, "sha-1")) == (1, "sha-1")  # another context
+    assert board.policy_for("a.sqlite", "P01", 1, 4, "ctx-b", (None, None)) == (None, None)  # the next interaction
+    assert board.policy_for("a.sqlite", "P01", 1, 4, "ctx-b", (1, "sha-1")) == (None, None)
+    assert board.policy_for("a.sqlite", "P01", 2, 4, "ctx-b", (1, "sha-1")) == (1, "sha-1")  # the next day

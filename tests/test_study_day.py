@@ -572,6 +572,25 @@ def test_a_saved_policy_that_is_not_a_policy_names_its_file(store):
         policy_in_force(store, "P01")
 
 
+def test_a_policy_of_a_given_version_is_loaded_whichever_is_in_force(store):
+    """The interaction at hand keeps the policy it was first proposed with (on_tablet.TabletBoard.policy_for):
+    policy_of_version loads that version, or the initial policy for None, whatever is in force now."""
+    from cacas.study_day import policy_in_force, policy_of_version
+
+    first = ReshapedPolicy(DiscreteSAC(SACConfig(), seed=1), None, beta=1.0)
+    second = ReshapedPolicy(DiscreteSAC(SACConfig(), seed=2), None, beta=1.0)
+    initial = object()
+    v1 = store.save_policy("P01", 0, "cacas", first.to_bytes())
+    v2 = store.save_policy("P01", 0, "cacas", second.to_bytes())
+    state = spaces.State(spaces.ACTIVITIES.index("cough"), spaces.SCENES.index("bedroom"), 3, 2)
+    probabilities = lambda p: p.action_probabilities([state])[0]  # noqa: E731
+    loaded, version = policy_of_version(store, "P01", v1)
+    assert version == v1 and np.allclose(probabilities(loaded), probabilities(first))
+    assert policy_of_version(store, "P01", None, initial_loader=lambda: initial) == (initial, None)
+    in_force, version = policy_in_force(store, "P01")  # the newest, saved last, is in force
+    assert version == v2 and np.allclose(probabilities(in_force), probabilities(second))
+
+
 def test_a_policy_adapted_after_the_last_day_is_the_final_one_not_one_for_day_8():
     """Walkthrough: after day 7 the Adaptation page said "policy version 7 is in force from day 8"; the
     study has 7 days."""

@@ -3,6 +3,7 @@ import json
 import pytest
 
 from apphelpers import no_exception, texts
+from cacas import spaces
 from pages import ui
 from studies import answered_day
 
@@ -1234,3 +1235,52 @@ def test_the_same_answer_tapped_on_a_second_tablet_says_saved(app, store, p01, q
     assert [m.value for m in first.success] == [said] and [m.value for m in second.success] == [said]
     assert not second.error
     assert len(store.interactions_frame("P01", method=None)) == 1
+
+
+def _policy_proposing(action: str) -> bytes:
+    """A policy whose every proposal is ``action`` (its actor's last layer says so)."""
+    import torch
+
+    from cacas.policy import ReshapedPolicy
+    from cacas.sac import DiscreteSAC, SACConfig
+
+    sac = DiscreteSAC(SACConfig(), seed=0)
+    last = [m for m in sac.actor if isinstance(m, torch.nn.Linear)][-1]
+    with torch.no_grad():
+        last.weight.zero_()
+        last.bias.fill_(-10.0)
+        last.bias[spaces.ACTIONS.index(action)] = 10.0
+    return ReshapedPolicy(sac, None, beta=1.0).to_bytes()
+
+
+def test_a_policy_put_in_force_while_a_proposal_awaits_its_answer_leaves_that_proposal_as_it_is(
+        app, store, p01, quick_policy):
+    """lan's left-alone item: "Put in force" on the Adaptation page says "in force from the next interaction", but
+    the tablet proposed again with it at its next draw (a request typed, a reload), and the robot's line the
+    participant was answering changed under their eyes, its answer recorded against the new one. The interaction
+    at hand keeps the policy it was first proposed with; the next interaction is proposed by the one in force."""
+    first = store.save_policy("P01", 0, "cacas", _policy_proposing("remind to turn off"))
+    store.open_day("P01")
+    tab = app(PAGE, participant="P01", view="tablet")
+    _choose(tab)
+    line = tab.chat_message[0].children[0].value
+    assert "stove" in line  # remind to turn off
+    second = store.save_policy("P01", 0, "cacas", _policy_proposing("pain check"))  # put in force meanwhile
+    assert store.active_policy("P01").version == second != first
+
+    tab.text_input(key="request-text").set_value("I would like some music")  # the page drawn again
+    _button(tab, "Say it").click().run()
+    no_exception(tab)
+    assert tab.chat_message[0].children[0].value == line
+    reloaded = app(PAGE, **{k: tab.query_params[k] for k in ("participant", "view", "ctx", "at")})
+    assert reloaded.chat_message[0].children[0].value == line
+    _button(reloaded, "Accept").click().run()
+    no_exception(reloaded)
+    row = store.interactions_frame("P01", method=None, extra=True).iloc[-1]
+    assert (row["robot_action"], row["response"], row["policy_version"]) == ("remind to turn off", "accept", first)
+
+    _choose(reloaded)  # the next interaction: the policy in force proposes
+    assert reloaded.chat_message[0].children[0].value != line
+    _button(reloaded, "Accept").click().run()
+    row = store.interactions_frame("P01", method=None, extra=True).iloc[-1]
+    assert (row["robot_action"], row["policy_version"]) == ("pain check", second)
