@@ -18,7 +18,8 @@ code = ui.participant()
 
 st.title("Participants", anchor=False)
 st.caption("Participants are known by pseudonymous codes only (e.g. P01), never by name. Each one describes "
-           "about 5 preferences: in which context they want which robot action. The robot never sees them; "
+           "5 preferences, as the paper's participants did (more or fewer can be saved): in which context they want "
+           "which robot action. The robot never sees them; "
            "they drive the simulated participant and the evaluation of Fig. 4 (Su & Sheng, Section V-B).")
 
 ANY = "(choose an action)"

@@ -22,6 +22,15 @@ def test_page_opens_without_participants(app):
     assert "Add participant" in [b.label for b in at.button]
 
 
+def test_the_page_asks_for_the_5_preferences_the_overview_asks_for(app):
+    """Review of the docs: the Overview said "Describe 5 preferences" (the paper's participants each described 5,
+    Section V-B.1) and this page "about 5"; one number, and the page says that another count can be saved."""
+    at = app(PAGE)
+    caption = at.caption[0].value
+    assert "describes 5 preferences, as the paper's participants did (more or fewer can be saved)" in caption
+    assert "about 5" not in texts(at)
+
+
 def test_add_participant_valid_and_invalid(app, store):
     at = app(PAGE)
     next(b for b in at.button if b.label == "Add participant").click().run()  # nothing typed
