@@ -20,14 +20,57 @@ def test_draws_in_place_on_a_terminal_and_ends_the_line():
     assert "simulate [###" in text and "participant P01" in text
 
 
-def test_silent_on_a_pipe_or_when_quiet():
+def test_silent_on_a_pipe_for_short_work_or_when_quiet():
     pipe = io.StringIO()
-    ProgressBar(stream=pipe)(0.3, "x")
+    bar = ProgressBar(stream=pipe)
+    bar(0.3, "x")
+    bar(1.0, "done")
+    bar.done()
     quiet = Tty()
     bar = ProgressBar(quiet=True, stream=quiet)
     bar(0.3, "x")
     bar.done()
     assert pipe.getvalue() == "" and quiet.getvalue() == ""
+
+
+class Clock:
+    """time.perf_counter as the progress module reads it, moved by hand."""
+
+    def __init__(self):
+        self.now = 1000.0
+
+    def __call__(self):
+        return self.now
+
+
+def test_off_a_terminal_long_work_writes_a_plain_line_a_tenth_at_most_every_10_s(monkeypatch):
+    """Left alone since the CLI audit: `cacas simulate ... 2> log` (or a batch job's output) printed nothing
+    for the whole 10-minute run, the bar being drawn on a terminal only. Off a terminal a plain line (no
+    carriage return, no bar) is written when a tenth is crossed and 10 s have passed since the last one,
+    and the 100 % line once a line was written; quiet writes nothing."""
+    import cacas.cli.progress as progress
+
+    clock = Clock()
+    monkeypatch.setattr(progress.time, "perf_counter", clock)
+    log = io.StringIO()
+    bar = ProgressBar("simulate", stream=log)
+    steps = [(5, 0.05), (5, 0.12), (1, 0.15), (5, 0.21), (9, 0.22), (30, 0.5), (1, 0.6), (60, 1.0)]
+    for seconds, fraction in steps:
+        clock.now += seconds
+        bar(fraction, f"participant P01 at {fraction:.0%}")
+    bar.done()
+    assert log.getvalue().splitlines() == [
+        "simulate  12% 10s, ~73s left  participant P01 at 12%",  # 5 s at 5 %: too soon; 10 s at 12 %: a tenth
+        "simulate  22% 25s, ~89s left  participant P01 at 22%",  # 21 % 6 s after: too soon
+        "simulate  50% 55s, ~55s left  participant P01 at 50%",
+        "simulate 100% 116s  participant P01 at 100%",           # 60 % 1 s after 50 %: too soon
+    ]
+    assert "\r" not in log.getvalue()
+    quiet = io.StringIO()
+    bar = ProgressBar("simulate", quiet=True, stream=quiet)
+    clock.now += 100
+    bar(0.5)
+    assert quiet.getvalue() == ""
 
 
 def test_done_ends_an_unfinished_line():

@@ -277,7 +277,7 @@ def run(args) -> int:
         plot_dir = args.plot if together or not args.plot else \
             files.writable_folder(args.plot, f"--plot {args.plot}", create=False)
         progress = None if args.quiet else ProgressBar("simulate")
-        if progress is not None and progress.quiet:  # no terminal: the bar draws nothing (logs, pipes)
+        if progress is not None and not progress.on_terminal:  # logs, pipes: no bar, a line a tenth once 10 s have passed
             say_initial_policy_training(d4a)
         result = simulate_study(people, days=args.days, interactions=args.interactions, methods=methods,
                                 seed=args.seed, no_response_rate=args.no_response_rate, progress=progress, d4a=d4a,
