@@ -545,3 +545,11 @@ def percent(x: float | None) -> str:
     """A share as a whole percentage, halves rounded up as the tables' "%.0f%%" columns show them
     (72.5 -> "73%" in both; Python's format rounds halves to even); "–" for none."""
     return "–" if x is None or pd.isna(x) else f"{math.floor(100 * x + 0.5):.0f}%"
+
+
+def is_phone(user_agent: str | None) -> bool:
+    """Whether a browser's User-Agent is a phone's: "Mobi" in it, as MDN's "Browser detection using the user
+    agent" recommends (iPhone and Android phones' browsers say "Mobile"; tablets and laptops do not). The server
+    does not know a page's width; a phone gets the layouts drawn for ~360 px (Fig. 4's heatmap by preference,
+    whose row labels took 300 px of it)."""
+    return "Mobi" in str(user_agent or "")

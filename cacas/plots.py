@@ -682,8 +682,20 @@ def hover_words(text, columns: int = HOVER_COLUMNS) -> str:
     return "<br>".join(html.escape(x, quote=False) for x in lines)
 
 
-def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str) -> go.Figure:
-    rows = rows.assign(_row=preference_rows(rows))
+def preference_row_numbers(by_preference: pd.DataFrame) -> pd.Series:
+    """A narrow screen's row label of each by_preference row: participant and preference number
+    ("P01 · 2"); the activities and action are in the cell's hover (:func:`preference_rows` took
+    300 of a phone's 360 px, and the cells were 16 px wide)."""
+    return by_preference["participant"].astype(str) + " · " + by_preference["preference"].astype(str)
+
+
+def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: str, x_title: str,
+                        narrow: bool = False) -> go.Figure:
+    """``narrow`` (a phone): rows named by :func:`preference_row_numbers`, each cell's hover naming the
+    preference, column labels on two lines rather than tilted, the title on two, the colour bar under
+    the grid."""
+    rows = rows.assign(_row=preference_row_numbers(rows) if narrow else preference_rows(rows),
+                       _long=preference_rows(rows))
     # participants as a person reads them (records.code_order: "p01, R01, r02", "P2, P10"), each one's
     # preferences in order
     order = list(dict.fromkeys(rows.assign(_who=rows["participant"].map(records.code_order))
@@ -691,41 +703,56 @@ def _preference_heatmap(rows: pd.DataFrame, column: str, columns: list, title: s
     grid = rows.pivot_table(index="_row", columns=column, values="accuracy", aggfunc="first").reindex(
         index=order, columns=columns)
     info = rows.drop_duplicates("_row").set_index("_row").reindex(order)
-    hover = [[f"{hover_words(info.loc[r, 'label'])}<br>{x_title} {c}: " + (
+    named = (lambda r: f"{html.escape(info.loc[r, '_long'], quote=False)}<br>") if narrow else (lambda r: "")
+    hover = [[f"{named(r)}{hover_words(info.loc[r, 'label'])}<br>{x_title} {c}: " + (
         "no test state" if pd.isna(grid.loc[r, c]) else f"{grid.loc[r, c]:.0%} of {int(info.loc[r, 'states'])} test states")
         for c in columns] for r in order]
+    labels = [METHOD_LABELS.get(c, c) if column == "method" else c for c in columns]
+    if narrow:  # "CACAS<br>w/o PR": side by side at 70 px a column, where Plotly tilted them into the title
+        labels = [str(x).replace(" ", "<br>", 1) if column == "method" else x for x in labels]
+    bar = dict(title=dict(text="accuracy", side="right"), tickformat=".0%")
+    if narrow:  # under the grid: at the side it took 80 of a phone's 360 px
+        bar = dict(title=dict(text="accuracy", side="top"), tickformat=".0%", orientation="h", y=-0.02,
+                   yanchor="top", thickness=12, len=1)
     fig = go.Figure(go.Heatmap(
-        z=grid.to_numpy(dtype=float), x=[METHOD_LABELS.get(c, c) if column == "method" else c for c in columns],
+        z=grid.to_numpy(dtype=float), x=labels,
         y=order, zmin=0, zmax=1, colorscale=[[0, "#f4f1ea"], [0.5, "#9cc3d5"], [1, "#2f6f8f"]],
         texttemplate="%{z:.0%}", hovertext=hover, hovertemplate="%{hovertext}<extra></extra>",
-        colorbar=dict(title=dict(text="accuracy", side="right"), tickformat=".0%"), xgap=2, ygap=2))
+        colorbar=bar, xgap=2, ygap=2))
     fig.update_yaxes(autorange="reversed", title_text=None, automargin=True)
-    fig.update_xaxes(title_text=x_title, type="category", side="top", automargin=True)
+    # narrow: the method names say what they are; "1 2 3" needs its "day"
+    fig.update_xaxes(title_text=None if narrow and column == "method" else x_title, type="category", side="top",
+                     automargin=True,
+                     tickangle=0 if narrow else None)
+    if narrow:  # one line of the title was cut at both edges of a phone
+        title = title.replace(" by described preference", "<br>by described preference", 1)
     # the title pushes the margin above the column labels (yref "container"): on a narrow page Plotly
     # tilts the labels, which grew into the title (walkthrough, Results at 800 px)
     fig.update_layout(title=dict(text=title, automargin=True, yref="container", pad=dict(t=12)), template="plotly_white",
-                      height=max(320, 140 + 26 * len(order)), margin=dict(l=20, r=20, t=100, b=20))
+                      height=max(320, 140 + 26 * len(order)) + (70 if narrow else 0),
+                      margin=dict(l=20, r=20, t=100, b=80 if narrow else 20))
     return fig
 
 
-def preference_days_figure(by_preference: pd.DataFrame, method: str = "cacas") -> go.Figure:
+def preference_days_figure(by_preference: pd.DataFrame, method: str = "cacas", narrow: bool = False) -> go.Figure:
     """Fig. 4 by described preference, for one method: each preference's accuracy on its test
-    states, day by day (which preferences the method learnt, and when)."""
+    states, day by day (which preferences the method learnt, and when). ``narrow``: a phone's
+    layout (:func:`_preference_heatmap`)."""
     rows = by_preference[by_preference["method"] == method]
     days = sorted(int(d) for d in rows["day"].unique())
     return _preference_heatmap(rows.assign(day=rows["day"].astype(int)), "day", days,
                                f"Accuracy by described preference, day by day ({METHOD_LABELS.get(method, method)})",
-                               "day")
+                               "day", narrow)
 
 
-def preference_methods_figure(by_preference: pd.DataFrame, day: int | None = None) -> go.Figure:
+def preference_methods_figure(by_preference: pd.DataFrame, day: int | None = None, narrow: bool = False) -> go.Figure:
     """Fig. 4 by described preference on one day (default the last): each method's accuracy on
-    each preference's test states, side by side."""
+    each preference's test states, side by side. ``narrow``: a phone's layout."""
     day = int(by_preference["day"].max()) if day is None else int(day)
     rows = by_preference[by_preference["day"].astype(int) == day]
     methods = in_method_order(rows["method"])
     return _preference_heatmap(rows, "method", methods, f"Accuracy by described preference and method, day {day}",
-                               "method")
+                               "method", narrow)
 
 
 def _plain(text) -> str:

@@ -388,6 +388,11 @@ def _job_fragment(key: str, stoppable: bool = False, when_stopped: str = NOTHING
         st.rerun(scope="app")
 
 
+def on_a_phone() -> bool:
+    """Whether this page is drawn for a phone (its browser's User-Agent: :func:`cacas.app_support.is_phone`)."""
+    return app_support.is_phone(st.context.headers.get("User-Agent"))
+
+
 def chart(fig, where=None, **options) -> None:
     """``st.plotly_chart`` (in ``where``, default the page) with a description a screen reader reads
     (:func:`cacas.plots.describe`): without one a chart was read as its tick labels run together."""
@@ -421,10 +426,12 @@ def preference_heatmaps(by_preference: pd.DataFrame, key: str, file_name: str = 
                                 persist_state="page") or by_method
     if view == by_method:
         day = st.select_slider("Day", days, value=days[-1], key=f"{key}-day", persist_state="page") if len(days) > 1 else days[0]
-        fig = plots.preference_methods_figure(by_preference, day)
+        fig = plots.preference_methods_figure(by_preference, day, narrow=on_a_phone())
     else:
         method = st.selectbox("Method", methods, key=f"{key}-method", persist_state="page",
                               format_func=lambda m: plots.METHOD_LABELS.get(m, m))
-        fig = plots.preference_days_figure(by_preference, method)
+        fig = plots.preference_days_figure(by_preference, method, narrow=on_a_phone())
+    if on_a_phone():
+        st.caption("Rows: participant · preference number; tap a cell for the preference's activities and action.")
     chart(fig, width="stretch", key=f"{key}-chart")
     download_csv(whole, file_name, "Download by_preference.csv", key=f"{key}-dl")

@@ -596,3 +596,24 @@ def test_the_overview_names_a_day_past_the_studys_seven(tmp_path):
         store.open_day("P01")
     table = app_support.overview_frame(store).set_index("participant")
     assert table.loc["P01", "day"] == f"{STUDY_DAYS + 1}, past the study's {STUDY_DAYS} (open)"
+
+
+@pytest.mark.parametrize("user_agent, phone", [
+    ("Mozilla/5.0 (iPhone; CPU iPhone OS 17_0 like Mac OS X) AppleWebKit/605.1.15 (KHTML, like Gecko) Version/17.0 "
+     "Mobile/15E148 Safari/604.1", True),
+    ("Mozilla/5.0 (Linux; Android 14; Pixel 8) AppleWebKit/537.36 (KHTML, like Gecko) Chrome/126.0 Mobile "
+     "Safari/537.36", True),
+    ("Mozilla/5.0 (Linux; Android 14; SM-X710) AppleWebKit/537.36 (KHTML, like Gecko) Chrome/126.0 Safari/537.36",
+     False),  # an Android tablet
+    ("Mozilla/5.0 (Macintosh; Intel Mac OS X 10_15_7) AppleWebKit/605.1.15 (KHTML, like Gecko) Version/17.0 "
+     "Safari/605.1.15", False),  # a Mac, and an iPad since iPadOS 13
+    ("Mozilla/5.0 (Windows NT 10.0; Win64; x64) AppleWebKit/537.36 (KHTML, like Gecko) Chrome/126.0 Safari/537.36",
+     False),
+    ("", False), (None, False),
+])
+def test_a_phone_is_known_by_mobi_in_its_user_agent(user_agent, phone):
+    """Phone's left-alone item: the server does not know the page's width; MDN's advice is "Mobi" in the
+    User-Agent for a phone (Fig. 4's heatmap by preference is drawn narrow for it)."""
+    from cacas.app_support import is_phone
+
+    assert is_phone(user_agent) is phone

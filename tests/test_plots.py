@@ -2,7 +2,7 @@ import pytest
 import numpy as np
 import pandas as pd
 
-from cacas.plots import (CEILING_NAME, accuracy_by_day, data_points, methods_figure, participants_reached,
+from cacas.plots import (CEILING_NAME, accuracy_by_day, data_points, describe, methods_figure, participants_reached,
                          preference_days_figure, preference_methods_figure, preference_rows, success_by_day, success_figure,
                          success_methods_figure)
 
@@ -95,6 +95,31 @@ def test_accuracy_by_preference_heatmaps():
     # the tilted labels ran into the title at 800 px)
     for fig in (days, methods):
         assert fig.layout.title.automargin and fig.layout.title.yref == "container" and fig.layout.xaxis.automargin
+
+
+def test_a_phones_preference_heatmap_names_rows_by_number_and_puts_the_colour_bar_under_the_grid():
+    """Phone's left-alone item: at 390 px the row labels ("P01 · 1. use stove → set a timer") took 300 of 360 px,
+    the cells were 16 px wide, the labels and the title cut at both edges. Narrow: rows "P01 · 1" (the long label
+    first in each cell's hover), method names on two lines, not tilted; the title on two lines; the colour bar
+    under the grid. The laptop's figure is as it was."""
+    rows = pd.concat([by_preference(), by_preference().assign(method="cacas-no-pr")])
+    methods_narrow = preference_methods_figure(rows, narrow=True)
+    for wide, narrow in ((preference_methods_figure(rows), methods_narrow),
+                         (preference_days_figure(rows, "nn"), preference_days_figure(rows, "nn", narrow=True))):
+        assert list(narrow.data[0].y) == ["P01 · 1", "P01 · 2", "P02 · 1"]
+        assert list(wide.data[0].y) == list(preference_rows(by_preference().iloc[[2, 1, 0]]))
+        assert narrow.data[0].hovertext[0][0].startswith("P01 · 1. use stove → set a timer<br>Stove: timer<br>")
+        assert wide.data[0].hovertext[0][0].startswith("Stove: timer<br>")
+        assert narrow.data[0].colorbar.orientation == "h" and wide.data[0].colorbar.orientation in (None, "v")
+        assert "<br>by described preference" in narrow.layout.title.text
+        assert "<br>" not in wide.layout.title.text
+        assert narrow.layout.xaxis.tickangle == 0
+        assert narrow.layout.xaxis.title.text == (None if narrow is methods_narrow else "day")  # the days need it
+        assert np.allclose(np.nan_to_num(narrow.data[0].z), np.nan_to_num(wide.data[0].z))
+    narrow = preference_methods_figure(rows, narrow=True)
+    assert list(narrow.data[0].x) == ["CACAS", "CACAS<br>w/o PR", "NN"]
+    assert "(method: CACAS, CACAS w/o PR, NN)" in describe(preference_methods_figure(rows))
+    assert "A grid of 3 rows by 3 columns (CACAS, CACAS w/o PR, NN)" in describe(narrow)
 
 
 def test_a_long_description_in_a_heatmap_hover_is_wrapped_and_its_words_kept():

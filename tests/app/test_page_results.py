@@ -1,6 +1,7 @@
 import json
 
 from apphelpers import no_exception, open_tab, save_runs, texts
+from pages import ui
 
 PAGE = "pages/results.py"
 FIG4, TABLES = "Fig. 4 · methods", "Tables"
@@ -625,6 +626,35 @@ def test_a_day_begun_with_only_unanswered_proposals_is_on_fig3(app, store):
     assert at.metric[0].proto.delta == "nothing recorded yet"  # "–" alone read as a missing figure
     assert values["Participants on day 2"] == "1"
     assert values["Mean cumulative feedback, day 2"] == "3 data points"  # day 1's, carried over
+
+
+def test_on_a_phone_the_preference_heatmap_is_drawn_narrow_and_says_how_its_rows_are_named(app, db, monkeypatch):
+    """Phone's left-alone item: Fig. 4 by preference at 390 px had 16-px cells, its row labels and title cut.
+    A phone's browser (ui.on_a_phone: its User-Agent) gets the narrow heatmap and a line saying what a row's
+    name is and where the preference's words are; a laptop's page is as before."""
+    import json
+
+    import pandas as pd
+
+    from cacas import saved_runs
+
+    daily = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "success_rate": [0.5],
+                          "preference_accuracy": [0.5], "cumulative_feedback": [8], "interactions": [15]})
+    by_pref = pd.DataFrame({"participant": ["P01"], "method": ["cacas"], "day": [1], "preference": [1],
+                            "label": ["Cough: pain check"], "activity": ["cough"], "action": ["pain check"],
+                            "states": [40], "correct": [20], "accuracy": [0.5]})
+    saved_runs.save_run(saved_runs.runs_dir(db), "run-phone", daily, pd.DataFrame({"participant": ["P01"]}), {},
+                        by_pref)
+    said = "Rows: participant · preference number; tap a cell for the preference's activities and action."
+    for phone, rows in ((False, ["P01 · 1. cough → pain check"]), (True, ["P01 · 1"])):
+        monkeypatch.setattr(ui, "on_a_phone", lambda: phone)
+        at = app(PAGE)
+        at.button_group[0].set_value("A simulated run").run()
+        open_tab(at, "results-tab", FIG4)
+        no_exception(at)
+        spec = json.loads(at.get("plotly_chart")[-1].proto.spec)
+        assert spec["data"][0]["y"] == rows
+        assert (said in [c.value for c in at.caption]) is phone
 
 
 def test_the_preference_heatmap_of_many_participants_shows_a_few_at_first(app, db, downloads):
