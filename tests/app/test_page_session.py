@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from apphelpers import no_exception, texts
+from apphelpers import cache_of, no_exception, texts
 from pages import ui
 from studies import answered_day
 
@@ -1234,3 +1234,16 @@ def test_the_same_answer_tapped_on_a_second_tablet_says_saved(app, store, p01, q
     assert [m.value for m in first.success] == [said] and [m.value for m in second.success] == [said]
     assert not second.error
     assert len(store.interactions_frame("P01", method=None)) == 1
+
+
+def test_the_tablets_policies_are_cached_a_bounded_number_at_a_time(app, store, p01, quick_policy):
+    """The policy in force is cached per (participant, version, sha256): a participant's every day adds a version,
+    and the versions no longer in force stayed in the server's memory for good (long-run benchmark: 56 policies,
+    1.7 MB each, after 8 participants x 7 days; 24 x 14 would be 336). The cache keeps the latest used, a bounded
+    number (a policy dropped is read again in ~35 ms)."""
+    at = app(PAGE, participant="P01")
+    _button(at, "Start day 1").click().run()
+    _choose(at)
+    cache = cache_of("__main__._policy")
+    assert cache is not None and len(cache._mem_cache) == 1  # the proposal's policy, cached
+    assert cache.max_entries <= 32
