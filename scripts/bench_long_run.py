@@ -21,9 +21,11 @@ the study through it in headless Chromium, a day at a time:
 After each day it asks the probe for a sample of the server process (``long_run_server.sample``) and prints
 a row: its resident memory, threads, open file descriptors (those of the study database, its -wal and -shm),
 the WAL file's size, Streamlit's sessions (connected, and kept for a reconnection), their session-state
-keys, the entries of the app's ``st.cache_*`` functions, media files and deferred downloads held, SQLite
+keys, the entries of the app's ``st.cache_*`` functions, media files, deferred downloads and st.dataframe's
+row sources held, SQLite
 connections open, torch tensors alive, the tablets' board and the background jobs kept; then a table of
-each cached function's entries day by day. ``--tracemalloc`` traces the server's allocations (slower)
+each cached function's entries day by day. ``--holders`` counts what holds the server's DataFrames alive.
+``--tracemalloc`` traces the server's allocations (slower)
 and prints the lines whose allocations grew most from day 1's end to the last day's. ``--settle S``
 waits S seconds after the last day with no tab open and samples again (Streamlit keeps a closed tab's
 session 2 minutes for a reconnection). Prints Markdown tables; not a test.
@@ -92,11 +94,11 @@ def start_server(db: Path, probe: Path, log: Path, tracemalloc: bool):
 class Probe:
     """Asks the server's probe for a sample (``ask-N`` -> ``sample-N.json``)."""
 
-    def __init__(self, folder: Path):
-        self.folder, self.n = folder, 0
+    def __init__(self, folder: Path, holders: bool = False):
+        self.folder, self.n, self.holders = folder, 0, holders
 
     def sample(self, timeout: float = 300, reference: bool = False) -> dict:
-        (self.folder / f"ask-{self.n}").write_text("reference" if reference else "")
+        (self.folder / f"ask-{self.n}").write_text(" ".join(["reference"] * reference + ["holders"] * self.holders))
         out = self.folder / f"sample-{self.n}.json"
         deadline = time.time() + timeout
         while not out.exists():
@@ -251,7 +253,7 @@ def row_of(label: str, s: dict, db: Path, minutes: float, tabs: int, interaction
             "sessions": f"{st.get('sessions_active')}/{st.get('sessions_kept')}",
             "state_keys": st.get("session_state_keys_total"),
             "cache_entries": sum(v for v in s.get("caches", {}).values() if isinstance(v, int)),
-            "media": f"{st.get('media_files')}/{st.get('deferred_downloads')}",
+            "media": f"{st.get('media_files')}/{st.get('deferred_downloads')}/{st.get('dataframe_sources')}",
             "sqlite_open": obj.get("sqlite3.Connection open"), "tensor_mb": obj.get("torch tensor MB"),
             "dataframes": obj.get("DataFrame", 0), "board": obj.get("tablet board entries"),
             "jobs": obj.get("jobs kept"), "probe_s": s.get("probe_s")}
@@ -260,7 +262,7 @@ def row_of(label: str, s: dict, db: Path, minutes: float, tabs: int, interaction
 COLUMNS = [("when", "when"), ("min", "min"), ("tabs", "tabs opened"), ("interactions", "interactions"),
            ("rss_mb", "RSS MB"), ("threads", "threads"), ("fds", "fds"), ("db_fds", "db/wal/shm fds"),
            ("wal_kb", "WAL KB"), ("sessions", "sessions live/kept"), ("state_keys", "state keys"),
-           ("cache_entries", "cache entries"), ("media", "media/deferred"), ("sqlite_open", "sqlite conns"),
+           ("cache_entries", "cache entries"), ("media", "media/deferred/table sources"), ("sqlite_open", "sqlite conns"),
            ("tensor_mb", "tensor MB"), ("dataframes", "DataFrames"), ("board", "board"), ("jobs", "jobs")]
 
 
@@ -301,6 +303,8 @@ def main() -> None:
     ap.add_argument("--tablet", type=int, default=2, help="proposals answered on each tablet a day (of 15)")
     ap.add_argument("--tabs", type=int, default=20, help="researcher's tabs opened and closed a day")
     ap.add_argument("--tracemalloc", action="store_true")
+    ap.add_argument("--holders", action="store_true",
+                    help="count what holds the server's DataFrames alive (changes its memory a little)")
     ap.add_argument("--settle", type=float, default=0.0, metavar="SECONDS")
     ap.add_argument("--json", help="write every sample here")
     ap.add_argument("--keep", help="study folder to use and keep (default: a temporary one)")
@@ -318,7 +322,7 @@ def main() -> None:
     proc, base = start_server(db, probe_dir, folder / "streamlit.log", args.tracemalloc)
     print(f"server pid {proc.pid}, {base}, study folder {folder}; load average {os.getloadavg()[0]:.1f}",
           file=sys.stderr, flush=True)
-    probe = Probe(probe_dir)
+    probe = Probe(probe_dir, args.holders)
     t0 = time.time()
     tabs = interactions = 0
     samples: list[tuple[str, dict]] = []

@@ -9,7 +9,8 @@ threads and open files, Streamlit's sessions (active and kept for a reconnection
 the entries of every ``st.cache_data`` / ``st.cache_resource`` function, the media files and deferred
 downloads, the tablets' board, the background jobs, SQLite connections and torch tensors alive, and,
 with ``--tracemalloc``, the lines of code that allocated what grew since the reference sample (the first, or
-the last one asked for with ``reference`` in its ``ask-N`` file). Not a test,
+the last one asked for with ``reference`` in its ``ask-N`` file), and with ``holders`` there, what holds the
+DataFrames alive (it gives every object its ``__dict__``, a few MB: not in a run whose memory is compared). Not a test,
 and nothing of the app imports it.
 """
 
@@ -94,7 +95,9 @@ def _streamlit() -> dict:
     media = rt.media_file_mgr
     storage = getattr(media, "_storage", None)
     files = getattr(storage, "_files_by_id", {})
+    frames = getattr(rt, "dataframe_source_mgr", None)  # st.dataframe's rows served lazily, per session
     return {"sessions_active": len(active), "sessions_kept": len(kept),
+            "dataframe_sources": frames.get_source_count() if frames is not None else None,
             "session_state_keys_max": max(states, default=0), "session_state_keys_total": sum(states),
             "connect_times": len(getattr(mgr, "_session_connect_times", {})),
             "media_files": len(files), "media_bytes": sum(len(f.content) for f in files.values()),
@@ -102,7 +105,7 @@ def _streamlit() -> dict:
             "media_sessions": len(getattr(media, "_files_by_session_and_coord", {}))}
 
 
-def _objects() -> dict:
+def _objects(holders: bool = False) -> dict:
     """Objects alive, found by the garbage collector: SQLite connections (open or not), torch tensors and
     their bytes, the app's long-lived holders (the tablets' board, the job runner, the stores), and
     Streamlit's sessions and script runners."""
@@ -111,7 +114,7 @@ def _objects() -> dict:
     gc.collect()
     counts: collections.Counter = collections.Counter()
     tensors = tensor_bytes = 0
-    boards, runners, stores, conns_open = [], [], [], 0
+    boards, runners, stores, conns_open, pd_frames = [], [], [], 0, []
     torch = sys.modules.get("torch")
     tensor = getattr(torch, "Tensor", None)  # None while the app's preload is still importing torch
     for obj in gc.get_objects():
@@ -130,7 +133,10 @@ def _objects() -> dict:
                 tensor_bytes += obj.element_size() * obj.nelement()
             except Exception:  # noqa: BLE001
                 pass
-        elif name in ("AppSession", "ScriptRunner", "DataFrame", "Thread", "StudyStore", "Job",
+        elif name == "DataFrame":
+            counts[name] += 1
+            pd_frames.append(obj)
+        elif name in ("AppSession", "ScriptRunner", "Thread", "StudyStore", "Job",
                       "DiscreteSAC", "CacasPolicy", "MLPPolicy", "BanditPolicy", "Recognition"):
             counts[name] += 1
         if name == "TabletBoard":
@@ -140,6 +146,8 @@ def _objects() -> dict:
         elif name == "StudyStore":
             stores.append(obj)
     out = dict(counts)
+    if holders:
+        out["DataFrame held by"] = _holders(pd_frames)
     out["sqlite3.Connection open"] = conns_open
     out["torch tensors"] = tensors
     out["torch tensor MB"] = round(tensor_bytes / 2**20, 1)
@@ -149,6 +157,31 @@ def _objects() -> dict:
     policies = sys.modules.get("cacas.store.policies")
     out["policy checks kept"] = len(getattr(policies, "_CHECKED", {}))
     return out
+
+
+def _holders(frames: list) -> dict[str, int]:
+    """What holds the DataFrames alive: the type of each object that refers to one (a dict by the class of
+    the object whose ``__dict__`` it is, when it is one), counted; one pass over the collector's objects."""
+    ids = {id(f) for f in frames}
+    owners_of_dicts = {}
+    held: collections.Counter = collections.Counter()
+    for obj in gc.get_objects():  # an instance's __dict__ is made here if it was not yet (Python 3.11 keeps
+        try:                       # attributes inline until asked), and found in the second pass
+            d = None if issubclass(type(obj), type) else object.__getattribute__(obj, "__dict__")
+        except Exception:  # noqa: BLE001  no __dict__, or a dead weak proxy
+            continue
+        if type(d) is dict:
+            owners_of_dicts[id(d)] = type(obj).__name__
+    every = gc.get_objects()
+    for obj in every:
+        if id(obj) in ids or obj is frames:
+            continue
+        for ref in gc.get_referents(obj):
+            if id(ref) in ids:
+                name = type(obj).__name__
+                held[owners_of_dicts.get(id(obj), name) + ("'s __dict__" if id(obj) in owners_of_dicts else "")] += 1
+    del every
+    return dict(held.most_common(8))
 
 
 def _is_open(store) -> bool:
@@ -166,7 +199,7 @@ def _threads() -> dict[str, int]:
     return dict(names)
 
 
-def sample(db: str, first_snapshot, reference: bool = False) -> dict:
+def sample(db: str, first_snapshot, reference: bool = False, holders: bool = False) -> dict:
     t = time.perf_counter()
     out = {"time": time.time(), "rss_mb": round(_rss_mb(), 1), "threads": threading.active_count(),
            "os_threads": len(os.listdir("/proc/self/task")), "thread_names": _threads(), "fds": _fds(db)}
@@ -179,7 +212,7 @@ def sample(db: str, first_snapshot, reference: bool = False) -> dict:
     except Exception as exc:  # noqa: BLE001
         out["caches"] = {"error": repr(exc)}
     try:
-        out["objects"] = _objects()
+        out["objects"] = _objects(holders)
     except Exception as exc:  # noqa: BLE001
         out["objects"] = {"error": repr(exc)}
     if tracemalloc.is_tracing():
@@ -202,7 +235,8 @@ def serve(folder: Path, db: str) -> None:
         ask = folder / f"ask-{n}"
         if ask.exists():
             try:
-                result = sample(db, first, reference=ask.read_text().strip() == "reference")
+                words = ask.read_text().split()
+                result = sample(db, first, reference="reference" in words, holders="holders" in words)
             except Exception as exc:  # noqa: BLE001  the driver reads the error rather than waiting for ever
                 result = {"error": repr(exc)}
             tmp = folder / f"sample-{n}.json.tmp"
