@@ -111,7 +111,7 @@ class Probe:
 
 # --- the browser ------------------------------------------------------------------------------------
 
-def idle(page, timeout: int = 120_000) -> None:
+def idle(page, timeout: int = 600_000) -> None:
     """Wait for the run the last action started (if one starts within 2 s) to end."""
     runs = watch_runs(page)
     wait_until(page, lambda: runs.started > runs.seen or runs.busy, 2_000, fail=False)
@@ -136,8 +136,8 @@ def click(page, text: str) -> None:
     runs = watch_runs(page)
     before = runs.started
     button(page, text).click()
-    wait_until(page, lambda: runs.started > before and not runs.busy, 120_000)
-    page.wait_for_selector(IDLE, timeout=120_000)
+    wait_until(page, lambda: runs.started > before and not runs.busy, 600_000)
+    page.wait_for_selector(IDLE, timeout=600_000)
     runs.seen = runs.started
     page.wait_for_timeout(100)
 
@@ -157,7 +157,7 @@ def choose(page, label: str, option: str) -> None:
 def new_tab(browser, width: int = 1360, height: int = 900):
     ctx = browser.new_context(viewport={"width": width, "height": height}, accept_downloads=True)
     page = ctx.new_page()
-    page.set_default_timeout(120_000)
+    page.set_default_timeout(600_000)
     return page
 
 
@@ -233,7 +233,7 @@ def results_and_export(page, base: str, code: str) -> int:
     goto(page, f"{base}/results?participant={code}")
     before = watch_runs(page).started
     page.get_by_role("tab", name="Tables").click()
-    wait_until(page, lambda: watch_runs(page).started > before and not watch_runs(page).busy, 120_000)
+    wait_until(page, lambda: watch_runs(page).started > before and not watch_runs(page).busy, 600_000)
     idle(page)
     with page.expect_download(timeout=300_000) as dl:
         button(page, "Download everything (zip of every table and policy file)").click()
