@@ -107,13 +107,13 @@ def _streamlit() -> dict:
 
 def _objects(holders: bool = False) -> dict:
     """Objects alive, found by the garbage collector: SQLite connections (open or not), torch tensors and
-    their bytes, the app's long-lived holders (the tablets' board, the job runner, the stores), and
-    Streamlit's sessions and script runners."""
+    the bytes of their distinct storages, the app's long-lived holders (the tablets' board, the job runner,
+    the stores), and Streamlit's sessions and script runners."""
     import sqlite3
 
     gc.collect()
     counts: collections.Counter = collections.Counter()
-    tensors = tensor_bytes = 0
+    tensors, storages = 0, {}
     boards, runners, stores, conns_open, pd_frames = [], [], [], 0, []
     torch = sys.modules.get("torch")
     tensor = getattr(torch, "Tensor", None)  # None while the app's preload is still importing torch
@@ -129,8 +129,9 @@ def _objects(holders: bool = False) -> dict:
                 pass
         elif tensor is not None and issubclass(t, tensor):
             tensors += 1
-            try:
-                tensor_bytes += obj.element_size() * obj.nelement()
+            try:  # by storage: a parameter and its views share one (counted by element, a policy was 3.8 MB, not 1.7)
+                storage = obj.untyped_storage()
+                storages[storage.data_ptr()] = storage.nbytes()
             except Exception:  # noqa: BLE001
                 pass
         elif name == "DataFrame":
@@ -150,7 +151,7 @@ def _objects(holders: bool = False) -> dict:
         out["DataFrame held by"] = _holders(pd_frames)
     out["sqlite3.Connection open"] = conns_open
     out["torch tensors"] = tensors
-    out["torch tensor MB"] = round(tensor_bytes / 2**20, 1)
+    out["torch tensor MB"] = round(sum(storages.values()) / 2**20, 1)
     out["tablet board entries"] = sum(len(b._shown) + len(b._heard) + len(b._asked) for b in boards)
     out["jobs kept"] = sum(len(r._jobs) for r in runners)
     out["stores open"] = sum(1 for s in stores if _is_open(s))
