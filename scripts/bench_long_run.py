@@ -94,10 +94,11 @@ def start_server(db: Path, probe: Path, log: Path, tracemalloc: bool):
 class Probe:
     """Asks the server's probe for a sample (``ask-N`` -> ``sample-N.json``)."""
 
-    def __init__(self, folder: Path, holders: bool = False):
-        self.folder, self.n, self.holders = folder, 0, holders
+    def __init__(self, folder: Path, holders: bool = False, timeout: float = 300):
+        self.folder, self.n, self.holders, self.timeout = folder, 0, holders, timeout
 
-    def sample(self, timeout: float = 300, reference: bool = False) -> dict:
+    def sample(self, reference: bool = False) -> dict:
+        timeout = self.timeout
         (self.folder / f"ask-{self.n}").write_text(" ".join(["reference"] * reference + ["holders"] * self.holders))
         out = self.folder / f"sample-{self.n}.json"
         deadline = time.time() + timeout
@@ -322,7 +323,8 @@ def main() -> None:
     proc, base = start_server(db, probe_dir, folder / "streamlit.log", args.tracemalloc)
     print(f"server pid {proc.pid}, {base}, study folder {folder}; load average {os.getloadavg()[0]:.1f}",
           file=sys.stderr, flush=True)
-    probe = Probe(probe_dir, args.holders)
+    # a tracemalloc snapshot of the server (1.4 GB, torch's allocations traced) took over 5 minutes at load 13
+    probe = Probe(probe_dir, args.holders, timeout=3600 if args.tracemalloc else 300)
     t0 = time.time()
     tabs = interactions = 0
     samples: list[tuple[str, dict]] = []
