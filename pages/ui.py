@@ -289,7 +289,7 @@ def model_stamp(kind: str) -> float | None:
 
 #: The saved models :func:`_saved_recognizer` keeps, the latest used: the sound and the scene model in use. Keyed by
 #: the file's time, it kept every model a page had loaded until the server stopped, one more each training (the
-#: scene model, a ResNet-18, ~45 MB).
+#: scene model, a ResNet-18, is 43 MB in memory).
 RECOGNIZERS_KEPT = 2
 
 

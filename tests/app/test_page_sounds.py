@@ -668,8 +668,8 @@ def test_the_recognised_label_has_no_anchor_link_icon(app, monkeypatch):
 
 def test_a_retrained_model_is_not_kept_in_memory_beside_the_one_it_replaced(db, monkeypatch):
     """The saved models are cached by their file's time, so that a retrained one is loaded: every model a page had
-    loaded stayed in the server's memory until it stopped (the scene model, a ResNet-18, is ~45 MB), one more each
-    training. The cache keeps the two in use, the sound and the scene model."""
+    loaded stayed in the server's memory until it stopped (the scene model, a ResNet-18, is 43 MB in memory), one
+    more each training. The cache keeps the two in use, the sound and the scene model."""
     import cacas.lab
 
     stamps = {"sound": 1.0, "scene": 1.0}
