@@ -36,10 +36,18 @@ tablet = ui.tablet_mode()
 
 # --- cached resources (one per server process) -----------------------------------------------------
 
-@st.cache_resource(show_spinner=False)
+#: The policies :func:`_policy` keeps at a time, the latest used: a participant's every study day adds a version,
+#: and every version a tablet had used stayed in the server's memory (~1.7 MB each: 56 after 8 participants x 7
+#: days, 336 for 24 x 14; ``scripts/bench_long_run.py``). 32 tablets' policies in force fit, as do Adaptation's
+#: versions (its ``_load``); one dropped is read again at the next proposal (~35 ms).
+POLICIES_KEPT = 32
+
+
+@st.cache_resource(show_spinner=False, max_entries=POLICIES_KEPT)
 def _policy(db: str, who: str, version: int | None, sha256: str | None):
     """The participant's policy ``version`` (None: the initial policy); the checkpoint's sha256 is part of the
-    key too (a code given to a new participant after a removal starts again at version 1)."""
+    key too (a code given to a new participant after a removal starts again at version 1). The latest
+    :data:`POLICIES_KEPT` used are kept."""
     return policy_of_version(ui.store(), who, version)
 
 

@@ -287,14 +287,21 @@ def model_stamp(kind: str) -> float | None:
         return None
 
 
-@st.cache_resource(show_spinner=False)
+#: The saved models :func:`_saved_recognizer` keeps, the latest used: the sound and the scene model in use. Keyed by
+#: the file's time, it kept every model a page had loaded until the server stopped, one more each training (the
+#: scene model, a ResNet-18, is 43 MB in memory).
+RECOGNIZERS_KEPT = 2
+
+
+@st.cache_resource(show_spinner=False, max_entries=RECOGNIZERS_KEPT)
 def _saved_recognizer(kind: str, stamp: float):
     return lab.load_recognizer(kind)
 
 
 def recognizer(kind: str):
     """The saved sound or scene model, loaded once per file version (reloaded when retrained),
-    or None when there is none or it cannot be read."""
+    or None when there is none or it cannot be read. The replaced version is dropped from memory
+    (:data:`RECOGNIZERS_KEPT`)."""
     stamp = model_stamp(kind)
     if stamp is None:
         return None

@@ -51,3 +51,17 @@ def open_expander(at: AppTest, key: str, opened: bool = True) -> AppTest:
     and rerun the page, as a click on its label does."""
     at.session_state[key] = opened
     return at.run()
+
+
+def cache_of(name: str):
+    """The ``st.cache_resource`` or ``st.cache_data`` cache of the function ``name`` (as Streamlit names it:
+    ``__main__._policy`` for a page's ``_policy``, ``pages.ui.recognizer``...), once it has been called; None
+    before. Streamlit keeps a cache per function, process-wide, as a server does for its sessions."""
+    from streamlit.runtime.caching import cache_data_api, cache_resource_api
+
+    for caches in (cache_resource_api._resource_caches, cache_data_api._data_caches):
+        for by_key in list(caches._function_caches.values()):
+            for cache in list(by_key.values()):
+                if cache.display_name == name:
+                    return cache
+    return None

@@ -2,7 +2,7 @@ import json
 
 import pytest
 
-from apphelpers import no_exception, texts
+from apphelpers import cache_of, no_exception, texts
 from cacas import spaces
 from pages import ui
 from studies import answered_day
@@ -1284,3 +1284,16 @@ def test_a_policy_put_in_force_while_a_proposal_awaits_its_answer_leaves_that_pr
     _button(reloaded, "Accept").click().run()
     row = store.interactions_frame("P01", method=None, extra=True).iloc[-1]
     assert (row["robot_action"], row["policy_version"]) == ("pain check", second)
+
+
+def test_the_tablets_policies_are_cached_a_bounded_number_at_a_time(app, store, p01, quick_policy):
+    """The policy in force is cached per (participant, version, sha256): a participant's every day adds a version,
+    and the versions no longer in force stayed in the server's memory for good (long-run benchmark: 56 policies,
+    1.7 MB each, after 8 participants x 7 days; 24 x 14 would be 336). The cache keeps the latest used, a bounded
+    number (a policy dropped is read again in ~35 ms)."""
+    at = app(PAGE, participant="P01")
+    _button(at, "Start day 1").click().run()
+    _choose(at)
+    cache = cache_of("__main__._policy")
+    assert cache is not None and len(cache._mem_cache) == 1  # the proposal's policy, cached
+    assert cache.max_entries <= 32
