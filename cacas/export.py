@@ -707,9 +707,13 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
         made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
         db_path.parent.mkdir(parents=True, exist_ok=True)
         tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
+        lock = recovery.import_lock(tmp)
         try:
-            with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at next opening
-                return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
+            try:
+                with recovery.busy(lock):  # a killed import's files are deleted at next opening
+                    return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
+            finally:  # once released: Windows deletes no file that is open (the import failed there after its link)
+                lock.unlink(missing_ok=True)
         except BaseException:
             files.remove_empty(made)
             raise
@@ -801,9 +805,8 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                     p.unlink(missing_ok=True)
                 raise
     finally:
-        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock"),
-                  recovery.import_lock(tmp)):
-            p.unlink(missing_ok=True)
+        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock")):
+            p.unlink(missing_ok=True)  # (the lock file, held meanwhile, by import_bundle once released)
 
 
 __all__ = ["BUNDLE_NAME", "BUNDLE_VERSION", "MANIFEST_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "bundle_bytes", "by_preference_frame",

@@ -48,3 +48,36 @@ def test_a_removal_that_fails_puts_the_files_back_and_leaves_no_folder_aside(sto
     assert sorted(p.name for p in (store.policy_dir / "P01").iterdir()) == before
     assert sorted(p.name for p in store.policy_dir.iterdir()) == ["P01", "P02"]
     assert [p.code for p in store.list_participants()] == ["P01", "P02"]
+
+
+def test_a_study_exports_and_imports(store, tmp_path):
+    """The import deleted its lock file (recovery.import_lock) while it still held it open: on Windows
+    that failed (a PermissionError, a traceback) after the new database was in place, so the import
+    said it failed, and again it said "already exists"."""
+    from cacas import export
+
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    target = tmp_path / "copy" / "study.sqlite"
+    restored = export.import_bundle(bundle, target)
+    assert restored.interactions == 0
+    assert sorted(p.name for p in target.parent.iterdir()) == ["policies", "study.sqlite"]
+    with StudyStore(target) as copy:
+        assert [p.code for p in copy.list_participants()] == ["P01", "P02"]
+        assert copy.load_policy("P02") == policy_bytes("initial P02")
+
+
+def test_an_import_refused_says_why_and_leaves_nothing(store, tmp_path):
+    """A refusal part-way (a policy file of other content where the bundle's would go) is said as
+    itself, with nothing of the import left: it was a PermissionError on its lock file on Windows."""
+    from cacas import export
+    from cacas.errors import CacasError
+
+    bundle = export.export_study(store, tmp_path / "out").bundle
+    rel = store.policies_frame()["path"].iloc[0]
+    target = tmp_path / "copy" / "study.sqlite"
+    (target.parent / "policies" / rel).parent.mkdir(parents=True)
+    (target.parent / "policies" / rel).write_bytes(b"another policy")
+    with pytest.raises(CacasError, match="exists with other content"):
+        export.import_bundle(bundle, target)
+    assert [p.relative_to(target.parent).as_posix() for p in sorted(target.parent.rglob("*"))] == \
+        ["policies", "policies/" + rel.split("/")[0], "policies/" + rel]
