@@ -346,7 +346,10 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
             # new names only (taken ones get a prefix), so removing them undoes the import
             with Staging(root, kind.extensions) as staging:
                 for i, ((f, _), target) in enumerate(zip(plan, targets)):
-                    shutil.copy2(f, staging.path(target))
+                    # the bytes alone: a read-only source's mode (a DVD's, a write-protected stick's files) made
+                    # read-only library files, which Windows neither syncs through a descriptor that may write
+                    # (files.fsync_file) nor deletes
+                    shutil.copyfile(f, staging.path(target))
                     if progress:
                         progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
                 staging.place()

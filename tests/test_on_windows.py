@@ -2,6 +2,7 @@
 (:mod:`windows_rules`: no fcntl, an open file cannot be deleted or replaced, no folder opened as
 a file, fsync only through a descriptor that may write)."""
 
+import io
 import os
 
 import pytest
@@ -81,3 +82,33 @@ def test_an_import_refused_says_why_and_leaves_nothing(store, tmp_path):
         export.import_bundle(bundle, target)
     assert [p.relative_to(target.parent).as_posix() for p in sorted(target.parent.rglob("*"))] == \
         ["policies", "policies/" + rel.split("/")[0], "policies/" + rel]
+
+
+def test_photos_are_added_to_the_library(windows_files, tmp_path):
+    """The library's staging synced each new file through a descriptor opened read-only
+    (files.fsync_file), which Windows' FlushFileBuffers refuses (EBADF): every photo or clip added
+    on the Sounds and scenes page, and every `cacas sound generate` / `import`, failed there."""
+    from cacas import lab
+    from cacas.vision.library import image_paths
+    from photos import photo
+
+    png = io.BytesIO()
+    photo().save(png, format="PNG")
+    root = tmp_path / "scenes"
+    added = lab.add_photos("kitchen", [("our stove.png", png.getvalue())], root)
+    assert [p.relative_to(root).as_posix() for p in added] == ["kitchen/our_stove.png"]
+    assert image_paths("kitchen", root) == added
+
+
+def test_a_read_only_photo_is_added_as_a_file_the_lab_may_change(windows_files, tmp_path):
+    """A copy kept its source's read-only mode (shutil.copy2): on Windows (the read-only attribute) its
+    sync through a descriptor that may write was refused, and the library file could not be deleted."""
+    from cacas.vision.library import import_folder
+    from photos import photo
+
+    source = tmp_path / "dvd" / "kitchen"
+    source.mkdir(parents=True)
+    photo().save(source / "stove.png")
+    (source / "stove.png").chmod(0o444)
+    (added,) = import_folder(source.parent, tmp_path / "scenes")
+    assert added.stat().st_mode & 0o200

@@ -58,8 +58,14 @@ def atomic_write(path: Path, data: bytes) -> None:
 
 
 def fsync_file(path: Path) -> None:
-    """Make a file's content durable (written by another writer: a copy, an image library)."""
-    fd = os.open(path, os.O_RDONLY)
+    """Make a file's content durable (written by another writer: a copy, an image library).
+    Opened to write: Windows' ``os.fsync`` (``FlushFileBuffers``) refuses a descriptor opened
+    read-only (EBADF), and every file the libraries added failed there; a file that may not be
+    written (a copy keeps its source's read-only mode) is synced read-only, as POSIX allows."""
+    try:
+        fd = os.open(path, os.O_RDWR)
+    except PermissionError:
+        fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
     finally:
