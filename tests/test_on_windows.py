@@ -112,3 +112,71 @@ def test_a_read_only_photo_is_added_as_a_file_the_lab_may_change(windows_files, 
     (source / "stove.png").chmod(0o444)
     (added,) = import_folder(source.parent, tmp_path / "scenes")
     assert added.stat().st_mode & 0o200
+
+
+class FakeWinapi:
+    """Windows' _winapi as :func:`cacas.store.files.process_running` uses it, over a table of
+    process ids: running (exit code 259, STILL_ACTIVE), ended (another exit code, its handle still
+    open somewhere), another user's (access denied) or none (WinError 87)."""
+
+    def __init__(self, running=(), ended=(), denied=()):
+        self.running, self.ended, self.denied, self.open = set(running), set(ended), set(denied), []
+
+    def OpenProcess(self, access, inherit, pid):
+        if pid in self.denied or pid not in self.running | self.ended:
+            exc = OSError(13, "Access is denied") if pid in self.denied else OSError(22, "The parameter is incorrect")
+            exc.winerror = 5 if pid in self.denied else 87  # (set by OSError itself on Windows alone)
+            raise exc
+        self.open.append(pid)
+        return pid
+
+    def GetExitCodeProcess(self, handle):
+        return 259 if handle in self.running else 1
+
+    def CloseHandle(self, handle):
+        self.open.remove(handle)
+
+
+def test_a_left_over_is_judged_without_signalling_its_process(tmp_path, monkeypatch):
+    """os.kill(pid, 0) is no look-up on Windows (0 is CTRL_C_EVENT: a Ctrl-C sent to the console's
+    processes), and a process that has ended raised WinError 87 out of the export. Hidden files a
+    killed write left (its process gone, or ended) are removed; those of a running process, ours
+    or another user's, stay."""
+    import sys
+
+    from cacas.store import files
+
+    def no_signal(pid, sig):
+        raise AssertionError(f"os.kill({pid}, {sig}) on Windows")
+    winapi = FakeWinapi(running={4000}, ended={4001}, denied={4002})
+    monkeypatch.setattr(files, "ON_WINDOWS", True, raising=False)
+    monkeypatch.setitem(sys.modules, "_winapi", winapi)
+    monkeypatch.setattr(os, "kill", no_signal)
+    left = {pid: tmp_path / f".daily.csv.{pid}.tmp" for pid in (4000, 4001, 4002, 4003)}
+    for path in left.values():
+        path.write_text("rows of a run")
+    files.write_all(tmp_path, {"daily.csv": b"rows"})
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".daily.csv.4000.tmp", ".daily.csv.4002.tmp", "daily.csv"]
+    assert winapi.open == []  # every handle closed
+
+
+def test_a_librarys_left_over_is_judged_without_signalling_its_process(tmp_path, monkeypatch):
+    """The libraries' clean-up asked os.kill(pid, 0) too: on Windows a Ctrl-C to the console, and a
+    killed generate's hidden copy stayed for good (the error taken for "running")."""
+    import sys
+    import time
+
+    from cacas import media_library
+    from cacas.store import files
+
+    def no_signal(pid, sig):
+        raise AssertionError(f"os.kill({pid}, {sig}) on Windows")
+    monkeypatch.setattr(files, "ON_WINDOWS", True, raising=False)
+    monkeypatch.setitem(sys.modules, "_winapi", FakeWinapi(running={4000}))
+    monkeypatch.setattr(os, "kill", no_signal)
+    (tmp_path / "cough").mkdir()
+    old = time.time() - 2 * media_library.LEFTOVER_AGE
+    for pid in (4000, 4001):
+        (tmp_path / "cough" / f".take.wav.{pid}.tmp").write_bytes(b"RIFF")
+        os.utime(tmp_path / "cough" / f".take.wav.{pid}.tmp", (old, old))
+    assert media_library.remove_leftovers(tmp_path, (".wav",)) == [tmp_path / "cough" / ".take.wav.4001.tmp"]

@@ -201,8 +201,36 @@ def _remove_left_over(folder: Path, names) -> None:
             pass
 
 
-def _running(pid: int) -> bool:
-    """Whether a process with this id runs (on this machine)."""
+#: Windows, where a process is looked up by opening it (:func:`process_running`).
+ON_WINDOWS = os.name == "nt"
+#: What Windows' GetExitCodeProcess says of a process that has not ended.
+_STILL_ACTIVE = 259
+#: OpenProcess's right to ask a process for its exit code (PROCESS_QUERY_LIMITED_INFORMATION).
+_QUERY = 0x1000
+
+
+def process_running(pid: int) -> bool:
+    """Whether a process with this id runs (on this machine); an id no process can have: False.
+
+    POSIX: ``os.kill(pid, 0)`` (signal 0 checks, sends nothing). Not on Windows, where 0 is
+    ``signal.CTRL_C_EVENT``: ``os.kill`` sends it with ``GenerateConsoleCtrlEvent`` (Python's
+    ``os.kill`` documentation) — a Ctrl-C to the console's processes, not a look-up — and the id
+    of a process that has ended raised an OSError (WinError 87) that no caller expected, out of
+    every ``cacas export`` / ``simulate --out`` / saved run into a folder a killed run had left
+    hidden files in. There the process is opened and asked whether it has ended."""
+    if ON_WINDOWS:
+        import _winapi
+
+        try:
+            handle = _winapi.OpenProcess(_QUERY, False, pid)
+        except OverflowError:
+            return False
+        except OSError as exc:
+            return getattr(exc, "winerror", None) == 5  # access denied: it runs (another user's); else (87) no such process
+        try:
+            return _winapi.GetExitCodeProcess(handle) == _STILL_ACTIVE
+        finally:
+            _winapi.CloseHandle(handle)
     try:
         os.kill(pid, 0)
     except (ProcessLookupError, OverflowError):  # none, or an id no process can have
@@ -273,7 +301,7 @@ def _dead_left_overs(folder: Path, names) -> list[Path]:
     for name in names:
         for path in [*folder.glob(f".{name}.*.tmp"), *folder.glob(f".{name}.*.old")]:
             pid = path.name[len(name) + 2:].rsplit(".", 1)[0]
-            if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
+            if pid.isdigit() and int(pid) != os.getpid() and not process_running(int(pid)):
                 found.append(path)
     return sorted(found)
 
@@ -292,7 +320,7 @@ def _dead_stagings(folder: Path) -> list[Path]:
         return found
     for path in folder.parent.glob(f".{glob.escape(folder.name)}.*.new"):  # (a name may hold [ ] * ?)
         pid = path.name[len(folder.name) + 2:].rsplit(".", 1)[0]
-        if not (pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid))):
+        if not (pid.isdigit() and int(pid) != os.getpid() and not process_running(int(pid))):
             continue
         try:
             if path.is_symlink() or not path.is_dir() or any(not p.is_file() or p.is_symlink() for p in path.iterdir()):
