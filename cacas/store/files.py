@@ -128,6 +128,19 @@ def ignores_letter_case(folder) -> bool:
         probe.unlink(missing_ok=True)
 
 
+#: The names Windows keeps for devices, in any letter case and with any extension after the first
+#: "." (Microsoft's "Naming Files, Paths, and Namespaces"; Python's ``os.path.isreserved``): a file
+#: or folder so named opens the device, or cannot be made ("policies/CON/" for participant CON).
+WINDOWS_DEVICE_NAMES = frozenset({"CON", "PRN", "AUX", "NUL", "CONIN$", "CONOUT$",
+                                  *(f"{port}{n}" for port in ("COM", "LPT") for n in "123456789\u00b9\u00b2\u00b3")})
+
+
+def windows_device_name(name: str) -> bool:
+    """``name`` (one file or folder name) is one Windows keeps for a device
+    (:data:`WINDOWS_DEVICE_NAMES`): "CON", "nul.csv", "Com1.wav"; "CON1" and "icon" are not."""
+    return name.split(".", 1)[0].rstrip(" ").upper() in WINDOWS_DEVICE_NAMES
+
+
 def writable_folder(folder, what: str, create: bool = True) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
     CacasError naming it (``what``: how the user named it, e.g. "--out results") and the problem:
