@@ -748,6 +748,22 @@ def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Pa
                      "(on macOS, a case-sensitive APFS volume); nothing was imported")
 
 
+def _link_new(tmp: Path, db_path: Path) -> None:
+    """``tmp`` under the new name ``db_path`` too, which must not exist (FileExistsError): a hard
+    link, which never replaces a file. A file system without hard links (FAT32, exFAT: a USB stick, a
+    disk a Mac and a Windows PC share) refuses ``os.link``, and an import there failed; ``tmp`` is
+    renamed instead, after a look for ``db_path`` (Windows' rename never replaces a file; elsewhere a
+    file made in between the look and the rename would be, a moment no import of ours leaves)."""
+    try:
+        os.link(tmp, db_path)
+    except FileExistsError:
+        raise
+    except OSError:
+        if os.path.lexists(db_path):
+            raise FileExistsError(db_path) from None
+        os.rename(tmp, db_path)
+
+
 def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path], bundle: Path) -> Restored:
     """:func:`import_bundle`'s work: the database built as ``tmp``, then linked as ``db_path``;
     the folders it creates for policy files are added to ``made``. A table :func:`restore`
@@ -794,7 +810,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                     files.atomic_write(target, data)
                     created.append(target)
                 try:
-                    os.link(tmp, db_path)
+                    _link_new(tmp, db_path)
                 except FileExistsError:
                     raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
                 files.fsync_folder(db_path.parent)  # the new name on disk before "imported" is said

@@ -180,3 +180,52 @@ def test_a_librarys_left_over_is_judged_without_signalling_its_process(tmp_path,
         (tmp_path / "cough" / f".take.wav.{pid}.tmp").write_bytes(b"RIFF")
         os.utime(tmp_path / "cough" / f".take.wav.{pid}.tmp", (old, old))
     assert media_library.remove_leftovers(tmp_path, (".wav",)) == [tmp_path / "cough" / ".take.wav.4001.tmp"]
+
+
+@pytest.fixture
+def no_hard_links(monkeypatch):
+    """A file system without hard links (FAT32, exFAT: a USB stick or a disk a Mac and a Windows PC
+    share): os.link fails as Linux's vfat fails it."""
+    import errno
+
+    def refused(src, dst, **kwargs):
+        raise PermissionError(errno.EPERM, "Operation not permitted", os.fsdecode(src), None, os.fsdecode(dst))
+    monkeypatch.setattr(os, "link", refused)
+
+
+def test_a_second_export_into_a_folder_on_a_stick_replaces_the_first(no_hard_links, tmp_path, fail_on_call,
+                                                                      monkeypatch):
+    """write_all kept each replaced file under a second name (os.link) to put it back on a failure:
+    without hard links the second `cacas export --out` / `simulate --out` into a folder said "cannot
+    be written". A copy is kept there instead, and a failure still puts everything back."""
+    from cacas.store import files
+
+    files.write_all(tmp_path, {"daily.csv": b"first daily", "old.csv": b"first old"}, checksums=True)
+    files.write_all(tmp_path, {"daily.csv": b"second daily"}, checksums=True, remove=["old.csv"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["checksums.sha256", "daily.csv"]
+    assert (tmp_path / "daily.csv").read_bytes() == b"second daily" and files.mismatched(tmp_path) == []
+    monkeypatch.setattr(os, "replace", fail_on_call(os.replace, 2, PermissionError(13, "Permission denied")))
+    with pytest.raises(files.CacasError, match="the folder's files are unchanged"):
+        files.write_all(tmp_path, {"daily.csv": b"third daily"}, checksums=True)
+    assert (tmp_path / "daily.csv").read_bytes() == b"second daily" and files.mismatched(tmp_path) == []
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["checksums.sha256", "daily.csv"]
+
+
+def test_a_study_imports_onto_a_stick(no_hard_links, tmp_path):
+    """The import linked its finished database into place (os.link, which never replaces a file):
+    without hard links it failed ("Operation not permitted"), leaving nothing. Renamed there instead;
+    an existing database is still refused."""
+    from cacas import export
+    from cacas.errors import CacasError
+
+    with StudyStore(tmp_path / "a" / "study.sqlite") as s:
+        s.add_participant("P01")
+        s.save_policy("P01", 0, "cacas", policy_bytes("initial P01"))
+        bundle = export.export_study(s, tmp_path / "out").bundle
+    target = tmp_path / "stick" / "study.sqlite"
+    export.import_bundle(bundle, target)
+    assert sorted(p.name for p in target.parent.iterdir()) == ["policies", "study.sqlite"]
+    with StudyStore(target) as copy:
+        assert copy.load_policy("P01") == policy_bytes("initial P01")
+    with pytest.raises(CacasError, match="already exists"):
+        export.import_bundle(bundle, target)

@@ -17,6 +17,7 @@ from __future__ import annotations
 import glob
 import hashlib
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -420,6 +421,20 @@ def _write_new_folder(folder: Path, contents: dict[str, bytes]) -> bool:
     return True
 
 
+def _keep_aside(target: Path, kept: Path) -> None:
+    """``kept``: ``target`` as it is now, for :func:`write_all` to put back: a second name for the
+    file (a hard link, nothing copied), or a copy where the file system has no hard links: FAT32 and
+    exFAT, those of USB sticks and of disks a Mac and a Windows PC share, refuse ``os.link``
+    (EPERM, ENOTSUP; Windows' CreateHardLink "Incorrect function"), and a second export into a
+    folder there failed with "cannot be written"."""
+    try:
+        os.link(target, kept)
+    except FileExistsError:
+        raise
+    except OSError:
+        shutil.copyfile(target, kept)
+
+
 def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
               remove: tuple[str, ...] | list[str] = ()) -> dict[str, Path]:
     """Write several files into ``folder`` as one change: each to a temporary file first
@@ -470,13 +485,13 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
             if target.exists():
                 kept[name] = folder / f".{name}.{os.getpid()}.old"
                 kept[name].unlink(missing_ok=True)
-                os.link(target, kept[name])
+                _keep_aside(target, kept[name])
         for name in remove:
             target = folder / name
             if os.path.isfile(target):
                 kept[name] = folder / f".{name}.{os.getpid()}.old"
                 kept[name].unlink(missing_ok=True)
-                os.link(target, kept[name])
+                _keep_aside(target, kept[name])
                 target.unlink()
                 gone.append(name)
         for name, tmp in tmps.items():
