@@ -51,8 +51,13 @@ _NO_LIMIT = 2**60
 def available_memory() -> int | None:
     """Bytes of memory new processes can take without swapping or being killed for it: Linux's own
     estimate, MemAvailable in /proc/meminfo, or less where this process's control group (a
-    container's) has a memory limit that leaves less (:func:`cgroup_available_memory`); None where
-    neither can be read (another system)."""
+    container's) has a memory limit that leaves less (:func:`cgroup_available_memory`); on Windows,
+    the physical memory available (:func:`windows_available_memory`); None where none can be read
+    (macOS: its memory is compressed and swapped, and no count of workers is refused for it)."""
+    from cacas.store.files import ON_WINDOWS
+
+    if ON_WINDOWS:
+        return windows_available_memory()
     found = []
     try:
         with open(PROC_MEMINFO) as f:
@@ -66,6 +71,29 @@ def available_memory() -> int | None:
     if limited is not None:
         found.append(limited)
     return min(found) if found else None
+
+
+def windows_available_memory() -> int | None:
+    """Windows' physical memory available now (``GlobalMemoryStatusEx``'s ``ullAvailPhys``, bytes);
+    None if it cannot be asked. Without it every worker process a core was started there, whatever
+    the memory: 16 of ~1 GB each on a laptop of 16 logical cores and 16 GB, and Windows ends a
+    process that finds no memory to commit (torch's own libraries fail to load: "The paging file
+    is too small for this operation to complete")."""
+    import ctypes
+
+    class MemoryStatus(ctypes.Structure):  # MEMORYSTATUSEX
+        _fields_ = [("dwLength", ctypes.c_uint32), ("dwMemoryLoad", ctypes.c_uint32),  # DWORD: 32 bits
+                    *((name, ctypes.c_ulonglong) for name in (
+                        "ullTotalPhys", "ullAvailPhys", "ullTotalPageFile", "ullAvailPageFile", "ullTotalVirtual",
+                        "ullAvailVirtual", "ullAvailExtendedVirtual"))]
+
+    status = MemoryStatus()
+    status.dwLength = ctypes.sizeof(MemoryStatus)
+    try:
+        asked = ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(status))
+    except (AttributeError, OSError):
+        return None
+    return int(status.ullAvailPhys) if asked else None
 
 
 def _read_number(path: Path) -> int | None:

@@ -229,3 +229,33 @@ def test_a_study_imports_onto_a_stick(no_hard_links, tmp_path):
         assert copy.load_policy("P01") == policy_bytes("initial P01")
     with pytest.raises(CacasError, match="already exists"):
         export.import_bundle(bundle, target)
+
+
+def test_worker_processes_on_windows_are_as_many_as_its_memory_holds(monkeypatch):
+    """The available memory was read from Linux's /proc alone: on Windows every worker process a
+    core was started whatever the memory (16 of ~1 GB on a laptop of 16 logical cores and 16 GB,
+    where Windows fails a process that finds no memory to commit). Asked of Windows now
+    (GlobalMemoryStatusEx), it caps them as on Linux."""
+    import ctypes
+
+    from cacas import parallel
+    from cacas.store import files
+
+    class Kernel32:
+        asked = []
+
+        def GlobalMemoryStatusEx(self, status):
+            status = status._obj  # the structure behind ctypes.byref
+            self.asked.append(status.dwLength)
+            status.ullAvailPhys = 5 * 2**30
+            return 1
+
+    kernel32 = Kernel32()
+    monkeypatch.setattr(files, "ON_WINDOWS", True, raising=False)
+    monkeypatch.setattr(ctypes, "windll", type("windll", (), {"kernel32": kernel32}), raising=False)
+    monkeypatch.setattr(parallel, "cores", lambda: 16)
+    assert parallel.available_memory() == 5 * 2**30
+    assert kernel32.asked == [64]  # the size of MEMORYSTATUSEX, as Windows requires
+    jobs, notes = parallel.plan_jobs(None, 24)
+    assert jobs == 5 * 2**30 // parallel.WORKER_MEMORY == parallel.default_jobs()
+    assert notes[0].startswith("one worker process per core: 16 worker processes need about 12.8 GB")
