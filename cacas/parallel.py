@@ -60,7 +60,7 @@ def available_memory() -> int | None:
         return windows_available_memory()
     found = []
     try:
-        with open(PROC_MEMINFO) as f:
+        with open(PROC_MEMINFO, encoding="utf-8") as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
                     found.append(int(line.split()[1]) * 1024)
@@ -99,7 +99,7 @@ def windows_available_memory() -> int | None:
 def _read_number(path: Path) -> int | None:
     """The whole number a cgroup file holds; None if missing, unreadable or "max" (no limit)."""
     try:
-        text = path.read_text().strip()
+        text = path.read_text(encoding="utf-8").strip()
     except OSError:
         return None
     return int(text) if text.isdigit() else None
@@ -109,7 +109,7 @@ def _reclaimable(folder: Path, keys: tuple[str, ...]) -> int:
     """The page cache the kernel can drop for new processes (inactive file pages), from the
     ``memory.stat`` in ``folder``: the first of ``keys`` it holds; 0 if none."""
     try:
-        stat = dict(line.split()[:2] for line in (folder / "memory.stat").read_text().splitlines()
+        stat = dict(line.split()[:2] for line in (folder / "memory.stat").read_text(encoding="utf-8").splitlines()
                     if len(line.split()) >= 2)
     except OSError:
         return 0
@@ -128,7 +128,7 @@ def cgroup_available_memory() -> int | None:
     v1: ``memory.limit_in_bytes``, ``memory.usage_in_bytes``, ``total_inactive_file``. None where
     no limit is set or none can be read (another system, no cgroup file system)."""
     try:
-        lines = PROC_CGROUP.read_text().splitlines()
+        lines = PROC_CGROUP.read_text(encoding="utf-8").splitlines()
     except OSError:
         return None
     groups = []  # (the hierarchy's folder, this process's group in it, its files' names)

@@ -259,3 +259,67 @@ def test_worker_processes_on_windows_are_as_many_as_its_memory_holds(monkeypatch
     jobs, notes = parallel.plan_jobs(None, 24)
     assert jobs == 5 * 2**30 // parallel.WORKER_MEMORY == parallel.default_jobs()
     assert notes[0].startswith("one worker process per core: 16 worker processes need about 12.8 GB")
+
+
+TEXT_ROUND = r"""
+import json, sys, warnings
+from pathlib import Path
+
+warnings.simplefilter("always", EncodingWarning)
+tmp = Path(sys.argv[1])
+words = "Quand je tousse, apporte-moi de l'eau, été 中 咳"
+with warnings.catch_warnings(record=True) as seen:
+    warnings.simplefilter("always", EncodingWarning)
+    from cacas import export, parallel, saved_runs
+    from cacas.audio.model import SoundRecognizer
+    from cacas.cli import main
+    from cacas.d4a import load_d4a
+    from cacas.preferences import load_personas, save_personas
+    from cacas.previous_model import previous_metadata
+    from cacas.store import StudyStore
+
+    persona = {"participants": [{"id": "P01", "preferences": [
+        {"activity": ["cough"], "action": "pain check", "description": words}]}]}
+    (tmp / "p.json").write_bytes(json.dumps(persona, ensure_ascii=False).encode("utf-8"))
+    people = load_personas(tmp / "p.json")
+    save_personas(people, tmp / "again.json")
+    with StudyStore(tmp / "a" / "study.sqlite") as s:
+        s.import_personas(persona)
+        bundle = export.export_study(s, tmp / "out").bundle
+    export.import_bundle(bundle, tmp / "b" / "study.sqlite")
+    assert main(["simulate", "--personas", str(tmp / "p.json"), "--days", "1", "--interactions", "2",
+                 "--methods", "cacas", "--out", str(tmp / "sim"), "--jobs", "1"]) == 0
+    run = saved_runs.save_run(tmp / "runs", "r", saved_runs.load_daily(tmp / "sim" / "daily.csv"),
+                              saved_runs.load_run(tmp / "sim").interactions, {"personas": words})
+    assert saved_runs.load_run(run).settings == {"personas": words}
+    load_d4a()
+    SoundRecognizer.load()
+    previous_metadata(tmp / "sound_cnn.pt")
+    parallel.default_jobs()
+ours = sorted({f"{Path(w.filename).name}:{w.lineno}" for w in seen
+               if issubclass(w.category, EncodingWarning) and "/cacas/" in w.filename.replace("\\", "/")})
+print(json.dumps(ours))
+"""
+
+
+def test_every_text_file_is_read_and_written_as_utf_8(tmp_path):
+    """Windows opens a text file without an encoding in the computer's code page (cp1252 in western
+    Europe, cp932 in Japan), so a persona's own words with "é" or "中" would be written or read as
+    other characters. Python warns of every such open (-X warn_default_encoding, PEP 597): a study's
+    text round (persona files, a study database's export and import, cacas simulate --out, a saved
+    run, the D4A table, the sound model and its kept predecessor, the memory the workers need) opens
+    none in cacas."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).parents[1]
+    (tmp_path / "round.py").write_text(TEXT_ROUND, encoding="utf-8")
+    (tmp_path / "sound_cnn.previous.pt").write_bytes(b"weights")
+    (tmp_path / "sound_cnn.previous.json").write_text('{"kind": "sound"}', encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-X", "warn_default_encoding", str(tmp_path / "round.py"), str(tmp_path)],
+                          capture_output=True, text=True, encoding="utf-8", env=env, cwd=root, timeout=600)
+    assert done.returncode == 0, done.stderr[-3000:]
+    assert json.loads(done.stdout.strip().splitlines()[-1]) == []
