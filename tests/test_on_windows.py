@@ -323,3 +323,22 @@ def test_every_text_file_is_read_and_written_as_utf_8(tmp_path):
                           capture_output=True, text=True, encoding="utf-8", env=env, cwd=root, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     assert json.loads(done.stdout.strip().splitlines()[-1]) == []
+
+
+def test_a_table_open_in_another_program_is_named_as_the_reason(windows_files, tmp_path, monkeypatch):
+    """Excel keeps a CSV it shows locked, and Windows replaces no file that is open: the second
+    export into the folder said "Permission denied" alone. It says to close the file; the folder's
+    files are as they were."""
+    from cacas.store import files
+
+    monkeypatch.setattr(files, "ON_WINDOWS", True, raising=False)
+    files.write_all(tmp_path, {"daily.csv": b"first", "interactions.csv": b"first rows"}, checksums=True)
+    shown = os.open(tmp_path / "daily.csv", os.O_RDONLY)  # as Excel holds it
+    try:
+        with pytest.raises(files.CacasError, match=r"daily\.csv: cannot be written \(.*\); the folder's files are "
+                                                   r"unchanged; on Windows a file another program has open cannot "
+                                                   r"be replaced: close it there \(Excel keeps a CSV it shows locked\)"):
+            files.write_all(tmp_path, {"daily.csv": b"second", "interactions.csv": b"second rows"}, checksums=True)
+    finally:
+        os.close(shown)
+    assert (tmp_path / "daily.csv").read_bytes() == b"first" and files.mismatched(tmp_path) == []

@@ -421,6 +421,16 @@ def _write_new_folder(folder: Path, contents: dict[str, bytes]) -> bool:
     return True
 
 
+def in_use_hint(exc: OSError) -> str:
+    """What a refusal to replace or delete a file adds on Windows, where a file another program
+    has open cannot be (a CSV shown in Excel, which keeps it locked: a second ``cacas export`` or
+    ``simulate --out`` into the folder said only "Permission denied"); "" elsewhere."""
+    if ON_WINDOWS and isinstance(exc, PermissionError):
+        return ("; on Windows a file another program has open cannot be replaced: close it there (Excel keeps a CSV "
+                "it shows locked) and try again")
+    return ""
+
+
 def _keep_aside(target: Path, kept: Path) -> None:
     """``kept``: ``target`` as it is now, for :func:`write_all` to put back: a second name for the
     file (a hard link, nothing copied), or a copy where the file system has no hard links: FAT32 and
@@ -511,7 +521,7 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
         if not isinstance(exc, OSError):
             raise
         raise CacasError(f"{folder / name}: cannot be written ({exc.strerror or exc}); "
-                         f"the folder's files are unchanged") from None
+                         f"the folder's files are unchanged{in_use_hint(exc)}") from None
     finally:
         for path in [*tmps.values(), *(p for p in kept.values() if p is not None)]:
             try:
