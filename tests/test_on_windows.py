@@ -342,3 +342,16 @@ def test_a_table_open_in_another_program_is_named_as_the_reason(windows_files, t
     finally:
         os.close(shown)
     assert (tmp_path / "daily.csv").read_bytes() == b"first" and files.mismatched(tmp_path) == []
+
+
+def test_tables_end_their_lines_alike_on_every_system(store, monkeypatch):
+    """pandas' to_csv ends lines with os.linesep ("\r\n" on Windows) unless told otherwise: a study's
+    tables (and their checksums) would differ byte for byte between a lab's Windows laptop and its
+    Linux server. With Windows' line separator, an export's tables are those of Linux."""
+    from cacas import export
+
+    linux = export.export_contents(store)
+    monkeypatch.setattr(os, "linesep", "\r\n")
+    windows = export.export_contents(store)
+    assert windows == linux
+    assert not any(b"\r" in data for name, data in windows.items() if name.endswith(".csv"))

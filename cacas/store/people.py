@@ -97,7 +97,7 @@ class PeopleMixin:
     def add_participant(self, code: str, age_range: str = "", notes: str = "",
                         study: str = DEFAULT_STUDY) -> ParticipantInfo:
         """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
-        names, no phone number or date: :func:`validate.new_code`). ``age_range`` like "25-34" or
+        names, no phone number or date, no name Windows keeps for a device: :func:`validate.new_code`). ``age_range`` like "25-34" or
         "65+"; a code already in use raises CacasError, as does one that differs only in letter case
         from a participant of a study database beside this one where the file system does not tell
         letter case apart (:meth:`_refuse_case_twins_beside`)."""
