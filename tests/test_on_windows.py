@@ -355,3 +355,64 @@ def test_tables_end_their_lines_alike_on_every_system(store, monkeypatch):
     windows = export.export_contents(store)
     assert windows == linux
     assert not any(b"\r" in data for name, data in windows.items() if name.endswith(".csv"))
+
+
+def _left_aside(store, code: str) -> tuple[list, object]:
+    """A removal's folder of moved-aside files as a removal killed after its moves leaves it (its
+    lock file there, held by nobody): the participant's files moved into it."""
+    from cacas.store import recovery
+
+    trash = store.policy_dir / f".removed-{code}-4242-123"
+    trash.mkdir()
+    (trash / recovery.REMOVAL_LOCK).touch()
+    homes = sorted((store.policy_dir / code).iterdir())
+    for f in homes:
+        f.rename(trash / f.name)
+    return homes, trash
+
+
+def test_a_removal_killed_before_its_commit_gets_its_files_back_at_the_next_opening(store, tmp_path):
+    """Windows has no flock, and the next opening put nothing right there: a removal killed between
+    its moves and its commit (a laptop's battery, a closed console) left the participant in the study
+    and their policy files in .removed-P01-..., and their next day could not start from their policy.
+    Windows' own locks (msvcrt.locking) say now whether a removal still runs."""
+    homes, trash = _left_aside(store, "P01")
+    store.close()
+    with StudyStore(tmp_path / "study.sqlite") as s:
+        assert all(home.is_file() for home in homes) and not trash.exists()
+        assert s.load_policy("P01") == policy_bytes("initial P01")
+
+
+def test_a_removal_killed_after_its_commit_has_its_files_deleted_at_the_next_opening(store, tmp_path):
+    """Killed after the commit, the withdrawn participant's files stayed for good on Windows, in a
+    folder no page shows; they are deleted at the next opening, as the removal promised."""
+    store.remove_participant("P01", "P01")
+    (store.policy_dir / "P01").mkdir()
+    (store.policy_dir / "P01" / "day0-cacas-left.pt").write_bytes(policy_bytes("initial P01"))
+    homes, trash = _left_aside(store, "P01")
+    store.close()
+    StudyStore(tmp_path / "study.sqlite").close()
+    assert not trash.exists() and not any(home.exists() for home in homes)
+
+
+def test_a_removal_still_running_is_left_alone(store, tmp_path):
+    from cacas.store import recovery
+
+    homes, trash = _left_aside(store, "P01")
+    with recovery.busy(trash / recovery.REMOVAL_LOCK):  # held, as the removal running in another process holds it
+        StudyStore(tmp_path / "study.sqlite").close()
+        assert (trash / homes[0].name).is_file() and not homes[0].exists()
+    StudyStore(tmp_path / "study.sqlite").close()
+    assert homes[0].is_file() and not trash.exists()
+
+
+def test_the_hidden_database_of_an_import_killed_mid_way_is_deleted(windows_files, tmp_path):
+    """Killed, an import left `.study.sqlite.importing-<pid>` (a full copy of the study's data), and
+    on Windows no opening deleted it."""
+    from cacas.store import recovery
+
+    killed = tmp_path / ".study.sqlite.importing-4242"
+    for f in (killed, recovery.import_lock(killed)):
+        f.write_bytes(b"half an import")
+    StudyStore(tmp_path / "study.sqlite").close()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["study.sqlite"]

@@ -3,7 +3,8 @@ process while a test runs, so that the code paths a lab's Windows laptop takes r
 Import it into a test module: ``from windows_rules import windows_files  # noqa: F401``.
 
 * No ``fcntl`` (a Unix-only module, "Availability: Unix" in Python's documentation):
-  ``cacas.store.db`` and ``cacas.store.recovery`` see ``fcntl = None``, as they do there.
+  ``cacas.store.db`` and ``cacas.store.recovery`` see ``fcntl = None``, as they do there, and
+  ``recovery`` sees an ``msvcrt`` whose ``locking`` locks as Windows' does (:class:`Msvcrt`).
 * A file that is open cannot be deleted, nor replaced or renamed: Python opens files on Windows
   without ``FILE_SHARE_DELETE``, so ``os.unlink`` / ``os.replace`` / ``os.rename`` of it fail with
   WinError 32, "The process cannot access the file because it is being used by another process"
@@ -27,6 +28,26 @@ import pytest
 IN_USE = "The process cannot access the file because it is being used by another process"
 
 
+class Msvcrt:
+    """Windows' ``msvcrt.locking`` over Linux's ``flock``: an exclusive lock a descriptor holds until it
+    unlocks or closes it, or its process ends, which another descriptor cannot take meanwhile (a
+    non-blocking try fails with an OSError, as Windows' does)."""
+
+    LK_UNLCK, LK_LOCK, LK_NBLCK, LK_RLCK, LK_NBRLCK = 0, 1, 2, 3, 4
+
+    @staticmethod
+    def locking(fd: int, mode: int, nbytes: int) -> None:
+        import fcntl
+
+        if mode == Msvcrt.LK_UNLCK:
+            fcntl.flock(fd, fcntl.LOCK_UN)
+            return
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | (fcntl.LOCK_NB if mode in (Msvcrt.LK_NBLCK, Msvcrt.LK_NBRLCK) else 0))
+        except BlockingIOError:
+            raise PermissionError(errno.EACCES, "Permission denied") from None
+
+
 @pytest.fixture
 def windows_files(monkeypatch):
     """Windows' file rules in this process (module docstring)."""
@@ -36,6 +57,7 @@ def windows_files(monkeypatch):
 
     monkeypatch.setattr(db, "fcntl", None)
     monkeypatch.setattr(recovery, "fcntl", None)
+    monkeypatch.setattr(recovery, "msvcrt", Msvcrt, raising=False)
     monkeypatch.setattr(shutil, "_use_fd_functions", False)
     # as on Windows ("an alias for NamedTemporaryFile" on platforms that are neither POSIX nor Cygwin): Linux's
     # falls back to deleting its file while it is open
