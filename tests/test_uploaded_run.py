@@ -271,7 +271,7 @@ def test_the_zip_of_a_study_uploads_its_daily_by_preference_and_interactions(tmp
     (_zip({"run1/settings.json": b"{}", "run1/notes.txt": b"mine"}), r"^run\.zip: holds no daily\.csv; valid: the zip"),
     (_zip({"a/daily.csv": b"x", "b/daily.csv": b"y"}),
      r"^run\.zip: holds 2 daily\.csv files \(a/daily\.csv, b/daily\.csv\); upload the zip of one run or study$"),
-])
+], ids=["not a zip", "no daily.csv", "two daily.csv"])  # not the zips' bytes: they hold the time they were made
 def test_a_zip_that_is_not_of_one_run_or_study_is_refused_by_name(data, message):
     with pytest.raises(CacasError, match=message):
         uploaded_run.unpacked_uploads([("run.zip", data)])
