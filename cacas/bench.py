@@ -211,8 +211,9 @@ class BenchResult:
         lines.append(f"SAC speed-up over the reference: {self.sac_speedup:.2f}x (target >= {SAC_SPEEDUP_TARGET}x)")
         m = self.machine
         lines.append(f"machine: {m['cpu']}, {m['cores']} cores, torch {m['torch']} ({m['torch_threads']} thread(s)), "
-                     f"Python {m['python']}, load average {m.get('load_average_at_start')} at start, "
-                     f"{m['load_average']} at the end (1, 5, 15 min)")
+                     f"Python {m['python']}, " + (f"load average {m.get('load_average_at_start')} at start, "
+                                                  f"{m['load_average']} at the end (1, 5, 15 min)"
+                                                  if m["load_average"] else "no load average on this system"))
         return "\n".join(lines + self.notes)
 
 
@@ -223,15 +224,15 @@ def _digits(v: float) -> int:
 def machine_info(threads: int) -> dict:
     cpu = platform.processor() or platform.machine()
     try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
+        for line in Path("/proc/cpuinfo").read_text(encoding="utf-8").splitlines():
             if line.startswith("model name"):
                 cpu = line.split(":", 1)[1].strip()
                 break
     except OSError:
         pass
-    try:
+    try:  # Unix's (Python's os.getloadavg: "Availability: Unix"); Windows has none, and `cacas bench` failed there
         load = [round(x, 2) for x in os.getloadavg()]
-    except OSError:
+    except (OSError, AttributeError):
         load = []
     return {"cores": os.cpu_count(), "cpu": cpu, "torch": torch.__version__, "torch_threads": threads,
             "python": platform.python_version(), "platform": platform.platform(), "load_average": load}

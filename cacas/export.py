@@ -707,9 +707,13 @@ def import_bundle(bundle: str | Path, db_path: str | Path) -> Restored:
         made = files.missing_folders(db_path.parent)  # removed again, with those under it, if the import fails
         db_path.parent.mkdir(parents=True, exist_ok=True)
         tmp = db_path.with_name(f".{db_path.name}.importing-{os.getpid()}")
+        lock = recovery.import_lock(tmp)
         try:
-            with recovery.busy(recovery.import_lock(tmp)):  # a killed import's files are deleted at next opening
-                return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
+            try:
+                with recovery.busy(lock):  # a killed import's files are deleted at next opening
+                    return _import_into(tmp, db_path, tables, policies, made, Path(bundle))
+            finally:  # once released: Windows deletes no file that is open (the import failed there after its link)
+                lock.unlink(missing_ok=True)
         except BaseException:
             files.remove_empty(made)
             raise
@@ -742,6 +746,22 @@ def _check_case_twins(store: StudyStore, tables: dict, bundle: Path, db_path: Pa
                      "macOS's and Windows' do by default), so they would share one folder of policy files, and "
                      f"removing one would delete the other's; valid: {beside}a disk that tells letter case apart "
                      "(on macOS, a case-sensitive APFS volume); nothing was imported")
+
+
+def _link_new(tmp: Path, db_path: Path) -> None:
+    """``tmp`` under the new name ``db_path`` too, which must not exist (FileExistsError): a hard
+    link, which never replaces a file. A file system without hard links (FAT32, exFAT: a USB stick, a
+    disk a Mac and a Windows PC share) refuses ``os.link``, and an import there failed; ``tmp`` is
+    renamed instead, after a look for ``db_path`` (Windows' rename never replaces a file; elsewhere a
+    file made in between the look and the rename would be, a moment no import of ours leaves)."""
+    try:
+        os.link(tmp, db_path)
+    except FileExistsError:
+        raise
+    except OSError:
+        if os.path.lexists(db_path):
+            raise FileExistsError(db_path) from None
+        os.rename(tmp, db_path)
 
 
 def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: list[Path], bundle: Path) -> Restored:
@@ -790,7 +810,7 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                     files.atomic_write(target, data)
                     created.append(target)
                 try:
-                    os.link(tmp, db_path)
+                    _link_new(tmp, db_path)
                 except FileExistsError:
                     raise CacasError(f"{db_path}: already exists; import only into a new database file") from None
                 files.fsync_folder(db_path.parent)  # the new name on disk before "imported" is said
@@ -801,9 +821,8 @@ def _import_into(tmp: Path, db_path: Path, tables: dict, policies: dict, made: l
                     p.unlink(missing_ok=True)
                 raise
     finally:
-        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock"),
-                  recovery.import_lock(tmp)):
-            p.unlink(missing_ok=True)
+        for p in (tmp, Path(f"{tmp}-wal"), Path(f"{tmp}-shm"), Path(f"{tmp}-journal"), Path(f"{tmp}-writer.lock")):
+            p.unlink(missing_ok=True)  # (the lock file, held meanwhile, by import_bundle once released)
 
 
 __all__ = ["BUNDLE_NAME", "BUNDLE_VERSION", "MANIFEST_NAME", "TABLES", "ExportResult", "Restored", "accuracy_frame", "bundle_bytes", "by_preference_frame",

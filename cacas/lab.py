@@ -17,6 +17,7 @@ from typing import Callable, Sequence
 
 from cacas import spaces
 from cacas.errors import CacasError
+from cacas.store.files import windows_device_name
 
 Progress = Callable[[float, str], None] | None
 #: A file type at the end of an upload's name (".jpg", ".flac"), kept as given.
@@ -33,7 +34,9 @@ def _safe_name(name: str, fallback: str) -> str:
     kept as given; ``fallback``'s stem where nothing of the name's is left ("🍳.png" -> "photo_1.png"). Only
     A-Z letters were kept: "台所の写真.png" came out "png", taken for a name without a type, and was stored as
     "png.jpg" (a PNG named JPEG, not the researcher's name), "録音.flac" as "flac.wav", and "台所.gif" was added
-    as "gif.jpg" where "kitchen.gif" is refused; a name over 80 characters lost its type the same way."""
+    as "gif.jpg" where "kitchen.gif" is refused; a name over 80 characters lost its type the same way. A stem
+    Windows keeps for a device ("aux.wav", "CON.jpg": :func:`cacas.store.files.windows_device_name`) gets a
+    "_" ("aux_.wav"): a library copied to, or run on, a Windows computer could not hold it."""
     given = Path(unicodedata.normalize("NFC", str(name or "")).replace("\\", "/")).name
     found = _FILE_TYPE.search(given)
     stem, suffix = (given[:found.start()], found.group()) if found else (given, "")
@@ -45,6 +48,8 @@ def _safe_name(name: str, fallback: str) -> str:
     while len(stem.encode("utf-8")) > STEM_BYTES:
         stem = stem[:-1]
     stem = stem.strip("._")
+    if windows_device_name(stem):  # "aux.wav" opens a device on Windows: kept as "aux_.wav" on every system
+        stem += "_"
     return fallback if not stem and not suffix else (stem or Path(fallback).stem) + suffix
 
 

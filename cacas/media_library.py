@@ -230,16 +230,6 @@ _LEFTOVER = re.compile(r"^\.(.+)\.(\d{1,9})\.tmp$")
 LEFTOVER_AGE = 3600
 
 
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except (OSError, OverflowError, ValueError):  # another user's process, or no pid this system has: leave
-        return True
-    return True
-
-
 def remove_leftovers(root: Path | str, extensions: Sequence[str]) -> list[Path]:
     """Remove the temporary files that :class:`Staging` writes (``.<name>.<pid>.tmp``, ``name``
     ending in one of the library's ``extensions``) in the library folders of ``root``, whose
@@ -247,6 +237,8 @@ def remove_leftovers(root: Path | str, extensions: Sequence[str]) -> list[Path]:
     outright leaves them (a Ctrl-C or SIGTERM is cleaned up at once). Anything else is left.
     Returns the removed files."""
     import time
+
+    from cacas.store import files
 
     root = Path(root)
     removed = []
@@ -259,7 +251,7 @@ def remove_leftovers(root: Path | str, extensions: Sequence[str]) -> list[Path]:
             if not (m and Path(m.group(1)).suffix.lower() in extensions and f.is_file()):
                 continue
             try:
-                if now - f.stat().st_mtime > LEFTOVER_AGE and not _alive(int(m.group(2))):
+                if now - f.stat().st_mtime > LEFTOVER_AGE and not files.process_running(int(m.group(2))):
                     f.unlink()
                     removed.append(f)
             except OSError:  # pragma: no cover - removed meanwhile, or not ours to remove
@@ -346,7 +338,10 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
             # new names only (taken ones get a prefix), so removing them undoes the import
             with Staging(root, kind.extensions) as staging:
                 for i, ((f, _), target) in enumerate(zip(plan, targets)):
-                    shutil.copy2(f, staging.path(target))
+                    # the bytes alone: a read-only source's mode (a DVD's, a write-protected stick's files) made
+                    # read-only library files, which Windows neither syncs through a descriptor that may write
+                    # (files.fsync_file) nor deletes
+                    shutil.copyfile(f, staging.path(target))
                     if progress:
                         progress(0.5 + 0.5 * (i + 1) / len(plan), f"copied {f.name}")
                 staging.place()

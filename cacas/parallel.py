@@ -51,11 +51,16 @@ _NO_LIMIT = 2**60
 def available_memory() -> int | None:
     """Bytes of memory new processes can take without swapping or being killed for it: Linux's own
     estimate, MemAvailable in /proc/meminfo, or less where this process's control group (a
-    container's) has a memory limit that leaves less (:func:`cgroup_available_memory`); None where
-    neither can be read (another system)."""
+    container's) has a memory limit that leaves less (:func:`cgroup_available_memory`); on Windows,
+    the physical memory available (:func:`windows_available_memory`); None where none can be read
+    (macOS: its memory is compressed and swapped, and no count of workers is refused for it)."""
+    from cacas.store.files import ON_WINDOWS
+
+    if ON_WINDOWS:
+        return windows_available_memory()
     found = []
     try:
-        with open(PROC_MEMINFO) as f:
+        with open(PROC_MEMINFO, encoding="utf-8") as f:
             for line in f:
                 if line.startswith("MemAvailable:"):
                     found.append(int(line.split()[1]) * 1024)
@@ -68,10 +73,33 @@ def available_memory() -> int | None:
     return min(found) if found else None
 
 
+def windows_available_memory() -> int | None:
+    """Windows' physical memory available now (``GlobalMemoryStatusEx``'s ``ullAvailPhys``, bytes);
+    None if it cannot be asked. Without it every worker process a core was started there, whatever
+    the memory: 16 of ~1 GB each on a laptop of 16 logical cores and 16 GB, and Windows ends a
+    process that finds no memory to commit (torch's own libraries fail to load: "The paging file
+    is too small for this operation to complete")."""
+    import ctypes
+
+    class MemoryStatus(ctypes.Structure):  # MEMORYSTATUSEX
+        _fields_ = [("dwLength", ctypes.c_uint32), ("dwMemoryLoad", ctypes.c_uint32),  # DWORD: 32 bits
+                    *((name, ctypes.c_ulonglong) for name in (
+                        "ullTotalPhys", "ullAvailPhys", "ullTotalPageFile", "ullAvailPageFile", "ullTotalVirtual",
+                        "ullAvailVirtual", "ullAvailExtendedVirtual"))]
+
+    status = MemoryStatus()
+    status.dwLength = ctypes.sizeof(MemoryStatus)
+    try:
+        asked = ctypes.windll.kernel32.GlobalMemoryStatusEx(ctypes.byref(status))
+    except (AttributeError, OSError):
+        return None
+    return int(status.ullAvailPhys) if asked else None
+
+
 def _read_number(path: Path) -> int | None:
     """The whole number a cgroup file holds; None if missing, unreadable or "max" (no limit)."""
     try:
-        text = path.read_text().strip()
+        text = path.read_text(encoding="utf-8").strip()
     except OSError:
         return None
     return int(text) if text.isdigit() else None
@@ -81,7 +109,7 @@ def _reclaimable(folder: Path, keys: tuple[str, ...]) -> int:
     """The page cache the kernel can drop for new processes (inactive file pages), from the
     ``memory.stat`` in ``folder``: the first of ``keys`` it holds; 0 if none."""
     try:
-        stat = dict(line.split()[:2] for line in (folder / "memory.stat").read_text().splitlines()
+        stat = dict(line.split()[:2] for line in (folder / "memory.stat").read_text(encoding="utf-8").splitlines()
                     if len(line.split()) >= 2)
     except OSError:
         return 0
@@ -100,7 +128,7 @@ def cgroup_available_memory() -> int | None:
     v1: ``memory.limit_in_bytes``, ``memory.usage_in_bytes``, ``total_inactive_file``. None where
     no limit is set or none can be read (another system, no cgroup file system)."""
     try:
-        lines = PROC_CGROUP.read_text().splitlines()
+        lines = PROC_CGROUP.read_text(encoding="utf-8").splitlines()
     except OSError:
         return None
     groups = []  # (the hierarchy's folder, this process's group in it, its files' names)

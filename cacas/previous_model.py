@@ -163,7 +163,7 @@ def previous_metadata(path: Path | str) -> dict | None:
     if not (pt.is_file() and js.is_file()):
         return None
     try:
-        meta = json.loads(js.read_text())
+        meta = json.loads(js.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
     return meta if isinstance(meta, dict) else None

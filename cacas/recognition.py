@@ -345,7 +345,7 @@ def load_model_file(path: Path | str, kind: str) -> tuple[dict, dict, str]:
     if not meta_path.exists():
         raise CacasError(f"{meta_path}: the {kind} model's metadata file is missing")
     try:
-        meta = json.loads(meta_path.read_text())
+        meta = json.loads(meta_path.read_text(encoding="utf-8"))
     except (OSError, ValueError) as exc:
         raise CacasError(f"{meta_path}: not valid JSON metadata ({exc})") from None
     if not isinstance(meta, dict):

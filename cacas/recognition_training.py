@@ -31,9 +31,12 @@ def tell(progress: Progress, fraction: float, message: str) -> None:
 
 def relative_path(path: Path, root: Path) -> str:
     """``path`` relative to ``root`` where it lies below it, else whole (resolved: a model's training
-    folder given as ``--data ../lab/sounds`` was recorded so, which named nothing from another folder)."""
+    folder given as ``--data ../lab/sounds`` was recorded so, which named nothing from another folder).
+    Relative, with "/" between its parts on every system: a model's metadata names its held-out
+    items so (``cough/rec5.wav``), and one trained on Windows named them ``cough\\rec5.wav``, which
+    no other system's library matched (nor Windows' the shipped model's: :func:`held_out_in`)."""
     try:
-        return str(Path(path).resolve().relative_to(Path(root).resolve()))
+        return Path(path).resolve().relative_to(Path(root).resolve()).as_posix()
     except ValueError:
         return str(Path(path).resolve())
 
@@ -51,10 +54,14 @@ def held_out_in(metadata: dict, paths: Sequence[Path], root: Path) -> tuple[list
     the metadata's ``test_recordings`` and, where the model records them (``test_sha256``), its
     sha256 is the one recorded: another library's ``cough/rec5.wav`` is not the model's (walk3; a
     model saved before sha256s were recorded matches by name alone, as it did)."""
-    wanted = set(metadata.get("test_recordings") or ())
+    # "\\" between the parts: the metadata of a model trained on Windows before relative_path wrote "/"
+    posix = lambda rel: str(rel).replace("\\", "/")  # noqa: E731
+    wanted = {posix(rel) for rel in metadata.get("test_recordings") or ()}
     if not wanted:
         return [], 0
     hashes = metadata.get("test_sha256")
+    if isinstance(hashes, dict):
+        hashes = {posix(rel): digest for rel, digest in hashes.items()}
     chosen, other = [], 0
     for i, p in enumerate(paths):
         rel = relative_path(p, root)

@@ -209,8 +209,8 @@ def test_import_that_fails_part_way_leaves_the_library_as_it_was(tmp_path, monke
     first = library.import_folder(src, root=lib)
     before = sorted(p.relative_to(lib).as_posix() for p in lib.rglob("*"))
     _other_clips(src)
-    copy = fail_on_call(shutil.copy2, 2)
-    monkeypatch.setattr(media_library.shutil, "copy2", copy)
+    copy = fail_on_call(shutil.copyfile, 2)
+    monkeypatch.setattr(media_library.shutil, "copyfile", copy)
     with pytest.raises(CacasError, match="No space left on device.*nothing was imported"):
         library.import_folder(src, root=lib)
     monkeypatch.undo()

@@ -157,3 +157,18 @@ def test_bench_help_says_what_is_valid_and_the_default(option, says):
     text = " ".join(next(a for a in sub._actions if option in a.option_strings).help.split())
     for s in says:
         assert s in text, text
+
+
+def test_the_machine_is_described_where_there_is_no_load_average(monkeypatch):
+    """Windows has no os.getloadavg (Python: "Availability: Unix"): `cacas bench` ended in an
+    AttributeError there before measuring anything. The machine line says there is none."""
+    import os
+
+    from cacas.bench import BenchResult, machine_info
+
+    monkeypatch.delattr(os, "getloadavg")
+    machine = machine_info(1)
+    assert machine["load_average"] == [] and machine["cores"] >= 1
+    result = BenchResult(values={key: 1.0 for key, _, _ in METRICS}, repeats={key: 1 for key, _, _ in METRICS},
+                         machine={**machine, "load_average_at_start": []}, notes=[])
+    assert result.table().splitlines()[-1].endswith(", no load average on this system")

@@ -514,7 +514,7 @@ def test_an_interrupted_import_leaves_no_temporary_copy(tmp_path, capsys, monkey
     t = np.arange(16000) / 16000
     for k in range(3):
         sf.write(src / f"c{k}.wav", 0.3 * np.sin(2 * np.pi * (200 + 50 * k) * t), 16000)
-    copy, calls = shutil.copy2, []
+    copy, calls = shutil.copyfile, []
 
     def interrupted_at_the_third(*a, **k):
         calls.append(1)
@@ -522,7 +522,7 @@ def test_an_interrupted_import_leaves_no_temporary_copy(tmp_path, capsys, monkey
             raise KeyboardInterrupt
         return copy(*a, **k)
 
-    monkeypatch.setattr(shutil, "copy2", interrupted_at_the_third)
+    monkeypatch.setattr(shutil, "copyfile", interrupted_at_the_third)
     lib = tmp_path / "lib"
     lib.mkdir()
     assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(lib)]) == 130

@@ -197,6 +197,23 @@ def test_each_method_in_its_own_closed_loop(small_config, small_initial):
     pd.testing.assert_frame_equal(first.interactions, inter[inter["method"] == "cacas"].reset_index(drop=True))
 
 
+def test_workers_spawned_as_on_windows_give_the_same_tables(small_config, small_initial, monkeypatch):
+    """Windows has no fork server (multiprocessing's start methods there: spawn alone): each worker is
+    a fresh Python that imports what it runs and gets everything else pickled. Run so for real here,
+    the tables are those of one process."""
+    import multiprocessing as mp
+
+    from cacas import parallel
+
+    monkeypatch.setattr(parallel, "worker_context", lambda: mp.get_context("spawn"))
+    kw = dict(days=1, interactions=3, methods=["cacas", "nn"], seed=3, config=small_config,
+              initial_policy=small_initial)
+    one, two = simulate_study(PEOPLE, jobs=1, **kw), simulate_study(PEOPLE, jobs=2, **kw)
+    pd.testing.assert_frame_equal(one.daily, two.daily)
+    pd.testing.assert_frame_equal(one.interactions, two.interactions)
+    pd.testing.assert_frame_equal(one.by_preference, two.by_preference)
+
+
 @pytest.mark.parametrize("kw,needle", [({"days": 0}, "--days 0"), ({"interactions": 0}, "--interactions 0"),
                                        ({"methods": ["cacas", "dqn"]}, "unknown method 'dqn'"),
                                        ({"no_response_rate": 1.5}, "--no-response-rate 1.5"),

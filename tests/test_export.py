@@ -696,6 +696,25 @@ def test_studies_whose_names_differ_only_in_letter_case_are_restored_as_they_wer
         assert moved.get_participant("W01").study == "Default"
 
 
+def test_a_participant_code_windows_keeps_for_a_device_is_restored_as_it_was_with_a_note(tmp_path):
+    """A study from before the forms refused CON, NUL, COM1, ... as codes restores them as they were
+    (the code is the participant's identity across files), saying that Windows cannot keep their
+    policy files (policies/CON/)."""
+    path = tmp_path / "a" / "study.sqlite"
+    with StudyStore(path) as s:
+        s.add_participant("P01")
+        with s._conn:  # as add_participant wrote it before the check
+            s._conn.execute("INSERT INTO participants (study_id, code, created_at, updated_at) VALUES "
+                            "((SELECT id FROM studies WHERE name = 'default'), 'CON', '2026-01-05T10:00:00.000Z', "
+                            "'2026-01-05T10:00:00.000Z')")
+        bundle = export.export_study(s, tmp_path / "out").bundle
+    restored = export.import_bundle(bundle, tmp_path / "b" / "moved.sqlite")
+    assert restored.notes == ("participants.csv, row 2, column participant: 'CON' is a name Windows keeps for a "
+                              "device: a participant's policy files go in a folder named by the code "
+                              "(policies/<code>/), which Windows cannot make; imported as it was, as the study held "
+                              "it (the forms refuse it in new data)",)
+
+
 def test_participant_codes_that_differ_only_in_letter_case_are_restored_as_they_were_with_a_note(tmp_path):
     """add_participant refuses a case twin of a code in use (P01 and p01, in any study); a database
     from before the check holds both, and its backup restores each as itself, with a note on the

@@ -391,3 +391,12 @@ def test_an_upload_on_a_full_temporary_disk_is_one_message_and_adds_nothing(tmp_
     assert not (tmp_path / "library").exists() or not any((tmp_path / "library").rglob("*.wav"))
     with pytest.raises(CacasError, match=r"^photo.jpg: cannot be taken in: .*; nothing was read\."):
         lab.recognize_scene_bytes(type("Sees", (), {"recognize": lambda self, path: path})(), "photo.jpg", b"\xff\xd8")
+
+
+def test_an_upload_named_as_a_windows_device_is_kept_under_a_name_windows_can_hold(tmp_path):
+    """"aux.wav" (a recording from the aux input), "CON.png": Windows opens the device for such a
+    name (AUX, CON, NUL, PRN, COM1-9, LPT1-9, with any extension), so the library could not hold the
+    file there, nor be copied to a Windows laptop; the stem gets a "_", on every system."""
+    added = lab.add_photos("kitchen", [("CON.png", _png((1, 2, 3))), ("nul", _png((90, 80, 70))),
+                                       ("icon.png", _png((5, 50, 5)))], tmp_path / "scenes")
+    assert [p.name for p in added] == ["CON_.png", "nul_.jpg", "icon.png"]

@@ -413,6 +413,23 @@ def test_a_new_participant_code_that_looks_like_a_phone_number_or_a_date_is_refu
         assert store.add_participant(fine).code == fine
 
 
+@pytest.mark.parametrize("code", ["CON", "nul", "Aux", "PRN", "COM1", "lpt9"])
+def test_a_new_participant_code_that_windows_keeps_for_a_device_is_refused(store, code):
+    """A participant's policy files go in policies/<code>/, and Windows makes no folder named CON,
+    NUL, AUX, PRN, COM1-9 or LPT1-9 (in any letter case): a study begun on Linux or a Mac and moved
+    to a Windows laptop could not save that participant's adapted policy at the end of a day.
+    Refused where a participant is added, on every system; codes that merely hold such a name pass."""
+    before = snapshot(store.path)
+    message = rf"^participant code '{code}' is a name Windows keeps for a device: .*policies/<code>/.*other than CON"
+    with pytest.raises(CacasError, match=message):
+        store.add_participant(code)
+    with pytest.raises(CacasError, match=rf"^persona file: participant code '{code}' is a name Windows keeps"):
+        store.import_personas({"participants": [{"id": code, "preferences": [COUGH]}]})
+    assert snapshot(store.path) == before
+    for fine in ("CON1", "CONTROL-01", "COM10", "NUL_2", "LPT0"):
+        assert store.add_participant(fine).code == fine
+
+
 def test_line_breaks_in_free_text_are_kept_as_line_feeds_and_text_that_is_not_unicode_is_refused(store):
     """A lone carriage return broke the exported CSV's rows; a lone surrogate raised
     UnicodeEncodeError from SQLite instead of one clear message."""

@@ -73,7 +73,7 @@ def package_version() -> str:
 
     pyproject = Path(__file__).resolve().parents[2] / "pyproject.toml"
     try:
-        return str(tomllib.loads(pyproject.read_text())["project"]["version"])
+        return str(tomllib.loads(pyproject.read_text(encoding="utf-8"))["project"]["version"])
     except (OSError, ValueError, KeyError):  # no pyproject beside the package, or not one of ours
         return "unknown"
 

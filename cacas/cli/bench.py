@@ -73,7 +73,7 @@ def run(args) -> int:
     if out is not None:
         tmp = out.with_name(f".{out.name}.tmp")
         try:
-            tmp.write_text(json.dumps(result.to_json(), indent=2) + "\n")
+            tmp.write_text(json.dumps(result.to_json(), indent=2) + "\n", encoding="utf-8")
             tmp.replace(out)
         except OSError as exc:  # e.g. the disk filled up meanwhile: name the user's file, not ours
             tmp.unlink(missing_ok=True)

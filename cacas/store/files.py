@@ -17,6 +17,7 @@ from __future__ import annotations
 import glob
 import hashlib
 import os
+import shutil
 import tempfile
 from pathlib import Path
 
@@ -58,8 +59,14 @@ def atomic_write(path: Path, data: bytes) -> None:
 
 
 def fsync_file(path: Path) -> None:
-    """Make a file's content durable (written by another writer: a copy, an image library)."""
-    fd = os.open(path, os.O_RDONLY)
+    """Make a file's content durable (written by another writer: a copy, an image library).
+    Opened to write: Windows' ``os.fsync`` (``FlushFileBuffers``) refuses a descriptor opened
+    read-only (EBADF), and every file the libraries added failed there; a file that may not be
+    written (a copy keeps its source's read-only mode) is synced read-only, as POSIX allows."""
+    try:
+        fd = os.open(path, os.O_RDWR)
+    except PermissionError:
+        fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
     finally:
@@ -120,6 +127,19 @@ def ignores_letter_case(folder) -> bool:
         return probe.with_name(probe.name.upper()).exists()
     finally:
         probe.unlink(missing_ok=True)
+
+
+#: The names Windows keeps for devices, in any letter case and with any extension after the first
+#: "." (Microsoft's "Naming Files, Paths, and Namespaces"; Python's ``os.path.isreserved``): a file
+#: or folder so named opens the device, or cannot be made ("policies/CON/" for participant CON).
+WINDOWS_DEVICE_NAMES = frozenset({"CON", "PRN", "AUX", "NUL", "CONIN$", "CONOUT$",
+                                  *(f"{port}{n}" for port in ("COM", "LPT") for n in "123456789\u00b9\u00b2\u00b3")})
+
+
+def windows_device_name(name: str) -> bool:
+    """``name`` (one file or folder name) is one Windows keeps for a device
+    (:data:`WINDOWS_DEVICE_NAMES`): "CON", "nul.csv", "Com1.wav"; "CON1" and "icon" are not."""
+    return name.split(".", 1)[0].rstrip(" ").upper() in WINDOWS_DEVICE_NAMES
 
 
 def writable_folder(folder, what: str, create: bool = True) -> Path:
@@ -195,8 +215,36 @@ def _remove_left_over(folder: Path, names) -> None:
             pass
 
 
-def _running(pid: int) -> bool:
-    """Whether a process with this id runs (on this machine)."""
+#: Windows, where a process is looked up by opening it (:func:`process_running`).
+ON_WINDOWS = os.name == "nt"
+#: What Windows' GetExitCodeProcess says of a process that has not ended.
+_STILL_ACTIVE = 259
+#: OpenProcess's right to ask a process for its exit code (PROCESS_QUERY_LIMITED_INFORMATION).
+_QUERY = 0x1000
+
+
+def process_running(pid: int) -> bool:
+    """Whether a process with this id runs (on this machine); an id no process can have: False.
+
+    POSIX: ``os.kill(pid, 0)`` (signal 0 checks, sends nothing). Not on Windows, where 0 is
+    ``signal.CTRL_C_EVENT``: ``os.kill`` sends it with ``GenerateConsoleCtrlEvent`` (Python's
+    ``os.kill`` documentation) — a Ctrl-C to the console's processes, not a look-up — and the id
+    of a process that has ended raised an OSError (WinError 87) that no caller expected, out of
+    every ``cacas export`` / ``simulate --out`` / saved run into a folder a killed run had left
+    hidden files in. There the process is opened and asked whether it has ended."""
+    if ON_WINDOWS:
+        import _winapi
+
+        try:
+            handle = _winapi.OpenProcess(_QUERY, False, pid)
+        except OverflowError:
+            return False
+        except OSError as exc:
+            return getattr(exc, "winerror", None) == 5  # access denied: it runs (another user's); else (87) no such process
+        try:
+            return _winapi.GetExitCodeProcess(handle) == _STILL_ACTIVE
+        finally:
+            _winapi.CloseHandle(handle)
     try:
         os.kill(pid, 0)
     except (ProcessLookupError, OverflowError):  # none, or an id no process can have
@@ -267,7 +315,7 @@ def _dead_left_overs(folder: Path, names) -> list[Path]:
     for name in names:
         for path in [*folder.glob(f".{name}.*.tmp"), *folder.glob(f".{name}.*.old")]:
             pid = path.name[len(name) + 2:].rsplit(".", 1)[0]
-            if pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid)):
+            if pid.isdigit() and int(pid) != os.getpid() and not process_running(int(pid)):
                 found.append(path)
     return sorted(found)
 
@@ -286,7 +334,7 @@ def _dead_stagings(folder: Path) -> list[Path]:
         return found
     for path in folder.parent.glob(f".{glob.escape(folder.name)}.*.new"):  # (a name may hold [ ] * ?)
         pid = path.name[len(folder.name) + 2:].rsplit(".", 1)[0]
-        if not (pid.isdigit() and int(pid) != os.getpid() and not _running(int(pid))):
+        if not (pid.isdigit() and int(pid) != os.getpid() and not process_running(int(pid))):
             continue
         try:
             if path.is_symlink() or not path.is_dir() or any(not p.is_file() or p.is_symlink() for p in path.iterdir()):
@@ -373,6 +421,30 @@ def _write_new_folder(folder: Path, contents: dict[str, bytes]) -> bool:
     return True
 
 
+def in_use_hint(exc: OSError) -> str:
+    """What a refusal to replace or delete a file adds on Windows, where a file another program
+    has open cannot be (a CSV shown in Excel, which keeps it locked: a second ``cacas export`` or
+    ``simulate --out`` into the folder said only "Permission denied"); "" elsewhere."""
+    if ON_WINDOWS and isinstance(exc, PermissionError):
+        return ("; on Windows a file another program has open cannot be replaced: close it there (Excel keeps a CSV "
+                "it shows locked) and try again")
+    return ""
+
+
+def _keep_aside(target: Path, kept: Path) -> None:
+    """``kept``: ``target`` as it is now, for :func:`write_all` to put back: a second name for the
+    file (a hard link, nothing copied), or a copy where the file system has no hard links: FAT32 and
+    exFAT, those of USB sticks and of disks a Mac and a Windows PC share, refuse ``os.link``
+    (EPERM, ENOTSUP; Windows' CreateHardLink "Incorrect function"), and a second export into a
+    folder there failed with "cannot be written"."""
+    try:
+        os.link(target, kept)
+    except FileExistsError:
+        raise
+    except OSError:
+        shutil.copyfile(target, kept)
+
+
 def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
               remove: tuple[str, ...] | list[str] = ()) -> dict[str, Path]:
     """Write several files into ``folder`` as one change: each to a temporary file first
@@ -423,13 +495,13 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
             if target.exists():
                 kept[name] = folder / f".{name}.{os.getpid()}.old"
                 kept[name].unlink(missing_ok=True)
-                os.link(target, kept[name])
+                _keep_aside(target, kept[name])
         for name in remove:
             target = folder / name
             if os.path.isfile(target):
                 kept[name] = folder / f".{name}.{os.getpid()}.old"
                 kept[name].unlink(missing_ok=True)
-                os.link(target, kept[name])
+                _keep_aside(target, kept[name])
                 target.unlink()
                 gone.append(name)
         for name, tmp in tmps.items():
@@ -449,7 +521,7 @@ def write_all(folder, contents: dict[str, bytes], checksums: bool = False,
         if not isinstance(exc, OSError):
             raise
         raise CacasError(f"{folder / name}: cannot be written ({exc.strerror or exc}); "
-                         f"the folder's files are unchanged") from None
+                         f"the folder's files are unchanged{in_use_hint(exc)}") from None
     finally:
         for path in [*tmps.values(), *(p for p in kept.values() if p is not None)]:
             try:

@@ -97,7 +97,7 @@ class PeopleMixin:
     def add_participant(self, code: str, age_range: str = "", notes: str = "",
                         study: str = DEFAULT_STUDY) -> ParticipantInfo:
         """Add a participant under a pseudonymous ``code`` (1-16 letters, digits, "-", "_"; no
-        names, no phone number or date: :func:`validate.new_code`). ``age_range`` like "25-34" or
+        names, no phone number or date, no name Windows keeps for a device: :func:`validate.new_code`). ``age_range`` like "25-34" or
         "65+"; a code already in use raises CacasError, as does one that differs only in letter case
         from a participant of a study database beside this one where the file system does not tell
         letter case apart (:meth:`_refuse_case_twins_beside`)."""
@@ -362,22 +362,27 @@ class PeopleMixin:
             return removed
 
         with held:
-            return self._remove_and_tidy(code, fn, folder, trash, moved)
+            return self._remove_and_tidy(code, fn, folder, trash, moved, held)
 
-    def _remove_and_tidy(self, code: str, fn, folder, trash, moved: list) -> Footprint:
+    def _remove_and_tidy(self, code: str, fn, folder, trash, moved: list, held: contextlib.ExitStack) -> Footprint:
         """:meth:`remove_participant`'s transaction ``fn``, then its files: put back if it failed,
-        deleted with the trash folder once it committed."""
+        deleted with the trash folder once it committed. The trash's lock (``held``) is released
+        before the trash is deleted: Windows deletes no file that is open, and the lock file stayed
+        (with the trash folder, and a "could not be deleted" after every withdrawal). Released, it
+        guards nothing any more: the files are home again, or no row names them."""
         try:
             removed = self._write(fn)
         except BaseException:
             for f, target in reversed(moved):  # the transaction was rolled back: put the files back
                 if target.exists() and not f.exists():
                     os.replace(target, f)
+            held.close()
             shutil.rmtree(trash, ignore_errors=True)
             raise
         self._empty_log()  # old pages leave the log (if no reader)
         # the folder goes with the last file; another database's files keep it
         files.remove_empty([*(d for d in folder.rglob("*") if d.is_dir()), folder] if folder.is_dir() else [])
+        held.close()
         if trash.exists():
             shutil.rmtree(trash, ignore_errors=True)
             if trash.exists():

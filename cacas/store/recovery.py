@@ -25,13 +25,15 @@ put right when the database is next opened for writing.
   (in any letter case) or names the file, are deleted (:func:`delete_withdrawn_files`).
 
 Only what is no longer being worked on is touched: a removal or an import holds a kernel lock
-(``flock``) on a lock file of its own while it runs (:func:`busy`), which the kernel releases
-when the process ends, however it ends; another process, or another thread, cannot take it
-meanwhile. (A process id in a name is not enough: after a restart another process may have it,
+(``flock``; on Windows ``msvcrt.locking``) on a lock file of its own while it runs (:func:`busy`),
+which the kernel releases when the process ends, however it ends; another process, or another
+thread, cannot take it meanwhile. (A process id in a name is not enough: after a restart another process may have it,
 and in another container a running process looks gone.) Policy files' writers, of any database
 in the folder (``policies/`` is shared), hold a shared lock on the ``policies`` folder from
 before the file is written until its row is committed (or the file removed again); markers are
 read only with that lock taken exclusively, when no writer is between its file and its row.
+Windows opens no folder as a file, so there a policy file whose save or removal was cut short
+(the last two points) is left as it is.
 """
 
 from __future__ import annotations
@@ -42,6 +44,7 @@ import json
 import os
 import re
 import shutil
+import time
 from pathlib import Path
 
 from cacas.errors import CacasError
@@ -49,8 +52,12 @@ from cacas.store import files
 
 try:
     import fcntl
-except ImportError:  # pragma: no cover - Windows: no kernel locks; nothing is put right at opening
+except ImportError:  # pragma: no cover - Windows: msvcrt's locks for removals and imports (below)
     fcntl = None
+try:  # Windows: a lock on the lock file's first byte (msvcrt.locking), which Windows releases when the process ends
+    import msvcrt
+except ImportError:
+    msvcrt = None
 
 #: The lock file a removal keeps in its folder of moved-aside files.
 REMOVAL_LOCK = ".busy"
@@ -63,34 +70,69 @@ def import_lock(tmp: Path) -> Path:
     return Path(f"{tmp}-busy.lock")
 
 
+def _lock(fd: int, wait: bool = True) -> None:
+    """An exclusive kernel lock on the lock file open as ``fd``: ``flock``, or on Windows (no
+    ``fcntl``) ``msvcrt.locking`` of its first byte, as Python's documentation describes it (retried
+    while another holds it, when ``wait``); nothing where neither is (then nothing is put right
+    at opening). Not waiting, OSError while another holds it."""
+    if fcntl is not None:
+        fcntl.flock(fd, fcntl.LOCK_EX | (0 if wait else fcntl.LOCK_NB))
+    elif msvcrt is not None:
+        while True:
+            try:
+                msvcrt.locking(fd, msvcrt.LK_NBLCK, 1)
+                return
+            except OSError:
+                if not wait:
+                    raise
+                time.sleep(0.05)
+
+
+def _unlock(fd: int) -> None:
+    """Release :func:`_lock` before ``fd`` is closed: flock's goes with the descriptor, but Microsoft
+    says a byte-range lock closed with its file may stay a while, and asks that it be released first."""
+    if fcntl is None and msvcrt is not None:
+        try:
+            msvcrt.locking(fd, msvcrt.LK_UNLCK, 1)
+        except OSError:  # pragma: no cover - not locked (the lock was never taken)
+            pass
+
+
 @contextlib.contextmanager
 def busy(lock: Path):
-    """Hold an exclusive ``flock`` on ``lock`` (created if missing) for the ``with`` block: what
-    :func:`tidy` finds locked is left alone."""
+    """Hold an exclusive kernel lock on ``lock`` (created if missing) for the ``with`` block
+    (:func:`_lock`: ``flock``, or Windows' ``msvcrt.locking``): what :func:`tidy` finds locked is
+    left alone."""
     fd = os.open(lock, os.O_RDWR | os.O_CREAT, 0o600)
+    locked = False
     try:
-        if fcntl is not None:
-            fcntl.flock(fd, fcntl.LOCK_EX)
+        _lock(fd)
+        locked = True
         yield
     finally:
+        if locked:
+            _unlock(fd)
         os.close(fd)  # releases the flock (flock locks, unlike POSIX ones, belong to this descriptor)
 
 
 def _abandoned(lock: Path) -> bool:
     """Nobody holds ``lock``: the work it guarded ended, or was killed. Without a lock file (or
-    without kernel locks) nothing is known, and nothing is touched."""
-    if fcntl is None or not lock.is_file():
+    without kernel locks) nothing is known, and nothing is touched. On Windows, with
+    ``msvcrt.locking``: a removal or an import killed there was never put right (its withdrawn
+    participant's files stayed in ``.removed-<code>-...``, or a rolled-back one's away from home)."""
+    if (fcntl is None and msvcrt is None) or not lock.is_file():
         return False
     try:
         fd = os.open(lock, os.O_RDWR)
     except OSError:
         return False
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        _lock(fd, wait=False)
     except OSError:
-        return False  # held: a removal or an import running now
-    finally:
         os.close(fd)
+        return False  # held: a removal or an import running now
+    _unlock(fd)
+    os.close(fd)
     return True
 
 

@@ -379,6 +379,8 @@ def restore(store, tables: dict[str, pd.DataFrame], policy_files: Mapping[str, b
         if twin != code:  # a case twin, which add_participant refuses (codes are unique across studies)
             noted.kept("participant", f"{code!r} differs from participant {twin!r} only in letter case",
                        "the forms refuse it in new data")
+        if files.windows_device_name(code):  # policies/CON/ cannot be made on Windows (v.new_code refuses it)
+            noted.kept("participant", f"{code!r} {v.DEVICE_NAME_PROBLEM}", "the forms refuse it in new data")
         return (code, r["study"], noted.age(r["age_range"]),
                 noted.private(v.text(r["notes"], "notes", check_contacts=False), "notes"),
                 _opt_int(r, "active_policy"), noted.time(r["created_at"], "created_at"),

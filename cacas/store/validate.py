@@ -19,6 +19,7 @@ import numpy as np
 from cacas import spaces
 from cacas.errors import CacasError, each  # noqa: F401 (each: v.each, every problem of a form at once)
 from cacas.privacy import contact_details
+from cacas.store.files import windows_device_name
 from cacas.records import ROBOT_INITIATED, USER_INITIATED, line_feeds
 
 #: Pseudonymous participant codes: a letter or digit, then letters, digits, "-" or "_"; at most 16.
@@ -82,7 +83,17 @@ def new_code(value: Any) -> str:
     if found:
         raise CacasError(f"participant code {checked!r} looks like a phone number or a date, which could identify "
                          f"the participant; valid: {CODE_HINT}")
+    if windows_device_name(checked):
+        raise CacasError(f"participant code {checked!r} {DEVICE_NAME_PROBLEM}; valid: {CODE_HINT}, other than "
+                         f"{DEVICE_NAMES_SAID}")
     return checked
+
+
+#: Why a participant code that Windows keeps for a device is refused (:func:`new_code`) or noted (an import).
+DEVICE_NAME_PROBLEM = ("is a name Windows keeps for a device: a participant's policy files go in a folder named by "
+                       "the code (policies/<code>/), which Windows cannot make")
+#: The names :data:`cacas.store.files.WINDOWS_DEVICE_NAMES` keeps, said briefly.
+DEVICE_NAMES_SAID = "CON, PRN, AUX, NUL, COM1-COM9 or LPT1-LPT9 (in any letter case)"
 
 
 def persona_codes(people, source: str | None = None) -> None:
