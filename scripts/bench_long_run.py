@@ -39,18 +39,16 @@ import os
 import random
 import re
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # this checkout's cacas
 sys.path.insert(1, str(ROOT / "tests" / "browser"))  # the browser tests' Chromium and run counting
-from headless import CHROMIUM, FLAGS, IDLE, wait_until, watch_runs  # noqa: E402
+from headless import CHROMIUM, FLAGS, IDLE, free_port, wait_until, wait_until_up, watch_runs  # noqa: E402
 
 #: Contexts the tablets set in turn (activity, room, time of day).
 CONTEXTS = [("cough", "bedroom", "08:00-10:00"), ("use stove", "kitchen", "12:00-14:00"),
@@ -59,12 +57,6 @@ CONTEXTS = [("cough", "bedroom", "08:00-10:00"), ("use stove", "kitchen", "12:00
 #: The researcher's pages (their paths), for the tabs opened and closed.
 PAGES = ["", "participants", "session", "adaptation", "results", "simulation", "sounds"]
 PER_DAY = 15
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def start_server(db: Path, probe: Path, log: Path, tracemalloc: bool):
@@ -77,18 +69,8 @@ def start_server(db: Path, probe: Path, log: Path, tracemalloc: bool):
             "--browser.gatherUsageStats", "false", "--server.fileWatcherType", "none"]
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=open(log, "w"), stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
-    deadline = time.time() + 120
-    while True:
-        try:
-            with urllib.request.urlopen(f"{base}/_stcore/health", timeout=2) as r:
-                if r.status == 200:
-                    return proc, base
-        except OSError:
-            pass
-        if proc.poll() is not None or time.time() > deadline:
-            proc.kill()
-            raise RuntimeError(log.read_text()[-3000:])
-        time.sleep(0.3)
+    wait_until_up(proc, base, log, 120)
+    return proc, base
 
 
 class Probe:

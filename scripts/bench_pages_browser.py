@@ -28,13 +28,11 @@ import argparse
 import os
 import re
 import shutil
-import socket
 import statistics
 import subprocess
 import sys
 import tempfile
 import time
-import urllib.request
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -43,18 +41,12 @@ sys.path.insert(0, str(ROOT))  # this checkout's cacas, not an installed one (--
 # copied: stApp's data-test-script-state missed runs of ~100-200 ms, and the bench then waited 60 s for one that
 # was over. The folder goes on sys.path, as pytest puts it there for the tests (tests/ is no package).
 sys.path.insert(1, str(ROOT / "tests" / "browser"))
-from headless import CHROMIUM, FLAGS, run_over, wait_until, watch_runs  # noqa: E402
+from headless import CHROMIUM, FLAGS, free_port, run_over, wait_until, wait_until_up, watch_runs  # noqa: E402
 
 PAGES = {"overview": "", "participants": "participants", "session": "session", "adaptation": "adaptation",
          "results": "results", "simulation": "simulation", "sounds": "sounds"}
 CHARTS = ("() => [...document.querySelectorAll(\"[data-testid='stPlotlyChart']\")].every("
           "c => c.querySelector('.main-svg'))")
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def start_server(db: str, log: Path):
@@ -67,18 +59,8 @@ def start_server(db: str, log: Path):
                              "--browser.gatherUsageStats", "false", "--server.fileWatcherType", "none"],
                             cwd=ROOT, env=env, stdout=open(log, "w"), stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
-    deadline = time.time() + 90
-    while True:
-        try:
-            with urllib.request.urlopen(f"{base}/_stcore/health", timeout=2) as r:
-                if r.status == 200:
-                    return proc, base
-        except OSError:
-            pass
-        if proc.poll() is not None or time.time() > deadline:
-            proc.kill()
-            raise RuntimeError(log.read_text()[-2000:])
-        time.sleep(0.3)
+    wait_until_up(proc, base, log, 90)
+    return proc, base
 
 
 def visit(browser, url: str) -> tuple[float, float, object]:

@@ -6,7 +6,9 @@ It imports nothing of the tests (their fixtures and knobs stay in conftest.py)."
 
 from __future__ import annotations
 
+import socket
 import time
+import urllib.request
 
 CHROMIUM = "/usr/bin/chromium"
 FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--disable-component-update",
@@ -86,3 +88,28 @@ def run_over(page, since: int, timeout: int = 60_000) -> None:
     runs = watch_runs(page)
     wait_until(page, lambda: runs.started > since and not runs.busy, timeout)
     page.wait_for_selector(IDLE, timeout=timeout)
+
+
+def free_port() -> int:
+    """A TCP port free on the loopback now, for a Streamlit server of the benchmarks."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_until_up(proc, base: str, log, seconds: float) -> None:
+    """Wait until the Streamlit server ``proc`` at ``base`` answers its health check; killed, and a RuntimeError
+    with its log's (``log``, a Path) last lines, if it stops or ``seconds`` pass first. Shared by the benchmark
+    scripts that start a server (scripts/bench_pages_browser.py, scripts/bench_long_run.py)."""
+    deadline = time.time() + seconds
+    while True:
+        try:
+            with urllib.request.urlopen(f"{base}/_stcore/health", timeout=2) as r:
+                if r.status == 200:
+                    return
+        except OSError:
+            pass
+        if proc.poll() is not None or time.time() > deadline:
+            proc.kill()
+            raise RuntimeError(log.read_text()[-3000:])
+        time.sleep(0.3)
