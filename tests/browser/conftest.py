@@ -6,14 +6,17 @@ from __future__ import annotations
 import math
 import os
 import shutil
+import socket
 import subprocess
 import sys
 import tempfile
+import time
+import urllib.request
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from headless import CHROMIUM, FLAGS, free_port, wait_until_up
+from headless import CHROMIUM, FLAGS
 
 ROOT = Path(__file__).resolve().parents[2]
 #: where a failed browser test leaves a screenshot of each page it had open (set CACAS_BROWSER_FAILURES to keep them)
@@ -22,7 +25,10 @@ FAILURES = Path(os.environ.get("CACAS_BROWSER_FAILURES") or Path(tempfile.gettem
 RUNNING_LOGS: list[Path] = []
 
 
-_free_port = free_port  # the tests' name for it (test_browser_restart.py)
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
 
 
 @pytest.fixture(scope="session")
@@ -46,7 +52,18 @@ def _run_app(tmp: Path, port: int | None = None, **env):
          "--server.fileWatcherType", "none"],
         cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
-    wait_until_up(proc, base, tmp / "streamlit.log", 60)
+    deadline = time.time() + 60
+    while True:
+        try:
+            with urllib.request.urlopen(f"{base}/_stcore/health", timeout=2) as r:
+                if r.status == 200:
+                    break
+        except OSError:
+            pass
+        if proc.poll() is not None or time.time() > deadline:
+            proc.kill()
+            raise RuntimeError(f"streamlit did not start: {(tmp / 'streamlit.log').read_text()[-2000:]}")
+        time.sleep(0.3)
     RUNNING_LOGS.append(tmp / "streamlit.log")
     yield base
     proc.terminate()
