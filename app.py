@@ -161,6 +161,7 @@ def _sidebar(store, page) -> dict[str, str | None]:
         if store.created and os.environ.get(DB_ENV) and not codes and studies == [DEFAULT_STUDY]:
             st.info(f"New: this server created it, empty. If you meant an existing database, check ${DB_ENV} and "
                     "start the app again.", icon=":material/new_releases:")
+        st.html(CLOSE_SIDEBAR_SCRIPT, unsafe_allow_javascript=True)  # last: its placeholder moves nothing
     address = _address(store, status)  # the participant's status read above, not again
     _page_links(links, address)
     return address
@@ -335,8 +336,10 @@ TOUCH_STYLE = """
 #: it over the page below 768 px) closes the sidebar, as Streamlit's own navigation does there: the links are ours
 #: (``_page_links``, to carry the address), and Streamlit's page link leaves the sidebar open, so the page opened
 #: stood behind it until the researcher closed it (walkthrough at 390 x 844). Beside the page (a laptop) it stays.
-#: Its element takes no room: Streamlit hides an st.html of styles alone, and with a script the page's title stood
-#: 16 px lower (one gap of the page's column).
+#: Its element takes no room once drawn (with a script the page's title stood 16 px lower, one gap of the page's
+#: column; Streamlit hides an st.html of styles alone). It is the sidebar's last element: Streamlit loads its code
+#: for st.html at a page's first load and shows a 40-px placeholder meanwhile, and in the page's column before the
+#: title that placeholder held the title 56 px lower for up to a second, then the title jumped up (a CI failure).
 CLOSE_SIDEBAR_SCRIPT = """
 <style>.stElementContainer:has(> [data-testid='stHtml'] script) { display: none; }</style>
 <script>
@@ -430,7 +433,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
-        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}</style>{CLOSE_SIDEBAR_SCRIPT}", unsafe_allow_javascript=True)
+        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}</style>")
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()
