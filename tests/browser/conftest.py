@@ -6,29 +6,20 @@ from __future__ import annotations
 import math
 import os
 import shutil
-import socket
 import subprocess
 import sys
 import tempfile
-import time
-import urllib.request
 from pathlib import Path
 from types import SimpleNamespace
 
 import pytest
-from headless import CHROMIUM, FLAGS
+from headless import CHROMIUM, FLAGS, free_port, wait_until_up
 
 ROOT = Path(__file__).resolve().parents[2]
 #: where a failed browser test leaves a screenshot of each page it had open (set CACAS_BROWSER_FAILURES to keep them)
 FAILURES = Path(os.environ.get("CACAS_BROWSER_FAILURES") or Path(tempfile.gettempdir()) / "cacas-browser-failures")
 #: the log files of the apps running now (``_run_app``), for a failed test's report
 RUNNING_LOGS: list[Path] = []
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 @pytest.fixture(scope="session")
@@ -43,7 +34,7 @@ def initial_policy():
 def _run_app(tmp: Path, port: int | None = None, **env):
     """``streamlit run app.py`` on ``port`` (default a free one) with ``env`` added; yields its base
     URL, then stops it."""
-    port = port or _free_port()
+    port = port or free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", **env)
     log = open(tmp / "streamlit.log", "w")
     proc = subprocess.Popen(
@@ -52,18 +43,7 @@ def _run_app(tmp: Path, port: int | None = None, **env):
          "--server.fileWatcherType", "none"],
         cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
     base = f"http://127.0.0.1:{port}"
-    deadline = time.time() + 60
-    while True:
-        try:
-            with urllib.request.urlopen(f"{base}/_stcore/health", timeout=2) as r:
-                if r.status == 200:
-                    break
-        except OSError:
-            pass
-        if proc.poll() is not None or time.time() > deadline:
-            proc.kill()
-            raise RuntimeError(f"streamlit did not start: {(tmp / 'streamlit.log').read_text()[-2000:]}")
-        time.sleep(0.3)
+    wait_until_up(proc, base, tmp / "streamlit.log", 60)
     RUNNING_LOGS.append(tmp / "streamlit.log")
     yield base
     proc.terminate()

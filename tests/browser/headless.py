@@ -100,7 +100,8 @@ def free_port() -> int:
 def wait_until_up(proc, base: str, log, seconds: float) -> None:
     """Wait until the Streamlit server ``proc`` at ``base`` answers its health check; killed, and a RuntimeError
     with its log's (``log``, a Path) last lines, if it stops or ``seconds`` pass first. Shared by the benchmark
-    scripts that start a server (scripts/bench_pages_browser.py, scripts/bench_long_run.py)."""
+    scripts that start a server (scripts/bench_pages_browser.py, scripts/bench_long_run.py) and the browser tests'
+    conftest."""
     deadline = time.time() + seconds
     while True:
         try:
@@ -111,5 +112,5 @@ def wait_until_up(proc, base: str, log, seconds: float) -> None:
             pass
         if proc.poll() is not None or time.time() > deadline:
             proc.kill()
-            raise RuntimeError(log.read_text()[-3000:])
+            raise RuntimeError(f"streamlit did not start: {log.read_text()[-3000:]}")
         time.sleep(0.3)

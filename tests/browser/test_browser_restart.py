@@ -11,7 +11,8 @@ from contextlib import contextmanager
 import pytest
 
 from cacas.store import StudyStore
-from conftest import _free_port, _run_app, open_page
+from conftest import _run_app, open_page
+from headless import free_port
 from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context, text_of
 from test_browser_tablet_waits import on_day_1
 
@@ -25,7 +26,7 @@ pytestmark = pytest.mark.browser
 def app_to_restart(tmp_path, db):
     """The app on a port of its own; yields its URL and ``restart()``, which stops the server and
     starts it again on the same port and database (an open page reconnects by itself)."""
-    port = _free_port()
+    port = free_port()
     runs = [_run_app(tmp_path, port=port, CACAS_DB=str(db))]
     url = next(runs[0])
 
@@ -129,7 +130,7 @@ def test_the_tablet_says_in_its_own_words_that_its_connection_comes_back(tmp_pat
         s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
         s.open_day("P01")
     page = open_page(browser, viewport={"width": 1024, "height": 768})
-    port = _free_port()
+    port = free_port()
     server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
     url = next(server)
     try:
