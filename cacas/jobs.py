@@ -105,6 +105,19 @@ class Job:
                     "error": self.error, "elapsed": self.elapsed, "first_step": self.first_step}
 
 
+def _let_go_of_frames(exc: BaseException) -> None:
+    """Clear the local variables of the frames ``exc`` (and the exceptions it was raised from, or during) passed
+    through. The runner keeps a failed job, and its exception for the page to tell kinds apart, until the server
+    stops: its traceback held every frame the failure went through and all they referred to (a training's
+    model and data, an adaptation's policies and tables) for as long (long run's left-alone item). The type,
+    message and the log's last line are kept."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        traceback.clear_frames(exc.__traceback__)
+        exc = exc.__cause__ or exc.__context__
+
+
 class JobRunner:
     """Runs work in daemon threads, at most one job per key at a time."""
 
@@ -142,6 +155,7 @@ class JobRunner:
                     job.exception = exc
                     job.log.append(traceback.format_exc(limit=3).strip().splitlines()[-1])
                     job.status = FAILED
+                _let_go_of_frames(exc)
             else:
                 with job._lock:
                     job.result = result

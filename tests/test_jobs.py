@@ -1,4 +1,6 @@
+import gc
 import threading
+import weakref
 
 from cacas.jobs import DONE, FAILED, STOPPED, JobRunner
 
@@ -117,6 +119,37 @@ def test_a_failed_job_keeps_its_exception_for_the_page_to_tell_kinds_apart():
     assert job.wait(10)
     assert job.status == FAILED and isinstance(job.exception, AlreadyAdapted)
     assert job.error == "day 1 of participant P01 is adapted already"
+
+
+def test_a_failed_job_keeps_its_exception_but_not_what_its_work_held():
+    """A failed job stays in the runner until the server stops; its exception's traceback kept the work's frames,
+    and with them what the work held (a model, tables), for as long: the type and message stay, the frames' locals go,
+    those of the exception it was raised from too."""
+
+    class Model:  # stands for a trained model or a table the work held when it failed
+        pass
+
+    held = []
+
+    def work(progress):
+        model = Model()
+        held.append(weakref.ref(model))
+        try:
+            raise KeyError("the table lacks column 'day'")
+        except KeyError as exc:
+            other = Model()
+            held.append(weakref.ref(other))
+            raise ValueError("the adaptation failed") from exc
+
+    runner = JobRunner()
+    job, _ = runner.start("fails", work)
+    assert job.wait(10)
+    del work
+    gc.collect()
+    assert job.status == FAILED and isinstance(job.exception, ValueError) and job.error == "the adaptation failed"
+    assert isinstance(job.exception.__cause__, KeyError)
+    assert job.log[-1] == "ValueError: the adaptation failed"
+    assert [ref() for ref in held] == [None, None]
 
 
 def test_details_are_kept_for_the_pages_and_not_handed_to_the_work():
