@@ -275,7 +275,11 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: A text field takes the direction of what is typed in it (Unicode's rule, its first letter's): Streamlit's are
 #: left to right, so Arabic or Hebrew typed there (a participant's request on the tablet, a preference's words, notes,
 #: comments) stood at the left edge, a closing "!" or emoji at its right, the start of an Arabic sentence.
+#: Streamlit draws an st.html once it has loaded its code for it, so at a page's first load the page stands in
+#: Streamlit's own style for a moment (0.1-0.7 s here): ``--cacas-styled`` says when these styles are in force
+#: (the browser tests wait for it before they look at the page).
 APP_STYLE = """
+:root { --cacas-styled: 1; }
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
 [data-testid='stTextInput'] input, [data-testid='stTextArea'] textarea { unicode-bidi: plaintext; text-align: start; }
 /* every option chosen in a multi-choice field in view, on as many lines as they need (as in a form): outside a form

@@ -82,7 +82,9 @@ def ran(page, since: int, timeout: int = 60_000) -> None:
     _settle(page)
 
 
-def goto(page, url: str) -> None:
+def goto(page, url: str, app_styled: bool = True) -> None:
+    """Open ``url``, wait until its run is over and (``app_styled``: unless the app stops before it draws them) the
+    app's styles are in force (:func:`styled`)."""
     if not getattr(page, "_cacas_counts_runs", False):
         page.add_init_script(COUNTERS)
         page._cacas_counts_runs = True
@@ -90,6 +92,24 @@ def goto(page, url: str) -> None:
     page.goto(url)
     page.wait_for_selector("[data-testid='stApp']")
     idle(page)
+    if app_styled:
+        assert styled(page), f"the app's styles (app.APP_STYLE) are not in force at {url}"
+
+
+#: the app's styles are in force (app.APP_STYLE's mark)
+STYLED_JS = "() => getComputedStyle(document.documentElement).getPropertyValue('--cacas-styled').trim() === '1'"
+
+
+def styled(page, timeout: int = 10_000) -> bool:
+    """Wait until the app's styles are in force: Streamlit applies them once it has loaded its code for st.html,
+    which at a page's first load came after the page was drawn, and a test read a caption in Streamlit's own,
+    paler style (3.89:1 where the app's is 6.1:1; a failure here). False if they are not within ``timeout`` ms
+    (a page the app stopped before drawing them: the database could not be opened)."""
+    try:
+        page.wait_for_function(STYLED_JS, timeout=timeout)
+    except PlaywrightTimeout:
+        return False
+    return True
 
 
 def button(page, text: str):

@@ -63,7 +63,7 @@ def test_a_study_database_that_cannot_be_opened_lists_no_page_files(browser, tmp
     for url in _run_app(tmp_path, CACAS_DB=str(tmp_path / "a-file" / "study.sqlite")):
         page = open_page(browser, viewport={"width": 1280, "height": 800})
         try:
-            goto(page, url)
+            goto(page, url, app_styled=False)  # it stops before drawing them
             page.get_by_text("The study database cannot be opened").wait_for()
             idle(page)
             page.screenshot(path=str(tmp_path / "cannot-be-opened.png"))
