@@ -35,28 +35,43 @@ def _daily(ceiling: bool, uneven: bool, methods=("cacas", "orl", "nn")) -> pd.Da
     return pd.DataFrame(rows)
 
 
-def _boxes(browser, figs, width: int, height: int = 450, js: str = BOXES_JS, ready: str = ".legend") -> list:
-    """BOXES_JS (or another ``js``) of ``figs`` drawn side by side, each ``width`` px wide and ``height`` px tall,
-    once each has drawn its ``ready`` element (its legend)."""
+@pytest.fixture(scope="module")
+def figure_page(browser):
+    """One page with plotly.js loaded, on which :func:`_boxes` draws every figure here: a page of its own for each
+    took 4.0-4.6 s to load plotly.js's 4.6 MB (the figures then drew in 0.1-0.4 s; measured here), 4-5 minutes of
+    this file's."""
     from plotly.offline import get_plotlyjs
 
+    page = open_page(browser, viewport={"width": 1000, "height": 480})
+    page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'></body></html>")
+    yield page
+    page.context.close()
+
+
+#: the figures before go (Plotly.purge: their listeners too), ``html`` in their place, its scripts run (innerHTML
+#: runs none)
+DRAW_JS = """html => { document.querySelectorAll('.js-plotly-plot').forEach(p => Plotly.purge(p));
+  document.body.innerHTML = html;
+  for (const old of document.body.querySelectorAll('script')) {
+    const s = document.createElement('script'); s.text = old.text; old.replaceWith(s); } }"""
+
+
+def _boxes(page, figs, width: int, height: int = 450, js: str = BOXES_JS, ready: str = ".legend") -> list:
+    """BOXES_JS (or another ``js``) of ``figs`` drawn side by side on ``page`` (:func:`figure_page`), each ``width``
+    px wide and ``height`` px tall, once each has drawn its ``ready`` element (its legend)."""
     each = "".join(f'<div style="width:{width}px;display:inline-block;vertical-align:top">'
                    f'{f.to_html(full_html=False, include_plotlyjs=False, default_height=height)}</div>' for f in figs)
-    page = open_page(browser, viewport={"width": len(figs) * width + 20, "height": height + 30})
-    try:
-        page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'>{each}"
-                         "</body></html>")
-        page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot {ready}').length == {len(figs)}")
-        return page.evaluate(js)
-    finally:
-        page.context.close()
+    page.set_viewport_size({"width": len(figs) * width + 20, "height": height + 30})
+    page.evaluate(DRAW_JS, each)
+    page.wait_for_function(f"document.querySelectorAll('.js-plotly-plot {ready}').length == {len(figs)}")
+    return page.evaluate(js)
 
 
 @pytest.mark.parametrize("ceiling, uneven, width", [(False, False, 560), (True, False, 560), (True, True, 400)])
-def test_fig3_and_fig4_plot_areas_sit_at_one_height_side_by_side(browser, ceiling, uneven, width):
+def test_fig3_and_fig4_plot_areas_sit_at_one_height_side_by_side(figure_page, ceiling, uneven, width):
     daily = _daily(ceiling, uneven)
     figs = plots.side_by_side(plots.success_figure(daily), plots.methods_figure(daily), width=width)
-    fig3, fig4 = _boxes(browser, figs, width)
+    fig3, fig4 = _boxes(figure_page, figs, width)
     assert fig3["plot"] == fig4["plot"], (fig3, fig4)
     for fig in (fig3, fig4):  # each legend below its axis' title, inside the figure
         assert fig["axis_title"] <= fig["legend"][0] and fig["legend"][1] <= fig["height"], fig
@@ -69,7 +84,7 @@ RUNS = [("cacas", "orl"), ("cacas", "cacas-no-pr", "orl", "nn"),
 
 @pytest.mark.parametrize("width", [400, 560, 820, 1000])
 @pytest.mark.parametrize("methods", RUNS, ids=len)
-def test_a_figure_alone_keeps_its_legend_just_below_its_axis_title(browser, methods, width):
+def test_a_figure_alone_keeps_its_legend_just_below_its_axis_title(figure_page, methods, width):
     """Fig. 3 and Fig. 4 alone, two to six methods (a legend of one to four rows), on a narrow page to a
     wide one: the legend is about 10 px below the axis title, never on it, never cut. Before, Fig. 4's one
     row of CACAS, ORL and NN was 84 px below its axis title (the block kept for Fig. 3's four rows)."""
@@ -77,7 +92,7 @@ def test_a_figure_alone_keeps_its_legend_just_below_its_axis_title(browser, meth
     figs = [plots.success_figure(daily), plots.methods_figure(daily)]
     if len(methods) > 1:
         figs.append(plots.success_methods_figure(daily.assign(success_rate=0.5)))
-    for fig in _boxes(browser, figs, width):
+    for fig in _boxes(figure_page, figs, width):
         gap = fig["legend"][0] - fig["axis_title"]
         assert 5 <= gap <= 16, fig
         assert fig["legend"][1] <= fig["height"], fig
@@ -85,14 +100,14 @@ def test_a_figure_alone_keeps_its_legend_just_below_its_axis_title(browser, meth
 
 @pytest.mark.parametrize("ceiling", [False, True])
 @pytest.mark.parametrize("methods", RUNS, ids=len)
-def test_the_labs_two_figures_sit_at_one_height_at_every_width_it_draws_them(browser, methods, ceiling):
+def test_the_labs_two_figures_sit_at_one_height_at_every_width_it_draws_them(figure_page, methods, ceiling):
     """The Simulation lab draws Fig. 3 beside Fig. 4 in columns of 274 px at 1024, 402 at 1280 and 482 at 1440
     (``side_by_side`` counted their legends at 400): at 1024 px the ui helpers saw Fig. 4's plot 19 px above
     Fig. 3's (four methods without a success ceiling: its legend took four rows, Fig. 3's three), 38 px with
     six methods. The lab's figures, as the page makes them (Fig. 3 of the looping method), at each width."""
     daily = _daily(ceiling, False, methods)
     for width in (274, 402, 482):
-        fig3, fig4 = _boxes(browser, plots.side_by_side(plots.success_figure(daily), plots.methods_figure(daily)),
+        fig3, fig4 = _boxes(figure_page, plots.side_by_side(plots.success_figure(daily), plots.methods_figure(daily)),
                             width)
         assert fig3["plot"] == fig4["plot"], (width, fig3, fig4)
         for fig in (fig3, fig4):
@@ -172,21 +187,21 @@ LEGEND_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => 
 })"""
 
 
-def test_fig3s_legend_begins_with_the_success_rate(browser):
+def test_fig3s_legend_begins_with_the_success_rate(figure_page):
     """Fig. 3's legend, as plotly.js draws it: the min-max band's fill ("tonexty") made it list the traces last
     first, the cumulative feedback before the success rate, which came third of four (walkthrough)."""
-    fig3, = _boxes(browser, [plots.success_figure(_daily(True, False))], 1000, js=LEGEND_JS)
+    fig3, = _boxes(figure_page, [plots.success_figure(_daily(True, False))], 1000, js=LEGEND_JS)
     assert fig3["legend"] == ["success rate (mean)", "min-max across participants", plots.CEILING_NAME,
                               "cumulative feedback (mean)"], fig3
 
 
 @pytest.mark.parametrize("methods", RUNS[1:], ids=len)
-def test_fig4s_subtitle_fits_the_labs_narrowest_column(browser, methods):
+def test_fig4s_subtitle_fits_the_labs_narrowest_column(figure_page, methods):
     """Fig. 4's subtitle (how many participants, from which interactions: ``plots.methods_subtitle``) on one line
     inside the figure at the lab's narrowest column (274 px, at 1024), in both loops (the longer words)."""
     daily = _daily(True, True, methods)
     for d in (daily, daily.assign(success_rate=0.5)):
-        fig4, = _boxes(browser, [plots.methods_figure(d)], 274, js=LEGEND_JS)
+        fig4, = _boxes(figure_page, [plots.methods_figure(d)], 274, js=LEGEND_JS)
         assert fig4["subtitle"] is not None and fig4["subtitle"] <= fig4["width"], fig4
 
 
@@ -197,13 +212,13 @@ COLORBAR_JS = """() => { const c = document.querySelector('.js-plotly-plot .colo
 
 
 @pytest.mark.parametrize("width", [800, 1280])
-def test_the_preference_heatmaps_colorbar_title_touches_no_tick_label(browser, width):
+def test_the_preference_heatmaps_colorbar_title_touches_no_tick_label(figure_page, width):
     """walk2's walkthrough: the heatmap's colorbar title "accuracy", above the bar, touched its "100%" label (the
     top label is centred on the bar's end); it stands at the bar's side."""
     rows = pd.DataFrame([{"participant": "P01", "method": m, "day": 3, "preference": k, "label": f"{act} -> x",
                           "activity": act, "action": "x", "states": 10, "correct": c, "accuracy": c / 10}
                          for m in ("cacas", "orl", "nn") for k, (act, c) in enumerate((("cough", 10), ("sneeze", 5)))])
-    bar = _boxes(browser, [plots.preference_methods_figure(rows)], width, js=COLORBAR_JS, ready=".colorbar")
+    bar = _boxes(figure_page, [plots.preference_methods_figure(rows)], width, js=COLORBAR_JS, ready=".colorbar")
     title = bar["title"]
     assert len(bar["ticks"]) >= 3
     overlapping = [t for t in bar["ticks"]
@@ -217,13 +232,13 @@ SWATCH_JS = """() => [...document.querySelectorAll('.js-plotly-plot')].map(c => 
     return [e.textContent.trim(), p ? getComputedStyle(p).fill : null]; })))"""
 
 
-def test_a_legends_marker_is_filled_when_day_1_rests_on_few_answers(browser):
+def test_a_legends_marker_is_filled_when_day_1_rests_on_few_answers(figure_page):
     """walk2: plotly.js draws a legend entry's marker as the trace's first point: day 1 resting on few answers
     (a hollow point) made Fig. 3's "success rate (mean)" swatch hollow. Fig. 3, and Fig. 3 by method (whose
     points are hollow on such days too), show the filled marker."""
     daily = _daily(False, False, ("cacas", "nn")).assign(
         interactions=lambda d: d["day"].map({1: 2, 2: 15, 3: 15}), success_rate=0.5)
-    fig3, by_method = _boxes(browser, [plots.success_figure(daily), plots.success_methods_figure(daily)], 800,
+    fig3, by_method = _boxes(figure_page, [plots.success_figure(daily), plots.success_methods_figure(daily)], 800,
                              js=SWATCH_JS)
     assert fig3["success rate (mean)"].startswith("rgb"), fig3  # before: "none"
     assert all(fill.startswith("rgb") for fill in by_method.values()) and set(by_method) == {"CACAS", "NN"}, by_method
