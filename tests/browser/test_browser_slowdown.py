@@ -74,7 +74,8 @@ def test_a_bad_knob_stops_the_run_before_its_first_test_in_one_line(tmp_path):
     (tmp_path / "test_page.py").write_text("def test_opens(page):\n    page.set_content('<p>x</p>')\n")
     done = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(tmp_path)],
                           cwd=tmp_path, capture_output=True, text=True, timeout=300,
-                          env={**os.environ, SLOWDOWN: "abc"})
+                          env={**{k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")},
+                               SLOWDOWN: "abc"})  # a pytest of its own, not one of this run's xdist workers
     assert done.returncode == pytest.ExitCode.USAGE_ERROR, done.stdout[-2000:]
     assert done.stderr.strip().splitlines() == [
         "ERROR: CACAS_BROWSER_SLOWDOWN='abc' is not a number >= 1: it is how many times the browser tests slow "
