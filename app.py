@@ -280,6 +280,8 @@ def _damaged(exc: sqlite3.DatabaseError) -> bool:
 #: (the browser tests wait for it before they look at the page).
 APP_STYLE = """
 :root { --cacas-styled: 1; }
+/* the tablet's and the researcher's words about a lost connection appear after a second (TABLET_STYLE, CONNECTION_STYLE) */
+@keyframes cacas-appear { from { opacity: 0; } to { opacity: 1; } }
 [data-testid='stCaptionContainer'] { opacity: 0.75; }
 [data-testid='stTextInput'] input, [data-testid='stTextArea'] textarea { unicode-bidi: plaintext; text-align: start; }
 /* every option chosen in a multi-choice field in view, on as many lines as they need (as in a form): outside a form
@@ -334,6 +336,30 @@ TOUCH_STYLE = """
   [data-testid='stMultiSelect'] button[aria-label^='Remove']::after {
     content: ''; position: absolute; inset: -1.1rem -0.6rem; }
 }
+"""
+
+#: While a researcher's page has lost its server (the server restarting, stopped, its laptop asleep), Streamlit's
+#: dialog said "Connection error: Streamlit server is not responding. Are you connected to the internet?" over the
+#: page, dimmed (a lab's server runs on its own laptop: the internet is not the question). A band at the top says
+#: what it is and what to do, in the app's words, the page left readable under it (after a second: a blink of the
+#: network says nothing); Streamlit's dialog is not shown meanwhile, and it closes it itself once reconnected. The
+#: participant's tablet says it in its own words (:data:`TABLET_STYLE`).
+CONNECTION_STYLE = """
+:root:has([data-testid='stApp']:is([data-test-connection-state='PINGING_SERVER'],
+                                   [data-test-connection-state='DISCONNECTED_FOREVER'])) [data-testid='stDialog'] {
+  display: none !important; }
+[data-testid='stApp'][data-test-connection-state='PINGING_SERVER']::after,
+[data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
+  position: fixed; top: 0; left: 0; right: 0; z-index: 1000100; padding: 0.9rem 1.5rem; white-space: pre-line;
+  font-size: 1rem; line-height: 1.5; color: #262730; background: #fff3cd; border-bottom: 2px solid #e0a800;
+  box-shadow: 0 0.25rem 0.75rem rgba(0, 0, 0, 0.15); animation: cacas-appear 0.3s ease-in 1s both; }
+[data-testid='stApp'][data-test-connection-state='PINGING_SERVER']::after {
+  content: "CACAS Studio's server is not answering: it is restarting, was stopped, or its computer is asleep.\A "
+           "This page reconnects by itself once the server is back. If it stays, start it again in its terminal "
+           "(streamlit run app.py)."; }
+[data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
+  content: "CACAS Studio's server did not come back. Start it again in its terminal (streamlit run app.py), "
+           "then reload this page."; }
 """
 
 #: A page link tapped in the sidebar where the sidebar lies over the page (a phone, a tablet upright: Streamlit draws
@@ -401,7 +427,6 @@ TABLET_STYLE = """
   white-space: pre-line; position: fixed; inset: 0; z-index: 1000100; display: flex; align-items: center;
   justify-content: center; padding: 2rem; text-align: center; font-size: 1.4rem; line-height: 1.6; color: #262730;
   background: rgba(250, 250, 250, 0.96); animation: cacas-appear 0.3s ease-in 1s both; }
-@keyframes cacas-appear { from { opacity: 0; } to { opacity: 1; } }
 [data-testid='stMain'] [data-testid='stCaptionContainer'], [data-testid='stMain'] [data-testid='stCaptionContainer'] p,
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
@@ -437,7 +462,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
-        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}</style>")
+        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}{CONNECTION_STYLE}</style>")
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()

@@ -148,3 +148,37 @@ def test_the_tablet_says_in_its_own_words_that_its_connection_comes_back(tmp_pat
         assert page.evaluate(SAID) == "none"
     finally:
         next(server, None)
+
+
+def test_a_researchers_page_says_in_the_apps_words_that_its_server_is_not_answering(tmp_path, browser):
+    """The researcher's pages showed Streamlit's dialog "Connection error: Streamlit server is not responding. Are you
+    connected to the internet?" over the page, dimmed, when the server restarted or stopped: a band at the top says
+    what it is and what to do, the page readable under it, and nothing once the page has reconnected."""
+    db = tmp_path / "study.sqlite"
+    with StudyStore(db) as s:
+        s.add_participant("P01")
+    page = open_page(browser, viewport={"width": 1280, "height": 800})
+    port = free_port()
+    server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    url = next(server)
+    try:
+        goto(page, f"{url}/participants?participant=P01")
+        assert page.evaluate(SAID) == "none"
+        next(server, None)
+        page.wait_for_function(f"() => ({STATE})() === 'PINGING_SERVER'", timeout=30_000)
+        page.wait_for_selector("[data-testid='stDialog']", state="attached", timeout=30_000)
+        said = page.evaluate(SAID)
+        assert "server is not answering" in said and "reconnects by itself" in said and "streamlit run app.py" in said
+        assert "internet" not in said
+        assert page.evaluate(DIALOGS) == 0
+        band = page.evaluate("""() => { const s = getComputedStyle(document.querySelector("[data-testid='stApp']"),
+                                                                     '::after');
+                                        return [s.position, s.top, parseFloat(s.height)]; }""")
+        assert band[:2] == ["fixed", "0px"] and band[2] < 160, band  # a band at the top, not over the whole page
+        server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+        next(server)
+        page.wait_for_function(f"() => ({STATE})() === 'CONNECTED'", timeout=60_000)
+        assert page.evaluate(SAID) == "none"
+    finally:
+        next(server, None)
+        page.context.close()
