@@ -354,7 +354,7 @@ CONNECTION_STYLE = """
   font-size: 1rem; line-height: 1.5; color: #262730; background: #fff3cd; border-bottom: 2px solid #e0a800;
   box-shadow: 0 0.25rem 0.75rem rgba(0, 0, 0, 0.15); animation: cacas-appear 0.3s ease-in 1s both; }
 [data-testid='stApp'][data-test-connection-state='PINGING_SERVER']::after {
-  content: "CACAS Studio's server is not answering: it is restarting, was stopped, or its computer is asleep.\A "
+  content: "CACAS Studio's server is not answering: it is restarting, was stopped, or its computer is asleep.\\A "
            "This page reconnects by itself once the server is back. If it stays, start it again in its terminal "
            "(streamlit run app.py)."; }
 [data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
