@@ -100,11 +100,12 @@ def goto(page, url: str, app_styled: bool = True) -> None:
 STYLED_JS = "() => getComputedStyle(document.documentElement).getPropertyValue('--cacas-styled').trim() === '1'"
 
 
-def styled(page, timeout: int = 10_000) -> bool:
+def styled(page, timeout: int = 60_000) -> bool:
     """Wait until the app's styles are in force: Streamlit applies them once it has loaded its code for st.html,
     which at a page's first load came after the page was drawn, and a test read a caption in Streamlit's own,
     paler style (3.89:1 where the app's is 6.1:1; a failure here). False if they are not within ``timeout`` ms
-    (a page the app stopped before drawing them: the database could not be opened)."""
+    (a page the app stopped before drawing them: the database could not be opened). As long as the suite's other
+    waits: at load 10, a server's first page had them after more than 10 s (two browser tests at a time)."""
     try:
         page.wait_for_function(STYLED_JS, timeout=timeout)
     except PlaywrightTimeout:
