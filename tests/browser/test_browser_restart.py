@@ -120,6 +120,31 @@ SAID = "() => getComputedStyle(document.querySelector(\"[data-testid='stApp']\")
 DIALOGS = "() => [...document.querySelectorAll(\"[data-testid='stDialog']\")].filter(d => d.offsetParent !== null).length"
 
 
+@contextmanager
+def server_away(tmp_path, db, page, address: str):
+    """The app on ``db``, ``page`` opened at ``address`` (after the server's URL) and saying nothing of its
+    connection; then the server stops, and this yields once the page pings it and Streamlit has opened its dialog
+    (what the page says then is the test's); then the server starts again on its port, and the page, reconnected,
+    says nothing any more."""
+    port = free_port()
+    server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+    url = next(server)
+    try:
+        goto(page, url + address)
+        assert page.evaluate(SAID) == "none"
+        next(server, None)  # the server stops: the page pings it, and Streamlit opens its dialog
+        page.wait_for_function(f"() => ({STATE})() === 'PINGING_SERVER'", timeout=30_000)
+        page.wait_for_selector("[data-testid='stDialog']", state="attached", timeout=30_000)
+        yield
+        server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
+        next(server)
+        page.wait_for_function(f"() => ({STATE})() === 'CONNECTED'", timeout=60_000)
+        assert page.evaluate(SAID) == "none"
+    finally:
+        next(server, None)
+        page.context.close()
+
+
 def test_the_tablet_says_in_its_own_words_that_its_connection_comes_back(tmp_path, browser):
     """A study day with several tablets (lan): when the lab's network dropped, or the server restarted, the
     participant read Streamlit's dialog "Connection error: Streamlit server is not responding. Are you connected to
@@ -130,24 +155,10 @@ def test_the_tablet_says_in_its_own_words_that_its_connection_comes_back(tmp_pat
         s.save_preferences("P01", [{"activity": ["cough"], "action": "pain check"}])
         s.open_day("P01")
     page = open_page(browser, viewport={"width": 1024, "height": 768})
-    port = free_port()
-    server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-    url = next(server)
-    try:
-        goto(page, f"{url}/?participant=P01&view=tablet")
-        assert page.evaluate(SAID) == "none"
-        next(server, None)  # the server stops: the page pings it, and Streamlit opens its dialog
-        page.wait_for_function(f"() => ({STATE})() === 'PINGING_SERVER'", timeout=30_000)
-        page.wait_for_selector("[data-testid='stDialog']", state="attached", timeout=30_000)
+    with server_away(tmp_path, db, page, "/?participant=P01&view=tablet"):
         assert "lost its connection to the robot" in page.evaluate(SAID)
         assert "comes back by itself" in page.evaluate(SAID)
         assert page.evaluate(DIALOGS) == 0  # Streamlit's, with its words, is not shown
-        server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-        next(server)
-        page.wait_for_function(f"() => ({STATE})() === 'CONNECTED'", timeout=60_000)
-        assert page.evaluate(SAID) == "none"
-    finally:
-        next(server, None)
 
 
 def test_a_researchers_page_says_in_the_apps_words_that_its_server_is_not_answering(tmp_path, browser):
@@ -158,15 +169,7 @@ def test_a_researchers_page_says_in_the_apps_words_that_its_server_is_not_answer
     with StudyStore(db) as s:
         s.add_participant("P01")
     page = open_page(browser, viewport={"width": 1280, "height": 800})
-    port = free_port()
-    server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-    url = next(server)
-    try:
-        goto(page, f"{url}/participants?participant=P01")
-        assert page.evaluate(SAID) == "none"
-        next(server, None)
-        page.wait_for_function(f"() => ({STATE})() === 'PINGING_SERVER'", timeout=30_000)
-        page.wait_for_selector("[data-testid='stDialog']", state="attached", timeout=30_000)
+    with server_away(tmp_path, db, page, "/participants?participant=P01"):
         said = page.evaluate(SAID)
         assert "server is not answering" in said and "reconnects by itself" in said and "streamlit run app.py" in said
         assert "internet" not in said
@@ -175,10 +178,3 @@ def test_a_researchers_page_says_in_the_apps_words_that_its_server_is_not_answer
                                                                      '::after');
                                         return [s.position, s.top, parseFloat(s.height)]; }""")
         assert band[:2] == ["fixed", "0px"] and band[2] < 160, band  # a band at the top, not over the whole page
-        server = _run_app(tmp_path, port=port, CACAS_DB=str(db))
-        next(server)
-        page.wait_for_function(f"() => ({STATE})() === 'CONNECTED'", timeout=60_000)
-        assert page.evaluate(SAID) == "none"
-    finally:
-        next(server, None)
-        page.context.close()
