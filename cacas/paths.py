@@ -45,11 +45,15 @@ def study_data_problem(folder: str | Path | None = None) -> str | None:
     missing = missing_shipped(folder)
     if not missing:
         return None
+    import shlex
+
     shipped = PROJECT_ROOT / "study_data"
-    copy = " ".join(str(shipped / name) for name in missing)
+    # quoted as a shell reads them: the command is pasted, and a path with a space ("/Users/Jane Doe/...") was split
+    copy = " ".join(shlex.quote(str(shipped / name)) for name in missing)
+    target = shlex.quote(f"{folder}/")
     return (f"the study data folder {folder} lacks the shipped {', '.join(missing)} "
             f"({'; '.join(f'without {name}, {SHIPPED[name]}' for name in missing)}); valid: copy "
-            f"{'it' if len(missing) == 1 else 'them'} from the shipped folder (cp -rn {copy} {folder}/), or "
+            f"{'it' if len(missing) == 1 else 'them'} from the shipped folder (cp -rn {copy} {target}), or "
             f"${STUDY_DATA_ENV} unset (to keep only the study database elsewhere, set $CACAS_DB to its file)")
 
 

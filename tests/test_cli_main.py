@@ -115,6 +115,31 @@ def test_an_abbreviated_or_misspelt_option_is_refused_naming_the_full_one(capsys
     assert not any(tmp_path.iterdir())  # nothing run
 
 
+def test_an_option_of_another_command_is_refused_naming_this_commands_options(capsys, tmp_path):
+    """`cacas sound generate --quiet` said "unrecognized arguments: --quiet (did you mean --quiet?)": the
+    nearest option was looked for among every command's (`--quiet` is `sound train`'s), so an option of
+    another command was offered as the one meant. Now the command run is searched, and where it has
+    nothing near, the message names its options."""
+    import pytest
+
+    from cacas.cli import main
+
+    for argv, said in ((["sound", "generate", "--out", str(tmp_path), "--quiet"],
+                        "unrecognized arguments: --quiet; cacas sound generate has no --quiet; valid: --clips, "
+                        "--format, --out, --replace, --seconds, --seed"),
+                       (["scene", "generate", "--out", str(tmp_path), "--clips", "3"],
+                        "unrecognized arguments: --clips 3; cacas scene generate has no --clips; valid: "
+                        "--images, --out, --replace, --seed, --size"),
+                       (["export", "--db", "x.sqlite", "--out", str(tmp_path), "--seed", "3", "--tables"],
+                        "unrecognized arguments: --seed 3 --tables (did you mean --tables-only?); cacas export has "
+                        "no --seed; valid: --db, --out, --study, --tables-only")):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+    assert not any(tmp_path.iterdir())  # nothing run
+
+
 def _help_pages():
     """(command words, parser) for ``cacas`` and every sub-command and action, at any depth."""
     import argparse

@@ -52,3 +52,17 @@ def test_the_advice_copies_what_is_missing_and_leaves_the_study_database_as_it_i
     assert missing_shipped(folder) == [] and study_data_problem(folder) is None
     assert (folder / "cacas.sqlite").read_bytes() == b"the study's own database"
     assert (folder / "d4a.csv").read_bytes() == (PROJECT_ROOT / "study_data" / "d4a.csv").read_bytes()
+
+
+def test_the_advised_command_runs_as_pasted_where_a_folder_name_holds_a_space_or_a_quote(tmp_path):
+    """The `cp -rn` the pages give is pasted into a shell: a folder named "Jane's study data" (or a project
+    under "/Users/Jane Doe/") was written bare, and the shell split it ("cp: target 'data/': No such file or
+    directory"). Now each path is quoted as the shell reads it."""
+    folder = tmp_path / "Jane's study data"
+    folder.mkdir()
+    for name in ("personas", "sounds", "scenes", "models"):
+        (folder / name).mkdir()
+    problem = study_data_problem(folder)
+    command = problem[problem.index("(cp -rn ") + 1:problem.index("), or $CACAS_STUDY_DATA")]
+    subprocess.run(["bash", "-c", command], check=True, capture_output=True)
+    assert missing_shipped(folder) == [] and study_data_problem(folder) is None

@@ -82,3 +82,43 @@ def test_a_participant_coded_na_is_counted(script, tmp_path, capsys):
     daily(float("nan")).replace({"participant": {"P01": "NA"}}).to_csv(path, index=False)
     script.main(str(path))
     assert "participants: 2, days: 2" in capsys.readouterr().out
+
+
+#: The persona sets of the README's table of the issue's targets, in its columns' order (docs/results/<name>_daily.csv).
+TARGET_SETS = ("example", "holdout", "independent", "independent_s", "independent_t", "independent_u", "independent_v")
+
+
+@pytest.mark.parametrize("name, document", [("example", "README.md"), ("holdout", "docs/results.md")])
+def test_the_documents_day_by_day_table_is_the_one_the_script_prints_from_the_shipped_results(
+        script, name, document, capsys):
+    """The README's table (and results.md's for the hold-out set) is what `python3 scripts/results_table.py`
+    prints from the daily.csv under docs/results/ (the README's command says so): a regenerated file and a
+    table left as it was disagree here, not only in a reader's run."""
+    from cacas.paths import PROJECT_ROOT
+
+    script.main(str(PROJECT_ROOT / "docs" / "results" / f"{name}_daily.csv"))
+    printed = [line for line in capsys.readouterr().out.splitlines() if line.startswith("|")]
+    text = (PROJECT_ROOT / document).read_text(encoding="utf-8")
+    assert len(printed) == 10 and [line for line in printed if line not in text] == []
+
+
+def test_the_readmes_targets_are_the_shipped_results_day_7_means():
+    """The first rows of the README's table of the issue's targets, from docs/results/: CACAS's day-7
+    accuracy, the day-1 and day-7 success rates, and CACAS against ORL, set by set."""
+    from cacas.paths import PROJECT_ROOT
+    from cacas.records import read_csv
+
+    rows = {"CACAS preference accuracy": [], "day-1 success rate": [], "day-7 success rate": [],
+            "CACAS at or above ORL": []}
+    for name in TARGET_SETS:
+        daily = read_csv(PROJECT_ROOT / "docs" / "results" / f"{name}_daily.csv")
+        means = daily.groupby(["method", "day"])[["preference_accuracy", "success_rate"]].mean()
+        cacas, orl = means.loc[("cacas", 7), "preference_accuracy"], means.loc[("orl", 7), "preference_accuracy"]
+        rows["CACAS preference accuracy"].append(f"{cacas:.3f}")
+        rows["day-1 success rate"].append(f"{means.loc[('cacas', 1), 'success_rate']:.2f}")
+        rows["day-7 success rate"].append(f"{means.loc[('cacas', 7), 'success_rate']:.2f}")
+        rows["CACAS at or above ORL"].append(f"{cacas:.3f} vs {orl:.3f}")
+    readme = (PROJECT_ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    for start, cells in rows.items():
+        line = next(line for line in readme if line.startswith(f"| {start}"))
+        assert [cell.strip() for cell in line.strip("|").split("|")][1:] == cells, line

@@ -39,15 +39,40 @@ class _Parser(argparse.ArgumentParser):
         elif message.startswith("unrecognized arguments: "):  # an option misspelt or abbreviated: the nearest
             import difflib
 
-            options = sorted(self._option_strings())
-            near = {word: difflib.get_close_matches(word, options, n=1, cutoff=0.6)
+            # the command run's own options (every command's, an option of another command was offered as the
+            # one meant: "--quiet (did you mean --quiet?)"), compared without their dashes ("--out" for "--quiet")
+            command = self._command_run()
+            options = sorted(command._own_options() if command is not self else self._option_strings())
+            near = {word: difflib.get_close_matches(word[2:], [o[2:] for o in options], n=1, cutoff=0.6)
                     for word in message.split(": ", 1)[1].split() if word.startswith("--")}
-            said = {word: found[0] for word, found in near.items() if found}
+            said = {word: f"--{found[0]}" for word, found in near.items() if found}
             if len(said) == 1:
                 message += f" (did you mean {next(iter(said.values()))}?)"
             elif said:
                 message += f" (did you mean {', '.join(f'{full} for {word}' for word, full in said.items())}?)"
+            unknown = [word for word, found in near.items() if not found]
+            if unknown and command is not self:
+                message += f"; {command.prog} has no {', '.join(unknown)}; valid: {', '.join(options)}"
         self.exit(2, f"cacas: error: {message}\n")
+
+    def parse_args(self, args=None, namespace=None):
+        self._argv = list(sys.argv[1:] if args is None else args)  # for error(): which command was run
+        return super().parse_args(args, namespace)
+
+    def _command_run(self) -> "_Parser":
+        """The deepest sub-command the arguments parsed last name (``cacas sound generate``'s parser), else this one."""
+        parser = self
+        for word in getattr(self, "_argv", []):
+            subs = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+            if subs and word in subs[0].choices:
+                parser = subs[0].choices[word]
+            elif not word.startswith("-"):
+                break
+        return parser
+
+    def _own_options(self) -> set[str]:
+        """This parser's long options but --help."""
+        return {o for a in self._actions for o in a.option_strings if o.startswith("--") and o != "--help"}
 
     def _option_strings(self) -> set[str]:
         """Every option of this parser and of its sub-commands, at any depth."""
