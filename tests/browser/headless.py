@@ -15,6 +15,9 @@ FLAGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking", "--
          "--disable-sync", "--no-first-run"]
 #: Streamlit's app element once no script run is going (as the page has drawn it)
 IDLE = "[data-testid='stApp'][data-test-script-state='notRunning']"
+#: every element of the page is drawn: none is Streamlit's placeholder (stSkeleton), which stands in for an element
+#: while the browser loads its code (a multi-choice field's, a button's, st.html's: each loaded lazily, once a page)
+DRAWN_JS = "() => !document.querySelector('[data-testid=stSkeleton]')"
 
 
 class ScriptRuns:
@@ -88,6 +91,13 @@ def run_over(page, since: int, timeout: int = 60_000) -> None:
     runs = watch_runs(page)
     wait_until(page, lambda: runs.started > since and not runs.busy, timeout)
     page.wait_for_selector(IDLE, timeout=timeout)
+
+
+def drawn(page, timeout: int = 60_000) -> None:
+    """Wait until every element of the page is drawn (:data:`DRAWN_JS`): a run can be over while some of its
+    elements still wait for their code. A test that read the Participants page's multi-choice fields once its run
+    was over found fewer than it drew (CI at load 7-10, two browser tests at a time: the fields out of order)."""
+    page.wait_for_function(DRAWN_JS, timeout=timeout)
 
 
 def free_port() -> int:

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 from conftest import open_page
-from headless import IDLE, run_over, wait_until, watch_runs
+from headless import IDLE, drawn, run_over, wait_until, watch_runs
 from playwright.sync_api import TimeoutError as PlaywrightTimeout
 from playwright.sync_api import expect
 
@@ -62,12 +62,14 @@ if (window.__cacasConnects === undefined) {
 
 def _settle(page) -> None:
     """After a run ended: the runs started until then are waited for (the next ``idle`` waits for a
-    later one), then a 200-ms pause for the page to draw. Counted before the pause: a run that starts
+    later one), then a 200-ms pause for the page to draw, and until every element is drawn
+    (``headless.drawn``: none waits for its code). Counted before the pause: a run that starts
     in it (a tab's or an expander's rerun that begins late on a loaded machine) is one the next
     ``idle`` waits for; counted after it, it passed for waited for while still going (flaky helper)."""
     runs = watch_runs(page)
     runs.seen = runs.started
     page.wait_for_timeout(200)
+    drawn(page)
 
 
 def runs(page) -> int:

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import random
 import re
+import time
 
 import pytest
 
@@ -324,6 +325,32 @@ def test_on_a_phone_every_chosen_time_of_day_is_in_view(browser, study_server):
         assert fields[2]["label"] == "Time of day (S3)" and fields[2]["chips"] == ["08:00-10:00", "10:00-12:00", "12:00-14:00", "14:00-16:00",
                                                       "16:00-18:00"], fields
         assert [(f["label"], f["out"]) for f in fields if f["out"]] == [], fields
+    finally:
+        page.context.close()
+
+
+def test_a_page_is_read_once_its_elements_whose_code_loads_late_are_drawn(browser, study_server):
+    """The browser loads the code of most of Streamlit's elements (a multi-choice field's among them) once a page,
+    when the page first draws one; meanwhile a placeholder (stSkeleton) stands in for it, after the run is over.
+    The phone test above read the Participants page then at load 7-10 (CI, two browser tests at a time) and found
+    its fields out of order. Here the multi-choice field's code is held back 3 s: the tests' ``goto`` waits for it
+    (``headless.drawn``), and every field is drawn when it returns."""
+    page = open_page(browser, **PHONE)
+    page.set_default_timeout(60_000)
+    held = []
+
+    def hold(route):
+        held.append(route.request.url)
+        time.sleep(3)
+        route.continue_()
+
+    try:
+        page.route(re.compile(r"/static/js/Multiselect\.[^/]*\.js$"), hold)
+        goto(page, f"{study_server}/participants?participant=P01")
+        assert len(held) == 1, held
+        assert page.locator("[data-testid=stSkeleton]").count() == 0
+        fields = page.evaluate(CHIPS_JS)
+        assert [f["label"] for f in fields[:3]] == ["Activities (S1)", "Rooms (S2)", "Time of day (S3)"], fields
     finally:
         page.context.close()
 
