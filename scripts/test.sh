@@ -11,16 +11,18 @@ if [ ! -x /usr/bin/chromium ]; then
 fi
 python3 -m pip install -q -e ".[dev]"
 # The tests without a browser run one torch thread each (tests/conftest.py), so they run in a process a core
-# (pytest-xdist; at most 4: each process holds ~0.6 GB of imports); the browser tests then run one at a time,
-# each driving a Streamlit server and Chromium, which use every core. Two at a time (-n 2 --dist loadfile) took
-# 596 s instead of ~700 on a 2-core machine, but at load 7-10 a page was read before it had settled (one
-# failure in two clean-clone runs): not worth a red CI. The slowest tests of each part are listed at its end:
+# (pytest-xdist; at most 4: each process holds ~0.6 GB of imports); the browser tests then run two at a time,
+# a test file to each (--dist loadfile: a file's tests share their Streamlit server), each driving a server and
+# Chromium, which wait on each other much of the time (on a 2-core AMD EPYC: 596-628 s two at a time, ~700 one
+# at a time). They read a page once every element is drawn (headless.drawn: at load 7-10 a page was once read
+# while some of its elements still waited for their code). The slowest tests of each part are listed at its end:
 # the suite is kept well under 15 minutes on CI.
 workers=$(python3 -c "import os; print(max(1, min(4, len(os.sched_getaffinity(0)))))")
+browsers=$(( workers < 2 ? workers : 2 ))
 status=0
 python3 -m pytest -q --durations=15 -n "$workers" -m "not browser" "$@" || status=$?
 browser=0
-python3 -m pytest -q --durations=15 -m browser "$@" || browser=$?
+python3 -m pytest -q --durations=15 -n "$browsers" --dist loadfile -m browser "$@" || browser=$?
 # 5: no test of that part among the ones asked for (bash scripts/test.sh tests/test_records.py)
 [ "$status" -eq 5 ] && status=0
 [ "$browser" -eq 5 ] && browser=0
