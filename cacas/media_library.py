@@ -36,16 +36,23 @@ SYNTHETIC_IMAGE_SIDE = (32, 1024)
 
 
 class Generated(list):
-    """The files a SYNTHETIC generator wrote (a list of paths, as before), with those of them that
-    replaced a file of the same name holding other content (``replaced``: the generator's
+    """The files a SYNTHETIC generator's run stands for (a list of paths, as before), with those of
+    them it left as they were (``unchanged``: the file already held the same content), those it
+    wrote in place of a file of the same name holding other content (``replaced``: the generator's
     ``replace=True``; without it such a run is refused, :func:`refuse_replacing`), and the files
     it removed (``removed``: the same clip in another format, which would have been in the library
     twice)."""
 
-    def __init__(self, paths=(), replaced=(), removed=()):
+    def __init__(self, paths=(), replaced=(), removed=(), unchanged=()):
         super().__init__(paths)
         self.replaced = list(replaced)
         self.removed = list(removed)
+        self.unchanged = list(unchanged)
+
+    @property
+    def written(self) -> int:
+        """How many files the run wrote (new ones and replaced ones)."""
+        return len(self) - len(self.unchanged)
 
 
 _SYNTHETIC = re.compile(r"synthetic_(\d+)_\d+\.[^.]+")

@@ -54,7 +54,8 @@ def test_generating_a_seed_again_leaves_its_clips_bytes_alone(tmp_path):
     paths = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"])
     before = [p.read_bytes() for p in paths]
     again = library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough"])
-    assert again == paths and again.replaced == []
+    assert paths.unchanged == [] and paths.written == 2
+    assert again == paths and again.replaced == [] and again.unchanged == paths and again.written == 0
     assert [p.read_bytes() for p in paths] == before
     paths[0].write_bytes(b"not audio")
     # other audio: longer clips

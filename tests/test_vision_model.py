@@ -34,6 +34,9 @@ def test_scene_slugs_and_generator(tmp_path):
         assert img.size == (64, 64) and img.mode == "RGB"
     paths = library.generate_scenes(1, size=48, root=tmp_path)
     assert len(paths) == 6 and library.image_paths("kitchen", tmp_path)[0].suffix == ".jpg"
+    assert paths.written == 6 and paths.unchanged == []
+    again = library.generate_scenes(2, size=48, root=tmp_path)  # the first image of each scene is there already
+    assert again.written == 6 and again.unchanged == paths and again.replaced == []
     with pytest.raises(CacasError, match="^images per scene must be at least 1, got 0$"):
         library.generate_scenes(0, root=tmp_path / "none")
     for size in (31, 1025):

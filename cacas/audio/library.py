@@ -103,7 +103,8 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     replaced the shipped clips without a word). Other files are left alone, so a new seed adds
     clips. The clips are written under temporary names and renamed into place when all are
     written (:class:`cacas.media_library.Staging`): a run stopped before (Ctrl-C) adds none.
-    Returns the clips' paths, with those replaced and removed (:class:`cacas.media_library.Generated`).
+    Returns the clips' paths, with those replaced, removed and left as they were
+    (:class:`cacas.media_library.Generated`).
     """
     import soundfile as sf
 
@@ -120,7 +121,7 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
         raise CacasError(f"unknown clip format {fmt!r}; valid: {', '.join(subtypes)}")
     root = Path(root) if root is not None else sounds_dir()
     names = [spaces.canonical("activity", a) for a in (activities or spaces.ACTIVITIES)]
-    written, replaced, twins = [], [], []
+    written, replaced, twins, unchanged = [], [], [], []
     total = len(names) * clips_per_activity
 
     def refuse(path: Path, holds: str) -> CacasError:
@@ -143,7 +144,9 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
                         twins.append(other)
                 encoded = io.BytesIO()
                 sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
-                if not _same_audio(path, encoded.getvalue()):
+                if _same_audio(path, encoded.getvalue()):
+                    unchanged.append(path)
+                else:
                     if path.exists():
                         if not replace:
                             raise refuse(path, f"other audio than this run writes there ({_audio_words(path)}; "
@@ -156,7 +159,7 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
         staging.place()
     for twin in twins:  # after the new clips are in place: stopped before, the library keeps the clip
         twin.unlink(missing_ok=True)
-    return media_library.Generated(written, replaced, twins)
+    return media_library.Generated(written, replaced, twins, unchanged)
 
 
 def _audio_words(path: Path) -> str:

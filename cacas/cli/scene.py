@@ -5,7 +5,8 @@ from __future__ import annotations
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
 from cacas.cli.sound import (add_put_back, add_training_options, check_confusion_png, count, library_out,
-                             print_metrics, recognize_each, save_confusion, saved_model_id, say_kept, say_replaced)
+                             print_metrics, recognize_each, save_confusion, saved_model_id, say_generated, say_kept,
+                             say_replaced)
 from cacas.errors import CacasError
 from cacas.media_library import SYNTHETIC_IMAGE_SIDE
 from cacas.recognition import UNSURE_BELOW
@@ -76,8 +77,7 @@ def run_generate(args) -> int:
 
     with library_out(args.out, scenes_dir()) as root, ProgressBar() as bar:
         paths = generate_scenes(args.images, args.size, args.seed, root, progress=bar, replace=args.replace)
-    print(f"wrote {len(paths)} synthetic scene images of seed {args.seed} to {root} (an image already holding the same "
-          "picture is left as it is)")
+    say_generated(paths, "scene image", args.seed, root, "picture")
     say_replaced(paths, "image", "held another picture")
     return 0
 

@@ -169,10 +169,27 @@ def run_generate(args) -> int:
         paths = generate_library(args.clips, args.seconds, args.seed, root, progress=bar, fmt=args.format,
                                  replace=args.replace)
     n, size = library_clips(root)
-    print(f"{len(paths)} synthetic clips of seed {args.seed} in {root} (a clip already holding the same audio "
-          f"is left as it is; library now {n} clips, {size / 1e6:.1f} MB)")
+    say_generated(paths, "clip", args.seed, root, "audio", f"; library now {n} clips, {size / 1e6:.1f} MB")
     say_replaced(paths, "clip", "held other audio")
     return 0
+
+
+def say_generated(paths, item: str, seed: int, root, same: str, after: str = "") -> None:
+    """What a generate did, in one line: the files it wrote and those it left as they were, which already held
+    the ``same`` content (:class:`cacas.media_library.Generated`), then ``after``. The shipped library generated
+    again wrote nothing, and the line said "wrote 240 synthetic scene images" (docs run)."""
+    what = f"synthetic {item}"
+    kept = len(paths.unchanged)
+    if not kept:
+        line = f"wrote {count(paths.written, what)} of seed {seed} to {root}"
+    elif not paths.written:
+        line = (f"wrote no {item}: the {count(kept, what)} of seed {seed} {'is' if kept == 1 else 'are'} in {root} "
+                f"already, holding the same {same} (left as {'it is' if kept == 1 else 'they are'})")
+    else:
+        line = (f"wrote {count(paths.written, what)} of seed {seed} to {root}; {kept} more "
+                f"{'was' if kept == 1 else 'were'} there already, holding the same {same} "
+                f"(left as {'it is' if kept == 1 else 'they are'})")
+    print(line + after)
 
 
 def say_replaced(paths, item: str, other: str) -> None:

@@ -154,7 +154,7 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
     left as it is; one holding another (the shipped 128-px images, asked for 64-px ones of the same
     seed; an unreadable file) is replaced only with ``replace``, otherwise the run is refused
     (:func:`cacas.media_library.refuse_replacing`) and nothing is written. Returns the images'
-    paths, with those replaced (:class:`cacas.media_library.Generated`)."""
+    paths, with those replaced and those left as they were (:class:`cacas.media_library.Generated`)."""
     from cacas.vision import synth
 
     if images_per_scene < 1:
@@ -163,7 +163,7 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
     if not low <= size <= high:
         raise CacasError(f"image size must be between {low} and {high} pixels, got {size}")
     root = Path(root) if root is not None else scenes_dir()
-    written, replaced = [], []
+    written, replaced, unchanged = [], [], []
     total = len(spaces.SCENES) * images_per_scene
     # all placed at the end: stopped before, nothing is added
     with media_library.Staging(root, IMAGE_EXTENSIONS) as staging:
@@ -174,7 +174,9 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
                 path = folder / f"synthetic_{seed}_{k:03d}.jpg"
                 encoded = io.BytesIO()
                 img.save(encoded, format="JPEG", quality=85)
-                if not _same_picture(path, encoded.getvalue()):
+                if _same_picture(path, encoded.getvalue()):
+                    unchanged.append(path)
+                else:
                     if path.exists():
                         if not replace:
                             raise media_library.refuse_replacing(
@@ -186,7 +188,7 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
                 if progress:
                     progress(len(written) / total, f"{name}: image {k + 1}/{images_per_scene}")
         staging.place()
-    return media_library.Generated(written, replaced)
+    return media_library.Generated(written, replaced, unchanged=unchanged)
 
 
 def _same_picture(path: Path, encoded: bytes) -> bool:
