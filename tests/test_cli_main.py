@@ -140,6 +140,26 @@ def test_an_option_of_another_command_is_refused_naming_this_commands_options(ca
     assert not any(tmp_path.iterdir())  # nothing run
 
 
+def test_an_option_of_cacas_itself_after_a_command_is_refused_saying_where_it_goes(capsys, tmp_path):
+    """Docs run: `cacas simulate --personas x --out y --version` said "(did you mean --personas?)", the nearest
+    of simulate's options to "version" without its dashes; --version is cacas's own, given before a command."""
+    import pytest
+
+    from cacas.cli import main
+
+    for argv, said in ((["simulate", "--personas", "x.json", "--out", str(tmp_path), "--version"],
+                        "unrecognized arguments: --version; --version is an option of cacas itself, given before a "
+                        "command: cacas --version"),
+                       (["sound", "generate", "--out", str(tmp_path), "--sed", "1", "--version"],
+                        "unrecognized arguments: --sed 1 --version (did you mean --seed?); --version is an option of "
+                        "cacas itself, given before a command: cacas --version")):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+    assert not any(tmp_path.iterdir())  # nothing run
+
+
 def _help_pages():
     """(command words, parser) for ``cacas`` and every sub-command and action, at any depth."""
     import argparse

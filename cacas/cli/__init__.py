@@ -43,8 +43,11 @@ class _Parser(argparse.ArgumentParser):
             # one meant: "--quiet (did you mean --quiet?)"), compared without their dashes ("--out" for "--quiet")
             command = self._command_run()
             options = sorted(command._own_options() if command is not self else self._option_strings())
+            words = [word for word in message.split(": ", 1)[1].split() if word.startswith("--")]
+            # an option of cacas itself after a command ("cacas simulate ... --version" offered --personas)
+            own = [word for word in words if command is not self and word in self._own_options()]
             near = {word: difflib.get_close_matches(word[2:], [o[2:] for o in options], n=1, cutoff=0.6)
-                    for word in message.split(": ", 1)[1].split() if word.startswith("--")}
+                    for word in words if word not in own}
             said = {word: f"--{found[0]}" for word, found in near.items() if found}
             if len(said) == 1:
                 message += f" (did you mean {next(iter(said.values()))}?)"
@@ -53,6 +56,9 @@ class _Parser(argparse.ArgumentParser):
             unknown = [word for word, found in near.items() if not found]
             if unknown and command is not self:
                 message += f"; {command.prog} has no {', '.join(unknown)}; valid: {', '.join(options)}"
+            if own:
+                message += (f"; {', '.join(own)} {'is an option' if len(own) == 1 else 'are options'} of {self.prog} "
+                            f"itself, given before a command: {self.prog} {' '.join(own)}")
         self.exit(2, f"cacas: error: {message}\n")
 
     def parse_args(self, args=None, namespace=None):
