@@ -362,6 +362,48 @@ CONNECTION_STYLE = """
            "then reload this page."; }
 """
 
+#: An element whose code did not load: Streamlit loads most elements' code when a page first draws one (a multi-choice
+#: field's, a button's), and a fetch that failed (the lab's Wi-Fi dropped, the server restarted, while the page
+#: loaded) left the element as "TypeError: Failed to fetch dynamically imported module: http://.../Multiselect....js"
+#: in a red box for the page's life: the browser keeps a module that failed, so no rerun draws it (seen: the
+#: Participants page's preference fields, all of them). A reload does. On the researcher's pages a band at the top
+#: says so (Streamlit's box for an element it could not draw holds a stack, ``stErrorElementStack``, an st.error
+#: none); they are not reloaded for them, which would lose a form's unsaved changes. The tablet reloads itself
+#: (:data:`TABLET_RELOAD_SCRIPT`). Under the connection band while both show: the connection comes first.
+BROKEN_ELEMENT_STYLE = """
+:root:has([data-testid='stErrorElementStack']) [data-testid='stApp']::before {
+  content: "Part of this page could not be drawn: its code did not load (the connection dropped, or the server "
+           "restarted, while the page loaded).\\A Reload the page (F5) to draw it again; changes not yet saved on a "
+           "form are lost then.";
+  position: fixed; top: 0; left: 0; right: 0; z-index: 1000090; padding: 0.9rem 1.5rem; white-space: pre-line;
+  font-size: 1rem; line-height: 1.5; color: #262730; background: #fff3cd; border-bottom: 2px solid #e0a800;
+  box-shadow: 0 0.25rem 0.75rem rgba(0, 0, 0, 0.15); animation: cacas-appear 0.3s ease-in both; }
+"""
+
+#: The tablet reloads itself when an element's code did not load (:data:`BROKEN_ELEMENT_STYLE`): its answers or
+#: its context form would stay red boxes that a participant can do nothing with. Once connected again (a reload
+#: meanwhile would fail too), at most 3 times in 10 minutes a tab (an element that fails for another reason is not
+#: reloaded for ever; the tablet then says to tell the researcher, :data:`TABLET_STYLE`). The page comes back from
+#: its address (the proposal's context and interaction mark), as after any reload. Drawn after the page (its
+#: element is hidden once drawn; Streamlit's placeholder while it loads its code would push the page down).
+TABLET_RELOAD_SCRIPT = """
+<style>.stElementContainer:has(> [data-testid='stHtml'] script) { display: none; }</style>
+<script>
+if (!window.cacasReloadsBrokenElements) {
+  window.cacasReloadsBrokenElements = true;
+  setInterval(() => {
+    const app = document.querySelector("[data-testid='stApp']");
+    if (!app || app.getAttribute('data-test-connection-state') !== 'CONNECTED') return;
+    if (!document.querySelector("[data-testid='stErrorElementStack']")) return;
+    const now = Date.now();
+    const recent = JSON.parse(sessionStorage.getItem('cacasReloads') || '[]').filter(t => now - t < 600000);
+    if (recent.length >= 3) return;
+    sessionStorage.setItem('cacasReloads', JSON.stringify([...recent, now]));
+    location.reload();
+  }, 1000);
+}
+</script>"""
+
 #: A page link tapped in the sidebar where the sidebar lies over the page (a phone, a tablet upright: Streamlit draws
 #: it over the page below 768 px) closes the sidebar, as Streamlit's own navigation does there: the links are ours
 #: (``_page_links``, to carry the address), and Streamlit's page link leaves the sidebar open, so the page opened
@@ -427,6 +469,12 @@ TABLET_STYLE = """
   white-space: pre-line; position: fixed; inset: 0; z-index: 1000100; display: flex; align-items: center;
   justify-content: center; padding: 2rem; text-align: center; font-size: 1.4rem; line-height: 1.6; color: #262730;
   background: rgba(250, 250, 250, 0.96); animation: cacas-appear 0.3s ease-in 1s both; }
+/* an element whose code did not load, the tablet's reloads spent (TABLET_RELOAD_SCRIPT): words, not red boxes */
+:root:has([data-testid='stErrorElementStack']) [data-testid='stApp']::before {
+  content: "Part of this screen did not load.\\A Please tell the researcher.";
+  white-space: pre-line; position: fixed; inset: 0; z-index: 1000090; display: flex; align-items: center;
+  justify-content: center; padding: 2rem; text-align: center; font-size: 1.4rem; line-height: 1.6; color: #262730;
+  background: rgba(250, 250, 250, 0.96); animation: cacas-appear 0.3s ease-in 5s both; }
 [data-testid='stMain'] [data-testid='stCaptionContainer'], [data-testid='stMain'] [data-testid='stCaptionContainer'] p,
 [data-testid='stMain'] [data-testid='stProgress'] p { font-size: 0.95rem; }
 [data-testid='stMain'] [data-testid='stChatMessage'] p { font-size: 1.35rem; line-height: 1.4; }
@@ -462,7 +510,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
-        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}{CONNECTION_STYLE}</style>")
+        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}{CONNECTION_STYLE}{BROKEN_ELEMENT_STYLE}</style>")
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()
@@ -474,7 +522,11 @@ def _route(store) -> None:
     ui.set_address(**address)
     ui.click_not_done()  # a click whose callback met a busy or unreadable database, said above the page
     ui.routed()
-    page.run()
+    try:
+        page.run()
+    finally:  # also after the page's st.stop()
+        if ui.tablet_mode():
+            st.html(TABLET_RELOAD_SCRIPT, unsafe_allow_javascript=True)
 
 
 # A Simulation lab worker process imports this script, the server's __main__, when it starts
