@@ -11,7 +11,7 @@ from cacas.errors import AlreadyAdapted, CacasError
 from cacas.jobs import DONE, FAILED, RUNNER
 from cacas.on_tablet import Shown, board_name
 from cacas.study_day import (STUDY_DAYS, TARGET_INTERACTIONS, adapt_day, day_status, in_force_words,
-                             saved_policy, unfinished_adaptation)
+                             unfinished_adaptation)
 from pages import ui
 
 ui.require_app()
@@ -25,13 +25,6 @@ st.caption("After each study day the robot's policy is adapted from all of the p
            "far: the user model (UMA, Table II), the MLP policy and SAC against the decision model, combined "
            "by policy reshaping (Eq. 5). The participant's described preferences are never used for this; "
            "they only score the new policy afterwards (Fig. 4).")
-
-
-@st.cache_resource(show_spinner=False, max_entries=32)
-def _load(db_path: str, who: str, version: int, sha256: str):
-    """A saved policy version (checked against its sha256 by the store); the sha256 is part of the key:
-    a code given to a new participant after a removal starts again at version 1."""
-    return saved_policy(ui.store(), who, version)
 
 
 @st.cache_resource(show_spinner=False)
@@ -225,8 +218,9 @@ else:
     data = store.interactions_frame(code, method=None)
     try:
         sha = {v.version: v.sha256 for v in versions}
-        p_before = _initial() if before == 0 else _load(db, code, before, sha[before])
-        p_after = _initial() if after == 0 else _load(db, code, after, sha[after])
+        # the tablet's cache (ui.policy_version): a version both use is in memory once
+        p_before = _initial() if before == 0 else ui.policy_version(db, code, before, sha[before])[0]
+        p_after = _initial() if after == 0 else ui.policy_version(db, code, after, sha[after])[0]
         changes = policy_changes(p_before, p_after, data)
     except CacasError as exc:
         st.error(str(exc))

@@ -22,7 +22,7 @@ from cacas.on_tablet import Asked, Shown, board_name
 from cacas.recognition import Recognition
 from cacas.store.db import WriteRefused
 from cacas.study_day import (ANSWERS, STUDY_DAYS, TARGET_INTERACTIONS, Context, answer, clip_for, day_of, day_status,
-                             initial_policy_ready, is_same_answer, policy_of_version, prepare_initial_policy,
+                             initial_policy_ready, is_same_answer, prepare_initial_policy,
                              previous_interaction, propose, proposal_draws, recorded_answer,
                              request_accepts_proposal, start_day, waiting_for_preferences)
 from pages import ui
@@ -34,22 +34,7 @@ code = ui.need_participant()
 tablet = ui.tablet_mode()
 
 
-# --- cached resources (one per server process) -----------------------------------------------------
-
-#: The policies :func:`_policy` keeps at a time, the latest used: a participant's every study day adds a version,
-#: and every version a tablet had used stayed in the server's memory (~1.7 MB each: 56 after 8 participants x 7
-#: days, 336 for 24 x 14; ``scripts/bench_long_run.py``). 32 tablets' policies in force fit, as do Adaptation's
-#: versions (its ``_load``); one dropped is read again at the next proposal (~35 ms).
-POLICIES_KEPT = 32
-
-
-@st.cache_resource(show_spinner=False, max_entries=POLICIES_KEPT)
-def _policy(db: str, who: str, version: int | None, sha256: str | None):
-    """The participant's policy ``version`` (None: the initial policy); the checkpoint's sha256 is part of the
-    key too (a code given to a new participant after a removal starts again at version 1). The latest
-    :data:`POLICIES_KEPT` used are kept."""
-    return policy_of_version(ui.store(), who, version)
-
+# --- cached resources (one per server process; the policies': ui.policy_version) ---------------------------
 
 board, db = ui.tablet_board(), ui.db_path()
 #: the participant as the board names them: a new participant given a removed one's code is someone else
@@ -576,7 +561,7 @@ else:
             # "in force from the next interaction", and the robot's line stays the one the participant is answering
             held_version, held_sha256 = board.policy_for(db, who, day, index, context.to_token(),
                                                          (in_force.version, in_force.sha256) if in_force else (None, None))
-            policy, version = _policy(ui.db_path(), code, held_version, held_sha256)
+            policy, version = ui.policy_version(ui.db_path(), code, held_version, held_sha256)
     except CacasError as exc:
         st.error(f"The robot's policy cannot be loaded ({exc}). The researcher can put another version in force "
                  "on the Adaptation page.", icon=":material/error:")

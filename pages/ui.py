@@ -298,6 +298,25 @@ def _saved_recognizer(kind: str, stamp: float):
     return lab.load_recognizer(kind)
 
 
+#: The policies :func:`policy_version` keeps at a time, the latest used: a participant's every study day adds a
+#: version, and every version a tablet had used stayed in the server's memory (~1.7 MB each: 56 after 8 participants
+#: x 7 days, 336 for 24 x 14; ``scripts/bench_long_run.py``). 32 tablets' policies in force fit, or the Adaptation
+#: page's versions beside them; one dropped is read again when next used (~35 ms).
+POLICIES_KEPT = 32
+
+
+@st.cache_resource(show_spinner=False, max_entries=POLICIES_KEPT)
+def policy_version(db: str, who: str, version: int | None, sha256: str | None):
+    """(policy, version): the participant's policy ``version`` (None: the initial policy), for the tablet's
+    proposals (Study session) and the Adaptation page's comparison of two versions alike: one cache, so a version
+    both use is in memory once (each page kept its own, 32 each: up to 64 policies, ~110 MB, the long-run
+    benchmark's count). The checkpoint's sha256 is part of the key (a code given to a new participant after a
+    removal starts again at version 1). The latest :data:`POLICIES_KEPT` used are kept."""
+    from cacas.study_day import policy_of_version
+
+    return policy_of_version(store(), who, version)
+
+
 def recognizer(kind: str):
     """The saved sound or scene model, loaded once per file version (reloaded when retrained),
     or None when there is none or it cannot be read. The replaced version is dropped from memory

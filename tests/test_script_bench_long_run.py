@@ -30,4 +30,4 @@ def test_the_long_run_benchmark_prints_a_row_a_day_from_the_servers_probe(tmp_pa
     # the probe answered from inside the server: its memory, its open study database, the tablet's policy cached
     assert day["rss_mb"] > 100 and day["fds"] > 0 and day["db_fds"].split("/")[0] != "0"
     caches = json.loads(samples.read_text())["samples"][-1][1]["caches"]
-    assert caches["resource:__main__._policy"] >= 1
+    assert caches["resource:pages.ui.policy_version"] >= 1

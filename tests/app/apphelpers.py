@@ -55,7 +55,7 @@ def open_expander(at: AppTest, key: str, opened: bool = True) -> AppTest:
 
 def cache_of(name: str):
     """The ``st.cache_resource`` or ``st.cache_data`` cache of the function ``name`` (as Streamlit names it:
-    ``__main__._policy`` for a page's ``_policy``, ``pages.ui.recognizer``...), once it has been called; None
+    ``__main__._library_files`` for a page's ``_library_files``, ``pages.ui.recognizer``...), once it has been called; None
     before. Streamlit keeps a cache per function, process-wide, as a server does for its sessions."""
     from streamlit.runtime.caching import cache_data_api, cache_resource_api
 

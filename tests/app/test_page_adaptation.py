@@ -7,7 +7,7 @@ from cacas.adaptation import preference_accuracy, preferences_learnt
 from cacas.jobs import RUNNER
 from cacas.policy import policy_from_bytes
 
-from apphelpers import no_exception, texts
+from apphelpers import cache_of, no_exception, texts
 from studies import answered_day, cough_day
 
 PAGE = "pages/adaptation.py"
@@ -288,6 +288,33 @@ def test_a_day_of_about_15_interactions_closes_without_asking(app, store, quick_
     at = app(PAGE, participant="P01")
     no_exception(at)
     assert not _button(at, f"Close day {day} and adapt").disabled and not at.checkbox
+
+
+def test_the_adaptation_page_and_the_tablet_keep_a_policy_version_in_one_cache(app, store, quick_policy):
+    """The Adaptation page's comparison and the tablet's proposals each kept a cache of policies of their own (32
+    each): a version both used was in memory twice, and the two held up to 64 policies (~110 MB, the long-run
+    benchmark's count). One cache now (pages.ui.policy_version), bounded."""
+    from pages import ui
+    from test_page_session import PAGE as SESSION, _choose
+
+    ui.policy_version.clear()
+    day = _day_with_interactions(store)
+    store.close_day("P01", day)
+    for _ in range(2):
+        store.save_policy("P01", day, "cacas", quick_policy.to_bytes())  # versions 1 and 2 (in force)
+    at = app(PAGE, participant="P01")
+    no_exception(at)
+    assert [next(s for s in at.selectbox if s.label == label).value for label in ("Before", "After")] == [1, 2]
+    cache = cache_of("pages.ui.policy_version")
+    assert cache is not None and len(cache._mem_cache) == 2 and cache.max_entries == ui.POLICIES_KEPT
+    assert cache_of("__main__._load") is None  # the page's own, gone
+    tablet = app(SESSION, participant="P01")
+    _button(tablet, "Start day 2").click().run()
+    _choose(tablet)  # a proposal of version 2, the one in force
+    assert len(tablet.chat_message) == 1
+    _button(tablet, "Accept").click().run()
+    assert store.interactions_frame("P01", method=None, extra=True).iloc[-1]["policy_version"] == 2
+    assert len(cache._mem_cache) == 2  # version 2 again, not a second copy
 
 
 def test_what_changed_uses_the_policy_of_the_participant_who_has_the_code_now(app, store, quick_policy):

@@ -1294,6 +1294,6 @@ def test_the_tablets_policies_are_cached_a_bounded_number_at_a_time(app, store, 
     at = app(PAGE, participant="P01")
     _button(at, "Start day 1").click().run()
     _choose(at)
-    cache = cache_of("__main__._policy")
+    cache = cache_of("pages.ui.policy_version")
     assert cache is not None and len(cache._mem_cache) == 1  # the proposal's policy, cached
     assert cache.max_entries <= 32
