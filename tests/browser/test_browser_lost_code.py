@@ -12,10 +12,9 @@ import re
 
 import pytest
 
-from cacas.store import StudyStore
-from conftest import _run_app, open_page
+from conftest import open_page
 from test_browser_mini_study import goto
-from test_browser_tablet_waits import on_day_1
+from test_browser_tablet_waits import waiting_server  # noqa: F401 (a fixture: this module's own server)
 
 pytestmark = pytest.mark.browser
 
@@ -26,13 +25,9 @@ SAID = "() => getComputedStyle(document.querySelector(\"[data-testid='stApp']\")
 
 
 @pytest.fixture(scope="module")
-def day_server(tmp_path_factory):
-    """The app over P01, on day 1 (an open day: the tablet asks for the context)."""
-    tmp = tmp_path_factory.mktemp("lost-code")
-    db = tmp / "study.sqlite"
-    with StudyStore(db) as s:
-        on_day_1(s, "P01", closed=False)
-    yield from _run_app(tmp, CACAS_DB=str(db))
+def day_server(waiting_server):
+    """The app (a server of this module's) over P02, on day 1: an open day, whose tablet asks for the context."""
+    return waiting_server[1]
 
 
 def fail_fetches(page, chunks: str, times: int | None = None) -> list[str]:
@@ -56,13 +51,13 @@ def test_a_researchers_page_says_that_part_of_it_did_not_load_and_to_reload_it(b
     page.set_default_timeout(60_000)
     try:
         failed = fail_fetches(page, "Multiselect")
-        goto(page, f"{day_server}/participants?participant=P01")
+        goto(page, f"{day_server}/participants?participant=P02")
         page.wait_for_selector(BROKEN, state="attached")
         assert failed and page.locator("[data-testid=stMultiSelect]").count() == 0
         page.wait_for_timeout(1500)  # a rerun (a tab's) draws them no better, and the page is not reloaded
         page.evaluate("() => { window.cacasStillHere = true; }")
-        page.get_by_role("tab", name="Details of P01").click()
-        page.get_by_role("tab", name="Preferences of P01").click()
+        page.get_by_role("tab", name="Details of P02").click()
+        page.get_by_role("tab", name="Preferences of P02").click()
         page.wait_for_timeout(2500)
         assert page.evaluate("() => window.cacasStillHere === true")  # a form's changes are not lost unasked
         said = page.evaluate(SAID)
@@ -79,7 +74,7 @@ def test_a_page_drawn_whole_says_nothing(browser, day_server):
     page = open_page(browser, viewport={"width": 1280, "height": 800})
     page.set_default_timeout(60_000)
     try:
-        goto(page, f"{day_server}/participants?participant=P01")
+        goto(page, f"{day_server}/participants?participant=P02")
         assert page.locator("[data-testid=stMultiSelect]").count() > 0
         assert page.evaluate(SAID) == "none"
     finally:
@@ -93,7 +88,7 @@ def test_the_tablet_reloads_itself_when_part_of_it_did_not_load(browser, day_ser
     page.set_default_timeout(60_000)
     try:
         failed = fail_fetches(page, "Button|ButtonGroup", times=1)
-        page.goto(f"{day_server}/?participant=P01&view=tablet")
+        page.goto(f"{day_server}/?participant=P02&view=tablet")
         page.wait_for_function("() => JSON.parse(sessionStorage.getItem('cacasReloads') || '[]').length === 1")
         goto(page, page.url)  # the page after its reload (goto waits for its run and its styles)
         page.get_by_role("button", name="Do it").wait_for()
@@ -109,7 +104,7 @@ def test_a_tablet_whose_code_never_loads_is_not_reloaded_for_ever_and_says_to_te
     page.set_default_timeout(60_000)
     try:
         fail_fetches(page, "Button|ButtonGroup")
-        page.goto(f"{day_server}/?participant=P01&view=tablet")
+        page.goto(f"{day_server}/?participant=P02&view=tablet")
         page.wait_for_function("() => JSON.parse(sessionStorage.getItem('cacasReloads') || '[]').length === 3")
         page.wait_for_selector(BROKEN, state="attached")
         page.evaluate("() => { window.cacasStillHere = true; }")
