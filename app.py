@@ -322,7 +322,8 @@ APP_STYLE = """
 #: the page links 28 px high (the Overview's "Open the study session" too), a chosen option's "x" in a multi-choice
 #: field 15 x 7 (now its chip's height, 28, and 34 wide: an unseen box around it, inside the chip), buttons and tabs
 #: 40 px high (Results' "Tables" tab 38 wide), an expander's heading 38, a choice of buttons (Results' data, Fig. 4's
-#: "Methods on one day") 32.
+#: "Methods on one day") 32, a number's "-" and "+" 32 x 38 (Participants' "Preferences on the form"; the field's
+#: look unchanged: the buttons reach 5 px below its edge, unseen).
 TOUCH_STYLE = """
 @media (pointer: coarse) {
   [data-testid='stExpandSidebarButton'], [data-testid='stSidebarCollapseButton'] button {
@@ -332,6 +333,7 @@ TOUCH_STYLE = """
     [data-testid='stButtonGroup'] button) { min-height: 2.75rem; }
   [data-testid='stMain'] [data-testid='stTab'] { min-height: 2.75rem; min-width: 2.75rem; flex-shrink: 0; }
   [data-testid='stMain'] [data-testid='stExpander'] summary { min-height: 2.75rem; }
+  [data-testid^='stNumberInputStep'] { min-width: 2.75rem; min-height: 2.75rem; }
   [data-testid='stMultiSelect'] button[aria-label^='Remove'] { position: relative; }
   [data-testid='stMultiSelect'] button[aria-label^='Remove']::after {
     content: ''; position: absolute; inset: -1.1rem -0.6rem; }

@@ -201,7 +201,8 @@ TARGETS_JS = """() => {
   const kinds = {open: "[data-testid=stExpandSidebarButton]", close: "[data-testid=stSidebarCollapseButton] button",
                  link: "[data-testid=stPageLink-NavLink]", tab: "[data-testid=stMain] [data-testid=stTab]",
                  choice: "[data-testid=stMain] [data-testid=stButtonGroup] button",
-                 button: "[data-testid=stMain] button[data-testid^=stBaseButton]"};
+                 button: "[data-testid=stMain] button[data-testid^=stBaseButton]",
+                 stepper: "[data-testid=stMain] [data-testid^=stNumberInputStep]"};
   // Streamlit's table toolbar (its icons 24 px wide, in a row 44 high on a touch screen) is not counted
   const least = {};
   for (const [kind, selector] of Object.entries(kinds)) {
@@ -235,7 +236,8 @@ SIDEBAR_OPEN_JS = "() => document.querySelector('[data-testid=stSidebar]').getBo
 
 def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(browser, study_server):
     """At 390 x 844 with touch the sidebar's open and close buttons were 28 x 28, its page links 28 px high, buttons
-    and tabs 40, Results' choice of data 32 (app.TOUCH_STYLE: 44 at least, WCAG 2.5.5); and a page link tapped in the
+    and tabs 40, Results' choice of data 32, a number's "-" and "+" 32 x 38 (Participants' "Preferences on the form")
+    (app.TOUCH_STYLE: 44 at least, WCAG 2.5.5); and a page link tapped in the
     sidebar, which lies over the page there, left it open over the page it opened (app.CLOSE_SIDEBAR_SCRIPT)."""
     from test_browser_mini_study import ran, runs
 
@@ -261,13 +263,13 @@ def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(b
         sizes.update({k: v for k, v in page.evaluate(TARGETS_JS).items() if k in ("tab", "choice")})
         goto(page, f"{study_server}/participants?participant=P01")  # "Save preferences", "Add a participant"
         page.wait_for_selector("[data-testid=stMain] button[data-testid=stBaseButton-primary]")
-        sizes["button"] = page.evaluate(TARGETS_JS)["button"]
+        sizes.update({k: v for k, v in page.evaluate(TARGETS_JS).items() if k in ("button", "stepper")})
         # four tabs, wider together than the phone: each whole, beside the next (a least width alone let them shrink
         # into one another, "Preferences of P01Details of P01"), the rest a swipe away as before
         tabs = page.evaluate(TABS_JS)
         assert len(tabs) == 4 and all(t["whole"] for t in tabs), tabs
         assert all(a["right"] <= b["left"] for a, b in zip(tabs, tabs[1:])), tabs
-        assert set(sizes) >= {"open", "close", "link", "tab", "choice", "button"}, sizes
+        assert set(sizes) >= {"open", "close", "link", "tab", "choice", "button", "stepper"}, sizes
         assert {k: v for k, v in sizes.items() if min(v) < 44} == {}, sizes
     finally:
         page.context.close()
