@@ -346,12 +346,21 @@ TOUCH_STYLE = """
 #: what it is and what to do, in the app's words, the page left readable under it (after a second: a blink of the
 #: network says nothing); Streamlit's dialog is not shown meanwhile, and it closes it itself once reconnected. The
 #: participant's tablet says it in its own words (:data:`TABLET_STYLE`).
+#: An element whose code did not load: Streamlit loads most elements' code when a page first draws one (a multi-choice
+#: field's, a button's), and a fetch that failed (the lab's Wi-Fi dropped, the server restarted, while the page
+#: loaded) left the element as "TypeError: Failed to fetch dynamically imported module: http://.../Multiselect....js"
+#: in a red box for the page's life: the browser keeps a module that failed, so no rerun draws it (seen: the
+#: Participants page's preference fields, all of them). A reload does. A band of the same look says so at once
+#: (Streamlit's box for an element it could not draw holds a stack, ``stErrorElementStack``, an st.error none); the
+#: researcher's pages are not reloaded for it, which would lose a form's unsaved changes (the tablet reloads itself,
+#: :data:`TABLET_RELOAD_SCRIPT`). Under the connection band while both show: the connection comes first.
 CONNECTION_STYLE = """
 :root:has([data-testid='stApp']:is([data-test-connection-state='PINGING_SERVER'],
                                    [data-test-connection-state='DISCONNECTED_FOREVER'])) [data-testid='stDialog'] {
   display: none !important; }
 [data-testid='stApp'][data-test-connection-state='PINGING_SERVER']::after,
-[data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
+[data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after,
+:root:has([data-testid='stErrorElementStack']) [data-testid='stApp']::before {
   position: fixed; top: 0; left: 0; right: 0; z-index: 1000100; padding: 0.9rem 1.5rem; white-space: pre-line;
   font-size: 1rem; line-height: 1.5; color: #262730; background: #fff3cd; border-bottom: 2px solid #e0a800;
   box-shadow: 0 0.25rem 0.75rem rgba(0, 0, 0, 0.15); animation: cacas-appear 0.3s ease-in 1s both; }
@@ -362,27 +371,14 @@ CONNECTION_STYLE = """
 [data-testid='stApp'][data-test-connection-state='DISCONNECTED_FOREVER']::after {
   content: "CACAS Studio's server did not come back. Start it again in its terminal (streamlit run app.py), "
            "then reload this page."; }
-"""
-
-#: An element whose code did not load: Streamlit loads most elements' code when a page first draws one (a multi-choice
-#: field's, a button's), and a fetch that failed (the lab's Wi-Fi dropped, the server restarted, while the page
-#: loaded) left the element as "TypeError: Failed to fetch dynamically imported module: http://.../Multiselect....js"
-#: in a red box for the page's life: the browser keeps a module that failed, so no rerun draws it (seen: the
-#: Participants page's preference fields, all of them). A reload does. On the researcher's pages a band at the top
-#: says so (Streamlit's box for an element it could not draw holds a stack, ``stErrorElementStack``, an st.error
-#: none); they are not reloaded for them, which would lose a form's unsaved changes. The tablet reloads itself
-#: (:data:`TABLET_RELOAD_SCRIPT`). Under the connection band while both show: the connection comes first.
-BROKEN_ELEMENT_STYLE = """
 :root:has([data-testid='stErrorElementStack']) [data-testid='stApp']::before {
   content: "Part of this page could not be drawn: its code did not load (the connection dropped, or the server "
            "restarted, while the page loaded).\\A Reload the page (F5) to draw it again; changes not yet saved on a "
            "form are lost then.";
-  position: fixed; top: 0; left: 0; right: 0; z-index: 1000090; padding: 0.9rem 1.5rem; white-space: pre-line;
-  font-size: 1rem; line-height: 1.5; color: #262730; background: #fff3cd; border-bottom: 2px solid #e0a800;
-  box-shadow: 0 0.25rem 0.75rem rgba(0, 0, 0, 0.15); animation: cacas-appear 0.3s ease-in both; }
+  z-index: 1000090; animation-delay: 0s; }
 """
 
-#: The tablet reloads itself when an element's code did not load (:data:`BROKEN_ELEMENT_STYLE`): its answers or
+#: The tablet reloads itself when an element's code did not load (:data:`CONNECTION_STYLE`): its answers or
 #: its context form would stay red boxes that a participant can do nothing with. Once connected again (a reload
 #: meanwhile would fail too), at most 3 times in 10 minutes a tab (an element that fails for another reason is not
 #: reloaded for ever; the tablet then says to tell the researcher, :data:`TABLET_STYLE`). The page comes back from
@@ -512,7 +508,7 @@ def _route(store) -> None:
                              position="hidden")
         address = _address(store)
     else:
-        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}{CONNECTION_STYLE}{BROKEN_ELEMENT_STYLE}</style>")
+        st.html(f"<style>{APP_STYLE}{TOUCH_STYLE}{CONNECTION_STYLE}</style>")
         page = st.navigation(_navigation(), position="hidden")  # the sidebar draws the links itself
         address = _sidebar(store, page)
         problem = study_data_problem()

@@ -1,9 +1,9 @@
 """An element whose code did not load. Streamlit loads most elements' code when a page first draws one, and a fetch
 that failed (the lab's Wi-Fi dropped, the server restarted, while the page loaded) left the element as a red box,
 "TypeError: Failed to fetch dynamically imported module: .../Multiselect....js", for the page's life: the browser
-keeps a module that failed, and no rerun drew it. The researcher's page says so and what to do (app.BROKEN_ELEMENT_
-STYLE); the participant's tablet reloads itself (app.TABLET_RELOAD_SCRIPT). Here the fetches fail by Playwright's
-routing: the first one of a chunk, or every one."""
+keeps a module that failed, and no rerun drew it. The researcher's page says so and what to do (app.CONNECTION_STYLE);
+the participant's tablet reloads itself (app.TABLET_RELOAD_SCRIPT). Here the fetches fail by Playwright's routing:
+the first one of a chunk, or every one."""
 
 from __future__ import annotations
 
