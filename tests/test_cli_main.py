@@ -94,13 +94,21 @@ def test_a_missing_command_or_action_is_one_line_naming_the_valid_ones(capsys):
         assert "the following arguments are required" in err and f"; valid: {valid}" in err, err
 
 
-def test_an_abbreviated_or_misspelt_option_is_refused_naming_the_full_one(capsys, tmp_path):
-    """CLI audit: `--day 1` was taken as `--days 1` (argparse's abbreviations): a script would change its
-    meaning once an option that the abbreviation also fits is added. Refused, one line, the nearest named."""
+def _refused(argv, said: str, capsys) -> None:
+    """``cacas argv`` exits 2 with one line on stderr: "cacas: error: " and ``said``."""
     import pytest
 
     from cacas.cli import main
 
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    err = capsys.readouterr().err
+    assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+
+
+def test_an_abbreviated_or_misspelt_option_is_refused_naming_the_full_one(capsys, tmp_path):
+    """CLI audit: `--day 1` was taken as `--days 1` (argparse's abbreviations): a script would change its
+    meaning once an option that the abbreviation also fits is added. Refused, one line, the nearest named."""
     personas = "study_data/personas/example.json"
     for argv, said in ((["simulate", "--personas", personas, "--out", str(tmp_path), "--day", "1"],
                         "unrecognized arguments: --day 1 (did you mean --days?)"),
@@ -108,10 +116,7 @@ def test_an_abbreviated_or_misspelt_option_is_refused_naming_the_full_one(capsys
                         "unrecognized arguments: --day 1 --sed 3 (did you mean --days for --day, --seed for --sed?)"),
                        (["export", "--db", "x.sqlite", "--out", str(tmp_path), "--tables"],
                         "unrecognized arguments: --tables (did you mean --tables-only?)")):
-        with pytest.raises(SystemExit) as exc:
-            main(argv)
-        err = capsys.readouterr().err
-        assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+        _refused(argv, said, capsys)
     assert not any(tmp_path.iterdir())  # nothing run
 
 
@@ -120,10 +125,6 @@ def test_an_option_of_another_command_is_refused_naming_this_commands_options(ca
     nearest option was looked for among every command's (`--quiet` is `sound train`'s), so an option of
     another command was offered as the one meant. Now the command run is searched, and where it has
     nothing near, the message names its options."""
-    import pytest
-
-    from cacas.cli import main
-
     for argv, said in ((["sound", "generate", "--out", str(tmp_path), "--quiet"],
                         "unrecognized arguments: --quiet; cacas sound generate has no --quiet; valid: --clips, "
                         "--format, --out, --replace, --seconds, --seed"),
@@ -133,30 +134,20 @@ def test_an_option_of_another_command_is_refused_naming_this_commands_options(ca
                        (["export", "--db", "x.sqlite", "--out", str(tmp_path), "--seed", "3", "--tables"],
                         "unrecognized arguments: --seed 3 --tables (did you mean --tables-only?); cacas export has "
                         "no --seed; valid: --db, --out, --study, --tables-only")):
-        with pytest.raises(SystemExit) as exc:
-            main(argv)
-        err = capsys.readouterr().err
-        assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+        _refused(argv, said, capsys)
     assert not any(tmp_path.iterdir())  # nothing run
 
 
 def test_an_option_of_cacas_itself_after_a_command_is_refused_saying_where_it_goes(capsys, tmp_path):
     """Docs run: `cacas simulate --personas x --out y --version` said "(did you mean --personas?)", the nearest
     of simulate's options to "version" without its dashes; --version is cacas's own, given before a command."""
-    import pytest
-
-    from cacas.cli import main
-
     for argv, said in ((["simulate", "--personas", "x.json", "--out", str(tmp_path), "--version"],
                         "unrecognized arguments: --version; --version is an option of cacas itself, given before a "
                         "command: cacas --version"),
                        (["sound", "generate", "--out", str(tmp_path), "--sed", "1", "--version"],
                         "unrecognized arguments: --sed 1 --version (did you mean --seed?); --version is an option of "
                         "cacas itself, given before a command: cacas --version")):
-        with pytest.raises(SystemExit) as exc:
-            main(argv)
-        err = capsys.readouterr().err
-        assert exc.value.code == 2 and err == f"cacas: error: {said}\n", err
+        _refused(argv, said, capsys)
     assert not any(tmp_path.iterdir())  # nothing run
 
 
