@@ -3,12 +3,15 @@ headless Chromium with Playwright (design.md: ``playwright install`` cannot down
 
 from __future__ import annotations
 
+import json
 import math
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -31,18 +34,82 @@ def initial_policy():
     return load_initial_policy()
 
 
+class ForkedServer:
+    """A Streamlit server forked by the tests' zygote (server_zygote.py), driven as a ``subprocess.Popen``: polled,
+    terminated, waited for and killed by its pid (the zygote's child: the system reaps it once it ends)."""
+
+    def __init__(self, pid: int):
+        self.pid = pid
+
+    def poll(self) -> int | None:
+        try:
+            os.kill(self.pid, 0)
+        except ProcessLookupError:
+            return 0
+        return None
+
+    def terminate(self) -> None:
+        self._signal(signal.SIGTERM)
+
+    def kill(self) -> None:
+        self._signal(signal.SIGKILL)
+
+    def _signal(self, sig: int) -> None:
+        try:
+            os.kill(self.pid, sig)
+        except ProcessLookupError:
+            pass
+
+    def wait(self, timeout: float) -> int:
+        deadline = time.monotonic() + timeout
+        while self.poll() is None:
+            if time.monotonic() > deadline:
+                raise subprocess.TimeoutExpired(f"server {self.pid}", timeout)
+            time.sleep(0.05)
+        return 0
+
+
+#: this test process's zygote (server_zygote.py), started by the first server a test needs, ended with the session
+_ZYGOTE: list[subprocess.Popen] = []
+
+
+def _zygote() -> subprocess.Popen:
+    if _ZYGOTE and _ZYGOTE[0].poll() is None:
+        return _ZYGOTE[0]
+    _ZYGOTE.clear()
+    zygote = subprocess.Popen([sys.executable, "-u", str(Path(__file__).with_name("server_zygote.py"))], cwd=ROOT,
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    if json.loads(zygote.stdout.readline() or "{}").get("ready") is not True:
+        raise RuntimeError(f"the browser tests' server zygote did not start (exit {zygote.wait()}): its error above")
+    _ZYGOTE.append(zygote)
+    return zygote
+
+
+def pytest_sessionfinish(session):
+    for zygote in _ZYGOTE:
+        zygote.stdin.close()  # it ends at the end of its input
+        zygote.wait(10)
+
+
+class ServedURL(str):
+    """A server's base URL, with its process id (``pid``; the forked server's command line is the zygote's)."""
+
+    pid: int
+
+
 def _run_app(tmp: Path, port: int | None = None, **env):
-    """``streamlit run app.py`` on ``port`` (default a free one) with ``env`` added; yields its base
-    URL, then stops it."""
+    """``streamlit run app.py`` on ``port`` (default a free one) with ``env`` added, forked by the zygote
+    (server_zygote.py: the heavy imports done once); yields its base URL (a :class:`ServedURL`), then stops it."""
     port = port or free_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", **env)
-    log = open(tmp / "streamlit.log", "w")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "streamlit", "run", "app.py", "--server.port", str(port),
-         "--server.headless", "true", "--server.address", "127.0.0.1", "--browser.gatherUsageStats", "false",
-         "--server.fileWatcherType", "none"],
-        cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
-    base = f"http://127.0.0.1:{port}"
+    argv = ["run", "app.py", "--server.port", str(port), "--server.headless", "true", "--server.address", "127.0.0.1",
+            "--browser.gatherUsageStats", "false", "--server.fileWatcherType", "none"]
+    zygote = _zygote()
+    zygote.stdin.write(json.dumps({"argv": argv, "env": env, "log": str(tmp / "streamlit.log")}) + "\n")
+    zygote.stdin.flush()
+    proc = ForkedServer(json.loads(zygote.stdout.readline())["pid"])
+    base = ServedURL(f"http://127.0.0.1:{port}")
+    base.pid = proc.pid
     wait_until_up(proc, base, tmp / "streamlit.log", 60)
     RUNNING_LOGS.append(tmp / "streamlit.log")
     yield base
@@ -51,7 +118,6 @@ def _run_app(tmp: Path, port: int | None = None, **env):
         proc.wait(10)
     except subprocess.TimeoutExpired:
         proc.kill()
-    log.close()
     RUNNING_LOGS.remove(tmp / "streamlit.log")
 
 
