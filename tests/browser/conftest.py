@@ -77,10 +77,13 @@ def _zygote() -> subprocess.Popen:
     if _ZYGOTE and _ZYGOTE[0].poll() is None:
         return _ZYGOTE[0]
     _ZYGOTE.clear()
+    errors = tempfile.TemporaryFile("w+")  # the zygote's own (a server writes to its log)
     zygote = subprocess.Popen([sys.executable, "-u", str(Path(__file__).with_name("server_zygote.py"))], cwd=ROOT,
-                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=errors, text=True)
     if json.loads(zygote.stdout.readline() or "{}").get("ready") is not True:
-        raise RuntimeError(f"the browser tests' server zygote did not start (exit {zygote.wait()}): its error above")
+        errors.seek(0)
+        raise RuntimeError(f"the browser tests' server zygote (server_zygote.py) did not start (exit {zygote.wait()}):"
+                           f"\n{errors.read()[-3000:]}")
     _ZYGOTE.append(zygote)
     return zygote
 

@@ -14,7 +14,7 @@ from conftest import ROOT, _run_app, open_page
 pytestmark = pytest.mark.browser
 
 
-def test_a_server_starts_with_torch_imported_in_its_own_environment_and_stops(tmp_path):
+def test_a_server_starts_with_torch_imported_in_the_checkout_and_is_reaped_once_stopped(tmp_path):
     db = tmp_path / "study.sqlite"
     run = _run_app(tmp_path, CACAS_DB=str(db))
     url = next(run)
