@@ -2,13 +2,13 @@
 modules once (as Chromium forks its renderers from a zygote).
 
 Each server the tests start (a module's app, every restart of test_browser_restart) imported torch, torchvision and
-librosa again in its background preload (``app.PRELOADED``): ~10 s of CPU a server, ~25 servers a run, on a
-2-core machine that the browser tests keep busy (measured: the browser part ran 615 s with the preload, 540 s with
-none, 512-518 s with its servers forked from here). A server forked from here starts with those modules imported: it answers in ~0.5 s (1.5 s), stops in
-~0.3 s (2.2-2.7 s), and its preload has nothing left to import. Everything else is the server's own, as with
-``streamlit run app.py``: the command line, its environment, its working folder, its log, its caches (nothing of
-the app, of ``pages`` or of a Streamlit session is imported here: only libraries and ``cacas``, which never
-imports streamlit).
+librosa again in its background preload (``app.PRELOADED``): ~10 s of CPU a server, ~25 servers a run, on a 2-core
+machine that the browser tests keep busy (measured: the browser part ran 615 s with the preload, 540 s with none,
+512-568 s with its servers forked from here). A server forked from here starts with those modules imported: it
+answers in ~0.5 s (1.5 s), stops in ~0.3 s (2.2-2.7 s), and its preload has nothing left to import. Everything else
+is the server's own, as with ``streamlit run app.py``: the command line, its environment, its working folder, its
+log, its caches (nothing of the app, of ``pages`` or of a Streamlit session is imported here: only libraries and
+``cacas``, which never imports streamlit).
 
 Run as ``python -u tests/browser/server_zygote.py`` in the checkout; reads one JSON request a line on stdin
 (``{"argv": [...], "env": {...}, "log": PATH}``), forks a server for it and answers ``{"pid": N}`` on stdout;
