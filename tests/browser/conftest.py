@@ -84,6 +84,7 @@ def _zygote() -> subprocess.Popen:
         errors.seek(0)
         raise RuntimeError(f"the browser tests' server zygote (server_zygote.py) did not start (exit {zygote.wait()}):"
                            f"\n{errors.read()[-3000:]}")
+    errors.close()  # read only if it does not start (the zygote keeps its own descriptor)
     _ZYGOTE.append(zygote)
     return zygote
 
@@ -91,7 +92,10 @@ def _zygote() -> subprocess.Popen:
 def pytest_sessionfinish(session):
     for zygote in _ZYGOTE:
         zygote.stdin.close()  # it ends at the end of its input
-        zygote.wait(10)
+        try:
+            zygote.wait(30)  # its interpreter's exit with torch loaded takes 1-3 s
+        except subprocess.TimeoutExpired:  # not a reason to fail a run whose tests are over
+            zygote.kill()
 
 
 class ServedURL(str):
