@@ -8,6 +8,7 @@ import math
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -23,6 +24,10 @@ ROOT = Path(__file__).resolve().parents[2]
 FAILURES = Path(os.environ.get("CACAS_BROWSER_FAILURES") or Path(tempfile.gettempdir()) / "cacas-browser-failures")
 #: the log files of the apps running now (``_run_app``), for a failed test's report
 RUNNING_LOGS: list[Path] = []
+#: the origins of the apps this test process has served, whose storage the tests' profile forgets after each test
+SERVED_ORIGINS: set[str] = set()
+#: the port this test process's apps take when it is free (:func:`app_port`)
+_APP_PORT: list[int] = []
 
 
 @pytest.fixture(scope="session")
@@ -104,10 +109,25 @@ class ServedURL(str):
     pid: int
 
 
+def app_port() -> int:
+    """The port of this test process's apps: the same one whenever it is free (one app at a time), so that the
+    profile's cache (:class:`Chromium`), keyed by address, port included, serves each app Streamlit's frontend
+    compiled; a free one while it is taken (a second app at once)."""
+    if not _APP_PORT:
+        _APP_PORT.append(free_port())
+    with socket.socket() as s:
+        s.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server's (its closed connections linger)
+        try:
+            s.bind(("127.0.0.1", _APP_PORT[0]))
+        except OSError:
+            return free_port()
+    return _APP_PORT[0]
+
+
 def _run_app(tmp: Path, port: int | None = None, **env):
-    """``streamlit run app.py`` on ``port`` (default a free one) with ``env`` added, forked by the zygote
+    """``streamlit run app.py`` on ``port`` (default :func:`app_port`) with ``env`` added, forked by the zygote
     (server_zygote.py: the heavy imports done once); yields its base URL (a :class:`ServedURL`), then stops it."""
-    port = port or free_port()
+    port = port or app_port()
     env = dict(os.environ, PYTHONUNBUFFERED="1", **env)
     argv = ["run", "app.py", "--server.port", str(port), "--server.headless", "true", "--server.address", "127.0.0.1",
             "--browser.gatherUsageStats", "false", "--server.fileWatcherType", "none"]
@@ -117,6 +137,7 @@ def _run_app(tmp: Path, port: int | None = None, **env):
     proc = ForkedServer(json.loads(zygote.stdout.readline())["pid"])
     base = ServedURL(f"http://127.0.0.1:{port}")
     base.pid = proc.pid
+    SERVED_ORIGINS.add(base)
     wait_until_up(proc, base, tmp / "streamlit.log", 60)
     RUNNING_LOGS.append(tmp / "streamlit.log")
     yield base
@@ -157,16 +178,100 @@ def library_server(tmp_path_factory):
         yield SimpleNamespace(url=url, data=data)
 
 
-@pytest.fixture(scope="module")
-def browser():
+#: the options a page of the tests' profile (:class:`Chromium`) can have (the viewport set on the page; downloads the
+#: profile accepts): any other (a phone's touch screen, ``is_mobile``), or downloads refused, needs a context of its own
+PROFILE_OPTIONS = frozenset({"viewport", "accept_downloads"})
+
+
+class Chromium:
+    """The ``browser`` fixture: Debian's Chromium with a profile on disk (``profile``, one per test process), whose
+    HTTP cache and V8 code cache keep Streamlit's frontend compiled from one page to the next, and a plain browser
+    (``plain()``, started when first needed) for pages that need a context of their own (:func:`open_page`).
+
+    A page load of the Overview cost ~6.9 s of CPU (the machine's; Chromium ~6.0, its server 0.55) in a context of
+    its own (an incognito one: each compiled Streamlit's JavaScript again and fetched it from the server) and ~4.5 s
+    as a new page of one profile (measured with five loads each on the 2-core EPYC); the browser part, two at a time,
+    took 564 s of wall and 1,080 s of CPU with a context for each page, 521 s and 962 s with the profile. What a test
+    leaves in the profile is undone after it (:meth:`forget`): its pages closed, cookies and the served origins'
+    storage cleared."""
+
+    def __init__(self, playwright, profile: Path):
+        self._playwright = playwright
+        # accept_downloads as open_page's contexts (Playwright's default) and the page fixture's
+        self.profile = playwright.chromium.launch_persistent_context(
+            str(profile), executable_path=CHROMIUM, args=FLAGS, headless=True, accept_downloads=True)
+        for blank in self.profile.pages:  # the one a persistent context opens with: tests count their pages
+            blank.close()
+        self._plain = None
+
+    def plain(self):
+        """A browser without a profile, for contexts with options a profile's page cannot have."""
+        if self._plain is None:
+            self._plain = self._playwright.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
+        return self._plain
+
+    @property
+    def contexts(self) -> list:
+        """Every context with pages of the tests' (the profile's, then the plain browser's)."""
+        return [self.profile] + (self._plain.contexts if self._plain is not None else [])
+
+    def forget(self, kept: set) -> None:
+        """Undo what a test left: its pages (any not in ``kept``, e.g. a module's page) and contexts closed, the
+        profile's cookies and the served origins' local storage cleared (the cache is kept: it is what the profile
+        is for)."""
+        for pg in self.profile.pages:
+            if pg not in kept:
+                pg.close()
+        if self._plain is not None:
+            for context in self._plain.contexts:
+                if not any(pg in kept for pg in context.pages):
+                    context.close()
+        self.profile.clear_cookies()
+        if SERVED_ORIGINS:
+            cdp = self.profile.new_cdp_session(self.profile.pages[0]) if self.profile.pages else None
+            blank = None
+            if cdp is None:
+                blank = open_page(self)
+                cdp = self.profile.new_cdp_session(blank)
+            for origin in SERVED_ORIGINS:
+                cdp.send("Storage.clearDataForOrigin", {"origin": origin, "storageTypes": "local_storage,indexeddb"})
+            cdp.detach()
+            if blank is not None:
+                blank.close()
+
+    def close(self) -> None:
+        self.profile.close()
+        if self._plain is not None:
+            self._plain.close()
+
+
+#: this test process's Chromium (the ``browser`` fixture's), for :func:`_undo_the_tests_pages`
+_CHROMIUM: list[Chromium] = []
+
+
+@pytest.fixture(scope="session")
+def browser(tmp_path_factory):
+    """Debian's Chromium with the tests' profile (:class:`Chromium`), one for the whole session."""
     from playwright.sync_api import sync_playwright
 
     if not Path(CHROMIUM).exists():
         pytest.fail(f"{CHROMIUM} is missing: install Debian's chromium (scripts/test.sh does)")
     with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=FLAGS, headless=True)
-        yield b
-        b.close()
+        chromium = Chromium(p, tmp_path_factory.mktemp("chromium-profile"))
+        _CHROMIUM.append(chromium)
+        yield chromium
+        _CHROMIUM.remove(chromium)
+        chromium.close()
+
+
+@pytest.fixture(autouse=True)
+def _undo_the_tests_pages(request):
+    """After a test that used the browser, what it left there is undone (:meth:`Chromium.forget`); pages open
+    before it (a module's) stay."""
+    kept = {pg for context in _CHROMIUM[0].contexts for pg in context.pages} if _CHROMIUM else set()
+    yield
+    if _CHROMIUM and "browser" in request.fixturenames:
+        _CHROMIUM[0].forget(kept)
 
 
 #: the environment variable that slows the tests' Chromium N times (Chrome DevTools' CPU throttling), as on a
@@ -198,27 +303,44 @@ def pytest_collection_modifyitems(config, items):
 
 
 def open_page(opener, **options):
-    """A new page of ``opener``: a browser's in a new context of its own (made with ``options``, e.g.
-    ``viewport``; close it with ``page.context.close()``; a second page can be opened in it), or a context's;
-    its CPU slowed :data:`SLOWDOWN` times when that is set. Every page the browser tests open comes from here
-    (test_browser_slowdown checks), so that the knob slows them all."""
-    if hasattr(opener, "new_context"):  # a browser (Browser.new_page's context would refuse a second page)
-        opener = opener.new_context(**options)
-        options = {}
-    page = opener.new_page(**options)
+    """A new page: ``opener`` the ``browser`` fixture (a :class:`Chromium`), a page of the tests' profile, with
+    ``options`` (:data:`PROFILE_OPTIONS`: ``viewport``, default 1280 x 720, set on the page), or, with any other
+    option (``is_mobile``, ``has_touch``), in a new context of its own, made with them; ``opener`` a page, a new page
+    beside it, in its context. Close a page with :func:`close_page`. Its CPU is slowed :data:`SLOWDOWN` times when
+    that is set. Every page the browser tests open comes from here (test_browser_slowdown checks), so that the knob
+    slows them all."""
+    if not isinstance(opener, Chromium):
+        page = opener.context.new_page()
+        opener._cacas_beside = [*getattr(opener, "_cacas_beside", []), page]
+    elif set(options) <= PROFILE_OPTIONS and options.get("accept_downloads", True):
+        page = opener.profile.new_page()
+        if "viewport" in options:
+            page.set_viewport_size(options["viewport"])
+    else:
+        page = opener.plain().new_context(**options).new_page()
     rate = cpu_slowdown()
     if rate is not None:
         page.context.new_cdp_session(page).send("Emulation.setCPUThrottlingRate", {"rate": rate})
     return page
 
 
+def close_page(page) -> None:
+    """Close a page :func:`open_page` opened, with the pages opened beside it: its context, if it had one of its own."""
+    for beside in getattr(page, "_cacas_beside", []):
+        beside.close()
+    if any(page.context is chromium.profile for chromium in _CHROMIUM):
+        page.close()
+    else:  # a context of its own
+        page.context.close()
+
+
 @pytest.fixture
 def page(browser, tmp_path):
-    """A new page at 1360 x 900 in a context of its own (downloads accepted; :func:`open_page`)."""
+    """A new page of the tests' profile at 1360 x 900 (downloads accepted; :func:`open_page`)."""
     pg = open_page(browser, viewport={"width": 1360, "height": 900}, accept_downloads=True)
     pg.set_default_timeout(30_000)
     yield pg
-    pg.context.close()
+    close_page(pg)
 
 
 #: what a failed test's report says of a page: its address, Streamlit's script and connection states, and its text

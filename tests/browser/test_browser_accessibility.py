@@ -11,7 +11,7 @@ from playwright.sync_api import expect
 from cacas.plots import contrast_ratio
 from cacas.store import StudyStore
 from cacas.study_day import Context
-from conftest import _run_app, open_page
+from conftest import _run_app, close_page, open_page
 from test_browser_mini_study import goto
 
 pytestmark = pytest.mark.browser
@@ -65,7 +65,7 @@ def test_the_tablet_reads_its_headings_and_marks_in_words(browser, day_1):
     assert icon_names(page) == []
     goto(page, f"{day_1}/adaptation?participant=P01")
     expect(page.get_by_role("heading", name="CACAS Studio", exact=True)).to_be_visible()
-    page.context.close()
+    close_page(page)
 
 
 def headings(page) -> list[tuple[int, str, int]]:
@@ -98,7 +98,7 @@ def test_headings_go_down_one_level_at_a_time_without_link_tab_stops(browser, da
     assert seen["adaptation"][:3] == [(2, "CACAS Studio", 0), (1, "Adaptation\u00a0· P01", 0), (2, "Close the day and adapt", 0)]
     assert [h[:2] for h in seen["proposal"]] == [(1, "Hello, P01"), (2, "Your activity: cough"),
                                                  (2, "The robot heard: cough")]
-    page.context.close()
+    close_page(page)
 
 
 def test_a_chart_is_named_for_a_screen_reader(browser, day_1):
@@ -107,7 +107,7 @@ def test_a_chart_is_named_for_a_screen_reader(browser, day_1):
     goto(page, f"{day_1}/results?participant=P01")
     expect(page.get_by_role("figure", name=re.compile(r"^Success rate and cumulative feedback\. CACAS, 1 participant\. "
                                                        r"Drawn: .*success rate \(mean\)"))).to_be_visible()
-    page.context.close()
+    close_page(page)
 
 
 #: the focused element's ring as drawn: its outline, and Streamlit's own box-shadow ring
@@ -135,7 +135,7 @@ def test_the_tablets_keyboard_focus_is_a_ring_that_stands_out(browser, day_1):
     ring = page.evaluate(RING)
     assert ring["name"] == "00:00-02:00" and ring["style"] == "solid" and ring["width"] >= 2, ring
     assert contrast_ratio(_hex(ring["colour"])) >= 3, ring
-    page.context.close()
+    close_page(page)
 
 
 #: the focused element's ring, or its label's (a checkbox's input is drawn by its label)
@@ -161,7 +161,7 @@ def test_the_researchers_keyboard_focus_is_a_ring_that_stands_out(browser, day_1
     assert set(rings) == {"Overview", "checkbox"}, rings
     for ring in rings.values():
         assert ring["style"] == "solid" and ring["width"] >= 2 and contrast_ratio(_hex(ring["colour"])) >= 3, ring
-    page.context.close()
+    close_page(page)
 
 
 #: A caption's text colour as drawn (its colour blended by the opacity of it and its parents) and the background under
@@ -193,7 +193,7 @@ def test_the_tablets_captions_are_dark_enough_to_read(browser, day_1):
     expect(caption).to_be_visible(timeout=120_000)
     ratio, drawn = caption_contrast(caption)
     assert ratio >= 4.5, (ratio, drawn)
-    page.context.close()
+    close_page(page)
 
 
 def test_the_researchers_captions_are_dark_enough_to_read(browser, day_1):
@@ -208,7 +208,7 @@ def test_the_researchers_captions_are_dark_enough_to_read(browser, day_1):
         expect(caption).to_be_visible(timeout=120_000)
         ratio, drawn = caption_contrast(caption)
         assert ratio >= 4.5, (ratio, drawn)
-    page.context.close()
+    close_page(page)
 
 
 def _ink(box) -> tuple[float, float]:
@@ -242,4 +242,4 @@ def test_a_request_typed_in_arabic_reads_from_the_right(browser, day_1):
     page.wait_for_timeout(300)
     left, right = _ink(field)
     assert left < 0.05 and right < 0.5, (left, right)
-    page.context.close()
+    close_page(page)

@@ -55,14 +55,14 @@ def test_a_failed_browser_test_reports_its_pages(tmp_path):
 
 
 def test_a_page_that_cannot_be_read_is_said_in_one_line(browser, tmp_path):
-    from conftest import describe_page, open_page
+    from conftest import close_page, describe_page, open_page
 
     page = open_page(browser)
     page.close()
     said = describe_page(page, tmp_path / "closed.png")
     assert "the page could not be read" in said and "\n" not in said
     assert not (tmp_path / "closed.png").exists()
-    page.context.close()
+    close_page(page)
 
 
 def test_an_apps_log_is_reported_by_its_last_lines(tmp_path):

@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from cacas import plots
-from conftest import open_page
+from conftest import close_page, open_page
 
 pytestmark = pytest.mark.browser
 
@@ -45,7 +45,7 @@ def figure_page(browser):
     page = open_page(browser, viewport={"width": 1000, "height": 480})
     page.set_content(f"<html><head><script>{get_plotlyjs()}</script></head><body style='margin:0'></body></html>")
     yield page
-    page.context.close()
+    close_page(page)
 
 
 #: the figures before go (Plotly.purge: their listeners too), ``html`` in their place, its scripts run (innerHTML
@@ -129,7 +129,7 @@ def test_a_figure_page_of_its_own_shows_the_whole_legend(browser, tmp_path):
         legend = page.evaluate("() => document.querySelector('.legend').getBoundingClientRect().bottom")
         scrolls = page.evaluate("() => document.documentElement.scrollHeight > innerHeight")
     finally:
-        page.context.close()
+        close_page(page)
     assert legend <= 568 and not scrolls, (legend, scrolls)
 
 
@@ -167,7 +167,7 @@ def test_a_figure_pages_caption_is_in_view_under_its_figure(browser, tmp_path):
             page.wait_for_selector(".js-plotly-plot .main-svg")
             seen[name] = page.evaluate(CAPTION_JS)
     finally:
-        page.context.close()
+        close_page(page)
     assert seen["fig3.html"]["caption"][2] > 100, seen  # the dashed line's and the hollow points' words too
     for name, s in seen.items():
         top, bottom, _ = s["caption"]

@@ -2,7 +2,7 @@
 (Streamlit's old pages/ mode would run the page alone: no sidebar, no participant)."""
 
 import pytest
-from conftest import open_page
+from conftest import close_page, open_page
 from playwright.sync_api import expect
 
 pytestmark = pytest.mark.browser
@@ -23,4 +23,4 @@ def test_first_request_to_a_page_gets_the_app_shell(server, browser):
     assert "ui" not in items and "app" not in items  # not the pages/ folder's files
     expect(page.get_by_role("heading", name="Results").first).to_be_visible(timeout=30_000)
     expect(page.locator("[data-testid='stSidebar']").get_by_text("CACAS Studio").first).to_be_visible(timeout=30_000)
-    page.context.close()
+    close_page(page)

@@ -12,7 +12,7 @@ import re
 
 import pytest
 
-from conftest import open_page
+from conftest import close_page, open_page
 from test_browser_mini_study import goto
 from test_browser_tablet_waits import waiting_server  # noqa: F401 (a fixture: this module's own server)
 
@@ -67,7 +67,7 @@ def test_a_researchers_page_says_that_part_of_it_did_not_load_and_to_reload_it(b
                                         return [s.position, s.top, parseFloat(s.height), s.opacity]; }""")
         assert band[:2] == ["fixed", "0px"] and band[2] < 160 and band[3] == "1", band
     finally:
-        page.context.close()
+        close_page(page)
 
 
 def test_a_page_drawn_whole_says_nothing(browser, day_server):
@@ -78,7 +78,7 @@ def test_a_page_drawn_whole_says_nothing(browser, day_server):
         assert page.locator("[data-testid=stMultiSelect]").count() > 0
         assert page.evaluate(SAID) == "none"
     finally:
-        page.context.close()
+        close_page(page)
 
 
 def test_the_tablet_reloads_itself_when_part_of_it_did_not_load(browser, day_server):
@@ -95,7 +95,7 @@ def test_the_tablet_reloads_itself_when_part_of_it_did_not_load(browser, day_ser
         assert len(failed) == 1 and page.locator(BROKEN).count() == 0
         assert page.evaluate(SAID) == "none"
     finally:
-        page.context.close()
+        close_page(page)
 
 
 def test_a_tablet_whose_code_never_loads_is_not_reloaded_for_ever_and_says_to_tell_the_researcher(browser,
@@ -116,4 +116,4 @@ def test_a_tablet_whose_code_never_loads_is_not_reloaded_for_ever_and_says_to_te
         assert page.evaluate("""() => getComputedStyle(document.querySelector("[data-testid='stApp']"),
                                                        '::before').opacity""") == "1"
     finally:
-        page.context.close()
+        close_page(page)

@@ -324,7 +324,7 @@ def test_mini_study(server, page, tmp_path):
     page.set_viewport_size({"width": 1360, "height": 900})
 
     # the researcher's own view of the session, in another tab, follows the tablet without a reload
-    watch = open_page(page.context)
+    watch = open_page(page)
     goto(watch, f"{server}/session?participant=P01")
     # waited for, not read at once: a page just opened can be read before its first run has drawn it all
     watch.get_by_text("Day 1 of 7 · 0 of about 15 interactions today").wait_for(timeout=30_000)

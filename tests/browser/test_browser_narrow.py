@@ -13,7 +13,7 @@ import pytest
 
 from cacas import spaces
 from cacas.store import StudyStore
-from conftest import _run_app, open_page
+from conftest import _run_app, close_page, open_page
 from test_browser_mini_study import goto
 
 pytestmark = pytest.mark.browser
@@ -85,7 +85,7 @@ def test_no_metric_is_cut_beside_the_sidebar(browser, study_server, width):
         if width == 1280:  # room enough: each page's metrics side by side on one line
             assert all(len({m["top"] for m in ms}) == 1 for ms in seen.values()), seen
     finally:
-        page.context.close()
+        close_page(page)
 
 
 #: the Study session's counter: its text and the lines it takes (the distinct tops of its text's boxes)
@@ -110,7 +110,7 @@ def test_the_researchers_counter_is_one_line_when_some_interactions_are_not_coun
         assert re.fullmatch(r"Day 1 of 7 · \d+ of about 15 interactions today; 13 in all with \d+ not counted",
                             counter["text"]), counter
     finally:
-        page.context.close()
+        close_page(page)
 
 
 #: the "Every photo of one room" grid: each caption's text, the lines it takes, and its photo's top (a row's)
@@ -144,7 +144,7 @@ def test_every_photo_s_name_is_on_one_line(browser, study_server, width):
         in_first_row = sum(p["top"] == photos[0]["top"] for p in photos)
         assert in_first_row >= {1024: 3, 1280: 5, 1440: 5}[width], in_first_row
     finally:
-        page.context.close()
+        close_page(page)
 
 
 #: a phone held upright by a researcher between rooms: touch, no hover (Streamlit and Plotly show their toolbars always)
@@ -193,7 +193,7 @@ def test_on_a_phone_no_toolbar_covers_words_or_a_chart_s_title(browser, study_se
         assert found["tables"] or found["charts"], found
         assert found["over"] == [], found
     finally:
-        page.context.close()
+        close_page(page)
 
 
 #: the least height and width (px) of what is tapped, per kind, among those in view (the sidebar's only while it is open)
@@ -272,7 +272,7 @@ def test_on_a_phone_what_is_tapped_is_44_px_and_a_page_link_closes_the_sidebar(b
         assert set(sizes) >= {"open", "close", "link", "tab", "choice", "button", "stepper"}, sizes
         assert {k: v for k, v in sizes.items() if min(v) < 44} == {}, sizes
     finally:
-        page.context.close()
+        close_page(page)
 
 
 def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, study_server):
@@ -299,7 +299,7 @@ def test_on_a_laptop_the_sidebar_stays_open_and_buttons_are_as_before(browser, s
         sizes = page.evaluate(TARGETS_JS)
         assert sizes["tab"][0] == 40 and sizes["choice"][0] == 32, sizes
     finally:
-        page.context.close()
+        close_page(page)
 
 
 #: each multi-choice field of the page: its label, and the chosen options (chips) not wholly inside it
@@ -328,7 +328,7 @@ def test_on_a_phone_every_chosen_time_of_day_is_in_view(browser, study_server):
                                                       "16:00-18:00"], fields
         assert [(f["label"], f["out"]) for f in fields if f["out"]] == [], fields
     finally:
-        page.context.close()
+        close_page(page)
 
 
 def test_a_page_is_read_once_its_elements_whose_code_loads_late_are_drawn(browser, study_server):
@@ -354,7 +354,7 @@ def test_a_page_is_read_once_its_elements_whose_code_loads_late_are_drawn(browse
         fields = page.evaluate(CHIPS_JS)
         assert [f["label"] for f in fields[:3]] == ["Activities (S1)", "Rooms (S2)", "Time of day (S3)"], fields
     finally:
-        page.context.close()
+        close_page(page)
 
 
 #: the page's title, its code written as ``code`` (a longer one than the study's): its top, the header's sidebar
@@ -385,4 +385,4 @@ def test_on_a_phone_the_title_starts_under_the_header_and_its_dot_never_begins_a
         assert title["button"] < title["top"] <= 90, title
         assert title["dot_first"] is False, title
     finally:
-        page.context.close()
+        close_page(page)

@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 from cacas.store import StudyStore
-from conftest import _run_app, open_page
+from conftest import _run_app, close_page, open_page
 from test_browser_mini_study import goto, idle
 
 pytestmark = pytest.mark.browser
@@ -52,7 +52,7 @@ def test_back_leaves_a_page_in_one_press_and_keeps_the_participant(browser, two_
         page.wait_for_function("t => document.querySelector('h1') && document.querySelector('h1').innerText"
                                ".startsWith(t)", arg=name)
         assert _heading(page).startswith(name) and "participant=P01" in page.url
-    page.context.close()
+    close_page(page)
 
 
 def test_a_study_database_that_cannot_be_opened_lists_no_page_files(browser, tmp_path):
@@ -70,4 +70,4 @@ def test_a_study_database_that_cannot_be_opened_lists_no_page_files(browser, tmp
             assert page.locator("[data-testid='stSidebarNav']").count() == 0
             assert page.get_by_role("link", name="ui", exact=True).count() == 0
         finally:
-            page.context.close()
+            close_page(page)

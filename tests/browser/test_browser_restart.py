@@ -11,7 +11,7 @@ from contextlib import contextmanager
 import pytest
 
 from cacas.store import StudyStore
-from conftest import _run_app, open_page
+from conftest import _run_app, close_page, open_page
 from headless import free_port
 from test_browser_mini_study import CANDIDATES, button, goto, idle, shows, speaking_context, text_of
 from test_browser_tablet_waits import on_day_1
@@ -60,7 +60,7 @@ def test_the_first_tap_after_a_server_restart_is_saved(tmp_path, browser, initia
         with StudyStore(db, readonly=True) as s:
             rows = s.interactions_frame("P01", method=None)
         assert list(rows["response"]) == ["accept"] and list(rows["index"]) == [1]
-    page.context.close()
+    close_page(page)
 
 
 def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, browser):
@@ -83,7 +83,7 @@ def test_the_researchers_first_click_after_a_server_restart_is_saved(tmp_path, b
         shows(page, "Preferences of P02")
         with StudyStore(db, readonly=True) as s:
             assert [p.code for p in s.list_participants()] == ["P01", "P02"]
-    page.context.close()
+    close_page(page)
 
 
 def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant(tmp_path, browser):
@@ -111,8 +111,8 @@ def test_pages_reconnecting_to_a_restarted_server_at_once_keep_their_participant
         shows(tablet, "Day 1 is finished")
         idle(researcher)
         assert "Select a participant" not in text_of(researcher)
-    researcher.context.close()
-    tablet.context.close()
+    close_page(researcher)
+    close_page(tablet)
 
 
 STATE = "() => document.querySelector(\"[data-testid='stApp']\").getAttribute('data-test-connection-state')"
@@ -142,7 +142,7 @@ def server_away(tmp_path, db, page, address: str):
         assert page.evaluate(SAID) == "none"
     finally:
         next(server, None)
-        page.context.close()
+        close_page(page)
 
 
 def test_the_tablet_says_in_its_own_words_that_its_connection_comes_back(tmp_path, browser):

@@ -11,7 +11,7 @@ import pytest
 from playwright.sync_api import expect
 
 from cacas.store import StudyStore
-from conftest import _run_app, open_page
+from conftest import _run_app, close_page, open_page
 from test_browser_mini_study import goto
 
 pytestmark = pytest.mark.browser
@@ -51,7 +51,7 @@ def test_the_tablet_shows_start_day_2_once_the_day_is_adapted_without_a_reload(b
     expect(page.get_by_role("button", name="Start day 2")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("Day 1 is finished").count() == 0
-    page.context.close()
+    close_page(page)
 
 
 def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(browser, waiting_server):
@@ -67,7 +67,7 @@ def test_the_tablet_on_an_open_days_form_follows_the_researcher_closing_the_day(
     expect(page.get_by_text("Day 1 is finished. The robot is learning from it")).to_be_visible(timeout=30_000)
     assert page.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
     assert page.get_by_text("What are you doing?").count() == 0
-    page.context.close()
+    close_page(page)
 
 
 def test_the_adaptation_page_follows_a_proposal_the_tablet_shows_after_it_was_drawn(browser, waiting_server):
@@ -89,5 +89,5 @@ def test_the_adaptation_page_follows_a_proposal_the_tablet_shows_after_it_was_dr
     expect(tablet.locator("[data-testid='stChatMessage']").first).to_be_visible(timeout=60_000)
     expect(desk.get_by_text("P03's tablet shows a proposal (use stove")).to_be_visible(timeout=30_000)
     assert desk.evaluate("window.notReloaded === true")  # drawn again in place, not reloaded
-    tablet.context.close()
-    desk.context.close()
+    close_page(tablet)
+    close_page(desk)

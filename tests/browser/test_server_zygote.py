@@ -9,7 +9,7 @@ import urllib.request
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, _run_app, open_page
+from conftest import ROOT, _run_app, close_page, open_page
 
 pytestmark = pytest.mark.browser
 
@@ -53,7 +53,7 @@ def test_two_servers_at_once_each_open_their_own_database(tmp_path, browser):
             goto(page, url)
             sidebar = page.locator("[data-testid='stSidebar']").inner_text()
             assert f"Database: {tmp_path / name / 'study.sqlite'}" in sidebar, sidebar
-            page.context.close()
+            close_page(page)
     finally:
         for run in runs:
             next(run, None)
