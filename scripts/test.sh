@@ -10,17 +10,22 @@ if [ ! -x /usr/bin/chromium ]; then
   DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq chromium >/dev/null
 fi
 python3 -m pip install -q -e ".[dev]"
-# The whole suite runs at once, in a test process a core (pytest-xdist; at most 4: each holds ~0.6 GB of imports); the
-# tests without a browser run one torch thread each (tests/conftest.py); each browser test file is one group
-# (--dist loadgroup: its tests share their Streamlit server; tests/conftest.py), and drives a server and Chromium,
-# which keep a core busy (vmstat: idle ~0). Its servers are forked from one process that imported the heavy modules
-# once (tests/browser/server_zygote.py), its pages are of one Chromium profile whose cache keeps Streamlit's frontend
-# compiled (tests/browser/conftest.py: Chromium). They read a page once every element is drawn (headless.drawn: at
-# load 7-10 a page was once read while some of its elements still waited for their code). The slowest tests are
-# listed at the end: the aim is well under 15 minutes on CI (TIMES on that EPYC, 2026-11-28).
+# The tests without a browser run one torch thread each (tests/conftest.py), so they run in a process a core
+# (pytest-xdist; at most 4: each process holds ~0.6 GB of imports); the browser tests then run two at a time,
+# a test file to each (--dist loadfile: a file's tests share their Streamlit server), each driving a server and
+# Chromium, which keep both cores busy (vmstat: idle ~0) (on a 2-core AMD EPYC: 512-568 s two at a time, the servers
+# forked from one process that imported the heavy modules once: tests/browser/server_zygote.py; ~700 s one at a
+# time before it). They read a page once every element is drawn (headless.drawn: at load 7-10 a page was once read
+# while some of its elements still waited for their code). The slowest tests of each part are listed at its end:
+# the aim is well under 15 minutes on CI (about 16 on that EPYC, 2026-11-28).
 workers=$(python3 -c "import os; print(max(1, min(4, len(os.sched_getaffinity(0)))))")
+browsers=$(( workers < 2 ? workers : 2 ))
 status=0
-python3 -m pytest -q --durations=25 -n "$workers" --dist loadgroup "$@" || status=$?
-# 5: no test among the ones asked for
+python3 -m pytest -q --durations=15 -n "$workers" -m "not browser" "$@" || status=$?
+browser=0
+python3 -m pytest -q --durations=15 -n "$browsers" --dist loadfile -m browser "$@" || browser=$?
+# 5: no test of that part among the ones asked for (bash scripts/test.sh tests/test_records.py)
 [ "$status" -eq 5 ] && status=0
-exit "$status"
+[ "$browser" -eq 5 ] && browser=0
+[ "$status" -ne 0 ] && exit "$status"
+exit "$browser"

@@ -12,16 +12,6 @@ except ImportError:  # pragma: no cover - torch is a dependency; keep collection
 import pytest  # noqa: E402
 
 
-@pytest.hookimpl(tryfirst=True)  # before pytest-xdist's own, which names each test's group from these marks
-def pytest_collection_modifyitems(config, items):
-    """A browser test file's tests are one group of pytest-xdist's (``--dist loadgroup``, as scripts/test.sh runs the
-    whole suite at once): they run in one test process, which starts their module's Streamlit server once; every
-    other test goes to whichever process is free."""
-    for item in items:
-        if item.get_closest_marker("browser"):
-            item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
-
-
 @pytest.fixture(scope="session")
 def small_config():
     """CACAA hyper-parameters shrunk for tests: 1-hour steps, few simulated days."""
