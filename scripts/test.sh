@@ -13,7 +13,7 @@ python3 -m pip install -q -e ".[dev]"
 # The tests without a browser run one torch thread each (tests/conftest.py), so they run in a process a core
 # (pytest-xdist; at most 4: each process holds ~0.6 GB of imports); the browser tests then run two at a time,
 # a test file to each (--dist loadfile: a file's tests share their Streamlit server), each driving a server and
-# Chromium, which keep both cores busy (vmstat: idle ~0) (on a 2-core AMD EPYC: 496-555 s two at a time, the servers
+# Chromium, which keep both cores busy (vmstat: idle ~0) (on a 2-core AMD EPYC: 496-581 s two at a time, the servers
 # forked from one process that imported the heavy modules once: tests/browser/server_zygote.py; the pages of one
 # Chromium profile whose cache keeps Streamlit's frontend compiled: tests/browser/conftest.py, Chromium; ~700 s one
 # at a time before both). They read a page once every element is drawn (headless.drawn: at load 7-10 a page was once read
