@@ -230,7 +230,7 @@ class Chromium:
         if SERVED_ORIGINS:
             cdp = self.profile.new_cdp_session(self.profile.pages[0]) if self.profile.pages else None
             blank = None
-            if cdp is None:
+            if cdp is None:  # a page's session: the browser's own (new_browser_cdp_session) answers "Internal error"
                 blank = open_page(self)
                 cdp = self.profile.new_cdp_session(blank)
             for origin in SERVED_ORIGINS:

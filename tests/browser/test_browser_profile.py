@@ -7,7 +7,7 @@ from __future__ import annotations
 import socket
 
 import pytest
-from conftest import PROFILE_OPTIONS, app_port, close_page, open_page
+from conftest import app_port, close_page, open_page
 
 pytestmark = pytest.mark.browser
 
@@ -47,7 +47,6 @@ def test_a_page_needing_a_context_of_its_own_gets_one_and_closes_with_it(browser
     close_page(phone)
     close_page(laptop)
     assert laptop.is_closed() and beside.is_closed() and not context.pages
-    assert set(PROFILE_OPTIONS) == {"viewport", "accept_downloads"}
 
 
 def test_what_a_test_leaves_in_the_profile_is_undone(server, browser):
