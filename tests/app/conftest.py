@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
 import streamlit as st
+from streamlit.runtime.scriptrunner.script_cache import ScriptCache
 from streamlit.testing.v1 import AppTest
 
 from cacas.store import StudyStore
@@ -27,6 +29,40 @@ def components_scanned_once():
     manifest_scanner.scan_component_manifests = lambda *a, **k: list(found)
     yield
     manifest_scanner.scan_component_manifests = real
+
+
+class CompiledOnce(ScriptCache):
+    """A script's bytecode compiled once for all the tests, as a server compiles each page once for all its
+    sessions. AppTest gives each run a new, empty ScriptCache, so every run parsed app.py and its page again and
+    rewrote their syntax trees for Streamlit's "magic": about half of a page test's time (py-spy over tests/app:
+    107 of 211 s of script runs in ScriptCache.get_bytecode). Keyed by the file's path, size and modification
+    time and the magic option (``runner.magicEnabled``): a script written again is compiled again, as a server's
+    file watcher has it recompiled."""
+
+    compiled: dict[tuple, object] = {}
+
+    def get_bytecode(self, script_path: str):
+        from streamlit import config
+
+        path = os.path.abspath(script_path)
+        stat = os.stat(path)
+        key = (path, stat.st_size, stat.st_mtime_ns, config.get_option("runner.magicEnabled"))
+        code = self.compiled.get(key)
+        if code is None:
+            code = self.compiled[key] = super().get_bytecode(path)
+        return code
+
+
+@pytest.fixture(scope="session", autouse=True)
+def scripts_compiled_once():
+    """Every AppTest run takes the scripts' bytecode from :class:`CompiledOnce` (its page's, through its pages
+    manager, and app.py's, through its script runner)."""
+    from streamlit.testing.v1 import app_test, local_script_runner
+
+    real = app_test.ScriptCache, local_script_runner.ScriptCache
+    app_test.ScriptCache = local_script_runner.ScriptCache = CompiledOnce
+    yield
+    app_test.ScriptCache, local_script_runner.ScriptCache = real
 
 
 @pytest.fixture

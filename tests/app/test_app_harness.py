@@ -1,0 +1,57 @@
+"""The page tests' own harness (conftest.py): what it shares between AppTests keeps each run's results as a
+fresh AppTest gives them."""
+import os
+
+from conftest import TIMEOUT
+from streamlit.runtime.scriptrunner import script_cache
+from streamlit.testing.v1 import AppTest
+
+
+def counted_compiles(monkeypatch) -> list[str]:
+    """The scripts Streamlit compiles from now on (each compile rewrites the script for "magic" first)."""
+    compiled = []
+    real = script_cache.magic.add_magic
+
+    def add_magic(code, script_path):
+        compiled.append(os.path.basename(script_path))
+        return real(code, script_path)
+
+    monkeypatch.setattr(script_cache.magic, "add_magic", add_magic)
+    return compiled
+
+
+def test_a_page_opened_again_runs_the_bytecode_compiled_the_first_time(app, monkeypatch):
+    compiled = counted_compiles(monkeypatch)
+    app("pages/participants.py")
+    app("pages/participants.py")  # a new AppTest, as every page test opens
+    assert "app.py" not in compiled[1:] and compiled.count("participants.py") <= 1, compiled
+    first = len(compiled)
+    at = app("pages/participants.py")
+    at.run()  # a rerun of the same AppTest
+    assert len(compiled) == first, compiled[first:]
+    assert not at.exception
+
+
+def test_a_script_written_again_is_compiled_again(tmp_path, db, monkeypatch):
+    script = tmp_path / "page.py"
+    script.write_text("import streamlit as st\nst.write('first version')\n")
+    at = AppTest.from_file(str(script), default_timeout=TIMEOUT).run()
+    assert [m.value for m in at.markdown] == ["first version"]
+    script.write_text("import streamlit as st\nst.write('second')\n")  # another size
+    at = AppTest.from_file(str(script), default_timeout=TIMEOUT).run()
+    assert [m.value for m in at.markdown] == ["second"]
+    script.write_text("import streamlit as st\nst.write('third!')\n")  # the same size, written later
+    stat = script.stat()
+    os.utime(script, ns=(stat.st_atime_ns, stat.st_mtime_ns + 1_000_000))
+    at = AppTest.from_file(str(script), default_timeout=TIMEOUT).run()
+    assert [m.value for m in at.markdown] == ["third!"]
+
+
+def test_a_bare_expression_is_still_written_to_the_page_from_the_shared_bytecode(tmp_path, db):
+    """Streamlit's "magic" (a bare expression of a script is written to the page) is compiled into the shared
+    bytecode as into a server's."""
+    script = tmp_path / "page.py"
+    script.write_text("words = 'a bare string'\nwords\n")  # (a first line alone would be the docstring)
+    for _ in range(2):
+        at = AppTest.from_file(str(script), default_timeout=TIMEOUT).run()
+        assert [m.value for m in at.markdown] == ["a bare string"]
