@@ -65,6 +65,30 @@ def scripts_compiled_once():
     app_test.ScriptCache, local_script_runner.ScriptCache = real
 
 
+@pytest.fixture(scope="session", autouse=True)
+def script_runs_waited_for_without_polling():
+    """AppTest waits for a script run by polling its runner every millisecond (``require_widgets_deltas``), each
+    poll reading every event of the run so far (one per element drawn) and taking the interpreter lock from the
+    script's thread. The thread ends once the run is over (it emits SHUTDOWN, then returns): joined here, with
+    the same timeout and the same error when it runs out."""
+    from streamlit.testing.v1 import local_script_runner
+
+    real = local_script_runner.require_widgets_deltas
+
+    def require_widgets_deltas(runner, timeout: float = 3) -> None:
+        thread = runner._script_thread
+        if thread is not None:
+            thread.join(timeout)
+        if not runner.script_stopped():  # still going: stopped, and the run fails as AppTest's own wait fails
+            runner.request_stop()
+            runner.join()
+            raise RuntimeError(f"AppTest script run timed out after {timeout}(s)")
+
+    local_script_runner.require_widgets_deltas = require_widgets_deltas
+    yield
+    local_script_runner.require_widgets_deltas = real
+
+
 @pytest.fixture
 def db(tmp_path, monkeypatch):
     """A fresh study database file; the app finds it through $CACAS_DB."""
