@@ -36,8 +36,8 @@ class CompiledOnce(ScriptCache):
     sessions. AppTest gives each run a new, empty ScriptCache, so every run parsed app.py and its page again and
     rewrote their syntax trees for Streamlit's "magic": about half of a page test's time (py-spy over tests/app:
     107 of 211 s of script runs in ScriptCache.get_bytecode). Keyed by the file's path, size and modification
-    time and the magic option (``runner.magicEnabled``): a script written again is compiled again, as a server's
-    file watcher has it recompiled."""
+    time and the magic option (``runner.magicEnabled``): a script written again is compiled again (as a server whose
+    file watcher is on has it recompiled; the app's runs with none: .streamlit/config.toml)."""
 
     compiled: dict[tuple, object] = {}
 
