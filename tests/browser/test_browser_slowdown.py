@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import ast
 import os
-import statistics
 import subprocess
 import sys
 from pathlib import Path
@@ -32,8 +31,10 @@ OWN_CONTEXT = {"has_touch": False}
                          ids=["profile page slowed", "own context slowed"])
 def test_a_page_opened_with_the_knob_runs_its_javascript_slower(browser, monkeypatch, slowed_options, plain_options):
     """The same loop (~20 ms at full speed) in a page opened with the knob at 16 against one opened without, in
-    turns (five each, medians): at least 3 times slower. Measured 6-9 times on a loaded machine (Chromium's
-    throttle is not exact); 1.0 with the knob not applied (open_page not slowing the page). Either kind of page
+    turns (seven each, the fastest of each): at least 3 times slower. Measured 6-9 times on a loaded machine
+    (Chromium's throttle is not exact); 1.0 with the knob not applied (open_page not slowing the page). The fastest,
+    not the median: the other test process's work only adds to a loop's time, now and then, and the medians of a
+    clean-clone run's five were 2.2 times apart (the plain page's loops 61-727 ms, the slowed one's 352-534). Either kind of page
     open_page opens (one of the tests' profile, one in a context of its own) slowed, beside one of the other kind: two
     pages of the profile can share a renderer process, and so its throttle (the plain page's loops took 30-560 ms)."""
     monkeypatch.delenv(SLOWDOWN, raising=False)
@@ -45,10 +46,10 @@ def test_a_page_opened_with_the_knob_runs_its_javascript_slower(browser, monkeyp
             pg.set_content("<p>busy</p>")
             pg.evaluate(BUSY_MS)  # compiled once before it is measured
         times = {pg: [] for pg in (plain, slowed)}
-        for _ in range(5):
+        for _ in range(7):
             for pg in (plain, slowed):
                 times[pg].append(pg.evaluate(BUSY_MS))
-        ratio = statistics.median(times[slowed]) / statistics.median(times[plain])
+        ratio = min(times[slowed]) / min(times[plain])
         assert ratio > 3, times
     finally:
         close_page(plain)
