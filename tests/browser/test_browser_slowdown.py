@@ -34,9 +34,10 @@ def test_a_page_opened_with_the_knob_runs_its_javascript_slower(browser, monkeyp
     turns (seven each, the fastest of each): at least 3 times slower. Measured 6-9 times on a loaded machine
     (Chromium's throttle is not exact); 1.0 with the knob not applied (open_page not slowing the page). The fastest,
     not the median: the other test process's work only adds to a loop's time, now and then, and the medians of a
-    clean-clone run's five were 2.2 times apart (the plain page's loops 61-727 ms, the slowed one's 352-534). Either kind of page
-    open_page opens (one of the tests' profile, one in a context of its own) slowed, beside one of the other kind: two
-    pages of the profile can share a renderer process, and so its throttle (the plain page's loops took 30-560 ms)."""
+    clean-clone run's five were 2.2 times apart (the plain page's loops 61-727 ms, the slowed one's 352-534).
+    Either kind of page open_page opens (one of the tests' profile, one in a context of its own) slowed, beside one
+    of the other kind: two pages of the profile can share a renderer process, and so its throttle (the plain page's
+    loops took 30-560 ms)."""
     monkeypatch.delenv(SLOWDOWN, raising=False)
     plain = open_page(browser, **plain_options)
     monkeypatch.setenv(SLOWDOWN, "16")
