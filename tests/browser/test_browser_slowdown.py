@@ -34,7 +34,9 @@ def test_a_page_opened_with_the_knob_runs_its_javascript_slower(browser, monkeyp
     turns (seven each, the fastest of each): at least 3 times slower. Measured 6-9 times on a loaded machine
     (Chromium's throttle is not exact); 1.0 with the knob not applied (open_page not slowing the page). The fastest,
     not the median: the other test process's work only adds to a loop's time, now and then, and the medians of a
-    clean-clone run's five were 2.2 times apart (the plain page's loops 61-727 ms, the slowed one's 352-534).
+    clean-clone run's five were 2.2 times apart (the plain page's loops 61-727 ms, the slowed one's 352-534). Up to
+    three rounds: in another such run the slowed page ran one loop of seven at full speed (32 ms; the others 260-978),
+    the throttle's own thread starved of a core, and the fastest were 0.67 apart.
     Either kind of page open_page opens (one of the tests' profile, one in a context of its own) slowed, beside one
     of the other kind: two pages of the profile can share a renderer process, and so its throttle (the plain page's
     loops took 30-560 ms)."""
@@ -46,12 +48,16 @@ def test_a_page_opened_with_the_knob_runs_its_javascript_slower(browser, monkeyp
         for pg in (plain, slowed):
             pg.set_content("<p>busy</p>")
             pg.evaluate(BUSY_MS)  # compiled once before it is measured
-        times = {pg: [] for pg in (plain, slowed)}
-        for _ in range(7):
-            for pg in (plain, slowed):
-                times[pg].append(pg.evaluate(BUSY_MS))
-        ratio = min(times[slowed]) / min(times[plain])
-        assert ratio > 3, times
+        rounds = []
+        for _ in range(3):  # a round where the throttle shows is enough (see below); three without it fail
+            times = {pg: [] for pg in (plain, slowed)}
+            for _ in range(7):
+                for pg in (plain, slowed):
+                    times[pg].append(round(pg.evaluate(BUSY_MS)))
+            rounds.append((min(times[slowed]) / min(times[plain]), times[plain], times[slowed]))
+            if rounds[-1][0] > 3:
+                break
+        assert rounds[-1][0] > 3, "\n".join(f"ratio {r:.2f}: plain {p}, slowed {s}" for r, p, s in rounds)
     finally:
         close_page(plain)
         close_page(slowed)
