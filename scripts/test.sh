@@ -18,7 +18,7 @@ python3 -m pip install -q -e ".[dev]"
 # Chromium profile whose cache keeps Streamlit's frontend compiled: tests/browser/conftest.py, Chromium; ~700 s one
 # at a time before both). They read a page once every element is drawn (headless.drawn: at load 7-10 a page was once read
 # while some of its elements still waited for their code). The slowest tests of each part are listed at its end:
-# the aim is well under 15 minutes on CI (about 15 on that EPYC, 2026-11-28: 349-375 + 510-540 s of pytest in three
+# the aim is well under 15 minutes on CI (about 15 on that EPYC, 2026-11-28: 349-384 + 510-562 s of pytest in five
 # clean clones).
 # The suite's processes keep what Python compiles (__pycache__, ignored by git): with PYTHONDONTWRITEBYTECODE set (as
 # in this project's sandbox) every process compiled cacas anew (each CLI test's, each worker's, each spawned one's) and
