@@ -149,12 +149,21 @@ def not_utf8(data: bytes) -> str:
     return "it is UTF-8 text"  # not called for such data
 
 
+def visible(text: str) -> str:
+    """``text`` with each character that would not show as itself written as Python writes it in a
+    string (a line break ``\\n``, a tab ``\\t``, a no-break space ``\\xa0``, half of a character
+    ``\\ud83d``): a code or a field name in a one-line message stays on its line and shows what it
+    holds (CLI audit: an id "P0<line break>1" split the message over two lines)."""
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in str(text))
+
+
 def shortened(text: str, limit: int) -> str:
     """``text`` whole when it has at most ``limit`` characters, else its start cut at the last
     blank that keeps it and "..." within ``limit`` (a hard cut when one word is longer): a
     participant's words quoted in a message ("tell me to be careful...", not "tell me to be
-    caref..."; walkthrough)."""
-    text = str(text).strip()
+    caref..."; walkthrough). Line breaks and runs of blanks are one space, and what else would not
+    show is written :func:`visible`: the quote stays on the message's one line."""
+    text = visible(" ".join(str(text).split()))
     if len(text) <= limit:
         return text
     room = max(limit - 3, 1)

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import json
 import math
+import re
+import sys
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Iterable, Sequence
@@ -20,7 +22,7 @@ from typing import Any, Iterable, Sequence
 import numpy as np
 
 from cacas import spaces
-from cacas.errors import CacasError, Problems, nearest, not_utf8, shortened
+from cacas.errors import CacasError, Problems, nearest, not_utf8, shortened, visible
 from cacas.privacy import contact_details
 
 FIELDS = ("description", "activity", "scene", "hours", "interval", "task", "action")
@@ -156,11 +158,11 @@ def _where(source: str | None, pid: str | None = None, pref: int | None = None,
     if source:
         parts.append(str(source))
     if pid is not None:
-        parts.append(f"participant {pid}")
+        parts.append(f"participant {visible(pid)}")
     if pref is not None:
         parts.append(f"preference {pref + 1}{_quoted(pref_obj.get('description') if isinstance(pref_obj, dict) else None)}")
     if fld is not None:
-        parts.append(f"field '{fld}'")
+        parts.append(f"field '{visible(fld)}'")
     return ": ".join([", ".join(parts)]) if parts else ""
 
 
@@ -423,7 +425,7 @@ def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
         if other == code:
             problems.append(f"{_where(source, code, fld='id')}: appears twice; codes must be unique")
         elif other is not None:
-            problems.append(f"{_where(source, code, fld='id')}: differs from participant {other} only in letter "
+            problems.append(f"{_where(source, code, fld='id')}: differs from participant {visible(other)} only in letter "
                             "case; codes must be unique")
         seen[code.casefold()] = code
     _raise_problems(problems, source)
@@ -487,13 +489,74 @@ def persona_json(data: str | bytes, source: str) -> Any:
                          "file saved as UTF-8") from None
     text = text.removeprefix("\ufeff")  # text decoded by the caller as plain utf-8
     try:
-        return json.loads(text, object_pairs_hook=_once_each)
+        doc = json.loads(text, object_pairs_hook=_once_each)
     except json.JSONDecodeError as exc:
         raise CacasError(f"{source}: not valid JSON (line {exc.lineno}, column {exc.colno}: {exc.msg})") from None
+    except _TwiceInOneObject as exc:  # (a CacasError is a ValueError)
+        raise CacasError(f"{source}: {exc}") from None
+    except ValueError as exc:  # a whole number longer than int() reads (sys.get_int_max_str_digits); CLI audit
+        limit = sys.get_int_max_str_digits()
+        long = re.search(r"\d{%d,}" % (limit + 1), text) if limit else None
+        if long is None:
+            raise CacasError(f"{source}: not valid JSON ({exc})") from None
+        raise CacasError(f"{source}: the number on line {text.count(chr(10), 0, long.start()) + 1} has "
+                         f"{len(long.group())} digits, more than can be read ({limit}); valid: the format of "
+                         "docs/personas.md (hours 0-24, minutes since the last activity)") from None
     except RecursionError:
         raise CacasError(f"{source}: nested too deeply to be a persona file; valid: the format of docs/personas.md") from None
-    except _TwiceInOneObject as exc:
-        raise CacasError(f"{source}: {exc}") from None
+    half = _half_character(doc) if _HALF_ESCAPE.search(text) or _HALF.search(text) else None
+    if half is not None:
+        path, char = half
+        raise CacasError(f"{_where(source, *_place(doc, path))}: holds half of a character ('{visible(char)}' "
+                         "without the other half of its pair), which cannot be saved as UTF-8 text; valid: whole "
+                         "characters (the character itself, or both halves of its \\u escape)")
+    return doc
+
+
+#: half of a UTF-16 pair (a surrogate), which json reads from a lone "\ud83d" escape and UTF-8 cannot hold
+_HALF = re.compile("[\ud800-\udfff]")
+#: such an escape in a JSON text (a pair of them makes one whole character)
+_HALF_ESCAPE = re.compile(r"\\u[dD][89a-fA-F]")
+
+
+def _half_character(doc: Any) -> tuple[tuple, str] | None:
+    """The path (keys and list indices) to the first string of a JSON document, a value or a key,
+    that holds half of a character, and that half; None if none does. A whole run writes nothing
+    else: such a description or code failed only when the tables were written (CLI audit)."""
+    stack: list[tuple[tuple, Any]] = [((), doc)]  # not recursive: a document json read may be nested ~1,000 deep
+    while stack:
+        path, obj = stack.pop()
+        if isinstance(obj, str):
+            found = _HALF.search(obj)
+            if found:
+                return path, found.group()
+        elif isinstance(obj, dict):
+            for key in obj:
+                found = _HALF.search(key)
+                if found:
+                    return path + (key,), found.group()
+            stack += [(path + (key,), value) for key, value in reversed(obj.items())]
+        elif isinstance(obj, list):
+            stack += [(path + (i,), value) for i, value in reversed(list(enumerate(obj)))]
+    return None
+
+
+def _place(doc: Any, path: tuple) -> tuple[str | None, int | None, str | None]:
+    """The participant (its code, else its number), the preference (index) and the field (the
+    last key) that a path into a persona document (:func:`_half_character`) leads to, for
+    :func:`_where`."""
+    pid = pref = fld = None
+    obj, before = doc, None
+    for key in path:
+        if isinstance(key, str):
+            fld = key
+        elif before == "participants" and pid is None:
+            code = obj[key].get("id") if isinstance(obj[key], dict) else None
+            pid = code.strip() if isinstance(code, str) and code.strip() and not _HALF.search(code) else str(key + 1)
+        elif before == "preferences" and pref is None:
+            pref = key
+        obj, before = obj[key], key
+    return pid, pref, fld
 
 
 def dumps_personas(participants: Iterable[Participant]) -> str:

@@ -1,6 +1,7 @@
 import json
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
@@ -44,6 +45,25 @@ def bad_pref(**change):
     ({"participants": [dict(GOOD["participants"][0], id="Smith, Anna")]}, [],
      ["personas.json: participant 1, field 'id': 'Smith, Anna' holds a comma, which separates the codes of "
       "`cacas simulate --participants`; valid: a pseudonymous code"]),
+    # CLI audit: a number too long for int() and half of a character were tracebacks (the second after the whole
+    # run); line breaks in a description or a code split the line
+    pytest.param('{"participants": [{"id": "P01", "preferences": [{"activity": ["cough"], "action": "pain check", '
+                 '"hours": [[0, ' + "9" * 5000 + ']]}]}]}', [],
+                 ["personas.json: the number on line 1 has 5000 digits, more than can be read", "valid: the format of"],
+                 id="a 5000-digit number"),
+    pytest.param('{"participants": [{"id": "P01", "preferences": [{"description": "I like \\ud83d tea", '
+                 '"activity": ["cough"], "action": "pain check"}]}]}', [],
+                 ["personas.json, participant P01, preference 1, field 'description': holds half of a character "
+                  "('\\ud83d' without the other half of its pair)", "valid: whole characters"],
+                 id="half of a character"),
+    ({"participants": [{"id": "P01", "preferences": [
+        {"description": "line one\nline two", "activity": ["cough"], "action": "pain check"},
+        {"description": "second\n\n  line", "activity": ["cough"], "action": "chitchat"}]}]}, [],
+     ['personas.json, participant P01: preferences 1 ("line one line two") and 2 ("second line") both cover']),
+    ({"participants": [dict(GOOD["participants"][0], id="P0\n1\t")]}, ["--participants", "P09"],
+     ["--participants: P09 is not in", "personas.json: P0\\n1"]),
+    ({"participants": [{"id": "P0\n1", "preferences": bad_pref(action="dance")["participants"][0]["preferences"]}]}, [],
+     ["personas.json, participant P0\\n1, preference 1 (\"Stove: set a timer\"), field 'action': unknown action"]),
     (GOOD, ["--days", "0"], ["--days 0"]),
     (GOOD, ["--methods", "cacas,dqn"], ["--methods cacas,dqn: unknown method 'dqn'", "valid: cacas, cacas-no-pr"]),
     (GOOD, ["--no-response-rate", "1"], ["--no-response-rate 1.0", "0 <= rate < 1"]),
@@ -570,17 +590,63 @@ def test_ctrl_c_while_the_figures_are_drawn_leaves_the_earlier_run_whole(tmp_pat
     assert _texts(out) == earlier
 
 
-def test_figures_that_cannot_be_written_leave_the_tables_beside_them_as_they_were(tmp_path, capsys):
-    """CLI audit: a figure that could not be written (here plotly.min.js is a folder) failed with
-    'the folder's files are unchanged' after the new tables had replaced the earlier run's there."""
+def _refused_rename_onto(monkeypatch, name):
+    """Every rename onto a file called ``name`` refused, as Windows refuses to replace a file another
+    program holds open (plotly.min.js in a browser); the others done."""
+    from cacas.store import files
+
+    real = files.os.replace
+
+    def replace(src, dst, *args, **kwargs):
+        if Path(dst).name == name:
+            raise PermissionError(13, "Permission denied", str(dst))
+        return real(src, dst, *args, **kwargs)
+
+    monkeypatch.setattr(files.os, "replace", replace)
+
+
+def test_figures_that_cannot_be_written_leave_the_tables_beside_them_as_they_were(tmp_path, capsys, monkeypatch):
+    """CLI audit: a figure that could not be written failed with 'the folder's files are unchanged'
+    after the new tables had replaced the earlier run's there."""
     out = tmp_path / "out"
     earlier = _earlier_run(out)
-    (out / "plotly.min.js").mkdir()
+    _refused_rename_onto(monkeypatch, "plotly.min.js")
     code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
                  "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(out), "--plot", str(out)])
     err = capsys.readouterr().err
-    assert code == 2 and err.count("\n") == 1 and "plotly.min.js: cannot be written" in err
+    assert code == 2 and err.count("\n") == 1 and "plotly.min.js: cannot be written (Permission denied)" in err
     assert _texts(out) == earlier
+
+
+@pytest.mark.parametrize("folder, plot, options", [
+    ("out/daily.csv", None, []),
+    ("out/checksums.sha256", None, []),
+    ("plots/fig4_methods.html", "plots", []),
+    ("plots/plotly.min.js", "plots", []),
+    ("out/fig3_success.html", "out", []),  # figures beside their tables
+    ("out/fig3_methods.html", "out", ["--loop", "each", "--methods", "cacas,nn"]),
+])
+def test_a_folder_where_a_result_file_goes_is_refused_before_the_simulation(tmp_path, capsys, monkeypatch, folder,
+                                                                             plot, options):
+    """CLI audit: a folder named daily.csv (or checksums.sha256) in --out was refused only when the
+    tables were written, after the whole simulation."""
+    import cacas.experiment
+
+    def never(*a, **k):
+        raise AssertionError("the simulation ran before the output folder was checked")
+
+    monkeypatch.setattr(cacas.experiment, "simulate_study", never)
+    (tmp_path / folder).mkdir(parents=True)
+    (tmp_path / "out").mkdir(exist_ok=True)
+    code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--quiet", "--out", str(tmp_path / "out"),
+                 *(["--plot", str(tmp_path / plot)] if plot else []), *options])
+    err = capsys.readouterr().err
+    name = Path(folder).name
+    flag = "--plot" if plot and plot != "out" else "--out"
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err
+    assert (f"{flag} {tmp_path / Path(folder).parent}: holds a folder named {name}, where this run writes its {name}; "
+            "valid: a folder without it (move or rename that folder), or another folder") in err
+    assert [p.name for p in (tmp_path / "out").iterdir()] == ([name] if folder.startswith("out/") else [])  # as it was
 
 
 @pytest.mark.parametrize("signum, code, said", [("SIGINT", 130, "cacas: interrupted"),
@@ -623,16 +689,18 @@ def test_a_signal_while_the_results_are_put_in_place_waits_for_them(tmp_path, ca
         {p.name for p in plots.iterdir()}
 
 
-def test_figures_that_cannot_be_written_in_their_own_folder_say_the_tables_were(tmp_path, capsys):
+def test_figures_that_cannot_be_written_in_their_own_folder_say_the_tables_were(tmp_path, capsys, monkeypatch):
     """--plot another folder: the tables are put in place first; a figure that then cannot be
     written is one line that says where the tables were written."""
     plots = tmp_path / "plots"
-    (plots / "plotly.min.js").mkdir(parents=True)
+    plots.mkdir()
+    _refused_rename_onto(monkeypatch, "plotly.min.js")
     code = main(["simulate", "--personas", str(write(tmp_path, GOOD)), "--days", "1", "--interactions", "2",
                  "--methods", "nn", "--jobs", "1", "--quiet", "--out", str(tmp_path / "out"), "--plot", str(plots)])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1
-    assert "plotly.min.js: cannot be written" in err and f"; the tables were written in {tmp_path / 'out'}" in err
+    assert "plotly.min.js: cannot be written (Permission denied)" in err
+    assert f"; the tables were written in {tmp_path / 'out'}" in err
     assert (tmp_path / "out" / "daily.csv").read_text().startswith("participant,method,day,")
     assert not (plots / "fig3_success.html").exists()
 

@@ -2,7 +2,7 @@
 
 import pytest
 
-from cacas.errors import CacasError, shortened
+from cacas.errors import CacasError, shortened, visible
 from cacas.preferences import check_private_words, parse_personas
 
 
@@ -17,6 +17,26 @@ from cacas.preferences import check_private_words, parse_personas
 def test_shortened_cuts_at_the_end_of_a_word_within_the_limit(text, limit, expected):
     out = shortened(text, limit)
     assert out == expected and len(out) <= limit
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("line one\nline two", "line one line two"),  # a description's line break: one space, on the message's line
+    ("  two\t\tblanks \u00a0 here ", "two blanks here"),
+    ("half \ud83d of a smile", "half \\ud83d of a smile"),  # half of a character, as it is written in JSON
+])
+def test_shortened_keeps_a_quote_on_one_line(text, expected):
+    assert shortened(text, 43) == expected
+
+
+@pytest.mark.parametrize("text, expected", [
+    ("P0\n1", "P0\\n1"),
+    ("act\tion", "act\\tion"),
+    ("P\u00a001", "P\\xa001"),  # a no-break space, which looks like a blank and is not one
+    ("P\ud800", "P\\ud800"),
+    ("Küche, café 😀 'x'", "Küche, café 😀 'x'"),  # what shows as itself is kept
+])
+def test_visible_writes_what_would_not_show_as_its_escape(text, expected):
+    assert visible(text) == expected
 
 
 def test_a_preference_quoted_in_a_message_is_cut_at_a_word_end():

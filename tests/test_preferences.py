@@ -258,6 +258,29 @@ def test_persona_json_that_is_not_a_persona_document(data, message):
         prefs.persona_json(data, "upload.json")
 
 
+@pytest.mark.parametrize("text, message", [
+    # json reads a lone \\ud83d escape as half of a character, which no UTF-8 file can hold: a whole simulation
+    # ran, then failed writing its tables (CLI audit); named where it is, in a key too
+    ('{"participants": [{"id": "P01", "preferences": [{"activity": ["cough", "sn\\udc00eeze"]}]}]}',
+     r"^upload.json, participant P01, preference 1, field 'activity': holds half of a character \('\\udc00' "),
+    ('{"participants": [{"id": "P\\ud800", "preferences": []}]}',
+     r"^upload.json, participant 1, field 'id': holds half of a character \('\\ud800' "),
+    ('{"participants": [{"id": "P01", "preferences": [{}, {"act\\ud83dion": 1}]}]}',
+     r"^upload.json, participant P01, preference 2, field 'act\\ud83dion': holds half"),
+    ('{"notes": "\\ud83d"}', r"^upload.json, field 'notes': holds half of a character"),
+    ('{"participants": [{"id": "P01", "preferences": [{"hours": [[0, 1' + "0" * 4400 + ']]}]}]}',
+     r"^upload.json: the number on line 1 has 4401 digits, more than can be read \(4300\); valid: the format"),
+])
+def test_persona_json_that_no_study_can_read_or_save_is_refused_where_it_is(text, message):
+    with pytest.raises(CacasError, match=message):
+        prefs.persona_json(text, "upload.json")
+
+
+def test_persona_json_keeps_a_whole_character_written_as_its_two_escapes():
+    doc = prefs.persona_json('{"participants": [{"id": "P01", "description": "tea \\ud83d\\ude00"}]}', "f.json")
+    assert doc["participants"][0]["description"] == "tea \U0001f600"
+
+
 def test_an_unknown_top_level_field_is_refused():
     """A misspelt top-level key passed without a word (participants' and preferences' are refused)."""
     with pytest.raises(CacasError, match="people.json, field 'studdy': unknown field; valid fields: participants"):

@@ -270,6 +270,25 @@ def test_a_writable_folder_checked_without_creating_it_is_left_missing(tmp_path)
         files.writable_folder(tmp_path / "x", "--out x", create=False)
 
 
+def test_a_writable_folder_holding_a_folder_where_a_file_goes_is_refused(tmp_path):
+    """CLI audit: write_all cannot replace a folder with a file, so a folder named like one of the
+    files to write is refused when the output folder is checked (before the work, not after it);
+    a file of that name, a folder of another name, or a missing output folder are fine."""
+    (tmp_path / "out" / "daily.csv").mkdir(parents=True)
+    (tmp_path / "out" / "figures").mkdir()
+    (tmp_path / "out" / "interactions.csv").write_text("an earlier run's")
+    with pytest.raises(CacasError, match=r"^--out out: holds a folder named daily.csv, where this run writes its "
+                                         r"daily.csv; valid: a folder without it \(move or rename that folder\), "
+                                         r"or another folder$"):
+        files.writable_folder(tmp_path / "out", "--out out", names=["interactions.csv", "daily.csv"])
+    assert files.writable_folder(tmp_path / "out", "--out out", names=["interactions.csv", "figures.csv"]) \
+        == tmp_path / "out"
+    assert files.writable_folder(tmp_path / "new", "--out new", create=False, names=["daily.csv"]) == tmp_path / "new"
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+    with pytest.raises(CacasError, match="cannot be written"):  # why: no write_all gets past such a folder
+        files.write_all(tmp_path / "out", {"daily.csv": b"rows"})
+
+
 def test_what_a_write_killed_while_it_built_a_new_folder_left_is_removed_and_said(tmp_path):
     """A process killed before it renamed the new folder into place left ``.<name>.<pid>.new`` beside
     it: the next write into that folder says so and removes it; one holding a folder (not ours) or of a

@@ -22,7 +22,7 @@ import sys
 
 from cacas import records
 from cacas.cli import types
-from cacas.errors import CacasError, case_twin
+from cacas.errors import CacasError, case_twin, visible
 from cacas.parallel import GB, WORKER_MEMORY
 
 
@@ -127,18 +127,18 @@ def choose_participants(people, codes: str, source) -> tuple[list, list[int]]:
     twice, or none: a CacasError naming it and the valid codes."""
     wanted = [c.strip() for c in codes.split(",") if c.strip()]
     ids = [p.id for p in people]
-    valid = f"valid: comma-separated codes of {source}: {', '.join(ids)}"
+    valid = f"valid: comma-separated codes of {source}: {', '.join(map(visible, ids))}"  # on the message's line
     if not wanted:
         raise CacasError(f"--participants {codes!r} names no participant; {valid}")
     unknown = [c for c in wanted if c not in ids]
     if unknown:
         meant = [case_twin(c, ids) for c in unknown]  # "p01" for "P01": a file's codes are unique in letter case
-        hint = f"did you mean {', '.join(meant)}? " if None not in meant else ""
-        raise CacasError(f"--participants: {', '.join(unknown)} {'is' if len(unknown) == 1 else 'are'} not in "
-                         f"{source}; {hint}{valid}")
+        hint = f"did you mean {', '.join(map(visible, meant))}? " if None not in meant else ""
+        raise CacasError(f"--participants: {', '.join(map(visible, unknown))} "
+                         f"{'is' if len(unknown) == 1 else 'are'} not in {source}; {hint}{valid}")
     twice = records.by_code({c for c in wanted if wanted.count(c) > 1})
     if twice:
-        raise CacasError(f"--participants: {', '.join(twice)} given twice; {valid}")
+        raise CacasError(f"--participants: {', '.join(map(visible, twice))} given twice; {valid}")
     places = [i for i, c in enumerate(ids) if c in wanted]
     return [people[i] for i in places], places
 
@@ -244,7 +244,7 @@ def run(args) -> int:
     from cacas.d4a import load_d4a
     from cacas.experiment import simulate_study, summary_table
     from cacas.parallel import plan_jobs
-    from cacas.export import SIMULATION_FIGURES, check_output_folder
+    from cacas.export import SIMULATION_FIGURES, SIMULATION_TABLES, check_output_folder
     from cacas.preferences import load_personas
     from cacas.store import files
     from cacas.store import validate as v
@@ -270,12 +270,15 @@ def run(args) -> int:
     check_output_folder(args.out, "simulation", f"--out {args.out}")
     if args.plot and args.plot.resolve() != args.out.resolve():  # figures beside their own tables are fine
         check_output_folder(args.plot, "figures", f"--plot {args.plot}")
+    each_fig3 = args.loop == "each" and len(methods) > 1  # Fig. 3 of every method beside Fig. 3 of the first
+    figure_names = [*(n for n in SIMULATION_FIGURES if n != "fig3_methods.html" or each_fig3), PLOTLY_JS, files.CHECKSUMS]
     try:
         # checked, not made: a new folder is put in place whole, or not at all (files.write_all)
-        out = files.writable_folder(args.out, f"--out {args.out}", create=False)
         together = args.plot is not None and args.plot.resolve() == args.out.resolve()  # (a link to it, say)
+        out = files.writable_folder(args.out, f"--out {args.out}", create=False,
+                                    names=[*SIMULATION_TABLES, files.CHECKSUMS, *figure_names * together])
         plot_dir = args.plot if together or not args.plot else \
-            files.writable_folder(args.plot, f"--plot {args.plot}", create=False)
+            files.writable_folder(args.plot, f"--plot {args.plot}", create=False, names=figure_names)
         progress = None if args.quiet else ProgressBar("simulate")
         if progress is not None and not progress.on_terminal:  # logs, pipes: no bar, a line a tenth once 10 s have passed
             say_initial_policy_training(d4a)
@@ -307,7 +310,7 @@ def run(args) -> int:
         captions = {"fig3_success.html": plots.success_caption(daily, methods[0]),
                     "fig4_methods.html": plots.METHODS_CAPTION,
                     "fig4_by_preference.html": plots.preferences_caption(int(by_preference["day"].max()))}
-        if args.loop == "each" and len(methods) > 1:
+        if each_fig3:
             figures["fig3_methods.html"] = plots.success_methods_figure(daily)
             captions["fig3_methods.html"] = plots.success_methods_caption(daily)
     drawn = figure_files(figures, captions) if figures else {}

@@ -19,6 +19,7 @@ import hashlib
 import os
 import shutil
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
 
 from cacas.errors import CacasError
@@ -142,14 +143,21 @@ def windows_device_name(name: str) -> bool:
     return name.split(".", 1)[0].rstrip(" ").upper() in WINDOWS_DEVICE_NAMES
 
 
-def writable_folder(folder, what: str, create: bool = True) -> Path:
+def writable_folder(folder, what: str, create: bool = True, names: Iterable[str] = ()) -> Path:
     """``folder``, created if missing, after checking that files can be written in it; else a
     CacasError naming it (``what``: how the user named it, e.g. "--out results") and the problem:
     it is a file, a file stands where a folder above it would be, it cannot be created (under
-    /proc, say) or files cannot be created in it. With ``create=False`` a missing ``folder`` is
+    /proc, say) or files cannot be created in it, or it holds a folder where one of the files
+    ``names`` is to be written (which no :func:`write_all` can replace: CLI audit, a folder named
+    daily.csv refused only after the whole simulation). With ``create=False`` a missing ``folder`` is
     checked the same way (created, written in) and removed again, the folders above it kept: a
     :func:`write_all` into it then puts it in place whole, or not at all."""
     folder = Path(folder)
+    if folder.is_dir():
+        for name in names:
+            if (folder / name).is_dir():
+                raise CacasError(f"{what}: holds a folder named {name}, where this run writes its {name}; valid: a "
+                                 "folder without it (move or rename that folder), or another folder")
     missing = not os.path.lexists(folder)
     if folder.exists() and not folder.is_dir():
         raise CacasError(f"{what}: is a file; valid: a folder (created if missing)")
