@@ -148,6 +148,11 @@ def test_sound_train_bad_arguments_exit_2(tmp_path, capsys):
     (["sound", "train", "--seed", "-1"], "argument --seed: '-1' is too small"),
     (["scene", "train", "--seed", "-1"], "argument --seed: '-1' is too small"),
     (["sound", "train", "--augment", "0"], "argument --augment: '0' is too small; valid: a whole number >= 1"),
+    # CLI audit: taken, and ran until stopped (~2 GB of clips for 1,000 per activity)
+    (["sound", "generate", "--clips", "99999999999999999999999"],
+     "argument --clips: '99999999999999999999999' is too large; valid: a whole number from 1 to 1000"),
+    (["scene", "generate", "--images", "1001"], "argument --images: '1001' is too large; valid: a whole number from 1 "
+                                                "to 1000"),
     (["sound", "train", "--patience", "-1"], "argument --patience: '-1' is too small; valid: a whole number >= 1"),
     (["scene", "train", "--epochs", "x"], "argument --epochs: 'x' is not a whole number; valid: e.g. 7"),
     (["sound", "generate", "--seconds", "two"],

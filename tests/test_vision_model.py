@@ -37,7 +37,7 @@ def test_scene_slugs_and_generator(tmp_path):
     assert paths.written == 6 and paths.unchanged == []
     again = library.generate_scenes(2, size=48, root=tmp_path)  # the first image of each scene is there already
     assert again.written == 6 and again.unchanged == paths and again.replaced == []
-    with pytest.raises(CacasError, match="^images per scene must be at least 1, got 0$"):
+    with pytest.raises(CacasError, match="^images per scene must be from 1 to 1000, got 0$"):
         library.generate_scenes(0, root=tmp_path / "none")
     for size in (31, 1025):
         with pytest.raises(CacasError, match=f"^image size must be between 32 and 1024 pixels, got {size}$"):

@@ -110,8 +110,9 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
 
     from cacas.audio import synth
 
-    if clips_per_activity < 1:
-        raise CacasError(f"clips per activity must be at least 1, got {clips_per_activity}")
+    if not media_library.SYNTHETIC_PER_CLASS[0] <= clips_per_activity <= media_library.SYNTHETIC_PER_CLASS[1]:
+        raise CacasError("clips per activity must be from {} to {}, got {}".format(*media_library.SYNTHETIC_PER_CLASS,
+                                                                                  clips_per_activity))
     low, high = media_library.SYNTHETIC_CLIP_SECONDS
     if not low <= seconds <= high:
         raise CacasError(f"clip length must be between {low:g} and {high:g} seconds, got {seconds}")

@@ -19,6 +19,9 @@ from pathlib import Path
 from cacas.cli import types
 from cacas.errors import CacasError
 
+#: the most torch threads --threads takes (more than any laptop or lab machine has cores)
+MAX_THREADS = 256
+
 
 #: ``cacas bench --help``'s text (the module's docstring is for developers), lines of at most 79
 #: columns (RawDescriptionHelpFormatter keeps them as written).
@@ -45,7 +48,7 @@ def register(sub) -> None:
                         "a 1 x 2-day study, 1 simulated day of initial training")
     p.add_argument("--repeats", type=types.integer, default=None, metavar="N", help="timed repeats of the short measurements; valid: a whole number >= 1 (default 5, fewer "
                         "with --quick)")
-    p.add_argument("--threads", type=types.integer, default=1, metavar="N", help="torch threads; valid: a whole number >= 1 (default 1: best for these small networks)")
+    p.add_argument("--threads", type=types.integer, default=1, metavar="N", help=f"torch threads; valid: a whole number from 1 to {MAX_THREADS} (default 1: best for these small networks)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -53,8 +56,8 @@ def register(sub) -> None:
 def run(args) -> int:
     if args.repeats is not None and args.repeats < 1:
         raise CacasError(f"--repeats {args.repeats} is invalid; valid: a whole number >= 1")
-    if args.threads < 1:
-        raise CacasError(f"--threads {args.threads} is invalid; valid: a whole number >= 1")
+    if not 1 <= args.threads <= MAX_THREADS:  # torch took 99999999999999999999 with a traceback (CLI audit)
+        raise CacasError(f"--threads {args.threads} is invalid; valid: a whole number from 1 to {MAX_THREADS}")
     out = Path(args.json) if args.json else None
     if out is not None:  # checked before the minutes of measuring, in the user's words
         from cacas.store.files import writable_file

@@ -8,7 +8,7 @@ from cacas.cli.sound import (add_put_back, add_training_options, check_confusion
                              print_metrics, recognize_each, save_confusion, saved_model_id, say_generated, say_kept,
                              say_replaced)
 from cacas.errors import CacasError
-from cacas.media_library import SYNTHETIC_IMAGE_SIDE
+from cacas.media_library import SYNTHETIC_IMAGE_SIDE, SYNTHETIC_PER_CLASS
 from cacas.recognition import UNSURE_BELOW
 
 
@@ -24,7 +24,8 @@ def register(subparsers) -> None:
                                    "shipped 128-px images of seed 0, asked for --size 64) is replaced only with "
                                    "--replace; otherwise nothing is written, and the message says what to do. The "
                                    "images are placed when all are written: stopped before, none is added.")
-    g.add_argument("--images", type=types.count, default=40, help=types.described("images per scene", types.count, 40))
+    images = types.at_least(*SYNTHETIC_PER_CLASS)
+    g.add_argument("--images", type=images, default=40, help=types.described("images per scene", images, 40))
     size = types.at_least(*SYNTHETIC_IMAGE_SIDE)
     g.add_argument("--size", type=size, default=128, help=types.described("image side in pixels", size, 128))
     g.add_argument("--seed", type=types.seed, default=0,

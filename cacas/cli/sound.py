@@ -8,7 +8,7 @@ from pathlib import Path
 
 from cacas.cli import types
 from cacas.cli.progress import ProgressBar
-from cacas.media_library import SYNTHETIC_CLIP_SECONDS
+from cacas.media_library import SYNTHETIC_CLIP_SECONDS, SYNTHETIC_PER_CLASS
 from cacas.recognition import SHORT_CLIP_SECONDS, UNSURE_BELOW
 
 
@@ -93,7 +93,8 @@ def register(subparsers) -> None:
                                    "2-s clips of seed 0, asked for --seconds 1) or in another format is replaced only "
                                    "with --replace; otherwise nothing is written, and the message says what to do. "
                                    "The clips are placed when all are written: stopped before, none is added.")
-    g.add_argument("--clips", type=types.count, default=24, help=types.described("clips per activity", types.count, 24))
+    clips = types.at_least(*SYNTHETIC_PER_CLASS)
+    g.add_argument("--clips", type=clips, default=24, help=types.described("clips per activity", clips, 24))
     seconds = types.between(*SYNTHETIC_CLIP_SECONDS)
     g.add_argument("--seconds", type=seconds, default=2.0, help=types.described("clip length in seconds", seconds, 2))
     g.add_argument("--seed", type=types.seed, default=0,

@@ -157,8 +157,9 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
     paths, with those replaced and those left as they were (:class:`cacas.media_library.Generated`)."""
     from cacas.vision import synth
 
-    if images_per_scene < 1:
-        raise CacasError(f"images per scene must be at least 1, got {images_per_scene}")
+    if not media_library.SYNTHETIC_PER_CLASS[0] <= images_per_scene <= media_library.SYNTHETIC_PER_CLASS[1]:
+        raise CacasError("images per scene must be from {} to {}, got {}".format(*media_library.SYNTHETIC_PER_CLASS,
+                                                                                images_per_scene))
     low, high = media_library.SYNTHETIC_IMAGE_SIDE
     if not low <= size <= high:
         raise CacasError(f"image size must be between {low} and {high} pixels, got {size}")
