@@ -240,6 +240,27 @@ def model_weights_path(path: Path | str, what: str = "model file") -> Path:
     return path
 
 
+def model_save_path(path: Path | str, what: str) -> Path:
+    """``path`` checked, before a training, as where :func:`save_model` with ``keep_previous`` will
+    write: a weights file (:func:`model_weights_path`) that can be written there
+    (:func:`cacas.store.files.writable_file`), and no folder where its metadata or the kept previous
+    model's two files go (CLI audit: a folder named m.json was refused after the whole training,
+    and one named m.previous.pt left a 2-MB temporary file and metadata without weights). Else a
+    CacasError naming ``what`` (the option, e.g. "--model") and the folder."""
+    from cacas.previous_model import previous_path
+    from cacas.store.files import writable_file
+
+    path = writable_file(model_weights_path(path, what), what)
+    kept = previous_path(path)
+    files = {path.with_suffix(".json"): "its metadata", kept: "the model it replaces, kept",
+             kept.with_suffix(".json"): "the kept model's metadata"}
+    for target, role in files.items():
+        if target.is_dir():
+            raise CacasError(f"{what} {path}: {target} is a folder, where the save writes a file ({role}); valid: "
+                             f"move or rename that folder, or another {what} path")
+    return path
+
+
 def save_model(path: Path | str, tensors: dict, metadata: dict, keep_previous: bool = False) -> Path:
     """Write ``path`` (.pt, tensors only) and ``path.with_suffix('.json')`` (metadata, with the
     ``model_id`` of the weights it belongs to: :func:`load_model_file` refuses a pair that does not

@@ -95,10 +95,9 @@ def run_import(args) -> int:
 def run_train(args) -> int:
     from cacas.vision.model import default_model_path
     from cacas.vision.training import train_scene_model
-    from cacas.recognition import model_weights_path
-    from cacas.store.files import writable_file
+    from cacas.recognition import model_save_path
 
-    model_path = writable_file(model_weights_path(args.model or default_model_path(), "--model"), "--model")
+    model_path = model_save_path(args.model or default_model_path(), "--model")
     check_weights_file(args.weights)
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_scene_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,

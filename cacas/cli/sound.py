@@ -214,10 +214,9 @@ def run_import(args) -> int:
 def run_train(args) -> int:
     from cacas.audio.model import default_model_path
     from cacas.audio.training import train_sound_model
-    from cacas.recognition import model_weights_path
-    from cacas.store.files import writable_file
+    from cacas.recognition import model_save_path
 
-    model_path = writable_file(model_weights_path(args.model or default_model_path(), "--model"), "--model")
+    model_path = model_save_path(args.model or default_model_path(), "--model")
     with ProgressBar(quiet=args.quiet) as bar:
         result = train_sound_model(args.data, epochs=args.epochs, patience=args.patience, seed=args.seed,
                                    augment_copies=args.augment, progress=bar)
