@@ -425,8 +425,8 @@ def parse_personas(data: Any, source: str | None = None) -> list[Participant]:
         if other == code:
             problems.append(f"{_where(source, code, fld='id')}: appears twice; codes must be unique")
         elif other is not None:
-            problems.append(f"{_where(source, code, fld='id')}: differs from participant {visible(other)} only in letter "
-                            "case; codes must be unique")
+            problems.append(f"{_where(source, code, fld='id')}: differs from participant {visible(other)} only in "
+                            "letter case; codes must be unique")
         seen[code.casefold()] = code
     _raise_problems(problems, source)
     return people

@@ -47,6 +47,25 @@ def test_generate_and_clip_paths(tmp_path):
     assert [c.activity for c in found] == ["cough", "cough", "watch TV", "watch TV"]
 
 
+def test_clips_are_encoded_into_files_not_file_objects(tmp_path, monkeypatch):
+    """soundfile reads and writes a file object (a BytesIO) through cffi callbacks, and cffi swallows
+    an exception raised in one: a Ctrl-C that arrived while a clip was encoded was printed as
+    "Exception ignored from cffi callback" and the generate went on to place its clips (CLI audit,
+    2 of 3 tries). Every clip is encoded into, and read back from, a file path that libsndfile opens
+    itself, and the generate still writes the same clips (compared with a second seed-0 run)."""
+    import soundfile
+
+    given = []
+    for verb in ("write", "read"):
+        real = getattr(soundfile, verb)
+        monkeypatch.setattr(soundfile, verb,
+                            lambda file, *a, _real=real, **k: given.append(file) or _real(file, *a, **k))
+    paths = library.generate_library(1, seconds=1.0, root=tmp_path, activities=["cough", "snore"])
+    again = library.generate_library(1, seconds=1.0, root=tmp_path, activities=["cough", "snore"])
+    assert paths.written == 2 and again.unchanged == paths  # read back and compared with the clips written
+    assert len(given) >= 6 and all(isinstance(f, str) for f in given), [type(f).__name__ for f in given]
+
+
 def test_generating_a_seed_again_leaves_its_clips_bytes_alone(tmp_path):
     """The OGG encoder stamps a random serial number: without the check, the same audio would be
     written with other bytes (the shipped clips showed as modified in git). A clip whose audio

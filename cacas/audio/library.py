@@ -11,7 +11,7 @@
 from __future__ import annotations
 
 import functools
-import io
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
@@ -128,8 +128,13 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
     def refuse(path: Path, holds: str) -> CacasError:
         return media_library.refuse_replacing(path, holds, seed, root, SUPPORTED_EXTENSIONS, "clip")
 
-    # all placed at the end: stopped before, nothing is added
-    with media_library.Staging(root, SUPPORTED_EXTENSIONS) as staging:
+    # all placed at the end: stopped before, nothing is added. Each clip is encoded into a file, not a BytesIO:
+    # soundfile writes a file object through cffi callbacks, and cffi swallows an exception raised in one (a Ctrl-C
+    # there was printed as "Exception ignored from cffi callback" and the run went on to place its clips: CLI audit);
+    # a path libsndfile writes itself, and a Ctrl-C is raised when it returns
+    with tempfile.TemporaryDirectory(prefix="cacas-clip-") as scratch, \
+            media_library.Staging(root, SUPPORTED_EXTENSIONS) as staging:
+        encoded = Path(scratch) / f"clip.{fmt}"
         for i, name in enumerate(names):
             folder = root / slug(name)
             # one independent stream per (seed, activity, clip): adding activities changes nothing else
@@ -143,9 +148,8 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
                             raise refuse(other, f"the clip this run writes as {path.name}, in another format (the "
                                                 "library would hold it twice)")
                         twins.append(other)
-                encoded = io.BytesIO()
-                sf.write(encoded, y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
-                if _same_audio(path, encoded.getvalue()):
+                sf.write(str(encoded), y, SAMPLE_RATE, format=fmt.upper(), subtype=subtypes[fmt])
+                if _same_audio(path, encoded):
                     unchanged.append(path)
                 else:
                     if path.exists():
@@ -153,7 +157,7 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
                             raise refuse(path, f"other audio than this run writes there ({_audio_words(path)}; "
                                                f"this run's: {seconds:g} s)")
                         replaced.append(path)
-                    staging.path(path).write_bytes(encoded.getvalue())
+                    staging.path(path).write_bytes(encoded.read_bytes())
                 written.append(path)
                 if progress:
                     progress(len(written) / total, f"{name}: clip {k + 1}/{clips_per_activity}")
@@ -173,8 +177,8 @@ def _audio_words(path: Path) -> str:
         return "a file that cannot be read as audio"
 
 
-def _same_audio(path: Path, encoded: bytes) -> bool:
-    """``path`` exists and decodes to the same samples as ``encoded``."""
+def _same_audio(path: Path, encoded: Path) -> bool:
+    """``path`` exists and decodes to the same samples as the clip file ``encoded``."""
     import soundfile as sf
 
     if not path.is_file():
@@ -183,7 +187,7 @@ def _same_audio(path: Path, encoded: bytes) -> bool:
         old, old_rate = sf.read(str(path), dtype="float32")
     except (RuntimeError, sf.LibsndfileError):  # unreadable: rewrite it
         return False
-    new, new_rate = sf.read(io.BytesIO(encoded), dtype="float32")
+    new, new_rate = sf.read(str(encoded), dtype="float32")
     return old_rate == new_rate and old.shape == new.shape and bool(np.array_equal(old, new))
 
 

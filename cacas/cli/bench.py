@@ -48,7 +48,9 @@ def register(sub) -> None:
                         "a 1 x 2-day study, 1 simulated day of initial training")
     p.add_argument("--repeats", type=types.integer, default=None, metavar="N", help="timed repeats of the short measurements; valid: a whole number >= 1 (default 5, fewer "
                         "with --quick)")
-    p.add_argument("--threads", type=types.integer, default=1, metavar="N", help=f"torch threads; valid: a whole number from 1 to {MAX_THREADS} (default 1: best for these small networks)")
+    p.add_argument("--threads", type=types.integer, default=1, metavar="N",
+                   help=f"torch threads; valid: a whole number from 1 to {MAX_THREADS} (default 1: best for these small "
+                        "networks)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 

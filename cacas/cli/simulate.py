@@ -271,7 +271,8 @@ def run(args) -> int:
     if args.plot and args.plot.resolve() != args.out.resolve():  # figures beside their own tables are fine
         check_output_folder(args.plot, "figures", f"--plot {args.plot}")
     each_fig3 = args.loop == "each" and len(methods) > 1  # Fig. 3 of every method beside Fig. 3 of the first
-    figure_names = [*(n for n in SIMULATION_FIGURES if n != "fig3_methods.html" or each_fig3), PLOTLY_JS, files.CHECKSUMS]
+    figure_names = [*(n for n in SIMULATION_FIGURES if n != "fig3_methods.html" or each_fig3), PLOTLY_JS,
+                    files.CHECKSUMS]
     try:
         # checked, not made: a new folder is put in place whole, or not at all (files.write_all)
         together = args.plot is not None and args.plot.resolve() == args.out.resolve()  # (a link to it, say)
