@@ -295,8 +295,9 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
     if item is not None:
         kind = replace(kind, item=item)
     source, root = Path(source), Path(root)
-    if not source.is_dir():
-        raise CacasError(f"{source}: no such folder; expected {kind.layout}")
+    if not source.is_dir():  # a file given for the folder is said as one (CLI audit: "no such folder")
+        raise CacasError(f"{source}: {'a file, not a folder' if source.exists() else 'no such folder'}; "
+                         f"expected {kind.layout}")
     stray = [p for p in _visible(source) if p.is_file()]
     if stray:
         raise CacasError(f"{stray[0]}: not in {_a(kind.label)} folder; expected {kind.layout}")

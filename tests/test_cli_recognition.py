@@ -221,6 +221,7 @@ def test_scene_generate_and_import(tmp_path, capsys):
     photo((30, 30), (0, 0, 0)).save(src / "b.png")
     assert main(["scene", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "s")]) == 0
     assert (tmp_path / "s" / "bedroom" / "b.png").exists()
+    assert f"imported 1 image into {tmp_path / 's'}" in capsys.readouterr().out  # CLI audit: "1 images"
 
 
 def test_sound_import_good_and_bad_folder(tmp_path, capsys):
@@ -231,7 +232,10 @@ def test_sound_import_good_and_bad_folder(tmp_path, capsys):
     lib = tmp_path / "lib"
     assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(lib)]) == 0
     assert (lib / "flush_toilet" / "f.wav").exists()
-    capsys.readouterr()
+    assert f"imported 1 clip into {lib}" in capsys.readouterr().out  # CLI audit: "1 clips"
+    # a file given for the folder is said as one (CLI audit: "no such folder")
+    assert main(["sound", "import", str(src / "f.wav"), "--out", str(lib)]) == 2
+    assert f"{src / 'f.wav'}: a file, not a folder; expected <folder>/<activity>/<clip>" in capsys.readouterr().err
     (src / "bad.ogg").write_bytes(b"OggS but not really")
     assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "lib2")]) == 2
     err = capsys.readouterr().err.strip().splitlines()

@@ -88,7 +88,7 @@ def run_import(args) -> int:
 
     with library_out(args.out, scenes_dir()) as root:
         paths = import_folder(args.folder, root)
-    print(f"imported {len(paths)} images into {root}")
+    print(f"imported {count(len(paths), 'image')} into {root}")
     return 0
 
 

@@ -207,7 +207,7 @@ def run_import(args) -> int:
 
     with library_out(args.out, sounds_dir()) as root, ProgressBar() as bar:
         paths = import_folder(args.folder, root, progress=bar)
-    print(f"imported {len(paths)} clips into {root}")
+    print(f"imported {count(len(paths), 'clip')} into {root}")
     return 0
 
 
