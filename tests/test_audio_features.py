@@ -1,5 +1,7 @@
 """Sound features (Section IV-A): the loader's inputs and refusals, windows and the 64 x 32 MFCC."""
 
+import os
+
 import numpy as np
 import pytest
 import soundfile as sf
@@ -46,6 +48,19 @@ def test_formats_and_depths(tmp_path, fmt, subtype, ext):
     sf.write(p, _tone(1.0, 22050), 22050, format=fmt, subtype=subtype)
     out = load_clip(p)
     assert abs(len(out) - SAMPLE_RATE) <= 40 and np.max(np.abs(out)) > 0.2
+
+
+@pytest.mark.skipif(os.name == "nt", reason="Windows names files in UTF-16: no name is other bytes there")
+def test_a_clip_whose_name_is_not_utf8_is_read(tmp_path):
+    """CLI audit: a WAV named in another encoding (b'caf\\xe9.wav', Latin-1: Python reads the name back
+    with a surrogate escape) was refused as "not a readable WAV/FLAC/OGG audio file ('utf-8' codec
+    can't encode ...)": soundfile encoded the name as UTF-8; it is given the file system's bytes."""
+    name = os.path.join(os.fsencode(tmp_path), b"caf\xe9.wav")
+    sf.write(name, 0.3 * np.sin(2 * np.pi * 300 * np.arange(16000) / 16000), 16000)
+    path = tmp_path / os.listdir(tmp_path)[0]
+    assert "\udce9" in str(path)  # the name as Python reads it back
+    y = load_clip(path)
+    assert y.shape == (2 * 16000,) and np.abs(y).max() > 0.2  # 1 s at 32 kHz, the tone kept
 
 
 def test_short_clip_padded_to_one_window(tmp_path):

@@ -19,6 +19,7 @@ keep all 64 of the 64 bands (``N_MFCC``; librosa keeps 20 unless told), which gi
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Sequence
 
@@ -114,6 +115,14 @@ def wav_truncation(path) -> tuple[float, float] | None:
     return None
 
 
+def libsndfile_path(path) -> str | bytes:
+    """``path`` as libsndfile should be given it: on Windows the text (soundfile opens it with the
+    wide-character call), elsewhere the file system's own bytes (soundfile encodes text as UTF-8,
+    which a name that is not UTF-8, read back with surrogate escapes, cannot be: a valid WAV was
+    refused as "not a readable WAV/FLAC/OGG audio file ('utf-8' codec can't encode ...)", CLI audit)."""
+    return str(path) if os.name == "nt" else os.fsencode(path)
+
+
 def load_clip(path) -> np.ndarray:
     """Read an audio file as mono float32 at 32 kHz (Section IV-A).
 
@@ -135,7 +144,7 @@ def load_clip(path) -> np.ndarray:
         raise _refuse(path, f"unsupported file type {path.suffix or '(none)'!r}; "
                             f"valid: {', '.join(SUPPORTED_EXTENSIONS)}")
     try:
-        data, rate = sf.read(str(path), dtype="float32", always_2d=True)
+        data, rate = sf.read(libsndfile_path(path), dtype="float32", always_2d=True)
     except Exception as exc:  # libsndfile: not audio / corrupt / truncated
         detail = " ".join(str(exc).split())
         raise _refuse(path, f"not a readable WAV/FLAC/OGG audio file ({detail})") from None

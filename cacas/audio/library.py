@@ -19,7 +19,7 @@ from typing import Callable
 import numpy as np
 
 from cacas import media_library, spaces
-from cacas.audio.features import SAMPLE_RATE, SUPPORTED_EXTENSIONS, load_clip
+from cacas.audio.features import SAMPLE_RATE, SUPPORTED_EXTENSIONS, libsndfile_path, load_clip
 from cacas.errors import CacasError
 from cacas.media_library import files_with_extensions, slug
 from cacas.paths import study_data_dir
@@ -172,7 +172,7 @@ def _audio_words(path: Path) -> str:
     import soundfile as sf
 
     try:
-        return f"a {round(sf.info(str(path)).duration, 2):g}-s clip"
+        return f"a {round(sf.info(libsndfile_path(path)).duration, 2):g}-s clip"
     except (RuntimeError, sf.LibsndfileError):
         return "a file that cannot be read as audio"
 
@@ -184,7 +184,7 @@ def _same_audio(path: Path, encoded: Path) -> bool:
     if not path.is_file():
         return False
     try:
-        old, old_rate = sf.read(str(path), dtype="float32")
+        old, old_rate = sf.read(libsndfile_path(path), dtype="float32")
     except (RuntimeError, sf.LibsndfileError):  # unreadable: rewrite it
         return False
     new, new_rate = sf.read(str(encoded), dtype="float32")
