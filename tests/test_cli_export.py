@@ -83,6 +83,17 @@ def test_a_folder_where_the_export_writes_a_file_is_refused_before_the_tables_ar
     assert [p.name for p in (tmp_path / "out").iterdir()] == [name]
 
 
+def test_an_export_leaves_the_researchers_own_files_in_its_folder_as_its_help_says(run, study, tmp_path, capsys):
+    """CLI audit: --help said DIR 'may be new, empty or an earlier export's', yet a folder holding
+    other files was taken (and they were kept): the help now says so, and this holds it to that."""
+    sub = next(a for a in cli.build_parser()._actions if a.dest == "command").choices["export"]
+    assert "other files there are left as they are" in " ".join(sub.description.split())
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "notes.txt").write_text("mine")
+    assert run("export", "--db", study, "--out", tmp_path / "out") == 0
+    assert (tmp_path / "out" / "notes.txt").read_text() == "mine" and (tmp_path / "out" / "daily.csv").is_file()
+
+
 def test_an_export_refused_by_its_database_leaves_no_folder_made_for_its_out(run, capsys, tmp_path):
     """The output folder is checked first now; the folders above it that the check made go again when
     the database is then refused."""

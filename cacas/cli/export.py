@@ -27,8 +27,8 @@ def register(subparsers) -> None:
                                           "participants.csv, questionnaire.csv, adaptations.csv (and the "
                                           f"tables needed to move the study) into DIR, and all of them as "
                                           f"DIR/{BUNDLE_NAME}. DIR may be new, empty or an earlier export's "
-                                          "(its files are replaced), not a simulation's (its tables or its "
-                                          "figures).")
+                                          "(its files are replaced; other files there are left as they "
+                                          "are), not a simulation's (its tables or its figures).")
     p.add_argument("--db", required=True, type=types.path, metavar="FILE",
                    help="the study database (.sqlite; the app's: study_data/cacas.sqlite, or $CACAS_DB)")
     p.add_argument("--out", required=True, type=types.path, metavar="DIR", help="output folder (created if missing)")
