@@ -23,7 +23,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Callable, Sequence
 
-from cacas.errors import CacasError, closest_name
+from cacas.errors import CacasError, closest_name, visible
 
 Progress = Callable[[float, str], None] | None
 
@@ -330,11 +330,13 @@ def import_folder(source: Path | str, root: Path, kind: MediaKind, progress: Pro
         if progress:
             progress(0.5 * (i + 1) / len(plan), f"checked {f.name}")
     bad.sort(key=lambda b: b[0])  # in the folder's order
+    # each problem on its line: a line break in a folder's or a file's name written \n (CLI audit: 'cou<break>gh'
+    # split the message)
     if len(bad) == 1:
-        raise CacasError(bad[0][1])
+        raise CacasError(visible(bad[0][1]))
     if bad:
         raise CacasError(f"{_unusable(bad, items_in, kind.item)} cannot be used; nothing was {done}:"
-                         + "".join(f"\n- {b[1]}" for b in bad))
+                         + "".join(f"\n- {visible(b[1])}" for b in bad))
     try:
         with adding(root):  # two adds at once take turns: the copy check sees what the other placed
             _refuse_copies(plan, root, kind, done, again)

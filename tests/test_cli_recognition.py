@@ -37,6 +37,30 @@ def test_recognize_prints_a_share_under_one_percent_as_under_one_percent(capsys)
         "clip.wav: cough", f"  {'cough':24s}  60%", f"  {'cry':24s}  39%", f"  {'clear throat':24s}  <1%"]
 
 
+def test_a_file_name_with_a_line_break_stays_on_its_line(tmp_path, capsys):
+    """CLI audit: a clip named 'nl<break>name.wav' split its result line and its warning, and a folder
+    named 'cou<break>gh' split the import's refusal; the break is written \\n."""
+    from cacas.cli.sound import print_recognition
+    from cacas.recognition import make_recognition
+
+    rec = make_recognition([0.4, 0.35, 0.25], ["cough", "cry", "clear throat"])  # unsure: a warning too
+    print_recognition("nl\nname.wav", rec, "sound")
+    cap = capsys.readouterr()
+    assert cap.out.splitlines()[0] == "nl\\nname.wav: cough" and len(cap.out.splitlines()) == 4
+    assert cap.err.startswith("cacas sound recognize: warning: nl\\nname.wav: unsure") and cap.err.count("\n") == 1
+    (tmp_path / "mine" / "cou\ngh").mkdir(parents=True)
+    sf.write(tmp_path / "mine" / "cou\ngh" / "c.wav", 0.3 * np.sin(np.arange(16000) / 5), 16000)
+    assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "lib")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{tmp_path / 'mine'}/cou\\ngh: folder name" in err, err
+    (tmp_path / "mine" / "cough").mkdir()
+    (tmp_path / "mine" / "cough" / "notes\n.txt").write_text("mine")  # two problems: one a line, "- " each
+    assert main(["sound", "import", str(tmp_path / "mine"), "--out", str(tmp_path / "lib")]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 3 and all(line.startswith("- ") for line in lines[1:]), lines
+    assert "notes\\n.txt" in lines[1] + lines[2] and "cou\\ngh" in lines[1] + lines[2], lines
+
+
 def _bad_sound_files(tmp_path):
     empty = tmp_path / "empty.wav"
     empty.write_bytes(b"")

@@ -38,8 +38,10 @@ def print_recognition(path, rec, kind: str) -> None:
     """``rec``'s label and top 3 on stdout; on stderr, as warnings, what the app's "Try a clip or a
     photo" warns of: a clip too short to say much, a recognition the ``kind`` ("sound", "scene")
     model is unsure of."""
+    from cacas.errors import visible
     from cacas.recognition import short_clip_warning, unsure_words
 
+    path = visible(path)  # one line each, whatever the file's name holds (CLI audit: a line break split them)
     print(f"{path}: {rec.label}")
     for label, share in rec.top3_words:  # whole percents ("<1%" under 1), as the app and the warning below say them
         print(f"  {label:24s} {share:>4s}")
@@ -295,14 +297,14 @@ def recognize_each(files, recognizer, kind: str) -> int:
     """Every file recognised and printed (:func:`print_recognition`); a file that cannot be read is
     one error line, and the others are still recognised (lab walkthrough: `recognize bad.wav good.ogg`
     stopped at the first): exit 2 if any could not be, else 0."""
-    from cacas.errors import CacasError
+    from cacas.errors import CacasError, visible
 
     failed = 0
     for f in files:
         try:
             result = recognizer.recognize(f)
         except CacasError as exc:
-            print(f"cacas: error: {exc}", file=sys.stderr)
+            print(f"cacas: error: {visible(exc)}", file=sys.stderr)
             failed += 1
             continue
         print_recognition(f, result, kind)
