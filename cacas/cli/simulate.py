@@ -277,7 +277,7 @@ def run(args) -> int:
         # checked, not made: a new folder is put in place whole, or not at all (files.write_all)
         together = args.plot is not None and args.plot.resolve() == args.out.resolve()  # (a link to it, say)
         out = files.writable_folder(args.out, f"--out {args.out}", create=False,
-                                    names=[*SIMULATION_TABLES, files.CHECKSUMS, *figure_names * together])
+                                    names=[*SIMULATION_TABLES, files.CHECKSUMS, *(figure_names if together else [])])
         plot_dir = args.plot if together or not args.plot else \
             files.writable_folder(args.plot, f"--plot {args.plot}", create=False, names=figure_names)
         progress = None if args.quiet else ProgressBar("simulate")
