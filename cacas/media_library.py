@@ -75,6 +75,15 @@ def refuse_replacing(path: Path, holds: str, seed: int, root: Path, extensions, 
                       "nothing was written")
 
 
+def no_folder_at(path: Path, item: str) -> None:
+    """A SYNTHETIC generator's refusal (CacasError) of a folder where it writes ``item`` (a clip, an
+    image): no ``replace`` can replace a folder (CLI audit: one was said to hold "a file that cannot
+    be read as audio", and --replace was offered). Raised before anything is placed."""
+    if path.is_dir():
+        raise CacasError(f"{path}: a folder, where this run writes {_a(item)}; valid: move or rename that folder, "
+                         "or --out DIR for a library of its own; nothing was written")
+
+
 def slug(name: str) -> str:
     """Filesystem-safe folder name of a Table I name: "watch TV" -> "watch_tv"."""
     return re.sub(r"[^a-z0-9]+", "_", name.strip().lower()).strip("_")

@@ -128,6 +128,18 @@ def test_generate_refuses_bad_arguments(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("replace", [False, True])
+def test_a_folder_where_a_clip_goes_is_refused_as_a_folder(tmp_path, replace):
+    """CLI audit: a folder named like a clip was said to hold "a file that cannot be read as audio",
+    and --replace was offered, which cannot replace a folder."""
+    (tmp_path / "snore" / "synthetic_0_001.ogg").mkdir(parents=True)
+    with pytest.raises(CacasError, match=rf"^{tmp_path / 'snore' / 'synthetic_0_001.ogg'}: a folder, where this run "
+                                         r"writes a clip; valid: move or rename that folder, or --out DIR for a "
+                                         r"library of its own; nothing was written$"):
+        library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough", "snore"], replace=replace)
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["snore", "snore/synthetic_0_001.ogg"]
+
+
 def test_shipped_library_covers_every_activity_and_stays_small():
     for name in spaces.ACTIVITIES:
         assert len(library.clip_paths(name)) >= 10, name

@@ -145,3 +145,14 @@ def test_a_photo_with_an_exif_orientation_is_read_upright(tmp_path):
     assert upright.size == (40, 60)
     r, g, b = upright.getpixel((20, 5))  # turned clockwise, the stored left side is on top
     assert r > 150 and g < 80 and b < 80
+
+
+@pytest.mark.parametrize("replace", [False, True])
+def test_a_folder_where_an_image_goes_is_refused_as_a_folder(tmp_path, replace):
+    """CLI audit: as a clip's (test_audio_library): no --replace can replace a folder."""
+    (tmp_path / "kitchen" / "synthetic_0_000.jpg").mkdir(parents=True)
+    with pytest.raises(CacasError, match=r": a folder, where this run writes an image; valid: move or rename that "
+                                         r"folder, or --out DIR for a library of its own; nothing was written$"):
+        library.generate_scenes(1, size=32, root=tmp_path, replace=replace)
+    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["kitchen",
+                                                                                 "kitchen/synthetic_0_000.jpg"]

@@ -142,6 +142,7 @@ def generate_library(clips_per_activity: int = 24, seconds: float = 2.0, seed: i
                 rng = np.random.default_rng([seed, spaces.activity_index(name), k])
                 y = synth.render(name, rng, seconds)
                 path = folder / f"synthetic_{seed}_{k:03d}.{fmt}"
+                media_library.no_folder_at(path, "clip")
                 for other in (folder / f"{path.stem}.{ext}" for ext in subtypes if ext != fmt):
                     if other.is_file():
                         if not replace:

@@ -173,6 +173,7 @@ def generate_scenes(images_per_scene: int = 40, size: int = 128, seed: int = 0, 
             for k in range(images_per_scene):
                 img = synth.render(name, np.random.default_rng([seed, j, k]), size)
                 path = folder / f"synthetic_{seed}_{k:03d}.jpg"
+                media_library.no_folder_at(path, "image")
                 encoded = io.BytesIO()
                 img.save(encoded, format="JPEG", quality=85)
                 if _same_picture(path, encoded.getvalue()):
