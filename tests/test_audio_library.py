@@ -137,7 +137,8 @@ def test_a_folder_where_a_clip_goes_is_refused_as_a_folder(tmp_path, replace):
                                          r"writes a clip; valid: move or rename that folder, or --out DIR for a "
                                          r"library of its own; nothing was written$"):
         library.generate_library(2, seconds=1.0, root=tmp_path, activities=["cough", "snore"], replace=replace)
-    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["snore", "snore/synthetic_0_001.ogg"]
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == ["snore",
+                                                                                      "snore/synthetic_0_001.ogg"]
 
 
 def test_shipped_library_covers_every_activity_and_stays_small():

@@ -154,5 +154,5 @@ def test_a_folder_where_an_image_goes_is_refused_as_a_folder(tmp_path, replace):
     with pytest.raises(CacasError, match=r": a folder, where this run writes an image; valid: move or rename that "
                                          r"folder, or --out DIR for a library of its own; nothing was written$"):
         library.generate_scenes(1, size=32, root=tmp_path, replace=replace)
-    assert sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*")) == ["kitchen",
-                                                                                 "kitchen/synthetic_0_000.jpg"]
+    assert sorted(p.relative_to(tmp_path).as_posix() for p in tmp_path.rglob("*")) == ["kitchen",
+                                                                                      "kitchen/synthetic_0_000.jpg"]
